@@ -1,0 +1,76 @@
+/* vbnl: named integrator parameters.
+ *
+ * A vbnl_params is an ordered list of `name = value` settings, as written in a scene file's
+ * integrator block or given on a command line. Each setting may carry the place it came from
+ * ("scene.pov:12:40"), which error messages quote. Integrators describe what they accept with a
+ * table of vbnl_param_spec; vbnl_params_validate checks a list against such a table.
+ *
+ * Thread-safety: a vbnl_params may be read from many threads once it is no longer modified. */
+#ifndef VBNL_PARAMS_H
+#define VBNL_PARAMS_H
+
+#include <stdint.h>
+
+#include "vbnl/result.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum vbnl_param_type {
+    VBNL_PARAM_INT = 0,
+    VBNL_PARAM_FLOAT = 1,
+    VBNL_PARAM_BOOL = 2,
+    VBNL_PARAM_ENUM = 3,   /* one string of `choices` */
+    VBNL_PARAM_STRING = 4,
+} vbnl_param_type;
+
+typedef struct vbnl_param_spec {
+    const char *name;
+    vbnl_param_type type;
+    double default_number;          /* INT, FLOAT, BOOL (0 or 1) */
+    const char *default_string;     /* ENUM, STRING */
+    double min, max;                /* inclusive range of INT and FLOAT */
+    const char *const *choices;     /* ENUM: NULL-terminated list */
+    const char *doc;                /* one line */
+} vbnl_param_spec;
+
+typedef struct vbnl_params vbnl_params;
+
+vbnl_result vbnl_params_create(vbnl_params **out, vbnl_error *err);
+void vbnl_params_destroy(vbnl_params *p);
+/* Copies every setting of `src` after the settings of `dst` (later settings win). */
+vbnl_result vbnl_params_append(vbnl_params *dst, const vbnl_params *src, vbnl_error *err);
+
+/* Sets `name` to a number (ints, floats and bools) or a string. `where` may be NULL. A later
+ * setting of the same name replaces the earlier one. */
+vbnl_result vbnl_params_set_number(vbnl_params *p, const char *name, double value,
+                                   const char *where, vbnl_error *err);
+vbnl_result vbnl_params_set_string(vbnl_params *p, const char *name, const char *value,
+                                   const char *where, vbnl_error *err);
+/* Parses "key=value": a value that reads fully as a number (or true/false/on/off/yes/no) is a
+ * number, anything else a string. */
+vbnl_result vbnl_params_set_text(vbnl_params *p, const char *key_equals_value, const char *where,
+                                 vbnl_error *err);
+
+uint32_t vbnl_params_count(const vbnl_params *p);
+/* Reads setting i: its name, whether it is a string, its number or string, and its origin. */
+vbnl_result vbnl_params_get(const vbnl_params *p, uint32_t i, const char **name, int *is_string,
+                            double *number, const char **string, const char **where);
+
+/* Checks every setting against `specs`: unknown names are refused with the closest valid name
+ * and the list of valid ones; ints must be whole; values must lie in range; enums must be one of
+ * the choices; bools accept 0/1. */
+vbnl_result vbnl_params_validate(const vbnl_params *p, const vbnl_param_spec *specs, uint32_t count,
+                                 const char *owner, vbnl_error *err);
+
+/* Value of `name` or the spec's default (p may be NULL). The spec must contain `name`. */
+double vbnl_params_number(const vbnl_params *p, const vbnl_param_spec *specs, uint32_t count,
+                          const char *name);
+const char *vbnl_params_string(const vbnl_params *p, const vbnl_param_spec *specs, uint32_t count,
+                               const char *name);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,133 @@
+/* vbnl: render context, renderers, films and progress.
+ *
+ * A vbnl_context owns what several renders may share: the worker threads and the Embree device.
+ * Create it first, build a vbnl_scene with it, then create a vbnl_renderer for a scene, an
+ * integrator and settings. The renderer owns the film it writes.
+ *
+ *   vbnl_context_create -> vbnl_scene_create ... vbnl_scene_commit
+ *     -> vbnl_renderer_create -> vbnl_renderer_prepare -> vbnl_renderer_render -> vbnl_film_read
+ *
+ * Determinism: the same scene, settings and seed give bit-identical films for any thread count.
+ *
+ * Thread-safety: a context may create many scenes and renderers; one renderer must be driven by
+ * one thread at a time (the work inside prepare/render is spread over the context's workers).
+ * The progress callback is called on the thread that called vbnl_renderer_prepare or
+ * vbnl_renderer_render, never on a worker thread, at most every `progress_interval` seconds and
+ * once at the end of each stage. */
+#ifndef VBNL_RENDER_H
+#define VBNL_RENDER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vbnl/params.h"
+#include "vbnl/result.h"
+#include "vbnl/scene.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vbnl_renderer vbnl_renderer;
+typedef struct vbnl_film vbnl_film;
+
+typedef struct vbnl_context_desc {
+    unsigned threads;           /* worker threads; 0 = one per core */
+} vbnl_context_desc;
+
+vbnl_result vbnl_context_create(const vbnl_context_desc *desc, vbnl_context **out, vbnl_error *err);
+void vbnl_context_destroy(vbnl_context *ctx);
+unsigned vbnl_context_thread_count(const vbnl_context *ctx);
+
+typedef struct vbnl_render_settings {
+    uint32_t width, height;     /* image size in pixels, 1 .. 65536 */
+    uint32_t spp;               /* samples per pixel to reach; 0 = until the time budget ends */
+    double time_budget;         /* seconds for prepare + render; 0 = no limit (spp must be > 0) */
+    uint64_t seed;
+    const char *integrator;     /* registered name; NULL means "path" */
+    const vbnl_params *params;  /* integrator parameters, or NULL for every default */
+    uint32_t crop[4];           /* x0, y0, x1, y1 (exclusive); all zero = whole image */
+    float progress_interval;    /* seconds between progress calls; 0 = 0.25 */
+} vbnl_render_settings;
+
+void vbnl_render_settings_init(vbnl_render_settings *s);
+
+/* Progress of one stage ("prepare: photons", "render", ...). */
+typedef struct vbnl_progress {
+    const char *stage;
+    double done, total;         /* work units (total may be 0 when unknown) */
+    const char *unit;           /* "samples/pixel", "photons", ... */
+    double elapsed;             /* seconds in this stage so far */
+    double rate;                /* units per second */
+    double eta;                 /* seconds left in this stage, < 0 when unknown */
+} vbnl_progress;
+
+/* Returns non-zero to cancel: the stage stops after the work items in flight. */
+typedef int (*vbnl_progress_fn)(void *user, const vbnl_progress *progress);
+
+/* Validates the integrator name and parameters and allocates the film. Unknown integrators
+ * are refused with the list of registered names. */
+vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
+                                 const vbnl_render_settings *settings, vbnl_renderer **out,
+                                 vbnl_error *err);
+void vbnl_renderer_destroy(vbnl_renderer *r);
+
+/* Scene-dependent preparation of the integrator (a no-op for `path`). May be cancelled. */
+vbnl_result vbnl_renderer_prepare(vbnl_renderer *r, vbnl_progress_fn progress, void *user,
+                                  vbnl_error *err);
+/* Renders progressive passes until `spp` or the time budget is reached. Returns
+ * VBNL_ERR_CANCELLED when the callback cancelled; the film then holds every finished sample. */
+vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, void *user,
+                                 vbnl_error *err);
+
+const vbnl_film *vbnl_renderer_film(const vbnl_renderer *r);
+
+typedef struct vbnl_stage_time {
+    const char *name;
+    double seconds;
+} vbnl_stage_time;
+
+typedef struct vbnl_render_stats {
+    uint32_t passes;
+    uint32_t spp;                /* samples per pixel finished in every pixel of the crop */
+    uint64_t samples;            /* camera samples taken */
+    uint64_t rays;               /* every ray traced (closest hit and shadow) */
+    double prepare_seconds, render_seconds;
+    uint32_t stage_count;
+    const vbnl_stage_time *stages;/* owned by the renderer; valid until it is destroyed */
+    int cancelled;
+} vbnl_render_stats;
+vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *out, vbnl_error *err);
+
+/* Diagnostics: the raw Embree closest-hit rate of this scene in rays per second. The rays are
+ * incoherent secondary rays: from points the camera sees (image of width x height), directions
+ * cosine-distributed about the surface normal. They are generated first, then traced by every
+ * worker with rtcIntersect1 and no shading; the median of three timed runs is returned. This is
+ * the ceiling the integrators' ray rates are compared with. */
+vbnl_result vbnl_scene_measure_ray_rate(vbnl_context *ctx, const vbnl_scene *scene, uint32_t ray_count,
+                                        uint32_t width, uint32_t height, double *rays_per_second,
+                                        vbnl_error *err);
+
+/* ---- film --------------------------------------------------------------------------------- */
+
+typedef struct vbnl_layer_info {
+    const char *name;              /* "" for the beauty image, else "albedo", "normal", ... */
+    uint32_t channels;             /* 1 .. 4 */
+    const char *const *channel_names; /* e.g. "R","G","B" or "Z" */
+} vbnl_layer_info;
+
+uint32_t vbnl_film_width(const vbnl_film *f);
+uint32_t vbnl_film_height(const vbnl_film *f);
+uint32_t vbnl_film_layer_count(const vbnl_film *f);
+vbnl_result vbnl_film_layer(const vbnl_film *f, uint32_t index, vbnl_layer_info *out, vbnl_error *err);
+/* Writes the resolved layer (mean of its samples; 0 where a pixel has none) as interleaved
+ * floats, row 0 at the top: width*height*channels values. */
+vbnl_result vbnl_film_read(const vbnl_film *f, const char *layer, float *dst, size_t dst_count,
+                           vbnl_error *err);
+/* Samples taken in pixel (x, y) (0 outside a crop window). */
+uint32_t vbnl_film_pixel_samples(const vbnl_film *f, uint32_t x, uint32_t y);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,170 @@
+/* vbnl: scene-building API.
+ *
+ * A vbnl_scene collects geometry (triangle meshes, analytic spheres, instances of groups),
+ * materials, lights and a camera, then is committed once: commit builds the Embree BVH and the
+ * light-selection tables. After commit the scene is immutable and may be shared by any number of
+ * renderers and threads. Before commit, a scene must only be used from one thread at a time.
+ *
+ * Ownership: every array passed in is copied; the caller may free it as soon as the call returns.
+ * Ids returned through out-parameters are dense small integers, stable for the scene's life.
+ *
+ * Units and conventions: right-handed world space (the scene parser converts POV-Ray's
+ * left-handed one); colours are linear Rec.709 RGB; radiance in W/(m^2 sr), intensity in W/sr;
+ * transforms are row-major 4x4 affine matrices applied as p' = M p. */
+#ifndef VBNL_SCENE_H
+#define VBNL_SCENE_H
+
+#include <stdint.h>
+
+#include "vbnl/result.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vbnl_context vbnl_context;
+typedef struct vbnl_scene vbnl_scene;
+
+/* ---- materials ---------------------------------------------------------------------------- */
+
+typedef enum vbnl_material_type {
+    VBNL_MATERIAL_LAMBERT = 0,    /* diffuse: albedo = base_color */
+    VBNL_MATERIAL_CONDUCTOR = 1,  /* GGX metal: F0 = base_color, or complex IOR eta + i k */
+    VBNL_MATERIAL_PLASTIC = 2,    /* Lambertian base (base_color) under a GGX dielectric coat (ior) */
+    VBNL_MATERIAL_MIRROR = 3,     /* perfect specular reflection tinted by base_color */
+    VBNL_MATERIAL_DIELECTRIC = 4, /* smooth glass: Fresnel reflection + refraction, tint base_color */
+} vbnl_material_type;
+
+typedef struct vbnl_material_desc {
+    vbnl_material_type type;
+    float base_color[3];  /* see the type; each component in [0, 1] */
+    float alpha;          /* GGX roughness alpha (not squared "perceptual" roughness), [1e-3, 1] */
+    float ior;            /* dielectric and plastic-coat index of refraction, > 1 */
+    int conductor_use_ior;/* conductor: 1 = use eta/k, 0 = use base_color as F0 (Schlick) */
+    float eta[3], k[3];   /* conductor complex index of refraction per RGB channel */
+    float emission[3];    /* emitted radiance Le; any non-zero value makes the surface a light */
+    int two_sided;        /* emission on both sides (default: front side = geometric normal side) */
+} vbnl_material_desc;
+
+/* Fills `d` with defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no emission. */
+void vbnl_material_desc_init(vbnl_material_desc *d);
+
+/* ---- geometry ----------------------------------------------------------------------------- */
+
+/* Group 0 is the world. Geometry added to another group is only visible through instances. */
+#define VBNL_GROUP_WORLD 0u
+
+typedef struct vbnl_mesh_desc {
+    const float *positions;        /* 3 floats per vertex (required) */
+    const float *normals;          /* 3 floats per vertex, or NULL: flat shading */
+    const float *uvs;              /* 2 floats per vertex, or NULL */
+    uint32_t vertex_count;
+    const uint32_t *indices;       /* 3 per triangle (required) */
+    uint32_t triangle_count;
+    uint32_t material;             /* material of every triangle ... */
+    const uint32_t *face_materials;/* ... unless this per-triangle array is given */
+    const float *transform;        /* optional 4x4 applied to positions and normals when added */
+    uint32_t group;                /* VBNL_GROUP_WORLD or an id from vbnl_scene_add_group */
+} vbnl_mesh_desc;
+
+/* Adds a triangle mesh. Errors: VBNL_ERR_INVALID_ARGUMENT for a NULL array, an index out of
+ * range, a non-finite position or an unknown material/group; emissive materials are only
+ * allowed in the world group. */
+vbnl_result vbnl_scene_add_mesh(vbnl_scene *scene, const vbnl_mesh_desc *desc, uint32_t *out_id,
+                                vbnl_error *err);
+
+/* Adds an analytic sphere (exact intersection, exact normals). Emissive spheres become area
+ * lights sampled uniformly over their surface. `group` as for meshes. */
+vbnl_result vbnl_scene_add_sphere(vbnl_scene *scene, const float center[3], float radius,
+                                  uint32_t material, uint32_t group, uint32_t *out_id,
+                                  vbnl_error *err);
+
+/* Creates an empty group whose content can be instanced any number of times. */
+vbnl_result vbnl_scene_add_group(vbnl_scene *scene, uint32_t *out_group, vbnl_error *err);
+
+/* Places group `group` in the world with the 4x4 transform (must be invertible). */
+vbnl_result vbnl_scene_add_instance(vbnl_scene *scene, uint32_t group, const float transform[16],
+                                    uint32_t *out_id, vbnl_error *err);
+
+vbnl_result vbnl_scene_add_material(vbnl_scene *scene, const vbnl_material_desc *desc,
+                                    uint32_t *out_id, vbnl_error *err);
+
+/* ---- lights ------------------------------------------------------------------------------- */
+
+/* Point light with radiant intensity I (W/sr); irradiance falls off as 1/r^2. */
+vbnl_result vbnl_scene_add_point_light(vbnl_scene *scene, const float position[3],
+                                       const float intensity[3], uint32_t *out_id, vbnl_error *err);
+
+typedef struct vbnl_spot_light_desc {
+    float position[3];
+    float direction[3];       /* need not be normalised */
+    float intensity[3];       /* on the axis, W/sr */
+    float cos_inner;          /* full intensity inside this cone (cosine of the half-angle) */
+    float cos_outer;          /* zero outside; smoothstep falloff between (pbrt's spot light) */
+    float exponent;           /* extra cos(theta)^exponent concentration (POV-Ray tightness); 0 = none */
+} vbnl_spot_light_desc;
+vbnl_result vbnl_scene_add_spot_light(vbnl_scene *scene, const vbnl_spot_light_desc *desc,
+                                      uint32_t *out_id, vbnl_error *err);
+
+/* Rectangular area light: the parallelogram corner + s*edge_u + t*edge_v, s,t in [0,1], emitting
+ * radiance Le from the side of cross(edge_u, edge_v) (or both sides). It is also geometry: rays hit
+ * it and see its radiance. */
+typedef struct vbnl_area_light_desc {
+    float corner[3], edge_u[3], edge_v[3];
+    float radiance[3];
+    int two_sided;
+} vbnl_area_light_desc;
+vbnl_result vbnl_scene_add_area_light(vbnl_scene *scene, const vbnl_area_light_desc *desc,
+                                      uint32_t *out_id, vbnl_error *err);
+
+/* Distant light arriving from the direction opposite to `direction` with irradiance E (W/m^2)
+ * on a surface facing it. */
+vbnl_result vbnl_scene_add_directional_light(vbnl_scene *scene, const float direction[3],
+                                             const float irradiance[3], uint32_t *out_id,
+                                             vbnl_error *err);
+
+/* Constant environment radiance seen by every ray that leaves the scene (0 = black). */
+vbnl_result vbnl_scene_set_environment(vbnl_scene *scene, const float radiance[3], vbnl_error *err);
+
+/* ---- camera ------------------------------------------------------------------------------- */
+
+/* Pinhole camera in POV-Ray's general form: the primary ray through the normalised image point
+ * (sx, sy), sx in [-0.5, 0.5] from the left to the right edge and sy in [-0.5, 0.5] from the
+ * bottom to the top edge, has direction forward + sx*right + sy*up (then normalised). The lengths
+ * of right and up set the field of view and the aspect ratio; mirrored cameras are allowed. */
+typedef struct vbnl_camera_desc {
+    float position[3];
+    float forward[3];
+    float right[3];
+    float up[3];
+} vbnl_camera_desc;
+
+/* Convenience: camera at `position` looking at `target` with `up` roughly up, vertical field of
+ * view `fov_y_degrees` in (0, 180) and image aspect width/height `aspect`. */
+vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3],
+                                const float target[3], const float up[3], float fov_y_degrees,
+                                float aspect, vbnl_error *err);
+
+vbnl_result vbnl_scene_set_camera(vbnl_scene *scene, const vbnl_camera_desc *camera, vbnl_error *err);
+
+/* ---- life cycle --------------------------------------------------------------------------- */
+
+vbnl_result vbnl_scene_create(vbnl_context *ctx, vbnl_scene **out, vbnl_error *err);
+/* Builds the BVH and light tables. A scene without a camera or without any light fails. */
+vbnl_result vbnl_scene_commit(vbnl_scene *scene, vbnl_error *err);
+void vbnl_scene_destroy(vbnl_scene *scene);
+
+typedef struct vbnl_scene_info {
+    uint64_t triangle_count;   /* world triangles plus instanced ones counted once per instance */
+    uint32_t sphere_count;
+    uint32_t instance_count;
+    uint32_t material_count;
+    uint32_t light_count;      /* after commit: each emissive triangle counts as one light */
+    float bounds_min[3], bounds_max[3];
+} vbnl_scene_info;
+vbnl_result vbnl_scene_get_info(const vbnl_scene *scene, vbnl_scene_info *out, vbnl_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,66 @@
+/* Scattering functions (private header).
+ *
+ * All directions are in the local shading frame (z = shading normal), both pointing away from
+ * the surface. Convention (Mitsuba's): eval returns f(wo, wi) * |cos theta_i|; sample returns the
+ * weight f * |cos theta_i| / pdf. Delta lobes (mirror, smooth glass) are never returned by
+ * eval/pdf; sample reports them with VBNL_LOBE_SPECULAR and pdf = probability of picking that lobe.
+ *
+ * Sidedness: opaque materials are one-sided: eval/pdf/sample give 0 unless wo.z > 0 (and, for
+ * eval/pdf, wi.z > 0). The integrator flips the shading frame to face wo for opaque surfaces.
+ * The dielectric uses the true orientation: z is the outward normal and wo.z < 0 means the ray
+ * arrived from inside. Radiance transport: refraction scales by 1/eta^2 (pbrt's convention). */
+#ifndef VBNL_BSDF_H
+#define VBNL_BSDF_H
+
+#include <stdint.h>
+
+#include "vbnl/scene.h"
+#include "vmath.h"
+
+enum {
+    VBNL_LOBE_REFLECTION = 1u << 0,
+    VBNL_LOBE_TRANSMISSION = 1u << 1,
+    VBNL_LOBE_DIFFUSE = 1u << 2,
+    VBNL_LOBE_GLOSSY = 1u << 3,
+    VBNL_LOBE_SPECULAR = 1u << 4, /* a delta distribution */
+};
+
+/* A material resolved at a hit point (textures, once they exist, are applied here). */
+typedef struct vbnl_bsdf {
+    vbnl_material_type type;
+    vec3 color;       /* Lambert / plastic base albedo; conductor F0; mirror / glass tint */
+    float alpha;      /* GGX roughness, clamped to [1e-3, 1] */
+    float ior;        /* dielectric / plastic coat */
+    int use_ior;      /* conductor: eta/k instead of F0 */
+    vec3 eta, k;
+} vbnl_bsdf;
+
+typedef struct vbnl_bsdf_sample_rec {
+    vec3 wi;
+    vec3 weight;      /* f * |cos theta_i| / pdf */
+    float pdf;        /* solid-angle pdf; for delta lobes the discrete lobe probability */
+    uint32_t lobe;    /* VBNL_LOBE_* of the sampled lobe */
+    float eta;        /* relative IOR crossed by a transmission (1 for reflections) */
+} vbnl_bsdf_sample_rec;
+
+void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m);
+
+vec3 vbnl_bsdf_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+/* u_lobe picks a lobe, u the direction. Returns 1 with *out filled, or 0 (absorbed). */
+int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out);
+
+/* Union of the lobes this BSDF has. */
+uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b);
+/* True when every lobe is a delta (no point in next-event estimation). */
+int vbnl_bsdf_is_delta(const vbnl_bsdf *b);
+/* Colour for the albedo AOV (the diffuse or specular tint). */
+vec3 vbnl_bsdf_albedo(const vbnl_bsdf *b);
+/* True for the dielectric: the integrator must keep the geometric orientation. */
+int vbnl_bsdf_is_transmissive(const vbnl_bsdf *b);
+
+/* Fresnel reflectance of a dielectric interface for cos_i on the side given by its sign
+ * (eta = n_inside / n_outside). */
+float vbnl_fresnel_dielectric(float cos_i, float eta);
+
+#endif

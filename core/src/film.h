@@ -1,0 +1,70 @@
+/* Film: per-pixel accumulation of every layer (private header).
+ *
+ * Storage is tile-major (16x16 tiles, each a contiguous block aligned to 64 bytes) so that two
+ * threads rendering different tiles never write to the same cache line. Each pixel holds the
+ * running sums of all layers' channels (double, so that long reference renders do not lose
+ * precision) and a sample count; reading a layer divides by the count. Layer 0 is the beauty
+ * image (R, G, B, A); the core also adds albedo, normal and depth. */
+#ifndef VBNL_FILM_H
+#define VBNL_FILM_H
+
+#include <stdint.h>
+
+#include "vbnl/render.h"
+
+#define VBNL_FILM_TILE 16u
+#define VBNL_FILM_MAX_LAYERS 16u
+#define VBNL_FILM_MAX_CHANNELS 64u
+
+typedef struct film_layer {
+    char name[32];
+    uint32_t channels;
+    const char *channel_names[4];
+    uint32_t offset;            /* first channel within a pixel's record */
+} film_layer;
+
+struct vbnl_film {
+    uint32_t width, height;
+    uint32_t tiles_x, tiles_y;
+    uint32_t crop[4];
+    film_layer layers[VBNL_FILM_MAX_LAYERS];
+    uint32_t layer_count;
+    uint32_t stride;            /* channels per pixel, all layers */
+    size_t tile_doubles;        /* doubles per tile block, padded to a cache line */
+    double *data;
+    uint32_t *samples;          /* tile-major like data */
+};
+
+/* Standard layer offsets (fixed). */
+#define VBNL_FILM_BEAUTY 0u
+#define VBNL_FILM_ALBEDO 4u
+#define VBNL_FILM_NORMAL 7u
+#define VBNL_FILM_DEPTH 10u
+
+vbnl_result vbnl_film_create(uint32_t width, uint32_t height, const uint32_t crop[4], vbnl_film **out,
+                             vbnl_error *err);
+void vbnl_film_destroy(vbnl_film *f);
+/* Adds a layer before vbnl_film_allocate; returns its channel offset through *offset. */
+vbnl_result vbnl_film_add_layer(vbnl_film *f, const char *name, uint32_t channels,
+                                const char *const *channel_names, uint32_t *offset, vbnl_error *err);
+vbnl_result vbnl_film_allocate(vbnl_film *f, vbnl_error *err);
+
+static inline size_t vbnl_film_pixel_index(const vbnl_film *f, uint32_t x, uint32_t y, size_t *tile)
+{
+    uint32_t tx = x / VBNL_FILM_TILE, ty = y / VBNL_FILM_TILE;
+    *tile = (size_t)ty * f->tiles_x + tx;
+    return (size_t)(y % VBNL_FILM_TILE) * VBNL_FILM_TILE + (x % VBNL_FILM_TILE);
+}
+
+/* Adds one sample: `values` holds f->stride floats (every layer). */
+static inline void vbnl_film_add(vbnl_film *f, uint32_t x, uint32_t y, const float *values)
+{
+    size_t tile;
+    size_t px = vbnl_film_pixel_index(f, x, y, &tile);
+    double *d = f->data + tile * f->tile_doubles + px * f->stride;
+    for (uint32_t c = 0; c < f->stride; ++c)
+        d[c] += (double)values[c];
+    f->samples[tile * VBNL_FILM_TILE * VBNL_FILM_TILE + px] += 1;
+}
+
+#endif

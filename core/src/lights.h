@@ -1,0 +1,79 @@
+/* Light sources (private header).
+ *
+ * Each vbnl_light is self-contained (it keeps its own world-space geometry), so lights can be
+ * sampled without the scene. Emissive meshes become one VBNL_LIGHT_TRIANGLE per triangle; the
+ * scene builds an alias table over light powers for selection (sampling.h).
+ *
+ * Conventions: `wi` points from the reference point toward the light. pdfs of area-like lights
+ * are solid-angle pdfs at the reference point; delta lights (point, spot, directional) report
+ * pdf = 1 and is_delta = 1 and their Li already includes the 1/r^2 falloff. */
+#ifndef VBNL_LIGHTS_H
+#define VBNL_LIGHTS_H
+
+#include <stdint.h>
+
+#include "vmath.h"
+
+typedef enum vbnl_light_type {
+    VBNL_LIGHT_POINT = 0,
+    VBNL_LIGHT_SPOT = 1,
+    VBNL_LIGHT_RECT = 2,        /* parallelogram p + s e0 + t e1 */
+    VBNL_LIGHT_TRIANGLE = 3,    /* p, p + e0, p + e1 */
+    VBNL_LIGHT_SPHERE = 4,      /* centre p, radius */
+    VBNL_LIGHT_DIRECTIONAL = 5, /* light travels along n */
+    VBNL_LIGHT_ENV = 6,         /* constant radiance from every direction */
+} vbnl_light_type;
+
+typedef struct vbnl_light {
+    vbnl_light_type type;
+    vec3 p;              /* position / corner / first vertex / centre */
+    vec3 e0, e1;         /* edges of rect and triangle lights */
+    vec3 n;              /* unit normal of rect/triangle (emitting side); unit direction of travel for spot/directional */
+    float area;          /* rect, triangle, sphere */
+    float radius;        /* sphere */
+    vec3 L;              /* radiance (rect, triangle, sphere, env), intensity (point, spot), irradiance (directional) */
+    float cos_inner, cos_outer, exponent; /* spot */
+    int two_sided;       /* rect, triangle, sphere (sphere: emits inward too) */
+    vec3 world_center;   /* scene bounding sphere, for directional and env lights */
+    float world_radius;
+} vbnl_light;
+
+typedef struct vbnl_light_li_sample {
+    vec3 wi;             /* unit, toward the light */
+    float dist;          /* distance to the sampled point (INFINITY for directional/env) */
+    vec3 p, n;           /* sampled point and its normal (area lights) */
+    vec3 Li;             /* incident radiance (or, for delta lights, the irradiance-like term I/r^2) */
+    float pdf;           /* solid angle pdf (1 for delta lights) */
+    int is_delta;
+} vbnl_light_li_sample;
+
+/* Samples incident light at ref. Returns 0 when there is none (for example the back of a
+ * one-sided light, or a spot outside its cone). */
+int vbnl_light_sample_li(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out);
+
+/* Solid-angle pdf that sample_li picks the point p_light (with normal n_light) seen from ref
+ * along wi. 0 for delta lights. For env lights p_light/n_light are ignored. */
+float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi);
+
+/* Radiance leaving an area light at a point with normal n_light toward direction w (unit, pointing
+ * away from the light); 0 from the back of a one-sided light. Env: radiance along any w.
+ * Rect/triangle decide the side with the light's own n (n_light is ignored, so a hit normal of
+ * either orientation works); spheres need the outward normal in n_light. */
+vec3 vbnl_light_Le(const vbnl_light *l, vec3 n_light, vec3 w);
+
+/* Total emitted power (W per channel) used for power-based selection. */
+vec3 vbnl_light_power(const vbnl_light *l);
+
+/* Emission sampling for light tracing (photons, VPLs): a point and a direction leaving the light.
+ * Le is the radiance (area lights), intensity (point, spot) or radiance (directional, env); the
+ * estimate of the emitted flux carried by the ray is Le * |cos| / (pdf_pos * pdf_dir). */
+typedef struct vbnl_light_le_sample {
+    vec3 p, n, dir;
+    vec3 Le;
+    float pdf_pos;       /* area pdf (1 for point/spot) */
+    float pdf_dir;       /* solid angle pdf */
+    float cos_at_light;  /* |cos| between dir and n for area lights, 1 otherwise */
+} vbnl_light_le_sample;
+int vbnl_light_sample_le(const vbnl_light *l, vec2 u_pos, vec2 u_dir, vbnl_light_le_sample *out);
+
+#endif

@@ -1,0 +1,63 @@
+/* What integrators see of the renderer (private header). */
+#ifndef VBNL_RENDER_INTERNAL_H
+#define VBNL_RENDER_INTERNAL_H
+
+#include <stdint.h>
+
+#include "film.h"
+#include "pool.h"
+#include "rng.h"
+#include "scene_internal.h"
+#include "vbnl/integrator.h"
+
+/* Per-thread counters, padded so that threads never share a cache line. */
+typedef struct vbnl_thread_stats {
+    uint64_t rays;
+    uint64_t samples;
+    char pad[48];
+} vbnl_thread_stats;
+
+struct vbnl_tile_job {
+    const vbnl_scene *scene;
+    vbnl_film *film;
+    uint32_t x0, y0, x1, y1;           /* pixel rectangle (exclusive ends), inside the crop */
+    uint32_t sample_begin, sample_end; /* sample indices of this pass for every pixel */
+    uint32_t width, height;            /* full image size */
+    uint64_t seed;
+    unsigned thread;
+    vbnl_thread_stats *stats;          /* this thread's counters */
+};
+
+static inline unsigned vbnl_tile_job_thread(const vbnl_tile_job *job) { return job->thread; }
+
+/* The random stream of sample `s` of pixel (x, y): independent of tiles and threads. */
+static inline vbnl_rng vbnl_pixel_rng(const vbnl_tile_job *job, uint32_t x, uint32_t y, uint32_t s)
+{
+    return vbnl_rng_for(job->seed, (uint64_t)y * job->width + x, s);
+}
+
+/* ---- stages of prepare -------------------------------------------------------------------- */
+
+struct vbnl_stage_ctx {
+    vbnl_renderer *renderer;
+    vbnl_progress_fn progress;
+    void *user;
+    double interval;
+    /* current stage */
+    const char *name;
+    const char *unit;
+    double total;
+    double start;
+    int cancelled;
+};
+
+/* Starts a named stage (its time is recorded in the render statistics). */
+void vbnl_stage_begin(vbnl_stage_ctx *st, const char *name, double total, const char *unit);
+/* Runs `count` work items on the context's workers, reporting progress as items finish.
+ * Returns 0, or -1 when cancelled (items in flight finish; later ones do not run). */
+int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *user);
+void vbnl_stage_end(vbnl_stage_ctx *st);
+unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st);
+uint64_t vbnl_stage_seed(const vbnl_stage_ctx *st);
+
+#endif

@@ -1,0 +1,109 @@
+/* Sample warping and discrete distributions (private header).
+ *
+ * Every warp maps a uniform point of [0,1)^2 to a direction or point and has a matching pdf
+ * function; tests/core/test_sampling.c checks each pair with a chi-square test. */
+#ifndef VBNL_SAMPLING_H
+#define VBNL_SAMPLING_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vmath.h"
+
+/* Concentric mapping of the unit square to the unit disk (Shirley & Chiu 1997). */
+static inline vec2 sample_concentric_disk(vec2 u)
+{
+    float ox = 2.0f * u.x - 1.0f, oy = 2.0f * u.y - 1.0f;
+    if (ox == 0.0f && oy == 0.0f)
+        return (vec2){0.0f, 0.0f};
+    float r, theta;
+    if (fabsf(ox) > fabsf(oy)) {
+        r = ox;
+        theta = (VBNL_PI / 4.0f) * (oy / ox);
+    } else {
+        r = oy;
+        theta = (VBNL_PI / 2.0f) - (VBNL_PI / 4.0f) * (ox / oy);
+    }
+    return (vec2){r * cosf(theta), r * sinf(theta)};
+}
+
+/* Cosine-weighted hemisphere around +z; pdf = cos(theta) / pi. */
+static inline vec3 sample_cosine_hemisphere(vec2 u)
+{
+    vec2 d = sample_concentric_disk(u);
+    float z = safe_sqrtf(1.0f - d.x * d.x - d.y * d.y);
+    return v3(d.x, d.y, z);
+}
+static inline float pdf_cosine_hemisphere(vec3 w) { return w.z > 0.0f ? w.z * VBNL_INV_PI : 0.0f; }
+
+/* Uniform sphere; pdf = 1 / (4 pi). */
+static inline vec3 sample_uniform_sphere(vec2 u)
+{
+    float z = 1.0f - 2.0f * u.x;
+    float r = safe_sqrtf(1.0f - z * z);
+    float phi = 2.0f * VBNL_PI * u.y;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+static inline float pdf_uniform_sphere(void) { return VBNL_INV_4PI; }
+
+/* Uniform hemisphere around +z; pdf = 1 / (2 pi). */
+static inline vec3 sample_uniform_hemisphere(vec2 u)
+{
+    float z = u.x;
+    float r = safe_sqrtf(1.0f - z * z);
+    float phi = 2.0f * VBNL_PI * u.y;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+static inline float pdf_uniform_hemisphere(void) { return VBNL_INV_2PI; }
+
+/* Uniform direction in the cone around +z with half-angle acos(cos_max);
+ * pdf = 1 / (2 pi (1 - cos_max)) (the VBNL paper's Eq. 4). */
+static inline vec3 sample_uniform_cone(vec2 u, float cos_max)
+{
+    float z = 1.0f - u.x * (1.0f - cos_max);
+    float r = safe_sqrtf(1.0f - z * z);
+    float phi = 2.0f * VBNL_PI * u.y;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+static inline float pdf_uniform_cone(float cos_max) { return 1.0f / (2.0f * VBNL_PI * (1.0f - cos_max)); }
+
+/* Uniform barycentrics on a triangle (Heitz 2019 low-distortion mapping); returns (b1, b2). */
+static inline vec2 sample_uniform_triangle(vec2 u)
+{
+    float b0, b1;
+    if (u.x < u.y) {
+        b0 = u.x / 2.0f;
+        b1 = u.y - b0;
+    } else {
+        b1 = u.y / 2.0f;
+        b0 = u.x - b1;
+    }
+    return (vec2){b0, b1};
+}
+
+/* Power heuristic with beta = 2 (Veach 1997): weight of strategy f against g. */
+static inline float power_heuristic(float pdf_f, float pdf_g)
+{
+    float f = pdf_f * pdf_f, g = pdf_g * pdf_g;
+    if (isinf(f))
+        return 1.0f;
+    return f + g > 0.0f ? f / (f + g) : 0.0f;
+}
+
+/* Alias table (Walker 1977, Vose's construction): O(1) sampling of n weighted items. */
+typedef struct vbnl_alias_table {
+    uint32_t n;
+    float *prob;      /* acceptance probability of each slot */
+    uint32_t *alias;  /* the other item of each slot */
+    float *pmf;       /* normalised probability of each item */
+    double total;     /* sum of the input weights */
+} vbnl_alias_table;
+
+/* Builds the table from n >= 1 non-negative weights. Returns 0 on success, -1 when out of memory
+ * or when every weight is zero (the table is then left empty). */
+int vbnl_alias_table_build(vbnl_alias_table *t, const float *weights, uint32_t n);
+void vbnl_alias_table_free(vbnl_alias_table *t);
+/* Samples an item with one uniform number u in [0,1); *pmf receives its probability. */
+uint32_t vbnl_alias_table_sample(const vbnl_alias_table *t, float u, float *pmf);
+
+#endif

@@ -1,0 +1,548 @@
+/* Scene commit (Embree scenes, emitters, light table) and ray queries. */
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "context.h"
+#include "scene_internal.h"
+
+static vbnl_result embree_fail(const vbnl_scene *s, const char *what, vbnl_error *err)
+{
+    const char *msg = s->ctx->embree_error[0] ? s->ctx->embree_error : "no details";
+    return vbnl_error_set(err, VBNL_ERR_BACKEND, "%s failed: %s", what, msg);
+}
+
+static RTCGeometry make_geometry(vbnl_scene *s, scene_geom *g)
+{
+    RTCGeometry geom = NULL;
+    switch (g->kind) {
+    case SCENE_GEOM_MESH: {
+        scene_mesh *m = &g->u.mesh;
+        geom = rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        if (!geom)
+            return NULL;
+        rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m->positions, 0,
+                                   sizeof(float) * 3, m->vertex_count);
+        rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m->indices, 0,
+                                   sizeof(uint32_t) * 3, m->triangle_count);
+        break;
+    }
+    case SCENE_GEOM_SPHERE: {
+        geom = rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+        if (!geom)
+            return NULL;
+        float *v = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
+                                           sizeof(float) * 4, 1);
+        if (!v) {
+            rtcReleaseGeometry(geom);
+            return NULL;
+        }
+        v[0] = g->u.sphere.center.x;
+        v[1] = g->u.sphere.center.y;
+        v[2] = g->u.sphere.center.z;
+        v[3] = g->u.sphere.radius;
+        break;
+    }
+    case SCENE_GEOM_AREA_LIGHT: {
+        geom = rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_QUAD);
+        if (!geom)
+            return NULL;
+        float *v = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                           sizeof(float) * 3, 4);
+        uint32_t *idx = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
+                                                sizeof(uint32_t) * 4, 1);
+        if (!v || !idx) {
+            rtcReleaseGeometry(geom);
+            return NULL;
+        }
+        vec3 c = g->u.area.corner, eu = g->u.area.edge_u, ev = g->u.area.edge_v;
+        v3_store(v + 0, c);
+        v3_store(v + 3, v3_add(c, eu));
+        v3_store(v + 6, v3_add(v3_add(c, eu), ev));
+        v3_store(v + 9, v3_add(c, ev));
+        idx[0] = 0;
+        idx[1] = 1;
+        idx[2] = 2;
+        idx[3] = 3;
+        break;
+    }
+    case SCENE_GEOM_INSTANCE: {
+        geom = rtcNewGeometry(s->device, RTC_GEOMETRY_TYPE_INSTANCE);
+        if (!geom)
+            return NULL;
+        rtcSetGeometryInstancedScene(geom, s->group_rtc[g->u.inst.group]);
+        float xfm[12];
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c)
+                xfm[r * 4 + c] = g->u.inst.xf.m[r][c];
+        rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, xfm);
+        break;
+    }
+    }
+    rtcCommitGeometry(geom);
+    return geom;
+}
+
+static void grow_bounds(vbnl_scene *s, vec3 p)
+{
+    s->bounds_min = v3_min(s->bounds_min, p);
+    s->bounds_max = v3_max(s->bounds_max, p);
+}
+
+static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
+{
+    for (uint32_t gi = 0; gi < s->geom_count; ++gi) {
+        scene_geom *g = &s->geoms[gi];
+        if (g->group != VBNL_GROUP_WORLD)
+            continue;
+        if (g->kind == SCENE_GEOM_MESH) {
+            scene_mesh *m = &g->u.mesh;
+            int any = 0;
+            for (uint32_t t = 0; t < m->triangle_count && !any; ++t)
+                any = s->materials[m->face_materials ? m->face_materials[t] : m->material].emissive;
+            if (!any)
+                continue;
+            m->face_lights = malloc(sizeof(uint32_t) * m->triangle_count);
+            if (!m->face_lights)
+                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+            for (uint32_t t = 0; t < m->triangle_count; ++t) {
+                m->face_lights[t] = VBNL_NO_LIGHT;
+                const scene_material *mat = &s->materials[m->face_materials ? m->face_materials[t] : m->material];
+                if (!mat->emissive)
+                    continue;
+                vec3 p0 = v3_load(m->positions + 3 * m->indices[3 * t]);
+                vec3 p1 = v3_load(m->positions + 3 * m->indices[3 * t + 1]);
+                vec3 p2 = v3_load(m->positions + 3 * m->indices[3 * t + 2]);
+                vec3 c = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
+                float len = v3_len(c);
+                if (!(len > 0.0f))
+                    continue; /* degenerate triangles emit nothing */
+                vec3 n = v3_scale(c, 1.0f / len);
+                if (m->normals) {
+                    /* the emitting side follows the shading normals, as hits do */
+                    vec3 ns = v3_add(v3_add(v3_load(m->normals + 3 * m->indices[3 * t]),
+                                            v3_load(m->normals + 3 * m->indices[3 * t + 1])),
+                                     v3_load(m->normals + 3 * m->indices[3 * t + 2]));
+                    if (v3_dot(ns, n) < 0.0f)
+                        n = v3_neg(n);
+                }
+                vbnl_light l;
+                memset(&l, 0, sizeof(l));
+                l.type = VBNL_LIGHT_TRIANGLE;
+                l.p = p0;
+                l.e0 = v3_sub(p1, p0);
+                l.e1 = v3_sub(p2, p0);
+                l.n = n;
+                l.area = 0.5f * len;
+                l.L = v3_load(mat->desc.emission);
+                l.two_sided = mat->desc.two_sided;
+                vbnl_result r = VBNL_OK;
+                if (s->light_count == s->light_capacity) {
+                    uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
+                    vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
+                    if (!nl)
+                        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                    s->lights = nl;
+                    s->light_capacity = cap;
+                }
+                (void)r;
+                m->face_lights[t] = s->light_count;
+                s->lights[s->light_count++] = l;
+            }
+        } else if (g->kind == SCENE_GEOM_SPHERE && s->materials[g->u.sphere.material].emissive) {
+            const scene_material *mat = &s->materials[g->u.sphere.material];
+            vbnl_light l;
+            memset(&l, 0, sizeof(l));
+            l.type = VBNL_LIGHT_SPHERE;
+            l.p = g->u.sphere.center;
+            l.radius = g->u.sphere.radius;
+            l.area = 4.0f * VBNL_PI * l.radius * l.radius;
+            l.L = v3_load(mat->desc.emission);
+            l.two_sided = mat->desc.two_sided;
+            if (s->light_count == s->light_capacity) {
+                uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
+                vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
+                if (!nl)
+                    return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                s->lights = nl;
+                s->light_capacity = cap;
+            }
+            g->u.sphere.light = s->light_count;
+            s->lights[s->light_count++] = l;
+        }
+    }
+    if (!v3_is_black(s->env_radiance)) {
+        vbnl_light l;
+        memset(&l, 0, sizeof(l));
+        l.type = VBNL_LIGHT_ENV;
+        l.L = s->env_radiance;
+        if (s->light_count == s->light_capacity) {
+            uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
+            vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
+            if (!nl)
+                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+            s->lights = nl;
+            s->light_capacity = cap;
+        }
+        s->env_light = s->light_count;
+        s->lights[s->light_count++] = l;
+    }
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_scene_commit(vbnl_scene *s, vbnl_error *err)
+{
+    if (!s)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_commit: scene is NULL");
+    if (s->committed)
+        return vbnl_error_set(err, VBNL_ERR_STATE, "vbnl_scene_commit: already committed");
+    if (!s->has_camera)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "the scene has no camera");
+    s->ctx->embree_error[0] = '\0';
+    s->group_rtc = calloc(s->group_count, sizeof(RTCScene));
+    if (!s->group_rtc)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    for (uint32_t i = 0; i < s->group_count; ++i) {
+        s->group_rtc[i] = rtcNewScene(s->device);
+        if (!s->group_rtc[i])
+            return embree_fail(s, "rtcNewScene", err);
+        rtcSetSceneBuildQuality(s->group_rtc[i], RTC_BUILD_QUALITY_HIGH);
+    }
+    s->world = s->group_rtc[0];
+    /* Groups first (instances need committed scenes), then the world with its instances. */
+    for (int pass = 0; pass < 2; ++pass) {
+        for (uint32_t gi = 0; gi < s->geom_count; ++gi) {
+            scene_geom *g = &s->geoms[gi];
+            if ((g->kind == SCENE_GEOM_INSTANCE) != (pass == 1))
+                continue;
+            RTCGeometry geom = make_geometry(s, g);
+            if (!geom)
+                return embree_fail(s, "creating an Embree geometry", err);
+            rtcAttachGeometryByID(s->group_rtc[g->group], geom, gi);
+            rtcReleaseGeometry(geom);
+        }
+        if (pass == 0) {
+            for (uint32_t i = 1; i < s->group_count; ++i)
+                rtcCommitScene(s->group_rtc[i]);
+        }
+    }
+    rtcCommitScene(s->world);
+    if (s->ctx->embree_error[0])
+        return embree_fail(s, "building the BVH", err);
+
+    /* bounds and triangle count */
+    s->bounds_min = v3s(FLT_MAX);
+    s->bounds_max = v3s(-FLT_MAX);
+    struct RTCBounds b;
+    rtcGetSceneBounds(s->world, &b);
+    if (b.lower_x <= b.upper_x) {
+        grow_bounds(s, v3(b.lower_x, b.lower_y, b.lower_z));
+        grow_bounds(s, v3(b.upper_x, b.upper_y, b.upper_z));
+    }
+    for (uint32_t i = 0; i < s->light_count; ++i)
+        if (s->lights[i].type == VBNL_LIGHT_POINT || s->lights[i].type == VBNL_LIGHT_SPOT)
+            grow_bounds(s, s->lights[i].p);
+    if (s->bounds_min.x > s->bounds_max.x) {
+        s->bounds_min = v3s(-1.0f);
+        s->bounds_max = v3s(1.0f);
+    }
+    s->triangle_count = 0;
+    for (uint32_t gi = 0; gi < s->geom_count; ++gi) {
+        const scene_geom *g = &s->geoms[gi];
+        if (g->kind == SCENE_GEOM_MESH && g->group == VBNL_GROUP_WORLD)
+            s->triangle_count += g->u.mesh.triangle_count;
+        else if (g->kind == SCENE_GEOM_INSTANCE)
+            for (uint32_t k = 0; k < s->geom_count; ++k)
+                if (s->geoms[k].kind == SCENE_GEOM_MESH && s->geoms[k].group == g->u.inst.group)
+                    s->triangle_count += s->geoms[k].u.mesh.triangle_count;
+    }
+
+    vbnl_result r = add_emitters(s, err);
+    if (r != VBNL_OK)
+        return r;
+    if (s->light_count == 0)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "the scene has no light (add a light source, an emissive surface or an environment)");
+    vec3 center = v3_scale(v3_add(s->bounds_min, s->bounds_max), 0.5f);
+    float radius = 0.5f * v3_len(v3_sub(s->bounds_max, s->bounds_min));
+    float *power = malloc(sizeof(float) * s->light_count);
+    if (!power)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    for (uint32_t i = 0; i < s->light_count; ++i) {
+        s->lights[i].world_center = center;
+        s->lights[i].world_radius = radius > 0.0f ? radius : 1.0f;
+        power[i] = v3_avg(vbnl_light_power(&s->lights[i]));
+    }
+    int rc = vbnl_alias_table_build(&s->light_table, power, s->light_count);
+    free(power);
+    if (rc != 0)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "every light of the scene has zero power");
+    s->committed = 1;
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_scene_get_info(const vbnl_scene *s, vbnl_scene_info *out, vbnl_error *err)
+{
+    if (!s || !out)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_get_info: NULL argument");
+    memset(out, 0, sizeof(*out));
+    for (uint32_t i = 0; i < s->geom_count; ++i) {
+        if (s->geoms[i].kind == SCENE_GEOM_SPHERE)
+            out->sphere_count++;
+        else if (s->geoms[i].kind == SCENE_GEOM_INSTANCE)
+            out->instance_count++;
+    }
+    out->material_count = s->material_count;
+    out->light_count = s->light_count;
+    if (s->committed) {
+        out->triangle_count = s->triangle_count;
+        v3_store(out->bounds_min, s->bounds_min);
+        v3_store(out->bounds_max, s->bounds_max);
+        return VBNL_OK;
+    }
+    /* Before commit: bounds of the world geometry from the stored data (hosts use them to frame
+     * a camera). Instances contribute the transformed corners of their group's box. */
+    vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX);
+    for (uint32_t pass = 0; pass < 2; ++pass) {
+        for (uint32_t i = 0; i < s->geom_count; ++i) {
+            const scene_geom *g = &s->geoms[i];
+            vec3 bmin = v3s(FLT_MAX), bmax = v3s(-FLT_MAX);
+            if (g->kind == SCENE_GEOM_MESH) {
+                for (uint32_t v = 0; v < g->u.mesh.vertex_count; ++v) {
+                    vec3 p = v3_load(g->u.mesh.positions + 3 * (size_t)v);
+                    bmin = v3_min(bmin, p);
+                    bmax = v3_max(bmax, p);
+                }
+                if (pass == 0 && g->group == VBNL_GROUP_WORLD)
+                    out->triangle_count += g->u.mesh.triangle_count;
+            } else if (g->kind == SCENE_GEOM_SPHERE) {
+                bmin = v3_sub(g->u.sphere.center, v3s(g->u.sphere.radius));
+                bmax = v3_add(g->u.sphere.center, v3s(g->u.sphere.radius));
+            } else if (g->kind == SCENE_GEOM_AREA_LIGHT) {
+                vec3 c = g->u.area.corner, a = v3_add(c, g->u.area.edge_u), b = v3_add(c, g->u.area.edge_v);
+                bmin = v3_min(v3_min(c, a), v3_min(b, v3_add(a, g->u.area.edge_v)));
+                bmax = v3_max(v3_max(c, a), v3_max(b, v3_add(a, g->u.area.edge_v)));
+            } else if (g->kind == SCENE_GEOM_INSTANCE && pass == 1) {
+                vec3 glo = v3s(FLT_MAX), ghi = v3s(-FLT_MAX);
+                for (uint32_t k = 0; k < s->geom_count; ++k) {
+                    const scene_geom *c = &s->geoms[k];
+                    if (c->group != g->u.inst.group)
+                        continue;
+                    if (c->kind == SCENE_GEOM_MESH) {
+                        for (uint32_t v = 0; v < c->u.mesh.vertex_count; ++v) {
+                            vec3 p = v3_load(c->u.mesh.positions + 3 * (size_t)v);
+                            glo = v3_min(glo, p);
+                            ghi = v3_max(ghi, p);
+                        }
+                    } else if (c->kind == SCENE_GEOM_SPHERE) {
+                        glo = v3_min(glo, v3_sub(c->u.sphere.center, v3s(c->u.sphere.radius)));
+                        ghi = v3_max(ghi, v3_add(c->u.sphere.center, v3s(c->u.sphere.radius)));
+                    }
+                }
+                if (glo.x <= ghi.x) {
+                    for (int corner = 0; corner < 8; ++corner) {
+                        vec3 p = v3(corner & 1 ? ghi.x : glo.x, corner & 2 ? ghi.y : glo.y,
+                                    corner & 4 ? ghi.z : glo.z);
+                        p = mat4_point(&g->u.inst.xf, p);
+                        bmin = v3_min(bmin, p);
+                        bmax = v3_max(bmax, p);
+                    }
+                }
+            }
+            if (g->group != VBNL_GROUP_WORLD || (pass == 0) == (g->kind == SCENE_GEOM_INSTANCE))
+                continue;
+            lo = v3_min(lo, bmin);
+            hi = v3_max(hi, bmax);
+        }
+    }
+    v3_store(out->bounds_min, lo);
+    v3_store(out->bounds_max, hi);
+    return VBNL_OK;
+}
+
+/* ---- queries ------------------------------------------------------------------------------ */
+
+static inline float int_as_float(int32_t i)
+{
+    float f;
+    memcpy(&f, &i, sizeof(f));
+    return f;
+}
+static inline int32_t float_as_int(float f)
+{
+    int32_t i;
+    memcpy(&i, &f, sizeof(i));
+    return i;
+}
+
+vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
+{
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    if (v3_dot(n, w) < 0.0f)
+        n = v3_neg(n);
+    float pc[3] = {p.x, p.y, p.z}, nc[3] = {n.x, n.y, n.z}, out[3];
+    for (int i = 0; i < 3; ++i) {
+        int32_t of = (int32_t)(int_scale * nc[i]);
+        float pi = int_as_float(float_as_int(pc[i]) + (pc[i] < 0.0f ? -of : of));
+        out[i] = fabsf(pc[i]) < origin ? pc[i] + float_scale * nc[i] : pi;
+    }
+    return v3(out[0], out[1], out[2]);
+}
+
+static void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned prim_id, unsigned inst_id,
+                     float bu, float bv, float t, vec3 o, vec3 d, vbnl_hit *h)
+{
+    h->t = t;
+    h->p = v3_fma(o, d, t);
+    h->geom = geom_id;
+    h->prim = prim_id;
+    h->light = VBNL_NO_LIGHT;
+    h->uv = (vec2){bu, bv};
+    const scene_geom *g = &s->geoms[geom_id];
+    const mat4 *xf = NULL;
+    vec3 po = h->p;
+    if (inst_id != RTC_INVALID_GEOMETRY_ID) {
+        const scene_geom *ig = &s->geoms[inst_id];
+        xf = &ig->u.inst.xf;
+        po = mat4_point(&ig->u.inst.inv, h->p);
+    }
+    vec3 ng, ns;
+    switch (g->kind) {
+    case SCENE_GEOM_MESH: {
+        const scene_mesh *m = &g->u.mesh;
+        const uint32_t *tri = m->indices + 3 * (size_t)prim_id;
+        vec3 p0 = v3_load(m->positions + 3 * tri[0]);
+        vec3 p1 = v3_load(m->positions + 3 * tri[1]);
+        vec3 p2 = v3_load(m->positions + 3 * tri[2]);
+        ng = v3_norm(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+        float b0 = 1.0f - bu - bv;
+        if (m->normals) {
+            ns = v3_add(v3_add(v3_scale(v3_load(m->normals + 3 * tri[0]), b0),
+                               v3_scale(v3_load(m->normals + 3 * tri[1]), bu)),
+                        v3_scale(v3_load(m->normals + 3 * tri[2]), bv));
+            ns = v3_norm(ns);
+            if (!(v3_len2(ns) > 0.5f))
+                ns = ng;
+            /* pbrt: with shading normals, the geometric normal follows their side */
+            if (v3_dot(ng, ns) < 0.0f)
+                ng = v3_neg(ng);
+        } else {
+            ns = ng;
+        }
+        if (m->uvs) {
+            const float *uv = m->uvs;
+            h->uv = (vec2){b0 * uv[2 * tri[0]] + bu * uv[2 * tri[1]] + bv * uv[2 * tri[2]],
+                           b0 * uv[2 * tri[0] + 1] + bu * uv[2 * tri[1] + 1] + bv * uv[2 * tri[2] + 1]};
+        }
+        h->material = m->face_materials ? m->face_materials[prim_id] : m->material;
+        if (m->face_lights)
+            h->light = m->face_lights[prim_id];
+        break;
+    }
+    case SCENE_GEOM_SPHERE: {
+        vec3 n = v3_scale(v3_sub(po, g->u.sphere.center), 1.0f / g->u.sphere.radius);
+        ng = ns = v3_norm(n);
+        h->uv = (vec2){(atan2f(ng.y, ng.x) + VBNL_PI) * VBNL_INV_2PI, acosf(clampf(ng.z, -1.0f, 1.0f)) * VBNL_INV_PI};
+        h->material = g->u.sphere.material;
+        h->light = g->u.sphere.light;
+        /* re-project onto the surface: removes the error of o + t d far from the origin */
+        if (!xf)
+            h->p = v3_fma(g->u.sphere.center, ng, g->u.sphere.radius);
+        break;
+    }
+    case SCENE_GEOM_AREA_LIGHT:
+    default:
+        ng = ns = g->u.area.normal;
+        h->material = g->u.area.material;
+        h->light = g->u.area.light;
+        break;
+    }
+    if (xf) {
+        ng = v3_norm(mat4_normal(xf, ng));
+        ns = v3_norm(mat4_normal(xf, ns));
+    }
+    h->ng = ng;
+    h->ns = ns;
+}
+
+int vbnl_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbnl_hit *hit)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRayHit rh;
+    rh.ray.org_x = o.x;
+    rh.ray.org_y = o.y;
+    rh.ray.org_z = o.z;
+    rh.ray.dir_x = d.x;
+    rh.ray.dir_y = d.y;
+    rh.ray.dir_z = d.z;
+    rh.ray.tnear = 0.0f;
+    rh.ray.tfar = tfar;
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(s->world, &ictx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+    fill_hit(s, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar, o, d, hit);
+    return 1;
+}
+
+int vbnl_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRay ray;
+    ray.org_x = o.x;
+    ray.org_y = o.y;
+    ray.org_z = o.z;
+    ray.dir_x = d.x;
+    ray.dir_y = d.y;
+    ray.dir_z = d.z;
+    ray.tnear = 0.0f;
+    ray.tfar = tfar;
+    ray.time = 0.0f;
+    ray.mask = 0xffffffffu;
+    ray.id = 0;
+    ray.flags = 0;
+    rtcOccluded1(s->world, &ictx, &ray);
+    return ray.tfar == -INFINITY;
+}
+
+void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
+                           vbnl_hit hits[8], int hit_mask[8])
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    ictx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    _Alignas(32) struct RTCRayHit8 rh;
+    _Alignas(32) int valid[8];
+    for (int i = 0; i < 8; ++i) {
+        valid[i] = active[i] ? -1 : 0;
+        rh.ray.org_x[i] = o[i].x;
+        rh.ray.org_y[i] = o[i].y;
+        rh.ray.org_z[i] = o[i].z;
+        rh.ray.dir_x[i] = d[i].x;
+        rh.ray.dir_y[i] = d[i].y;
+        rh.ray.dir_z[i] = d[i].z;
+        rh.ray.tnear[i] = 0.0f;
+        rh.ray.tfar[i] = INFINITY;
+        rh.ray.time[i] = 0.0f;
+        rh.ray.mask[i] = 0xffffffffu;
+        rh.ray.id[i] = (unsigned)i;
+        rh.ray.flags[i] = 0;
+        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(valid, s->world, &ictx, &rh);
+    for (int i = 0; i < 8; ++i) {
+        hit_mask[i] = active[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
+        if (hit_mask[i])
+            fill_hit(s, rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i], rh.hit.u[i],
+                     rh.hit.v[i], rh.ray.tfar[i], o[i], d[i], &hits[i]);
+    }
+}

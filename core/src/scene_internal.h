@@ -1,0 +1,123 @@
+/* Scene internals shared by the integrators (private header).
+ *
+ * Embree ids: every geometry is attached to its group's RTCScene under its index in
+ * scene->geoms, so a hit's geomID (and instID[0] for instanced hits) indexes scene->geoms
+ * directly, whatever group the geometry lives in. */
+#ifndef VBNL_SCENE_INTERNAL_H
+#define VBNL_SCENE_INTERNAL_H
+
+#include <embree3/rtcore.h>
+#include <stdint.h>
+
+#include "bsdf.h"
+#include "lights.h"
+#include "sampling.h"
+#include "vbnl/scene.h"
+#include "vmath.h"
+
+#define VBNL_NO_LIGHT UINT32_MAX
+
+typedef enum scene_geom_kind {
+    SCENE_GEOM_MESH = 0,
+    SCENE_GEOM_SPHERE = 1,
+    SCENE_GEOM_INSTANCE = 2,
+    SCENE_GEOM_AREA_LIGHT = 3, /* the visible quad of a rectangular area light */
+} scene_geom_kind;
+
+typedef struct scene_mesh {
+    float *positions, *normals, *uvs; /* in the space of the mesh's group */
+    uint32_t *indices;
+    uint32_t *face_materials;         /* NULL: every face uses `material` */
+    uint32_t *face_lights;            /* per-face light index or VBNL_NO_LIGHT (NULL: none emissive) */
+    uint32_t vertex_count, triangle_count, material;
+} scene_mesh;
+
+typedef struct scene_geom {
+    scene_geom_kind kind;
+    uint32_t group;
+    union {
+        scene_mesh mesh;
+        struct {
+            vec3 center;
+            float radius;
+            uint32_t material, light;
+        } sphere;
+        struct {
+            uint32_t group;
+            mat4 xf, inv;
+        } inst;
+        struct {
+            vec3 corner, edge_u, edge_v, normal;
+            uint32_t material, light;
+        } area;
+    } u;
+} scene_geom;
+
+typedef struct scene_material {
+    vbnl_material_desc desc;
+    vbnl_bsdf bsdf;
+    int emissive;
+} scene_material;
+
+struct vbnl_scene {
+    vbnl_context *ctx;
+    RTCDevice device;
+    RTCScene world;
+    RTCScene *group_rtc;       /* per group (index 0 = world) */
+    uint32_t group_count;
+    scene_geom *geoms;
+    uint32_t geom_count, geom_capacity;
+    scene_material *materials;
+    uint32_t material_count, material_capacity;
+    vbnl_light *lights;        /* user lights first, then emitters found at commit */
+    uint32_t light_count, light_capacity, user_light_count;
+    vbnl_alias_table light_table; /* power-based selection */
+    uint32_t env_light;        /* index in lights or VBNL_NO_LIGHT */
+    vec3 env_radiance;
+    int has_camera;
+    vbnl_camera_desc camera;
+    int committed;
+    vec3 bounds_min, bounds_max;
+    uint64_t triangle_count;
+};
+
+/* A surface point found by a ray. */
+typedef struct vbnl_hit {
+    float t;
+    vec3 p;
+    vec3 ng;          /* unit geometric normal (winding / outward side) */
+    vec3 ns;          /* unit shading normal, on the same side as ng */
+    vec2 uv;
+    uint32_t material;
+    uint32_t light;   /* emitter index or VBNL_NO_LIGHT */
+    uint32_t geom, prim;
+} vbnl_hit;
+
+/* Closest hit along o + t d for t in (0, tfar). Returns 1 and fills *hit, or 0 for a miss. */
+int vbnl_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbnl_hit *hit);
+/* 1 when something blocks o + t d for t in (0, tfar). */
+int vbnl_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar);
+/* Closest hits of up to 8 coherent rays (primary rays) as one Embree packet. Lanes with
+ * active[i] == 0 are ignored; hit_mask[i] is set to 1 for lanes that hit. */
+void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8],
+                           const vec3 d[8], vbnl_hit hits[8], int hit_mask[8]);
+
+/* Offsets a ray origin off the surface along the geometric normal, on the side of `w`
+ * (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a scene-scale epsilon. */
+vec3 vbnl_offset_ray_origin(vec3 p, vec3 ng, vec3 w);
+
+/* Camera ray through image point (px, py) in pixels (continuous; row 0 at the top). */
+void vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py,
+                     vec3 *o, vec3 *d);
+
+/* Picks a light by power; *pmf receives its selection probability. */
+static inline uint32_t vbnl_scene_pick_light(const vbnl_scene *s, float u, float *pmf)
+{
+    return vbnl_alias_table_sample(&s->light_table, u, pmf);
+}
+static inline float vbnl_scene_light_pmf(const vbnl_scene *s, uint32_t light)
+{
+    return s->light_table.pmf[light];
+}
+
+#endif

@@ -1,0 +1,128 @@
+/* `vbnl bench`: the path tracer's throughput next to the raw Embree ray rate of the same scene.
+ * The machine is noisy: every figure is the median of --repeat runs. */
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "host.h"
+
+#define DEFAULT_SCENE "../shared/scenes/cornell-box-mcguire/CornellBox-Original.obj"
+#define DEFAULT_CAMERA "0,1,3.5,0,1,0,40"
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof(double), cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static void bench_usage(FILE *f)
+{
+    fprintf(f,
+            "usage: vbnl bench [options]\n"
+            "\n"
+            "Renders a scene with `path` and prints samples/s and rays/s next to the raw Embree\n"
+            "incoherent ray rate measured on the same scene by the same program (medians).\n"
+            "\n"
+            "  --scene FILE       mesh file (default " DEFAULT_SCENE ")\n"
+            "  --camera px,py,pz,tx,ty,tz,fov   (default " DEFAULT_CAMERA ")\n"
+            "  --width W --height H   image size (default 256x256)\n"
+            "  --spp N            samples per pixel per run (default 16)\n"
+            "  --repeat N         runs per figure (default 3)\n"
+            "  --threads N        worker threads (default 0 = one per core)\n");
+}
+
+int host_bench_main(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        {"scene", required_argument, 0, 's'}, {"camera", required_argument, 0, 'c'},
+        {"width", required_argument, 0, 'W'}, {"height", required_argument, 0, 'H'},
+        {"spp", required_argument, 0, 'n'},   {"repeat", required_argument, 0, 'r'},
+        {"threads", required_argument, 0, 'T'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+    const char *scene_path = DEFAULT_SCENE;
+    host_camera cam = {0};
+    host_parse_camera(DEFAULT_CAMERA, &cam);
+    unsigned width = 256, height = 256, spp = 16, repeat = 3, threads = 0;
+    int c;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "h", opts, NULL)) != -1) {
+        switch (c) {
+        case 's': scene_path = optarg; break;
+        case 'c':
+            if (host_parse_camera(optarg, &cam)) {
+                fprintf(stderr, "vbnl bench: bad --camera '%s'\n", optarg);
+                return VBNL_EXIT_USAGE;
+            }
+            break;
+        case 'W': width = (unsigned)atoi(optarg); break;
+        case 'H': height = (unsigned)atoi(optarg); break;
+        case 'n': spp = (unsigned)atoi(optarg); break;
+        case 'r': repeat = (unsigned)atoi(optarg); break;
+        case 'T': threads = (unsigned)atoi(optarg); break;
+        case 'h': bench_usage(stdout); return VBNL_EXIT_OK;
+        default: bench_usage(stderr); return VBNL_EXIT_USAGE;
+        }
+    }
+    if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||
+        repeat > 99 || threads > 1024) {
+        fprintf(stderr, "vbnl bench: size, --spp and --repeat must be positive (repeat <= 99)\n");
+        return VBNL_EXIT_USAGE;
+    }
+    vbnl_error err = {0};
+    vbnl_context *ctx = NULL;
+    vbnl_scene *scene = NULL;
+    vbnl_context_desc cd = {threads};
+    int rc = VBNL_EXIT_FAILURE;
+    if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK ||
+        host_load_scene(ctx, scene_path, &cam, (float)width / (float)height, &scene, &err) != VBNL_OK) {
+        fprintf(stderr, "vbnl bench: %s\n", err.message);
+        goto done;
+    }
+    vbnl_scene_info info;
+    vbnl_scene_get_info(scene, &info, NULL);
+    printf("scene       %s (%llu triangles, %u lights)\n", scene_path, (unsigned long long)info.triangle_count,
+           info.light_count);
+    printf("image       %ux%u, %u spp per run, %u runs, %u threads\n\n", width, height, spp, repeat,
+           vbnl_context_thread_count(ctx));
+    double raw[99], sps[99], rps[99];
+    for (unsigned i = 0; i < repeat; ++i) {
+        if (vbnl_scene_measure_ray_rate(ctx, scene, 1u << 20, width, height, &raw[i], &err) != VBNL_OK) {
+            fprintf(stderr, "vbnl bench: %s\n", err.message);
+            goto done;
+        }
+        vbnl_render_settings s;
+        vbnl_render_settings_init(&s);
+        s.width = width;
+        s.height = height;
+        s.spp = spp;
+        s.seed = i + 1;
+        vbnl_renderer *r;
+        if (vbnl_renderer_create(ctx, scene, &s, &r, &err) != VBNL_OK ||
+            vbnl_renderer_render(r, NULL, NULL, &err) != VBNL_OK) {
+            fprintf(stderr, "vbnl bench: %s\n", err.message);
+            goto done;
+        }
+        vbnl_render_stats st;
+        vbnl_renderer_get_stats(r, &st, NULL);
+        sps[i] = (double)st.samples / st.render_seconds;
+        rps[i] = (double)st.rays / st.render_seconds;
+        vbnl_renderer_destroy(r);
+    }
+    double m_raw = median(raw, (int)repeat), m_sps = median(sps, (int)repeat), m_rps = median(rps, (int)repeat);
+    printf("%-34s %14s\n", "figure (median)", "value");
+    printf("%-34s %11.2f M/s\n", "raw Embree incoherent rays", m_raw / 1e6);
+    printf("%-34s %11.2f M/s\n", "path: rays (camera + bounce + shadow)", m_rps / 1e6);
+    printf("%-34s %11.3f M/s\n", "path: samples", m_sps / 1e6);
+    printf("%-34s %13.0f%%\n", "path rays / raw Embree rays", 100.0 * m_rps / m_raw);
+    rc = VBNL_EXIT_OK;
+done:
+    vbnl_scene_destroy(scene);
+    vbnl_context_destroy(ctx);
+    return rc;
+}

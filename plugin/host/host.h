@@ -1,0 +1,42 @@
+/* The `vbnl` command-line host (private header shared by its source files). */
+#ifndef VBNL_HOST_H
+#define VBNL_HOST_H
+
+#include <stdint.h>
+
+#include "vbnl/vbnl.h"
+
+/* Exit codes (documented in `vbnl --help` and the README). */
+enum {
+    VBNL_EXIT_OK = 0,
+    VBNL_EXIT_FAILURE = 1,     /* the render or a file operation failed */
+    VBNL_EXIT_USAGE = 2,       /* bad command line */
+    VBNL_EXIT_SCENE = 3,       /* the scene could not be loaded */
+    VBNL_EXIT_INTERRUPTED = 130,
+};
+
+typedef struct host_camera {
+    int given;
+    float position[3], target[3];
+    float fov_y;
+} host_camera;
+
+/* Parses "px,py,pz,tx,ty,tz,fov_degrees". Returns 0 on success. */
+int host_parse_camera(const char *text, host_camera *cam);
+
+/* Loads FILE (a mesh file through assimp for now) into a committed scene. Without a camera the
+ * scene is framed from +z with a 40 degree vertical field of view. */
+vbnl_result host_load_scene(vbnl_context *ctx, const char *path, const host_camera *cam, float aspect,
+                            vbnl_scene **out, vbnl_error *err);
+
+/* Writes the film as EXR (all layers, settings as attributes) and, if png_path, an sRGB PNG. */
+vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_settings *s,
+                               const char *exr_path, const char *png_path, float exposure, int half,
+                               int partial, vbnl_error *err);
+
+/* Checks that a file can be created at `path` (so a render does not fail at the very end). */
+vbnl_result host_check_writable(const char *path, vbnl_error *err);
+
+int host_bench_main(int argc, char **argv);
+
+#endif

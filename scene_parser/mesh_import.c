@@ -1,0 +1,201 @@
+/* Mesh import through assimp's C API. */
+#include <assimp/cimport.h>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vbnl/mesh_import.h"
+
+float vbnl_phong_exponent_to_alpha(float ns)
+{
+    if (!(ns >= 0.0f))
+        ns = 0.0f;
+    float a = sqrtf(2.0f / (ns + 2.0f));
+    return a < 0.001f ? 0.001f : (a > 1.0f ? 1.0f : a);
+}
+
+static float clamp01(float v) { return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v); }
+
+/* AI_MATKEY_* expand to (key, type, index). */
+static int get_color(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, float out[3])
+{
+    struct aiColor4D c;
+    if (aiGetMaterialColor(m, key, type, index, &c) != AI_SUCCESS)
+        return 0;
+    out[0] = c.r;
+    out[1] = c.g;
+    out[2] = c.b;
+    return 1;
+}
+
+static float max3(const float v[3]) { return fmaxf(v[0], fmaxf(v[1], v[2])); }
+
+/* The MTL -> material rule documented in mesh_import.h. */
+static void map_material(const struct aiMaterial *m, int two_sided, vbnl_material_desc *d, int *emissive)
+{
+    float kd[3] = {0.8f, 0.8f, 0.8f}, ks[3] = {0, 0, 0}, ke[3] = {0, 0, 0}, tf[3] = {1, 1, 1};
+    float ns = 0.0f, ni = 1.0f, opacity = 1.0f;
+    int illum = 2;
+    get_color(m, AI_MATKEY_COLOR_DIFFUSE, kd);
+    get_color(m, AI_MATKEY_COLOR_SPECULAR, ks);
+    get_color(m, AI_MATKEY_COLOR_EMISSIVE, ke);
+    get_color(m, AI_MATKEY_COLOR_TRANSPARENT, tf);
+    aiGetMaterialFloatArray(m, AI_MATKEY_SHININESS, &ns, NULL);
+    aiGetMaterialFloatArray(m, AI_MATKEY_REFRACTI, &ni, NULL);
+    aiGetMaterialFloatArray(m, AI_MATKEY_OPACITY, &opacity, NULL);
+    /* MTL illum: assimp keeps the raw value under "$mat.illum" */
+    int raw_illum;
+    unsigned one = 1;
+    if (aiGetMaterialIntegerArray(m, "$mat.illum", 0, 0, &raw_illum, &one) == AI_SUCCESS)
+        illum = raw_illum;
+    vbnl_material_desc_init(d);
+    float ior = ni > 1.0f ? ni : 1.5f;
+    if (illum == 4 || illum == 6 || illum == 7 || illum == 9 || opacity < 1.0f) {
+        d->type = VBNL_MATERIAL_DIELECTRIC;
+        for (int i = 0; i < 3; ++i)
+            d->base_color[i] = clamp01(tf[i]);
+        d->ior = ior;
+    } else if ((illum == 3 || illum == 5) && max3(ks) > 0.0f) {
+        d->type = VBNL_MATERIAL_MIRROR;
+        for (int i = 0; i < 3; ++i)
+            d->base_color[i] = clamp01(ks[i]);
+    } else if (max3(ks) > 0.0f && max3(kd) > 0.0f) {
+        d->type = VBNL_MATERIAL_PLASTIC;
+        for (int i = 0; i < 3; ++i)
+            d->base_color[i] = clamp01(kd[i]);
+        d->alpha = vbnl_phong_exponent_to_alpha(ns);
+        d->ior = ior;
+    } else if (max3(ks) > 0.0f) {
+        d->type = VBNL_MATERIAL_CONDUCTOR;
+        for (int i = 0; i < 3; ++i)
+            d->base_color[i] = clamp01(ks[i]);
+        d->alpha = vbnl_phong_exponent_to_alpha(ns);
+    } else {
+        d->type = VBNL_MATERIAL_LAMBERT;
+        for (int i = 0; i < 3; ++i)
+            d->base_color[i] = clamp01(kd[i]);
+    }
+    for (int i = 0; i < 3; ++i)
+        d->emission[i] = ke[i] > 0.0f && isfinite(ke[i]) ? ke[i] : 0.0f;
+    d->two_sided = two_sided;
+    *emissive = max3(d->emission) > 0.0f;
+}
+
+vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mesh_import_options *opt,
+                             vbnl_mesh_import_stats *stats, vbnl_error *err)
+{
+    if (!scene || !path)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_mesh_import: NULL argument");
+    vbnl_mesh_import_options defaults;
+    memset(&defaults, 0, sizeof(defaults));
+    if (!opt)
+        opt = &defaults;
+    const struct aiScene *ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                                      aiProcess_PreTransformVertices |
+                                                      aiProcess_SortByPType);
+    if (!ai)
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': %s", path, aiGetErrorString());
+    vbnl_result r = VBNL_OK;
+    uint32_t *mat_ids = NULL;
+    vbnl_mesh_import_stats st;
+    memset(&st, 0, sizeof(st));
+    if (!opt->override_material) {
+        mat_ids = calloc(ai->mNumMaterials ? ai->mNumMaterials : 1, sizeof(uint32_t));
+        if (!mat_ids) {
+            aiReleaseImport(ai);
+            return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        for (unsigned i = 0; i < ai->mNumMaterials; ++i) {
+            vbnl_material_desc d;
+            int emissive;
+            map_material(ai->mMaterials[i], opt->two_sided_emission, &d, &emissive);
+            if ((r = vbnl_scene_add_material(scene, &d, &mat_ids[i], err)) != VBNL_OK)
+                goto done;
+            st.materials++;
+            st.emissive_materials += (uint32_t)emissive;
+        }
+    }
+    for (unsigned mi = 0; mi < ai->mNumMeshes; ++mi) {
+        const struct aiMesh *am = ai->mMeshes[mi];
+        /* after triangulation the NGON flag may be set too: mask it */
+        unsigned types = am->mPrimitiveTypes & ~(unsigned)aiPrimitiveType_NGONEncodingFlag;
+        if (!(types & aiPrimitiveType_TRIANGLE) || am->mNumVertices == 0)
+            continue; /* points and lines carry no surface */
+        uint32_t ntri = 0;
+        for (unsigned f = 0; f < am->mNumFaces; ++f)
+            ntri += am->mFaces[f].mNumIndices == 3;
+        if (ntri == 0)
+            continue;
+        float *pos = malloc(sizeof(float) * 3 * am->mNumVertices);
+        float *nrm = am->mNormals ? malloc(sizeof(float) * 3 * am->mNumVertices) : NULL;
+        float *uv = am->mTextureCoords[0] ? malloc(sizeof(float) * 2 * am->mNumVertices) : NULL;
+        uint32_t *idx = malloc(sizeof(uint32_t) * 3 * ntri);
+        if (!pos || !idx || (am->mNormals && !nrm) || (am->mTextureCoords[0] && !uv)) {
+            free(pos);
+            free(nrm);
+            free(uv);
+            free(idx);
+            r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory importing '%s'", path);
+            goto done;
+        }
+        for (unsigned v = 0; v < am->mNumVertices; ++v) {
+            pos[3 * v] = am->mVertices[v].x;
+            pos[3 * v + 1] = am->mVertices[v].y;
+            pos[3 * v + 2] = am->mVertices[v].z;
+            if (nrm) {
+                nrm[3 * v] = am->mNormals[v].x;
+                nrm[3 * v + 1] = am->mNormals[v].y;
+                nrm[3 * v + 2] = am->mNormals[v].z;
+            }
+            if (uv) {
+                uv[2 * v] = am->mTextureCoords[0][v].x;
+                uv[2 * v + 1] = am->mTextureCoords[0][v].y;
+            }
+        }
+        uint32_t k = 0;
+        for (unsigned f = 0; f < am->mNumFaces; ++f) {
+            if (am->mFaces[f].mNumIndices != 3)
+                continue;
+            idx[3 * k] = am->mFaces[f].mIndices[0];
+            idx[3 * k + 1] = am->mFaces[f].mIndices[1];
+            idx[3 * k + 2] = am->mFaces[f].mIndices[2];
+            ++k;
+        }
+        vbnl_mesh_desc md;
+        memset(&md, 0, sizeof(md));
+        md.positions = pos;
+        md.normals = nrm;
+        md.uvs = uv;
+        md.vertex_count = am->mNumVertices;
+        md.indices = idx;
+        md.triangle_count = ntri;
+        md.material = opt->override_material ? opt->material
+                                             : (am->mMaterialIndex < ai->mNumMaterials ? mat_ids[am->mMaterialIndex] : 0);
+        md.transform = opt->transform;
+        md.group = opt->group;
+        r = vbnl_scene_add_mesh(scene, &md, NULL, err);
+        free(pos);
+        free(nrm);
+        free(uv);
+        free(idx);
+        if (r != VBNL_OK) {
+            char inner[VBNL_ERROR_MESSAGE_SIZE];
+            strcpy(inner, err ? err->message : "");
+            vbnl_error_set(err, r, "'%s', mesh %u: %s", path, mi, inner);
+            goto done;
+        }
+        st.meshes++;
+        st.triangles += ntri;
+    }
+    if (st.triangles == 0)
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "'%s' contains no triangles", path);
+done:
+    free(mat_ids);
+    aiReleaseImport(ai);
+    if (stats)
+        *stats = st;
+    return r;
+}
