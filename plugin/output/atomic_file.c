@@ -1,5 +1,7 @@
 /* Write-to-temporary-then-rename, shared by the EXR and PNG writers. */
+#ifndef _GNU_SOURCE
 #define _GNU_SOURCE
+#endif
 #include <errno.h>
 #include <fcntl.h>
 #include <stdint.h>

@@ -1,5 +1,7 @@
 /* OpenEXR writer and reader on the OpenEXR 3.1 C core API. */
+#ifndef _GNU_SOURCE
 #define _GNU_SOURCE
+#endif
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -74,7 +76,7 @@ static float vbnl_half_to_float(uint16_t h)
 }
 
 /* ---------------------------------------------------------------------------------------------- */
-/* Per-call state: the library's error callback and our write callback find it via user_data.     */
+/* Per-call state: our write callback gets it as user_data, the error callback as below.          */
 
 typedef struct vbnl_exr_io {
     int fd;
@@ -83,13 +85,16 @@ typedef struct vbnl_exr_io {
     char msg[512];
 } vbnl_exr_io;
 
+/* The error callback cannot use exr_get_user_data: in write mode OpenEXR 3.1 calls the callback
+ * with the context's non-recursive mutex held and exr_get_user_data takes it again (deadlock). So
+ * the per-call record is reached through a thread-local pointer that only lives for one call. */
+static _Thread_local vbnl_exr_io *vbnl_exr_current_io;
+
 static void vbnl_exr_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
-    void *ud = NULL;
-    if (exr_get_user_data(ctxt, &ud) != EXR_ERR_SUCCESS || !ud)
-        return;
-    vbnl_exr_io *io = ud;
-    if (io->code == EXR_ERR_SUCCESS) {
+    (void)ctxt;
+    vbnl_exr_io *io = vbnl_exr_current_io;
+    if (io && io->code == EXR_ERR_SUCCESS) {
         io->code = code;
         snprintf(io->msg, sizeof io->msg, "%s", msg ? msg : "");
     }
@@ -340,6 +345,9 @@ vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
     r = vbnl_exr_plan_channels(path, layers, layer_count, &ch, &n, &long_names, err);
     if (r != VBNL_OK)
         return r;
+    for (uint32_t i = 0; i < attr_count; i++)
+        if (strlen(attrs[i].name) > 31)
+            long_names = 1;
 
     /* HALF: convert here (round to nearest even) and hand the encoder half data of the same
      * interleaved layout, so no library float->half path is involved. */
@@ -379,6 +387,8 @@ vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
 
     exr_context_t ctxt = NULL;
     int part = 0;
+    vbnl_exr_io *outer_io = vbnl_exr_current_io;
+    vbnl_exr_current_io = &io;
     exr_result_t rv = exr_start_write(&ctxt, path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_add_part(ctxt, NULL, EXR_STORAGE_SCANLINE, &part);
@@ -406,6 +416,7 @@ vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
     /* exr_finish writes the chunk offset table: it must run (and succeed) before the rename, and
      * must run on failure too, to free the context. */
     exr_result_t frv = exr_finish(&ctxt);
+    vbnl_exr_current_io = outer_io;
     if (rv == EXR_ERR_SUCCESS)
         rv = frv;
     if (rv != EXR_ERR_SUCCESS) {
@@ -658,15 +669,17 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
     vbnl_exr_io io = {.fd = -1};
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = vbnl_exr_on_error;
-    init.user_data = &io;
 
     exr_context_t ctxt = NULL;
+    vbnl_exr_io *outer_io = vbnl_exr_current_io;
+    vbnl_exr_current_io = &io;
     exr_result_t rv = exr_start_read(&ctxt, path, &init);
     if (rv != EXR_ERR_SUCCESS) {
         vbnl_result code = rv == EXR_ERR_FILE_ACCESS ? VBNL_ERR_IO
                            : rv == EXR_ERR_OUT_OF_MEMORY ? VBNL_ERR_OUT_OF_MEMORY
                                                          : VBNL_ERR_CORRUPT;
         exr_finish(&ctxt);
+        vbnl_exr_current_io = outer_io;
         return vbnl_exr_fail(err, &io, rv, code, "read", path);
     }
 
@@ -739,6 +752,7 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
 
 done:
     exr_finish(&ctxt);
+    vbnl_exr_current_io = outer_io;
     if (r != VBNL_OK) {
         vbnl_exr_image_free(&img);
         return r;

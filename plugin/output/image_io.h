@@ -26,8 +26,9 @@
  *   VBNL_ERR_UNSUPPORTED       valid file this module does not read (deep data, subsampled channels);
  *   VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_BACKEND (any other OpenEXR/libpng failure).
  *
- * Thread-safety: no global state is used or changed (no OpenEXR process-wide defaults, libpng
- * errors go through per-call setjmp). Different calls may run concurrently on different threads;
+ * Thread-safety: no shared mutable state is used or changed (no OpenEXR process-wide defaults;
+ * OpenEXR error messages reach the call through a thread-local pointer valid during that call;
+ * libpng errors go through a per-call setjmp). Different calls may run concurrently on different threads;
  * two calls writing the same `path` at once both succeed and the last rename wins. */
 #ifndef VBNL_PLUGIN_OUTPUT_IMAGE_IO_H
 #define VBNL_PLUGIN_OUTPUT_IMAGE_IO_H
@@ -55,7 +56,8 @@ typedef enum vbnl_image_attr_type {
  * For vbnl_exr_read results, `name` and `value.s` are owned by the vbnl_exr_image. Names must not
  * collide with the attributes the writer sets itself (channels, compression, dataWindow,
  * displayWindow, lineOrder, pixelAspectRatio, screenWindowCenter, screenWindowWidth,
- * chromaticities); a collision or a repeated name fails with VBNL_ERR_INVALID_ARGUMENT. */
+ * chromaticities); a collision or a repeated name fails with VBNL_ERR_INVALID_ARGUMENT. Names
+ * are 1..255 bytes; any attribute or channel name over 31 bytes sets the EXR "long names" flag. */
 typedef struct vbnl_image_attr {
     const char *name;
     vbnl_image_attr_type type;
@@ -152,7 +154,8 @@ typedef struct vbnl_png_image {
     void *pixels;
 } vbnl_png_image;
 
-/* Reads any non-interlaced or interlaced PNG. On failure *out is zeroed and needs no free. */
+/* Reads any PNG (any colour type, 1..16 bits, interlaced or not) into the layout above. On
+ * failure *out is zeroed and needs no free. */
 vbnl_result vbnl_png_read(const char *path, vbnl_png_image *out, vbnl_error *err);
 
 /* Releases `img->pixels` and zeroes it. NULL allowed. */

@@ -1,5 +1,7 @@
 /* PNG writer and reader on libpng 1.6. */
+#ifndef _GNU_SOURCE
 #define _GNU_SOURCE
+#endif
 #include <errno.h>
 #include <setjmp.h>
 #include <stdio.h>

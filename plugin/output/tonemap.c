@@ -7,6 +7,8 @@
 /* IEC 61966-2-1 encoding function, v in [0,1]. */
 static float vbnl_srgb_oetf(float v)
 {
+    if (v >= 1.0f) /* 1.055 - 0.055 is not exactly 1 in float: keep white exact */
+        return 1.0f;
     return v <= 0.0031308f ? 12.92f * v : 1.055f * powf(v, 1.0f / 2.4f) - 0.055f;
 }
 
