@@ -141,6 +141,11 @@ static int sample_li_planar(const vbnl_light *l, vec3 ref, vec3 q, vbnl_light_li
     return isfinite(out->pdf);
 }
 
+/* Reference points on the surface (shading points of the sphere itself, whose positions carry
+ * rounding) count as inside: from outside they see none of the sphere, from inside they see all
+ * of it, and the cone construction degenerates there. sample_li and pdf_li must agree. */
+static int sphere_ref_inside(float dc2, float r) { return dc2 <= r * r * (1.0f + 1e-3f); }
+
 static int sample_li_sphere(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out)
 {
     vec3 c = l->p;
@@ -150,7 +155,7 @@ static int sample_li_sphere(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li
     if (!(r > 0.0f))
         return 0;
     vec3 q, nq;
-    if (dc2 <= r * r) {
+    if (sphere_ref_inside(dc2, r)) {
         /* Inside: uniform area sampling; only inward emission is visible from here. */
         if (!l->two_sided)
             return 0;
@@ -278,7 +283,7 @@ float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_ligh
         float r = l->radius;
         if (!(r > 0.0f))
             return 0.0f;
-        if (dc2 <= r * r) {
+        if (sphere_ref_inside(dc2, r)) {
             /* Exact normal from the geometry; n_light only matters for its orientation. */
             vec3 nq = v3_scale(v3_sub(p_light, l->p), 1.0f / r);
             float cos_l = v3_absdot(nq, wi);

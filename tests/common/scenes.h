@@ -1,0 +1,94 @@
+/* Small scenes built through the public API, shared by the tests (header-only). */
+#ifndef VBNL_TEST_SCENES_H
+#define VBNL_TEST_SCENES_H
+
+#include <string.h>
+
+#include "vbnl/vbnl.h"
+
+static inline uint32_t ts_material(vbnl_scene *s, vbnl_material_type type, float r, float g, float b,
+                                   float emit)
+{
+    vbnl_material_desc d;
+    vbnl_material_desc_init(&d);
+    d.type = type;
+    d.base_color[0] = r;
+    d.base_color[1] = g;
+    d.base_color[2] = b;
+    d.emission[0] = d.emission[1] = d.emission[2] = emit;
+    uint32_t id = 0;
+    vbnl_scene_add_material(s, &d, &id, NULL);
+    return id;
+}
+
+/* Quad p0,p1,p2,p3 (counter-clockwise seen from the front). */
+static inline void ts_quad(vbnl_scene *s, const float p[12], uint32_t material)
+{
+    static const uint32_t idx[6] = {0, 1, 2, 0, 2, 3};
+    vbnl_mesh_desc m;
+    memset(&m, 0, sizeof(m));
+    m.positions = p;
+    m.vertex_count = 4;
+    m.indices = idx;
+    m.triangle_count = 2;
+    m.material = material;
+    vbnl_scene_add_mesh(s, &m, NULL, NULL);
+}
+
+/* A closed Cornell-like box [-1,1]x[0,2]x[-1,1] (open side closed too) with a ceiling light of
+ * radiance `Le`, camera at (0,1,0.9) looking at -z. Not committed. */
+static inline vbnl_scene *ts_box_scene(vbnl_context *ctx, float aspect)
+{
+    vbnl_scene *s = NULL;
+    vbnl_scene_create(ctx, &s, NULL);
+    uint32_t white = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.73f, 0.71f, 0.68f, 0.0f);
+    uint32_t red = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.63f, 0.065f, 0.05f, 0.0f);
+    uint32_t green = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.14f, 0.45f, 0.091f, 0.0f);
+    uint32_t glossy = 0;
+    {
+        vbnl_material_desc d;
+        vbnl_material_desc_init(&d);
+        d.type = VBNL_MATERIAL_PLASTIC;
+        d.alpha = 0.2f;
+        vbnl_scene_add_material(s, &d, &glossy, NULL);
+    }
+    const float floor_[12] = {-1, 0, -1, -1, 0, 1, 1, 0, 1, 1, 0, -1};
+    const float ceil_[12] = {-1, 2, -1, 1, 2, -1, 1, 2, 1, -1, 2, 1};
+    const float back[12] = {-1, 0, -1, 1, 0, -1, 1, 2, -1, -1, 2, -1};
+    const float front[12] = {-1, 0, 1, -1, 2, 1, 1, 2, 1, 1, 0, 1};
+    const float left[12] = {-1, 0, -1, -1, 2, -1, -1, 2, 1, -1, 0, 1};
+    const float right[12] = {1, 0, -1, 1, 0, 1, 1, 2, 1, 1, 2, -1};
+    ts_quad(s, floor_, glossy);
+    ts_quad(s, ceil_, white);
+    ts_quad(s, back, white);
+    ts_quad(s, front, white);
+    ts_quad(s, left, red);
+    ts_quad(s, right, green);
+    const float c[3] = {0.3f, 0.4f, -0.3f};
+    uint32_t metal;
+    {
+        vbnl_material_desc d;
+        vbnl_material_desc_init(&d);
+        d.type = VBNL_MATERIAL_CONDUCTOR;
+        d.alpha = 0.3f;
+        vbnl_scene_add_material(s, &d, &metal, NULL);
+    }
+    vbnl_scene_add_sphere(s, c, 0.4f, metal, VBNL_GROUP_WORLD, NULL, NULL);
+    vbnl_area_light_desc al;
+    memset(&al, 0, sizeof(al));
+    float corner[3] = {-0.25f, 1.98f, -0.25f}, eu[3] = {0.5f, 0, 0}, ev[3] = {0, 0, 0.5f};
+    memcpy(al.corner, corner, sizeof(corner));
+    memcpy(al.edge_u, eu, sizeof(eu));
+    memcpy(al.edge_v, ev, sizeof(ev));
+    al.radiance[0] = 17.0f;
+    al.radiance[1] = 12.0f;
+    al.radiance[2] = 4.0f;
+    vbnl_scene_add_area_light(s, &al, NULL, NULL);
+    float pos[3] = {0, 1, 0.9f}, target[3] = {0, 1, -1}, up[3] = {0, 1, 0};
+    vbnl_camera_desc cam;
+    vbnl_camera_look_at(&cam, pos, target, up, 70.0f, aspect, NULL);
+    vbnl_scene_set_camera(s, &cam, NULL);
+    return s;
+}
+
+#endif
