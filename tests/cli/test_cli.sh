@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# Command-line behaviour of `vbnl`: exit codes, clear errors, outputs, interruption. TAP output.
+# usage: test_cli.sh VBNL_BINARY SOURCE_DIR
+set -u
+VBNL=$1
+SRC=$2
+HDR="python3 $SRC/tests/cli/exr_header.py"
+SCENE=$SRC/examples/cornell-box.obj
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+n=0
+failed=0
+ok() { n=$((n + 1)); echo "ok $n - $1"; }
+not_ok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "# $l"; done; }
+# expect NAME STATUS PATTERN -- COMMAND...: exit status and a pattern in stdout+stderr
+expect() {
+    local name=$1 status=$2 pattern=$3
+    shift 4
+    local out rc
+    out=$("$@" 2>&1)
+    rc=$?
+    if [ "$rc" -eq "$status" ] && grep -qE -- "$pattern" <<<"$out"; then
+        ok "$name"
+    else
+        not_ok "$name" "exit $rc (want $status), output:" "$out"
+    fi
+}
+
+expect "help" 0 "usage: vbnl" -- "$VBNL" --help
+expect "no command" 2 "usage: vbnl" -- "$VBNL"
+expect "unknown command" 2 "unknown command 'frobnicate'" -- "$VBNL" frobnicate
+expect "render help" 0 "--spp N" -- "$VBNL" render --help
+expect "info lists path and its parameters" 0 "max_depth" -- "$VBNL" info
+expect "no scene" 2 "exactly one scene" -- "$VBNL" render -o "$TMP/a.exr"
+expect "no output" 2 "give an output" -- "$VBNL" render "$SCENE"
+expect "bad spp" 2 "--spp takes a whole number" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --spp 0
+expect "bad size" 2 "--width takes" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --width -3
+expect "bad camera" 2 "--camera takes" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --camera 1,2,3
+expect "unknown integrator" 2 "unknown integrator 'pathh'" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --integrator pathh
+expect "unknown parameter suggests" 2 "did you mean 'max_depth'" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --set max_dpth=3
+expect "parameter out of range" 2 "must lie in" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --set max_depth=-7
+expect "missing scene file" 3 "cannot import" -- "$VBNL" render "$TMP/none.obj" -o "$TMP/a.exr"
+expect "scene language not yet" 3 "scene language" -- "$VBNL" render "$TMP/x.pov" -o "$TMP/a.exr"
+
+# An unwritable output fails at once, not after the render (a huge spp would take hours).
+start=$(date +%s)
+expect "unwritable output fails first" 1 "cannot write" -- timeout 20 "$VBNL" render "$SCENE" -o "$TMP/no/such/dir/a.exr" --spp 1000000
+[ $(( $(date +%s) - start )) -lt 10 ] && ok "unwritable output fails fast" || not_ok "unwritable output fails fast"
+
+# A small render writes both files; the EXR carries its settings and layers.
+expect "render" 0 "spp in" -- "$VBNL" render "$SCENE" -o "$TMP/out.exr" --png "$TMP/out.png" --width 40 --height 30 --spp 4 --seed 9 --set max_depth=5
+if [ -s "$TMP/out.exr" ] && [ "$(head -c 8 "$TMP/out.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ]; then
+    ok "EXR and PNG written"
+else
+    not_ok "EXR and PNG written"
+fi
+hdr=$($HDR "$TMP/out.exr" 2>&1)
+for want in "vbnl/integrator=path" "vbnl/seed=9" "vbnl/spp=4" "vbnl/parameters=max_depth=5" "vbnl/partial=0" "vbnl/time/render=" "albedo.R" "normal.X" "depth.Z"; do
+    grep -qF -- "$want" <<<"$hdr" && ok "EXR header has $want" || not_ok "EXR header has $want" "$hdr"
+done
+[ -z "$(ls "$TMP" | grep tmp-)" ] && ok "no temporary files left" || not_ok "no temporary files left" "$(ls "$TMP")"
+
+# Same seed, any thread count: identical images (the EXR headers differ only in timings, so
+# compare the PNGs; test_render compares the float films bit for bit).
+"$VBNL" render "$SCENE" --png "$TMP/t1.png" --width 33 --height 17 --spp 3 --threads 1 -q
+"$VBNL" render "$SCENE" --png "$TMP/t2.png" --width 33 --height 17 --spp 3 --threads 2 -q
+cmp -s "$TMP/t1.png" "$TMP/t2.png" && ok "1 and 2 threads give identical images" || not_ok "1 and 2 threads give identical images"
+
+# Ctrl-C: stops, writes what it has with vbnl/partial=1, exits 130.
+"$VBNL" render "$SCENE" -o "$TMP/int.exr" --png "$TMP/int.png" --width 64 --height 64 --spp 1000000 -q &
+pid=$!
+sleep 1.5
+kill -INT $pid
+wait $pid
+rc=$?
+if [ $rc -eq 130 ] && [ -s "$TMP/int.exr" ] && [ -s "$TMP/int.png" ] && $HDR "$TMP/int.exr" | grep -q "vbnl/partial=1"; then
+    ok "SIGINT writes a partial image and exits 130"
+else
+    not_ok "SIGINT writes a partial image and exits 130" "exit $rc" "$($HDR "$TMP/int.exr" 2>&1 | head -3)"
+fi
+
+echo "1..$n"
+[ $failed -eq 0 ]

@@ -1,0 +1,249 @@
+/* vbnl: corpus check of the SDL language layer.
+ *
+ * Parses every .pov file under a directory (default: POV-Ray's sample scenes,
+ * /usr/share/povray-3.7/scenes from Debian's povray-examples) with the language layer, each in a
+ * child process with a time limit, and prints a table: parsed clean / with warnings / error /
+ * timeout / crash, followed by the most frequent error messages.
+ *
+ *     corpus [-t seconds] [-v] [dir]
+ *
+ * Exit status: 0 (the figures are a report, not a pass/fail test). */
+#include <dirent.h>
+#include <errno.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "vbnl/sdl.h"
+
+typedef struct entry {
+    char *path;
+    char status[16];
+    char message[600];
+    int warnings;
+    double seconds;
+} entry;
+
+static entry *entries;
+static size_t nentries, capentries;
+
+static void collect(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.')
+            continue;
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        struct stat st;
+        if (stat(path, &st) != 0)
+            continue;
+        if (S_ISDIR(st.st_mode)) {
+            collect(path);
+            continue;
+        }
+        size_t n = strlen(e->d_name);
+        if (n < 5 || strcmp(e->d_name + n - 4, ".pov") != 0)
+            continue;
+        if (nentries == capentries) {
+            capentries = capentries ? capentries * 2 : 256;
+            entries = realloc(entries, capentries * sizeof *entries);
+            if (!entries)
+                exit(1);
+        }
+        memset(&entries[nentries], 0, sizeof entries[0]);
+        entries[nentries++].path = strdup(path);
+    }
+    closedir(d);
+}
+
+static int cmp_entry(const void *a, const void *b)
+{
+    return strcmp(((const entry *)a)->path, ((const entry *)b)->path);
+}
+
+/* Child: parse and write "status\twarnings\tmessage\n" to fd. */
+static void child(const char *path, int fd)
+{
+    vbnl_sdl_parser *p;
+    vbnl_error err = { 0 };
+    char out[800];
+    if (vbnl_sdl_parser_create(&p, &err) != VBNL_OK) {
+        snprintf(out, sizeof out, "error\t0\t%s\n", err.message);
+    } else {
+        vbnl_sdl_set_image_size(p, 320, 240);
+        vbnl_result r = vbnl_sdl_parse_file(p, path, &err);
+        size_t w = vbnl_sdl_warning_count(p);
+        if (r == VBNL_OK)
+            snprintf(out, sizeof out, "%s\t%zu\t\n", w ? "warnings" : "clean", w);
+        else
+            snprintf(out, sizeof out, "error\t%zu\t%.600s\n", w, err.message);
+        vbnl_sdl_parser_destroy(p);
+    }
+    for (char *c = out; *c; c++)
+        if (*c == '\n' && c[1])
+            *c = ' ';
+    ssize_t wr = write(fd, out, strlen(out));
+    (void)wr;
+}
+
+/* "file:12:3: undeclared identifier 'Foo'" -> "undeclared identifier '…'" */
+static void normalize(const char *msg, char *out, size_t n)
+{
+    const char *m = msg;
+    /* skip "path:line:col: " */
+    const char *c = strstr(msg, ": ");
+    if (c && c - msg < 400) {
+        const char *q = c;
+        while (q > msg && q[-1] >= '0' && q[-1] <= '9')
+            q--;
+        if (q > msg && q[-1] == ':')
+            m = c + 2;
+    }
+    size_t o = 0;
+    bool inq = false;
+    for (; *m && o + 4 < n; m++) {
+        if (*m == '\'' || *m == '"') {
+            if (!inq) {
+                out[o++] = *m;
+                out[o++] = '.';
+                out[o++] = '.';
+                inq = true;
+            } else {
+                out[o++] = *m;
+                inq = false;
+            }
+            continue;
+        }
+        if (!inq)
+            out[o++] = *m;
+    }
+    out[o] = 0;
+}
+
+typedef struct count {
+    char msg[300];
+    int n;
+    const char *example;
+} count;
+
+static int cmp_count(const void *a, const void *b)
+{
+    return ((const count *)b)->n - ((const count *)a)->n;
+}
+
+int main(int argc, char **argv)
+{
+    int timeout = 20, verbose = 0;
+    const char *dir = "/usr/share/povray-3.7/scenes";
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "-t") == 0 && i + 1 < argc)
+            timeout = atoi(argv[++i]);
+        else if (strcmp(argv[i], "-v") == 0)
+            verbose = 1;
+        else
+            dir = argv[i];
+    }
+    collect(dir);
+    if (nentries == 0) {
+        fprintf(stderr, "no .pov files under %s (apt-get install povray-examples)\n", dir);
+        return 0;
+    }
+    qsort(entries, nentries, sizeof *entries, cmp_entry);
+    int clean = 0, warn = 0, errors = 0, timeouts = 0, crashes = 0;
+    for (size_t i = 0; i < nentries; i++) {
+        entry *e = &entries[i];
+        int fds[2];
+        if (pipe(fds) != 0)
+            return 1;
+        pid_t pid = fork();
+        if (pid == 0) {
+            close(fds[0]);
+            alarm((unsigned)timeout);
+            child(e->path, fds[1]);
+            _exit(0);
+        }
+        close(fds[1]);
+        char buf[1024];
+        size_t got = 0;
+        ssize_t r;
+        while ((r = read(fds[0], buf + got, sizeof buf - 1 - got)) > 0)
+            got += (size_t)r;
+        buf[got] = 0;
+        close(fds[0]);
+        int st = 0;
+        waitpid(pid, &st, 0);
+        if (WIFSIGNALED(st) && WTERMSIG(st) == SIGALRM) {
+            snprintf(e->status, sizeof e->status, "timeout");
+            snprintf(e->message, sizeof e->message, "time limit of %d s exceeded", timeout);
+            timeouts++;
+        } else if (!WIFEXITED(st) || got == 0) {
+            snprintf(e->status, sizeof e->status, "crash");
+            snprintf(e->message, sizeof e->message, "child died (status %d)", st);
+            crashes++;
+        } else {
+            char *t1 = strchr(buf, '\t'), *t2 = t1 ? strchr(t1 + 1, '\t') : NULL;
+            if (t1) *t1 = 0;
+            if (t2) *t2 = 0;
+            snprintf(e->status, sizeof e->status, "%.15s", buf);
+            e->warnings = t1 ? atoi(t1 + 1) : 0;
+            if (t2) {
+                char *nl = strchr(t2 + 1, '\n');
+                if (nl)
+                    *nl = 0;
+                snprintf(e->message, sizeof e->message, "%s", t2 + 1);
+            }
+            if (strcmp(e->status, "clean") == 0) clean++;
+            else if (strcmp(e->status, "warnings") == 0) warn++;
+            else errors++;
+        }
+        if (verbose)
+            printf("%-9s %3d  %s  %s\n", e->status, e->warnings, e->path, e->message);
+    }
+    size_t n = nentries;
+    printf("\nSDL language layer corpus: %zu scenes under %s (time limit %d s each)\n\n", n, dir, timeout);
+    printf("  %-22s %5s %7s\n", "result", "files", "share");
+    printf("  %-22s %5d %6.1f%%\n", "parsed clean", clean, 100.0 * clean / n);
+    printf("  %-22s %5d %6.1f%%\n", "parsed with warnings", warn, 100.0 * warn / n);
+    printf("  %-22s %5d %6.1f%%\n", "error", errors, 100.0 * errors / n);
+    printf("  %-22s %5d %6.1f%%\n", "timeout", timeouts, 100.0 * timeouts / n);
+    printf("  %-22s %5d %6.1f%%\n", "crash", crashes, 100.0 * crashes / n);
+    count *counts = calloc(n, sizeof *counts);
+    size_t nc = 0;
+    for (size_t i = 0; i < n && counts; i++) {
+        entry *e = &entries[i];
+        if (strcmp(e->status, "error") && strcmp(e->status, "timeout") && strcmp(e->status, "crash"))
+            continue;
+        char key[300];
+        normalize(e->message, key, sizeof key);
+        size_t k;
+        for (k = 0; k < nc; k++)
+            if (strcmp(counts[k].msg, key) == 0)
+                break;
+        if (k == nc) {
+            snprintf(counts[nc].msg, sizeof counts[nc].msg, "%s", key);
+            counts[nc].example = e->message;
+            nc++;
+        }
+        counts[k].n++;
+    }
+    if (nc) {
+        qsort(counts, nc, sizeof *counts, cmp_count);
+        printf("\nTop error messages:\n");
+        for (size_t k = 0; k < nc && k < 20; k++)
+            printf("  %4d  %s\n        e.g. %.200s\n", counts[k].n, counts[k].msg, counts[k].example);
+    }
+    free(counts);
+    for (size_t i = 0; i < n; i++)
+        free(entries[i].path);
+    free(entries);
+    return 0;
+}

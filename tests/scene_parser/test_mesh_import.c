@@ -1,0 +1,175 @@
+/* Mesh import through assimp: counts, the MTL material mapping, errors. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "scene_internal.h"
+#include "vbnl/mesh_import.h"
+#include "vbnl/vbnl.h"
+
+static char g_dir[512];
+
+static const char *shared_scene(const char *name, char *buf, size_t n)
+{
+    const char *dir = getenv("VBNL_SHARED_DIR");
+    snprintf(buf, n, "%s/scenes/cornell-box-mcguire/%s", dir ? dir : "../shared", name);
+    return buf;
+}
+
+static vbnl_scene *import(vbnl_context *ctx, const char *path, vbnl_mesh_import_stats *st, vbnl_result expect)
+{
+    vbnl_scene *s = NULL;
+    assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
+    vbnl_error err = {0};
+    vbnl_result r = vbnl_mesh_import(s, path, NULL, st, &err);
+    if (r != expect)
+        fail_msg("import of %s: %s (%s)", path, vbnl_result_name(r), err.message);
+    return s;
+}
+
+static void test_phong_to_alpha(void **state)
+{
+    (void)state;
+    assert_float_equal(vbnl_phong_exponent_to_alpha(0.0f), 1.0f, 1e-6f);
+    assert_float_equal(vbnl_phong_exponent_to_alpha(10.0f), sqrtf(2.0f / 12.0f), 1e-6f);
+    assert_float_equal(vbnl_phong_exponent_to_alpha(32.0f), sqrtf(2.0f / 34.0f), 1e-6f);
+    assert_float_equal(vbnl_phong_exponent_to_alpha(1e9f), 0.001f, 1e-6f);
+    assert_float_equal(vbnl_phong_exponent_to_alpha(-5.0f), 1.0f, 1e-6f);
+}
+
+static void test_cornell_original(void **state)
+{
+    (void)state;
+    vbnl_context *ctx;
+    vbnl_context_desc d = {1};
+    vbnl_context_create(&d, &ctx, NULL);
+    char path[1024];
+    vbnl_mesh_import_stats st;
+    vbnl_scene *s = import(ctx, shared_scene("CornellBox-Original.obj", path, sizeof(path)), &st, VBNL_OK);
+    assert_int_equal(st.triangles, 36); /* 18 quads */
+    assert_int_equal(st.materials, 9);  /* 8 in the MTL + assimp's default */
+    assert_int_equal(st.emissive_materials, 1);
+    /* every imported material is Lambertian; the light emits 17 12 4 */
+    int lights = 0;
+    for (uint32_t i = 0; i < s->material_count; ++i) {
+        assert_int_equal(s->materials[i].desc.type, VBNL_MATERIAL_LAMBERT);
+        if (s->materials[i].emissive) {
+            assert_float_equal(s->materials[i].desc.emission[0], 17.0f, 1e-6f);
+            assert_float_equal(s->materials[i].desc.emission[2], 4.0f, 1e-6f);
+            ++lights;
+        }
+    }
+    assert_int_equal(lights, 1);
+    float pos[3] = {0, 1, 3.5f}, t[3] = {0, 1, 0}, up[3] = {0, 1, 0};
+    vbnl_camera_desc cam;
+    vbnl_camera_look_at(&cam, pos, t, up, 40, 1, NULL);
+    vbnl_scene_set_camera(s, &cam, NULL);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    /* the light quad faces down: a point below it receives light */
+    assert_int_equal(s->light_count, 2);
+    assert_true(s->lights[0].n.y < -0.99f);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
+static const vbnl_material_desc *find_type(const vbnl_scene *s, vbnl_material_type type)
+{
+    for (uint32_t i = 0; i < s->material_count; ++i)
+        if (s->materials[i].desc.type == type)
+            return &s->materials[i].desc;
+    return NULL;
+}
+
+static void test_material_mapping(void **state)
+{
+    (void)state;
+    vbnl_context *ctx;
+    vbnl_context_desc d = {1};
+    vbnl_context_create(&d, &ctx, NULL);
+    char path[1024];
+    /* Mirror: tallBox has Ks 0.95, Ns 1000, illum 5 -> perfect mirror tinted 0.95 */
+    vbnl_scene *s = import(ctx, shared_scene("CornellBox-Mirror.obj", path, sizeof(path)), NULL, VBNL_OK);
+    const vbnl_material_desc *m = find_type(s, VBNL_MATERIAL_MIRROR);
+    assert_non_null(m);
+    assert_float_equal(m->base_color[0], 0.95f, 1e-6f);
+    vbnl_scene_destroy(s);
+    /* Glossy floor: Kd + Ks with Ns 32 -> plastic with alpha sqrt(2/34), ior Ni 1.5 */
+    s = import(ctx, shared_scene("CornellBox-Glossy-Floor.obj", path, sizeof(path)), NULL, VBNL_OK);
+    m = find_type(s, VBNL_MATERIAL_PLASTIC);
+    assert_non_null(m);
+    assert_float_equal(m->alpha, sqrtf(2.0f / 34.0f), 1e-5f);
+    assert_float_equal(m->ior, 1.5f, 1e-6f);
+    vbnl_scene_destroy(s);
+    /* a hand-written MTL exercising the remaining rules */
+    char obj[600], mtl[600];
+    snprintf(obj, sizeof(obj), "%s/m.obj", g_dir);
+    snprintf(mtl, sizeof(mtl), "%s/m.mtl", g_dir);
+    FILE *f = fopen(mtl, "w");
+    fputs("newmtl metal\nKd 0 0 0\nKs 0.9 0.6 0.3\nNs 100\nillum 2\n"
+          "newmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.33\nillum 7\n", f);
+    fclose(f);
+    f = fopen(obj, "w");
+    fputs("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nusemtl metal\nf 1 2 3\nusemtl glass\nf 2 4 3\n", f);
+    fclose(f);
+    s = import(ctx, obj, NULL, VBNL_OK);
+    m = find_type(s, VBNL_MATERIAL_CONDUCTOR);
+    assert_non_null(m);
+    assert_float_equal(m->base_color[1], 0.6f, 1e-6f);
+    assert_float_equal(m->alpha, sqrtf(2.0f / 102.0f), 1e-5f);
+    m = find_type(s, VBNL_MATERIAL_DIELECTRIC);
+    assert_non_null(m);
+    assert_float_equal(m->ior, 1.33f, 1e-5f);
+    vbnl_scene_destroy(s);
+    unlink(obj);
+    unlink(mtl);
+    vbnl_context_destroy(ctx);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    vbnl_context *ctx;
+    vbnl_context_desc d = {1};
+    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_scene *s;
+    vbnl_scene_create(ctx, &s, NULL);
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_mesh_import(s, "/nonexistent/x.obj", NULL, NULL, &err), VBNL_ERR_IO);
+    assert_non_null(strstr(err.message, "/nonexistent/x.obj"));
+    char bad[600];
+    snprintf(bad, sizeof(bad), "%s/bad.obj", g_dir);
+    FILE *f = fopen(bad, "w");
+    fputs("this is not a mesh\n", f);
+    fclose(f);
+    vbnl_result r = vbnl_mesh_import(s, bad, NULL, NULL, &err);
+    assert_true(r == VBNL_ERR_IO || r == VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, bad));
+    unlink(bad);
+    assert_int_equal(vbnl_mesh_import(NULL, bad, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbnl_mesh_import(s, NULL, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
+int main(void)
+{
+    snprintf(g_dir, sizeof(g_dir), "/tmp/vbnl-mesh-XXXXXX");
+    if (!mkdtemp(g_dir))
+        return 1;
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_phong_to_alpha),
+        cmocka_unit_test(test_cornell_original),
+        cmocka_unit_test(test_material_mapping),
+        cmocka_unit_test(test_errors),
+    };
+    int rc = cmocka_run_group_tests(tests, NULL, NULL);
+    rmdir(g_dir);
+    return rc;
+}
