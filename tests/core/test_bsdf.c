@@ -159,7 +159,7 @@ static double chi2_pvalue(const vbnl_bsdf *b, vec3 wo, uint64_t seed, const char
         observed[it * CHI2_NP + ip] += 1.0;
     }
     if (below > 0) {
-        printf("%s: %ld samples below the horizon where the pdf is 0\n", name, below);
+        printf("# %s: %ld samples below the horizon where the pdf is 0\n", name, below);
         return 0.0;
     }
 
@@ -189,7 +189,7 @@ static double chi2_pvalue(const vbnl_bsdf *b, vec3 wo, uint64_t seed, const char
         int i = order[k];
         if (expected[i] == 0.0) {
             if (observed[i] > CHI2_SAMPLES * 1e-5) {
-                printf("%s: %.0f samples in a bin with expected frequency 0\n", name, observed[i]);
+                printf("# %s: %.0f samples in a bin with expected frequency 0\n", name, observed[i]);
                 return 0.0;
             }
         } else if (expected[i] < 5.0 || (pooled_exp > 0.0 && pooled_exp < 5.0)) {
@@ -208,7 +208,7 @@ static double chi2_pvalue(const vbnl_bsdf *b, vec3 wo, uint64_t seed, const char
     }
     dof -= 1;
     if (dof < 1) {
-        printf("%s: too few bins\n", name);
+        printf("# %s: too few bins\n", name);
         return 0.0;
     }
     double p = gamma_q(0.5 * dof, 0.5 * chsq);
@@ -226,7 +226,7 @@ static void check_chi2(const vbnl_bsdf *b, const char *what, uint64_t seed)
         vec3 wo = dir_from_theta(thetas[t], 0.7f);
         double p = chi2_pvalue(b, wo, seed + (uint64_t)t, name);
         if (!(p >= level) || verbose())
-            printf("%s: chi-square p-value %.3g (level %.3g)\n", name, p, level);
+            printf("# %s: chi-square p-value %.3g (level %.3g)\n", name, p, level);
         assert_true(p >= level);
     }
 }
@@ -280,13 +280,13 @@ static void check_consistency(const vbnl_bsdf *b, const char *name, uint64_t see
         float pdf = vbnl_bsdf_pdf(b, wo, bs.wi);
         vec3 f = vbnl_bsdf_eval(b, wo, bs.wi);
         if (rel_err(bs.pdf, pdf) > 1e-3f || !(pdf > 0.0f)) {
-            printf("%s: sample pdf %g, pdf() %g\n", name, (double)bs.pdf, (double)pdf);
+            printf("# %s: sample pdf %g, pdf() %g\n", name, (double)bs.pdf, (double)pdf);
             fail();
         }
         for (int c = 0; c < 3; ++c) {
             float w = v3_comp(bs.weight, c), ref = v3_comp(f, c) / pdf;
             if (!(fabsf(w - ref) <= 1e-3f * fmaxf(1.0f, fabsf(ref)))) {
-                printf("%s: weight %g, eval/pdf %g\n", name, (double)w, (double)ref);
+                printf("# %s: weight %g, eval/pdf %g\n", name, (double)w, (double)ref);
                 fail();
             }
         }
@@ -344,7 +344,7 @@ static void check_furnace(const vbnl_bsdf *b, const char *name, int lossless, fl
         if (lossless)
             ok = ok && v3_min_comp(a) >= 1.0f - tol;
         if (!ok || verbose())
-            printf("%s theta_o=%g: albedo (%.4f %.4f %.4f)\n", name, (double)furnace_thetas[t], (double)a.x,
+            printf("# %s theta_o=%g: albedo (%.4f %.4f %.4f)\n", name, (double)furnace_thetas[t], (double)a.x,
                    (double)a.y, (double)a.z);
         assert_true(ok);
     }
@@ -408,7 +408,7 @@ static void test_furnace_conductor_compensation(void **state)
             ss /= FURNACE_SAMPLES;
             ms /= FURNACE_SAMPLES;
             if (!(fabs(ss + ms - 1.0) < 0.015) || verbose())
-                printf("compensation alpha %g theta %g: E_ss %.4f E_ms %.4f\n", (double)alphas[i],
+                printf("# compensation alpha %g theta %g: E_ss %.4f E_ms %.4f\n", (double)alphas[i],
                        (double)thetas[t], ss, ms);
             assert_true(fabs(ss + ms - 1.0) < 0.015);
             if (alphas[i] >= 0.6f)
@@ -460,7 +460,7 @@ static void test_furnace_dielectric(void **state)
             double F = vbnl_fresnel_dielectric(wo.z, ior);
             double frac = (double)reflected / n, sigma = sqrt(F * (1.0 - F) / n);
             if (!(fabs(frac - F) <= 5.0 * sigma + 1e-9) || !(fabs(importance / n - 1.0) < 0.01))
-                printf("dielectric side %d theta %g: R frac %.5f, F %.5f, importance albedo %.5f\n", side,
+                printf("# dielectric side %d theta %g: R frac %.5f, F %.5f, importance albedo %.5f\n", side,
                        (double)furnace_thetas[t], frac, F, importance / n);
             assert_true(fabs(frac - F) <= 5.0 * sigma + 1e-9);
             assert_true(fabs(importance / n - 1.0) < 0.01);
@@ -485,7 +485,7 @@ static void check_reciprocity(const vbnl_bsdf *b, const char *name, uint64_t see
         for (int k = 0; k < 3; ++k) {
             float x = v3_comp(a, k), y = v3_comp(c, k);
             if (!(fabsf(x - y) <= 2e-3f * fmaxf(fmaxf(x, y), 1e-3f))) {
-                printf("%s: f(wo,wi) %g != f(wi,wo) %g\n", name, (double)x, (double)y);
+                printf("# %s: f(wo,wi) %g != f(wi,wo) %g\n", name, (double)x, (double)y);
                 fail();
             }
         }

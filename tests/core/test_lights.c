@@ -211,7 +211,7 @@ static void check_li_distribution(const char *name, const vbnl_light *l, vec3 re
     }
     vbnl_chi2_result res;
     int ok = vbnl_chi2_test(obs, expd, nb, MIN_EXPECTED, SIGNIFICANCE, &res);
-    printf("  %-24s pdf integral %.5f, %s\n", name, total, res.msg);
+    printf("#   %-24s pdf integral %.5f, %s\n", name, total, res.msg);
     free(obs);
     free(expd);
     assert_int_equal(failed, 0);
@@ -319,7 +319,7 @@ static void check_irradiance(const char *name, const vbnl_light *l, vec3 ref, ve
 {
     double mean[3], se;
     estimate_irradiance(l, ref, nref, 200000, 777, mean, &se);
-    printf("  %-30s E = %.6f, expected %.6f (stderr %.2g)\n", name, mean[0], E_unit * l->L.x, se);
+    printf("#   %-30s E = %.6f, expected %.6f (stderr %.2g)\n", name, mean[0], E_unit * l->L.x, se);
     assert_true(se <= 0.01 * E_unit * l->L.x + 1e-12);
     assert_true(fabs(mean[0] - E_unit * l->L.x) <= 5.0 * se + 1e-6 * E_unit);
     /* Other channels scale with L exactly (same samples). */
@@ -534,7 +534,7 @@ static void check_power(const char *name, const vbnl_light *l, le_check_fn check
         sum[2] += s.Le.z * w;
     }
     vec3 P = vbnl_light_power(l);
-    printf("  %-26s flux %.6g, power %.6g (%+.3f%%)\n", name, sum[0] / N, P.x,
+    printf("#   %-26s flux %.6g, power %.6g (%+.3f%%)\n", name, sum[0] / N, P.x,
            100.0 * (sum[0] / N / P.x - 1.0));
     assert_int_equal(bad, 0);
     assert_true(fabs(sum[0] / N - P.x) <= 0.01 * P.x);

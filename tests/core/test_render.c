@@ -80,7 +80,7 @@ static void furnace_case(float rho, float Le, uint32_t res, uint32_t spp, double
         assert_float_equal(px[4 * i + 3], 1.0f, 0.0f); /* alpha */
     }
     double mean = sum / (w * h * 3);
-    print_message("furnace rho=%.2f: mean %.5f expected %.5f (%.3f%%), worst pixel %.2f%%\n", rho, mean,
+    print_message("# furnace rho=%.2f: mean %.5f expected %.5f (%.3f%%), worst pixel %.2f%%\n", rho, mean,
                   expected, 100.0 * (mean / expected - 1.0), 100.0 * worst);
     assert_true(fabs(mean / expected - 1.0) < mean_tol);
     assert_true(worst < pixel_tol);

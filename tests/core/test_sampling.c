@@ -58,9 +58,9 @@ static int run_warp_chi2(const warp_case *c, int n_samples, uint64_t seed)
     }
     vbnl_chi2_result res;
     int ok = vbnl_chi2_test(obs, expd, nb, MIN_EXPECTED, SIGNIFICANCE, &res);
-    printf("  %-28s pdf integral %.5f, %s\n", c->name, total, res.msg);
+    printf("#   %-28s pdf integral %.5f, %s\n", c->name, total, res.msg);
     if (bad)
-        printf("  %-28s %d samples not unit or with pdf 0\n", c->name, bad);
+        printf("#   %-28s %d samples not unit or with pdf 0\n", c->name, bad);
     free(obs);
     free(expd);
     return ok && bad == 0 && fabs(total - 1.0) < 2e-3;
@@ -132,7 +132,7 @@ static void test_chi2_detects_wrong_pdf(void **state)
     }
     vbnl_chi2_result res;
     assert_false(vbnl_chi2_test(obs, expd, nb, MIN_EXPECTED, SIGNIFICANCE, &res));
-    printf("  cone 0.31 vs 0.3 (must fail) %s\n", res.msg);
+    printf("#   cone 0.31 vs 0.3 (must fail) %s\n", res.msg);
     free(obs);
     free(expd);
 }
@@ -172,7 +172,7 @@ static void test_concentric_disk(void **state)
     }
     vbnl_chi2_result res;
     int ok = vbnl_chi2_test(obs, expd, NR * NP, MIN_EXPECTED, SIGNIFICANCE, &res);
-    printf("  concentric disk              %s\n", res.msg);
+    printf("#   concentric disk              %s\n", res.msg);
     assert_true(ok);
 }
 
@@ -202,7 +202,7 @@ static void test_uniform_triangle(void **state)
     }
     vbnl_chi2_result res;
     int ok = vbnl_chi2_test(obs, expd, G * G, MIN_EXPECTED, SIGNIFICANCE, &res);
-    printf("  uniform triangle             %s\n", res.msg);
+    printf("#   uniform triangle             %s\n", res.msg);
     assert_int_equal(outside, 0);
     assert_true(ok);
 }
@@ -253,7 +253,7 @@ static void test_alias_table_frequencies(void **state)
 
     vbnl_chi2_result res;
     int ok = vbnl_chi2_test(obs, expd, N_ITEMS, MIN_EXPECTED, SIGNIFICANCE, &res);
-    printf("  alias table (50 items)       %s\n", res.msg);
+    printf("#   alias table (50 items)       %s\n", res.msg);
     assert_true(ok);
     vbnl_alias_table_free(&t);
 }
