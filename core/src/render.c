@@ -187,6 +187,24 @@ int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *us
 void vbnl_stage_end(vbnl_stage_ctx *st) { record_stage(st->renderer, st->name, vbnl_now() - st->start); }
 
 unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st) { return st->renderer->ctx->threads; }
+
+int vbnl_run_items(vbnl_stage_ctx *st, vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *user)
+{
+    if (st)
+        return vbnl_stage_run(st, count, fn, user);
+    if (pool)
+        return vbnl_pool_run(pool, count, fn, user, NULL, NULL, 1.0) == count ? 0 : -1;
+    for (uint64_t i = 0; i < count; ++i)
+        fn(user, i, 0);
+    return 0;
+}
+
+unsigned vbnl_run_thread_count(const vbnl_stage_ctx *st, const vbnl_pool *pool)
+{
+    if (st)
+        return vbnl_stage_thread_count(st);
+    return pool ? vbnl_pool_thread_count(pool) : 1u;
+}
 uint64_t vbnl_stage_seed(const vbnl_stage_ctx *st) { return st->renderer->settings.seed; }
 
 vbnl_result vbnl_renderer_prepare(vbnl_renderer *r, vbnl_progress_fn progress, void *user,

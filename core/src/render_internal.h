@@ -58,6 +58,12 @@ void vbnl_stage_begin(vbnl_stage_ctx *st, const char *name, double total, const 
 int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *user);
 void vbnl_stage_end(vbnl_stage_ctx *st);
 unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st);
+
+/* Runs work items for a stage of an integrator that may also be driven without a renderer (unit
+ * tests, benchmarks): through the stage when `st` is given, else on `pool` when given, else
+ * serially on the calling thread (thread index 0). Returns 0, or -1 when cancelled. */
+int vbnl_run_items(vbnl_stage_ctx *st, vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *user);
+unsigned vbnl_run_thread_count(const vbnl_stage_ctx *st, const vbnl_pool *pool);
 uint64_t vbnl_stage_seed(const vbnl_stage_ctx *st);
 
 #endif
