@@ -151,12 +151,17 @@ uint64_t vbnl_pool_run(vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *u
     pthread_cond_broadcast(&pool->work_cv);
     double next_poll = vbnl_now() + interval;
     while (pool->active > 0) {
+        if (!poll) {
+            /* nothing to report: sleep until a worker signals (no timed wake-ups) */
+            pthread_cond_wait(&pool->done_cv, &pool->lock);
+            continue;
+        }
         struct timespec ts;
         double when = next_poll;
         ts.tv_sec = (time_t)when;
         ts.tv_nsec = (long)((when - (double)ts.tv_sec) * 1e9);
         int rc = pthread_cond_timedwait(&pool->done_cv, &pool->lock, &ts);
-        if (poll && (rc == ETIMEDOUT || vbnl_now() >= next_poll)) {
+        if (rc == ETIMEDOUT || vbnl_now() >= next_poll) {
             uint64_t fin = atomic_load(&pool->finished);
             pthread_mutex_unlock(&pool->lock);
             if (poll(poll_user, fin, count))

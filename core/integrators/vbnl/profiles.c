@@ -25,11 +25,15 @@ struct vbnl_profile_kernel {
 struct vbnl_profile_set {
     const vbnl_hemioct *map;
     uint32_t count, texels, n_glossy;
+    double unit, inv_unit; /* W per fixed-point step (a power of two) and its inverse */
     uint32_t *slot;     /* per VL: index of its map, or NO_SLOT (Lambertian) */
-    float *phi;         /* per VL: total incident power (RGB) */
-    float *incident;    /* n_glossy x texels x 3 floats, NULL after release */
+    uint64_t *phi;      /* per VL: total incident power (RGB, fixed point) */
+    uint64_t *incident; /* n_glossy x texels x 3 fixed-point values, NULL after release */
     uint32_t *code;     /* n_glossy x texels RGBE codes (TEXEL_UNSET until converted) */
 };
+
+/* A fixed-point value in W (exact in double below 2^53 steps, then rounded once to float). */
+static inline float fixed_to_float(const vbnl_profile_set *s, uint64_t q) { return (float)((double)q * s->unit); }
 
 /* ---- RGBE (Ward 1991), rounded to nearest -------------------------------------------------- */
 
@@ -173,22 +177,41 @@ size_t vbnl_profile_kernel_bytes(const vbnl_profile_kernel *k)
 
 /* ---- set --------------------------------------------------------------------------------- */
 
+double vbnl_profile_unit_for_power(double typical_power)
+{
+    double u = typical_power * 0x1p-24;
+    if (!(u > 0x1p-200) || !isfinite(u)) /* nothing sensible: the default */
+        return VBNL_PROFILE_DEFAULT_UNIT;
+    int e;
+    frexp(u, &e); /* u = f 2^e, f in [0.5, 1): 2^(e-1) <= u */
+    return ldexp(1.0, e - 1);
+}
+
 vbnl_result vbnl_profile_set_create(const vbnl_hemioct *map, uint32_t count, const uint8_t *glossy,
                                     vbnl_profile_set **out)
+{
+    return vbnl_profile_set_create_fixed(map, count, glossy, VBNL_PROFILE_DEFAULT_UNIT, out);
+}
+
+vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t count, const uint8_t *glossy,
+                                          double unit, vbnl_profile_set **out)
 {
     if (!out)
         return VBNL_ERR_INVALID_ARGUMENT;
     *out = NULL;
-    if (!map)
-        return VBNL_ERR_INVALID_ARGUMENT;
+    int e;
+    if (!map || !(unit > 0.0) || !isfinite(unit) || frexp(unit, &e) != 0.5)
+        return VBNL_ERR_INVALID_ARGUMENT; /* the unit must be a power of two */
     vbnl_profile_set *s = calloc(1, sizeof(*s));
     if (!s)
         return VBNL_ERR_OUT_OF_MEMORY;
     s->map = map;
     s->count = count;
     s->texels = vbnl_hemioct_texel_count(map);
+    s->unit = unit;
+    s->inv_unit = 1.0 / unit; /* exact: a power of two */
     s->slot = malloc(((size_t)count + 1) * sizeof(uint32_t));
-    s->phi = calloc(3 * (size_t)count + 1, sizeof(float));
+    s->phi = calloc(3 * (size_t)count + 1, sizeof(uint64_t));
     if (!s->slot || !s->phi) {
         vbnl_profile_set_destroy(s);
         return VBNL_ERR_OUT_OF_MEMORY;
@@ -197,7 +220,7 @@ vbnl_result vbnl_profile_set_create(const vbnl_hemioct *map, uint32_t count, con
         s->slot[v] = glossy && glossy[v] ? s->n_glossy++ : NO_SLOT;
     if (s->n_glossy) {
         size_t cells = (size_t)s->n_glossy * s->texels;
-        s->incident = calloc(3 * cells, sizeof(float));
+        s->incident = calloc(3 * cells, sizeof(uint64_t));
         s->code = malloc(cells * sizeof(uint32_t));
         if (!s->incident || !s->code) {
             vbnl_profile_set_destroy(s);
@@ -226,45 +249,129 @@ int vbnl_profile_is_glossy(const vbnl_profile_set *s, uint32_t vl) { return s->s
 size_t vbnl_profile_set_bytes(const vbnl_profile_set *s)
 {
     size_t cells = (size_t)s->n_glossy * s->texels;
-    return sizeof(*s) + ((size_t)s->count + 1) * sizeof(uint32_t) + (3 * (size_t)s->count + 1) * sizeof(float) +
-           cells * sizeof(uint32_t) + (s->incident ? 3 * cells * sizeof(float) : 0);
+    return sizeof(*s) + ((size_t)s->count + 1) * sizeof(uint32_t) + (3 * (size_t)s->count + 1) * sizeof(uint64_t) +
+           cells * sizeof(uint32_t) + (s->incident ? 3 * cells * sizeof(uint64_t) : 0);
 }
 
-/* ---- photon splitting -------------------------------------------------------------------- */
+/* ---- photon splitting: 64-bit fixed point (profiles.h, "Fixed point") --------------------- */
 
-static void atomic_add_float(float *p, float v)
+double vbnl_profile_set_unit(const vbnl_profile_set *s) { return s->unit; }
+
+void vbnl_profile_quantize(const vbnl_profile_set *s, vec3 power, uint64_t q[3])
 {
-    if (v == 0.0f)
+    for (int c = 0; c < 3; ++c) {
+        double x = (double)v3_comp(power, c) * s->inv_unit;
+        if (!(x > 0.0)) /* also NaN */
+            q[c] = 0;
+        else
+            q[c] = x < VBNL_PROFILE_MAX_DEPOSIT ? (uint64_t)(x + 0.5) : (uint64_t)VBNL_PROFILE_MAX_DEPOSIT;
+    }
+}
+
+void vbnl_profile_split_fixed(uint64_t q, uint32_t n, const float *w, uint64_t *out)
+{
+    /* floor(q w_k) never adds up to more than q when sum w <= 1; float weights may sum to
+     * 1 + a few ulp, hence the clamp to what is left. The residue (at most n steps) goes to the
+     * largest weight (first one on ties), so sum out == q exactly. */
+    uint64_t left = q;
+    uint32_t big = 0;
+    for (uint32_t k = 0; k < n; ++k) {
+        double x = (double)q * (double)(w[k] > 0.0f ? w[k] : 0.0f);
+        uint64_t v = x < (double)left ? (uint64_t)x : left;
+        out[k] = v;
+        left -= v;
+        if (w[k] > w[big])
+            big = k;
+    }
+    out[big] += left;
+}
+
+static inline void atomic_add_u64(uint64_t *p, uint64_t v)
+{
+    if (v)
+        __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
+}
+
+void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
+{
+    uint64_t *phi = s->phi + 3 * (size_t)vl;
+    atomic_add_u64(phi + 0, q[0]);
+    atomic_add_u64(phi + 1, q[1]);
+    atomic_add_u64(phi + 2, q[2]);
+    uint32_t slot = s->slot[vl];
+    if (slot == NO_SLOT || !s->incident)
         return;
-    float old, sum;
-    __atomic_load(p, &old, __ATOMIC_RELAXED);
-    do {
-        sum = old + v;
-    } while (!__atomic_compare_exchange(p, &old, &sum, 1, __ATOMIC_RELAXED, __ATOMIC_RELAXED));
+    /* Bilinear splat (octahedral.h footprint) in integers: the four texels receive exactly q. */
+    uint32_t idx[4];
+    float wgt[4];
+    vbnl_hemioct_bilinear(s->map, wi, idx, wgt);
+    uint64_t *map = s->incident + 3 * (size_t)slot * s->texels;
+    for (int c = 0; c < 3; ++c) {
+        if (!q[c])
+            continue;
+        uint64_t part[4];
+        vbnl_profile_split_fixed(q[c], 4, wgt, part);
+        for (int k = 0; k < 4; ++k)
+            atomic_add_u64(map + 3 * (size_t)idx[k] + c, part[k]);
+    }
 }
 
 void vbnl_profile_deposit(vbnl_profile_set *s, uint32_t vl, vec3 wi, vec3 power)
 {
-    float *phi = s->phi + 3 * (size_t)vl;
-    atomic_add_float(phi + 0, power.x);
-    atomic_add_float(phi + 1, power.y);
-    atomic_add_float(phi + 2, power.z);
-    uint32_t slot = s->slot[vl];
-    if (slot != NO_SLOT && s->incident)
-        vbnl_hemioct_splat_atomic(s->map, s->incident + 3 * (size_t)slot * s->texels, wi, power);
+    uint64_t q[3];
+    vbnl_profile_quantize(s, power, q);
+    vbnl_profile_deposit_fixed(s, vl, wi, q);
 }
 
 vec3 vbnl_profile_incident_power(const vbnl_profile_set *s, uint32_t vl)
 {
-    return v3_load(s->phi + 3 * (size_t)vl);
+    const uint64_t *q = s->phi + 3 * (size_t)vl;
+    return v3(fixed_to_float(s, q[0]), fixed_to_float(s, q[1]), fixed_to_float(s, q[2]));
 }
 
-const float *vbnl_profile_incident_map(const vbnl_profile_set *s, uint32_t vl)
+const uint64_t *vbnl_profile_incident_power_fixed(const vbnl_profile_set *s, uint32_t vl)
+{
+    return s->phi + 3 * (size_t)vl;
+}
+
+const uint64_t *vbnl_profile_incident_map_fixed(const vbnl_profile_set *s, uint32_t vl)
 {
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT || !s->incident)
         return NULL;
     return s->incident + 3 * (size_t)slot * s->texels;
+}
+
+vec3 vbnl_profile_incident_texel(const vbnl_profile_set *s, uint32_t vl, uint32_t t)
+{
+    const uint64_t *m = vbnl_profile_incident_map_fixed(s, vl);
+    if (!m)
+        return v3s(0.0f);
+    m += 3 * (size_t)t;
+    return v3(fixed_to_float(s, m[0]), fixed_to_float(s, m[1]), fixed_to_float(s, m[2]));
+}
+
+vbnl_result vbnl_profile_set_merge(vbnl_profile_set *dst, const vbnl_profile_set *src)
+{
+    if (!dst || !src || dst == src)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    if (dst->count != src->count || dst->texels != src->texels || dst->n_glossy != src->n_glossy ||
+        dst->unit != src->unit)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    for (uint32_t v = 0; v < dst->count; ++v)
+        if (dst->slot[v] != src->slot[v])
+            return VBNL_ERR_INVALID_ARGUMENT;
+    if (dst->n_glossy && (!dst->incident || !src->incident))
+        return VBNL_ERR_STATE; /* incident maps released */
+    for (size_t i = 0; i < 3 * (size_t)dst->count; ++i)
+        dst->phi[i] += src->phi[i];
+    size_t cells = (size_t)dst->n_glossy * dst->texels;
+    for (size_t i = 0; i < 3 * cells; ++i)
+        dst->incident[i] += src->incident[i];
+    /* Converted texels came from the old data: convert again on demand. */
+    if (cells)
+        memset(dst->code, 0xFF, cells * sizeof(uint32_t));
+    return VBNL_OK;
 }
 
 /* ---- conversion -------------------------------------------------------------------------- */
@@ -274,31 +381,31 @@ const float *vbnl_profile_incident_map(const vbnl_profile_set *s, uint32_t vl)
  * zero product would not change the sum). */
 static vec3 compute_texel(const vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k, uint32_t t)
 {
-    const float *in = s->incident + 3 * (size_t)slot * s->texels;
+    const uint64_t *in = s->incident + 3 * (size_t)slot * s->texels;
     uint32_t n = s->texels;
     vec3 acc = v3s(0.0f);
     if (k->matrix) {
         const float *row = k->matrix + 3 * (size_t)t * n;
         for (uint32_t i = 0; i < n; ++i) {
-            const float *p = in + 3 * (size_t)i;
-            if (p[0] == 0.0f && p[1] == 0.0f && p[2] == 0.0f)
+            const uint64_t *q = in + 3 * (size_t)i;
+            if (!(q[0] | q[1] | q[2]))
                 continue;
             const float *f = row + 3 * (size_t)i;
-            acc.x += f[0] * p[0];
-            acc.y += f[1] * p[1];
-            acc.z += f[2] * p[2];
+            acc.x += f[0] * fixed_to_float(s, q[0]);
+            acc.y += f[1] * fixed_to_float(s, q[1]);
+            acc.z += f[2] * fixed_to_float(s, q[2]);
         }
     } else {
         const vec3 *dir = vbnl_hemioct_texel_dirs(s->map);
         vec3 wo = dir[t];
         for (uint32_t i = 0; i < n; ++i) {
-            const float *p = in + 3 * (size_t)i;
-            if (p[0] == 0.0f && p[1] == 0.0f && p[2] == 0.0f)
+            const uint64_t *q = in + 3 * (size_t)i;
+            if (!(q[0] | q[1] | q[2]))
                 continue;
             vec3 f = transfer(&k->bsdf, wo, dir[i]);
-            acc.x += f.x * p[0];
-            acc.y += f.y * p[1];
-            acc.z += f.z * p[2];
+            acc.x += f.x * fixed_to_float(s, q[0]);
+            acc.y += f.y * fixed_to_float(s, q[1]);
+            acc.z += f.z * fixed_to_float(s, q[2]);
         }
     }
     return acc;
@@ -399,11 +506,11 @@ vec3 vbnl_profile_power(const vbnl_profile_set *s, uint32_t vl, const vbnl_profi
         return v3((float)p[0], (float)p[1], (float)p[2]);
     }
     /* P_j = sum_i Phi_i A_i (profiles.h): the power of the unquantised bilinear profile. */
-    const float *in = s->incident + 3 * (size_t)slot * s->texels;
+    const uint64_t *in = s->incident + 3 * (size_t)slot * s->texels;
     double p[3] = {0.0, 0.0, 0.0};
     for (uint32_t i = 0; i < s->texels; ++i)
         for (int c = 0; c < 3; ++c)
-            p[c] += (double)in[3 * i + c] * k->albedo[3 * i + c];
+            p[c] += (double)in[3 * i + c] * s->unit * k->albedo[3 * i + c];
     return v3((float)p[0], (float)p[1], (float)p[2]);
 }
 

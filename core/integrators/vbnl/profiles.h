@@ -49,10 +49,34 @@
  * Radiance .hdr format: three 8-bit mantissas sharing one 8-bit exponent, rounded to nearest;
  * error <= 1/256 of the largest channel, full float range, so no per-scene scale is needed). A
  * channel much smaller than the largest keeps only that absolute precision (0.2 next to 0.8 may
- * be off by 1.6 % of itself). Per VL: 16 bytes (incident power sum + slot index); per glossy VL
- * additionally R^2 x 4 bytes of profile (1024 B at 16 x 16, a third of RGB float) plus R^2 x 12
- * bytes of float incident map (3072 B at 16 x 16) until vbnl_profile_set_release_incident()
- * frees all incident maps after an eager conversion. Lambertian VLs store no map (Section 5).
+ * be off by 1.6 % of itself). Per VL: 28 bytes (fixed-point incident power sum + slot index); per
+ * glossy VL additionally R^2 x 4 bytes of profile (1024 B at 16 x 16, a third of RGB float) plus
+ * R^2 x 24 bytes of fixed-point incident map (6144 B at 16 x 16) until
+ * vbnl_profile_set_release_incident() frees all incident maps after an eager conversion.
+ * Lambertian VLs store no map (Section 5).
+ *
+ * ---- Fixed point (incident data) -------------------------------------------------------------
+ *
+ * Incident power (Phi_in and every Phi_i) is accumulated as unsigned 64-bit integers counting
+ * steps of `unit` watts, with atomic integer adds. Integer addition is associative, so the
+ * accumulated data are bit-identical for any thread count and deposit order, and the data of
+ * two runs add exactly (vbnl_profile_set_merge): photon work can be split across threads,
+ * processes or machines and summed. `unit` is a power of two fixed at creation (conversion to
+ * watts is then exact in double). vbnl_profile_unit_for_power(typical photon power) picks 2^k
+ * in (2^-25, 2^-24] times the typical photon power, so a typical photon is 2^24..2^25 steps.
+ *   Quantisation: a deposit is rounded once to the nearest step (error <= unit / 2 per channel,
+ *   i.e. <= 2^-25 of a typical photon, about float epsilon); its splits (among VLs, among the
+ *   four bilinear texels) are exact integer partitions (vbnl_profile_split_fixed), so the texels
+ *   of a glossy VL sum exactly to its Phi_in and the VLs' shares sum exactly to the quantised
+ *   photon power. Over N deposits the total error is at most N / 2 steps, relative <= 2^-25 to
+ *   a typical photon; deposits below unit / 2 (photons 2^25 times weaker than typical, or tiny
+ *   bilinear shares) are lost or rounded up, and only they see a large relative error.
+ *   Headroom: 2^64 steps = 2^39..2^40 typical photons (about 5e11) in one texel or VL sum, so 1e9
+ *   photons all landing in one texel leave a margin of 500; single deposits are clamped to
+ *   VBNL_PROFILE_MAX_DEPOSIT (2^52 steps = 2^27 typical photons; guards against inf/NaN).
+ *   Sums are not checked for wrap-around.
+ * The default unit of vbnl_profile_set_create is VBNL_PROFILE_DEFAULT_UNIT (2^-40 W: photons of
+ * 1e-5 .. 1e3 W keep better than float precision and 1.6e7 W of total deposits fit).
  *
  * Conversion operator: a vbnl_profile_kernel holds one BSDF (in the VL frame) at one resolution,
  * its discrete albedos A_i, and optionally the whole R^2 x R^2 RGB transfer matrix
@@ -71,8 +95,8 @@
  *
  * ---- Threads ---------------------------------------------------------------------------------
  *
- * Phase 1 (photon splitting): vbnl_profile_deposit is lock-free (atomic float adds) and may be
- * called concurrently for any VLs. Phase 2 (conversion / rendering) must start after every
+ * Phase 1 (photon splitting): vbnl_profile_deposit is lock-free (atomic 64-bit integer adds,
+ * order-independent) and may be called concurrently for any VLs. Phase 2 (conversion / rendering) must start after every
  * deposit has returned (the caller's thread join or pool barrier orders them); from then on the
  * incident data are read-only. Lazy conversion is per texel and lock-free: a texel's code starts
  * as a sentinel; a reader that finds the sentinel computes the texel (a pure function of the
@@ -115,10 +139,22 @@ size_t vbnl_profile_kernel_bytes(const vbnl_profile_kernel *k);
 
 typedef struct vbnl_profile_set vbnl_profile_set;
 
+#define VBNL_PROFILE_DEFAULT_UNIT 0x1p-40
+#define VBNL_PROFILE_MAX_DEPOSIT 0x1p52
+
 /* count VLs; glossy[v] != 0 gives VL v an R x R map (R from `map`), 0 makes it Lambertian (one
- * RGB sum). glossy may be NULL (all Lambertian). The map must outlive the set. */
+ * RGB sum). glossy may be NULL (all Lambertian). The map must outlive the set. Fixed-point unit
+ * VBNL_PROFILE_DEFAULT_UNIT. */
 vbnl_result vbnl_profile_set_create(const vbnl_hemioct *map, uint32_t count, const uint8_t *glossy,
                                     vbnl_profile_set **out);
+/* Same with an explicit fixed-point unit in W (a power of two > 0, else
+ * VBNL_ERR_INVALID_ARGUMENT); see "Fixed point" above. */
+vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t count, const uint8_t *glossy,
+                                          double unit, vbnl_profile_set **out);
+/* The unit for photons of about `typical_power` W: the power of two in
+ * (2^-25, 2^-24] x typical_power (VBNL_PROFILE_DEFAULT_UNIT when typical_power is not > 0). */
+double vbnl_profile_unit_for_power(double typical_power);
+double vbnl_profile_set_unit(const vbnl_profile_set *s);
 void vbnl_profile_set_destroy(vbnl_profile_set *s);
 uint32_t vbnl_profile_set_count(const vbnl_profile_set *s);
 int vbnl_profile_is_glossy(const vbnl_profile_set *s, uint32_t vl);
@@ -129,10 +165,30 @@ size_t vbnl_profile_set_bytes(const vbnl_profile_set *s);
  * in W) arriving at VL `vl` from local direction `wi` (pointing away from the surface, towards
  * where the photon came from). Directions below the horizon are projected onto it. Thread-safe. */
 void vbnl_profile_deposit(vbnl_profile_set *s, uint32_t vl, vec3 wi, vec3 power);
-/* Phi_in: total incident power received by the VL. */
+/* power (W, RGB) -> steps of the set's unit, rounded to nearest, clamped to
+ * [0, VBNL_PROFILE_MAX_DEPOSIT] (NaN -> 0). vbnl_profile_deposit = quantize + deposit_fixed. */
+void vbnl_profile_quantize(const vbnl_profile_set *s, vec3 power, uint64_t q[3]);
+/* Deposit of an already quantised power: Phi_in gets exactly q; a glossy VL's four bilinear
+ * texels get an exact integer partition of q. Thread-safe. */
+void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3]);
+/* Exact integer partition of q by weights w[0..n-1] (sum <= 1 up to float rounding):
+ * out[k] = floor(q w_k), the residue to the largest weight, so sum out == q. Deterministic. */
+void vbnl_profile_split_fixed(uint64_t q, uint32_t n, const float *w, uint64_t *out);
+/* Phi_in: total incident power received by the VL (W). */
 vec3 vbnl_profile_incident_power(const vbnl_profile_set *s, uint32_t vl);
-/* The R^2 x 3 incident map Phi_i of a glossy VL (NULL for Lambertian VLs or after release). */
-const float *vbnl_profile_incident_map(const vbnl_profile_set *s, uint32_t vl);
+/* The same as 3 fixed-point integers (steps of the set's unit). */
+const uint64_t *vbnl_profile_incident_power_fixed(const vbnl_profile_set *s, uint32_t vl);
+/* The R^2 x 3 fixed-point incident map Phi_i of a glossy VL (NULL for Lambertian VLs or after
+ * release); multiply by vbnl_profile_set_unit for watts. */
+const uint64_t *vbnl_profile_incident_map_fixed(const vbnl_profile_set *s, uint32_t vl);
+/* Phi_i of texel t in W (0 for Lambertian VLs or after release). */
+vec3 vbnl_profile_incident_texel(const vbnl_profile_set *s, uint32_t vl, uint32_t t);
+/* Adds src's incident data to dst's (integer adds: exact, so merging the sets of two runs
+ * equals one run that made both runs' deposits). Both sets need the same VL count, glossy
+ * layout, map resolution and unit (else VBNL_ERR_INVALID_ARGUMENT) and their incident maps
+ * (VBNL_ERR_STATE after release). dst's converted texels are reset to unconverted. Not
+ * thread-safe: call between phases. */
+vbnl_result vbnl_profile_set_merge(vbnl_profile_set *dst, const vbnl_profile_set *src);
 
 /* Eager conversion of every texel of one VL (no-op for Lambertian VLs and converted texels).
  * Thread-safe, also concurrently with lazy readers. */

@@ -1,0 +1,266 @@
+/* k-d tree for VBNL sample elimination (see elimination_kdtree.h). */
+#include "elimination_kdtree.h"
+
+#include <float.h>
+#include <stdlib.h>
+
+/* Traversal stacks grow by at most one entry per level: depth + 1 <= 33 for 2^32 points. */
+#define VBNL_KD_STACK 96
+
+/* Quickselect (Hoare partition, median-of-three pivot): afterwards a[k] has its sorted place,
+ * a[0..k) <= a[k] <= a(k..n) on axis `ax`. Deterministic. */
+static void vbnl_kd_select(vbnl_kd_pt *a, uint32_t n, uint32_t k, int ax)
+{
+#define VBNL_KEY(i) (a[i].p[ax])
+#define VBNL_SWAP(i, j) do { vbnl_kd_pt t_ = a[i]; a[i] = a[j]; a[j] = t_; } while (0)
+    uint32_t l = 0, ir = n - 1;
+    for (;;) {
+        if (ir <= l + 1) {
+            if (ir == l + 1 && VBNL_KEY(ir) < VBNL_KEY(l))
+                VBNL_SWAP(l, ir);
+            return;
+        }
+        uint32_t mid = (l + ir) >> 1;
+        VBNL_SWAP(mid, l + 1);
+        if (VBNL_KEY(l) > VBNL_KEY(ir)) VBNL_SWAP(l, ir);
+        if (VBNL_KEY(l + 1) > VBNL_KEY(ir)) VBNL_SWAP(l + 1, ir);
+        if (VBNL_KEY(l) > VBNL_KEY(l + 1)) VBNL_SWAP(l, l + 1);
+        uint32_t i = l + 1, j = ir;
+        vbnl_kd_pt pivot = a[l + 1];
+        float pk = pivot.p[ax];
+        for (;;) {
+            do i++; while (VBNL_KEY(i) < pk);
+            do j--; while (VBNL_KEY(j) > pk);
+            if (j < i)
+                break;
+            VBNL_SWAP(i, j);
+        }
+        a[l + 1] = a[j];
+        a[j] = pivot;
+        if (j >= k) ir = j - 1;
+        if (j <= k) l = i;
+    }
+#undef VBNL_KEY
+#undef VBNL_SWAP
+}
+
+/* Nodes of the tree over n points (the build's exact depth-first layout). */
+static uint32_t vbnl_kd_node_count(uint32_t n)
+{
+    return n <= VBNL_KD_LEAF ? 1u : 1u + vbnl_kd_node_count(n / 2) + vbnl_kd_node_count(n - n / 2);
+}
+
+/* Builds the subtree over pts[b, e) at node *next. Nodes at depth `defer` with more than a leaf
+ * of points are only reserved and recorded in jobs[] (their subtree size is known in advance). */
+static uint32_t vbnl_kd_build_rec(vbnl_kd_tree *t, uint32_t *next, uint32_t b, uint32_t e,
+                                  uint32_t depth, uint32_t defer, vbnl_kd_subtree *jobs,
+                                  uint32_t *njobs)
+{
+    uint32_t ni = (*next)++;
+    vbnl_kd_node *nd = &t->nodes[ni];
+    nd->begin = b;
+    nd->end = e;
+    nd->right = 0;
+    nd->split = 0.0f;
+    if (e - b <= VBNL_KD_LEAF) {
+        nd->axis = VBNL_KD_LEAF_AXIS;
+        return ni;
+    }
+    if (depth == defer) {
+        jobs[*njobs].node = ni;
+        jobs[*njobs].begin = b;
+        jobs[*njobs].end = e;
+        (*njobs)++;
+        *next = ni + vbnl_kd_node_count(e - b);
+        return ni;
+    }
+    /* Split at the median along the axis of largest extent (a balanced tree: section 3.2 uses
+     * the same rule for the parallel boxes, which are this tree's top levels). */
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+    for (uint32_t i = b; i < e; ++i)
+        for (int a = 0; a < 3; ++a) {
+            float v = t->pts[i].p[a];
+            lo[a] = v < lo[a] ? v : lo[a];
+            hi[a] = v > hi[a] ? v : hi[a];
+        }
+    int ax = 0;
+    for (int a = 1; a < 3; ++a)
+        if (hi[a] - lo[a] > hi[ax] - lo[ax])
+            ax = a;
+    uint32_t mid = b + (e - b) / 2;
+    vbnl_kd_select(t->pts + b, e - b, mid - b, ax);
+    t->nodes[ni].split = t->pts[mid].p[ax];
+    t->nodes[ni].axis = (uint32_t)ax;
+    vbnl_kd_build_rec(t, next, b, mid, depth + 1, defer, jobs, njobs);
+    uint32_t r = vbnl_kd_build_rec(t, next, mid, e, depth + 1, defer, jobs, njobs);
+    t->nodes[ni].right = r;
+    return ni;
+}
+
+int vbnl_kd_build_top(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n, uint32_t levels,
+                      vbnl_kd_subtree *jobs, uint32_t *njobs)
+{
+    t->pts = pts;
+    t->n = n;
+    t->node_count = n > 0 ? vbnl_kd_node_count(n) : 0;
+    t->nodes = malloc(((size_t)t->node_count + 1) * sizeof(vbnl_kd_node));
+    if (njobs)
+        *njobs = 0;
+    if (!t->nodes)
+        return -1;
+    uint32_t next = 0;
+    if (n > 0)
+        vbnl_kd_build_rec(t, &next, 0, n, 0, levels, jobs, njobs);
+    return 0;
+}
+
+void vbnl_kd_build_subtree(vbnl_kd_tree *t, const vbnl_kd_subtree *job)
+{
+    uint32_t next = job->node;
+    vbnl_kd_build_rec(t, &next, job->begin, job->end, 0, UINT32_MAX, NULL, NULL);
+}
+
+int vbnl_kd_build(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n)
+{
+    return vbnl_kd_build_top(t, pts, n, UINT32_MAX, NULL, NULL);
+}
+
+void vbnl_kd_free(vbnl_kd_tree *t)
+{
+    free(t->nodes);
+    t->nodes = NULL;
+}
+
+/* All points with squared distance <= r2 of q: local indices and squared distances, at most
+ * `cap` of them (the output arrays' size); returns the count, or cap + 1 when more were found. */
+uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_t *out_i,
+                        float *out_d2, uint32_t cap)
+{
+    uint32_t stack[VBNL_KD_STACK];
+    int sp = 0;
+    uint32_t cnt = 0;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        uint32_t ni = stack[--sp];
+        const vbnl_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+            for (uint32_t i = nd->begin; i < nd->end; ++i) {
+                float d2 = vbnl_kd_dist2(q, t->pts[i].p);
+                if (d2 <= r2) {
+                    if (cnt == cap)
+                        return cap + 1;
+                    out_i[cnt] = i;
+                    out_d2[cnt] = d2;
+                    cnt++;
+                }
+            }
+            continue;
+        }
+        /* Left points have coordinate <= split <= right points: the far side is at least
+         * |diff| away (float subtraction is monotonic, so the test is conservative). */
+        float diff = q[nd->axis] - nd->split;
+        int far_ok = diff * diff <= r2;
+        if (diff <= 0.0f) {
+            if (far_ok) stack[sp++] = nd->right;
+            stack[sp++] = ni + 1;
+        } else {
+            if (far_ok) stack[sp++] = ni + 1;
+            stack[sp++] = nd->right;
+        }
+    }
+    return cnt;
+}
+
+static void vbnl_maxheap_push(float *h, uint32_t *hn, float v)
+{
+    uint32_t i = (*hn)++;
+    while (i > 0) {
+        uint32_t p = (i - 1) / 2;
+        if (h[p] >= v)
+            break;
+        h[i] = h[p];
+        i = p;
+    }
+    h[i] = v;
+}
+
+static void vbnl_maxheap_replace_top(float *h, uint32_t hn, float v)
+{
+    uint32_t i = 0;
+    for (;;) {
+        uint32_t c = 2 * i + 1;
+        if (c >= hn)
+            break;
+        if (c + 1 < hn && h[c + 1] > h[c])
+            c++;
+        if (h[c] <= v)
+            break;
+        h[i] = h[c];
+        i = c;
+    }
+    h[i] = v;
+}
+
+/* Squared distance from local point `self` to its m-th nearest other point (m <= n - 1); `heap`
+ * holds m floats. `bound2` is a guess known to hold at least m points (INFINITY: none); when
+ * rounding made it too tight, the search is redone without it. The m-th smallest distance does
+ * not depend on traversal order or bound, so neither does the result. */
+static float vbnl_kd_knn_bounded(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap,
+                                 float bound2, uint32_t *found)
+{
+    struct { uint32_t node; float d2; } stack[VBNL_KD_STACK];
+    const float *q = t->pts[self].p;
+    int sp = 0;
+    uint32_t hn = 0;
+    float worst = bound2;
+    stack[sp].node = 0;
+    stack[sp].d2 = 0.0f;
+    sp++;
+    while (sp > 0) {
+        --sp;
+        uint32_t ni = stack[sp].node;
+        if (stack[sp].d2 >= worst)
+            continue;
+        const vbnl_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+            for (uint32_t i = nd->begin; i < nd->end; ++i) {
+                if (i == self)
+                    continue;
+                float d2 = vbnl_kd_dist2(q, t->pts[i].p);
+                if (hn < m) {
+                    if (d2 > bound2)
+                        continue;
+                    vbnl_maxheap_push(heap, &hn, d2);
+                    if (hn == m)
+                        worst = heap[0];
+                } else if (d2 < heap[0]) {
+                    vbnl_maxheap_replace_top(heap, hn, d2);
+                    worst = heap[0];
+                }
+            }
+            continue;
+        }
+        float diff = q[nd->axis] - nd->split;
+        float pd = stack[sp].d2;
+        float fd = diff * diff > pd ? diff * diff : pd;
+        uint32_t near = diff <= 0.0f ? ni + 1 : nd->right, far = diff <= 0.0f ? nd->right : ni + 1;
+        stack[sp].node = far;
+        stack[sp].d2 = fd;
+        sp++;
+        stack[sp].node = near;
+        stack[sp].d2 = pd;
+        sp++;
+    }
+    *found = hn;
+    return heap[0];
+}
+
+float vbnl_kd_knn(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap, float bound2)
+{
+    uint32_t found;
+    float d2 = vbnl_kd_knn_bounded(t, self, m, heap, bound2, &found);
+    if (found < m)
+        d2 = vbnl_kd_knn_bounded(t, self, m, heap, INFINITY, &found);
+    return d2;
+}
+

@@ -1,0 +1,71 @@
+/* k-d tree over candidate positions for VBNL sample elimination (private to the vbnl
+ * integrator; see elimination.h).
+ *
+ * A balanced tree built by median splits along the axis of largest extent; the points are
+ * permuted into tree order, so that spatial neighbours are close in memory, and carry their
+ * global index. Radius and m-nearest queries; both are exact and their results do not depend
+ * on anything but the points (queries only read the tree: thread-safe). */
+#ifndef VBNL_ELIMINATION_KDTREE_H
+#define VBNL_ELIMINATION_KDTREE_H
+
+#include <math.h>
+#include <stdint.h>
+
+#define VBNL_KD_LEAF 16u      /* points per leaf at most */
+#define VBNL_KD_LEAF_AXIS 3u  /* vbnl_kd_node.axis of a leaf */
+
+typedef struct vbnl_kd_pt {
+    float p[3];
+    uint32_t id; /* global index (elimination also uses it as the tie-breaker) */
+} vbnl_kd_pt;
+
+/* The left child is the next node (depth-first layout, so a subtree is a contiguous node range
+ * and a contiguous point range); a leaf holds pts[begin, end). */
+typedef struct vbnl_kd_node {
+    float split;
+    uint32_t axis;
+    uint32_t begin, end;
+    uint32_t right;
+} vbnl_kd_node;
+
+typedef struct vbnl_kd_tree {
+    vbnl_kd_pt *pts; /* not owned */
+    vbnl_kd_node *nodes;
+    uint32_t n, node_count;
+} vbnl_kd_tree;
+
+/* A subtree left to build: node index and point range. */
+typedef struct vbnl_kd_subtree {
+    uint32_t node, begin, end;
+} vbnl_kd_subtree;
+
+static inline float vbnl_kd_dist2(const float *a, const float *b)
+{
+    float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
+/* Builds over pts[0..n) (filled by the caller), permuting them. 0, or -1 when out of memory. */
+int vbnl_kd_build(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n);
+/* Parallel build: builds the top `levels` levels only and records the (at most 2^levels)
+ * subtrees below them in jobs[]; the tree is complete once vbnl_kd_build_subtree ran for every
+ * job, in any order or concurrently (they touch disjoint nodes and points). The result is the
+ * tree vbnl_kd_build makes. */
+int vbnl_kd_build_top(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n, uint32_t levels,
+                      vbnl_kd_subtree *jobs, uint32_t *njobs);
+void vbnl_kd_build_subtree(vbnl_kd_tree *t, const vbnl_kd_subtree *job);
+/* Frees the nodes (not the points); t may be zeroed or already freed. */
+void vbnl_kd_free(vbnl_kd_tree *t);
+
+/* All points with squared distance <= r2 of q: local indices (into t->pts) and squared
+ * distances, at most `cap` of them; returns the count, or cap + 1 when there were more. */
+uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_t *out_i,
+                        float *out_d2, uint32_t cap);
+
+/* Squared distance from point `self` (local index) to its m-th nearest other point,
+ * 1 <= m <= n - 1. `heap` holds m floats. `bound2` is an optional upper bound known to hold at
+ * least m other points (INFINITY: none); a bound made too tight by rounding only costs a second
+ * search. The result does not depend on the bound. */
+float vbnl_kd_knn(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap, float bound2);
+
+#endif

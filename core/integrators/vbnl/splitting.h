@@ -1,0 +1,105 @@
+/* Photon splitting: the incident radiance field of every VBNL virtual light (private header).
+ *
+ * Li et al. 2022, Section 3.3. Photon paths are traced from the lights and never stored; at
+ * every photon hit (the first one included) the photon's power is split among the virtual
+ * lights (VLs) whose sphere contains the hit, with weights proportional to 1 - (d_i / r_i)^2
+ * normalised to sum to one (a partition of unity: energy is preserved, and a hit with no VL
+ * nearby deposits nothing). Each share is deposited into the VL's incident map
+ * (profiles.h: vbnl_profile_deposit_fixed) in the VL's local frame frame_from_normal(n_j), with
+ * wi pointing toward where the photon came from. Conversion to emission profiles is later
+ * (profiles.h).
+ *
+ * Photon paths (importance transport, Veach 1997 ch. 5):
+ *   - light j picked by power (the scene's alias table, pmf p_j), point and direction by
+ *     vbnl_light_sample_le; flux Phi = Le |cos| / (p_j pdf_pos pdf_dir) / photon_paths;
+ *   - at a hit, an opaque BSDF uses a frame facing the arriving photon (two-sided surfaces, as
+ *     the path tracer); the dielectric keeps its orientation;
+ *   - bounce by BSDF sampling with the photon arriving along wo: the sample weight
+ *     f |cos theta_i| / pdf times eta^2 for a refraction (bsdf.h weights are for radiance,
+ *     which carries 1 / eta^2; flux does not) times the shading-normal correction
+ *     |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) of the adjoint BSDF (Veach 1997, Eq. 5.17);
+ *   - Russian roulette from bounce rr_depth on (authors' code: 5) with continuation probability
+ *     q = min(1, sqrt(max(beta_new) / max(beta_old))), beta_new /= q (the authors' rule; its
+ *     square root keeps photon powers from dropping as fast as the albedo). No depth limit
+ *     (max_depth = 0), but a safety cap of VBNL_SPLIT_SAFETY_DEPTH bounces for lossless traps
+ *     (mirror boxes, where q stays 1).
+ *   - no deposits on delta surfaces (mirror, glass): VLs never stand for them.
+ *
+ * Which VLs share a hit at p with unit normal n (facing the arriving photon) arriving from wi:
+ * the index (vl_index.h) gives every VL with d(p, y_j) < r_j; the authors' code then keeps those
+ * with n_j . n > normal_cos (0.7) and, when require_facing, n_j . wi > 0; of those the max_vls
+ * (8) with the largest weights 1 - (d/r)^2 (ties: smaller id) share the photon.
+ *
+ * Determinism: photon k (a global index in [0, photon_paths)) draws only from
+ * vbnl_rng_for(seed, k, 0); deposits are 64-bit fixed-point integer adds (profiles.h), so the
+ * incident data are bit-identical for any thread count and chunking, and a run over paths
+ * [0, a) merged (vbnl_profile_set_merge) with a run over [a, N) equals the run over [0, N).
+ *
+ * Energy bookkeeping (exact): the photon power at a hit is quantised once (Q, fixed point);
+ * the VLs' shares are an exact integer partition of Q (vbnl_profile_split_fixed). The stats
+ * count sum Q over the hits that deposited (covered_power), which therefore equals the sum of
+ * all VLs' incident power sums exactly. */
+#ifndef VBNL_SPLITTING_H
+#define VBNL_SPLITTING_H
+
+#include <stdint.h>
+
+#include "pool.h"
+#include "profiles.h"
+#include "render_internal.h"
+#include "scene_internal.h"
+#include "vl_index.h"
+
+#define VBNL_SPLIT_DEFAULT_CHUNK 4096u
+#define VBNL_SPLIT_SAFETY_DEPTH 4096
+#define VBNL_SPLIT_QUERY_MAX 64u   /* candidates read from the index per hit */
+#define VBNL_SPLIT_MAX_VLS 64u     /* upper bound for max_vls */
+
+typedef struct vbnl_split_desc {
+    const vbnl_scene *scene;        /* committed */
+    const vbnl_vl_index *index;     /* the VL spheres (ids = VL ids of `profiles`), with the same
+                                     * normals when a filter is on (vl_index.h) */
+    const vec3 *vl_normals;         /* unit normals n_j, index count of them */
+    vbnl_profile_set *profiles;     /* receives the deposits; VL count = index count */
+    uint64_t photon_paths;          /* N of the flux normalisation (all runs together) */
+    uint64_t first_path;            /* this call traces paths [first_path, first_path + path_count) */
+    uint64_t path_count;            /* 0 = photon_paths - first_path */
+    uint64_t seed;
+    float normal_cos;               /* keep VLs with n_j . n > normal_cos; <= -1 disables */
+    int require_facing;             /* keep VLs with n_j . wi > 0 */
+    uint32_t max_vls;               /* VLs sharing one hit (1 .. VBNL_SPLIT_MAX_VLS) */
+    int rr_depth;                   /* bounces before Russian roulette */
+    int max_depth;                  /* 0 = unlimited (up to VBNL_SPLIT_SAFETY_DEPTH) */
+    uint32_t chunk;                 /* photon paths per work item, 0 = default */
+} vbnl_split_desc;
+
+/* Defaults of the authors' code: normal_cos 0.7, facing on, 8 VLs, RR after bounce 5, unlimited
+ * depth, chunks of 4096 paths. Scene, index, normals, profiles, counts and seed to be filled. */
+void vbnl_split_desc_init(vbnl_split_desc *d);
+
+typedef struct vbnl_split_stats {
+    uint64_t paths;         /* photon paths traced (emission samples; failed ones included) */
+    uint64_t rays;          /* rays traced */
+    uint64_t hits;          /* photon hits (surface interactions) */
+    uint64_t delta_hits;    /* hits on delta surfaces (no deposit) */
+    uint64_t covered_hits;  /* hits that deposited into at least one VL */
+    uint64_t deposits;      /* VL deposits (<= max_vls per covered hit) */
+    uint64_t overflow;      /* hits with more than VBNL_SPLIT_QUERY_MAX containing spheres */
+    uint64_t covered_power[3]; /* sum of the quantised photon power of covered hits (fixed point) */
+    double seconds;
+} vbnl_split_stats;
+
+/* The fixed-point unit for `photon_paths` photons of this scene: vbnl_profile_unit_for_power of
+ * the total light power (max channel) / photon_paths, the power of an emitted photon. */
+double vbnl_split_photon_unit(const vbnl_scene *scene, uint64_t photon_paths);
+
+/* Traces the photon paths of `d` and deposits into d->profiles. Work items run on `stage`'s
+ * workers with progress in photon paths when stage is not NULL (cancellation:
+ * VBNL_ERR_CANCELLED, deposits of finished items stay), else on `pool` (which must then be
+ * given). With a stage, the caller brackets the call with vbnl_stage_begin(stage, name, path
+ * count, "photons") and vbnl_stage_end. Stats are summed from per-thread counters. Errors:
+ * VBNL_ERR_INVALID_ARGUMENT, VBNL_ERR_OUT_OF_MEMORY. */
+vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_stage_ctx *stage,
+                               vbnl_split_stats *stats);
+
+#endif

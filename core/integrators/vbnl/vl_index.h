@@ -1,0 +1,99 @@
+/* Spatial index over the spheres of VBNL virtual lights (private header).
+ *
+ * A virtual light (VL) j is a sphere of centre y_j and radius r_j (Li et al. 2022, Eq. 3: it
+ * emits from the surface points within r_j of y_j). Two stages ask "which VLs contain point p":
+ * photon splitting at every photon hit (Section 3.3, millions of queries) and rendering's BSDF
+ * sampling gather (Section 4.1, Fig. 10a). Containment is strict, d < r_j, with d computed by
+ * vbnl_vl_dist2 (below) so that every variant and the tests agree bit for bit.
+ *
+ * Two interchangeable variants (same answers, bit-identical):
+ *   VBNL_VL_INDEX_GRID    multi-level uniform grid: the VLs are split into radius classes
+ *                         (powers of two above the smallest radius); class L has cells of edge
+ *                         cell_scale x its largest possible radius, and each sphere is listed in
+ *                         every cell its bounding box overlaps (<= 8 cells per sphere for
+ *                         cell_scale >= 2, <= 27 for 1). A query reads one cell per non-empty
+ *                         class. Cells are a dense array when there are few enough, else an
+ *                         open-addressing hash of the occupied cells. The default (faster; see
+ *                         the benchmark tests/vbnl/bench_splitting.c).
+ *   VBNL_VL_INDEX_EMBREE  an Embree BVH over the spheres' bounding boxes (user geometry) walked
+ *                         by rtcPointQuery with a zero-radius query.
+ *
+ * Output order: ids ascending (never dependent on build or traversal details). When more than
+ * max_out spheres contain p, the max_out smallest ids are written and the total is returned.
+ *
+ * Ownership and threads: the index copies centres and radii at creation; afterwards it is
+ * immutable and vbnl_vl_index_query may be called from any number of threads. */
+#ifndef VBNL_VL_INDEX_H
+#define VBNL_VL_INDEX_H
+
+#include <embree3/rtcore.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vbnl/result.h"
+#include "vmath.h"
+
+typedef enum vbnl_vl_index_kind {
+    VBNL_VL_INDEX_GRID = 0,
+    VBNL_VL_INDEX_EMBREE = 1,
+} vbnl_vl_index_kind;
+
+typedef struct vbnl_vl_index_desc {
+    const vec3 *centers;      /* count centres y_j */
+    const float *radii;       /* count radii r_j (<= 0 or NaN: the VL contains nothing) */
+    const vec3 *normals;      /* count unit normals n_j, or NULL (then filters are ignored) */
+    uint32_t count;
+    vbnl_vl_index_kind kind;
+    float cell_scale;         /* grid: cell edge / class radius, 0 = default (2) */
+    RTCDevice device;         /* Embree variant only (the scene's device will do) */
+} vbnl_vl_index_desc;
+
+typedef struct vbnl_vl_index vbnl_vl_index;
+
+/* Errors: VBNL_ERR_INVALID_ARGUMENT (NULL arrays with count > 0, NULL out, no device for the
+ * Embree variant, a non-finite centre), VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_BACKEND. */
+vbnl_result vbnl_vl_index_create(const vbnl_vl_index_desc *desc, vbnl_vl_index **out);
+/* Accepts NULL. */
+void vbnl_vl_index_destroy(vbnl_vl_index *idx);
+
+/* Writes the ids of the spheres containing p (d < r, ascending ids, at most max_out of them)
+ * and, if dist2 is not NULL, their squared distances d^2. Returns how many spheres contain p
+ * (which may exceed max_out). Thread-safe. */
+uint32_t vbnl_vl_index_query(const vbnl_vl_index *idx, vec3 p, uint32_t max_out, uint32_t *ids, float *dist2);
+
+/* The query of photon splitting (Section 3.3, authors' filters): only spheres with
+ * n_j . n > normal_cos (skipped when normal_cos <= -1) and, if facing, n_j . wi > 0 are counted
+ * and written. Needs the normals given at creation (ignored otherwise). The normals sit next to
+ * the centres in the grid cells, so the filter costs no extra memory traffic. Thread-safe. */
+typedef struct vbnl_vl_filter {
+    vec3 n, wi;
+    float normal_cos;
+    int facing;
+} vbnl_vl_filter;
+uint32_t vbnl_vl_index_query_filtered(const vbnl_vl_index *idx, vec3 p, const vbnl_vl_filter *f, uint32_t max_out,
+                                      uint32_t *ids, float *dist2);
+int vbnl_vl_index_has_normals(const vbnl_vl_index *idx);
+
+uint32_t vbnl_vl_index_count(const vbnl_vl_index *idx);
+vec3 vbnl_vl_index_center(const vbnl_vl_index *idx, uint32_t id);
+float vbnl_vl_index_radius(const vbnl_vl_index *idx, uint32_t id);
+vbnl_vl_index_kind vbnl_vl_index_get_kind(const vbnl_vl_index *idx);
+/* Bytes held by the index (for Embree: our copies plus an estimate of the BVH, 2 x 32 B per
+ * sphere, since Embree does not report it per scene). */
+size_t vbnl_vl_index_bytes(const vbnl_vl_index *idx);
+
+/* Squared distance used for containment, d^2 < r^2 with r^2 = (double)r * r. The differences
+ * are float subtractions and the products of floats are exact in double, so the result does not
+ * depend on FMA contraction or inlining: every caller gets the same bits. */
+static inline double vbnl_vl_dist2(vec3 a, vec3 b)
+{
+    float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+    return (double)dx * dx + (double)dy * dy + (double)dz * dz;
+}
+static inline int vbnl_vl_contains(vec3 center, float radius, vec3 p, double *d2)
+{
+    *d2 = vbnl_vl_dist2(p, center);
+    return radius > 0.0f && *d2 < (double)radius * radius; /* r <= 0 or NaN: contains nothing */
+}
+
+#endif

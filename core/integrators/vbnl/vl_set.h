@@ -1,0 +1,31 @@
+/* The prepared virtual-light set of VBNL (private header).
+ *
+ * What preparation produces and rendering consumes: per light its position, normal, material,
+ * radius r_i = alpha_r r_i,max (§3.2), density rho_i (Eq. 8), and its emission profile (§3.3).
+ * The set is a value: it can be saved to a versioned, checksummed file and loaded again for the
+ * same scene (vbnl_vl_set_save / _load), which is what lets preparation and shading run in
+ * different processes, and photon splitting of several runs be summed. */
+#ifndef VBNL_VL_SET_H
+#define VBNL_VL_SET_H
+
+#include <stdint.h>
+
+#include "vbnl/result.h"
+#include "vmath.h"
+
+typedef struct vbnl_vl_set {
+    uint32_t count;
+    vec3 *position;
+    vec3 *normal;        /* unit, facing the side the placing camera path came from */
+    uint32_t *material;
+    float *radius;       /* r_i */
+    float *density;      /* rho_i, Eq. 8 */
+} vbnl_vl_set;
+
+/* Allocates arrays for `count` lights (contents undefined). */
+vbnl_result vbnl_vl_set_alloc(vbnl_vl_set *s, uint32_t count, vbnl_error *err);
+void vbnl_vl_set_free(vbnl_vl_set *s);
+/* Bytes held by the arrays. */
+size_t vbnl_vl_set_bytes(const vbnl_vl_set *s);
+
+#endif

@@ -1,0 +1,559 @@
+/* Tests for photon splitting (core/integrators/vbnl/splitting.h, Li et al. 2022, Section 3.3)
+ * and the VL sphere index (vl_index.h).
+ *
+ *  - index: grid and Embree variants against brute force (identical id lists and distances);
+ *  - closed Lambertian sphere with uniform two-sided emission: analytic incident power of every
+ *    VL and exact energy bookkeeping;
+ *  - determinism: 1 vs 2 threads bit-identical; split path ranges merged == one run; merge adds
+ *    integer-wise;
+ *  - a glossy VL under a small area light: direction-binned power toward the light.
+ * Seeds are fixed. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "context.h"
+#include "octahedral.h"
+#include "pool.h"
+#include "profiles.h"
+#include "rng.h"
+#include "sampling.h"
+#include "scene_internal.h"
+#include "scenes.h"
+#include "splitting.h"
+#include "vbnl/vbnl.h"
+#include "vl_index.h"
+
+static vbnl_context *make_ctx(unsigned threads)
+{
+    vbnl_context_desc d = {threads};
+    vbnl_context *ctx = NULL;
+    assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
+    return ctx;
+}
+
+static void set_camera(vbnl_scene *s, float z)
+{
+    float pos[3] = {0, 0.5f, z}, target[3] = {0, 0, 0}, up[3] = {0, 1, 0};
+    vbnl_camera_desc cam;
+    vbnl_camera_look_at(&cam, pos, target, up, 60.0f, 1.0f, NULL);
+    vbnl_scene_set_camera(s, &cam, NULL);
+}
+
+/* ---- index against brute force ------------------------------------------------------------ */
+
+static void check_index(vbnl_vl_index_kind kind, RTCDevice dev, const vec3 *c, const float *r, const vec3 *nrm,
+                        uint32_t n, const vec3 *pts, uint32_t npts)
+{
+    vbnl_vl_index_desc d = {c, r, nrm, n, kind, 0.0f, dev};
+    vbnl_vl_index *x = NULL;
+    assert_int_equal(vbnl_vl_index_create(&d, &x), VBNL_OK);
+    uint32_t ids[256], ref[256];
+    float d2[256], rd2[256];
+    uint64_t total = 0;
+    uint32_t most = 0;
+    for (uint32_t k = 0; k < npts; ++k) {
+        uint32_t m = 0;
+        for (uint32_t j = 0; j < n; ++j) {
+            double dd;
+            if (vbnl_vl_contains(c[j], r[j], pts[k], &dd)) {
+                rd2[m] = (float)dd;
+                ref[m++] = j;
+            }
+        }
+        uint32_t got = vbnl_vl_index_query(x, pts[k], 256, ids, d2);
+        assert_int_equal(got, m);
+        assert_memory_equal(ids, ref, m * sizeof(uint32_t));
+        assert_memory_equal(d2, rd2, m * sizeof(float));
+        /* Capped output: the smallest ids, the full count. */
+        if (m > 2) {
+            uint32_t few[2];
+            assert_int_equal(vbnl_vl_index_query(x, pts[k], 2, few, NULL), m);
+            assert_int_equal(few[0], ref[0]);
+            assert_int_equal(few[1], ref[1]);
+        }
+        total += m;
+        most = m > most ? m : most;
+        /* Filtered query (splitting): brute force with the same filter. */
+        vbnl_vl_filter f = {v3_norm(v3(0.3f, 1.0f, -0.2f)), v3_norm(v3(-0.5f, 0.6f, 0.4f)), 0.2f, 1};
+        uint32_t mf = 0;
+        for (uint32_t q = 0; q < m; ++q)
+            if (v3_dot(nrm[ref[q]], f.n) > f.normal_cos && v3_dot(nrm[ref[q]], f.wi) > 0.0f)
+                ref[mf++] = ref[q];
+        assert_int_equal(vbnl_vl_index_query_filtered(x, pts[k], &f, 256, ids, NULL), mf);
+        assert_memory_equal(ids, ref, mf * sizeof(uint32_t));
+    }
+    print_message("# %s: %u spheres, %u points, %.2f spheres per point (max %u), %zu bytes\n",
+                  kind == VBNL_VL_INDEX_GRID ? "grid" : "embree", n, npts, (double)total / npts, most,
+                  vbnl_vl_index_bytes(x));
+    assert_true(total > npts / 4); /* the test points do hit spheres */
+    vbnl_vl_index_destroy(x);
+}
+
+static void test_index_brute_force(void **state)
+{
+    (void)state;
+    enum { N = 3000, P = 20000 };
+    vec3 *c = malloc(N * sizeof(vec3)), *pts = malloc(P * sizeof(vec3)), *nrm = malloc(N * sizeof(vec3));
+    float *r = malloc(N * sizeof(float));
+    vbnl_rng rng = vbnl_rng_make(11, 3);
+    for (uint32_t j = 0; j < N; ++j) {
+        c[j] = v3(vbnl_rng_next(&rng) * 2 - 1, vbnl_rng_next(&rng) * 2 - 1, vbnl_rng_next(&rng) * 2 - 1);
+        /* radii over a factor 16 (several grid levels), a few degenerate ones */
+        r[j] = 0.03f * exp2f(4.0f * vbnl_rng_next(&rng));
+        nrm[j] = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        if (j % 97 == 0)
+            r[j] = (j % 2) ? 0.0f : -1.0f;
+    }
+    for (uint32_t k = 0; k < P; ++k) {
+        if (k % 2) { /* right at a sphere's boundary: stresses the cell assignment */
+            uint32_t j = vbnl_rng_uniform_u32(&rng, N);
+            vec3 w = sample_uniform_sphere(vbnl_rng_next2(&rng));
+            pts[k] = v3_fma(c[j], w, r[j] * (1.0f + (vbnl_rng_next(&rng) - 0.5f) * 2e-6f));
+        } else {
+            pts[k] = v3(vbnl_rng_next(&rng) * 2.4f - 1.2f, vbnl_rng_next(&rng) * 2.4f - 1.2f,
+                        vbnl_rng_next(&rng) * 2.4f - 1.2f);
+        }
+    }
+    RTCDevice dev = rtcNewDevice(NULL);
+    check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, N, pts, P);
+    check_index(VBNL_VL_INDEX_EMBREE, dev, c, r, nrm, N, pts, P);
+    /* a spread-out set forces the hashed grid (few spheres, huge box) */
+    for (uint32_t j = 0; j < 200; ++j) {
+        c[j] = v3_scale(c[j], 1000.0f);
+        r[j] = 0.5f + (float)(j % 3);
+        pts[2 * j + 1] = v3_fma(c[j], v3(0.3f, -0.2f, 0.1f), r[j]);
+    }
+    check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, 200, pts, 400);
+    /* bad arguments */
+    vbnl_vl_index *x = (vbnl_vl_index *)1;
+    vbnl_vl_index_desc bad = {c, r, NULL, N, VBNL_VL_INDEX_EMBREE, 0.0f, NULL};
+    assert_int_equal(vbnl_vl_index_create(&bad, &x), VBNL_ERR_INVALID_ARGUMENT);
+    assert_null(x);
+    vbnl_vl_index_destroy(NULL);
+    rtcReleaseDevice(dev);
+    free(c);
+    free(r);
+    free(nrm);
+    free(pts);
+}
+
+/* ---- closed Lambertian sphere ------------------------------------------------------------- */
+
+/* Fibonacci lattice of n points on the unit sphere. */
+static vec3 fibonacci(uint32_t i, uint32_t n)
+{
+    float z = 1.0f - (2.0f * (float)i + 1.0f) / (float)n;
+    float phi = (float)i * 2.39996322972865332f;
+    float s = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+    return v3(s * cosf(phi), s * sinf(phi), z);
+}
+
+static void sum_phi(const vbnl_profile_set *s, uint64_t out[3])
+{
+    out[0] = out[1] = out[2] = 0;
+    for (uint32_t v = 0; v < vbnl_profile_set_count(s); ++v) {
+        const uint64_t *q = vbnl_profile_incident_power_fixed(s, v);
+        for (int c = 0; c < 3; ++c)
+            out[c] += q[c];
+    }
+}
+
+/* Inside a sphere of radius R with albedo rho and two-sided emission Le, the radiance is
+ * uniform, L = Le / (1 - rho), so the irradiance everywhere on the inner surface is
+ * E = pi Le / (1 - rho) (emitted light included). VL j (Fibonacci lattice, normals inward,
+ * r = 2 r_max of Eq. 1) receives Phi_in_j = E A_j in expectation, with A_j the integral of its
+ * partition-of-unity weight over the surface, which is 4 pi R^2 / N up to the lattice's
+ * irregularity (up to 3.6 % at N = 48, measured, hence A_j is computed by quadrature).
+ * Asserted: (1) all but 1e-4 of the hits deposit (complete coverage); (2) sum of all VLs'
+ * fixed-point Phi_in == the fixed-point sum of the covered hits' photon power, exactly;
+ * (3) for every VL and channel |Phi_in_j / (E A_j) - 1| < 2 % with A_j by quadrature;
+ * (4) the mean over VLs of Phi_in_j / (E 4 pi R^2 / N) is 1 within 0.5 % (global energy);
+ * (5) every VL's outgoing radiance J_j / A_j (Lambertian kernel, profiles.h) is
+ * rho Le / (1 - rho) within 2 %. */
+static void test_closed_sphere(void **state)
+{
+    (void)state;
+    vbnl_context *ctx = make_ctx(2);
+    vbnl_scene *s = NULL;
+    assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
+    const float R = 1.0f, Le = 2.0f;
+    const vec3 rho = v3(0.5f, 0.3f, 0.7f);
+    vbnl_material_desc md;
+    vbnl_material_desc_init(&md);
+    md.base_color[0] = rho.x;
+    md.base_color[1] = rho.y;
+    md.base_color[2] = rho.z;
+    md.emission[0] = md.emission[1] = md.emission[2] = Le;
+    md.two_sided = 1;
+    uint32_t mat;
+    assert_int_equal(vbnl_scene_add_material(s, &md, &mat, NULL), VBNL_OK);
+    const float zero[3] = {0, 0, 0};
+    assert_int_equal(vbnl_scene_add_sphere(s, zero, R, mat, VBNL_GROUP_WORLD, NULL, NULL), VBNL_OK);
+    set_camera(s, 0.5f);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+
+    enum { N = 48 };
+    const uint64_t paths = 1500000;
+    vec3 c[N], n[N];
+    float r[N];
+    const double area = 4.0 * M_PI * R * R;
+    const float r_vl = 2.0f * sqrtf((float)(area / (2.0 * sqrt(3.0) * N))); /* alpha_r r_max, Eq. 1 */
+    for (uint32_t j = 0; j < N; ++j) {
+        vec3 u = fibonacci(j, N);
+        c[j] = v3_scale(u, R);
+        n[j] = v3_neg(u);
+        r[j] = r_vl;
+    }
+    vbnl_vl_index_desc xd = {c, r, n, N, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    vbnl_vl_index *idx = NULL;
+    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
+    vbnl_hemioct *map = NULL;
+    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    vbnl_profile_set *ps = NULL;
+    assert_int_equal(vbnl_profile_set_create_fixed(map, N, NULL, vbnl_split_photon_unit(s, paths), &ps), VBNL_OK);
+
+    vbnl_split_desc d;
+    vbnl_split_desc_init(&d);
+    d.scene = s;
+    d.index = idx;
+    d.vl_normals = n;
+    d.profiles = ps;
+    d.photon_paths = paths;
+    d.seed = 1234;
+    vbnl_split_stats st;
+    assert_int_equal(vbnl_split_photons(&d, ctx->pool, NULL, &st), VBNL_OK);
+    print_message("# closed sphere: %llu paths, %llu hits (%llu covered), %llu deposits, %.2f s, %.2f Mpaths/s\n",
+                  (unsigned long long)st.paths, (unsigned long long)st.hits, (unsigned long long)st.covered_hits,
+                  (unsigned long long)st.deposits, st.seconds, st.paths / st.seconds * 1e-6);
+    assert_int_equal(st.paths, paths);
+    /* Complete coverage; the only misses are grazing photons below a (tilted) VL's horizon,
+     * dropped by the facing rule (about 2 per million hits). */
+    assert_true(st.covered_hits >= st.hits - st.hits / 10000);
+    assert_int_equal(st.overflow, 0);
+    uint64_t sum[3];
+    sum_phi(ps, sum);
+    for (int ch = 0; ch < 3; ++ch)
+        assert_true(sum[ch] == st.covered_power[ch]);
+
+    vbnl_bsdf lam = s->materials[mat].bsdf;
+    vbnl_profile_kernel *k = NULL;
+    assert_int_equal(vbnl_profile_kernel_create(map, &lam, 0, &k), VBNL_OK);
+    double worst = 0.0, worst_L = 0.0, worst_eff = 0.0, worst_area = 0.0, mean[3] = {0, 0, 0};
+    const double Aj = area / N;
+    /* A_j by quadrature: the partition-of-unity weight of VL j integrated over the sphere
+     * (the same selection as the splitting, facing aside), on a dense Fibonacci lattice. */
+    static double aeff[N];
+    memset(aeff, 0, sizeof(aeff));
+    const uint32_t M = 400000;
+    for (uint32_t i = 0; i < M; ++i) {
+        vec3 p = v3_scale(fibonacci(i, M), R);
+        uint32_t ids[64];
+        float d2[64], w[64], sw = 0.0f;
+        uint32_t m = vbnl_vl_index_query(idx, p, 64, ids, d2);
+        for (uint32_t q = 0; q < m; ++q) {
+            w[q] = v3_dot(n[ids[q]], v3_neg(p)) > 0.7f ? 1.0f - d2[q] / (r_vl * r_vl) : 0.0f;
+            sw += w[q];
+        }
+        for (uint32_t q = 0; q < m && sw > 0.0f; ++q)
+            aeff[ids[q]] += w[q] / sw * area / M;
+    }
+    for (uint32_t j = 0; j < N; ++j) {
+        vec3 phi = vbnl_profile_incident_power(ps, j);
+        vec3 J = vbnl_profile_eval(ps, j, k, v3(0.3f, 0.2f, 0.9f));
+        for (int ch = 0; ch < 3; ++ch) {
+            double rc = v3_comp(rho, ch);
+            double E = M_PI * Le / (1.0 - rc);
+            double e1 = v3_comp(phi, ch) / (E * Aj) - 1.0;
+            double e2 = v3_comp(J, ch) / aeff[j] / (rc * Le / (1.0 - rc)) - 1.0;
+            worst = fmax(worst, fabs(e1));
+            mean[ch] += v3_comp(phi, ch) / (E * Aj) / N;
+            worst_eff = fmax(worst_eff, fabs(v3_comp(phi, ch) / (E * aeff[j]) - 1.0));
+            worst_area = fmax(worst_area, fabs(aeff[j] / Aj - 1.0));
+            worst_L = fmax(worst_L, fabs(e2));
+        }
+    }
+    print_message("# closed sphere: worst |Phi_in / (E A_j) - 1| = %.4f, worst |J/A_j(quadrature) / (rho Le/(1-rho)) - 1| = %.4f "
+                  "over %d VLs x 3 channels; against the quadrature A_j: %.4f; |A_j quadrature / (4 pi R^2 / N) - 1| <= %.4f\n",
+                  worst, worst_L, N, worst_eff, worst_area);
+    print_message("# closed sphere: mean Phi_in / (E 4 pi R^2 / N) = %.4f %.4f %.4f\n", mean[0], mean[1], mean[2]);
+    assert_true(worst_eff < 0.02);
+    assert_true(worst_L < 0.02);
+    for (int ch = 0; ch < 3; ++ch)
+        assert_true(fabs(mean[ch] - 1.0) < 0.005);
+    vbnl_profile_kernel_destroy(k);
+    vbnl_profile_set_destroy(ps);
+    vbnl_hemioct_destroy(map);
+    vbnl_vl_index_destroy(idx);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
+/* ---- determinism and merging (Cornell-like box) ------------------------------------------- */
+
+typedef struct vl_list {
+    uint32_t n;
+    vec3 c[4096], nrm[4096];
+    float r[4096];
+    uint8_t glossy[4096];
+} vl_list;
+
+/* VLs at the camera's primary hits (normal facing the camera), radius 2 r_max of Eq. 1. */
+static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area)
+{
+    vbnl_rng rng = vbnl_rng_make(77, 1);
+    v->n = 0;
+    float rad = 2.0f * sqrtf(area / (2.0f * sqrtf(3.0f) * (float)want));
+    while (v->n < want) {
+        vec3 o, d;
+        vbnl_camera_ray(&s->camera, 64, 64, vbnl_rng_next(&rng) * 64, vbnl_rng_next(&rng) * 64, &o, &d);
+        vbnl_hit h;
+        if (!vbnl_scene_intersect(s, o, d, INFINITY, &h) || vbnl_bsdf_is_delta(&s->materials[h.material].bsdf))
+            continue;
+        vec3 nn = v3_dot(h.ng, d) > 0.0f ? v3_neg(h.ng) : h.ng;
+        v->c[v->n] = h.p;
+        v->nrm[v->n] = nn;
+        v->r[v->n] = rad;
+        v->glossy[v->n] = s->materials[h.material].bsdf.type != VBNL_MATERIAL_LAMBERT;
+        v->n++;
+    }
+}
+
+static vbnl_profile_set *run_split(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
+                                   const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
+                                   uint64_t paths, uint64_t first, uint64_t count, vbnl_split_stats *st)
+{
+    vbnl_profile_set *ps = NULL;
+    assert_int_equal(vbnl_profile_set_create_fixed(map, v->n, v->glossy, unit, &ps), VBNL_OK);
+    vbnl_split_desc d;
+    vbnl_split_desc_init(&d);
+    d.scene = s;
+    d.index = idx;
+    d.vl_normals = v->nrm;
+    d.profiles = ps;
+    d.photon_paths = paths;
+    d.first_path = first;
+    d.path_count = count;
+    d.seed = seed;
+    d.chunk = 1000;
+    assert_int_equal(vbnl_split_photons(&d, pool, NULL, st), VBNL_OK);
+    return ps;
+}
+
+static int sets_equal(const vbnl_profile_set *a, const vbnl_profile_set *b, uint32_t texels)
+{
+    for (uint32_t v = 0; v < vbnl_profile_set_count(a); ++v) {
+        if (memcmp(vbnl_profile_incident_power_fixed(a, v), vbnl_profile_incident_power_fixed(b, v), 24))
+            return 0;
+        const uint64_t *ma = vbnl_profile_incident_map_fixed(a, v), *mb = vbnl_profile_incident_map_fixed(b, v);
+        if ((ma == NULL) != (mb == NULL) || (ma && memcmp(ma, mb, texels * 24u)))
+            return 0;
+    }
+    return 1;
+}
+
+static void test_determinism_and_merge(void **state)
+{
+    (void)state;
+    vbnl_context *ctx = make_ctx(2);
+    vbnl_scene *s = ts_box_scene(ctx, 1.0f);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    static vl_list v;
+    place_vls(s, &v, 3000, 24.0f);
+    vbnl_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    vbnl_vl_index *idx = NULL;
+    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
+    vbnl_hemioct *map = NULL;
+    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    const uint32_t texels = vbnl_hemioct_texel_count(map);
+    const uint64_t P = 200000;
+    double unit = vbnl_split_photon_unit(s, P);
+    vbnl_pool *p1 = vbnl_pool_create(1), *p2 = vbnl_pool_create(2);
+    vbnl_split_stats s1, s2, sa, sb, sc;
+    vbnl_profile_set *one = run_split(s, idx, &v, map, unit, p1, 5, P, 0, 0, &s1);
+    vbnl_profile_set *two = run_split(s, idx, &v, map, unit, p2, 5, P, 0, 0, &s2);
+    print_message("# box: %llu paths, %llu rays, %llu hits (%llu covered, %llu on delta), %llu deposits\n",
+                  (unsigned long long)s1.paths, (unsigned long long)s1.rays, (unsigned long long)s1.hits,
+                  (unsigned long long)s1.covered_hits, (unsigned long long)s1.delta_hits,
+                  (unsigned long long)s1.deposits);
+    assert_true(s1.covered_hits > s1.hits / 4 && s1.deposits > s1.covered_hits);
+    /* 1 vs 2 threads: bit-identical incident data and statistics. */
+    assert_true(sets_equal(one, two, texels));
+    assert_memory_equal(s1.covered_power, s2.covered_power, sizeof(s1.covered_power));
+    assert_int_equal(s1.deposits, s2.deposits);
+    /* Exact bookkeeping: VL sums == covered photon power; each glossy map sums to its Phi_in. */
+    uint64_t sum[3];
+    sum_phi(one, sum);
+    assert_memory_equal(sum, s1.covered_power, sizeof(sum));
+    uint32_t n_glossy = 0;
+    for (uint32_t j = 0; j < v.n; ++j) {
+        const uint64_t *m = vbnl_profile_incident_map_fixed(one, j);
+        if (!m)
+            continue;
+        ++n_glossy;
+        uint64_t t3[3] = {0, 0, 0};
+        for (uint32_t t = 0; t < texels; ++t)
+            for (int ch = 0; ch < 3; ++ch)
+                t3[ch] += m[3 * t + ch];
+        assert_memory_equal(t3, vbnl_profile_incident_power_fixed(one, j), sizeof(t3));
+    }
+    assert_true(n_glossy > 100);
+    /* Paths [0, 70000) and [70000, P) in two runs, merged: the same as one run. */
+    vbnl_profile_set *a = run_split(s, idx, &v, map, unit, p2, 5, P, 0, 70000, &sa);
+    vbnl_profile_set *b = run_split(s, idx, &v, map, unit, p1, 5, P, 70000, 0, &sb);
+    assert_int_equal(sa.paths + sb.paths, P);
+    assert_int_equal(vbnl_profile_set_merge(a, b), VBNL_OK);
+    assert_true(sets_equal(a, one, texels));
+    /* A run with another seed merged into it: every integer is the sum of the two. */
+    vbnl_profile_set *c = run_split(s, idx, &v, map, unit, p2, 6, P, 0, 50000, &sc);
+    assert_int_equal(vbnl_profile_set_merge(c, a), VBNL_OK);
+    {
+        /* exact: merge(C, A) - A == C as run, cell by cell */
+        vbnl_split_stats sc2;
+        vbnl_profile_set *c_again = run_split(s, idx, &v, map, unit, p1, 6, P, 0, 50000, &sc2);
+        for (uint32_t j = 0; j < v.n; ++j) {
+            const uint64_t *qc = vbnl_profile_incident_power_fixed(c, j), *qa = vbnl_profile_incident_power_fixed(a, j),
+                           *q0 = vbnl_profile_incident_power_fixed(c_again, j);
+            for (int ch = 0; ch < 3; ++ch)
+                assert_true(qc[ch] == qa[ch] + q0[ch]);
+            const uint64_t *mc = vbnl_profile_incident_map_fixed(c, j), *ma = vbnl_profile_incident_map_fixed(a, j),
+                           *m0 = vbnl_profile_incident_map_fixed(c_again, j);
+            if (mc)
+                for (uint32_t t = 0; t < 3 * texels; ++t)
+                    assert_true(mc[t] == ma[t] + m0[t]);
+        }
+        vbnl_profile_set_destroy(c_again);
+    }
+    /* mismatched sets are refused */
+    vbnl_profile_set *other = NULL;
+    assert_int_equal(vbnl_profile_set_create_fixed(map, v.n, v.glossy, unit * 2.0, &other), VBNL_OK);
+    assert_int_equal(vbnl_profile_set_merge(other, a), VBNL_ERR_INVALID_ARGUMENT);
+    vbnl_profile_set *bad = NULL;
+    assert_int_equal(vbnl_profile_set_create_fixed(map, 3, NULL, 3.0, &bad), VBNL_ERR_INVALID_ARGUMENT);
+    assert_null(bad);
+    vbnl_profile_set_destroy(other);
+    vbnl_profile_set_destroy(one);
+    vbnl_profile_set_destroy(two);
+    vbnl_profile_set_destroy(a);
+    vbnl_profile_set_destroy(b);
+    vbnl_profile_set_destroy(c);
+    vbnl_pool_destroy(p1);
+    vbnl_pool_destroy(p2);
+    vbnl_hemioct_destroy(map);
+    vbnl_vl_index_destroy(idx);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
+/* ---- glossy VL under a small area light --------------------------------------------------- */
+
+/* A black floor (no bounces) and a 0.1 x 0.1 light at height 1, offset by 0.5 in x; one glossy
+ * VL at the origin (normal up, r = 0.2, alone: its partition-of-unity weight is 1 on its
+ * disk). Asserted: the power-weighted mean incident direction is within 3 degrees of the light
+ * centre; >= 95 % of the power lies in texels within 15 degrees of it; the total incident power
+ * matches the direct irradiance integrated over the disk (quadrature) within 2 %. */
+static void test_glossy_directions(void **state)
+{
+    (void)state;
+    vbnl_context *ctx = make_ctx(2);
+    vbnl_scene *s = NULL;
+    assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
+    uint32_t black = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.0f, 0.0f, 0.0f, 0.0f);
+    const float floor_[12] = {-3, 0, -3, -3, 0, 3, 3, 0, 3, 3, 0, -3};
+    ts_quad(s, floor_, black);
+    vbnl_area_light_desc al;
+    memset(&al, 0, sizeof(al));
+    const float corner[3] = {0.45f, 1.0f, -0.05f}, eu[3] = {0.1f, 0, 0}, ev[3] = {0, 0, 0.1f};
+    const float Le = 50.0f;
+    memcpy(al.corner, corner, sizeof(corner));
+    memcpy(al.edge_u, eu, sizeof(eu));
+    memcpy(al.edge_v, ev, sizeof(ev)); /* cross(eu, ev) = -y: facing the floor */
+    al.radiance[0] = al.radiance[1] = al.radiance[2] = Le;
+    assert_int_equal(vbnl_scene_add_area_light(s, &al, NULL, NULL), VBNL_OK);
+    set_camera(s, 2.0f);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+
+    vec3 c = v3(0, 0, 0), nrm = v3(0, 1, 0);
+    float r = 0.2f;
+    uint8_t glossy = 1;
+    vbnl_vl_index_desc xd = {&c, &r, &nrm, 1, VBNL_VL_INDEX_EMBREE, 0.0f, ctx->device};
+    vbnl_vl_index *idx = NULL;
+    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
+    vbnl_hemioct *map = NULL;
+    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    const uint64_t P = 1000000;
+    vbnl_profile_set *ps = NULL;
+    assert_int_equal(vbnl_profile_set_create_fixed(map, 1, &glossy, vbnl_split_photon_unit(s, P), &ps), VBNL_OK);
+    vbnl_split_desc d;
+    vbnl_split_desc_init(&d);
+    d.scene = s;
+    d.index = idx;
+    d.vl_normals = &nrm;
+    d.profiles = ps;
+    d.photon_paths = P;
+    d.seed = 9;
+    vbnl_split_stats st;
+    assert_int_equal(vbnl_split_photons(&d, ctx->pool, NULL, &st), VBNL_OK);
+
+    frame f = frame_from_normal(nrm);
+    vec3 to_light = frame_to_local(&f, v3_norm(v3(0.5f, 1.0f, 0.0f)));
+    uint32_t texels = vbnl_hemioct_texel_count(map);
+    vec3 mean = v3s(0.0f);
+    double total = 0.0, near = 0.0;
+    for (uint32_t t = 0; t < texels; ++t) {
+        double p = vbnl_profile_incident_texel(ps, 0, t).x;
+        vec3 w = vbnl_hemioct_texel_dir(map, t);
+        mean = v3_fma(mean, w, (float)p);
+        total += p;
+        if (v3_dot(w, to_light) > cosf(15.0f * (float)M_PI / 180.0f))
+            near += p;
+    }
+    float ang = acosf(fminf(1.0f, v3_dot(v3_norm(mean), to_light))) * 180.0f / (float)M_PI;
+    /* Reference: integral over the disk of the direct irradiance from the light (midpoint rule). */
+    double ref = 0.0;
+    const int gd = 60, gl = 8;
+    for (int i = 0; i < gd; ++i)
+        for (int j = 0; j < gd; ++j) {
+            double x = -r + (i + 0.5) * 2.0 * r / gd, z = -r + (j + 0.5) * 2.0 * r / gd;
+            if (x * x + z * z >= (double)r * r)
+                continue;
+            double E = 0.0;
+            for (int a = 0; a < gl; ++a)
+                for (int b = 0; b < gl; ++b) {
+                    double lx = 0.45 + (a + 0.5) * 0.1 / gl, lz = -0.05 + (b + 0.5) * 0.1 / gl;
+                    double dx = lx - x, dy = 1.0, dz = lz - z, d2 = dx * dx + dy * dy + dz * dz;
+                    E += Le * (dy / sqrt(d2)) * (dy / sqrt(d2)) / d2 * (0.01 / (gl * gl));
+                }
+            ref += E * (2.0 * r / gd) * (2.0 * r / gd);
+        }
+    double phi = vbnl_profile_incident_power(ps, 0).x;
+    print_message("# glossy VL: mean direction %.2f deg from the light, %.4f of the power within 15 deg, "
+                  "Phi_in %.5f vs %.5f (quadrature)\n", ang, near / total, phi, ref);
+    assert_true(ang < 3.0f);
+    assert_true(near / total > 0.95);
+    assert_true(fabs(phi / ref - 1.0) < 0.02);
+    assert_true(fabs(total / phi - 1.0) < 1e-5);
+    vbnl_profile_set_destroy(ps);
+    vbnl_hemioct_destroy(map);
+    vbnl_vl_index_destroy(idx);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_index_brute_force),
+        cmocka_unit_test(test_closed_sphere),
+        cmocka_unit_test(test_determinism_and_merge),
+        cmocka_unit_test(test_glossy_directions),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
