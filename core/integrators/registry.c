@@ -4,9 +4,11 @@
 #include "vbnl/integrator.h"
 
 extern const vbnl_integrator_class vbnl_integrator_path;
+extern const vbnl_integrator_class vbnl_integrator_vbnl;
 
 static const vbnl_integrator_class *const registry[] = {
     &vbnl_integrator_path,
+    &vbnl_integrator_vbnl,
 };
 
 uint32_t vbnl_integrator_count(void) { return (uint32_t)(sizeof(registry) / sizeof(registry[0])); }

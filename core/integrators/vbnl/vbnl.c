@@ -1,0 +1,638 @@
+/* `vbnl`: Virtual Blue Noise Lighting (Li, Wang, Lin, Yuksel 2022).
+ *
+ * prepare: placement (§3.1) -> adaptive sample elimination (§3.2) -> photon splitting (§3.3)
+ *          -> emission profiles and the power table (§3.3, §5);
+ * render:  at every diffuse or glossy vertex x of a camera path, direct light from the real
+ *          lights by next-event estimation with MIS (as `path`), and the light reflected by the
+ *          surfaces x sees from the virtual lights, treated as photon lights (Eq. 3): power-based
+ *          sampling with uniform cone directions (Eq. 4) and BSDF sampling that gathers every
+ *          light containing the hit, combined by the power heuristic (Eq. 5); the BSDF sample
+ *          also continues the camera path with weight 1 - w_v (adaptive camera-path extension,
+ *          Eqs. 6-9), so nearby light is path traced and distant light comes from the virtual
+ *          lights.
+ *
+ * Radiance of a virtual light (Eq. 3): a point y within r_j of y_j leaving toward w emits
+ * L_j(y, w) = J_j(w) / (pi r_j^2), J the profile of profiles.h (reflected power per steradian,
+ * without the outgoing cosine). Dividing by the disk area makes the sum over the ~3.6 lights that
+ * cover a point of a hexagonal set with alpha_r = 2 reproduce the reflected radiance of a
+ * uniformly lit surface (README: "VBNL radiance normalisation"). */
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "placement.h"
+#include "prepare.h"
+#include "profiles.h"
+#include "render_internal.h"
+#include "splitting.h"
+#include "vl_index.h"
+
+static const char *const elim_modes[] = {"adaptive", "uniform", "none", NULL};
+static const char *const sampling_modes[] = {"mis", "power", "bsdf", NULL};
+
+static const vbnl_param_spec vbnl_params_spec[] = {
+    {"virtual_lights", VBNL_PARAM_INT, 130000, NULL, 1, 5e7, NULL,
+     "N, the number of virtual lights (paper: 130K-140K)"},
+    {"candidates", VBNL_PARAM_FLOAT, 0.1, NULL, 1e-6, 5e8, NULL,
+     "M, camera sub-paths placing candidates; a value <= 1 is the ratio N/M (paper: 0.1)"},
+    {"tile_size", VBNL_PARAM_INT, 4, NULL, 1, 256, NULL, "screen tile side (pixels) stratifying placement"},
+    {"specular_roughness", VBNL_PARAM_FLOAT, 0.15, NULL, 0, 1, NULL,
+     "GGX alpha below which a glossy lobe counts as near-specular (camera paths continue)"},
+    {"elimination", VBNL_PARAM_ENUM, 0, "adaptive", 0, 0, elim_modes,
+     "sample elimination: adaptive (Eq. 2), uniform (Eq. 1) or none (random subset)"},
+    {"parallel_elimination", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL, "k-d tree parallel elimination (§3.2)"},
+    {"neighbours", VBNL_PARAM_INT, 32, NULL, 1, 1024, NULL, "m of Eq. 2 (local density from the m-th neighbour)"},
+    {"early_stop", VBNL_PARAM_FLOAT, 0.8, NULL, 0.01, 1, NULL,
+     "fraction of each box's excess eliminated before joining boxes (§3.2)"},
+    {"radius_scale", VBNL_PARAM_FLOAT, 2, NULL, 0.1, 16, NULL, "alpha: r_i = alpha r_i,max (§3.2)"},
+    {"photon_paths", VBNL_PARAM_FLOAT, 2e7, NULL, 1, 1e11, NULL, "photon paths traced for splitting (paper: 20M)"},
+    {"profile_resolution", VBNL_PARAM_INT, 16, NULL, 8, 32, NULL,
+     "hemi-octahedral emission map side for glossy lights: 8, 16 or 32"},
+    {"lazy_profiles", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL,
+     "convert emission texels when rendering first reads them instead of all at once"},
+    {"sampling", VBNL_PARAM_ENUM, 0, "mis", 0, 0, sampling_modes,
+     "virtual-light sampling: mis (power + BSDF, Eq. 5), power or bsdf only"},
+    {"path_extension", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL, "adaptive camera-path extension (§4.2)"},
+    {"n_min", VBNL_PARAM_FLOAT, 40, NULL, 0, 1e9, NULL, "Eq. 9: below this many lights per footprint, path trace"},
+    {"n_max", VBNL_PARAM_FLOAT, 80, NULL, 0, 1e9, NULL, "Eq. 9: above this many lights per footprint, use lights only"},
+    {"disk_test", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL,
+     "skip power samples whose ray misses the light's disk without tracing (§5)"},
+    {"max_depth", VBNL_PARAM_INT, -1, NULL, -1, 1e6, NULL, "longest camera path in bounces; -1 = unlimited"},
+    {"rr_depth", VBNL_PARAM_INT, 3, NULL, 0, 1e6, NULL, "bounces before Russian roulette starts"},
+};
+#define N_PARAMS (sizeof(vbnl_params_spec) / sizeof(vbnl_params_spec[0]))
+
+enum { SAMPLE_MIS = 0, SAMPLE_POWER = 1, SAMPLE_BSDF = 2 };
+
+/* Filter of §3.3 (authors' code), used for splitting and for gathering alike. */
+#define VL_NORMAL_COS 0.7f
+#define VL_GATHER_MAX 64u
+
+typedef struct vbnl_state {
+    const vbnl_scene *scene;
+    vbnl_context *ctx;
+    vbnl_prepare_params pp;
+    uint64_t photon_paths;
+    uint32_t profile_res;
+    int lazy, sampling, extension, disk_test, max_depth, rr_depth;
+    float n_min, n_max;
+    uint32_t off_vl, off_wv, off_depth, stride;
+    vec3 cam_forward;
+    /* the prepared set */
+    vbnl_vl_set vls;
+    vbnl_vl_index *index;
+    vbnl_hemioct *map;
+    vbnl_profile_set *profiles;
+    vbnl_profile_kernel **kernels;   /* per scene material (NULL where no light sits) */
+    vbnl_alias_table power_table;
+    float *inv_area;                 /* 1 / (pi r_j^2) */
+    int prepared;
+} vbnl_state;
+
+static double param(const vbnl_integrator_env *env, const char *name)
+{
+    return vbnl_params_number(env->params, vbnl_params_spec, N_PARAMS, name);
+}
+
+static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_error *err)
+{
+    vbnl_state *s = calloc(1, sizeof(*s));
+    if (!s)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    s->scene = env->scene;
+    s->ctx = env->ctx;
+    vbnl_prepare_params *pp = &s->pp;
+    pp->virtual_lights = (uint32_t)param(env, "virtual_lights");
+    double cand = param(env, "candidates");
+    double m = cand <= 1.0 ? pp->virtual_lights / cand : cand;
+    pp->tile_size = (uint32_t)param(env, "tile_size");
+    pp->specular_roughness = (float)param(env, "specular_roughness");
+    pp->max_specular_chain = 4;
+    const char *em = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "elimination");
+    pp->elimination = !strcmp(em, "uniform") ? VBNL_ELIM_UNIFORM : !strcmp(em, "none") ? VBNL_ELIM_NONE
+                                                                                       : VBNL_ELIM_ADAPTIVE;
+    pp->parallel_elimination = param(env, "parallel_elimination") != 0.0;
+    pp->neighbours = (uint32_t)param(env, "neighbours");
+    pp->early_stop = (float)param(env, "early_stop");
+    pp->radius_scale = (float)param(env, "radius_scale");
+    pp->width = env->settings->width;
+    pp->height = env->settings->height;
+    pp->seed = env->settings->seed;
+    s->photon_paths = (uint64_t)param(env, "photon_paths");
+    s->profile_res = (uint32_t)param(env, "profile_resolution");
+    s->lazy = param(env, "lazy_profiles") != 0.0;
+    const char *sm = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "sampling");
+    s->sampling = !strcmp(sm, "power") ? SAMPLE_POWER : !strcmp(sm, "bsdf") ? SAMPLE_BSDF : SAMPLE_MIS;
+    s->extension = param(env, "path_extension") != 0.0;
+    s->n_min = (float)param(env, "n_min");
+    s->n_max = (float)param(env, "n_max");
+    s->disk_test = param(env, "disk_test") != 0.0;
+    s->max_depth = (int)param(env, "max_depth");
+    s->rr_depth = (int)param(env, "rr_depth");
+
+    /* Impossible requests are refused here, before any work. */
+    vbnl_result r = VBNL_OK;
+    if (m > 4.0e9 || m < pp->virtual_lights)
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': candidates (M = %.0f) must be at least virtual_lights "
+                           "(N = %u) and below 4e9",
+                           m, pp->virtual_lights);
+    else if (s->profile_res != 8 && s->profile_res != 16 && s->profile_res != 32)
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': profile_resolution must be 8, 16 or 32, got %u", s->profile_res);
+    else if (!(s->n_max > s->n_min))
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': n_max (%g) must be greater than n_min (%g)", s->n_max, s->n_min);
+    if (r == VBNL_OK) {
+        pp->candidates = (uint32_t)m;
+        /* Peak memory: candidates and the elimination's working set (~96 B each), the lights
+         * with a glossy incident map each in the worst case (R^2 x 28 B) and the index. */
+        double res2 = (double)s->profile_res * s->profile_res;
+        double bytes = (double)pp->candidates * 96.0 + (double)pp->virtual_lights * (64.0 + res2 * 28.0 + 64.0);
+        double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+        if (phys > 0.0 && bytes > 0.8 * phys)
+            r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
+                               "integrator 'vbnl': this request needs about %.1f GB (M = %u candidates, "
+                               "N = %u lights with %ux%u profiles) but the machine has %.1f GB",
+                               bytes / 1e9, pp->candidates, pp->virtual_lights, s->profile_res,
+                               s->profile_res, phys / 1e9);
+    }
+    if (r == VBNL_OK) {
+        static const char *const rgb[] = {"R", "G", "B"};
+        static const char *const one[] = {"Y"};
+        if ((r = vbnl_film_add_layer(env->film, "vl", 3, rgb, &s->off_vl, err)) == VBNL_OK &&
+            (r = vbnl_film_add_layer(env->film, "wv", 1, one, &s->off_wv, err)) == VBNL_OK)
+            r = vbnl_film_add_layer(env->film, "path_depth", 1, one, &s->off_depth, err);
+    }
+    if (r != VBNL_OK) {
+        free(s);
+        return r;
+    }
+    s->stride = env->film->stride;
+    s->cam_forward = v3_norm(v3_load(env->scene->camera.forward));
+    *out = s;
+    return VBNL_OK;
+}
+
+static void vbnl_destroy(void *state)
+{
+    vbnl_state *s = state;
+    if (!s)
+        return;
+    if (s->kernels) {
+        for (uint32_t i = 0; i < s->scene->material_count; ++i)
+            vbnl_profile_kernel_destroy(s->kernels[i]);
+        free(s->kernels);
+    }
+    vbnl_profile_set_destroy(s->profiles);
+    vbnl_hemioct_destroy(s->map);
+    vbnl_vl_index_destroy(s->index);
+    vbnl_alias_table_free(&s->power_table);
+    vbnl_vl_set_free(&s->vls);
+    free(s->inv_area);
+    free(s);
+}
+
+typedef struct convert_job {
+    vbnl_state *s;
+    float *power;
+} convert_job;
+
+#define CONVERT_CHUNK 1024u
+
+/* Stage 4 per chunk of lights: power for the selection table, and the eager conversion. */
+static void convert_chunk(void *user, uint64_t item, unsigned thread)
+{
+    (void)thread;
+    convert_job *job = user;
+    vbnl_state *s = job->s;
+    uint32_t begin = (uint32_t)item * CONVERT_CHUNK;
+    uint32_t end = begin + CONVERT_CHUNK < s->vls.count ? begin + CONVERT_CHUNK : s->vls.count;
+    for (uint32_t j = begin; j < end; ++j) {
+        const vbnl_profile_kernel *k = s->kernels[s->vls.material[j]];
+        job->power[j] = v3_max_comp(vbnl_profile_power(s->profiles, j, k));
+        if (!s->lazy)
+            vbnl_profile_convert(s->profiles, j, k);
+    }
+}
+
+static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    vbnl_state *s = state;
+    const vbnl_scene *sc = s->scene;
+    vbnl_result r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, NULL, err);
+    if (r != VBNL_OK)
+        return r;
+    uint32_t n = s->vls.count;
+    /* index and profile storage */
+    vbnl_vl_index_desc id;
+    memset(&id, 0, sizeof(id));
+    id.centers = s->vls.position;
+    id.radii = s->vls.radius;
+    id.normals = s->vls.normal;
+    id.count = n;
+    id.kind = VBNL_VL_INDEX_GRID;
+    if ((r = vbnl_vl_index_create(&id, &s->index)) != VBNL_OK)
+        return vbnl_error_set(err, r, "cannot build the virtual-light index (%s)", vbnl_result_name(r));
+    uint8_t *glossy = malloc(n);
+    s->inv_area = malloc(sizeof(float) * n);
+    s->kernels = calloc(sc->material_count, sizeof(*s->kernels));
+    if (!glossy || !s->inv_area || !s->kernels) {
+        free(glossy);
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
+    }
+    for (uint32_t j = 0; j < n; ++j) {
+        glossy[j] = sc->materials[s->vls.material[j]].desc.type != VBNL_MATERIAL_LAMBERT;
+        s->inv_area[j] = 1.0f / (VBNL_PI * s->vls.radius[j] * s->vls.radius[j]);
+    }
+    if ((r = vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
+        r = vbnl_profile_set_create_fixed(s->map, n, glossy, vbnl_split_photon_unit(sc, s->photon_paths),
+                                          &s->profiles);
+    free(glossy);
+    if (r != VBNL_OK)
+        return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
+    for (uint32_t j = 0; j < n && r == VBNL_OK; ++j) {
+        uint32_t m = s->vls.material[j];
+        if (!s->kernels[m])
+            r = vbnl_profile_kernel_create(s->map, &sc->materials[m].bsdf, 1, &s->kernels[m]);
+    }
+    if (r != VBNL_OK)
+        return vbnl_error_set(err, r, "cannot build the profile conversion kernels");
+
+    /* 3. photon splitting */
+    if (stage)
+        vbnl_stage_begin(stage, "photons", (double)s->photon_paths, "paths");
+    vbnl_split_desc sd;
+    vbnl_split_desc_init(&sd);
+    sd.scene = sc;
+    sd.index = s->index;
+    sd.vl_normals = s->vls.normal;
+    sd.profiles = s->profiles;
+    sd.photon_paths = s->photon_paths;
+    sd.seed = s->pp.seed;
+    sd.normal_cos = VL_NORMAL_COS;
+    r = vbnl_split_photons(&sd, NULL, stage, NULL);
+    if (stage)
+        vbnl_stage_end(stage);
+    if (r != VBNL_OK)
+        return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "photon splitting was cancelled"
+                                                              : "photon splitting failed (%s)",
+                              vbnl_result_name(r));
+
+    /* 4. profiles: power table (and the eager conversion) */
+    if (stage)
+        vbnl_stage_begin(stage, "profiles", n, "lights");
+    convert_job cj = {s, malloc(sizeof(float) * n)};
+    if (!cj.power)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    int rc = vbnl_run_items(stage, NULL, (n + CONVERT_CHUNK - 1) / CONVERT_CHUNK, convert_chunk, &cj);
+    if (stage)
+        vbnl_stage_end(stage);
+    if (rc == 0 && vbnl_alias_table_build(&s->power_table, cj.power, n) != 0)
+        s->power_table.n = 0; /* no light received any photon: only path extension remains */
+    free(cj.power);
+    if (rc != 0)
+        return vbnl_error_set(err, VBNL_ERR_CANCELLED, "profile conversion was cancelled");
+    s->prepared = 1;
+    return VBNL_OK;
+}
+
+/* ---- rendering ------------------------------------------------------------------------------ */
+
+/* Radiance leaving y (inside the sphere of light j) toward the direction -w: J_j / (pi r_j^2). */
+static inline vec3 vl_radiance(vbnl_state *s, uint32_t j, vec3 w_toward_y)
+{
+    frame f = frame_from_normal(s->vls.normal[j]);
+    vec3 wo = frame_to_local(&f, v3_neg(w_toward_y));
+    if (wo.z <= 0.0f)
+        return v3s(0.0f);
+    const vbnl_profile_kernel *k = s->kernels[s->vls.material[j]];
+    return v3_scale(vbnl_profile_eval(s->profiles, j, k, wo), s->inv_area[j]);
+}
+
+/* Cone of directions from x containing the sphere of light j: cos of its half-angle (-1 when x
+ * is inside the sphere: every direction). */
+static inline float vl_cone_cos(const vbnl_state *s, uint32_t j, vec3 x)
+{
+    float d2 = v3_len2(v3_sub(s->vls.position[j], x));
+    float r2 = s->vls.radius[j] * s->vls.radius[j];
+    return d2 <= r2 ? -1.0f : sqrtf(1.0f - r2 / d2);
+}
+
+/* Eq. 4: solid-angle pdf of power-based sampling reaching light j along a direction in its cone. */
+static inline float vl_pdf(const vbnl_state *s, uint32_t j, vec3 x)
+{
+    return s->power_table.pmf[j] * pdf_uniform_cone(vl_cone_cos(s, j, x));
+}
+
+/* Eq. 9 with the footprint of Eq. 7. */
+static inline float blend_weight(const vbnl_state *s, vec3 x, const vbnl_hit *y, vec3 w, float pdf_bsdf,
+                                 float density)
+{
+    if (!s->extension)
+        return 1.0f;
+    float cos_y = fabsf(v3_dot(y->ng, w));
+    if (!(pdf_bsdf > 0.0f) || cos_y <= 0.0f)
+        return 1.0f; /* an infinite footprint: virtual lights suffice */
+    float a = v3_len2(v3_sub(y->p, x)) / (pdf_bsdf * cos_y);
+    return clampf((a * density - s->n_min) / (s->n_max - s->n_min), 0.0f, 1.0f);
+}
+
+/* The shading frame of the path tracer: opaque surfaces face the viewer. */
+typedef struct shade_frame {
+    frame fr;
+    vec3 ng;
+    vec3 wo;
+} shade_frame;
+
+static void make_frame(const vbnl_bsdf *bsdf, const vbnl_hit *hit, vec3 d, shade_frame *sf)
+{
+    vec3 wo_w = v3_neg(d), ng = hit->ng, ns = hit->ns;
+    if (!vbnl_bsdf_is_transmissive(bsdf)) {
+        if (v3_dot(ng, wo_w) < 0.0f) {
+            ng = v3_neg(ng);
+            ns = v3_neg(ns);
+        }
+        if (v3_dot(ns, wo_w) <= 0.0f)
+            ns = ng;
+    }
+    sf->fr = frame_from_normal(ns);
+    sf->ng = ng;
+    sf->wo = frame_to_local(&sf->fr, wo_w);
+}
+
+/* Lights containing y that may shine toward x (the filter of splitting, so both see the same
+ * set). Returns their count. */
+static uint32_t gather(const vbnl_state *s, const vbnl_hit *y, vec3 w, uint32_t *ids)
+{
+    vbnl_vl_filter f;
+    f.n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng); /* facing x */
+    f.wi = v3_neg(w);
+    f.normal_cos = VL_NORMAL_COS;
+    f.facing = 1;
+    uint32_t n = vbnl_vl_index_query_filtered(s->index, y->p, &f, VL_GATHER_MAX, ids, NULL);
+    return n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
+}
+
+/* True when light j may shine at y toward x (same filter as gather). */
+static int accepts(const vbnl_state *s, uint32_t j, const vbnl_hit *y, vec3 w)
+{
+    if (v3_len2(v3_sub(y->p, s->vls.position[j])) >= s->vls.radius[j] * s->vls.radius[j])
+        return 0;
+    vec3 n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng);
+    return v3_dot(s->vls.normal[j], n) > VL_NORMAL_COS && v3_dot(s->vls.normal[j], w) < 0.0f;
+}
+
+static inline void add_vl(float *out, const vbnl_state *s, vec3 c)
+{
+    out[0] += c.x;
+    out[1] += c.y;
+    out[2] += c.z;
+    out[s->off_vl] += c.x;
+    out[s->off_vl + 1] += c.y;
+    out[s->off_vl + 2] += c.z;
+}
+
+static inline void add_L(float *out, vec3 c)
+{
+    out[0] += c.x;
+    out[1] += c.y;
+    out[2] += c.z;
+}
+
+/* Light arriving at x along the BSDF sample: the environment or an emitter at y, MIS-weighted
+ * against next-event estimation at x. It belongs to x's direct estimate, so it is counted with
+ * the throughput before the split between virtual lights and path extension. */
+static void add_arriving(const vbnl_scene *sc, float *out, vec3 beta_in, int hit_ok, const vbnl_hit *y,
+                         vec3 x, vec3 w, float pdf_bsdf, int specular)
+{
+    const vbnl_light *l;
+    vec3 Le;
+    float pl;
+    if (!hit_ok) {
+        if (sc->env_light == VBNL_NO_LIGHT)
+            return;
+        l = &sc->lights[sc->env_light];
+        Le = vbnl_light_Le(l, v3s(0.0f), v3_neg(w));
+        pl = vbnl_scene_light_pmf(sc, sc->env_light) * vbnl_light_pdf_li(l, x, v3s(0.0f), v3s(0.0f), w);
+    } else {
+        if (y->light == VBNL_NO_LIGHT)
+            return;
+        l = &sc->lights[y->light];
+        Le = vbnl_light_Le(l, y->ng, v3_neg(w));
+        if (v3_is_black(Le))
+            return;
+        pl = vbnl_scene_light_pmf(sc, y->light) * vbnl_light_pdf_li(l, x, y->p, y->ng, w);
+    }
+    float mw = specular ? 1.0f : power_heuristic(pdf_bsdf, pl);
+    add_L(out, v3_scale(v3_mul(beta_in, Le), mw));
+}
+
+static void trace(vbnl_state *s, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, vbnl_hit hit, float *out,
+                  vbnl_thread_stats *stats)
+{
+    const vbnl_scene *sc = s->scene;
+    const int have_vls = s->prepared && s->power_table.n > 0;
+    vec3 beta = v3s(1.0f);
+    uint32_t ids[VL_GATHER_MAX];
+    int vertices = 0;
+    out[3] = 1.0f;
+    /* what the camera sees directly */
+    if (!hit_ok) {
+        if (sc->env_light != VBNL_NO_LIGHT)
+            add_L(out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
+        return;
+    }
+    v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(&sc->materials[hit.material].bsdf));
+    v3_store(out + VBNL_FILM_NORMAL, hit.ns);
+    out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), s->cam_forward);
+    if (hit.light != VBNL_NO_LIGHT)
+        add_L(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
+
+    for (int depth = 0;; ++depth) {
+        vertices++;
+        if (s->max_depth >= 0 && depth >= s->max_depth)
+            break;
+        const vbnl_bsdf *bsdf = &sc->materials[hit.material].bsdf;
+        shade_frame sf;
+        make_frame(bsdf, &hit, d, &sf);
+        const int delta = vbnl_bsdf_is_delta(bsdf);
+        const vec3 x = hit.p;
+
+        /* Direct light from the real lights: next-event estimation with MIS. */
+        if (!delta) {
+            float pmf;
+            uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
+            vbnl_light_li_sample ls;
+            vec2 ul = vbnl_rng_next2(rng);
+            if (vbnl_light_sample_li(&sc->lights[li], x, ul, &ls) && ls.pdf > 0.0f && !v3_is_black(ls.Li)) {
+                vec3 wi = frame_to_local(&sf.fr, ls.wi);
+                vec3 f = vbnl_bsdf_eval(bsdf, sf.wo, wi);
+                int side_ok = vbnl_bsdf_is_transmissive(bsdf) || v3_dot(ls.wi, sf.ng) > 0.0f;
+                if (side_ok && !v3_is_black(f)) {
+                    vec3 org = vbnl_offset_ray_origin(x, sf.ng, ls.wi);
+                    float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
+                    stats->rays++;
+                    if (!vbnl_scene_occluded(sc, org, ls.wi, tmax)) {
+                        float w = ls.is_delta ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf.wo, wi));
+                        add_L(out, v3_scale(v3_mul(v3_mul(beta, f), ls.Li), w / (pmf * ls.pdf)));
+                    }
+                }
+            }
+        }
+
+        /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
+         * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
+        if (!delta && have_vls && s->sampling != SAMPLE_BSDF) {
+            float pmf;
+            uint32_t j = vbnl_alias_table_sample(&s->power_table, vbnl_rng_next(rng), &pmf);
+            vec2 uc = vbnl_rng_next2(rng);
+            vec3 to = v3_sub(s->vls.position[j], x);
+            float dist = v3_len(to);
+            float cos_max = vl_cone_cos(s, j, x);
+            frame cf = frame_from_normal(dist > 0.0f ? v3_scale(to, 1.0f / dist) : sf.fr.n);
+            vec3 w = frame_to_world(&cf, sample_uniform_cone(uc, cos_max));
+            float p_j = pmf * pdf_uniform_cone(cos_max);
+            int hits_disk = 1;
+            if (s->disk_test) {
+                /* §5: a ray that misses the light's disk is taken as occluded, untraced */
+                vec3 n = s->vls.normal[j];
+                float denom = v3_dot(w, n);
+                hits_disk = 0;
+                if (fabsf(denom) > 1e-6f) {
+                    float t = v3_dot(v3_sub(s->vls.position[j], x), n) / denom;
+                    if (t > 0.0f) {
+                        vec3 q = v3_fma(x, w, t);
+                        hits_disk = v3_len2(v3_sub(q, s->vls.position[j])) < s->vls.radius[j] * s->vls.radius[j];
+                    }
+                }
+            }
+            vec3 wl = frame_to_local(&sf.fr, w);
+            vec3 f = vbnl_bsdf_eval(bsdf, sf.wo, wl);
+            int side_ok = vbnl_bsdf_is_transmissive(bsdf) || v3_dot(w, sf.ng) > 0.0f;
+            if (hits_disk && side_ok && !v3_is_black(f) && p_j > 0.0f) {
+                vbnl_hit y;
+                stats->rays++;
+                if (vbnl_scene_intersect(sc, vbnl_offset_ray_origin(x, sf.ng, w), w, INFINITY, &y) &&
+                    accepts(s, j, &y, w)) {
+                    float p_b = vbnl_bsdf_pdf(bsdf, sf.wo, wl);
+                    float mis = s->sampling == SAMPLE_MIS ? power_heuristic(p_j, p_b) : 1.0f;
+                    float wv = blend_weight(s, x, &y, w, p_b, s->vls.density[j]);
+                    if (wv > 0.0f)
+                        add_vl(out, s, v3_scale(v3_mul(v3_mul(beta, f), vl_radiance(s, j, w)), mis * wv / p_j));
+                }
+            }
+        }
+
+        /* BSDF sampling: at its hit y it gathers the virtual lights (strategy 2) with weight
+         * w_v, and the camera path carries on from y with weight 1 - w_v (Eq. 6). */
+        vbnl_bsdf_sample_rec bs;
+        float ulobe = vbnl_rng_next(rng);
+        vec2 ub = vbnl_rng_next2(rng);
+        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+            break;
+        vec3 w = frame_to_world(&sf.fr, bs.wi);
+        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
+            break;
+        const vec3 beta_in = v3_mul(beta, bs.weight);
+        const int specular = (bs.lobe & VBNL_LOBE_SPECULAR) != 0;
+        o = vbnl_offset_ray_origin(x, hit.ng, w);
+        d = w;
+        stats->rays++;
+        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
+        add_arriving(sc, out, beta_in, hit_ok, &hit, x, w, bs.pdf, specular);
+        if (!hit_ok)
+            break;
+        /* The camera path goes on through near-specular lobes, as placement did (§3.1): w_v = 0.
+         * No light containing y also means w_v = 0 (§4.2). */
+        float wv = 0.0f;
+        int near_specular = vbnl_lobe_is_near_specular(bsdf, bs.lobe, s->pp.specular_roughness);
+        if (!near_specular && have_vls) {
+            uint32_t n = gather(s, &hit, w, ids);
+            if (n > 0) {
+                float density = 0.0f;
+                for (uint32_t k = 0; k < n; ++k)
+                    density += s->vls.density[ids[k]];
+                wv = blend_weight(s, x, &hit, w, bs.pdf, density / (float)n); /* Eqs. 7-9 */
+                if (wv > 0.0f && s->sampling != SAMPLE_POWER) {
+                    vec3 sum = v3s(0.0f);
+                    for (uint32_t k = 0; k < n; ++k) {
+                        uint32_t j = ids[k];
+                        float mis = s->sampling == SAMPLE_MIS ? power_heuristic(bs.pdf, vl_pdf(s, j, x)) : 1.0f;
+                        sum = v3_add(sum, v3_scale(vl_radiance(s, j, w), mis));
+                    }
+                    add_vl(out, s, v3_scale(v3_mul(beta_in, sum), wv));
+                }
+            }
+        }
+        if (depth == 0)
+            out[s->off_wv] = wv;
+        if (wv >= 1.0f)
+            break;
+        beta = v3_scale(beta_in, 1.0f - wv);
+        if (depth >= s->rr_depth) {
+            float q = fmaxf(0.05f, 1.0f - v3_max_comp(beta));
+            if (vbnl_rng_next(rng) < q)
+                break;
+            beta = v3_scale(beta, 1.0f / (1.0f - q));
+        }
+        if (!v3_is_finite(beta))
+            break;
+    }
+    out[s->off_depth] = (float)vertices;
+}
+
+static void vbnl_render_tile(void *state, vbnl_tile_job *job)
+{
+    vbnl_state *s = state;
+    const vbnl_scene *sc = job->scene;
+    const uint32_t tw = job->x1 - job->x0;
+    const uint32_t npix = tw * (job->y1 - job->y0);
+    float values[8][VBNL_FILM_MAX_CHANNELS];
+    for (uint32_t smp = job->sample_begin; smp < job->sample_end; ++smp) {
+        for (uint32_t base = 0; base < npix; base += 8) {
+            int active[8], hit_mask[8];
+            vec3 o[8], d[8];
+            vbnl_hit hits[8];
+            vbnl_rng rng[8];
+            uint32_t px[8], py[8];
+            for (int i = 0; i < 8; ++i) {
+                uint32_t k = base + (uint32_t)i;
+                active[i] = k < npix;
+                if (!active[i]) {
+                    o[i] = d[i] = v3s(0.0f);
+                    continue;
+                }
+                px[i] = job->x0 + k % tw;
+                py[i] = job->y0 + k / tw;
+                rng[i] = vbnl_pixel_rng(job, px[i], py[i], smp);
+                vec2 u = vbnl_rng_next2(&rng[i]);
+                vbnl_camera_ray(&sc->camera, job->width, job->height, (float)px[i] + u.x, (float)py[i] + u.y,
+                                &o[i], &d[i]);
+            }
+            vbnl_scene_intersect8(sc, active, o, d, hits, hit_mask);
+            for (int i = 0; i < 8; ++i) {
+                if (!active[i])
+                    continue;
+                job->stats->rays++;
+                memset(values[i], 0, sizeof(float) * s->stride);
+                trace(s, &rng[i], o[i], d[i], hit_mask[i], hits[i], values[i], job->stats);
+                vbnl_film_add(job->film, px[i], py[i], values[i]);
+            }
+        }
+    }
+}
+
+const vbnl_integrator_class vbnl_integrator_vbnl = {
+    VBNL_INTEGRATOR_ABI_MAJOR,
+    VBNL_INTEGRATOR_ABI_MINOR,
+    sizeof(vbnl_integrator_class),
+    "vbnl",
+    "Virtual Blue Noise Lighting: camera-placed blue-noise photon lights with MIS and path extension",
+    vbnl_params_spec,
+    N_PARAMS,
+    vbnl_create,
+    vbnl_prepare,
+    vbnl_render_tile,
+    vbnl_destroy,
+};
