@@ -35,7 +35,16 @@ static void bench_usage(FILE *f)
             "  --width W --height H   image size (default 256x256)\n"
             "  --spp N            samples per pixel per run (default 16)\n"
             "  --repeat N         runs per figure (default 3)\n"
-            "  --threads N        worker threads (default 0 = one per core)\n");
+            "  --threads N        worker threads (default 0 = one per core)\n"
+            "\n"
+            "  --equal-time       instead: path, vbnl and its ablations at equal time on the cornell,\n"
+            "                     glossy and door-ajar scenes, rMAE against a cached path reference\n"
+            "  --budgets LIST     time budgets in seconds (default 10,30,100)\n"
+            "  --size N           image side (default 512)\n"
+            "  --ref-time S       seconds for each reference (default 1200; cached in --out)\n"
+            "  --out DIR          images, references and plots (default bench-out)\n"
+            "  --only NAME        one scene: cornell, glossy or door-ajar\n"
+            "  --shared DIR       where scenes/cornell-box-mcguire is (default ../shared)\n");
 }
 
 int host_bench_main(int argc, char **argv)
@@ -44,7 +53,16 @@ int host_bench_main(int argc, char **argv)
         {"scene", required_argument, 0, 's'}, {"camera", required_argument, 0, 'c'},
         {"width", required_argument, 0, 'W'}, {"height", required_argument, 0, 'H'},
         {"spp", required_argument, 0, 'n'},   {"repeat", required_argument, 0, 'r'},
-        {"threads", required_argument, 0, 'T'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+        {"threads", required_argument, 0, 'T'}, {"help", no_argument, 0, 'h'},
+        {"equal-time", no_argument, 0, 'E'}, {"budgets", required_argument, 0, 'B'},
+        {"size", required_argument, 0, 'Z'}, {"ref-time", required_argument, 0, 'F'},
+        {"out", required_argument, 0, 'O'}, {"only", required_argument, 0, 'Y'},
+        {"shared", required_argument, 0, 'D'}, {0, 0, 0, 0}};
+    int equal_time = 0, nb = 0;
+    double budgets[8];
+    unsigned size = 512;
+    double ref_time = 1200.0;
+    const char *out_dir = "bench-out", *only = NULL, *shared = "../shared";
     const char *scene_path = DEFAULT_SCENE;
     host_camera cam = {0};
     host_parse_camera(DEFAULT_CAMERA, &cam);
@@ -66,8 +84,38 @@ int host_bench_main(int argc, char **argv)
         case 'r': repeat = (unsigned)atoi(optarg); break;
         case 'T': threads = (unsigned)atoi(optarg); break;
         case 'h': bench_usage(stdout); return VBNL_EXIT_OK;
+        case 'E': equal_time = 1; break;
+        case 'B': {
+            nb = 0;
+            for (char *tok = strtok(optarg, ","); tok && nb < 8; tok = strtok(NULL, ","))
+                budgets[nb++] = atof(tok);
+            for (int i = 0; i < nb; ++i)
+                if (!(budgets[i] > 0.0) || (i && budgets[i] <= budgets[i - 1])) {
+                    fprintf(stderr, "vbnl bench: --budgets takes increasing seconds, e.g. 10,30,100\n");
+                    return VBNL_EXIT_USAGE;
+                }
+            break;
+        }
+        case 'Z': size = (unsigned)atoi(optarg); break;
+        case 'F': ref_time = atof(optarg); break;
+        case 'O': out_dir = optarg; break;
+        case 'Y': only = optarg; break;
+        case 'D': shared = optarg; break;
         default: bench_usage(stderr); return VBNL_EXIT_USAGE;
         }
+    }
+    if (equal_time) {
+        if (nb == 0) {
+            budgets[0] = 10;
+            budgets[1] = 30;
+            budgets[2] = 100;
+            nb = 3;
+        }
+        if (size == 0 || size > 8192 || !(ref_time > 0.0)) {
+            fprintf(stderr, "vbnl bench: --size takes 1..8192 and --ref-time seconds > 0\n");
+            return VBNL_EXIT_USAGE;
+        }
+        return host_bench_equal_time(out_dir, size, budgets, nb, ref_time, shared, only);
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||
         repeat > 99 || threads > 1024) {

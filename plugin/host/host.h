@@ -38,5 +38,8 @@ vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_setting
 vbnl_result host_check_writable(const char *path, vbnl_error *err);
 
 int host_bench_main(int argc, char **argv);
+/* The equal-time comparison of `vbnl bench --equal-time` (bench_equal.c). */
+int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budgets, int nb, double ref_time,
+                          const char *shared_dir, const char *only_scene);
 
 #endif
