@@ -67,7 +67,7 @@ static vbnl_result run_elim(const vec3 *pts, uint32_t M, const vbnl_elim_params 
     vbnl_error err = {0};
     vbnl_result r = vbnl_eliminate(pts, M, p, &ex, out->kept, out->rmax, &out->stats, &err);
     if (r != VBNL_OK)
-        print_message("vbnl_eliminate: %s\n", err.message);
+        print_message("# vbnl_eliminate: %s\n", err.message);
     return r;
 }
 
@@ -180,7 +180,7 @@ static void test_blue_noise_plane(void **state)
         quality(pts, &r, N, &mean, &mn);
         assert_int_equal(vbnl_elim_measure(pts, r.kept, r.rmax, N, &mean2, &mn2, NULL), VBNL_OK);
         assert_true(fabs(mean - mean2) < 1e-5 && fabs(mn - mn2) < 1e-5);
-        print_message("  mode %d area %.1f limit %d: mean NN/2r_max %.4f  min %.4f  (area used %.4f)\n",
+        print_message("#   mode %d area %.1f limit %d: mean NN/2r_max %.4f  min %.4f  (area used %.4f)\n",
                       (int)cases[c].mode, cases[c].area, p.weight_limit, mean, mn, r.stats.area);
         if (cases[c].blue == 1)
             assert_true(mean >= 0.75);
@@ -213,11 +213,11 @@ static void test_serial_vs_parallel(void **state)
         assert_int_equal(run_elim(pts, M, &p, pool, &r), VBNL_OK);
         check_kept(&r, M, N);
         quality(pts, &r, N, &mean[par], &mn[par]);
-        print_message("  %s: mean NN/2r_max %.4f  min %.4f  (%.3f s)\n", par ? "parallel" : "serial  ",
+        print_message("#   %s: mean NN/2r_max %.4f  min %.4f  (%.3f s)\n", par ? "parallel" : "serial  ",
                       mean[par], mn[par], r.stats.time_radius + r.stats.time_eliminate);
         run_free(&r);
     }
-    print_message("  parallel/serial: mean %.4f  min-distance ratio %.4f\n", mean[1] / mean[0], mn[1] / mn[0]);
+    print_message("#   parallel/serial: mean %.4f  min-distance ratio %.4f\n", mean[1] / mean[0], mn[1] / mn[0]);
     assert_true(fabs(mean[1] / mean[0] - 1.0) <= 0.05);
     assert_true(mean[0] >= 0.7 && mean[1] >= 0.7);
     vbnl_pool_destroy(pool);
@@ -257,7 +257,7 @@ static void test_adaptive_density(void **state)
         double ratio, mean, mn;
         density_ratio(pts, &r, N, &ratio);
         quality(pts, &r, N, &mean, &mn);
-        print_message("  %s %s: dense/sparse kept %.3f  mean NN/2r_max %.4f\n",
+        print_message("#   %s %s: dense/sparse kept %.3f  mean NN/2r_max %.4f\n",
                       cases[c].mode == VBNL_ELIM_ADAPTIVE ? "adaptive" : "uniform ",
                       cases[c].parallel ? "parallel" : "serial  ", ratio, mean);
         if (cases[c].mode == VBNL_ELIM_ADAPTIVE) {
@@ -318,7 +318,7 @@ static void expect_error(const vec3 *pts, uint32_t M, const vbnl_elim_params *p,
     assert_int_equal(r, code);
     assert_int_equal(err.code, code);
     if (!strstr(err.message, word))
-        print_message("message \"%s\" lacks \"%s\"\n", err.message, word);
+        print_message("# message \"%s\" lacks \"%s\"\n", err.message, word);
     assert_non_null(strstr(err.message, word));
     /* a NULL error record is allowed too */
     assert_int_equal(vbnl_eliminate(pts, M, p, NULL, kept, NULL, NULL, NULL), code);
