@@ -546,3 +546,91 @@ void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 
                      rh.hit.v[i], rh.ray.tfar[i], o[i], d[i], &hits[i]);
     }
 }
+
+/* ---- fingerprint (scene_internal.h) ------------------------------------------------------- */
+
+#define FP_OFFSET 0xcbf29ce484222325ull
+#define FP_PRIME 0x100000001b3ull
+
+static uint64_t fp_bytes(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; ++i)
+        h = (h ^ p[i]) * FP_PRIME;
+    return h;
+}
+static uint64_t fp_u32(uint64_t h, uint32_t v) { return fp_bytes(h, &v, sizeof(v)); }
+static uint64_t fp_f32(uint64_t h, float v) { return fp_bytes(h, &v, sizeof(v)); }
+static uint64_t fp_v3(uint64_t h, vec3 v) { return fp_f32(fp_f32(fp_f32(h, v.x), v.y), v.z); }
+/* An optional array: its presence, then its contents. */
+static uint64_t fp_array(uint64_t h, const void *data, size_t n)
+{
+    h = fp_u32(h, data != NULL);
+    return data ? fp_bytes(h, data, n) : h;
+}
+
+uint64_t vbnl_scene_fingerprint(const vbnl_scene *s)
+{
+    if (!s || !s->committed)
+        return 0;
+    uint64_t h = FP_OFFSET;
+    h = fp_u32(h, s->group_count);
+    h = fp_u32(h, s->geom_count);
+    for (uint32_t gi = 0; gi < s->geom_count; ++gi) {
+        const scene_geom *g = &s->geoms[gi];
+        h = fp_u32(fp_u32(h, (uint32_t)g->kind), g->group);
+        switch (g->kind) {
+        case SCENE_GEOM_MESH: {
+            const scene_mesh *m = &g->u.mesh;
+            size_t nv = m->vertex_count, nt = m->triangle_count;
+            h = fp_u32(fp_u32(fp_u32(h, m->vertex_count), m->triangle_count), m->material);
+            h = fp_array(h, m->positions, sizeof(float) * 3 * nv);
+            h = fp_array(h, m->normals, sizeof(float) * 3 * nv);
+            h = fp_array(h, m->uvs, sizeof(float) * 2 * nv);
+            h = fp_array(h, m->indices, sizeof(uint32_t) * 3 * nt);
+            h = fp_array(h, m->face_materials, sizeof(uint32_t) * nt);
+            break;
+        }
+        case SCENE_GEOM_SPHERE:
+            h = fp_f32(fp_v3(h, g->u.sphere.center), g->u.sphere.radius);
+            h = fp_u32(h, g->u.sphere.material);
+            break;
+        case SCENE_GEOM_INSTANCE:
+            h = fp_u32(h, g->u.inst.group);
+            for (int r = 0; r < 4; ++r)
+                for (int c = 0; c < 4; ++c)
+                    h = fp_f32(h, g->u.inst.xf.m[r][c]);
+            break;
+        case SCENE_GEOM_AREA_LIGHT:
+            h = fp_v3(fp_v3(fp_v3(fp_v3(h, g->u.area.corner), g->u.area.edge_u), g->u.area.edge_v), g->u.area.normal);
+            h = fp_u32(h, g->u.area.material);
+            break;
+        }
+    }
+    h = fp_u32(h, s->material_count);
+    for (uint32_t i = 0; i < s->material_count; ++i) {
+        /* field by field: the description is all 4-byte members, but say so rather than rely on it */
+        const vbnl_material_desc *d = &s->materials[i].desc;
+        h = fp_u32(h, (uint32_t)d->type);
+        h = fp_bytes(h, d->base_color, sizeof(d->base_color));
+        h = fp_f32(fp_f32(h, d->alpha), d->ior);
+        h = fp_u32(h, (uint32_t)d->conductor_use_ior);
+        h = fp_bytes(h, d->eta, sizeof(d->eta));
+        h = fp_bytes(h, d->k, sizeof(d->k));
+        h = fp_bytes(h, d->emission, sizeof(d->emission));
+        h = fp_u32(h, (uint32_t)d->two_sided);
+    }
+    h = fp_u32(h, s->light_count);
+    for (uint32_t i = 0; i < s->light_count; ++i) {
+        /* not the whole struct: its padding is not defined */
+        const vbnl_light *l = &s->lights[i];
+        h = fp_u32(h, (uint32_t)l->type);
+        h = fp_v3(fp_v3(fp_v3(fp_v3(h, l->p), l->e0), l->e1), l->n);
+        h = fp_f32(fp_f32(h, l->area), l->radius);
+        h = fp_v3(h, l->L);
+        h = fp_f32(fp_f32(fp_f32(h, l->cos_inner), l->cos_outer), l->exponent);
+        h = fp_u32(h, (uint32_t)l->two_sided);
+    }
+    h = fp_v3(h, s->env_radiance);
+    return h;
+}

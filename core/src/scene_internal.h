@@ -111,6 +111,17 @@ void vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height,
                      vec3 *o, vec3 *d);
 
 /* Picks a light by power; *pmf receives its selection probability. */
+/* 64-bit FNV-1a fingerprint of a committed scene: geometry (positions, normals, uvs, indices,
+ * per-face materials, spheres, area-light quads, instance transforms and groups), material
+ * descriptions, lights (the user's and the emitters found at commit) and the environment.
+ * Floats are hashed by their bits, so any change of the input changes it (with probability
+ * 1 - 2^-64) and equal inputs give equal values on every run and thread count.
+ * The camera is left out on purpose: a prepared virtual-light set (vl_file.h) is a valid
+ * description of the scene's indirect light from any viewpoint (the camera only decided where
+ * the lights are densest), so a set prepared for one view may be reused from another.
+ * 0 for NULL or an uncommitted scene. */
+uint64_t vbnl_scene_fingerprint(const vbnl_scene *s);
+
 static inline uint32_t vbnl_scene_pick_light(const vbnl_scene *s, float u, float *pmf)
 {
     return vbnl_alias_table_sample(&s->light_table, u, pmf);

@@ -88,6 +88,9 @@ static void render_usage(FILE *f)
             "      --png PATH           sRGB PNG of the beauty image\n"
             "      --integrator NAME    integrator (default: path); see `vbnl info`\n"
             "      --set KEY=VALUE      integrator parameter (repeatable)\n"
+            "      --save-lights PATH   vbnl: save the prepared virtual lights and photons (--set save_lights=PATH)\n"
+            "      --load-lights PATH   vbnl: load them instead of preparing; A:B:... sums the photon ranges of\n"
+            "                           several files (--set load_lights=PATH; see photon_first, photon_count)\n"
             "      --spp N              samples per pixel (default 16)\n"
             "      --time SECONDS       time budget for preparation plus rendering, instead of --spp\n"
             "      --width W, --height H  image size (default 512x512)\n"
@@ -121,8 +124,9 @@ static int cmd_render(int argc, char **argv)
         {"seed", required_argument, 0, 'S'}, {"threads", required_argument, 0, 'T'},
         {"camera", required_argument, 0, 'c'}, {"exposure", required_argument, 0, 'e'},
         {"half", no_argument, 0, 'f'}, {"quiet", no_argument, 0, 'q'},
+        {"save-lights", required_argument, 0, 'L'}, {"load-lights", required_argument, 0, 'l'},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
-    const char *exr = NULL, *png = NULL;
+    const char *exr = NULL, *png = NULL, *save_lights = NULL;
     vbnl_render_settings s;
     vbnl_render_settings_init(&s);
     vbnl_params *params = NULL;
@@ -142,6 +146,20 @@ static int cmd_render(int argc, char **argv)
         case 's':
             if (vbnl_params_set_text(params, optarg, "--set", &err) != VBNL_OK) {
                 fprintf(stderr, "vbnl render: --set: %s\n", err.message);
+                goto out;
+            }
+            break;
+        case 'L':
+        case 'l':
+            if (!*optarg) {
+                fprintf(stderr, "vbnl render: --%s takes a file path\n", c == 'L' ? "save-lights" : "load-lights");
+                goto out;
+            }
+            if (c == 'L')
+                save_lights = optarg;
+            if (vbnl_params_set_string(params, c == 'L' ? "save_lights" : "load_lights", optarg,
+                                       c == 'L' ? "--save-lights" : "--load-lights", &err) != VBNL_OK) {
+                fprintf(stderr, "vbnl render: %s\n", err.message);
                 goto out;
             }
             break;
@@ -234,7 +252,8 @@ static int cmd_render(int argc, char **argv)
     s.params = params;
     /* Refuse what cannot work before any heavy work: unwritable outputs, bad integrator names
      * and parameters (vbnl_renderer_create validates those before the scene is built). */
-    if ((exr && host_check_writable(exr, &err) != VBNL_OK) || (png && host_check_writable(png, &err) != VBNL_OK)) {
+    if ((exr && host_check_writable(exr, &err) != VBNL_OK) || (png && host_check_writable(png, &err) != VBNL_OK) ||
+        (save_lights && host_check_writable(save_lights, &err) != VBNL_OK)) {
         fprintf(stderr, "vbnl render: %s\n", err.message);
         rc = VBNL_EXIT_FAILURE;
         goto out;

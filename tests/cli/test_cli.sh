@@ -79,5 +79,26 @@ else
     not_ok "SIGINT writes a partial image and exits 130" "exit $rc" "$($HDR "$TMP/int.exr" 2>&1 | head -3)"
 fi
 
+# Saved virtual lights: --save-lights then --load-lights renders the same image; a damaged file
+# is refused with a clear message and a non-zero exit.
+VL="--integrator vbnl --width 24 --height 24 --spp 2 --seed 4 -q"
+expect "render help lists --save-lights" 0 "--save-lights PATH" -- "$VBNL" render --help
+expect "render help lists --load-lights" 0 "--load-lights PATH" -- "$VBNL" render --help
+"$VBNL" render "$SCENE" $VL --png "$TMP/vl-save.png" --set virtual_lights=2000 --set photon_paths=50000 --save-lights "$TMP/lights.vls"
+"$VBNL" render "$SCENE" $VL --png "$TMP/vl-load.png" --load-lights "$TMP/lights.vls"
+if [ -s "$TMP/lights.vls" ] && [ -s "$TMP/vl-load.png" ] && cmp -s "$TMP/vl-save.png" "$TMP/vl-load.png"; then
+    ok "--save-lights then --load-lights gives the same image"
+else
+    not_ok "--save-lights then --load-lights gives the same image" "$(ls -l "$TMP")"
+fi
+[ -z "$(ls "$TMP" | grep tmp-)" ] && ok "no temporary light files left" || not_ok "no temporary light files left" "$(ls "$TMP")"
+cp "$TMP/lights.vls" "$TMP/damaged.vls"
+printf '\x5a' | dd of="$TMP/damaged.vls" bs=1 seek=300 conv=notrunc 2>/dev/null
+expect "damaged light file is refused" 1 "damaged.vls' is damaged \(checksum mismatch\)" -- "$VBNL" render "$SCENE" $VL --png "$TMP/vl-bad.png" --load-lights "$TMP/damaged.vls"
+head -c 200 "$TMP/lights.vls" > "$TMP/short.vls"
+expect "truncated light file is refused" 1 "short.vls' is damaged" -- "$VBNL" render "$SCENE" $VL --png "$TMP/vl-bad.png" --load-lights "$TMP/short.vls"
+expect "light file of another scene is refused" 1 "prepared for another scene" -- "$VBNL" render "$SRC/examples/door-ajar.obj" $VL --png "$TMP/vl-bad.png" --load-lights "$TMP/lights.vls"
+expect "unwritable --save-lights fails first" 1 "cannot write" -- "$VBNL" render "$SCENE" $VL --png "$TMP/vl-bad.png" --save-lights "$TMP/no/such/dir/l.vls"
+
 echo "1..$n"
 [ $failed -eq 0 ]

@@ -374,6 +374,24 @@ vbnl_result vbnl_profile_set_merge(vbnl_profile_set *dst, const vbnl_profile_set
     return VBNL_OK;
 }
 
+vbnl_result vbnl_profile_set_import_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t phi[3],
+                                          const uint64_t *map)
+{
+    if (!s || !phi || vl >= s->count)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    uint32_t slot = s->slot[vl];
+    if (slot != NO_SLOT) {
+        if (!map)
+            return VBNL_ERR_INVALID_ARGUMENT;
+        if (!s->incident)
+            return VBNL_ERR_STATE;
+        memcpy(s->incident + 3 * (size_t)slot * s->texels, map, 3 * (size_t)s->texels * sizeof(uint64_t));
+        memset(s->code + (size_t)slot * s->texels, 0xFF, s->texels * sizeof(uint32_t)); /* TEXEL_UNSET */
+    }
+    memcpy(s->phi + 3 * (size_t)vl, phi, 3 * sizeof(uint64_t));
+    return VBNL_OK;
+}
+
 /* ---- conversion -------------------------------------------------------------------------- */
 
 /* J_t = sum_i f(w_t, w_i) Phi_i (profiles.h). Both paths add the same products in the same

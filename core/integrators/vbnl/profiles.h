@@ -190,6 +190,15 @@ vec3 vbnl_profile_incident_texel(const vbnl_profile_set *s, uint32_t vl, uint32_
  * thread-safe: call between phases. */
 vbnl_result vbnl_profile_set_merge(vbnl_profile_set *dst, const vbnl_profile_set *src);
 
+/* Import of saved incident data (vl_file.h): sets VL vl's Phi_in to phi (3 fixed-point values
+ * in the set's unit) and, for a glossy VL, its incident map to `map` (R^2 x 3 values, the layout
+ * of vbnl_profile_incident_map_fixed; ignored and may be NULL for a Lambertian VL). Replaces
+ * (does not add to) what the VL held and marks its texels unconverted. VBNL_ERR_INVALID_ARGUMENT
+ * for NULL arguments, vl out of range or a NULL map for a glossy VL; VBNL_ERR_STATE after
+ * release. Not thread-safe: call between phases. */
+vbnl_result vbnl_profile_set_import_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t phi[3],
+                                          const uint64_t *map);
+
 /* Eager conversion of every texel of one VL (no-op for Lambertian VLs and converted texels).
  * Thread-safe, also concurrently with lazy readers. */
 void vbnl_profile_convert(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k);

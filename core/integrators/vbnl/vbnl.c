@@ -15,7 +15,13 @@
  * L_j(y, w) = J_j(w) / (pi r_j^2), J the profile of profiles.h (reflected power per steradian,
  * without the outgoing cosine). Dividing by the disk area makes the sum over the ~3.6 lights that
  * cover a point of a hexagonal set with alpha_r = 2 reproduce the reflected radiance of a
- * uniformly lit surface (README: "VBNL radiance normalisation"). */
+ * uniformly lit surface (README: "VBNL radiance normalisation").
+ *
+ * Saved sets (vl_file.h): save_lights writes the set and its photon data after stage 3;
+ * load_lights replaces stages 1-3 by reading one file, or several of disjoint photon ranges
+ * (photon_first / photon_count of the same photon_paths) whose fixed-point data are summed, which
+ * equals one run bit for bit. The file's preparation parameters then replace the given ones.
+ * view=lights renders the set itself instead of the image (paper Figs. 7 and 13). */
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -25,10 +31,12 @@
 #include "profiles.h"
 #include "render_internal.h"
 #include "splitting.h"
+#include "vl_file.h"
 #include "vl_index.h"
 
 static const char *const elim_modes[] = {"adaptive", "uniform", "none", NULL};
 static const char *const sampling_modes[] = {"mis", "power", "bsdf", NULL};
+static const char *const view_modes[] = {"shaded", "lights", NULL};
 
 static const vbnl_param_spec vbnl_params_spec[] = {
     {"virtual_lights", VBNL_PARAM_INT, 130000, NULL, 1, 5e7, NULL,
@@ -59,10 +67,25 @@ static const vbnl_param_spec vbnl_params_spec[] = {
      "skip power samples whose ray misses the light's disk without tracing (§5)"},
     {"max_depth", VBNL_PARAM_INT, -1, NULL, -1, 1e6, NULL, "longest camera path in bounces; -1 = unlimited"},
     {"rr_depth", VBNL_PARAM_INT, 3, NULL, 0, 1e6, NULL, "bounces before Russian roulette starts"},
+    {"save_lights", VBNL_PARAM_STRING, 0, "", 0, 0, NULL,
+     "write the prepared virtual-light set (lights and photon data) to this file (vl_file.h)"},
+    {"load_lights", VBNL_PARAM_STRING, 0, "", 0, 0, NULL,
+     "skip placement, elimination and splitting: read the set from this file, or sum the photons of "
+     "several files of disjoint photon ranges separated by ':'"},
+    {"photon_first", VBNL_PARAM_INT, 0, NULL, 0, 1e15, NULL,
+     "first photon path this process traces (of photon_paths), to split photons across processes"},
+    {"photon_count", VBNL_PARAM_INT, 0, NULL, 0, 1e15, NULL,
+     "photon paths this process traces from photon_first; 0 = all the rest"},
+    {"view", VBNL_PARAM_ENUM, 0, "shaded", 0, 0, view_modes,
+     "shaded (the image) or lights: grey surfaces with every virtual light as a dot coloured by its "
+     "radius (viridis over log radius; paper Figs. 7, 13)"},
+    {"dot_scale", VBNL_PARAM_FLOAT, 0.2, NULL, 0.01, 1, NULL,
+     "view=lights: dot radius as a fraction of the light's radius r_j"},
 };
 #define N_PARAMS (sizeof(vbnl_params_spec) / sizeof(vbnl_params_spec[0]))
 
 enum { SAMPLE_MIS = 0, SAMPLE_POWER = 1, SAMPLE_BSDF = 2 };
+enum { VIEW_SHADED = 0, VIEW_LIGHTS = 1 };
 
 /* Filter of §3.3 (authors' code), used for splitting and for gathering alike. */
 #define VL_NORMAL_COS 0.7f
@@ -73,6 +96,11 @@ typedef struct vbnl_state {
     vbnl_context *ctx;
     vbnl_prepare_params pp;
     uint64_t photon_paths;
+    uint64_t photon_first, photon_count; /* the range this process traces (count 0: the rest) */
+    char *save_path, *load_path;         /* NULL when not given */
+    int view;
+    float dot_scale;
+    float log_rmin, log_rmax;            /* view=lights: the colour ramp's range */
     uint32_t profile_res;
     int lazy, sampling, extension, disk_test, max_depth, rr_depth;
     float n_min, n_max;
@@ -129,6 +157,16 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     s->disk_test = param(env, "disk_test") != 0.0;
     s->max_depth = (int)param(env, "max_depth");
     s->rr_depth = (int)param(env, "rr_depth");
+    s->photon_first = (uint64_t)param(env, "photon_first");
+    s->photon_count = (uint64_t)param(env, "photon_count");
+    s->view = !strcmp(vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "view"), "lights") ? VIEW_LIGHTS
+                                                                                                     : VIEW_SHADED;
+    s->dot_scale = (float)param(env, "dot_scale");
+    const char *save = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "save_lights");
+    const char *load = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "load_lights");
+    /* copies: the parameter list need not outlive the integrator */
+    s->save_path = save && *save ? strdup(save) : NULL;
+    s->load_path = load && *load ? strdup(load) : NULL;
 
     /* Impossible requests are refused here, before any work. */
     vbnl_result r = VBNL_OK;
@@ -143,7 +181,21 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     else if (!(s->n_max > s->n_min))
         r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                            "integrator 'vbnl': n_max (%g) must be greater than n_min (%g)", s->n_max, s->n_min);
-    if (r == VBNL_OK) {
+    else if ((save && *save && !s->save_path) || (load && *load && !s->load_path))
+        r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    else if (s->photon_first >= s->photon_paths || s->photon_count > s->photon_paths - s->photon_first)
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': the photon range [photon_first = %llu, + photon_count = %llu) must "
+                           "lie inside the %llu photon_paths",
+                           (unsigned long long)s->photon_first, (unsigned long long)s->photon_count,
+                           (unsigned long long)s->photon_paths);
+    else if (s->load_path && (s->photon_first || s->photon_count))
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': photon_first/photon_count select photons to trace, but with "
+                           "load_lights none are traced");
+    if (r == VBNL_OK && s->load_path) {
+        pp->candidates = (uint32_t)m; /* unused: the file holds the set */
+    } else if (r == VBNL_OK) {
         pp->candidates = (uint32_t)m;
         /* Peak memory: candidates and the elimination's working set (~96 B each), the lights
          * with a glossy incident map each in the worst case (R^2 x 28 B) and the index. */
@@ -165,6 +217,8 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
             r = vbnl_film_add_layer(env->film, "path_depth", 1, one, &s->off_depth, err);
     }
     if (r != VBNL_OK) {
+        free(s->save_path);
+        free(s->load_path);
         free(s);
         return r;
     }
@@ -190,6 +244,8 @@ static void vbnl_destroy(void *state)
     vbnl_alias_table_free(&s->power_table);
     vbnl_vl_set_free(&s->vls);
     free(s->inv_area);
+    free(s->save_path);
+    free(s->load_path);
     free(s);
 }
 
@@ -216,15 +272,12 @@ static void convert_chunk(void *user, uint64_t item, unsigned thread)
     }
 }
 
-static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
+/* The index over the set, 1 / (pi r_j^2) and one conversion kernel per material carrying lights;
+ * s->vls and s->profiles exist. */
+static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
 {
-    vbnl_state *s = state;
     const vbnl_scene *sc = s->scene;
-    vbnl_result r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, NULL, err);
-    if (r != VBNL_OK)
-        return r;
     uint32_t n = s->vls.count;
-    /* index and profile storage */
     vbnl_vl_index_desc id;
     memset(&id, 0, sizeof(id));
     id.centers = s->vls.position;
@@ -232,25 +285,20 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     id.normals = s->vls.normal;
     id.count = n;
     id.kind = VBNL_VL_INDEX_GRID;
-    if ((r = vbnl_vl_index_create(&id, &s->index)) != VBNL_OK)
+    vbnl_result r = vbnl_vl_index_create(&id, &s->index);
+    if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the virtual-light index (%s)", vbnl_result_name(r));
-    uint8_t *glossy = malloc(n);
     s->inv_area = malloc(sizeof(float) * n);
     s->kernels = calloc(sc->material_count, sizeof(*s->kernels));
-    if (!glossy || !s->inv_area || !s->kernels) {
-        free(glossy);
+    if (!s->inv_area || !s->kernels)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
-    }
+    s->log_rmin = INFINITY;
+    s->log_rmax = -INFINITY;
     for (uint32_t j = 0; j < n; ++j) {
-        glossy[j] = sc->materials[s->vls.material[j]].desc.type != VBNL_MATERIAL_LAMBERT;
         s->inv_area[j] = 1.0f / (VBNL_PI * s->vls.radius[j] * s->vls.radius[j]);
+        s->log_rmin = fminf(s->log_rmin, logf(s->vls.radius[j]));
+        s->log_rmax = fmaxf(s->log_rmax, logf(s->vls.radius[j]));
     }
-    if ((r = vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
-        r = vbnl_profile_set_create_fixed(s->map, n, glossy, vbnl_split_photon_unit(sc, s->photon_paths),
-                                          &s->profiles);
-    free(glossy);
-    if (r != VBNL_OK)
-        return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
     for (uint32_t j = 0; j < n && r == VBNL_OK; ++j) {
         uint32_t m = s->vls.material[j];
         if (!s->kernels[m])
@@ -258,10 +306,36 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     }
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the profile conversion kernels");
+    return VBNL_OK;
+}
 
-    /* 3. photon splitting */
+/* Stages 1-3: placement, elimination, photon splitting of this process's photon range. */
+static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    const vbnl_scene *sc = s->scene;
+    vbnl_result r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, NULL, err);
+    if (r != VBNL_OK)
+        return r;
+    uint32_t n = s->vls.count;
+    uint8_t *glossy = malloc(n);
+    if (!glossy)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
+    for (uint32_t j = 0; j < n; ++j)
+        glossy[j] = sc->materials[s->vls.material[j]].desc.type != VBNL_MATERIAL_LAMBERT;
+    if ((r = vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
+        r = vbnl_profile_set_create_fixed(s->map, n, glossy, vbnl_split_photon_unit(sc, s->photon_paths),
+                                          &s->profiles);
+    free(glossy);
+    if (r != VBNL_OK)
+        return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
+    if ((r = setup_lights(s, err)) != VBNL_OK)
+        return r;
+
+    /* 3. photon splitting: paths [photon_first, photon_first + count) of the photon_paths that
+     * normalise the flux, so that the files of disjoint ranges sum to one run (splitting.h) */
+    uint64_t count = s->photon_count ? s->photon_count : s->photon_paths - s->photon_first;
     if (stage)
-        vbnl_stage_begin(stage, "photons", (double)s->photon_paths, "paths");
+        vbnl_stage_begin(stage, "photons", (double)count, "paths");
     vbnl_split_desc sd;
     vbnl_split_desc_init(&sd);
     sd.scene = sc;
@@ -269,6 +343,8 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     sd.vl_normals = s->vls.normal;
     sd.profiles = s->profiles;
     sd.photon_paths = s->photon_paths;
+    sd.first_path = s->photon_first;
+    sd.path_count = count;
     sd.seed = s->pp.seed;
     sd.normal_cos = VL_NORMAL_COS;
     r = vbnl_split_photons(&sd, NULL, stage, NULL);
@@ -278,6 +354,63 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
         return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "photon splitting was cancelled"
                                                               : "photon splitting failed (%s)",
                               vbnl_result_name(r));
+    if (s->save_path) {
+        vbnl_vl_file_header h;
+        memset(&h, 0, sizeof(h));
+        h.fingerprint = vbnl_scene_fingerprint(sc);
+        h.virtual_lights = s->pp.virtual_lights;
+        h.profile_resolution = s->profile_res;
+        h.photon_paths = s->photon_paths;
+        h.photon_first = s->photon_first;
+        h.photon_count = count;
+        h.unit = vbnl_profile_set_unit(s->profiles);
+        h.seed = s->pp.seed;
+        h.elimination = (uint32_t)s->pp.elimination;
+        h.radius_scale = s->pp.radius_scale;
+        h.material_count = sc->material_count;
+        if ((r = vbnl_vl_file_save(s->save_path, &h, &s->vls, s->profiles, err)) != VBNL_OK)
+            return r;
+    }
+    return VBNL_OK;
+}
+
+/* Instead of stages 1-3: the set and its photon data from load_lights (vl_file.h). */
+static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    if (stage)
+        vbnl_stage_begin(stage, "load", 0, "files");
+    vbnl_vl_file_data d;
+    vbnl_result r = vbnl_vl_file_load(s->load_path, s->scene, &d, err);
+    if (stage)
+        vbnl_stage_end(stage);
+    if (r != VBNL_OK)
+        return r;
+    /* the file's preparation parameters replace the ones given */
+    s->vls = d.vls;
+    s->map = d.map;
+    s->profiles = d.profiles;
+    s->photon_paths = d.header.photon_paths;
+    s->profile_res = d.header.profile_resolution;
+    s->pp.virtual_lights = d.header.virtual_lights;
+    s->pp.seed = d.header.seed;
+    s->pp.elimination = (vbnl_elim_mode)d.header.elimination;
+    s->pp.radius_scale = d.header.radius_scale;
+    if ((r = setup_lights(s, err)) != VBNL_OK)
+        return r;
+    if (s->save_path) { /* e.g. several photon ranges summed into one file */
+        d.header.fingerprint = vbnl_scene_fingerprint(s->scene);
+        r = vbnl_vl_file_save(s->save_path, &d.header, &s->vls, s->profiles, err);
+    }
+    return r;
+}
+
+static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    vbnl_state *s = state;
+    vbnl_result r = s->load_path ? prepare_from_file(s, stage, err) : prepare_from_scene(s, stage, err);
+    if (r != VBNL_OK)
+        return r;
+    uint32_t n = s->vls.count;
 
     /* 4. profiles: power table (and the eager conversion) */
     if (stage)
@@ -582,6 +715,62 @@ static void trace(vbnl_state *s, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, vbnl
     out[s->off_depth] = (float)vertices;
 }
 
+/* ---- view=lights: the distribution of the virtual lights (paper Figs. 7 and 13) ----------- */
+
+/* Viridis as a degree-6 polynomial fit in sRGB (Matt Zucker's public-domain fit of the
+ * matplotlib map), then to linear: the film is scene-linear and the PNG writer encodes sRGB. */
+static vec3 viridis(float t)
+{
+    static const float c[7][3] = {
+        {0.2777273272f, 0.0054073445f, 0.3340998053f},  {0.1050930431f, 1.4046135299f, 1.3845901626f},
+        {-0.3308618287f, 0.2148475595f, 0.0950951630f}, {-4.6342304990f, -5.7991009734f, -19.3324409563f},
+        {6.2282699363f, 14.1799333668f, 56.6905526007f}, {4.7763849977f, -13.7451453777f, -65.3530326334f},
+        {-5.4354558559f, 4.6458526122f, 26.3124352496f}};
+    t = clampf(t, 0.0f, 1.0f);
+    float rgb[3];
+    for (int k = 0; k < 3; ++k) {
+        float v = c[6][k];
+        for (int i = 5; i >= 0; --i)
+            v = v * t + c[i][k];
+        v = clampf(v, 0.0f, 1.0f);
+        rgb[k] = v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f);
+    }
+    return v3(rgb[0], rgb[1], rgb[2]);
+}
+
+/* Grey |cos| x albedo shading of what the camera sees, and a dot of radius dot_scale r_j around
+ * every virtual light whose normal agrees with the surface's, coloured by log r_j between the
+ * set's smallest and largest radius. The lights are found by the index query at the hit. */
+static void lights_view(const vbnl_state *s, vec3 d, int hit_ok, const vbnl_hit *hit, float *out)
+{
+    out[3] = 1.0f;
+    if (!hit_ok)
+        return;
+    const vbnl_scene *sc = s->scene;
+    vec3 albedo = vbnl_bsdf_albedo(&sc->materials[hit->material].bsdf);
+    v3_store(out + VBNL_FILM_ALBEDO, albedo);
+    v3_store(out + VBNL_FILM_NORMAL, hit->ns);
+    vec3 c = v3s(fabsf(v3_dot(hit->ns, d)) * (albedo.x + albedo.y + albedo.z) / 3.0f);
+    if (s->prepared) {
+        uint32_t ids[VL_GATHER_MAX];
+        float d2[VL_GATHER_MAX];
+        uint32_t n = vbnl_vl_index_query(s->index, hit->p, VL_GATHER_MAX, ids, d2);
+        n = n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
+        float best = INFINITY;
+        for (uint32_t k = 0; k < n; ++k) {
+            uint32_t j = ids[k];
+            float rd = s->dot_scale * s->vls.radius[j];
+            float rel = d2[k] / (rd * rd);
+            if (rel < 1.0f && rel < best && fabsf(v3_dot(s->vls.normal[j], hit->ng)) > VL_NORMAL_COS) {
+                float span = s->log_rmax - s->log_rmin;
+                best = rel;
+                c = viridis(span > 0.0f ? (logf(s->vls.radius[j]) - s->log_rmin) / span : 0.5f);
+            }
+        }
+    }
+    add_L(out, c);
+}
+
 static void vbnl_render_tile(void *state, vbnl_tile_job *job)
 {
     vbnl_state *s = state;
@@ -616,7 +805,10 @@ static void vbnl_render_tile(void *state, vbnl_tile_job *job)
                     continue;
                 job->stats->rays++;
                 memset(values[i], 0, sizeof(float) * s->stride);
-                trace(s, &rng[i], o[i], d[i], hit_mask[i], hits[i], values[i], job->stats);
+                if (s->view == VIEW_LIGHTS)
+                    lights_view(s, d[i], hit_mask[i], &hits[i], values[i]);
+                else
+                    trace(s, &rng[i], o[i], d[i], hit_mask[i], hits[i], values[i], job->stats);
                 vbnl_film_add(job->film, px[i], py[i], values[i]);
             }
         }

@@ -3,7 +3,7 @@
  * What preparation produces and rendering consumes: per light its position, normal, material,
  * radius r_i = alpha_r r_i,max (§3.2), density rho_i (Eq. 8), and its emission profile (§3.3).
  * The set is a value: it can be saved to a versioned, checksummed file and loaded again for the
- * same scene (vbnl_vl_set_save / _load), which is what lets preparation and shading run in
+ * same scene (vl_file.h: vbnl_vl_file_save / _load), which is what lets preparation and shading run in
  * different processes, and photon splitting of several runs be summed. */
 #ifndef VBNL_VL_SET_H
 #define VBNL_VL_SET_H

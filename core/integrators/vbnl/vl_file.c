@@ -1,0 +1,503 @@
+/* Saving and loading a prepared virtual-light set: format and rules in vl_file.h. */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE
+#endif
+#include "vl_file.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#define BYTE_ORDER_MARK 0x01020304u
+#define BYTE_ORDER_SWAPPED 0x04030201u
+#define FNV_PRIME 0x100000001b3ull
+
+_Static_assert(sizeof(vec3) == 12, "vec3 must be three packed floats (the file stores them so)");
+
+uint64_t vbnl_vl_file_hash(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; ++i)
+        h = (h ^ p[i]) * FNV_PRIME;
+    return h;
+}
+
+static size_t pad8(size_t n) { return (8 - n % 8) % 8; }
+
+/* Bytes of a version-1 file with these counts (0 on overflow). */
+static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res)
+{
+    if (count > UINT32_MAX || glossy > count || res > 64)
+        return 0;
+    uint64_t per = 12 + 12 + 4 + 4 + 4 + 1;
+    uint64_t n = VBNL_VL_FILE_HEADER_SIZE + count * per;
+    n += pad8((size_t)(count % 8));
+    n += count * 24 + glossy * res * res * 24 + 8;
+    return n;
+}
+
+/* ---- header (explicit offsets, no struct padding in the file) ---------------------------------- */
+
+static void put(unsigned char *b, size_t off, const void *v, size_t n) { memcpy(b + off, v, n); }
+static void get(const unsigned char *b, size_t off, void *v, size_t n) { memcpy(v, b + off, n); }
+
+static void header_encode(unsigned char b[VBNL_VL_FILE_HEADER_SIZE], const vbnl_vl_file_header *h, uint32_t count,
+                          uint32_t glossy)
+{
+    memset(b, 0, VBNL_VL_FILE_HEADER_SIZE);
+    uint32_t version = VBNL_VL_FILE_VERSION, mark = BYTE_ORDER_MARK;
+    memcpy(b, VBNL_VL_FILE_MAGIC, 8);
+    put(b, 8, &version, 4);
+    put(b, 12, &mark, 4);
+    put(b, 16, &h->fingerprint, 8);
+    put(b, 24, &count, 4);
+    put(b, 28, &h->virtual_lights, 4);
+    put(b, 32, &h->profile_resolution, 4);
+    put(b, 36, &glossy, 4);
+    put(b, 40, &h->photon_paths, 8);
+    put(b, 48, &h->photon_first, 8);
+    put(b, 56, &h->photon_count, 8);
+    put(b, 64, &h->unit, 8);
+    put(b, 72, &h->seed, 8);
+    put(b, 80, &h->elimination, 4);
+    put(b, 84, &h->radius_scale, 4);
+    put(b, 88, &h->material_count, 4);
+}
+
+static void header_decode(const unsigned char *b, vbnl_vl_file_header *h, uint32_t *count, uint32_t *glossy)
+{
+    memset(h, 0, sizeof(*h));
+    get(b, 8, &h->version, 4);
+    get(b, 16, &h->fingerprint, 8);
+    get(b, 24, count, 4);
+    get(b, 28, &h->virtual_lights, 4);
+    get(b, 32, &h->profile_resolution, 4);
+    get(b, 36, glossy, 4);
+    get(b, 40, &h->photon_paths, 8);
+    get(b, 48, &h->photon_first, 8);
+    get(b, 56, &h->photon_count, 8);
+    get(b, 64, &h->unit, 8);
+    get(b, 72, &h->seed, 8);
+    get(b, 80, &h->elimination, 4);
+    get(b, 84, &h->radius_scale, 4);
+    get(b, 88, &h->material_count, 4);
+}
+
+/* ---- writing ------------------------------------------------------------------------------ */
+
+typedef struct writer {
+    FILE *f;
+    uint64_t hash;
+    int failed;
+} writer;
+
+static void w_bytes(writer *w, const void *data, size_t n)
+{
+    if (w->failed || n == 0)
+        return;
+    w->hash = vbnl_vl_file_hash(w->hash, data, n);
+    if (fwrite(data, 1, n, w->f) != n)
+        w->failed = errno ? errno : EIO;
+}
+
+static uint64_t mix64(uint64_t x)
+{
+    x += 0x9e3779b97f4a7c15ull;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+}
+
+/* A new temporary next to `path` (same folder, so rename is atomic): "<path>.tmp-XXXXXX",
+ * O_EXCL so that concurrent writers never share one. The pattern of plugin/output/atomic_file.c,
+ * repeated here because the core does not depend on plugins. */
+static int open_temporary(const char *path, char *tmp, size_t cap, int *e)
+{
+    static const char digits[] = "0123456789abcdefghijklmnopqrstuvwxyz";
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    uint64_t seed = mix64(((uint64_t)ts.tv_sec << 32) ^ (uint64_t)ts.tv_nsec ^ ((uint64_t)getpid() << 16) ^
+                          (uint64_t)(uintptr_t)tmp);
+    *e = EEXIST;
+    for (int attempt = 0; attempt < 100 && *e == EEXIST; ++attempt) {
+        uint64_t r = mix64(seed + (uint64_t)attempt);
+        char suffix[7];
+        for (int i = 0; i < 6; ++i, r /= 36)
+            suffix[i] = digits[r % 36];
+        suffix[6] = '\0';
+        if ((size_t)snprintf(tmp, cap, "%s.tmp-%s", path, suffix) >= cap) {
+            *e = ENAMETOOLONG;
+            return -1;
+        }
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd >= 0)
+            return fd;
+        *e = errno;
+    }
+    return -1;
+}
+
+vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, const vbnl_vl_set *vls,
+                              const vbnl_profile_set *profiles, vbnl_error *err)
+{
+    if (!path || !*path || !h || !vls || !profiles)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_save: NULL or empty argument");
+    const uint32_t n = vls->count;
+    if (vbnl_profile_set_count(profiles) != n || vbnl_profile_set_unit(profiles) != h->unit)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "vbnl_vl_file_save: the profiles do not belong to this set (count or unit)");
+    uint8_t *glossy = malloc((size_t)n + 8);
+    if (!glossy)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot write '%s': out of memory", path);
+    uint32_t n_glossy = 0;
+    for (uint32_t j = 0; j < n; ++j) {
+        glossy[j] = (uint8_t)(vbnl_profile_is_glossy(profiles, j) != 0);
+        if (glossy[j] && !vbnl_profile_incident_map_fixed(profiles, j)) {
+            free(glossy);
+            return vbnl_error_set(err, VBNL_ERR_STATE, "cannot write '%s': the incident maps were released", path);
+        }
+        n_glossy += glossy[j];
+    }
+    memset(glossy + n, 0, 8);
+    const uint32_t res = h->profile_resolution;
+    const size_t texels = (size_t)res * res;
+
+    size_t cap = strlen(path) + 16;
+    char *tmp = malloc(cap);
+    if (!tmp) {
+        free(glossy);
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot write '%s': out of memory", path);
+    }
+    int e = 0;
+    int fd = open_temporary(path, tmp, cap, &e);
+    if (fd < 0) {
+        free(tmp);
+        free(glossy);
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+    }
+    writer w = {fdopen(fd, "wb"), VBNL_VL_FILE_HASH_INIT, 0};
+    if (!w.f) {
+        e = errno;
+        close(fd);
+        unlink(tmp);
+        free(tmp);
+        free(glossy);
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+    }
+    unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
+    header_encode(hb, h, n, n_glossy);
+    w_bytes(&w, hb, sizeof(hb));
+    w_bytes(&w, vls->position, sizeof(vec3) * (size_t)n);
+    w_bytes(&w, vls->normal, sizeof(vec3) * (size_t)n);
+    w_bytes(&w, vls->material, sizeof(uint32_t) * (size_t)n);
+    w_bytes(&w, vls->radius, sizeof(float) * (size_t)n);
+    w_bytes(&w, vls->density, sizeof(float) * (size_t)n);
+    w_bytes(&w, glossy, (size_t)n + pad8(n));
+    for (uint32_t j = 0; j < n; ++j)
+        w_bytes(&w, vbnl_profile_incident_power_fixed(profiles, j), 3 * sizeof(uint64_t));
+    for (uint32_t j = 0; j < n; ++j)
+        if (glossy[j])
+            w_bytes(&w, vbnl_profile_incident_map_fixed(profiles, j), 3 * texels * sizeof(uint64_t));
+    uint64_t sum = w.hash;
+    w_bytes(&w, &sum, sizeof(sum));
+    free(glossy);
+    /* fsync before rename, or a crash could leave a renamed but empty file */
+    if (!w.failed && fflush(w.f) != 0)
+        w.failed = errno ? errno : EIO;
+    if (!w.failed && fsync(fileno(w.f)) != 0)
+        w.failed = errno ? errno : EIO;
+    if (fclose(w.f) != 0 && !w.failed)
+        w.failed = errno ? errno : EIO;
+    if (!w.failed && rename(tmp, path) != 0)
+        w.failed = errno ? errno : EIO;
+    if (w.failed) {
+        unlink(tmp);
+        free(tmp);
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(w.failed));
+    }
+    free(tmp);
+    return VBNL_OK;
+}
+
+/* ---- reading ------------------------------------------------------------------------------ */
+
+typedef struct reader {
+    FILE *f;
+    const char *path;
+    vbnl_error *err;
+} reader;
+
+static vbnl_result r_bytes(reader *r, void *data, size_t n)
+{
+    if (n && fread(data, 1, n, r->f) != n)
+        return vbnl_error_set(r->err, ferror(r->f) ? VBNL_ERR_IO : VBNL_ERR_CORRUPT, "cannot read '%s': %s",
+                              r->path, ferror(r->f) ? strerror(errno) : "unexpected end of file");
+    return VBNL_OK;
+}
+
+/* Pass 1: everything that can be said before the contents are trusted. Checks the magic, the
+ * byte order and the checksum, then the version, and decodes the header. */
+static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, uint32_t *count, uint32_t *glossy)
+{
+    unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
+    memset(hb, 0, sizeof(hb));
+    size_t got = fread(hb, 1, sizeof(hb), r->f);
+    if (got < 16 || memcmp(hb, VBNL_VL_FILE_MAGIC, 8) != 0)
+        return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is not a virtual-light file (%s)", r->path,
+                              got < 8 ? "too short" : "bad magic");
+    uint32_t mark;
+    get(hb, 12, &mark, 4);
+    if (mark == BYTE_ORDER_SWAPPED)
+        return vbnl_error_set(r->err, VBNL_ERR_UNSUPPORTED,
+                              "'%s' was written on a machine of the other byte order; save it again here", r->path);
+    if (mark != BYTE_ORDER_MARK || size < 16 + 8)
+        return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (%s)", r->path,
+                              mark != BYTE_ORDER_MARK ? "bad byte-order marker" : "too short");
+    /* the checksum over everything before the last 8 bytes */
+    uint64_t hash = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, hb, got);
+    uint64_t left = size - 8 - got;
+    if (got > size - 8) { /* the header read overlapped the checksum itself */
+        hash = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, hb, (size_t)(size - 8));
+        left = 0;
+    }
+    unsigned char *buf = malloc(1u << 20);
+    if (!buf)
+        return vbnl_error_set(r->err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory", r->path);
+    vbnl_result res = VBNL_OK;
+    if (got > size - 8) {
+        if (fseeko(r->f, (off_t)(size - 8), SEEK_SET) != 0)
+            res = vbnl_error_set(r->err, VBNL_ERR_IO, "cannot read '%s': %s", r->path, strerror(errno));
+    }
+    while (res == VBNL_OK && left > 0) {
+        size_t n = left < (1u << 20) ? (size_t)left : (1u << 20);
+        res = r_bytes(r, buf, n);
+        if (res == VBNL_OK)
+            hash = vbnl_vl_file_hash(hash, buf, n);
+        left -= n;
+    }
+    uint64_t stored = 0;
+    if (res == VBNL_OK)
+        res = r_bytes(r, &stored, sizeof(stored));
+    free(buf);
+    if (res != VBNL_OK)
+        return res;
+    header_decode(hb, h, count, glossy);
+    if (stored != hash) {
+        uint64_t want = got == sizeof(hb) && h->version == VBNL_VL_FILE_VERSION
+                            ? file_size(*count, *glossy, h->profile_resolution)
+                            : 0;
+        if (want > size)
+            return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (truncated: %llu of %llu bytes)",
+                                  r->path, (unsigned long long)size, (unsigned long long)want);
+        return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (checksum mismatch)", r->path);
+    }
+    if (h->version != VBNL_VL_FILE_VERSION)
+        return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' was written by format version %u; this build reads version %u",
+                              r->path, h->version, VBNL_VL_FILE_VERSION);
+    int e;
+    if (got != sizeof(hb) || file_size(*count, *glossy, h->profile_resolution) != size || *count == 0 ||
+        (h->profile_resolution != 8 && h->profile_resolution != 16 && h->profile_resolution != 32) ||
+        !(h->unit > 0.0) || frexp(h->unit, &e) != 0.5 || h->photon_paths == 0 ||
+        h->photon_first > h->photon_paths || h->photon_count > h->photon_paths - h->photon_first)
+        return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (inconsistent header)", r->path);
+    return VBNL_OK;
+}
+
+/* Reads one file into `d` (creating d->map when NULL, else requiring its resolution). */
+static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_file_data *d, vbnl_error *err)
+{
+    reader r = {fopen(path, "rb"), path, err};
+    if (!r.f)
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fileno(r.f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        fclose(r.f);
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': not a regular file", path);
+    }
+    uint32_t n = 0, n_glossy = 0;
+    vbnl_vl_file_header *h = &d->header;
+    vbnl_result res = check_file(&r, (uint64_t)st.st_size, h, &n, &n_glossy);
+    uint64_t fp = vbnl_scene_fingerprint(scene);
+    if (res == VBNL_OK && h->fingerprint != fp)
+        res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                             "'%s' was prepared for another scene (fingerprint %016llx, this scene %016llx)", path,
+                             (unsigned long long)h->fingerprint, (unsigned long long)fp);
+    if (res == VBNL_OK && h->material_count != scene->material_count)
+        res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (material count %u, the scene has %u)", path,
+                             h->material_count, scene->material_count);
+    if (res == VBNL_OK && fseeko(r.f, VBNL_VL_FILE_HEADER_SIZE, SEEK_SET) != 0)
+        res = vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
+    if (res == VBNL_OK && !d->map && vbnl_hemioct_create(h->profile_resolution, &d->map) != VBNL_OK)
+        res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory", path);
+    if (res == VBNL_OK && vbnl_hemioct_res(d->map) != h->profile_resolution)
+        res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "'%s' has profile resolution %u, expected %u", path,
+                             h->profile_resolution, vbnl_hemioct_res(d->map));
+    if (res == VBNL_OK)
+        res = vbnl_vl_set_alloc(&d->vls, n, err);
+    uint8_t *glossy = NULL;
+    uint64_t *phi = NULL, *map = NULL;
+    const size_t texels = (size_t)h->profile_resolution * h->profile_resolution;
+    if (res == VBNL_OK) {
+        glossy = malloc((size_t)n + 8);
+        phi = malloc(3 * sizeof(uint64_t) * (size_t)n);
+        map = malloc(3 * sizeof(uint64_t) * texels);
+        if (!glossy || !phi || !map)
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory", path);
+    }
+    if (res == VBNL_OK && (res = r_bytes(&r, d->vls.position, sizeof(vec3) * (size_t)n)) == VBNL_OK &&
+        (res = r_bytes(&r, d->vls.normal, sizeof(vec3) * (size_t)n)) == VBNL_OK &&
+        (res = r_bytes(&r, d->vls.material, sizeof(uint32_t) * (size_t)n)) == VBNL_OK &&
+        (res = r_bytes(&r, d->vls.radius, sizeof(float) * (size_t)n)) == VBNL_OK &&
+        (res = r_bytes(&r, d->vls.density, sizeof(float) * (size_t)n)) == VBNL_OK &&
+        (res = r_bytes(&r, glossy, (size_t)n + pad8(n))) == VBNL_OK)
+        res = r_bytes(&r, phi, 3 * sizeof(uint64_t) * (size_t)n);
+    if (res == VBNL_OK) {
+        uint32_t g = 0;
+        for (uint32_t j = 0; j < n && res == VBNL_OK; ++j) {
+            g += glossy[j] != 0;
+            if (d->vls.material[j] >= scene->material_count || glossy[j] > 1 || !(d->vls.radius[j] > 0.0f) ||
+                !isfinite(d->vls.position[j].x + d->vls.position[j].y + d->vls.position[j].z))
+                res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (light %u is invalid)", path, j);
+        }
+        if (res == VBNL_OK && g != n_glossy)
+            res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (glossy count)", path);
+    }
+    if (res == VBNL_OK &&
+        vbnl_profile_set_create_fixed(d->map, n, glossy, h->unit, &d->profiles) != VBNL_OK)
+        res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory for %u profiles", path, n);
+    for (uint32_t j = 0; j < n && res == VBNL_OK; ++j) {
+        if (glossy[j])
+            res = r_bytes(&r, map, 3 * sizeof(uint64_t) * texels);
+        if (res == VBNL_OK && vbnl_profile_set_import_fixed(d->profiles, j, phi + 3 * (size_t)j,
+                                                            glossy[j] ? map : NULL) != VBNL_OK)
+            res = vbnl_error_set(err, VBNL_ERR_STATE, "cannot import the profiles of '%s'", path);
+    }
+    free(glossy);
+    free(phi);
+    free(map);
+    fclose(r.f);
+    return res;
+}
+
+void vbnl_vl_file_data_free(vbnl_vl_file_data *d)
+{
+    if (!d)
+        return;
+    vbnl_profile_set_destroy(d->profiles);
+    vbnl_vl_set_free(&d->vls);
+    vbnl_hemioct_destroy(d->map);
+    memset(d, 0, sizeof(*d));
+}
+
+/* Two files hold the same set: same preparation and identical arrays, bit for bit. */
+static int same_set(const vbnl_vl_file_data *a, const vbnl_vl_file_data *b)
+{
+    const vbnl_vl_file_header *x = &a->header, *y = &b->header;
+    size_t n = a->vls.count;
+    if (x->fingerprint != y->fingerprint || x->virtual_lights != y->virtual_lights ||
+        x->profile_resolution != y->profile_resolution || x->photon_paths != y->photon_paths ||
+        x->unit != y->unit || x->seed != y->seed || a->vls.count != b->vls.count)
+        return 0;
+    return !memcmp(a->vls.position, b->vls.position, sizeof(vec3) * n) &&
+           !memcmp(a->vls.normal, b->vls.normal, sizeof(vec3) * n) &&
+           !memcmp(a->vls.material, b->vls.material, sizeof(uint32_t) * n) &&
+           !memcmp(a->vls.radius, b->vls.radius, sizeof(float) * n) &&
+           !memcmp(a->vls.density, b->vls.density, sizeof(float) * n);
+}
+
+typedef struct range {
+    uint64_t first, count;
+    const char *path;
+} range;
+
+static int range_cmp(const void *pa, const void *pb)
+{
+    const range *a = pa, *b = pb;
+    return a->first < b->first ? -1 : a->first > b->first;
+}
+
+vbnl_result vbnl_vl_file_load(const char *paths, const vbnl_scene *scene, vbnl_vl_file_data *out, vbnl_error *err)
+{
+    if (out)
+        memset(out, 0, sizeof(*out));
+    if (!paths || !*paths || !scene || !scene->committed || !out)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_load: NULL, empty or uncommitted argument");
+    char *list = strdup(paths);
+    size_t cap = 1;
+    for (const char *c = paths; *c; ++c)
+        cap += *c == ':';
+    range *ranges = malloc(sizeof(range) * cap);
+    if (!list || !ranges) {
+        free(list);
+        free(ranges);
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    vbnl_result res = VBNL_OK;
+    size_t files = 0;
+    char *save = NULL;
+    for (char *path = strtok_r(list, ":", &save); path && res == VBNL_OK; path = strtok_r(NULL, ":", &save)) {
+        if (files == 0) {
+            if ((res = load_one(path, scene, out, err)) == VBNL_OK)
+                ranges[files++] = (range){out->header.photon_first, out->header.photon_count, path};
+            continue;
+        }
+        vbnl_vl_file_data more;
+        memset(&more, 0, sizeof(more));
+        more.map = out->map; /* borrowed: the same resolution is required */
+        res = load_one(path, scene, &more, err);
+        if (res == VBNL_OK && !same_set(out, &more))
+            res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                 "'%s' holds another virtual-light set than '%s' (files to sum must come from one "
+                                 "preparation: same scene, parameters and seed)",
+                                 path, ranges[0].path);
+        if (res == VBNL_OK) {
+            vbnl_result m = vbnl_profile_set_merge(out->profiles, more.profiles);
+            if (m != VBNL_OK)
+                res = vbnl_error_set(err, m, "cannot sum the photons of '%s' and '%s' (%s)", ranges[0].path, path,
+                                     vbnl_result_name(m));
+        }
+        if (res == VBNL_OK)
+            ranges[files++] = (range){more.header.photon_first, more.header.photon_count, path};
+        more.map = NULL;
+        vbnl_vl_file_data_free(&more);
+    }
+    if (res == VBNL_OK && files == 0)
+        res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "load_lights: no file in '%s'", paths);
+    if (res == VBNL_OK) {
+        /* The fluxes were divided by photon_paths (all ranges together, splitting.h): only ranges
+         * that cover [0, photon_paths) exactly once give the right normalisation. */
+        qsort(ranges, files, sizeof(range), range_cmp);
+        uint64_t end = 0, total = out->header.photon_paths, gap_end = total;
+        for (size_t k = 0; k < files && res == VBNL_OK; ++k) {
+            if (ranges[k].first < end)
+                res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                     "'%s' and '%s' both hold photon paths from %llu on: summing them would count "
+                                     "those photons twice",
+                                     ranges[k - 1].path, ranges[k].path, (unsigned long long)ranges[k].first);
+            else if (ranges[k].first > end) {
+                gap_end = ranges[k].first;
+                break;
+            }
+            else
+                end = ranges[k].first + ranges[k].count;
+        }
+        if (res == VBNL_OK && end != total)
+            res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                 "the photon paths of '%s' leave [%llu, %llu) of the %llu paths of the "
+                                 "normalisation untraced: load the files of all photon ranges together",
+                                 paths, (unsigned long long)end, (unsigned long long)gap_end,
+                                 (unsigned long long)total);
+        out->header.photon_first = 0;
+        out->header.photon_count = end;
+    }
+    free(ranges);
+    free(list);
+    if (res != VBNL_OK)
+        vbnl_vl_file_data_free(out);
+    return res;
+}

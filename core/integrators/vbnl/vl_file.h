@@ -1,0 +1,110 @@
+/* Saving and loading a prepared VBNL virtual-light set (private header).
+ *
+ * The set of vl_set.h (stages 1-2) and its incident photon data (stage 3, profiles.h) make a
+ * value that can be written to a file and read back for the same scene: preparation and shading
+ * can run in different processes, and photon splitting can be split across processes (each
+ * traces a disjoint range of the same total photon_paths; splitting.h) and summed exactly with
+ * vbnl_profile_set_merge, because incident power is 64-bit fixed point.
+ *
+ * ---- Format, version 1 (byte offsets; numbers in the writer's byte order) -------------------
+ *
+ *   0   8  magic "VBNLVLS\0"
+ *   8   4  u32 format version (VBNL_VL_FILE_VERSION)
+ *  12   4  u32 byte-order marker 0x01020304 (reads 0x04030201 on a machine of the other order)
+ *  16   8  u64 scene fingerprint (vbnl_scene_fingerprint, scene_internal.h)
+ *  24   4  u32 count: lights in the set
+ *  28   4  u32 virtual_lights: N asked for (count may be lower: escaped placement paths)
+ *  32   4  u32 profile_resolution R (8, 16 or 32)
+ *  36   4  u32 glossy_count: lights with an incident map
+ *  40   8  u64 photon_paths: N of the flux normalisation (all ranges together)
+ *  48   8  u64 photon_first  } the photon paths whose deposits this file holds:
+ *  56   8  u64 photon_count  } [photon_first, photon_first + photon_count)
+ *  64   8  f64 unit: W per fixed-point step (a power of two, profiles.h)
+ *  72   8  u64 seed of the preparation
+ *  80   4  u32 elimination mode (vbnl_elim_mode; informative)
+ *  84   4  f32 radius_scale alpha_r (informative)
+ *  88   4  u32 material_count of the scene
+ *  92   4  u32 reserved, 0
+ *  96      arrays, each count long unless said otherwise:
+ *          positions (3 x f32), normals (3 x f32), materials (u32), radii (f32),
+ *          densities (f32), glossy flags (u8, then 0-bytes up to a multiple of 8),
+ *          incident power Phi_in (3 x u64 fixed point),
+ *          incident maps of the glossy lights in light order (glossy_count x R^2 x 3 x u64,
+ *          texel order of vbnl_profile_incident_map_fixed)
+ * end-8 8  u64 checksum: FNV-1a 64 of every byte before it
+ *
+ * Stable across all versions: the magic, the version at offset 8, the marker at offset 12 and
+ * the trailing FNV-1a 64 checksum. So a loader verifies the checksum before it trusts anything
+ * else, and a damaged version field is reported as damage, not as another version.
+ *
+ * Writing is atomic: a temporary file in the same folder, fsync, rename; on any failure the
+ * temporary is removed and no file is left (an existing file at `path` stays as it was).
+ *
+ * Errors (message in `err`): VBNL_ERR_IO (open/read/write/rename failed), VBNL_ERR_CORRUPT (not
+ * a virtual-light file, checksum mismatch, truncation, another format version, inconsistent
+ * contents), VBNL_ERR_UNSUPPORTED (other byte order), VBNL_ERR_INVALID_ARGUMENT (another scene;
+ * files of a list that do not belong together or whose photon ranges overlap or leave gaps),
+ * VBNL_ERR_OUT_OF_MEMORY.
+ *
+ * Threads: no shared state; the functions may run concurrently on different data. */
+#ifndef VBNL_VL_FILE_H
+#define VBNL_VL_FILE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "octahedral.h"
+#include "profiles.h"
+#include "scene_internal.h"
+#include "vbnl/result.h"
+#include "vl_set.h"
+
+#define VBNL_VL_FILE_VERSION 1u
+#define VBNL_VL_FILE_MAGIC "VBNLVLS"  /* 8 bytes with its terminating NUL */
+#define VBNL_VL_FILE_HEADER_SIZE 96u
+#define VBNL_VL_FILE_HASH_INIT 0xcbf29ce484222325ull
+
+/* The preparation parameters stored with a set. */
+typedef struct vbnl_vl_file_header {
+    uint32_t version;             /* filled by load; save always writes VBNL_VL_FILE_VERSION */
+    uint64_t fingerprint;
+    uint32_t virtual_lights;
+    uint32_t profile_resolution;
+    uint64_t photon_paths;
+    uint64_t photon_first, photon_count;
+    double unit;
+    uint64_t seed;
+    uint32_t elimination;
+    float radius_scale;
+    uint32_t material_count;
+} vbnl_vl_file_header;
+
+/* Writes the set (h, vls and the incident data of `profiles`, whose VL count and unit must match)
+ * to `path` atomically. profile_resolution and glossy flags come from `profiles`' map and
+ * layout. The incident maps must not have been released (VBNL_ERR_STATE). */
+vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, const vbnl_vl_set *vls,
+                              const vbnl_profile_set *profiles, vbnl_error *err);
+
+/* What a load gives: the set, a map of the file's resolution and the profile set holding the
+ * (summed) incident data, all owned by the struct. */
+typedef struct vbnl_vl_file_data {
+    vbnl_vl_file_header header;   /* after a merge: photon_first 0, photon_count photon_paths */
+    vbnl_vl_set vls;
+    vbnl_hemioct *map;
+    vbnl_profile_set *profiles;
+} vbnl_vl_file_data;
+
+/* Loads one file, or several separated by ':' holding the same set (same scene, parameters and
+ * arrays, bit for bit) with incident data of photon ranges that must together cover
+ * [0, photon_paths) exactly once; their incident data are summed (vbnl_profile_set_merge), which
+ * equals one run over all paths bit for bit. `scene` (committed) is checked against the stored
+ * fingerprint. On failure `out` is left empty. */
+vbnl_result vbnl_vl_file_load(const char *paths, const vbnl_scene *scene, vbnl_vl_file_data *out,
+                              vbnl_error *err);
+/* Frees what a load gave (accepts a zeroed or NULL struct). */
+void vbnl_vl_file_data_free(vbnl_vl_file_data *d);
+
+/* FNV-1a 64 of n bytes continuing from h (start with VBNL_VL_FILE_HASH_INIT): the checksum. */
+uint64_t vbnl_vl_file_hash(uint64_t h, const void *data, size_t n);
+
+#endif

@@ -1,0 +1,538 @@
+/* Saved virtual-light sets (vl_file.h): round trips, damage, versions, scenes, photon ranges. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "rng.h"
+#include "scenes.h"
+#include "vbnl/vbnl.h"
+#include "vl_file.h"
+
+#define W 16u
+#define H 16u
+#define LIGHTS "virtual_lights=2000"
+#define PHOTONS "photon_paths=100000"
+
+typedef struct fixture {
+    vbnl_context *ctx;
+    vbnl_scene *scene;
+    char dir[256];
+} fixture;
+
+static int setup(void **state)
+{
+    fixture *f = calloc(1, sizeof(*f));
+    vbnl_context_desc d = {2};
+    vbnl_context_create(&d, &f->ctx, NULL);
+    f->scene = ts_box_scene(f->ctx, 1.0f);
+    assert_int_equal(vbnl_scene_commit(f->scene, NULL), VBNL_OK);
+    snprintf(f->dir, sizeof(f->dir), "/tmp/vbnl-vlfile-XXXXXX");
+    assert_non_null(mkdtemp(f->dir));
+    *state = f;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    fixture *f = *state;
+    DIR *d = opendir(f->dir);
+    struct dirent *e;
+    char p[600];
+    while (d && (e = readdir(d))) {
+        if (e->d_name[0] == '.')
+            continue;
+        snprintf(p, sizeof(p), "%s/%s", f->dir, e->d_name);
+        if (unlink(p) != 0)
+            rmdir(p);
+    }
+    if (d)
+        closedir(d);
+    rmdir(f->dir);
+    vbnl_scene_destroy(f->scene);
+    vbnl_context_destroy(f->ctx);
+    free(f);
+    return 0;
+}
+
+static void path_in(const fixture *f, const char *name, char *out, size_t n)
+{
+    snprintf(out, n, "%s/%s", f->dir, name);
+}
+
+/* Renders with the vbnl integrator and the given settings; returns the beauty RGBA (or NULL
+ * with *res and err filled when create/prepare/render fails). spp 0: prepare only. */
+static float *run(const fixture *f, const vbnl_scene *scene, uint32_t spp, const char *const *settings,
+                  vbnl_result *res, vbnl_error *err)
+{
+    vbnl_params *p;
+    vbnl_params_create(&p, NULL);
+    for (const char *const *kv = settings; kv && *kv; ++kv)
+        assert_int_equal(vbnl_params_set_text(p, *kv, NULL, NULL), VBNL_OK);
+    vbnl_render_settings rs;
+    vbnl_render_settings_init(&rs);
+    rs.width = W;
+    rs.height = H;
+    rs.spp = spp ? spp : 1;
+    rs.seed = 5;
+    rs.integrator = "vbnl";
+    rs.params = p;
+    vbnl_renderer *r = NULL;
+    float *rgba = NULL;
+    *res = vbnl_renderer_create(f->ctx, scene, &rs, &r, err);
+    if (*res == VBNL_OK)
+        *res = vbnl_renderer_prepare(r, NULL, NULL, err);
+    if (*res == VBNL_OK && spp)
+        *res = vbnl_renderer_render(r, NULL, NULL, err);
+    if (*res == VBNL_OK) {
+        rgba = malloc(sizeof(float) * 4 * W * H);
+        assert_int_equal(vbnl_film_read(vbnl_renderer_film(r), "", rgba, (size_t)4 * W * H, NULL), VBNL_OK);
+    }
+    vbnl_renderer_destroy(r);
+    vbnl_params_destroy(p);
+    return rgba;
+}
+
+static float *run_ok(const fixture *f, uint32_t spp, const char *const *settings)
+{
+    vbnl_result res;
+    vbnl_error err = {0};
+    float *img = run(f, f->scene, spp, settings, &res, &err);
+    if (res != VBNL_OK)
+        fail_msg("%s: %s", vbnl_result_name(res), err.message);
+    return img;
+}
+
+/* Loads a file (list) expecting failure with `code` and `pattern` in the message. */
+static void expect_load_error(const fixture *f, const vbnl_scene *scene, const char *paths, vbnl_result code,
+                              const char *pattern)
+{
+    vbnl_vl_file_data d;
+    vbnl_error err = {0};
+    vbnl_result r = vbnl_vl_file_load(paths, scene ? scene : f->scene, &d, &err);
+    print_message("# %s -> %s: %s\n", paths, vbnl_result_name(r), err.message);
+    assert_int_equal(r, code);
+    if (!strstr(err.message, pattern))
+        fail_msg("message '%s' lacks '%s'", err.message, pattern);
+    assert_null(d.profiles);
+    assert_int_equal(d.vls.count, 0);
+}
+
+static unsigned char *read_all(const char *path, size_t *n)
+{
+    FILE *fp = fopen(path, "rb");
+    assert_non_null(fp);
+    fseek(fp, 0, SEEK_END);
+    *n = (size_t)ftell(fp);
+    fseek(fp, 0, SEEK_SET);
+    unsigned char *b = malloc(*n);
+    assert_int_equal(fread(b, 1, *n, fp), *n);
+    fclose(fp);
+    return b;
+}
+
+static void write_all(const char *path, const void *b, size_t n)
+{
+    FILE *fp = fopen(path, "wb");
+    assert_non_null(fp);
+    assert_int_equal(fwrite(b, 1, n, fp), n);
+    fclose(fp);
+}
+
+/* A synthetic set (half the lights glossy) with random deposits, saved and loaded: every array
+ * and every fixed-point value comes back bit for bit. */
+static void test_round_trip_arrays(void **state)
+{
+    fixture *f = *state;
+    const uint32_t n = 701;
+    vbnl_vl_set vls;
+    assert_int_equal(vbnl_vl_set_alloc(&vls, n, NULL), VBNL_OK);
+    uint8_t *glossy = malloc(n);
+    vbnl_rng rng = vbnl_rng_for(11, 0, 0);
+    for (uint32_t j = 0; j < n; ++j) {
+        vls.position[j] = v3(vbnl_rng_next(&rng), 2.0f * vbnl_rng_next(&rng), -vbnl_rng_next(&rng));
+        vls.normal[j] = v3_norm(v3(vbnl_rng_next(&rng) - 0.5f, 1.0f, vbnl_rng_next(&rng) - 0.5f));
+        vls.material[j] = j % f->scene->material_count;
+        vls.radius[j] = 0.01f + 0.1f * vbnl_rng_next(&rng);
+        vls.density[j] = 1.0f / vls.radius[j];
+        glossy[j] = (uint8_t)(j % 2);
+    }
+    vbnl_hemioct *map;
+    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    vbnl_profile_set *ps;
+    assert_int_equal(vbnl_profile_set_create_fixed(map, n, glossy, 0x1p-30, &ps), VBNL_OK);
+    for (int k = 0; k < 20000; ++k) {
+        uint32_t j = (uint32_t)(vbnl_rng_next(&rng) * n) % n;
+        vec3 wi = v3_norm(v3(vbnl_rng_next(&rng) - 0.5f, vbnl_rng_next(&rng) - 0.5f, vbnl_rng_next(&rng) + 0.05f));
+        vbnl_profile_deposit(ps, j, wi, v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), 0.5f));
+    }
+    vbnl_vl_file_header h;
+    memset(&h, 0, sizeof(h));
+    h.fingerprint = vbnl_scene_fingerprint(f->scene);
+    h.virtual_lights = 800;
+    h.profile_resolution = 16;
+    h.photon_paths = 1000;
+    h.photon_count = 1000;
+    h.unit = 0x1p-30;
+    h.seed = 77;
+    h.elimination = 2;
+    h.radius_scale = 2.0f;
+    h.material_count = f->scene->material_count;
+    char path[400];
+    path_in(f, "set.vls", path, sizeof(path));
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_OK);
+
+    vbnl_vl_file_data d;
+    if (vbnl_vl_file_load(path, f->scene, &d, &err) != VBNL_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(d.vls.count, n);
+    assert_int_equal(d.header.version, VBNL_VL_FILE_VERSION);
+    assert_int_equal(d.header.virtual_lights, 800);
+    assert_int_equal(d.header.seed, 77);
+    assert_int_equal(d.header.photon_paths, 1000);
+    assert_true(d.header.unit == 0x1p-30);
+    assert_true(d.header.radius_scale == 2.0f);
+    assert_memory_equal(d.vls.position, vls.position, sizeof(vec3) * n);
+    assert_memory_equal(d.vls.normal, vls.normal, sizeof(vec3) * n);
+    assert_memory_equal(d.vls.material, vls.material, sizeof(uint32_t) * n);
+    assert_memory_equal(d.vls.radius, vls.radius, sizeof(float) * n);
+    assert_memory_equal(d.vls.density, vls.density, sizeof(float) * n);
+    uint64_t nonzero = 0;
+    for (uint32_t j = 0; j < n; ++j) {
+        assert_int_equal(vbnl_profile_is_glossy(d.profiles, j), glossy[j]);
+        assert_memory_equal(vbnl_profile_incident_power_fixed(d.profiles, j),
+                            vbnl_profile_incident_power_fixed(ps, j), 3 * sizeof(uint64_t));
+        nonzero += vbnl_profile_incident_power_fixed(ps, j)[0] != 0;
+        if (glossy[j])
+            assert_memory_equal(vbnl_profile_incident_map_fixed(d.profiles, j),
+                                vbnl_profile_incident_map_fixed(ps, j), 3 * 256 * sizeof(uint64_t));
+    }
+    assert_true(nonzero > n / 2); /* the comparison saw real data */
+    vbnl_vl_file_data_free(&d);
+    vbnl_profile_set_destroy(ps);
+    vbnl_hemioct_destroy(map);
+    vbnl_vl_set_free(&vls);
+    free(glossy);
+}
+
+/* Render and save; load in a new renderer: the same film, bit for bit (same seed). */
+static void test_round_trip_render(void **state)
+{
+    fixture *f = *state;
+    char path[400], set[420], load[420];
+    path_in(f, "render.vls", path, sizeof(path));
+    snprintf(set, sizeof(set), "save_lights=%s", path);
+    snprintf(load, sizeof(load), "load_lights=%s", path);
+    const char *const save_settings[] = {LIGHTS, PHOTONS, set, NULL};
+    float *a = run_ok(f, 2, save_settings);
+    /* different preparation parameters are ignored: the file's set is used */
+    const char *const load_settings[] = {load, "virtual_lights=50", "photon_paths=7", NULL};
+    float *b = run_ok(f, 2, load_settings);
+    double sum = 0.0;
+    for (uint32_t i = 0; i < 4 * W * H; ++i)
+        sum += a[i];
+    assert_true(sum > 0.0);
+    assert_memory_equal(a, b, sizeof(float) * 4 * W * H);
+    /* and the view of the lights renders from the file too */
+    const char *const view_settings[] = {load, "view=lights", NULL};
+    float *c = run_ok(f, 1, view_settings);
+    free(c);
+    free(a);
+    free(b);
+}
+
+/* Damage is found by the checksum before anything else is believed. */
+static void test_damaged(void **state)
+{
+    fixture *f = *state;
+    char path[400], set[420], bad[400];
+    path_in(f, "good.vls", path, sizeof(path));
+    snprintf(set, sizeof(set), "save_lights=%s", path);
+    const char *const settings[] = {LIGHTS, "photon_paths=20000", set, NULL};
+    free(run_ok(f, 0, settings));
+    size_t n;
+    unsigned char *b = read_all(path, &n);
+    assert_true(n > 1000);
+    path_in(f, "bad.vls", bad, sizeof(bad));
+    /* one flipped byte in the arrays, in the header, in the version field, in the checksum */
+    const size_t where[] = {n / 2, 20, 8, n - 3};
+    for (size_t k = 0; k < sizeof(where) / sizeof(where[0]); ++k) {
+        b[where[k]] ^= 0x10;
+        write_all(bad, b, n);
+        b[where[k]] ^= 0x10;
+        expect_load_error(f, NULL, bad, VBNL_ERR_CORRUPT, "is damaged (checksum mismatch)");
+    }
+    /* truncated */
+    write_all(bad, b, n - 100);
+    expect_load_error(f, NULL, bad, VBNL_ERR_CORRUPT, "is damaged (truncated");
+    write_all(bad, b, 40);
+    expect_load_error(f, NULL, bad, VBNL_ERR_CORRUPT, "is damaged");
+    /* not ours at all */
+    write_all(bad, "hello, world\n", 13);
+    expect_load_error(f, NULL, bad, VBNL_ERR_CORRUPT, "is not a virtual-light file");
+    write_all(bad, "", 0);
+    expect_load_error(f, NULL, bad, VBNL_ERR_CORRUPT, "is not a virtual-light file");
+    path_in(f, "missing.vls", bad, sizeof(bad));
+    expect_load_error(f, NULL, bad, VBNL_ERR_IO, "cannot read");
+    /* through the integrator: prepare fails with the same error */
+    char load[420];
+    snprintf(load, sizeof(load), "load_lights=%s", path);
+    b[n / 3] ^= 1;
+    write_all(path, b, n);
+    const char *const load_settings[] = {load, NULL};
+    vbnl_result res;
+    vbnl_error err = {0};
+    assert_null(run(f, f->scene, 1, load_settings, &res, &err));
+    assert_int_equal(res, VBNL_ERR_CORRUPT);
+    assert_non_null(strstr(err.message, "checksum mismatch"));
+    free(b);
+}
+
+/* A file of another format version (with a valid checksum) is named as such. */
+static void test_wrong_version(void **state)
+{
+    fixture *f = *state;
+    char path[400], set[420];
+    path_in(f, "v.vls", path, sizeof(path));
+    snprintf(set, sizeof(set), "save_lights=%s", path);
+    const char *const settings[] = {LIGHTS, "photon_paths=20000", set, NULL};
+    free(run_ok(f, 0, settings));
+    size_t n;
+    unsigned char *b = read_all(path, &n);
+    uint32_t v;
+    memcpy(&v, b + 8, 4);
+    assert_int_equal(v, VBNL_VL_FILE_VERSION);
+    v = 3;
+    memcpy(b + 8, &v, 4);
+    uint64_t h = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, b, n - 8);
+    memcpy(b + n - 8, &h, 8);
+    write_all(path, b, n);
+    expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 3; this build reads version 1");
+    free(b);
+}
+
+/* Another scene is refused; another camera is not another scene. */
+static void test_other_scene(void **state)
+{
+    fixture *f = *state;
+    char path[400], set[420];
+    path_in(f, "scene.vls", path, sizeof(path));
+    snprintf(set, sizeof(set), "save_lights=%s", path);
+    const char *const settings[] = {LIGHTS, "photon_paths=20000", set, NULL};
+    free(run_ok(f, 0, settings));
+
+    /* the same box with one more sphere */
+    vbnl_scene *other = ts_box_scene(f->ctx, 1.0f);
+    float c[3] = {-0.5f, 0.3f, 0.2f};
+    vbnl_scene_add_sphere(other, c, 0.2f, 0, VBNL_GROUP_WORLD, NULL, NULL);
+    assert_int_equal(vbnl_scene_commit(other, NULL), VBNL_OK);
+    assert_true(vbnl_scene_fingerprint(other) != vbnl_scene_fingerprint(f->scene));
+    expect_load_error(f, other, path, VBNL_ERR_INVALID_ARGUMENT, "was prepared for another scene (fingerprint");
+    vbnl_scene_destroy(other);
+
+    /* the same box with a slightly different light */
+    other = ts_box_scene(f->ctx, 1.0f);
+    vbnl_area_light_desc al;
+    memset(&al, 0, sizeof(al));
+    al.corner[0] = 0.5f;
+    al.corner[1] = 1.9f;
+    al.edge_u[0] = 0.1f;
+    al.edge_v[2] = 0.1f;
+    al.radiance[0] = 1.0f;
+    vbnl_scene_add_area_light(other, &al, NULL, NULL);
+    assert_int_equal(vbnl_scene_commit(other, NULL), VBNL_OK);
+    expect_load_error(f, other, path, VBNL_ERR_INVALID_ARGUMENT, "was prepared for another scene");
+    vbnl_scene_destroy(other);
+
+    /* same scene, another viewpoint: accepted */
+    other = ts_box_scene(f->ctx, 1.0f);
+    float pos[3] = {0.5f, 1.5f, 0.5f}, target[3] = {0, 0, -1}, up[3] = {0, 1, 0};
+    vbnl_camera_desc cam;
+    vbnl_camera_look_at(&cam, pos, target, up, 50.0f, 1.0f, NULL);
+    vbnl_scene_set_camera(other, &cam, NULL);
+    assert_int_equal(vbnl_scene_commit(other, NULL), VBNL_OK);
+    assert_true(vbnl_scene_fingerprint(other) == vbnl_scene_fingerprint(f->scene));
+    vbnl_vl_file_data d;
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_vl_file_load(path, other, &d, &err), VBNL_OK);
+    vbnl_vl_file_data_free(&d);
+    vbnl_scene_destroy(other);
+}
+
+/* Photon ranges [0, k) and [k, N) in two runs, summed on load, equal one run over [0, N): the
+ * incident data and the rendered film bit for bit. Overlaps and gaps are refused. */
+static void test_photon_ranges_merge(void **state)
+{
+    fixture *f = *state;
+    char full[400], p1[400], p2[400], p3[400], s[4][420];
+    path_in(f, "full.vls", full, sizeof(full));
+    path_in(f, "r1.vls", p1, sizeof(p1));
+    path_in(f, "r2.vls", p2, sizeof(p2));
+    path_in(f, "r3.vls", p3, sizeof(p3));
+    snprintf(s[0], sizeof(s[0]), "save_lights=%s", full);
+    snprintf(s[1], sizeof(s[1]), "save_lights=%s", p1);
+    snprintf(s[2], sizeof(s[2]), "save_lights=%s", p2);
+    snprintf(s[3], sizeof(s[3]), "save_lights=%s", p3);
+    const char *const a[] = {LIGHTS, PHOTONS, s[0], NULL};
+    /* a range that is not a multiple of the splitting chunk (4096) */
+    const char *const b[] = {LIGHTS, PHOTONS, s[1], "photon_count=37001", NULL};
+    const char *const c[] = {LIGHTS, PHOTONS, s[2], "photon_first=37001", NULL};
+    const char *const d3[] = {LIGHTS, PHOTONS, s[3], "photon_first=30000", "photon_count=10000", NULL};
+    float *img_full = run_ok(f, 2, a);
+    free(run_ok(f, 0, b));
+    free(run_ok(f, 0, c));
+    free(run_ok(f, 0, d3));
+
+    vbnl_vl_file_data one, sum;
+    vbnl_error err = {0};
+    char list[1300];
+    snprintf(list, sizeof(list), "%s:%s", p2, p1); /* any order */
+    assert_int_equal(vbnl_vl_file_load(full, f->scene, &one, &err), VBNL_OK);
+    if (vbnl_vl_file_load(list, f->scene, &sum, &err) != VBNL_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(sum.header.photon_first, 0);
+    assert_int_equal(sum.header.photon_count, 100000);
+    assert_int_equal(one.vls.count, sum.vls.count);
+    uint32_t n = one.vls.count, glossy = 0;
+    const uint32_t texels = vbnl_hemioct_texel_count(one.map);
+    uint64_t total = 0;
+    for (uint32_t j = 0; j < n; ++j) {
+        assert_memory_equal(vbnl_profile_incident_power_fixed(one.profiles, j),
+                            vbnl_profile_incident_power_fixed(sum.profiles, j), 3 * sizeof(uint64_t));
+        total += vbnl_profile_incident_power_fixed(one.profiles, j)[1];
+        if (vbnl_profile_is_glossy(one.profiles, j)) {
+            ++glossy;
+            assert_memory_equal(vbnl_profile_incident_map_fixed(one.profiles, j),
+                                vbnl_profile_incident_map_fixed(sum.profiles, j), 3 * texels * sizeof(uint64_t));
+        }
+    }
+    print_message("# %u lights, %u glossy\n", n, glossy);
+    assert_true(total > 0 && glossy > 0);
+    vbnl_vl_file_data_free(&one);
+    vbnl_vl_file_data_free(&sum);
+
+    char load[1320];
+    snprintf(load, sizeof(load), "load_lights=%s", list);
+    const char *const l[] = {load, NULL};
+    float *img_sum = run_ok(f, 2, l);
+    assert_memory_equal(img_full, img_sum, sizeof(float) * 4 * W * H);
+
+    /* overlap: r3 = [30000, 40000) meets r1 = [0, 37001) */
+    snprintf(list, sizeof(list), "%s:%s:%s", p1, p3, p2);
+    expect_load_error(f, NULL, list, VBNL_ERR_INVALID_ARGUMENT, "would count those photons twice");
+    snprintf(list, sizeof(list), "%s:%s", p1, p1);
+    expect_load_error(f, NULL, list, VBNL_ERR_INVALID_ARGUMENT, "twice");
+    /* gaps: one range alone, or two that leave [37001, 30000 + ...) out */
+    expect_load_error(f, NULL, p1, VBNL_ERR_INVALID_ARGUMENT, "leave [37001, 100000) of the 100000 paths");
+    snprintf(list, sizeof(list), "%s:%s", p3, p2);
+    expect_load_error(f, NULL, list, VBNL_ERR_INVALID_ARGUMENT, "leave [0, 30000)");
+    /* another preparation (another seed of the lights) does not sum */
+    char other[400], so[420];
+    path_in(f, "other.vls", other, sizeof(other));
+    snprintf(so, sizeof(so), "save_lights=%s", other);
+    const char *const o[] = {"virtual_lights=1900", PHOTONS, so, "photon_first=37001", NULL};
+    free(run_ok(f, 0, o));
+    snprintf(list, sizeof(list), "%s:%s", p1, other);
+    expect_load_error(f, NULL, list, VBNL_ERR_INVALID_ARGUMENT, "holds another virtual-light set");
+    /* the integrator refuses ranges outside photon_paths and ranges with load_lights */
+    const char *const bad1[] = {LIGHTS, PHOTONS, "photon_first=100000", NULL};
+    const char *const bad2[] = {load, "photon_count=5", NULL};
+    vbnl_result res;
+    assert_null(run(f, f->scene, 0, bad1, &res, &err));
+    assert_int_equal(res, VBNL_ERR_INVALID_ARGUMENT);
+    assert_null(run(f, f->scene, 0, bad2, &res, &err));
+    assert_int_equal(res, VBNL_ERR_INVALID_ARGUMENT);
+    free(img_full);
+    free(img_sum);
+}
+
+static int count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    int n = 0;
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        n += e->d_name[0] != '.';
+    if (d)
+        closedir(d);
+    return n;
+}
+
+/* An unwritable path fails with VBNL_ERR_IO and leaves no file (not even the temporary). */
+static void test_unwritable(void **state)
+{
+    fixture *f = *state;
+    vbnl_vl_set vls;
+    assert_int_equal(vbnl_vl_set_alloc(&vls, 3, NULL), VBNL_OK);
+    for (uint32_t j = 0; j < 3; ++j) {
+        vls.position[j] = v3((float)j, 0, 0);
+        vls.normal[j] = v3(0, 1, 0);
+        vls.material[j] = 0;
+        vls.radius[j] = vls.density[j] = 1.0f;
+    }
+    vbnl_hemioct *map;
+    assert_int_equal(vbnl_hemioct_create(8, &map), VBNL_OK);
+    vbnl_profile_set *ps;
+    assert_int_equal(vbnl_profile_set_create(map, 3, NULL, &ps), VBNL_OK);
+    vbnl_vl_file_header h;
+    memset(&h, 0, sizeof(h));
+    h.profile_resolution = 8;
+    h.photon_paths = h.photon_count = 1;
+    h.unit = VBNL_PROFILE_DEFAULT_UNIT;
+    vbnl_error err = {0};
+    char sub[400], path[500];
+    /* a folder that does not exist */
+    path_in(f, "no/such/folder/x.vls", path, sizeof(path));
+    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_ERR_IO);
+    assert_non_null(strstr(err.message, "cannot write"));
+    /* the final rename fails (the path is a folder): the temporary is removed */
+    path_in(f, "sub", sub, sizeof(sub));
+    assert_int_equal(mkdir(sub, 0755), 0);
+    snprintf(path, sizeof(path), "%s/x.vls", sub);
+    assert_int_equal(mkdir(path, 0755), 0);
+    int before = count_entries(sub);
+    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_ERR_IO);
+    print_message("# %s\n", err.message);
+    assert_int_equal(count_entries(sub), before);
+    rmdir(path);
+    assert_int_equal(count_entries(sub), 0);
+    /* and it works when the path is writable, leaving exactly one file */
+    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_OK);
+    assert_int_equal(count_entries(sub), 1);
+    unlink(path);
+    rmdir(sub);
+    /* through the integrator */
+    char set[520];
+    path_in(f, "no/such/folder/y.vls", path, sizeof(path));
+    snprintf(set, sizeof(set), "save_lights=%s", path);
+    const char *const settings[] = {LIGHTS, "photon_paths=20000", set, NULL};
+    vbnl_result res;
+    assert_null(run(f, f->scene, 0, settings, &res, &err));
+    assert_int_equal(res, VBNL_ERR_IO);
+    vbnl_profile_set_destroy(ps);
+    vbnl_hemioct_destroy(map);
+    vbnl_vl_set_free(&vls);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_round_trip_arrays, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_round_trip_render, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_damaged, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_wrong_version, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_other_scene, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_photon_ranges_merge, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_unwritable, setup, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
