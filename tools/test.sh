@@ -4,7 +4,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 source "$here/tools/deps.sh"
-vbnl_install_deps
+vbnl_install_deps povray-includes povray-examples ${VBNL_EXTRA_PACKAGES:-}
 build=${VBNL_BUILD_DIR:-$here/build}
 [ -f "$build/build.ninja" ] || meson setup "$build" "$here" --buildtype=release ${VBNL_MESON_ARGS:-} >/dev/null
 ninja -C "$build"

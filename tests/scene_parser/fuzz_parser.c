@@ -5,7 +5,7 @@
  *   clang -g -O1 -fsanitize=fuzzer,address,undefined -D_GNU_SOURCE -I core/include -I scene_parser \
  *         -I scene_parser/include scene_parser/sdl_*.c core/src/error.c \
  *         tests/scene_parser/fuzz_parser.c -lm -lpthread -o fuzz_parser
- *   ./fuzz_parser -max_len=4096 corpus_dir /usr/share/povray-3.7/include
+ *   ./fuzz_parser -dict=tests/scene_parser/sdl.dict -max_len=8192 corpus_dir /usr/share/povray-3.7/include
  * Crashes become regression inputs in tests/scene_parser/regressions/ (test_sdl_regressions). */
 #include <stddef.h>
 #include <stdint.h>
@@ -21,8 +21,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     vbnl_sdl_limits l;
     vbnl_sdl_limits_default(&l);
-    l.max_loop_iterations = 20000;
-    l.max_tokens = 400000;
+    l.max_loop_iterations = 2000;
+    l.max_tokens = 50000;
     l.max_memory = (size_t)64 << 20;
     l.max_macro_depth = 64;
     l.max_nesting = 200;

@@ -10,7 +10,9 @@
 #include "vbnl/sdl.h"
 
 /* Parses `text` as "test.pov"; returns the parser (caller destroys) and the result in *r. */
-static vbnl_sdl_parser *sdl_t_parse(const char *text, vbnl_result *r)
+#define SDL_T_UNUSED __attribute__((unused))
+
+SDL_T_UNUSED static vbnl_sdl_parser *sdl_t_parse(const char *text, vbnl_result *r)
 {
     vbnl_sdl_parser *p = NULL;
     assert_int_equal(vbnl_sdl_parser_create(&p, NULL), VBNL_OK);
@@ -20,7 +22,7 @@ static vbnl_sdl_parser *sdl_t_parse(const char *text, vbnl_result *r)
 }
 
 /* Parses text that must succeed. */
-static vbnl_sdl_parser *sdl_t_ok(const char *text)
+SDL_T_UNUSED static vbnl_sdl_parser *sdl_t_ok(const char *text)
 {
     vbnl_result r;
     vbnl_sdl_parser *p = sdl_t_parse(text, &r);
@@ -33,7 +35,7 @@ static vbnl_sdl_parser *sdl_t_ok(const char *text)
 }
 
 /* The full text of the error diagnostic (the parse must have failed). */
-static const char *sdl_t_error_text(vbnl_sdl_parser *p)
+SDL_T_UNUSED static const char *sdl_t_error_text(vbnl_sdl_parser *p)
 {
     for (size_t i = 0; i < vbnl_sdl_diag_count(p); i++)
         if (vbnl_sdl_diag_get(p, i)->severity == VBNL_SDL_ERROR)
@@ -42,7 +44,7 @@ static const char *sdl_t_error_text(vbnl_sdl_parser *p)
     return "";
 }
 
-static const vbnl_sdl_diag *sdl_t_find_diag(vbnl_sdl_parser *p, vbnl_sdl_severity sev)
+SDL_T_UNUSED static const vbnl_sdl_diag *sdl_t_find_diag(vbnl_sdl_parser *p, vbnl_sdl_severity sev)
 {
     for (size_t i = 0; i < vbnl_sdl_diag_count(p); i++)
         if (vbnl_sdl_diag_get(p, i)->severity == sev)
@@ -51,7 +53,7 @@ static const vbnl_sdl_diag *sdl_t_find_diag(vbnl_sdl_parser *p, vbnl_sdl_severit
 }
 
 /* Parses text that must fail and checks the complete error text. */
-static void sdl_t_expect_error(const char *text, const char *expected)
+SDL_T_UNUSED static void sdl_t_expect_error(const char *text, const char *expected)
 {
     vbnl_result r;
     vbnl_sdl_parser *p = sdl_t_parse(text, &r);
@@ -60,7 +62,7 @@ static void sdl_t_expect_error(const char *text, const char *expected)
     vbnl_sdl_parser_destroy(p);
 }
 
-static double sdl_t_float(vbnl_sdl_parser *p, const char *name)
+SDL_T_UNUSED static double sdl_t_float(vbnl_sdl_parser *p, const char *name)
 {
     const vbnl_sdl_value *v = vbnl_sdl_lookup(p, name);
     if (!v)
@@ -70,7 +72,7 @@ static double sdl_t_float(vbnl_sdl_parser *p, const char *name)
     return v->v[0];
 }
 
-static const vbnl_sdl_value *sdl_t_value(vbnl_sdl_parser *p, const char *name, vbnl_sdl_kind kind)
+SDL_T_UNUSED static const vbnl_sdl_value *sdl_t_value(vbnl_sdl_parser *p, const char *name, vbnl_sdl_kind kind)
 {
     const vbnl_sdl_value *v = vbnl_sdl_lookup(p, name);
     if (!v)
@@ -80,14 +82,14 @@ static const vbnl_sdl_value *sdl_t_value(vbnl_sdl_parser *p, const char *name, v
     return v;
 }
 
-static const char *sdl_t_string(vbnl_sdl_parser *p, const char *name)
+SDL_T_UNUSED static const char *sdl_t_string(vbnl_sdl_parser *p, const char *name)
 {
     return sdl_t_value(p, name, VBNL_SDL_STRING)->u.str.s;
 }
 
 #define SDL_T_NEAR(a, b) assert_true(fabs((double)(a) - (double)(b)) < 1e-9)
 
-static void sdl_t_vec(vbnl_sdl_parser *p, const char *name, int dim, double a, double b, double c)
+SDL_T_UNUSED static void sdl_t_vec(vbnl_sdl_parser *p, const char *name, int dim, double a, double b, double c)
 {
     const vbnl_sdl_value *v = sdl_t_value(p, name, VBNL_SDL_VECTOR);
     assert_int_equal(v->dim, dim);

@@ -251,6 +251,26 @@ static void test_functions(void **state)
     vbnl_sdl_parser_destroy(p);
 }
 
+static void test_splines(void **state)
+{
+    (void)state;
+    vbnl_sdl_parser *p = sdl_t_ok("#declare S = spline { linear_spline 0, <0,0,0> 1, <10,20,30>, 2, <0,0,0> }\n"
+                                  "#declare A = S(0.5);\n#declare B = S(1.5);\n#declare C = S(-1);\n"
+                                  "#declare Cu = spline { cubic_spline -1, <-1,-1> 0, <0,0> 1, <1,1> 2, <2,2> 3, <3,3> }\n"
+                                  "#declare E = Cu(0.5);\n#declare F = Cu(2.5);\n"
+                                  "#declare N = spline { natural_spline 0, 0 1, 1 2, 0 }\n"
+                                  "#declare G = N(1);\n"
+                                  "#declare S2 = spline { S }\n#declare H = S2(1);\n");
+    sdl_t_vec(p, "A", 3, 5, 10, 15);
+    sdl_t_vec(p, "B", 3, 5, 10, 15);
+    sdl_t_vec(p, "C", 3, 0, 0, 0);
+    sdl_t_vec(p, "E", 2, 0.5, 0.5, 0); /* Catmull-Rom on a line stays on it */
+    sdl_t_vec(p, "F", 2, 2, 2, 0);     /* cubic: defined between the 2nd and 2nd-last keys */
+    SDL_T_NEAR(sdl_t_float(p, "G"), 1);
+    sdl_t_vec(p, "H", 3, 10, 20, 30);
+    vbnl_sdl_parser_destroy(p);
+}
+
 static void test_builtin_identifiers(void **state)
 {
     (void)state;
@@ -297,7 +317,7 @@ int main(void)
         cmocka_unit_test(test_math_builtins),     cmocka_unit_test(test_vector_builtins),
         cmocka_unit_test(test_rand_deterministic), cmocka_unit_test(test_arrays),
         cmocka_unit_test(test_functions),         cmocka_unit_test(test_builtin_identifiers),
-        cmocka_unit_test(test_comments_and_numbers),
+        cmocka_unit_test(test_comments_and_numbers), cmocka_unit_test(test_splines),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -108,6 +108,7 @@ typedef enum vbnl_sdl_kind {
     VBNL_SDL_BLOCK,    /* unevaluated { } block kept by the skip fallback */
     VBNL_SDL_MACRO,    /* only seen through vbnl_sdl_lookup */
     VBNL_SDL_RNG,      /* not produced: seed() returns a FLOAT stream handle, as in POV-Ray */
+    VBNL_SDL_SPLINE,   /* spline { ... }: S(t) evaluates it */
 } vbnl_sdl_kind;
 
 /* Type record of an opaque object-layer value. copy returns NULL on allocation failure. */
@@ -122,6 +123,7 @@ typedef struct vbnl_sdl_array vbnl_sdl_array;
 typedef struct vbnl_sdl_function vbnl_sdl_function;
 typedef struct vbnl_sdl_block vbnl_sdl_block;
 typedef struct vbnl_sdl_macro vbnl_sdl_macro;
+typedef struct vbnl_sdl_spline vbnl_sdl_spline;
 
 typedef struct vbnl_sdl_value {
     vbnl_sdl_kind kind;
@@ -134,6 +136,7 @@ typedef struct vbnl_sdl_value {
         struct { void *ptr; const vbnl_sdl_opaque_type *type; int tag; } obj; /* OBJECT */
         vbnl_sdl_block *block;                          /* BLOCK: shared, refcounted */
         vbnl_sdl_macro *macro;                          /* MACRO: owned by the symbol table */
+        vbnl_sdl_spline *spline;                        /* SPLINE: shared, refcounted */
     } u;
 } vbnl_sdl_value;
 
@@ -216,8 +219,8 @@ void vbnl_sdl_set_hooks(vbnl_sdl_parser *p, const vbnl_sdl_hooks *hooks);
  * for includes ("scene.pov" -> "."). On failure `err` holds the first line of the error
  * diagnostic. Symbols persist after the call (vbnl_sdl_lookup). */
 vbnl_result vbnl_sdl_parse_file(vbnl_sdl_parser *p, const char *path, vbnl_error *err);
-vbnl_result vbnl_sdl_parse_string(vbnl_sdl_parser *p, const char *name, const char *text,
-                                  size_t len, vbnl_error *err);
+vbnl_result vbnl_sdl_parse_text(vbnl_sdl_parser *p, const char *name, const char *text,
+                                size_t len, vbnl_error *err);
 
 size_t vbnl_sdl_diag_count(const vbnl_sdl_parser *p);
 const vbnl_sdl_diag *vbnl_sdl_diag_get(const vbnl_sdl_parser *p, size_t i);
@@ -251,6 +254,9 @@ vbnl_result vbnl_sdl_parse_vector(vbnl_sdl_parser *p, int dim, double *out);
 /* [color|colour] followed by rgb/rgbf/rgbt/rgbft/red/green/blue/filter/transmit/expression. */
 vbnl_result vbnl_sdl_parse_color(vbnl_sdl_parser *p, double out[5]);
 vbnl_result vbnl_sdl_parse_string(vbnl_sdl_parser *p, char **out); /* caller frees */
+/* What may follow '=' in #declare: an expression, array, function, spline, or (through the
+ * rvalue hook / the block fallback) an object-layer value. *out is owned by the caller. */
+vbnl_result vbnl_sdl_parse_rvalue(vbnl_sdl_parser *p, vbnl_sdl_value *out);
 /* Skips `{ ... }` (balanced; directives and macros still run). Positioned on '{'. */
 vbnl_result vbnl_sdl_skip_block(vbnl_sdl_parser *p);
 

@@ -1,0 +1,283 @@
+/* vbnl scene parser: diagnostics (formatting with source line, caret and include/macro chain). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "sdl_internal.h"
+
+#define VBNL_SDL_MAX_STORED_DIAGS 1000
+
+/* Placeholder when a strdup failed; never freed (an empty message may be allocated). */
+static const char no_text[] = "";
+
+typedef struct sbuf {
+    char *s;
+    size_t n, cap;
+} sbuf;
+
+static void sb_add(sbuf *b, const char *s, size_t n)
+{
+    if (!b->s && b->cap == (size_t)-1)
+        return;
+    if (b->n + n + 1 > b->cap) {
+        size_t cap = (b->n + n + 1) * 2;
+        char *q = realloc(b->s, cap);
+        if (!q) {
+            free(b->s);
+            b->s = NULL;
+            b->cap = (size_t)-1;
+            return;
+        }
+        b->s = q;
+        b->cap = cap;
+    }
+    memcpy(b->s + b->n, s, n);
+    b->n += n;
+    b->s[b->n] = 0;
+}
+
+static void sb_printf(sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void sb_printf(sbuf *b, const char *fmt, ...)
+{
+    char tmp[1400];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(tmp, sizeof tmp, fmt, ap);
+    va_end(ap);
+    if (n < 0)
+        return;
+    sb_add(b, tmp, (size_t)n < sizeof tmp ? (size_t)n : sizeof tmp - 1);
+}
+
+static const sdl_file *find_file(vbnl_sdl_parser *p, const char *name)
+{
+    for (sdl_file *f = p->files; f; f = f->next)
+        if (f->name == name)
+            return f;
+    return NULL;
+}
+
+static void add_source_line(vbnl_sdl_parser *p, sbuf *b, const vbnl_sdl_loc *loc)
+{
+    const sdl_file *f = find_file(p, loc->file);
+    if (!f || loc->line < 1)
+        return;
+    const char *s = f->text, *end = f->text + f->len;
+    for (int l = 1; l < loc->line && s < end; s++)
+        if (*s == '\n')
+            l++;
+    const char *e = s;
+    while (e < end && *e != '\n' && *e != '\r')
+        e++;
+    if (s >= end && loc->line > 1)
+        return;
+    size_t n = (size_t)(e - s);
+    if (n > 300)
+        n = 300;
+    sb_add(b, s, n);
+    sb_add(b, "\n", 1);
+    for (int i = 1; i < loc->col && (size_t)(i - 1) < n; i++)
+        sb_add(b, s[i - 1] == '\t' ? "\t" : " ", 1);
+    sb_add(b, "^\n", 2);
+}
+
+void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc *loc,
+                   const char *msg)
+{
+    vbnl_sdl_loc l = loc ? *loc : p->last_loc;
+    if (!l.file)
+        l.file = "";
+    if (sev == VBNL_SDL_WARNING)
+        p->diags.warnings++;
+    /* nobody will see it: a #debug or #warning in a long loop must stay cheap */
+    if (sev != VBNL_SDL_ERROR && !p->diag_fn && p->diags.count >= VBNL_SDL_MAX_STORED_DIAGS)
+        return;
+    static const char *const sevname[] = { "note", "warning", "error" };
+    sbuf b = { 0 };
+    if (l.line > 0)
+        sb_printf(&b, "%s:%d:%d: %s: %s\n", l.file, l.line, l.col, sevname[sev], msg);
+    else
+        sb_printf(&b, "%s: %s: %s\n", l.file[0] ? l.file : "vbnl", sevname[sev], msg);
+    if (sev != VBNL_SDL_NOTE && l.line > 0)
+        add_source_line(p, &b, &l);
+    for (int i = p->nframes - 1; i > 0; i--) {
+        const sdl_frame *f = &p->frames[i];
+        /* deep recursion: the innermost 8 and the outermost 4 levels */
+        if (p->nframes > 13 && i == p->nframes - 9) {
+            sb_printf(&b, "  ... %d more levels ...\n", p->nframes - 13);
+            i = 5;
+            continue;
+        }
+        if (f->kind == SDL_FRAME_MACRO)
+            sb_printf(&b, "  in macro '%s' invoked from %s:%d:%d\n", f->macro->name, f->from.file,
+                      f->from.line, f->from.col);
+        else
+            sb_printf(&b, "  included from %s:%d:%d\n", f->from.file, f->from.line, f->from.col);
+    }
+    if (sev == VBNL_SDL_ERROR) {
+        p->failed = true;
+        if (!p->fail_code)
+            p->fail_code = VBNL_ERR_PARSE;
+        if (l.line > 0)
+            snprintf(p->fail_message, sizeof p->fail_message, "%s:%d:%d: %s", l.file, l.line, l.col, msg);
+        else
+            snprintf(p->fail_message, sizeof p->fail_message, "%s", msg);
+    }
+    vbnl_sdl_diag d = { sev, l, NULL, NULL };
+    char *m = strdup(msg);
+    d.message = m ? m : no_text;
+    d.text = b.s ? b.s : no_text;
+    if (p->diag_fn)
+        p->diag_fn(&d, p->diag_user);
+    sdl_diag_store *st = &p->diags;
+    if (st->count < VBNL_SDL_MAX_STORED_DIAGS || sev == VBNL_SDL_ERROR) {
+        if (st->count == st->cap) {
+            size_t cap = st->cap ? st->cap * 2 : 16;
+            vbnl_sdl_diag *q = realloc(st->items, cap * sizeof *q);
+            if (q) {
+                st->items = q;
+                st->cap = cap;
+            }
+        }
+        if (st->count < st->cap) {
+            st->items[st->count++] = d;
+            return;
+        }
+    }
+    free(m);
+    free(b.s);
+}
+
+void sdl_errorf(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
+{
+    if (p->failed)
+        return;
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    sdl_diag_emit(p, VBNL_SDL_ERROR, loc, msg);
+}
+
+void sdl_warnf(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
+{
+    if (p->failed)
+        return;
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    sdl_diag_emit(p, VBNL_SDL_WARNING, loc, msg);
+}
+
+vbnl_result vbnl_sdl_error(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
+{
+    if (!p)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    if (!p->failed) {
+        char msg[1024];
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(msg, sizeof msg, fmt, ap);
+        va_end(ap);
+        sdl_diag_emit(p, VBNL_SDL_ERROR, loc, msg);
+    }
+    return VBNL_ERR_PARSE;
+}
+
+void vbnl_sdl_warning(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
+{
+    if (!p || p->failed)
+        return;
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    sdl_diag_emit(p, VBNL_SDL_WARNING, loc, msg);
+}
+
+int vbnl_sdl_failed(const vbnl_sdl_parser *p)
+{
+    return !p || p->failed;
+}
+
+void sdl_diag_free(sdl_diag_store *d)
+{
+    for (size_t i = 0; i < d->count; i++) {
+        if (d->items[i].message != no_text)
+            free((char *)d->items[i].message);
+        if (d->items[i].text != no_text)
+            free((char *)d->items[i].text);
+    }
+    free(d->items);
+    memset(d, 0, sizeof *d);
+}
+
+size_t vbnl_sdl_diag_count(const vbnl_sdl_parser *p)
+{
+    return p ? p->diags.count : 0;
+}
+
+const vbnl_sdl_diag *vbnl_sdl_diag_get(const vbnl_sdl_parser *p, size_t i)
+{
+    return p && i < p->diags.count ? &p->diags.items[i] : NULL;
+}
+
+size_t vbnl_sdl_warning_count(const vbnl_sdl_parser *p)
+{
+    return p ? p->diags.warnings : 0;
+}
+
+/* Case-insensitive Levenshtein distance, capped (names are short). */
+static int distance(const char *a, const char *b)
+{
+    size_t na = strlen(a), nb = strlen(b);
+    if (na > 64 || nb > 64)
+        return 100;
+    int row[65];
+    for (size_t j = 0; j <= nb; j++)
+        row[j] = (int)j;
+    for (size_t i = 1; i <= na; i++) {
+        int prev = row[0];
+        row[0] = (int)i;
+        for (size_t j = 1; j <= nb; j++) {
+            int ca = a[i - 1] | 32, cb = b[j - 1] | 32;
+            int cost = ca == cb ? (a[i - 1] == b[j - 1] ? 0 : 0) : 1;
+            int v = prev + cost;
+            if (row[j] + 1 < v) v = row[j] + 1;
+            if (row[j - 1] + 1 < v) v = row[j - 1] + 1;
+            prev = row[j];
+            row[j] = v;
+        }
+    }
+    return row[nb];
+}
+
+static void consider(const char *name, const char *cand, const char **best, int *bestd)
+{
+    if (!cand || cand == name || cand == (const char *)1)
+        return;
+    int d = distance(name, cand);
+    if (d < *bestd || (d == *bestd && *best && strcmp(cand, *best) < 0)) {
+        *bestd = d;
+        *best = cand;
+    }
+}
+
+/* The closest visible identifier or keyword to `name`, or NULL when nothing is close. */
+const char *sdl_suggest(vbnl_sdl_parser *p, const char *name)
+{
+    const char *best = NULL;
+    size_t n = strlen(name);
+    int bestd = n <= 3 ? 2 : (n <= 6 ? 3 : 4);
+    for (int i = p->nframes - 1; i >= 0; i--) {
+        const sdl_table *t = &p->frames[i].locals;
+        for (size_t k = 0; k < t->cap; k++)
+            consider(name, t->slots[k].name, &best, &bestd);
+    }
+    for (size_t k = 0; k < p->globals.cap; k++)
+        consider(name, p->globals.slots[k].name, &best, &bestd);
+    return best;
+}
