@@ -89,6 +89,22 @@ static void grow_bounds(vbnl_scene *s, vec3 p)
     s->bounds_max = v3_max(s->bounds_max, p);
 }
 
+/* A slot for one more light (NULL when out of memory). */
+static vbnl_light *append_light(vbnl_scene *s)
+{
+    if (s->light_count == s->light_capacity) {
+        uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
+        vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
+        if (!nl)
+            return NULL;
+        s->lights = nl;
+        s->light_capacity = cap;
+    }
+    vbnl_light *l = &s->lights[s->light_count++];
+    memset(l, 0, sizeof(*l));
+    return l;
+}
+
 static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
 {
     for (uint32_t gi = 0; gi < s->geom_count; ++gi) {
@@ -126,66 +142,40 @@ static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
                     if (v3_dot(ns, n) < 0.0f)
                         n = v3_neg(n);
                 }
-                vbnl_light l;
-                memset(&l, 0, sizeof(l));
-                l.type = VBNL_LIGHT_TRIANGLE;
-                l.p = p0;
-                l.e0 = v3_sub(p1, p0);
-                l.e1 = v3_sub(p2, p0);
-                l.n = n;
-                l.area = 0.5f * len;
-                l.L = v3_load(mat->desc.emission);
-                l.two_sided = mat->desc.two_sided;
-                vbnl_result r = VBNL_OK;
-                if (s->light_count == s->light_capacity) {
-                    uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
-                    vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
-                    if (!nl)
-                        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-                    s->lights = nl;
-                    s->light_capacity = cap;
-                }
-                (void)r;
-                m->face_lights[t] = s->light_count;
-                s->lights[s->light_count++] = l;
+                vbnl_light *l = append_light(s);
+                if (!l)
+                    return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                l->type = VBNL_LIGHT_TRIANGLE;
+                l->p = p0;
+                l->e0 = v3_sub(p1, p0);
+                l->e1 = v3_sub(p2, p0);
+                l->n = n;
+                l->area = 0.5f * len;
+                l->L = v3_load(mat->desc.emission);
+                l->two_sided = mat->desc.two_sided;
+                m->face_lights[t] = s->light_count - 1;
             }
         } else if (g->kind == SCENE_GEOM_SPHERE && s->materials[g->u.sphere.material].emissive) {
             const scene_material *mat = &s->materials[g->u.sphere.material];
-            vbnl_light l;
-            memset(&l, 0, sizeof(l));
-            l.type = VBNL_LIGHT_SPHERE;
-            l.p = g->u.sphere.center;
-            l.radius = g->u.sphere.radius;
-            l.area = 4.0f * VBNL_PI * l.radius * l.radius;
-            l.L = v3_load(mat->desc.emission);
-            l.two_sided = mat->desc.two_sided;
-            if (s->light_count == s->light_capacity) {
-                uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
-                vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
-                if (!nl)
-                    return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-                s->lights = nl;
-                s->light_capacity = cap;
-            }
-            g->u.sphere.light = s->light_count;
-            s->lights[s->light_count++] = l;
+            vbnl_light *l = append_light(s);
+            if (!l)
+                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+            l->type = VBNL_LIGHT_SPHERE;
+            l->p = g->u.sphere.center;
+            l->radius = g->u.sphere.radius;
+            l->area = 4.0f * VBNL_PI * l->radius * l->radius;
+            l->L = v3_load(mat->desc.emission);
+            l->two_sided = mat->desc.two_sided;
+            g->u.sphere.light = s->light_count - 1;
         }
     }
     if (!v3_is_black(s->env_radiance)) {
-        vbnl_light l;
-        memset(&l, 0, sizeof(l));
-        l.type = VBNL_LIGHT_ENV;
-        l.L = s->env_radiance;
-        if (s->light_count == s->light_capacity) {
-            uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
-            vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
-            if (!nl)
-                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-            s->lights = nl;
-            s->light_capacity = cap;
-        }
-        s->env_light = s->light_count;
-        s->lights[s->light_count++] = l;
+        vbnl_light *l = append_light(s);
+        if (!l)
+            return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        l->type = VBNL_LIGHT_ENV;
+        l->L = s->env_radiance;
+        s->env_light = s->light_count - 1;
     }
     return VBNL_OK;
 }

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "render_internal.h"
+#include "shading.h"
 
 static const vbnl_param_spec path_params[] = {
     {"max_depth", VBNL_PARAM_INT, -1, NULL, -1, 1e6, NULL,
@@ -67,108 +68,57 @@ static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct
 }
 
 /* Traces one camera path whose first hit (if any) is given; writes its sample into out. */
-static void trace(const path_state *ps, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, vbnl_hit hit,
-                  float *out, vbnl_thread_stats *stats)
+static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+                  vbnl_thread_stats *stats)
 {
+    const path_state *ps = state;
     const vbnl_scene *sc = ps->scene;
+    vbnl_hit hit = *first;
     vec3 beta = v3s(1.0f);
-    float prev_pdf = 0.0f;
-    int specular = 1;
-    vec3 prev_p = o;
     out[3] = 1.0f; /* alpha */
+    /* what the camera sees directly */
+    if (!hit_ok) {
+        if (sc->env_light != VBNL_NO_LIGHT)
+            add_L(ps, out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)), 1);
+        return;
+    }
+    v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(&sc->materials[hit.material].bsdf));
+    v3_store(out + VBNL_FILM_NORMAL, hit.ns);
+    out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), ps->cam_forward);
+    if (hit.light != VBNL_NO_LIGHT)
+        add_L(ps, out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)), 1);
     for (int depth = 0;; ++depth) {
-        /* Light arriving along the ray: from the environment or an emitter that was hit. The
-         * MIS weight balances it against next-event estimation at the previous vertex. */
-        if (!hit_ok) {
-            if (sc->env_light != VBNL_NO_LIGHT) {
-                const vbnl_light *l = &sc->lights[sc->env_light];
-                vec3 Le = vbnl_light_Le(l, v3s(0.0f), v3_neg(d));
-                float w = 1.0f;
-                if (!specular) {
-                    float pl = vbnl_scene_light_pmf(sc, sc->env_light) *
-                               vbnl_light_pdf_li(l, prev_p, v3s(0.0f), v3s(0.0f), d);
-                    w = power_heuristic(prev_pdf, pl);
-                }
-                add_L(ps, out, v3_scale(v3_mul(beta, Le), w), depth <= 1);
-            }
-            break;
-        }
-        const scene_material *mat = &sc->materials[hit.material];
-        if (depth == 0) {
-            v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(&mat->bsdf));
-            v3_store(out + VBNL_FILM_NORMAL, hit.ns);
-            out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), ps->cam_forward);
-        }
-        if (hit.light != VBNL_NO_LIGHT) {
-            const vbnl_light *l = &sc->lights[hit.light];
-            vec3 Le = vbnl_light_Le(l, hit.ng, v3_neg(d));
-            if (!v3_is_black(Le)) {
-                float w = 1.0f;
-                if (!specular) {
-                    float pl = vbnl_scene_light_pmf(sc, hit.light) * vbnl_light_pdf_li(l, prev_p, hit.p, hit.ng, d);
-                    w = power_heuristic(prev_pdf, pl);
-                }
-                add_L(ps, out, v3_scale(v3_mul(beta, Le), w), depth <= 1);
-            }
-        }
         if (ps->max_depth >= 0 && depth >= ps->max_depth)
             break;
-
-        /* Shading frame. Opaque surfaces are two-sided: face the frame toward the viewer. */
-        const vbnl_bsdf *bsdf = &mat->bsdf;
-        vec3 wo_w = v3_neg(d);
-        vec3 ng = hit.ng, ns = hit.ns;
-        if (!vbnl_bsdf_is_transmissive(bsdf)) {
-            if (v3_dot(ng, wo_w) < 0.0f) {
-                ng = v3_neg(ng);
-                ns = v3_neg(ns);
-            }
-            if (v3_dot(ns, wo_w) <= 0.0f)
-                ns = ng; /* shading normal facing away from the viewer: fall back to flat */
-        }
-        frame fr = frame_from_normal(ns);
-        vec3 wo = frame_to_local(&fr, wo_w);
-
-        /* Next-event estimation: one light picked by power. */
-        if (!vbnl_bsdf_is_delta(bsdf)) {
-            float pmf;
-            uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
-            const vbnl_light *l = &sc->lights[li];
-            vbnl_light_li_sample ls;
-            vec2 ul = vbnl_rng_next2(rng);
-            if (vbnl_light_sample_li(l, hit.p, ul, &ls) && ls.pdf > 0.0f && !v3_is_black(ls.Li)) {
-                vec3 wi = frame_to_local(&fr, ls.wi);
-                vec3 f = vbnl_bsdf_eval(bsdf, wo, wi);
-                /* no light through the geometric back of an opaque surface */
-                int side_ok = vbnl_bsdf_is_transmissive(bsdf) || v3_dot(ls.wi, ng) > 0.0f;
-                if (side_ok && !v3_is_black(f)) {
-                    vec3 org = vbnl_offset_ray_origin(hit.p, ng, ls.wi);
-                    float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-                    stats->rays++;
-                    if (!vbnl_scene_occluded(sc, org, ls.wi, tmax)) {
-                        float w = ls.is_delta ? 1.0f
-                                              : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, wo, wi));
-                        vec3 c = v3_scale(v3_mul(v3_mul(beta, f), ls.Li), w / (pmf * ls.pdf));
-                        add_L(ps, out, c, depth == 0);
-                    }
-                }
-            }
-        }
-
-        /* Continue by BSDF sampling. */
+        const vbnl_bsdf *bsdf = &sc->materials[hit.material].bsdf;
+        vbnl_shading_frame sf;
+        vbnl_shading_frame_make(bsdf, &hit, d, &sf);
+        const vec3 x = hit.p;
+        /* next-event estimation (MIS with the BSDF sample below) */
+        if (!vbnl_bsdf_is_delta(bsdf))
+            add_L(ps, out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)), depth == 0);
+        /* continue by BSDF sampling */
         vbnl_bsdf_sample_rec bs;
         float ulobe = vbnl_rng_next(rng);
         vec2 ub = vbnl_rng_next2(rng);
-        if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
             break;
-        vec3 wi_w = frame_to_world(&fr, bs.wi);
+        vec3 w = frame_to_world(&sf.fr, bs.wi);
         /* a reflection must leave on the viewer's side of the real surface */
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
+        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
             break;
         beta = v3_mul(beta, bs.weight);
-        specular = (bs.lobe & VBNL_LOBE_SPECULAR) != 0;
-        prev_pdf = bs.pdf;
-        prev_p = hit.p;
+        o = vbnl_offset_ray_origin(x, hit.ng, w);
+        d = w;
+        stats->rays++;
+        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
+        /* light arriving along the sample, MIS-weighted against the NEE above */
+        vec3 Le;
+        float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
+        if (mw > 0.0f)
+            add_L(ps, out, v3_scale(v3_mul(beta, Le), mw), depth == 0);
+        if (!hit_ok)
+            break;
         if (depth >= ps->rr_depth) {
             float q = fmaxf(0.05f, 1.0f - v3_max_comp(beta));
             if (vbnl_rng_next(rng) < q)
@@ -177,53 +127,13 @@ static void trace(const path_state *ps, vbnl_rng *rng, vec3 o, vec3 d, int hit_o
         }
         if (!v3_is_finite(beta))
             break;
-        o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
-        d = wi_w;
-        stats->rays++;
-        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
     }
 }
 
 static void path_render_tile(void *state, vbnl_tile_job *job)
 {
     const path_state *ps = state;
-    const vbnl_scene *sc = job->scene;
-    const uint32_t tw = job->x1 - job->x0;
-    const uint32_t npix = tw * (job->y1 - job->y0);
-    float values[8][VBNL_FILM_MAX_CHANNELS];
-    for (uint32_t s = job->sample_begin; s < job->sample_end; ++s) {
-        for (uint32_t base = 0; base < npix; base += 8) {
-            int active[8];
-            vec3 o[8], d[8];
-            vbnl_hit hits[8];
-            int hit_mask[8];
-            vbnl_rng rng[8];
-            uint32_t px[8], py[8];
-            for (int i = 0; i < 8; ++i) {
-                uint32_t k = base + (uint32_t)i;
-                active[i] = k < npix;
-                if (!active[i]) {
-                    o[i] = d[i] = v3s(0.0f);
-                    continue;
-                }
-                px[i] = job->x0 + k % tw;
-                py[i] = job->y0 + k / tw;
-                rng[i] = vbnl_pixel_rng(job, px[i], py[i], s);
-                vec2 u = vbnl_rng_next2(&rng[i]); /* box filter: uniform over the pixel */
-                vbnl_camera_ray(&sc->camera, job->width, job->height, (float)px[i] + u.x,
-                                (float)py[i] + u.y, &o[i], &d[i]);
-            }
-            vbnl_scene_intersect8(sc, active, o, d, hits, hit_mask);
-            for (int i = 0; i < 8; ++i) {
-                if (!active[i])
-                    continue;
-                job->stats->rays++;
-                memset(values[i], 0, sizeof(float) * ps->stride);
-                trace(ps, &rng[i], o[i], d[i], hit_mask[i], hits[i], values[i], job->stats);
-                vbnl_film_add(job->film, px[i], py[i], values[i]);
-            }
-        }
-    }
+    vbnl_render_camera_paths(job, ps->stride, trace, state);
 }
 
 const vbnl_integrator_class vbnl_integrator_path = {

@@ -1,5 +1,6 @@
 /* VBNL stage 1: placement of candidate virtual lights from the camera (§3.1). */
 #include "placement.h"
+#include "shading.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -23,27 +24,19 @@ static int scatter(const vbnl_scene *sc, const vbnl_hit *hit, vec3 d, vbnl_rng *
                    uint32_t *lobe, vec3 *ng_out, vec3 *ns_out)
 {
     const vbnl_bsdf *bsdf = &sc->materials[hit->material].bsdf;
-    vec3 wo_w = v3_neg(d), ng = hit->ng, ns = hit->ns;
-    if (!vbnl_bsdf_is_transmissive(bsdf)) {
-        if (v3_dot(ng, wo_w) < 0.0f) {
-            ng = v3_neg(ng);
-            ns = v3_neg(ns);
-        }
-        if (v3_dot(ns, wo_w) <= 0.0f)
-            ns = ng;
-    }
-    frame fr = frame_from_normal(ns);
+    vbnl_shading_frame sf;
+    vbnl_shading_frame_make(bsdf, hit, d, &sf);
     vbnl_bsdf_sample_rec bs;
     float ul = vbnl_rng_next(rng);
     vec2 u = vbnl_rng_next2(rng);
-    if (!vbnl_bsdf_sample(bsdf, frame_to_local(&fr, wo_w), ul, u, &bs) || v3_is_black(bs.weight))
+    if (!vbnl_bsdf_sample(bsdf, sf.wo, ul, u, &bs) || v3_is_black(bs.weight))
         return 0;
-    *wi_world = frame_to_world(&fr, bs.wi);
-    if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(*wi_world, ng) <= 0.0f)
+    *wi_world = frame_to_world(&sf.fr, bs.wi);
+    if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(*wi_world, sf.ng) <= 0.0f)
         return 0;
     *lobe = bs.lobe;
-    *ng_out = ng;
-    *ns_out = ns;
+    *ng_out = sf.ng;
+    *ns_out = sf.fr.n;
     return 1;
 }
 

@@ -30,6 +30,7 @@
 #include "prepare.h"
 #include "profiles.h"
 #include "render_internal.h"
+#include "shading.h"
 #include "splitting.h"
 #include "vl_file.h"
 #include "vl_index.h"
@@ -471,29 +472,6 @@ static inline float blend_weight(const vbnl_state *s, vec3 x, const vbnl_hit *y,
     return clampf((a * density - s->n_min) / (s->n_max - s->n_min), 0.0f, 1.0f);
 }
 
-/* The shading frame of the path tracer: opaque surfaces face the viewer. */
-typedef struct shade_frame {
-    frame fr;
-    vec3 ng;
-    vec3 wo;
-} shade_frame;
-
-static void make_frame(const vbnl_bsdf *bsdf, const vbnl_hit *hit, vec3 d, shade_frame *sf)
-{
-    vec3 wo_w = v3_neg(d), ng = hit->ng, ns = hit->ns;
-    if (!vbnl_bsdf_is_transmissive(bsdf)) {
-        if (v3_dot(ng, wo_w) < 0.0f) {
-            ng = v3_neg(ng);
-            ns = v3_neg(ns);
-        }
-        if (v3_dot(ns, wo_w) <= 0.0f)
-            ns = ng;
-    }
-    sf->fr = frame_from_normal(ns);
-    sf->ng = ng;
-    sf->wo = frame_to_local(&sf->fr, wo_w);
-}
-
 /* Lights containing y that may shine toward x (the filter of splitting, so both see the same
  * set). Returns their count. */
 static uint32_t gather(const vbnl_state *s, const vbnl_hit *y, vec3 w, uint32_t *ids)
@@ -533,38 +511,12 @@ static inline void add_L(float *out, vec3 c)
     out[2] += c.z;
 }
 
-/* Light arriving at x along the BSDF sample: the environment or an emitter at y, MIS-weighted
- * against next-event estimation at x. It belongs to x's direct estimate, so it is counted with
- * the throughput before the split between virtual lights and path extension. */
-static void add_arriving(const vbnl_scene *sc, float *out, vec3 beta_in, int hit_ok, const vbnl_hit *y,
-                         vec3 x, vec3 w, float pdf_bsdf, int specular)
-{
-    const vbnl_light *l;
-    vec3 Le;
-    float pl;
-    if (!hit_ok) {
-        if (sc->env_light == VBNL_NO_LIGHT)
-            return;
-        l = &sc->lights[sc->env_light];
-        Le = vbnl_light_Le(l, v3s(0.0f), v3_neg(w));
-        pl = vbnl_scene_light_pmf(sc, sc->env_light) * vbnl_light_pdf_li(l, x, v3s(0.0f), v3s(0.0f), w);
-    } else {
-        if (y->light == VBNL_NO_LIGHT)
-            return;
-        l = &sc->lights[y->light];
-        Le = vbnl_light_Le(l, y->ng, v3_neg(w));
-        if (v3_is_black(Le))
-            return;
-        pl = vbnl_scene_light_pmf(sc, y->light) * vbnl_light_pdf_li(l, x, y->p, y->ng, w);
-    }
-    float mw = specular ? 1.0f : power_heuristic(pdf_bsdf, pl);
-    add_L(out, v3_scale(v3_mul(beta_in, Le), mw));
-}
-
-static void trace(vbnl_state *s, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, vbnl_hit hit, float *out,
+static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
+    vbnl_state *s = state;
     const vbnl_scene *sc = s->scene;
+    vbnl_hit hit = *first;
     const int have_vls = s->prepared && s->power_table.n > 0;
     vec3 beta = v3s(1.0f);
     uint32_t ids[VL_GATHER_MAX];
@@ -587,32 +539,14 @@ static void trace(vbnl_state *s, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, vbnl
         if (s->max_depth >= 0 && depth >= s->max_depth)
             break;
         const vbnl_bsdf *bsdf = &sc->materials[hit.material].bsdf;
-        shade_frame sf;
-        make_frame(bsdf, &hit, d, &sf);
+        vbnl_shading_frame sf;
+        vbnl_shading_frame_make(bsdf, &hit, d, &sf);
         const int delta = vbnl_bsdf_is_delta(bsdf);
         const vec3 x = hit.p;
 
         /* Direct light from the real lights: next-event estimation with MIS. */
-        if (!delta) {
-            float pmf;
-            uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
-            vbnl_light_li_sample ls;
-            vec2 ul = vbnl_rng_next2(rng);
-            if (vbnl_light_sample_li(&sc->lights[li], x, ul, &ls) && ls.pdf > 0.0f && !v3_is_black(ls.Li)) {
-                vec3 wi = frame_to_local(&sf.fr, ls.wi);
-                vec3 f = vbnl_bsdf_eval(bsdf, sf.wo, wi);
-                int side_ok = vbnl_bsdf_is_transmissive(bsdf) || v3_dot(ls.wi, sf.ng) > 0.0f;
-                if (side_ok && !v3_is_black(f)) {
-                    vec3 org = vbnl_offset_ray_origin(x, sf.ng, ls.wi);
-                    float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-                    stats->rays++;
-                    if (!vbnl_scene_occluded(sc, org, ls.wi, tmax)) {
-                        float w = ls.is_delta ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf.wo, wi));
-                        add_L(out, v3_scale(v3_mul(v3_mul(beta, f), ls.Li), w / (pmf * ls.pdf)));
-                    }
-                }
-            }
-        }
+        if (!delta)
+            add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)));
 
         /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
          * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
@@ -673,7 +607,12 @@ static void trace(vbnl_state *s, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, vbnl
         d = w;
         stats->rays++;
         hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
-        add_arriving(sc, out, beta_in, hit_ok, &hit, x, w, bs.pdf, specular);
+        /* light arriving directly (emitter or environment) belongs to x's direct estimate: it is
+         * counted with the throughput before the split between lights and extension */
+        vec3 Le;
+        float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, specular, &Le);
+        if (mw > 0.0f)
+            add_L(out, v3_scale(v3_mul(beta_in, Le), mw));
         if (!hit_ok)
             break;
         /* The camera path goes on through near-specular lobes, as placement did (§3.1): w_v = 0.
@@ -771,48 +710,19 @@ static void lights_view(const vbnl_state *s, vec3 d, int hit_ok, const vbnl_hit 
     add_L(out, c);
 }
 
+static void trace_lights_view(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *hit,
+                              float *out, vbnl_thread_stats *stats)
+{
+    (void)rng;
+    (void)o;
+    (void)stats;
+    lights_view(state, d, hit_ok, hit, out);
+}
+
 static void vbnl_render_tile(void *state, vbnl_tile_job *job)
 {
     vbnl_state *s = state;
-    const vbnl_scene *sc = job->scene;
-    const uint32_t tw = job->x1 - job->x0;
-    const uint32_t npix = tw * (job->y1 - job->y0);
-    float values[8][VBNL_FILM_MAX_CHANNELS];
-    for (uint32_t smp = job->sample_begin; smp < job->sample_end; ++smp) {
-        for (uint32_t base = 0; base < npix; base += 8) {
-            int active[8], hit_mask[8];
-            vec3 o[8], d[8];
-            vbnl_hit hits[8];
-            vbnl_rng rng[8];
-            uint32_t px[8], py[8];
-            for (int i = 0; i < 8; ++i) {
-                uint32_t k = base + (uint32_t)i;
-                active[i] = k < npix;
-                if (!active[i]) {
-                    o[i] = d[i] = v3s(0.0f);
-                    continue;
-                }
-                px[i] = job->x0 + k % tw;
-                py[i] = job->y0 + k / tw;
-                rng[i] = vbnl_pixel_rng(job, px[i], py[i], smp);
-                vec2 u = vbnl_rng_next2(&rng[i]);
-                vbnl_camera_ray(&sc->camera, job->width, job->height, (float)px[i] + u.x, (float)py[i] + u.y,
-                                &o[i], &d[i]);
-            }
-            vbnl_scene_intersect8(sc, active, o, d, hits, hit_mask);
-            for (int i = 0; i < 8; ++i) {
-                if (!active[i])
-                    continue;
-                job->stats->rays++;
-                memset(values[i], 0, sizeof(float) * s->stride);
-                if (s->view == VIEW_LIGHTS)
-                    lights_view(s, d[i], hit_mask[i], &hits[i], values[i]);
-                else
-                    trace(s, &rng[i], o[i], d[i], hit_mask[i], hits[i], values[i], job->stats);
-                vbnl_film_add(job->film, px[i], py[i], values[i]);
-            }
-        }
-    }
+    vbnl_render_camera_paths(job, s->stride, s->view == VIEW_LIGHTS ? trace_lights_view : trace, state);
 }
 
 const vbnl_integrator_class vbnl_integrator_vbnl = {
