@@ -102,6 +102,16 @@ int vbnl_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar);
 void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8],
                            const vec3 d[8], vbnl_hit hits[8], int hit_mask[8]);
 
+/* The BSDF at a surface hit. Every integrator asks for the BSDF at a hit through this one
+ * function: today it is the material's BSDF; a material whose parameters vary over the surface
+ * (textures) writes the BSDF resolved at the hit into *storage and returns storage. */
+static inline const vbnl_bsdf *vbnl_surface_bsdf(const vbnl_scene *s, const vbnl_hit *hit,
+                                                 vbnl_bsdf *storage)
+{
+    (void)storage;
+    return &s->materials[hit->material].bsdf;
+}
+
 /* Offsets a ray origin off the surface along the geometric normal, on the side of `w`
  * (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a scene-scale epsilon. */
 vec3 vbnl_offset_ray_origin(vec3 p, vec3 ng, vec3 w);

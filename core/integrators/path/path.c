@@ -82,7 +82,10 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
             add_L(ps, out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)), 1);
         return;
     }
-    v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(&sc->materials[hit.material].bsdf));
+    {
+        vbnl_bsdf tmp;
+        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
+    }
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), ps->cam_forward);
     if (hit.light != VBNL_NO_LIGHT)
@@ -90,7 +93,8 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     for (int depth = 0;; ++depth) {
         if (ps->max_depth >= 0 && depth >= ps->max_depth)
             break;
-        const vbnl_bsdf *bsdf = &sc->materials[hit.material].bsdf;
+        vbnl_bsdf bsdf_store;
+        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
         vbnl_shading_frame sf;
         vbnl_shading_frame_make(bsdf, &hit, d, &sf);
         const vec3 x = hit.p;

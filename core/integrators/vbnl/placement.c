@@ -23,7 +23,8 @@ typedef struct place_job {
 static int scatter(const vbnl_scene *sc, const vbnl_hit *hit, vec3 d, vbnl_rng *rng, vec3 *wi_world,
                    uint32_t *lobe, vec3 *ng_out, vec3 *ns_out)
 {
-    const vbnl_bsdf *bsdf = &sc->materials[hit->material].bsdf;
+    vbnl_bsdf bsdf_store;
+    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, hit, &bsdf_store);
     vbnl_shading_frame sf;
     vbnl_shading_frame_make(bsdf, hit, d, &sf);
     vbnl_bsdf_sample_rec bs;
@@ -73,7 +74,8 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
             uint32_t lobe;
             if (!scatter(sc, &hit, d, &rng, &wi, &lobe, &ng, &ns))
                 break;
-            const vbnl_bsdf *bsdf = &sc->materials[hit.material].bsdf;
+            vbnl_bsdf bsdf_store;
+        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
             int pass = vbnl_lobe_is_near_specular(bsdf, lobe, p->specular_roughness);
             if (pass) {
                 if (chain >= p->max_specular_chain)

@@ -141,7 +141,8 @@ static void trace_photon(const split_job *job, vbnl_split_stats *st, uint64_t k)
         if (!vbnl_scene_intersect(sc, o, dir, INFINITY, &hit))
             return;
         st->hits++;
-        const vbnl_bsdf *bsdf = &sc->materials[hit.material].bsdf;
+        vbnl_bsdf bsdf_store;
+        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
         vec3 wo_w = v3_neg(dir); /* toward where the photon came from */
         vec3 ng = hit.ng, ns = hit.ns;
         int transmissive = vbnl_bsdf_is_transmissive(bsdf);

@@ -528,7 +528,10 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
             add_L(out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
         return;
     }
-    v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(&sc->materials[hit.material].bsdf));
+    {
+        vbnl_bsdf tmp;
+        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
+    }
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), s->cam_forward);
     if (hit.light != VBNL_NO_LIGHT)
@@ -538,7 +541,8 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         vertices++;
         if (s->max_depth >= 0 && depth >= s->max_depth)
             break;
-        const vbnl_bsdf *bsdf = &sc->materials[hit.material].bsdf;
+        vbnl_bsdf bsdf_store;
+        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
         vbnl_shading_frame sf;
         vbnl_shading_frame_make(bsdf, &hit, d, &sf);
         const int delta = vbnl_bsdf_is_delta(bsdf);
@@ -686,7 +690,8 @@ static void lights_view(const vbnl_state *s, vec3 d, int hit_ok, const vbnl_hit 
     if (!hit_ok)
         return;
     const vbnl_scene *sc = s->scene;
-    vec3 albedo = vbnl_bsdf_albedo(&sc->materials[hit->material].bsdf);
+    vbnl_bsdf tmp;
+    vec3 albedo = vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, hit, &tmp));
     v3_store(out + VBNL_FILM_ALBEDO, albedo);
     v3_store(out + VBNL_FILM_NORMAL, hit->ns);
     vec3 c = v3s(fabsf(v3_dot(hit->ns, d)) * (albedo.x + albedo.y + albedo.z) / 3.0f);

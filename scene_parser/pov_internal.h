@@ -1,0 +1,82 @@
+/* vbnl: object layer internals shared by its parts.
+ *
+ *   pov_scene.c, pov_object*.c  (objects, CSG, transforms, camera, lights, global_settings,
+ *                                the integrator block, building the vbnl_scene)
+ *   pov_texture*.c              (texture, pigment, finish, normal, interior, material, maps,
+ *                                #default, and the mapping of a POV-Ray appearance onto a core
+ *                                material and texture)
+ *
+ * The object part owns the parser hooks (vbnl_sdl_hooks) and dispatches every appearance
+ * keyword to the texture part through the functions below.
+ *
+ * Matrices are 4x4 row-major affine maps (p' = M p, as in vbnl/scene.h). The object part chooses
+ * how POV-Ray's left-handed world maps onto the core's (keeping coordinates unchanged works: the
+ * core camera takes explicit forward/right/up vectors) and passes that map to
+ * pov_appearance_material as world_from_pov, so patterns stay attached to their objects. */
+#ifndef VBNL_POV_INTERNAL_H
+#define VBNL_POV_INTERNAL_H
+
+#include <stdint.h>
+
+#include "vbnl/scene.h"
+#include "vbnl/sdl.h"
+
+typedef struct pov_texture_state pov_texture_state; /* owned by the texture part */
+typedef struct pov_appearance pov_appearance;       /* one object's texture + interior */
+
+/* What both parts share during one load. Created and owned by the object part. */
+typedef struct pov_ctx {
+    vbnl_sdl_parser *parser;
+    vbnl_scene *scene;       /* the scene being built (not committed until the parse ends) */
+    pov_texture_state *tex;  /* pov_texture_state_create / _destroy */
+} pov_ctx;
+
+/* ---- texture part: state ------------------------------------------------------------------ */
+
+vbnl_result pov_texture_state_create(pov_ctx *c, vbnl_error *err);
+void pov_texture_state_destroy(pov_ctx *c);
+
+/* ---- texture part: parsing ---------------------------------------------------------------- */
+
+/* 1 when the identifier token starts an appearance modifier inside an object:
+ * texture pigment finish normal interior material interior_texture (and identifiers declared
+ * to such values, e.g. `texture { T_Gold }` is handled inside, but a bare `T_Gold` is not
+ * a modifier). */
+int pov_appearance_is_modifier(const vbnl_sdl_token *tok);
+
+/* Parses one modifier (the parser is positioned on its keyword, not yet consumed) and applies
+ * it to *app, creating *app from the current #default when it is NULL. Returns VBNL_OK or
+ * VBNL_ERR_PARSE after vbnl_sdl_error. */
+vbnl_result pov_appearance_parse_modifier(pov_ctx *c, pov_appearance **app);
+
+/* The rvalue hook's share: `#declare X = texture { ... }` and the same for pigment, finish,
+ * normal, interior, material, color_map/colour_map, pigment_map, normal_map, texture_map,
+ * slope_map, density, media. Same return convention as vbnl_sdl_hooks.rvalue. */
+int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value *out);
+
+/* The default_block hook: `#default { texture/pigment/finish/normal { ... } }`. */
+int pov_appearance_default_block(pov_ctx *c);
+
+/* Copies / frees (NULL accepted). An object without its own appearance inherits its parent's
+ * (CSG) or the #default one, which the object part asks for with pov_appearance_default. */
+pov_appearance *pov_appearance_copy(const pov_appearance *a);
+void pov_appearance_free(pov_appearance *a);
+pov_appearance *pov_appearance_default(pov_ctx *c);
+
+/* An object transform given after the appearance moves its patterns with the object. */
+void pov_appearance_transform(pov_appearance *a, const double m[16]);
+
+/* ---- texture part: mapping onto the core --------------------------------------------------- */
+
+/* Resolves the appearance to a core material (added to c->scene once per distinct content and
+ * reused). `world_from_pov` converts POV world coordinates to the core's (the z flip), for
+ * pattern textures evaluated at world-space hit points. Warnings (unsupported pattern, ignored
+ * finish item) are reported once per appearance at its location. */
+vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a,
+                                    const double world_from_pov[16], uint32_t *material,
+                                    vbnl_error *err);
+
+/* 1 when the appearance emits light (finish { emission > 0 } times the pigment). */
+int pov_appearance_is_emissive(const pov_appearance *a);
+
+#endif
