@@ -14,6 +14,8 @@ static const vbnl_param_spec path_params[] = {
      "bounces before Russian roulette starts"},
     {"split_direct", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
      "also write 'direct' (emission and one-bounce light) and 'indirect' layers"},
+    {"indirect_only", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
+     "leave out emission and single scattering (the 'direct' part), to compare indirect light"},
 };
 
 typedef struct path_state {
@@ -21,6 +23,7 @@ typedef struct path_state {
     int max_depth;
     int rr_depth;
     int split;
+    int indirect_only;
     uint32_t off_direct, off_indirect;
     uint32_t stride;
     vec3 cam_forward;
@@ -36,6 +39,7 @@ static vbnl_result path_create(const vbnl_integrator_env *env, void **out, vbnl_
     ps->max_depth = (int)vbnl_params_number(env->params, path_params, n, "max_depth");
     ps->rr_depth = (int)vbnl_params_number(env->params, path_params, n, "rr_depth");
     ps->split = vbnl_params_number(env->params, path_params, n, "split_direct") != 0.0;
+    ps->indirect_only = vbnl_params_number(env->params, path_params, n, "indirect_only") != 0.0;
     if (ps->split) {
         static const char *const rgb[] = {"R", "G", "B"};
         vbnl_result r;
@@ -53,9 +57,14 @@ static vbnl_result path_create(const vbnl_integrator_env *env, void **out, vbnl_
 
 static void path_destroy(void *state) { free(state); }
 
-/* Adds a contribution to the beauty image and, when splitting, to the direct or indirect layer. */
+/* Adds a contribution to the beauty image and, when splitting, to the direct or indirect layer.
+ * Direct light (the same split for every integrator): emission seen directly or through delta
+ * bounces, and the light scattered once at the first non-delta vertex (its next-event estimate
+ * and the MIS-weighted light its BSDF sample finds). */
 static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct)
 {
+    if (is_direct && ps->indirect_only)
+        return;
     out[0] += c.x;
     out[1] += c.y;
     out[2] += c.z;
@@ -90,17 +99,21 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), ps->cam_forward);
     if (hit.light != VBNL_NO_LIGHT)
         add_L(ps, out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)), 1);
+    int direct = 1; /* no non-delta vertex yet */
     for (int depth = 0;; ++depth) {
         if (ps->max_depth >= 0 && depth >= ps->max_depth)
             break;
         vbnl_bsdf bsdf_store;
         const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+        const int vertex_direct = direct;
+        if (!vbnl_bsdf_is_delta(bsdf))
+            direct = 0;
         vbnl_shading_frame sf;
         vbnl_shading_frame_make(bsdf, &hit, d, &sf);
         const vec3 x = hit.p;
         /* next-event estimation (MIS with the BSDF sample below) */
         if (!vbnl_bsdf_is_delta(bsdf))
-            add_L(ps, out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)), depth == 0);
+            add_L(ps, out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)), vertex_direct);
         /* continue by BSDF sampling */
         vbnl_bsdf_sample_rec bs;
         float ulobe = vbnl_rng_next(rng);
@@ -120,7 +133,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         vec3 Le;
         float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
         if (mw > 0.0f)
-            add_L(ps, out, v3_scale(v3_mul(beta, Le), mw), depth == 0);
+            add_L(ps, out, v3_scale(v3_mul(beta, Le), mw), vertex_direct);
         if (!hit_ok)
             break;
         if (depth >= ps->rr_depth) {

@@ -80,6 +80,8 @@ static const vbnl_param_spec vbnl_params_spec[] = {
     {"view", VBNL_PARAM_ENUM, 0, "shaded", 0, 0, view_modes,
      "shaded (the image) or lights: grey surfaces with every virtual light as a dot coloured by its "
      "radius (viridis over log radius; paper Figs. 7, 13)"},
+    {"indirect_only", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
+     "leave out emission and single scattering (the 'direct' part of `path`), to compare indirect light"},
     {"dot_scale", VBNL_PARAM_FLOAT, 0.2, NULL, 0.01, 1, NULL,
      "view=lights: dot radius as a fraction of the light's radius r_j"},
 };
@@ -103,7 +105,7 @@ typedef struct vbnl_state {
     float dot_scale;
     float log_rmin, log_rmax;            /* view=lights: the colour ramp's range */
     uint32_t profile_res;
-    int lazy, sampling, extension, disk_test, max_depth, rr_depth;
+    int lazy, sampling, extension, disk_test, max_depth, rr_depth, indirect_only;
     float n_min, n_max;
     uint32_t off_vl, off_wv, off_depth, stride;
     vec3 cam_forward;
@@ -158,6 +160,7 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     s->disk_test = param(env, "disk_test") != 0.0;
     s->max_depth = (int)param(env, "max_depth");
     s->rr_depth = (int)param(env, "rr_depth");
+    s->indirect_only = param(env, "indirect_only") != 0.0;
     s->photon_first = (uint64_t)param(env, "photon_first");
     s->photon_count = (uint64_t)param(env, "photon_count");
     s->view = !strcmp(vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "view"), "lights") ? VIEW_LIGHTS
@@ -523,8 +526,11 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     int vertices = 0;
     out[3] = 1.0f;
     /* what the camera sees directly */
+    /* indirect_only: emission seen directly or through delta bounces, and single scattering at
+     * the first non-delta vertex, are left out (the split of path.c) */
+    const int skip_direct = s->indirect_only;
     if (!hit_ok) {
-        if (sc->env_light != VBNL_NO_LIGHT)
+        if (sc->env_light != VBNL_NO_LIGHT && !skip_direct)
             add_L(out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
         return;
     }
@@ -534,9 +540,10 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     }
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), s->cam_forward);
-    if (hit.light != VBNL_NO_LIGHT)
+    if (hit.light != VBNL_NO_LIGHT && !skip_direct)
         add_L(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
 
+    int direct_phase = 1; /* no non-delta vertex yet */
     for (int depth = 0;; ++depth) {
         vertices++;
         if (s->max_depth >= 0 && depth >= s->max_depth)
@@ -547,9 +554,12 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         vbnl_shading_frame_make(bsdf, &hit, d, &sf);
         const int delta = vbnl_bsdf_is_delta(bsdf);
         const vec3 x = hit.p;
+        const int drop_direct = skip_direct && direct_phase;
+        if (!delta)
+            direct_phase = 0;
 
         /* Direct light from the real lights: next-event estimation with MIS. */
-        if (!delta)
+        if (!delta && !drop_direct)
             add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)));
 
         /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
@@ -615,7 +625,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
          * counted with the throughput before the split between lights and extension */
         vec3 Le;
         float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, specular, &Le);
-        if (mw > 0.0f)
+        if (mw > 0.0f && !drop_direct)
             add_L(out, v3_scale(v3_mul(beta_in, Le), mw));
         if (!hit_ok)
             break;
