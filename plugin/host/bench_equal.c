@@ -32,20 +32,7 @@ static const bench_method methods[] = {
 #define N_METHODS (sizeof(methods) / sizeof(methods[0]))
 static const char *const colours[N_METHODS] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e"};
 
-/* rMAE (paper §5): mean over pixels and channels of |I - I_ref| / (I_ref + eps),
- * eps = 0.01 mean(I_ref). */
-static double rmae(const float *img, const float *ref, size_t n)
-{
-    double mean = 0.0;
-    for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c)
-            mean += ref[4 * i + c];
-    double eps = 0.01 * mean / (3.0 * (double)n), sum = 0.0;
-    for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c)
-            sum += fabs((double)img[4 * i + c] - ref[4 * i + c]) / (ref[4 * i + c] + eps);
-    return sum / (3.0 * (double)n);
-}
+static double rmae(const float *img, const float *ref, size_t n) { return host_rmae(img, ref, n); }
 
 /* The preparation of `vbnl` scaled to the budget on a 2-core CPU (the paper's defaults, 130K
  * lights and 20M photon paths, are sized for a GPU): lights and photons grow with the budget so

@@ -2,6 +2,7 @@
 #ifndef VBNL_HOST_H
 #define VBNL_HOST_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "vbnl/vbnl.h"
@@ -41,5 +42,18 @@ int host_bench_main(int argc, char **argv);
 /* The equal-time comparison of `vbnl bench --equal-time` (bench_equal.c). */
 int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budgets, int nb, double ref_time,
                           const char *shared_dir, const char *only_scene);
+
+/* Error metrics of an image against a reference (compare.c), both RGBA floats, n pixels; the
+ * definitions are in compare.c's header comment. */
+typedef struct host_metrics {
+    double rmae, mse, rel_mse, outliers;
+} host_metrics;
+void host_image_metrics(const float *img, const float *ref, size_t n, host_metrics *m);
+/* rMAE as the VBNL paper defines it: mean |I - I_ref| / (I_ref + eps), eps = host_rmae_eps. */
+double host_rmae(const float *img, const float *ref, size_t n);
+/* eps = 0.01 x the mean of the reference's R, G, B values. */
+double host_rmae_eps(const float *ref, size_t n);
+/* `vbnl compare` (compare.c); argv[0] is "compare". */
+int host_compare_main(int argc, char **argv);
 
 #endif

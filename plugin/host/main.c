@@ -73,6 +73,7 @@ static void usage(FILE *f)
             "  render FILE -o OUT.exr   render a scene (for now a mesh file: OBJ/MTL, PLY, glTF)\n"
             "  info                     list the integrators and their parameters\n"
             "  bench                    path tracer speed against the raw Embree ray rate\n"
+            "  compare REF.exr CAND.exr ...  error metrics, error maps and a montage\n"
             "\n"
             "`vbnl render --help` and `vbnl bench --help` list their options.\n"
             "exit status: 0 success, 1 render or file error, 2 bad command line, 3 scene error,\n"
@@ -380,6 +381,8 @@ int main(int argc, char **argv)
         return cmd_info();
     if (!strcmp(cmd, "bench"))
         return host_bench_main(argc - 1, argv + 1);
+    if (!strcmp(cmd, "compare"))
+        return host_compare_main(argc - 1, argv + 1);
     fprintf(stderr, "vbnl: unknown command '%s'\n", cmd);
     usage(stderr);
     return VBNL_EXIT_USAGE;
