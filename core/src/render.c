@@ -26,6 +26,7 @@ struct vbnl_renderer {
     uint32_t stage_count;
     vbnl_thread_stats *tstats;
     int cancelled;
+    uint64_t storage_bytes;
 };
 
 void vbnl_render_settings_init(vbnl_render_settings *s)
@@ -185,6 +186,12 @@ int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *us
 }
 
 void vbnl_stage_end(vbnl_stage_ctx *st) { record_stage(st->renderer, st->name, vbnl_now() - st->start); }
+
+void vbnl_stage_set_storage(vbnl_stage_ctx *st, uint64_t bytes)
+{
+    if (st)
+        st->renderer->storage_bytes = bytes;
+}
 
 unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st) { return st->renderer->ctx->threads; }
 
@@ -401,5 +408,6 @@ vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *o
     out->stage_count = r->stage_count;
     out->stages = r->stages;
     out->cancelled = r->cancelled;
+    out->storage_bytes = r->storage_bytes;
     return VBNL_OK;
 }

@@ -57,6 +57,8 @@ void vbnl_stage_begin(vbnl_stage_ctx *st, const char *name, double total, const 
  * Returns 0, or -1 when cancelled (items in flight finish; later ones do not run). */
 int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *user);
 void vbnl_stage_end(vbnl_stage_ctx *st);
+/* Records the bytes the integrator's prepared data hold (vbnl_render_stats.storage_bytes). */
+void vbnl_stage_set_storage(vbnl_stage_ctx *st, uint64_t bytes);
 unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st);
 
 /* Runs work items for a stage of an integrator that may also be driven without a renderer (unit

@@ -37,9 +37,14 @@ static void bench_usage(FILE *f)
             "  --repeat N         runs per figure (default 3)\n"
             "  --threads N        worker threads (default 0 = one per core)\n"
             "\n"
-            "  --equal-time       instead: path, vbnl and its ablations at equal time on the cornell,\n"
-            "                     glossy and door-ajar scenes, rMAE against a cached path reference\n"
-            "  --budgets LIST     time budgets in seconds (default 10,30,100)\n"
+            "  --equal-time       instead: path, vbnl, its ablations and the many-light baselines (vpl,\n"
+            "                     vpl acceptance, vsl, richvsl) at equal time on the cornell, glossy and\n"
+            "                     door-ajar scenes, rMAE against a cached path reference\n"
+            "  --budgets LIST     time budgets in seconds (default 10,30,100; 'none': no equal-time runs)\n"
+            "  --equal-count N    also render the virtual-light methods with N lights each (paper Figs. 1,\n"
+            "                     12): preparation per stage, shading time, storage, rMAE\n"
+            "  --count-spp N      samples per pixel of the equal-count renders (default 16)\n"
+            "  --methods LIST     only these methods (labels as printed, comma-separated)\n"
             "  --size N           image side (default 512)\n"
             "  --ref-time S       seconds for each reference (default 1200; cached in --out)\n"
             "  --out DIR          images, references and plots (default bench-out)\n"
@@ -57,8 +62,11 @@ int host_bench_main(int argc, char **argv)
         {"equal-time", no_argument, 0, 'E'}, {"budgets", required_argument, 0, 'B'},
         {"size", required_argument, 0, 'Z'}, {"ref-time", required_argument, 0, 'F'},
         {"out", required_argument, 0, 'O'}, {"only", required_argument, 0, 'Y'},
-        {"shared", required_argument, 0, 'D'}, {0, 0, 0, 0}};
-    int equal_time = 0, nb = 0;
+        {"shared", required_argument, 0, 'D'}, {"equal-count", required_argument, 0, 'C'},
+        {"count-spp", required_argument, 0, 'P'}, {"methods", required_argument, 0, 'M'}, {0, 0, 0, 0}};
+    int equal_time = 0, nb = 0, no_budgets = 0;
+    long count = 0, count_spp = 16;
+    const char *methods = NULL;
     double budgets[8];
     unsigned size = 512;
     double ref_time = 1200.0;
@@ -85,8 +93,16 @@ int host_bench_main(int argc, char **argv)
         case 'T': threads = (unsigned)atoi(optarg); break;
         case 'h': bench_usage(stdout); return VBNL_EXIT_OK;
         case 'E': equal_time = 1; break;
+        case 'C': count = strtol(optarg, NULL, 10); break;
+        case 'P': count_spp = strtol(optarg, NULL, 10); break;
+        case 'M': methods = optarg; break;
         case 'B': {
             nb = 0;
+            if (!strcmp(optarg, "none")) {
+                no_budgets = 1;
+                break;
+            }
+            no_budgets = 0;
             for (char *tok = strtok(optarg, ","); tok && nb < 8; tok = strtok(NULL, ","))
                 budgets[nb++] = atof(tok);
             for (int i = 0; i < nb; ++i)
@@ -105,7 +121,7 @@ int host_bench_main(int argc, char **argv)
         }
     }
     if (equal_time) {
-        if (nb == 0) {
+        if (nb == 0 && !no_budgets) {
             budgets[0] = 10;
             budgets[1] = 30;
             budgets[2] = 100;
@@ -115,7 +131,13 @@ int host_bench_main(int argc, char **argv)
             fprintf(stderr, "vbnl bench: --size takes 1..8192 and --ref-time seconds > 0\n");
             return VBNL_EXIT_USAGE;
         }
-        return host_bench_equal_time(out_dir, size, budgets, nb, ref_time, shared, only);
+        if (count < 0 || count > 50000000 || count_spp < 1 || count_spp > 1000000) {
+            fprintf(stderr, "vbnl bench: --equal-count takes 0..5e7 lights and --count-spp a positive count\n");
+            return VBNL_EXIT_USAGE;
+        }
+        host_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, shared, only, methods,
+                                   (uint32_t)count, (uint32_t)count_spp};
+        return host_bench_equal_time(&o);
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||
         repeat > 99 || threads > 1024) {

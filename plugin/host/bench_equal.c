@@ -1,7 +1,11 @@
-/* `vbnl bench --equal-time`: path tracing against VBNL and its ablations at equal time (the
- * paper's Fig. 18 on this machine). For every scene: a cached converged `path` reference, then
- * every method at every time budget (preparation included), rMAE as the paper defines it, the
- * stage times of `vbnl` (the paper's Table 1), the images, and a log-log plot (SVG). */
+/* `vbnl bench --equal-time`: path tracing against VBNL, its ablations and the many-light
+ * baselines (vpl, vpl with Georgiev-Slusallek acceptance, vsl, richvsl when registered) at equal
+ * time (the paper's Fig. 18 on this machine). For every scene: a cached converged `path`
+ * reference, then every method at every time budget (preparation included), rMAE as the paper
+ * defines it, the stage times of `vbnl` (the paper's Table 1), the images, and a log-log plot
+ * (SVG) with one line per method. With --equal-count N, also every virtual-light method with the
+ * same number N of virtual lights at a fixed sample count (the paper's Figs. 1 and 12):
+ * preparation time per stage, shading time, storage and rMAE. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -16,21 +20,57 @@ typedef struct bench_scene {
     const char *name, *file, *camera;
 } bench_scene;
 
+/* The methods, one line each. `lights` marks a virtual-light method: its `virtual_lights` is set
+ * from the budget (equal time) or to N (equal count, when `count` is also set). A method whose
+ * integrator is not registered is skipped with a note. The clamp bound of the VPL-type methods is
+ * the same for all of them (the notes §7.4): 2 in the units of the bench scenes (boxes about 2
+ * units wide), i.e. G is bounded for VPLs closer than about 0.7 units. */
 typedef struct bench_method {
     const char *label;
     const char *integrator;
-    const char *extra; /* one extra key=value, or NULL */
+    const char *extra; /* space-separated key=value settings, or NULL */
+    int lights;        /* a virtual-light method */
+    int count;         /* part of the equal-count run */
 } bench_method;
 
+#define BENCH_CLAMP "clamp=2"
 static const bench_method methods[] = {
-    {"path", "path", NULL},
-    {"vbnl", "vbnl", NULL},
-    {"vbnl no elimination", "vbnl", "elimination=none"},
-    {"vbnl uniform elimination", "vbnl", "elimination=uniform"},
-    {"vbnl no path extension", "vbnl", "path_extension=off"},
+    {"path", "path", NULL, 0, 0},
+    {"vbnl", "vbnl", NULL, 1, 1},
+    {"vbnl no elimination", "vbnl", "elimination=none", 1, 0},
+    {"vbnl uniform elimination", "vbnl", "elimination=uniform", 1, 0},
+    {"vbnl no path extension", "vbnl", "path_extension=off", 1, 0},
+    {"vpl", "vpl", BENCH_CLAMP, 1, 1},
+    {"vpl acceptance", "vpl", BENCH_CLAMP " acceptance=on", 1, 1},
+    {"vsl", "vsl", NULL, 1, 1},
+    {"richvsl", "richvsl", BENCH_CLAMP, 1, 1},
 };
 #define N_METHODS (sizeof(methods) / sizeof(methods[0]))
-static const char *const colours[N_METHODS] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e"};
+static const char *const colours[] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e",
+                                      "#8c564b", "#e377c2", "#7f7f7f", "#17becf", "#bcbd22"};
+
+/* Methods chosen with --methods (labels, comma-separated); NULL = all. */
+static int method_selected(const bench_method *m, const char *list)
+{
+    if (!list)
+        return 1;
+    size_t n = strlen(m->label);
+    for (const char *p = list; *p;) {
+        const char *comma = strchr(p, ',');
+        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+        if (len == n && !strncmp(p, m->label, n))
+            return 1;
+        if (!comma)
+            break;
+        p = comma + 1;
+    }
+    return 0;
+}
+
+static int method_available(const bench_method *m, const char *list)
+{
+    return method_selected(m, list) && vbnl_integrator_find(m->integrator) != NULL;
+}
 
 static double rmae(const float *img, const float *ref, size_t n) { return host_rmae(img, ref, n); }
 
@@ -43,6 +83,26 @@ static void vbnl_budget_params(vbnl_params *p, double budget)
     double photons = fmin(2e7, 40000.0 * budget);
     vbnl_params_set_number(p, "virtual_lights", floor(lights), "bench", NULL);
     vbnl_params_set_number(p, "photon_paths", floor(photons), "bench", NULL);
+}
+
+/* Virtual lights of the brute-force many-light baselines under a time budget: their shading cost
+ * is lights x pixels x samples shadow rays, so the count grows with the budget and shrinks with
+ * the image (about one sample per pixel fits the budget on 2 cores at 512 x 512). */
+static double baseline_budget_lights(double budget, uint32_t size)
+{
+    double scale = (512.0 * 512.0) / ((double)size * size);
+    return fmax(16.0, fmin(12000.0, floor(25.0 * budget * scale)));
+}
+
+/* Sets the space-separated key=value list `extra`. */
+static void set_extra(vbnl_params *p, const char *extra)
+{
+    if (!extra)
+        return;
+    char buf[256];
+    snprintf(buf, sizeof(buf), "%s", extra);
+    for (char *tok = strtok(buf, " "); tok; tok = strtok(NULL, " "))
+        vbnl_params_set_text(p, tok, "bench", NULL);
 }
 
 typedef struct run_result {
@@ -62,20 +122,29 @@ static float *read_rgba(const vbnl_renderer *r, uint32_t w, uint32_t h)
     return px;
 }
 
+/* One render: under a time budget (budget > 0) or, for the equal-count run, with `count` virtual
+ * lights and `spp` samples. */
 static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_method *m, double budget,
-                   uint32_t size, const float *ref, const char *png, run_result *out)
+                   uint32_t count, uint32_t spp, uint32_t size, const float *ref, const char *png, run_result *out)
 {
     vbnl_params *p;
     vbnl_params_create(&p, NULL);
-    if (!strcmp(m->integrator, "vbnl"))
-        vbnl_budget_params(p, budget);
-    if (m->extra)
-        vbnl_params_set_text(p, m->extra, "bench", NULL);
+    if (budget > 0.0) {
+        if (!strcmp(m->integrator, "vbnl"))
+            vbnl_budget_params(p, budget);
+        else if (m->lights)
+            vbnl_params_set_number(p, "virtual_lights", baseline_budget_lights(budget, size), "bench", NULL);
+    } else if (m->lights) {
+        vbnl_params_set_number(p, "virtual_lights", count, "bench", NULL);
+        if (!strcmp(m->integrator, "vbnl")) /* the paper's ratio: 20M photons for 130K lights */
+            vbnl_params_set_number(p, "photon_paths", fmin(2e7, fmax(1e5, 150.0 * count)), "bench", NULL);
+    }
+    set_extra(p, m->extra);
     vbnl_render_settings s;
     vbnl_render_settings_init(&s);
     s.width = s.height = size;
-    s.spp = 0;
-    s.time_budget = budget;
+    s.spp = budget > 0.0 ? 0 : spp;
+    s.time_budget = budget > 0.0 ? budget : 0.0;
     s.seed = 7;
     s.integrator = m->integrator;
     s.params = p;
@@ -147,14 +216,17 @@ static void write_svg(const char *path, const char *scene, const double *budgets
         fprintf(f, "<text x='%.1f' y='%.1f' text-anchor='end'>%g</text>\n", L - 6, PY(e) + 4, e);
     fprintf(f, "<text x='%.1f' y='%.1f' text-anchor='middle'>time (preparation + rendering)</text>\n",
             (L + W - R) / 2, H - 12);
-    for (unsigned m = 0; m < N_METHODS; ++m) {
+    for (unsigned m = 0, row = 0; m < N_METHODS; ++m) {
+        if (!(res[m][0].seconds > 0.0))
+            continue; /* not run */
         fprintf(f, "<polyline fill='none' stroke='%s' stroke-width='2' points='", colours[m]);
         for (int b = 0; b < nb; ++b)
             if (isfinite(res[m][b].rmae) && res[m][b].rmae > 0)
                 fprintf(f, "%.1f,%.1f ", PX(res[m][b].seconds), PY(res[m][b].rmae));
         fprintf(f, "'/>\n");
         fprintf(f, "<rect x='%.0f' y='%.0f' width='14' height='4' fill='%s'/><text x='%.0f' y='%.0f'>%s</text>\n",
-                W - R + 14, T + 20.0 * m + 6, colours[m], W - R + 34, T + 20.0 * m + 12, methods[m].label);
+                W - R + 14, T + 20.0 * row + 6, colours[m], W - R + 34, T + 20.0 * row + 12, methods[m].label);
+        row++;
     }
     fprintf(f, "</svg>\n");
 #undef PX
@@ -162,17 +234,71 @@ static void write_svg(const char *path, const char *scene, const double *budgets
     fclose(f);
 }
 
-int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budgets, int nb, double ref_time,
-                          const char *shared_dir, const char *only_scene)
+static void png_name(char *out, size_t size, const char *dir, const char *scene, const char *label, const char *what)
 {
+    snprintf(out, size, "%s/%s-%s-%s.png", dir, scene, label, what);
+    for (char *c = out + strlen(dir) + 1; *c; ++c)
+        if (*c == ' ')
+            *c = '_';
+}
+
+/* The equal-count run: every selected virtual-light method with `count` lights, `spp` samples. */
+static void equal_count(vbnl_context *ctx, const vbnl_scene *scene, const char *scene_name, const host_bench_equal_opts *o,
+                        const float *ref)
+{
+    printf("  equal count: %u virtual lights, %u spp, %ux%u (times are noisy on a shared machine)\n", o->count,
+           o->count_spp, o->size, o->size);
+    printf("  %-16s %10s %10s %12s %10s  %s\n", "method", "prepare s", "shading s", "storage KB", "rMAE",
+           "preparation stages");
+    for (unsigned m = 0; m < N_METHODS; ++m) {
+        const bench_method *bm = &methods[m];
+        if (!bm->count || !method_selected(bm, o->methods))
+            continue;
+        if (!vbnl_integrator_find(bm->integrator)) {
+            printf("  %-16s (integrator '%s' not registered in this build: skipped)\n", bm->label, bm->integrator);
+            continue;
+        }
+        char png[1400];
+        char what[64];
+        snprintf(what, sizeof(what), "count%u", o->count);
+        png_name(png, sizeof(png), o->out_dir, scene_name, bm->label, what);
+        run_result r;
+        memset(&r, 0, sizeof(r));
+        if (run_one(ctx, scene, bm, 0.0, o->count, o->count_spp, o->size, ref, png, &r) != 0)
+            continue;
+        /* stage list without the render stage */
+        char stages[512] = "";
+        for (uint32_t i = 0; i < r.stats.stage_count; ++i) {
+            if (!strcmp(r.stats.stages[i].name, "render"))
+                continue;
+            size_t n = strlen(stages);
+            snprintf(stages + n, sizeof(stages) - n, "%s%s %.2fs", n ? ", " : "", r.stats.stages[i].name,
+                     r.stats.stages[i].seconds);
+        }
+        printf("  %-16s %10.2f %10.2f %12.1f %10.4f  %s\n", bm->label, r.stats.prepare_seconds, r.stats.render_seconds,
+               (double)r.stats.storage_bytes / 1024.0, r.rmae, stages);
+        fflush(stdout);
+    }
+}
+
+int host_bench_equal_time(const host_bench_equal_opts *o)
+{
+    const char *out_dir = o->out_dir;
+    const uint32_t size = o->size;
+    const double *budgets = o->budgets;
+    const int nb = o->nb;
     char cornell[1024], glossy[1024];
     snprintf(cornell, sizeof(cornell), "examples/cornell-box.obj");
-    snprintf(glossy, sizeof(glossy), "%s/scenes/cornell-box-mcguire/CornellBox-Glossy-Floor.obj", shared_dir);
+    snprintf(glossy, sizeof(glossy), "%s/scenes/cornell-box-mcguire/CornellBox-Glossy-Floor.obj", o->shared_dir);
     const bench_scene scenes[] = {
         {"cornell", cornell, "0,1,3.6,0,1,0,39"},
         {"glossy", glossy, "0,1,3.5,0,1,0,40"},
         {"door-ajar", "examples/door-ajar.obj", "3.6,1.3,1.6,0,1,-0.2,60"},
     };
+    for (unsigned m = 0; m < N_METHODS; ++m)
+        if (method_selected(&methods[m], o->methods) && !vbnl_integrator_find(methods[m].integrator))
+            printf("note: method '%s' skipped: integrator '%s' is not registered in this build\n", methods[m].label,
+                   methods[m].integrator);
     if (mkdir(out_dir, 0777) != 0 && errno != EEXIST) {
         fprintf(stderr, "vbnl bench: cannot create '%s': %s\n", out_dir, strerror(errno));
         return VBNL_EXIT_FAILURE;
@@ -189,7 +315,7 @@ int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budg
     int rc = VBNL_EXIT_OK;
     for (unsigned si = 0; si < sizeof(scenes) / sizeof(scenes[0]); ++si) {
         const bench_scene *bs = &scenes[si];
-        if (only_scene && strcmp(only_scene, bs->name) != 0)
+        if (o->only_scene && strcmp(o->only_scene, bs->name) != 0)
             continue;
         host_camera cam = {0};
         host_parse_camera(bs->camera, &cam);
@@ -201,7 +327,7 @@ int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budg
         }
         /* reference: cached by scene, size and time */
         char ref_path[1200];
-        snprintf(ref_path, sizeof(ref_path), "%s/%s-reference-%u-%gs.exr", out_dir, bs->name, size, ref_time);
+        snprintf(ref_path, sizeof(ref_path), "%s/%s-reference-%u-%gs.exr", out_dir, bs->name, size, o->ref_time);
         float *ref = NULL;
         uint32_t ref_spp = 0;
         vbnl_exr_image ex;
@@ -221,7 +347,7 @@ int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budg
             vbnl_render_settings_init(&s);
             s.width = s.height = size;
             s.spp = 0;
-            s.time_budget = ref_time;
+            s.time_budget = o->ref_time;
             s.seed = 1000003;
             vbnl_renderer *r;
             if (vbnl_renderer_create(ctx, scene, &s, &r, &err) != VBNL_OK ||
@@ -239,38 +365,45 @@ int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budg
             vbnl_renderer_destroy(r);
         }
         printf("scene %s (%s): reference `path` %u spp (%s)\n", bs->name, bs->file, ref_spp, ref_path);
-        printf("  %-26s", "method \\ budget");
-        for (int b = 0; b < nb; ++b)
-            printf(" %8gs rMAE   spp", budgets[b]);
-        printf("\n");
-        run_result res[N_METHODS][8];
-        memset(res, 0, sizeof(res));
-        for (unsigned m = 0; m < N_METHODS; ++m) {
-            printf("  %-26s", methods[m].label);
-            fflush(stdout);
-            for (int b = 0; b < nb; ++b) {
-                char png[1400];
-                snprintf(png, sizeof(png), "%s/%s-%s-%gs.png", out_dir, bs->name, methods[m].label, budgets[b]);
-                for (char *c = png + strlen(out_dir) + 1; *c; ++c)
-                    if (*c == ' ')
-                        *c = '_';
-                if (run_one(ctx, scene, &methods[m], budgets[b], size, ref, png, &res[m][b]) != 0)
-                    res[m][b].rmae = NAN;
-                printf(" %14.4f %5u", res[m][b].rmae, res[m][b].spp);
-                fflush(stdout);
-            }
+        if (nb > 0) {
+            printf("  %-26s", "method \\ budget");
+            for (int b = 0; b < nb; ++b)
+                printf(" %8gs rMAE   spp", budgets[b]);
             printf("\n");
+            run_result res[N_METHODS][8];
+            memset(res, 0, sizeof(res));
+            for (unsigned m = 0; m < N_METHODS; ++m) {
+                if (!method_available(&methods[m], o->methods))
+                    continue;
+                printf("  %-26s", methods[m].label);
+                fflush(stdout);
+                for (int b = 0; b < nb; ++b) {
+                    char png[1400], what[32];
+                    snprintf(what, sizeof(what), "%gs", budgets[b]);
+                    png_name(png, sizeof(png), out_dir, bs->name, methods[m].label, what);
+                    if (run_one(ctx, scene, &methods[m], budgets[b], 0, 0, size, ref, png, &res[m][b]) != 0)
+                        res[m][b].rmae = NAN;
+                    printf(" %14.4f %5u", res[m][b].rmae, res[m][b].spp);
+                    fflush(stdout);
+                }
+                printf("\n");
+            }
+            if (method_available(&methods[1], o->methods)) {
+                printf("  stage times of `vbnl` (paper Table 1):\n");
+                for (int b = 0; b < nb; ++b)
+                    printf("    %gs budget: %s\n", budgets[b], res[1][b].stages);
+                for (int b = 0; b < nb; ++b)
+                    if (res[1][b].rmae > 0 && res[0][b].rmae > 0)
+                        printf("  path/vbnl rMAE ratio at %gs: %.2f\n", budgets[b], res[0][b].rmae / res[1][b].rmae);
+            }
+            char svg[1200];
+            snprintf(svg, sizeof(svg), "%s/%s-equal-time.svg", out_dir, bs->name);
+            write_svg(svg, bs->name, budgets, nb, res);
+            printf("  plot: %s\n", svg);
         }
-        printf("  stage times of `vbnl` (paper Table 1):\n");
-        for (int b = 0; b < nb; ++b)
-            printf("    %gs budget: %s\n", budgets[b], res[1][b].stages);
-        for (int b = 0; b < nb; ++b)
-            if (res[1][b].rmae > 0 && res[0][b].rmae > 0)
-                printf("  path/vbnl rMAE ratio at %gs: %.2f\n", budgets[b], res[0][b].rmae / res[1][b].rmae);
-        char svg[1200];
-        snprintf(svg, sizeof(svg), "%s/%s-equal-time.svg", out_dir, bs->name);
-        write_svg(svg, bs->name, budgets, nb, res);
-        printf("  plot: %s\n\n", svg);
+        if (o->count > 0)
+            equal_count(ctx, scene, bs->name, o, ref);
+        printf("\n");
         free(ref);
         vbnl_scene_destroy(scene);
     }

@@ -9,6 +9,8 @@
  *   outliers  fraction of pixels whose relative error e = sum_c |I - I_ref| / sum_c (I_ref + eps)
  *             exceeds 1 (the pixel is off by more than the reference value itself: the spikes
  *             and splotches of many-light methods, the baseline notes §5).
+ *   mean/ref  sum of I over sum of I_ref (R, G, B): the energy kept, e.g. what clamping removes
+ *             or what spherical lights redistribute (notes §5, "energy loss").
  * The error map of a candidate shows e per pixel through a magma-like colour ramp from 0 to 1
  * (values above 1 saturate), with a colour bar underneath. */
 #include <errno.h>
@@ -45,7 +47,7 @@ void host_image_metrics(const float *img, const float *ref, size_t n, host_metri
     if (!n)
         return;
     const double eps = host_rmae_eps(ref, n);
-    double rmae = 0.0, mse = 0.0, rel = 0.0;
+    double rmae = 0.0, mse = 0.0, rel = 0.0, si = 0.0, sr = 0.0;
     size_t outliers = 0;
     for (size_t i = 0; i < n; ++i) {
         double num = 0.0, den = 0.0;
@@ -57,6 +59,8 @@ void host_image_metrics(const float *img, const float *ref, size_t n, host_metri
             rel += d * d / ((r + eps) * (r + eps));
             num += a;
             den += r + eps;
+            si += img[4 * i + c];
+            sr += r;
         }
         if (num > den)
             outliers++;
@@ -65,6 +69,7 @@ void host_image_metrics(const float *img, const float *ref, size_t n, host_metri
     m->mse = mse / (3.0 * (double)n);
     m->rel_mse = rel / (3.0 * (double)n);
     m->outliers = (double)outliers / (double)n;
+    m->energy = sr > 0.0 ? si / sr : 0.0;
 }
 
 /* ---- drawing --------------------------------------------------------------------------------- */
@@ -367,11 +372,12 @@ int host_compare_main(int argc, char **argv)
         const size_t n = (size_t)w * h;
         printf("reference %s (%ux%u); eps = 0.01 mean(reference) = %.4g; outlier: relative error > 1\n", files[0],
                w, h, host_rmae_eps(img[0], n));
-        printf("%-24s %12s %12s %12s %10s\n", "candidate", "rMAE", "MSE", "relMSE", "outliers");
+        printf("%-24s %12s %12s %12s %10s %9s\n", "candidate", "rMAE", "MSE", "relMSE", "outliers", "mean/ref");
         for (int i = 0; i < nc; ++i) {
             host_metrics m;
             host_image_metrics(img[i + 1], img[0], n, &m);
-            printf("%-24s %12.5f %12.5g %12.5g %9.3f%%\n", labels[i], m.rmae, m.mse, m.rel_mse, 100.0 * m.outliers);
+            printf("%-24s %12.5f %12.5g %12.5g %9.3f%% %9.4f\n", labels[i], m.rmae, m.mse, m.rel_mse,
+                   100.0 * m.outliers, m.energy);
         }
     }
     if (rc == VBNL_EXIT_OK && out_dir) {

@@ -39,14 +39,25 @@ vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_setting
 vbnl_result host_check_writable(const char *path, vbnl_error *err);
 
 int host_bench_main(int argc, char **argv);
-/* The equal-time comparison of `vbnl bench --equal-time` (bench_equal.c). */
-int host_bench_equal_time(const char *out_dir, uint32_t size, const double *budgets, int nb, double ref_time,
-                          const char *shared_dir, const char *only_scene);
+/* The equal-time and equal-count comparisons of `vbnl bench --equal-time` (bench_equal.c). */
+typedef struct host_bench_equal_opts {
+    const char *out_dir;
+    uint32_t size;
+    const double *budgets;
+    int nb;                 /* 0: no equal-time runs */
+    double ref_time;
+    const char *shared_dir;
+    const char *only_scene; /* NULL: every scene */
+    const char *methods;    /* comma-separated method labels, NULL: all */
+    uint32_t count;         /* equal-count run with this many virtual lights, 0: none */
+    uint32_t count_spp;
+} host_bench_equal_opts;
+int host_bench_equal_time(const host_bench_equal_opts *o);
 
 /* Error metrics of an image against a reference (compare.c), both RGBA floats, n pixels; the
  * definitions are in compare.c's header comment. */
 typedef struct host_metrics {
-    double rmae, mse, rel_mse, outliers;
+    double rmae, mse, rel_mse, outliers, energy;
 } host_metrics;
 void host_image_metrics(const float *img, const float *ref, size_t n, host_metrics *m);
 /* rMAE as the VBNL paper defines it: mean |I - I_ref| / (I_ref + eps), eps = host_rmae_eps. */

@@ -45,6 +45,8 @@ static void test_known_values(void **state)
     assert_true(fabs(m.mse - mse) < 1e-5);
     assert_true(fabs(m.rel_mse - rel) < 1e-5);
     assert_true(m.outliers == 0.25);
+    /* energy: (3.1 + 5 + 1.1 + 1.1) / (3 + 1 + 1 + 1), per channel alike */
+    assert_true(fabs(m.energy - (3.1 + 5.0 + 2.2) / 6.0) < 1e-6);
     assert_true(fabs(host_rmae(img, ref, N) - rmae) < 1e-6);
     /* identical images: every metric 0 */
     host_image_metrics(ref, ref, N, &m);

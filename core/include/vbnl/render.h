@@ -96,6 +96,8 @@ typedef struct vbnl_render_stats {
     uint32_t stage_count;
     const vbnl_stage_time *stages;/* owned by the renderer; valid until it is destroyed */
     int cancelled;
+    uint64_t storage_bytes;      /* memory held by the integrator's prepared data (virtual lights,
+                                  * emission profiles, indices); 0 when it keeps none (`path`) */
 } vbnl_render_stats;
 vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *out, vbnl_error *err);
 

@@ -82,7 +82,10 @@ static void vpl_destroy(void *state)
 static vbnl_result vpl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     vpl_state *s = state;
-    return vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
+    vbnl_result r = vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
+    if (r == VBNL_OK)
+        vbnl_stage_set_storage(stage, (uint64_t)s->set.count * sizeof(vbnl_vpl));
+    return r;
 }
 
 static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_rng *rng,

@@ -8,7 +8,9 @@
  *          light i
  *            L_i = V(x, y_i) Phi_i / (pi r_i^2) Int_cone f_x(w) cos_x f_i(-w) cos_i dw,
  *          the cone being the directions from x toward the sphere (every direction when x is
- *          inside it), visibility to the centre only. The integral is estimated with one sample of
+ *          inside it), visibility to the centre only, and only when x is in front of the light's
+ *          surface and the centre in front of x's (the VPL's conditions; without them points
+ *          inside a sphere but behind the light's plane are lit: light leaks around box edges). The integral is estimated with one sample of
  *          each of three strategies combined by the power heuristic: the BSDF at x, the BSDF at the
  *          light (both importance-sampled, as the Rich-VPL paper §6 states for VSLs), and a uniform
  *          direction in the cone (VBNL's Eq. 4), which keeps far lights, whose cones BSDF samples
@@ -151,6 +153,7 @@ static vbnl_result vsl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *e
     /* a light alone (or on top of k others) keeps r = 0 and acts as a point light */
     for (uint32_t i = 0; i < n; ++i)
         s->inv_area[i] = s->radius[i] > 0.0f ? 1.0f / (VBNL_PI * s->radius[i] * s->radius[i]) : 0.0f;
+    vbnl_stage_set_storage(stage, (uint64_t)n * (sizeof(vbnl_vpl) + 2 * sizeof(float)));
     return VBNL_OK;
 }
 
@@ -191,6 +194,12 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
             continue;
         float dist = sqrtf(d2);
         vec3 axis = v3_scale(to, 1.0f / dist);
+        /* x in front of the light's plane and the centre in front of x's: the conditions of the
+         * VPL term at the centre. Without them a point inside a sphere but behind the light's
+         * surface (the top of a box lit by a light on its front face) receives light through
+         * directions that never meet the light's disk. */
+        if (v3_dot(axis, v->ng) >= 0.0f || v3_dot(axis, sf->ng) <= 0.0f)
+            continue;
         vec3 L;
         if (!(r > 0.0f)) {
             vec3 w;
