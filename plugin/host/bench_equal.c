@@ -109,7 +109,8 @@ typedef struct run_result {
     double rmae, seconds;
     uint32_t spp;
     vbnl_render_stats stats;
-    char stages[512];
+    char stages[512];       /* every stage with its time */
+    char prep_stages[512];  /* the preparation stages only */
 } run_result;
 
 static float *read_rgba(const vbnl_renderer *r, uint32_t w, uint32_t h)
@@ -163,12 +164,20 @@ static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_metho
     out->spp = out->stats.spp;
     out->seconds = out->stats.prepare_seconds + out->stats.render_seconds;
     out->rmae = img ? rmae(img, ref, (size_t)size * size) : NAN;
-    out->stages[0] = '\0';
+    out->stages[0] = out->prep_stages[0] = '\0';
     for (uint32_t i = 0; i < out->stats.stage_count; ++i) {
         size_t n = strlen(out->stages);
         snprintf(out->stages + n, sizeof(out->stages) - n, "%s%s %.2fs", i ? ", " : "",
                  out->stats.stages[i].name, out->stats.stages[i].seconds);
+        if (strcmp(out->stats.stages[i].name, "render") != 0) {
+            n = strlen(out->prep_stages);
+            snprintf(out->prep_stages + n, sizeof(out->prep_stages) - n, "%s%s %.2fs", n ? ", " : "",
+                     out->stats.stages[i].name, out->stats.stages[i].seconds);
+        }
     }
+    /* the stage names belong to the renderer, destroyed below */
+    out->stats.stages = NULL;
+    out->stats.stage_count = 0;
     if (img && png) {
         uint8_t *px8 = malloc((size_t)size * size * 3);
         if (px8 && vbnl_linear_to_srgb8(img, size, size, 4, 0.0f, 1, px8, 3, NULL) == VBNL_OK)
@@ -266,17 +275,8 @@ static void equal_count(vbnl_context *ctx, const vbnl_scene *scene, const char *
         memset(&r, 0, sizeof(r));
         if (run_one(ctx, scene, bm, 0.0, o->count, o->count_spp, o->size, ref, png, &r) != 0)
             continue;
-        /* stage list without the render stage */
-        char stages[512] = "";
-        for (uint32_t i = 0; i < r.stats.stage_count; ++i) {
-            if (!strcmp(r.stats.stages[i].name, "render"))
-                continue;
-            size_t n = strlen(stages);
-            snprintf(stages + n, sizeof(stages) - n, "%s%s %.2fs", n ? ", " : "", r.stats.stages[i].name,
-                     r.stats.stages[i].seconds);
-        }
         printf("  %-16s %10.2f %10.2f %12.1f %10.4f  %s\n", bm->label, r.stats.prepare_seconds, r.stats.render_seconds,
-               (double)r.stats.storage_bytes / 1024.0, r.rmae, stages);
+               (double)r.stats.storage_bytes / 1024.0, r.rmae, r.prep_stages);
         fflush(stdout);
     }
 }

@@ -100,5 +100,16 @@ expect "truncated light file is refused" 1 "short.vls' is damaged" -- "$VBNL" re
 expect "light file of another scene is refused" 1 "prepared for another scene" -- "$VBNL" render "$SRC/examples/door-ajar.obj" $VL --png "$TMP/vl-bad.png" --load-lights "$TMP/lights.vls"
 expect "unwritable --save-lights fails first" 1 "cannot write" -- "$VBNL" render "$SCENE" $VL --png "$TMP/vl-bad.png" --save-lights "$TMP/no/such/dir/l.vls"
 
+# `vbnl compare`: a table for same-sized images, a clear refusal for different sizes.
+"$VBNL" render "$SCENE" -o "$TMP/c-ref.exr" --width 16 --height 16 --spp 4 -q
+"$VBNL" render "$SCENE" -o "$TMP/c-vpl.exr" --integrator vpl --set virtual_lights=50 --width 16 --height 16 --spp 1 -q
+"$VBNL" render "$SCENE" -o "$TMP/c-small.exr" --width 8 --height 16 --spp 1 -q
+expect "compare prints the metrics" 0 "vpl +[0-9.]+ +[0-9.e-]+ +[0-9.e-]+ +[0-9.]+% +[0-9.]+" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-vpl.exr" --labels vpl --out "$TMP/cmp"
+[ -s "$TMP/cmp/montage.png" ] && [ -s "$TMP/cmp/error-vpl.png" ] && ok "compare writes the montage and error map" || not_ok "compare writes the montage and error map" "$(ls "$TMP/cmp" 2>&1)"
+expect "compare refuses different sizes" 1 "is 8x16 but the reference .* is 16x16" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-small.exr"
+
+# The equal-time and equal-count benchmark in a tiny configuration (every method runs).
+expect "bench equal-time and equal-count run every method" 0 "vsl +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+  light paths" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --equal-count 12 --count-spp 1 --out '$TMP/bench'"
+
 echo "1..$n"
 [ $failed -eq 0 ]
