@@ -430,6 +430,7 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     free(cj.power);
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "profile conversion was cancelled");
+    /* the set, profiles, index, 1/(pi r^2) and the power alias table (prob, alias, pmf) */
     vbnl_stage_set_storage(stage, vbnl_vl_set_bytes(&s->vls) + vbnl_profile_set_bytes(s->profiles) +
                                       vbnl_vl_index_bytes(s->index) + (uint64_t)n * (sizeof(float) + 12));
     s->prepared = 1;

@@ -64,6 +64,11 @@ static vbnl_result vpl_create(const vbnl_integrator_env *env, void **out, vbnl_e
     vp->width = env->settings->width;
     vp->height = env->settings->height;
     s->indirect_only = param(env, "indirect_only") != 0.0;
+    vbnl_result r = vbnl_vpl_params_check(vp, "vpl", err);
+    if (r != VBNL_OK) {
+        free(s);
+        return r;
+    }
     s->stride = env->film->stride;
     s->cam_forward = v3_norm(v3_load(env->scene->camera.forward));
     *out = s;

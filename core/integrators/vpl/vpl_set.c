@@ -5,6 +5,7 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "splitting.h"
 
@@ -379,6 +380,21 @@ static vbnl_result build_frame(const vbnl_scene *sc, const vbnl_vpl_params *p, v
     *out_c = all;
     *out_n = (uint32_t)n_all;
     *out_paths = paths;
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_vpl_params_check(const vbnl_vpl_params *p, const char *owner, vbnl_error *err)
+{
+    /* a fixed path count stores about one VPL per bounce: assume 4 per path */
+    double lights = p->light_paths ? 4.0 * (double)p->light_paths : (double)p->target;
+    /* candidates (with the acceptance: assume a mean acceptance of 0.1) plus the kept set */
+    double bytes = lights * (sizeof(vbnl_vpl) + (p->acceptance ? 10.0 : 1.0) * sizeof(vbnl_vpl) * 1.2);
+    double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    if (phys > 0.0 && bytes > 0.8 * phys)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
+                              "integrator '%s': %.0f virtual point lights need about %.1f GB but the machine has "
+                              "%.1f GB",
+                              owner, lights, bytes / 1e9, phys / 1e9);
     return VBNL_OK;
 }
 

@@ -68,6 +68,10 @@ typedef struct vbnl_vpl_set {
     double phi_total;       /* the Phi_total used for the final frame */
 } vbnl_vpl_set;
 
+/* Refuses requests whose VPLs (and candidates, with acceptance) would not fit in the machine's
+ * memory, naming the bytes needed; `owner` names the integrator in the message. */
+vbnl_result vbnl_vpl_params_check(const vbnl_vpl_params *p, const char *owner, vbnl_error *err);
+
 /* Generates the set. Work runs through `stage` (progress "light paths", cancellation) or
  * serially when it is NULL. Errors: VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_CANCELLED. */
 vbnl_result vbnl_vpl_set_build(const vbnl_scene *scene, const vbnl_vpl_params *p, vbnl_stage_ctx *stage,

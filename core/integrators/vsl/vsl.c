@@ -72,6 +72,11 @@ static vbnl_result vsl_create(const vbnl_integrator_env *env, void **out, vbnl_e
     s->radius_scale = (float)param(env, "radius_scale");
     s->neighbour = (uint32_t)param(env, "radius_neighbour");
     s->indirect_only = param(env, "indirect_only") != 0.0;
+    vbnl_result r = vbnl_vpl_params_check(vp, "vsl", err);
+    if (r != VBNL_OK) {
+        free(s);
+        return r;
+    }
     s->stride = env->film->stride;
     s->cam_forward = v3_norm(v3_load(env->scene->camera.forward));
     *out = s;
