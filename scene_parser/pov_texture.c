@@ -347,6 +347,7 @@ static vbnl_result parse_color_map_body(pov_ctx *c, pov_color_map *m)
     if (vbnl_sdl_expect(p, '{', "after 'color_map'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     m->count = 0;
+    int unsorted = 0;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
     const pov_color_map *id = ident_value(c, t, &type_color_map);
     if (id) {
@@ -365,7 +366,13 @@ static vbnl_result parse_color_map_body(pov_ctx *c, pov_color_map *m)
         double v0, v1 = 0.0;
         if (vbnl_sdl_parse_float(p, &v0) != VBNL_OK)
             return VBNL_ERR_PARSE;
+        /* [v1, v2 colour1 colour2] (the comma is optional) */
         int two = vbnl_sdl_accept(p, ',');
+        if (!two) {
+            const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+            const vbnl_sdl_value *nv = n->kind == VBNL_SDL_TOK_IDENT ? vbnl_sdl_lookup(p, n->text) : NULL;
+            two = n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT);
+        }
         if (two && vbnl_sdl_parse_float(p, &v1) != VBNL_OK)
             return VBNL_ERR_PARSE;
         if (m->count + (two ? 2u : 1u) > MAP_MAX)
@@ -376,6 +383,7 @@ static vbnl_result parse_color_map_body(pov_ctx *c, pov_color_map *m)
             return VBNL_ERR_PARSE;
         m->count++;
         if (two) {
+            vbnl_sdl_accept(p, ',');
             e[1].value = v1;
             if (vbnl_sdl_parse_color(p, e[1].color) != VBNL_OK)
                 return VBNL_ERR_PARSE;
@@ -383,14 +391,26 @@ static vbnl_result parse_color_map_body(pov_ctx *c, pov_color_map *m)
         }
         if (vbnl_sdl_expect(p, ']', "to end a color_map entry") != VBNL_OK)
             return VBNL_ERR_PARSE;
-        if (m->count > 1 && m->e[m->count - 1].value < m->e[m->count - 2].value - 1e-12)
-            return vbnl_sdl_error(p, &loc, "color_map values must not decrease (%g after %g)",
-                                  m->e[m->count - 1].value, m->e[m->count - 2].value);
-        if (!(v0 >= 0.0 && v0 <= 1.0) || (two && !(v1 >= 0.0 && v1 <= 1.0)))
-            return vbnl_sdl_error(p, &loc, "color_map values must lie in [0, 1]");
+        if (!isfinite(v0) || !isfinite(v1))
+            return vbnl_sdl_error(p, &loc, "color_map values must be finite");
+        if (m->count > 1 && m->e[m->count - 1].value < m->e[m->count - 2].value && !unsorted) {
+            unsorted = 1;
+            vbnl_sdl_warning(p, &loc, "color_map values decrease (%g after %g): entries sorted by value",
+                             m->e[m->count - 1].value, m->e[m->count - 2].value);
+        }
     }
     if (m->count == 0)
         return vbnl_sdl_error(p, NULL, "empty color_map");
+    /* stable insertion sort: equal values keep their order (a sharp step) */
+    for (uint32_t i = 1; i < m->count; ++i) {
+        pov_map_entry e = m->e[i];
+        uint32_t j = i;
+        while (j > 0 && m->e[j - 1].value > e.value) {
+            m->e[j] = m->e[j - 1];
+            --j;
+        }
+        m->e[j] = e;
+    }
     return VBNL_OK;
 }
 
@@ -714,6 +734,19 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
                 return VBNL_ERR_PARSE;
             if (turb)
                 vbnl_sdl_warning(p, &loc, "'turbulence' is not supported: the pattern is rendered without it");
+        } else if (is_kw(t, "agate_turb") || is_kw(t, "control0") || is_kw(t, "control1") ||
+                   is_kw(t, "noise_generator") || is_kw(t, "offset") || is_kw(t, "metric") ||
+                   is_kw(t, "max_iteration") || is_kw(t, "exponent") || is_kw(t, "precision") ||
+                   is_kw(t, "coords") || is_kw(t, "form") || is_kw(t, "orientation") ||
+                   is_kw(t, "dist_exp")) {
+            /* parameters of the fallback patterns (their look is replaced by an average) */
+            int vec = is_kw(t, "form") || is_kw(t, "orientation");
+            vbnl_sdl_next(p);
+            double vv[3];
+            if ((vec ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+        } else if (is_kw(t, "solid")) {
+            vbnl_sdl_next(p);
         } else if (is_kw(t, "warp")) {
             vbnl_sdl_next(p);
             if (vbnl_sdl_skip_block(p) != VBNL_OK)
@@ -791,6 +824,26 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
 
 /* ---- finish -------------------------------------------------------------------------------- */
 
+/* An optional float after a flag keyword (`metallic [amount]`, `fresnel [on]`): a value starts
+ * unless the next token ends the block or is another finish / reflection keyword. */
+static int optional_value_follows(const vbnl_sdl_token *n)
+{
+    static const char *const kws[] = {
+        "ambient", "diffuse", "specular", "emission", "roughness", "phong", "phong_size", "brilliance",
+        "crand", "reflection_exponent", "metallic", "reflection", "irid", "subsurface", "conserve_energy",
+        "fresnel", "falloff", "exponent", "color", "colour", "rgb", "rgbf", "rgbt", "rgbft", "albedo", NULL};
+    if (n->kind == VBNL_SDL_TOK_PUNCT)
+        return n->op == '(' || n->op == '-' || n->op == '+';
+    if (n->kind == VBNL_SDL_TOK_NUMBER)
+        return 1;
+    if (n->kind != VBNL_SDL_TOK_IDENT)
+        return 0;
+    for (int i = 0; kws[i]; ++i)
+        if (is_kw(n, kws[i]))
+            return 0;
+    return 1;
+}
+
 static vbnl_result parse_color_or_float(pov_ctx *c, double out[3])
 {
     double col[5];
@@ -851,8 +904,7 @@ static vbnl_result parse_finish_body(pov_ctx *c, pov_finish *f)
             vbnl_sdl_next(p);
             int is_metal = !strcmp(kw, "metallic");
             const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-            int has_value = !is_metal || n->kind == VBNL_SDL_TOK_NUMBER ||
-                            (n->kind == VBNL_SDL_TOK_PUNCT && (n->op == '(' || n->op == '-'));
+            int has_value = !is_metal || optional_value_follows(n);
             v = 1.0;
             if (has_value && vbnl_sdl_parse_float(p, &v) != VBNL_OK)
                 return VBNL_ERR_PARSE;
@@ -891,14 +943,12 @@ static vbnl_result parse_finish_body(pov_ctx *c, pov_finish *f)
                     if (is_kw(n, "metallic")) {
                         vbnl_sdl_next(p);
                         f->metallic = 1;
-                        n = vbnl_sdl_peek(p);
-                        if (n->kind == VBNL_SDL_TOK_NUMBER && vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+                        if (optional_value_follows(vbnl_sdl_peek(p)) && vbnl_sdl_parse_float(p, &v) != VBNL_OK)
                             return VBNL_ERR_PARSE;
                     } else if (is_kw(n, "fresnel") || is_kw(n, "falloff") || is_kw(n, "exponent")) {
                         const char *kw = n->text;
                         vbnl_sdl_next(p);
-                        n = vbnl_sdl_peek(p);
-                        if ((strcmp(kw, "fresnel") || n->kind == VBNL_SDL_TOK_NUMBER) &&
+                        if ((strcmp(kw, "fresnel") || optional_value_follows(vbnl_sdl_peek(p))) &&
                             vbnl_sdl_parse_float(p, &v) != VBNL_OK)
                             return VBNL_ERR_PARSE;
                         vbnl_sdl_warning(p, &l2, "reflection '%s' is ignored (the lobe's own Fresnel term applies)", kw);
