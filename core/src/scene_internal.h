@@ -12,6 +12,7 @@
 #include "bsdf.h"
 #include "lights.h"
 #include "sampling.h"
+#include "texture.h"
 #include "vbnl/scene.h"
 #include "vmath.h"
 
@@ -57,6 +58,7 @@ typedef struct scene_material {
     vbnl_material_desc desc;
     vbnl_bsdf bsdf;
     int emissive;
+    const vbnl_texture *texture; /* desc.base_texture resolved (NULL: none); set at commit */
 } scene_material;
 
 struct vbnl_scene {
@@ -69,6 +71,8 @@ struct vbnl_scene {
     uint32_t geom_count, geom_capacity;
     scene_material *materials;
     uint32_t material_count, material_capacity;
+    vbnl_texture *textures;
+    uint32_t texture_count, texture_capacity;
     vbnl_light *lights;        /* user lights first, then emitters found at commit */
     uint32_t light_count, light_capacity, user_light_count;
     vbnl_alias_table light_table; /* power-based selection */
@@ -108,8 +112,20 @@ void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 
 static inline const vbnl_bsdf *vbnl_surface_bsdf(const vbnl_scene *s, const vbnl_hit *hit,
                                                  vbnl_bsdf *storage)
 {
-    (void)storage;
-    return &s->materials[hit->material].bsdf;
+    const scene_material *m = &s->materials[hit->material];
+    if (!m->texture)
+        return &m->bsdf;
+    *storage = m->bsdf;
+    storage->color = v3_mul(m->bsdf.color, vbnl_texture_eval(m->texture, hit->p, hit->uv));
+    return storage;
+}
+
+/* The colour factor a material's texture gives at a hit (1 for untextured materials): what a
+ * virtual light on that surface must remember (its BSDF is the material's with this factor). */
+static inline vec3 vbnl_surface_tint(const vbnl_scene *s, const vbnl_hit *hit)
+{
+    const scene_material *m = &s->materials[hit->material];
+    return m->texture ? vbnl_texture_eval(m->texture, hit->p, hit->uv) : v3s(1.0f);
 }
 
 /* Offsets a ray origin off the surface along the geometric normal, on the side of `w`
@@ -123,7 +139,7 @@ void vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height,
 /* Picks a light by power; *pmf receives its selection probability. */
 /* 64-bit FNV-1a fingerprint of a committed scene: geometry (positions, normals, uvs, indices,
  * per-face materials, spheres, area-light quads, instance transforms and groups), material
- * descriptions, lights (the user's and the emitters found at commit) and the environment.
+ * descriptions, textures, lights (the user's and the emitters found at commit) and the environment.
  * Floats are hashed by their bits, so any change of the input changes it (with probability
  * 1 - 2^-64) and equal inputs give equal values on every run and thread count.
  * The camera is left out on purpose: a prepared virtual-light set (vl_file.h) is a valid

@@ -161,6 +161,7 @@ static void test_round_trip_arrays(void **state)
         vls.position[j] = v3(vbnl_rng_next(&rng), 2.0f * vbnl_rng_next(&rng), -vbnl_rng_next(&rng));
         vls.normal[j] = v3_norm(v3(vbnl_rng_next(&rng) - 0.5f, 1.0f, vbnl_rng_next(&rng) - 0.5f));
         vls.material[j] = j % f->scene->material_count;
+        vls.tint[j] = v3(vbnl_rng_next(&rng), 1.0f, 0.25f);
         vls.radius[j] = 0.01f + 0.1f * vbnl_rng_next(&rng);
         vls.density[j] = 1.0f / vls.radius[j];
         glossy[j] = (uint8_t)(j % 2);
@@ -204,6 +205,7 @@ static void test_round_trip_arrays(void **state)
     assert_memory_equal(d.vls.position, vls.position, sizeof(vec3) * n);
     assert_memory_equal(d.vls.normal, vls.normal, sizeof(vec3) * n);
     assert_memory_equal(d.vls.material, vls.material, sizeof(uint32_t) * n);
+    assert_memory_equal(d.vls.tint, vls.tint, sizeof(vec3) * n);
     assert_memory_equal(d.vls.radius, vls.radius, sizeof(float) * n);
     assert_memory_equal(d.vls.density, vls.density, sizeof(float) * n);
     uint64_t nonzero = 0;
@@ -316,7 +318,7 @@ static void test_wrong_version(void **state)
     uint64_t h = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, b, n - 8);
     memcpy(b + n - 8, &h, 8);
     write_all(path, b, n);
-    expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 3; this build reads version 1");
+    expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 3; this build reads version 2");
     free(b);
 }
 
@@ -477,6 +479,7 @@ static void test_unwritable(void **state)
         vls.position[j] = v3((float)j, 0, 0);
         vls.normal[j] = v3(0, 1, 0);
         vls.material[j] = 0;
+        vls.tint[j] = v3s(1.0f);
         vls.radius[j] = vls.density[j] = 1.0f;
     }
     vbnl_hemioct *map;

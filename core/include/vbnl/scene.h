@@ -44,10 +44,97 @@ typedef struct vbnl_material_desc {
     float eta[3], k[3];   /* conductor complex index of refraction per RGB channel */
     float emission[3];    /* emitted radiance Le; any non-zero value makes the surface a light */
     int two_sided;        /* emission on both sides (default: front side = geometric normal side) */
+    uint32_t base_texture;/* 0 = none; else (texture id + 1) from vbnl_scene_add_texture: the colour
+                           * used at a hit is base_color * texture colour there (component-wise;
+                           * set base_color to 1 to let the texture replace it). Emission is not
+                           * textured. */
 } vbnl_material_desc;
 
-/* Fills `d` with defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no emission. */
+/* Fills `d` with defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no emission, no
+ * texture. */
 void vbnl_material_desc_init(vbnl_material_desc *d);
+
+/* ---- textures ----------------------------------------------------------------------------- */
+
+/* A colour varying over surfaces, looked up at every hit of a material that names it
+ * (vbnl_material_desc.base_texture). Every texture first maps the world-space hit point p into
+ * texture space: q = pattern_from_world * p.
+ *
+ *   IMAGE     RGB float texels, row 0 at the top (v = 1). The lookup coordinate (u, v) is the
+ *             hit's mesh UV (projection UV) or a projection of q: PLANAR (u, v) = (q.x, q.y);
+ *             SPHERICAL u = longitude around +y (atan2(q.x, q.z) / 2 pi, in [0, 1)),
+ *             v = latitude (0 at -y, 1 at +y); CYLINDRICAL u as spherical, v = q.y.
+ *             Texel centres sit at ((i + 0.5) / width, 1 - (j + 0.5) / height); bilinear
+ *             (interpolate = 1) or nearest; wrap REPEAT (fractional part) or CLAMP.
+ *   CHECKER   value floor(q.x) + floor(q.y) + floor(q.z) mod 2 (0 or 1): unit cubes.
+ *   GRADIENT  value = dot(q, normalize(gradient)), then frequency/phase/wave (below).
+ *   BRICK     bricks of brick_size (x width, y height, z depth) in courses along y, odd courses
+ *             shifted by half a brick in x and z; mortar of thickness `mortar` along the lower
+ *             x, y and z faces of every brick. Value 0 in the mortar, 1 in a brick.
+ *
+ * Pattern values become colours through the colour map: entries sorted by value, linear
+ * interpolation between neighbours, the first / last colour outside their range. CHECKER and
+ * BRICK are block patterns (values exactly 0 or 1: give entries at 0 and 1). For GRADIENT the
+ * raw value v is turned into v' = frac(v * frequency + phase) then shaped by the wave: RAMP v',
+ * TRIANGLE 1 - |2 v' - 1|, SINE (1 + sin(2 pi v')) / 2, SCALLOP
+ * |sin(pi v')|. */
+typedef enum vbnl_texture_kind {
+    VBNL_TEXTURE_IMAGE = 0,
+    VBNL_TEXTURE_CHECKER = 1,
+    VBNL_TEXTURE_GRADIENT = 2,
+    VBNL_TEXTURE_BRICK = 3,
+} vbnl_texture_kind;
+
+typedef enum vbnl_texture_projection {
+    VBNL_PROJECTION_UV = 0,
+    VBNL_PROJECTION_PLANAR = 1,
+    VBNL_PROJECTION_SPHERICAL = 2,
+    VBNL_PROJECTION_CYLINDRICAL = 3,
+} vbnl_texture_projection;
+
+typedef enum vbnl_texture_wrap { VBNL_WRAP_REPEAT = 0, VBNL_WRAP_CLAMP = 1 } vbnl_texture_wrap;
+
+typedef enum vbnl_texture_wave {
+    VBNL_WAVE_RAMP = 0,
+    VBNL_WAVE_TRIANGLE = 1,
+    VBNL_WAVE_SINE = 2,
+    VBNL_WAVE_SCALLOP = 3,
+} vbnl_texture_wave;
+
+typedef struct vbnl_color_map_entry {
+    float value;
+    float color[3];
+} vbnl_color_map_entry;
+
+#define VBNL_COLOR_MAP_MAX 256u
+
+typedef struct vbnl_texture_desc {
+    vbnl_texture_kind kind;
+    float pattern_from_world[16];     /* row-major 4x4 affine, p' = M p; identity by default */
+    /* IMAGE */
+    const float *texels;              /* width * height * 3 floats, each finite and >= 0 */
+    uint32_t width, height;
+    vbnl_texture_projection projection;
+    vbnl_texture_wrap wrap;
+    int interpolate;                  /* 1 = bilinear (default), 0 = nearest texel */
+    /* patterns */
+    float gradient[3];                /* GRADIENT axis (non-zero), default +x */
+    float brick_size[3];              /* BRICK, default POV-Ray's <8, 3, 4.5> */
+    float mortar;                     /* BRICK, default 0.5 */
+    const vbnl_color_map_entry *color_map; /* 1..VBNL_COLOR_MAP_MAX entries, sorted by value */
+    uint32_t color_map_count;
+    float frequency, phase;           /* GRADIENT: default 1 and 0 */
+    vbnl_texture_wave wave;
+} vbnl_texture_desc;
+
+/* Fills `d` with the defaults above (a CHECKER with no colour map: set one). */
+void vbnl_texture_desc_init(vbnl_texture_desc *d);
+
+/* Adds a texture (arrays copied). Errors: VBNL_ERR_INVALID_ARGUMENT for a missing or unsorted
+ * colour map, empty or non-finite texels, a singular or non-finite matrix, a zero gradient,
+ * non-positive brick sizes or negative mortar. A material refers to it as id + 1. */
+vbnl_result vbnl_scene_add_texture(vbnl_scene *scene, const vbnl_texture_desc *desc,
+                                   uint32_t *out_id, vbnl_error *err);
 
 /* ---- geometry ----------------------------------------------------------------------------- */
 

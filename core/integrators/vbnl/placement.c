@@ -88,6 +88,7 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
                 c->p = hit.p;
                 c->n = ns;
                 c->material = hit.material;
+                c->tint = vbnl_surface_tint(sc, &hit);
                 c->tile = tile;
                 job->valid[k] = 1;
                 job->via_specular[k] = chain > 0;

@@ -91,6 +91,7 @@ vbnl_result vbnl_prepare_lights(const vbnl_scene *scene, const vbnl_prepare_para
             vls->position[k] = c->p;
             vls->normal[k] = c->n;
             vls->material[k] = c->material;
+            vls->tint[k] = c->tint;
             vls->radius[k] = vbnl_vl_radius(rmax[k], p->radius_scale);
             vls->density[k] = vbnl_vl_density(vls->radius[k], p->radius_scale);
         }

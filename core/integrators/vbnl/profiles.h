@@ -82,8 +82,11 @@
  * its discrete albedos A_i, and optionally the whole R^2 x R^2 RGB transfer matrix
  * f(w_t, w_i) (786 KB at 16 x 16, 12.6 MB at 32 x 32), which turns a conversion into a
  * matrix-vector product instead of R^4 BSDF evaluations. Build one kernel per material and share
- * it between all VLs with that material (once textures vary the BSDF per VL, use uncached
- * kernels per VL). Cached and uncached kernels give the same texels (same products, same order;
+ * it between all VLs with that material. Textured materials: the kernel is built from the
+ * material's untextured BSDF and each VL multiplies its converted profile (and power) by its own
+ * texture colour (vl_set.h tint). That is exact for Lambertian materials (the profile is linear in
+ * the albedo); for a textured glossy material it tints the whole lobe, specular part included,
+ * an approximation (per-VL kernels would cost R^4 evaluations per VL). Cached and uncached kernels give the same texels (same products, same order;
  * tested bit-identical). Measured on one core, GGX conductor, -O2: kernel creation 10 ms at
  * 16 x 16 (130 ms at 32 x 32); eager conversion of one glossy VL 0.08 ms cached / 7 ms uncached
  * at 16 x 16 (1.8 ms / 113 ms at 32 x 32); a lazily converted texel costs 1/R^2 of that.

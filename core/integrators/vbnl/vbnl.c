@@ -270,7 +270,7 @@ static void convert_chunk(void *user, uint64_t item, unsigned thread)
     uint32_t end = begin + CONVERT_CHUNK < s->vls.count ? begin + CONVERT_CHUNK : s->vls.count;
     for (uint32_t j = begin; j < end; ++j) {
         const vbnl_profile_kernel *k = s->kernels[s->vls.material[j]];
-        job->power[j] = v3_max_comp(vbnl_profile_power(s->profiles, j, k));
+        job->power[j] = v3_max_comp(v3_mul(vbnl_profile_power(s->profiles, j, k), s->vls.tint[j]));
         if (!s->lazy)
             vbnl_profile_convert(s->profiles, j, k);
     }
@@ -447,7 +447,7 @@ static inline vec3 vl_radiance(vbnl_state *s, uint32_t j, vec3 w_toward_y)
     if (wo.z <= 0.0f)
         return v3s(0.0f);
     const vbnl_profile_kernel *k = s->kernels[s->vls.material[j]];
-    return v3_scale(vbnl_profile_eval(s->profiles, j, k, wo), s->inv_area[j]);
+    return v3_scale(v3_mul(vbnl_profile_eval(s->profiles, j, k, wo), s->vls.tint[j]), s->inv_area[j]);
 }
 
 /* Cone of directions from x containing the sphere of light j: cos of its half-angle (-1 when x

@@ -29,12 +29,12 @@ uint64_t vbnl_vl_file_hash(uint64_t h, const void *data, size_t n)
 
 static size_t pad8(size_t n) { return (8 - n % 8) % 8; }
 
-/* Bytes of a version-1 file with these counts (0 on overflow). */
+/* Bytes of a file of this version with these counts (0 on overflow). */
 static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res)
 {
     if (count > UINT32_MAX || glossy > count || res > 64)
         return 0;
-    uint64_t per = 12 + 12 + 4 + 4 + 4 + 1;
+    uint64_t per = 12 + 12 + 4 + 12 + 4 + 4 + 1;
     uint64_t n = VBNL_VL_FILE_HEADER_SIZE + count * per;
     n += pad8((size_t)(count % 8));
     n += count * 24 + glossy * res * res * 24 + 8;
@@ -195,6 +195,7 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     w_bytes(&w, vls->position, sizeof(vec3) * (size_t)n);
     w_bytes(&w, vls->normal, sizeof(vec3) * (size_t)n);
     w_bytes(&w, vls->material, sizeof(uint32_t) * (size_t)n);
+    w_bytes(&w, vls->tint, sizeof(vec3) * (size_t)n);
     w_bytes(&w, vls->radius, sizeof(float) * (size_t)n);
     w_bytes(&w, vls->density, sizeof(float) * (size_t)n);
     w_bytes(&w, glossy, (size_t)n + pad8(n));
@@ -352,6 +353,7 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
     if (res == VBNL_OK && (res = r_bytes(&r, d->vls.position, sizeof(vec3) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.normal, sizeof(vec3) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.material, sizeof(uint32_t) * (size_t)n)) == VBNL_OK &&
+        (res = r_bytes(&r, d->vls.tint, sizeof(vec3) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.radius, sizeof(float) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.density, sizeof(float) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, glossy, (size_t)n + pad8(n))) == VBNL_OK)
@@ -361,6 +363,8 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
         for (uint32_t j = 0; j < n && res == VBNL_OK; ++j) {
             g += glossy[j] != 0;
             if (d->vls.material[j] >= scene->material_count || glossy[j] > 1 || !(d->vls.radius[j] > 0.0f) ||
+                !(d->vls.tint[j].x >= 0.0f && d->vls.tint[j].y >= 0.0f && d->vls.tint[j].z >= 0.0f) ||
+                !v3_is_finite(d->vls.tint[j]) ||
                 !isfinite(d->vls.position[j].x + d->vls.position[j].y + d->vls.position[j].z))
                 res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (light %u is invalid)", path, j);
         }
@@ -406,6 +410,7 @@ static int same_set(const vbnl_vl_file_data *a, const vbnl_vl_file_data *b)
     return !memcmp(a->vls.position, b->vls.position, sizeof(vec3) * n) &&
            !memcmp(a->vls.normal, b->vls.normal, sizeof(vec3) * n) &&
            !memcmp(a->vls.material, b->vls.material, sizeof(uint32_t) * n) &&
+           !memcmp(a->vls.tint, b->vls.tint, sizeof(vec3) * n) &&
            !memcmp(a->vls.radius, b->vls.radius, sizeof(float) * n) &&
            !memcmp(a->vls.density, b->vls.density, sizeof(float) * n);
 }

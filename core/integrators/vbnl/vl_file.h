@@ -6,7 +6,7 @@
  * traces a disjoint range of the same total photon_paths; splitting.h) and summed exactly with
  * vbnl_profile_set_merge, because incident power is 64-bit fixed point.
  *
- * ---- Format, version 1 (byte offsets; numbers in the writer's byte order) -------------------
+ * ---- Format, version 2 (byte offsets; numbers in the writer's byte order) -------------------
  *
  *   0   8  magic "VBNLVLS\0"
  *   8   4  u32 format version (VBNL_VL_FILE_VERSION)
@@ -26,7 +26,8 @@
  *  88   4  u32 material_count of the scene
  *  92   4  u32 reserved, 0
  *  96      arrays, each count long unless said otherwise:
- *          positions (3 x f32), normals (3 x f32), materials (u32), radii (f32),
+ *          positions (3 x f32), normals (3 x f32), materials (u32), texture tints
+ *          (3 x f32, vl_set.h; new in version 2), radii (f32),
  *          densities (f32), glossy flags (u8, then 0-bytes up to a multiple of 8),
  *          incident power Phi_in (3 x u64 fixed point),
  *          incident maps of the glossy lights in light order (glossy_count x R^2 x 3 x u64,
@@ -59,7 +60,7 @@
 #include "vbnl/result.h"
 #include "vl_set.h"
 
-#define VBNL_VL_FILE_VERSION 1u
+#define VBNL_VL_FILE_VERSION 2u
 #define VBNL_VL_FILE_MAGIC "VBNLVLS"  /* 8 bytes with its terminating NUL */
 #define VBNL_VL_FILE_HEADER_SIZE 96u
 #define VBNL_VL_FILE_HASH_INIT 0xcbf29ce484222325ull

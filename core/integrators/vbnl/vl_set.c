@@ -9,9 +9,10 @@ vbnl_result vbnl_vl_set_alloc(vbnl_vl_set *s, uint32_t count, vbnl_error *err)
     s->position = malloc(sizeof(vec3) * (size_t)count);
     s->normal = malloc(sizeof(vec3) * (size_t)count);
     s->material = malloc(sizeof(uint32_t) * (size_t)count);
+    s->tint = malloc(sizeof(vec3) * (size_t)count);
     s->radius = malloc(sizeof(float) * (size_t)count);
     s->density = malloc(sizeof(float) * (size_t)count);
-    if (!s->position || !s->normal || !s->material || !s->radius || !s->density) {
+    if (!s->position || !s->normal || !s->material || !s->tint || !s->radius || !s->density) {
         vbnl_vl_set_free(s);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", count);
     }
@@ -26,6 +27,7 @@ void vbnl_vl_set_free(vbnl_vl_set *s)
     free(s->position);
     free(s->normal);
     free(s->material);
+    free(s->tint);
     free(s->radius);
     free(s->density);
     memset(s, 0, sizeof(*s));
@@ -33,5 +35,5 @@ void vbnl_vl_set_free(vbnl_vl_set *s)
 
 size_t vbnl_vl_set_bytes(const vbnl_vl_set *s)
 {
-    return (size_t)s->count * (2 * sizeof(vec3) + sizeof(uint32_t) + 2 * sizeof(float));
+    return (size_t)s->count * (3 * sizeof(vec3) + sizeof(uint32_t) + 2 * sizeof(float));
 }

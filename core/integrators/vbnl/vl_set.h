@@ -1,6 +1,7 @@
 /* The prepared virtual-light set of VBNL (private header).
  *
- * What preparation produces and rendering consumes: per light its position, normal, material,
+ * What preparation produces and rendering consumes: per light its position, normal, material
+ * (and the texture colour there),
  * radius r_i = alpha_r r_i,max (§3.2), density rho_i (Eq. 8), and its emission profile (§3.3).
  * The set is a value: it can be saved to a versioned, checksummed file and loaded again for the
  * same scene (vl_file.h: vbnl_vl_file_save / _load), which is what lets preparation and shading run in
@@ -18,6 +19,8 @@ typedef struct vbnl_vl_set {
     vec3 *position;
     vec3 *normal;        /* unit, facing the side the placing camera path came from */
     uint32_t *material;
+    vec3 *tint;          /* the material's texture colour at the light (vbnl_surface_tint; 1 when
+                          * untextured): its BSDF is the material's with the colour scaled by it */
     float *radius;       /* r_i */
     float *density;      /* rho_i, Eq. 8 */
 } vbnl_vl_set;
