@@ -317,12 +317,15 @@ static int parse_transform_item(loader *L, double m[16])
         vbnl_sdl_next(p);
         if (vbnl_sdl_expect(p, '<', "to open the 12 values of 'matrix'") != VBNL_OK)
             return -1;
+        p->in_vector++; /* '>' closes the list */
         for (int i = 0; i < 12; ++i) {
-            if (i && vbnl_sdl_expect(p, ',', "between the 12 values of 'matrix'") != VBNL_OK)
+            if ((i && vbnl_sdl_expect(p, ',', "between the 12 values of 'matrix'") != VBNL_OK) ||
+                flt(L, &v[i]) != VBNL_OK) {
+                p->in_vector--;
                 return -1;
-            if (flt(L, &v[i]) != VBNL_OK)
-                return -1;
+            }
         }
+        p->in_vector--;
         if (vbnl_sdl_expect(p, '>', "after the 12 values of 'matrix'") != VBNL_OK)
             return -1;
         pov_m4_from_pov(v, m);
@@ -1177,6 +1180,10 @@ static vbnl_result parse_light(loader *L, pov_obj *o)
         t = vbnl_sdl_peek(p);
         vbnl_sdl_loc tl = t->loc;
         if (is_punct(t, '}')) {
+            double ax[3] = {l->point_at[0] - l->pos[0], l->point_at[1] - l->pos[1], l->point_at[2] - l->pos[2]};
+            if (l->type != POV_LIGHT_POINT && !(len3(ax) > 0))
+                return vbnl_sdl_error(p, &loc, "light_source: %s point_at equals the location",
+                                      l->type == POV_LIGHT_SPOT ? "spotlight" : "parallel");
             vbnl_sdl_next(p);
             return VBNL_OK;
         }
@@ -1930,6 +1937,7 @@ static vbnl_result build(loader *L, vbnl_error *err)
             memset(&o, 0, sizeof o);
             o.transform = xf;
             o.group = VBNL_GROUP_WORLD;
+            o.two_sided_emission = 1; /* as POV-Ray's emission */
             if (pr->app) { /* the scene gave an appearance: it overrides the file's materials */
                 o.override_material = 1;
                 if ((r = pov_appearance_material(&L->c, pr->app, ident, &o.material, err)) != VBNL_OK)
