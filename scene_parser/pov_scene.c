@@ -20,7 +20,7 @@
 typedef struct pov_cam {
     double loc[3], dir[3], right[3], up[3], sky[3], look_at[3];
     double angle;
-    int have_look_at, have_angle;
+    int have_look_at, have_angle, other_type;
     double m[16];
 } pov_cam;
 
@@ -579,6 +579,17 @@ static vbnl_result parse_mesh(loader *L, pov_obj *o, vbnl_sdl_loc loc)
                 vbnl_sdl_next(p);
                 break;
             }
+            if (is_word(t, "uv_vectors")) { /* per-triangle uv: accepted (patterns use world space) */
+                double uvv[2];
+                vbnl_sdl_next(p);
+                for (int k = 0; k < 3; ++k) {
+                    if (k)
+                        comma(L);
+                    if ((r = vbnl_sdl_parse_vector(p, 2, uvv)) != VBNL_OK)
+                        goto done;
+                }
+                continue;
+            }
             if (is_word(t, "texture") || is_word(t, "texture_list")) {
                 pov_appearance *a = NULL;
                 if ((r = pov_appearance_parse_modifier(&L->c, &a)) != VBNL_OK)
@@ -1021,8 +1032,7 @@ static vbnl_result parse_object(loader *L, pov_obj *o)
         if (!cone)
             r1 = r2;
         double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-        if (!(len3(d) > 0))
-            return vbnl_sdl_error(p, &loc, "%s: the two end points coincide", w);
+        int degenerate = !(len3(d) > 0);
         if (cone ? !(r1 >= 0 && r2 >= 0 && r1 + r2 > 0) : positive(L, r1, "cylinder radius", loc) != VBNL_OK)
             return cone ? vbnl_sdl_error(p, &loc, "cone radii must be >= 0 and not both 0") : VBNL_ERR_PARSE;
         sf.allow_open = 1;
@@ -1033,7 +1043,13 @@ static vbnl_result parse_object(loader *L, pov_obj *o)
         size_t idx = o->n - 1;
         if (parse_modifiers(L, o, &sf, w) != VBNL_OK)
             return VBNL_ERR_PARSE;
-        if (!(o->v[idx].mesh = pov_tess_cone(a, r1, b, r2, sf.open)))
+        if (degenerate) { /* POV-Ray warns and drops it too */
+            vbnl_sdl_warning(p, &loc, "%s: the two end points coincide; the object is skipped", w);
+            o->v[idx].mesh = pov_mesh_new();
+        } else {
+            o->v[idx].mesh = pov_tess_cone(a, r1, b, r2, sf.open);
+        }
+        if (!o->v[idx].mesh)
             return oom(L);
         return VBNL_OK;
     } else if (strcmp(w, "disc") == 0) {
@@ -1105,6 +1121,23 @@ static vbnl_result parse_object(loader *L, pov_obj *o)
                 return vbnl_sdl_failed(p) ? VBNL_ERR_PARSE : oom(L);
             }
             obj_clear(&child);
+        } else if (t->kind == VBNL_SDL_TOK_IDENT && vbnl_sdl_lookup(p, t->text) &&
+                   vbnl_sdl_lookup(p, t->text)->kind == VBNL_SDL_ARRAY) {
+            /* object { Arr[i] } */
+            vbnl_sdl_loc el = t->loc;
+            vbnl_sdl_value v;
+            if (vbnl_sdl_parse_expression(p, &v) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+            if (v.kind != VBNL_SDL_OBJECT || v.u.obj.type != &object_type) {
+                const char *kind = v.kind == VBNL_SDL_OBJECT ? v.u.obj.type->name : vbnl_sdl_kind_name(v.kind);
+                vbnl_sdl_value_clear(p, &v);
+                return vbnl_sdl_error(p, &el, "array element is a %s, not an object", kind);
+            }
+            const pov_obj *ao = v.u.obj.ptr;
+            int good = obj_append_copy(o, ao) && (!ao->app || (o->app = pov_appearance_copy(ao->app)));
+            vbnl_sdl_value_clear(p, &v);
+            if (!good)
+                return oom(L);
         } else if (t->kind == VBNL_SDL_TOK_IDENT && vbnl_sdl_lookup(p, t->text)) {
             return vbnl_sdl_error(p, &t->loc, "'%s' is a %s, not an object", t->text,
                                   vbnl_sdl_lookup(p, t->text)->kind == VBNL_SDL_OBJECT
@@ -1322,6 +1355,7 @@ static vbnl_result parse_camera_body(loader *L, pov_cam *c)
         } else if (in_list(w, other_types)) {
             vbnl_sdl_next(p);
             vbnl_sdl_warning(p, &tl, "camera type '%s' is not supported; rendering with a perspective camera", w);
+            c->other_type = 1;
             if (strcmp(w, "cylinder") == 0)
                 rr = flt(L, &f);
             else if (strcmp(w, "mesh_camera") == 0)
@@ -1349,6 +1383,10 @@ static vbnl_result parse_camera_body(loader *L, pov_cam *c)
             vbnl_sdl_next(p);
             if ((rr = flt(L, &c->angle)) == VBNL_OK) {
                 c->have_angle = 1;
+                if (c->other_type && c->angle >= 170 && c->angle < 360.0001) {
+                    vbnl_sdl_warning(p, &tl, "camera angle %g does not fit a perspective camera; using 170", c->angle);
+                    c->angle = 170;
+                }
                 if (!(c->angle > 0 && c->angle < 180))
                     return vbnl_sdl_error(p, &tl, "camera angle must lie in (0, 180) degrees, got %g", c->angle);
                 const vbnl_sdl_token *n = vbnl_sdl_peek(p);
@@ -2005,13 +2043,15 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
         goto done;
     vbnl_sdl_set_image_size(p, opt->width, opt->height);
     vbnl_sdl_set_clock(p, opt->clock, 0, 0, 0, 0, 0);
+    if (opt->includes_disabled)
+        vbnl_sdl_set_includes_enabled(p, 0);
     vbnl_sdl_set_diag_callback(p, on_diag, L);
     vbnl_sdl_hooks h = {L, hook_statement, hook_rvalue, hook_default};
     vbnl_sdl_set_hooks(p, &h);
     r = text ? vbnl_sdl_parse_text(p, name, text, len, err) : vbnl_sdl_parse_file(p, name, err);
     if (r != VBNL_OK)
         goto done;
-    if ((r = build(L, err)) != VBNL_OK || (r = vbnl_scene_commit(L->c.scene, err)) != VBNL_OK) {
+    if ((r = build(L, err)) != VBNL_OK || (!opt->no_commit && (r = vbnl_scene_commit(L->c.scene, err)) != VBNL_OK)) {
         char msg[VBNL_ERROR_MESSAGE_SIZE];
         snprintf(msg, sizeof msg, "%s", err ? err->message : "");
         vbnl_error_set(err, r, "%s: %s", name, msg);

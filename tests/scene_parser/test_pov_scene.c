@@ -254,13 +254,16 @@ static void test_union_inheritance(void **state)
                                 "  pigment { rgb <0, 1, 0> } }\n"
                                 "object { U translate y * 3 }\n"
                                 "merge { sphere { <0, 0, 0>, 0.5 } sphere { <2, 0, 0>, 0.5 } translate -y * 3 pigment { rgb <0, 0, 1> } }\n"
-                                "object { sphere { <5, 0, 0>, 0.5 } pigment { rgb 1 } }");
+                                "object { sphere { <5, 0, 0>, 0.5 } pigment { rgb 1 } }\n"
+                                "#declare A = array[2] { sphere { <7, 0, 0>, 0.5 }, sphere { <9, 0, 0>, 0.5 pigment { rgb x } } }\n"
+                                "object { A[1] }");
     NEAR(mat_at(s, 0, 3)->base_color[1], 0.6f);
     NEAR(mat_at(s, 2, 3)->base_color[0], 0.6f);
     NEAR(mat_at(s, 2, 3)->base_color[1], 0.0f);
     NEAR(mat_at(s, 2, -3)->base_color[2], 0.6f);
     NEAR(mat_at(s, 5, 0)->base_color[1], 0.6f);
-    assert_int_equal(info(s).sphere_count, 5);
+    NEAR(mat_at(s, 9, 0)->base_color[0], 0.6f);
+    assert_int_equal(info(s).sphere_count, 6);
     vbnl_pov_scene_destroy(s);
 }
 
@@ -271,10 +274,12 @@ static void test_skipped_shapes_warn(void **state)
                                 "difference { box { -1, 1 } sphere { 0, 1.2 } }\n"
                                 "lathe { linear_spline 3, <0,0>, <1,1>, <0,2> }\n"
                                 "#declare I = intersection { box { -1, 1 } sphere { 0, 1.2 } }\n"
-                                "object { I }");
+                                "object { I }\n"
+                                "cylinder { <1, 1, 1>, <1, 1, 1>, 1 }");
     assert_non_null(strstr(g_diags, "test.pov:4:1: warning: 'difference' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:5:1: warning: 'lathe' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:6:14: warning: 'intersection' is not supported; the object is skipped"));
+    assert_non_null(strstr(g_diags, "test.pov:8:1: warning: cylinder: the two end points coincide; the object is skipped"));
     assert_int_equal(info(s).sphere_count, 1);
     assert_int_equal(info(s).triangle_count, 0);
     vbnl_pov_scene_destroy(s);
@@ -457,7 +462,7 @@ static void test_errors(void **state)
     expect_error(BASE "sphere { <0, 0, 0> }", "test.pov:3:20: expected an expression, found '}'");
     expect_error(BASE "sphere { 0, -1 }", "test.pov:3:1: sphere radius must be positive, got -1");
     expect_error(BASE "box { 0, 1 frobnicate }", "test.pov:3:12: unexpected 'frobnicate' in 'box'");
-    expect_error(BASE "cylinder { 0, 0, 1 }", "test.pov:3:1: cylinder: the two end points coincide");
+    expect_error(BASE "cylinder { 0, 0, 1 } cone { 0, 1, y, -1 }", "test.pov:3:22: cone radii must be >= 0 and not both 0");
     expect_error(BASE "plane { 0, 1 }", "test.pov:3:1: plane normal must not be zero");
     expect_error(BASE "polygon { 2, <0,0>, <1,0> }", "test.pov:3:1: polygon needs a whole number of at least 3 points, got 2");
     expect_error(BASE "object { Nothing }", "test.pov:3:10: undeclared object identifier 'Nothing'");
