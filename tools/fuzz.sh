@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the scene-parser libFuzzer target with AddressSanitizer + UndefinedBehaviorSanitizer and
+# Builds the scene-parser libFuzzer target (language and object layers) with AddressSanitizer + UndefinedBehaviorSanitizer and
 # runs it for SECONDS (default 60), seeded with the examples, the POV-Ray standard includes and
 # the regression inputs. A crash leaves its input in build-fuzz/ and fails; add it to
 # tests/scene_parser/regressions/ once fixed.
@@ -9,9 +9,11 @@ seconds=${1:-60}
 out="$here/build-fuzz"
 mkdir -p "$out/corpus" "$out/seeds"
 clang -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -D_GNU_SOURCE \
-    -I "$here/core/include" -I "$here/scene_parser" -I "$here/scene_parser/include" \
-    "$here"/scene_parser/sdl_*.c "$here/core/src/error.c" "$here/tests/scene_parser/fuzz_parser.c" \
-    -lm -lpthread -o "$out/fuzz_parser"
+    -I "$here/core/include" -I "$here/core/src" -I "$here/core/integrators/vbnl" \
+    -I "$here/scene_parser" -I "$here/scene_parser/include" \
+    "$here"/scene_parser/sdl_*.c "$here"/scene_parser/pov_*.c "$here"/core/src/*.c \
+    "$here"/core/integrators/registry.c "$here"/core/integrators/*/*.c \
+    "$here/tests/scene_parser/fuzz_parser.c" -lembree3 -lm -lpthread -o "$out/fuzz_parser"
 cp "$here"/tests/scene_parser/regressions/*.pov "$out/seeds/" 2>/dev/null || true
 cp /usr/share/povray-3.7/include/*.inc "$out/seeds/" 2>/dev/null || true
 cp "$here"/examples/*.pov "$out/seeds/" 2>/dev/null || true

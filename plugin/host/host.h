@@ -25,10 +25,20 @@ typedef struct host_camera {
 /* Parses "px,py,pz,tx,ty,tz,fov_degrees". Returns 0 on success. */
 int host_parse_camera(const char *text, host_camera *cam);
 
-/* Loads FILE (a mesh file through assimp for now) into a committed scene. Without a camera the
- * scene is framed from +z with a 40 degree vertical field of view. */
+/* Loads FILE (a POV-Ray scene, or a mesh file through assimp) into a committed scene. Without a
+ * camera a mesh file is framed from +z with a 40 degree vertical field of view. */
 vbnl_result host_load_scene(vbnl_context *ctx, const char *path, const host_camera *cam, float aspect,
                             vbnl_scene **out, vbnl_error *err);
+
+/* 1 when `path` is a POV-Ray scene file (.pov or .inc). */
+int host_is_pov(const char *path);
+
+/* Loads a POV-Ray scene (diagnostics to stderr) into a committed scene; the integrator the
+ * scene selected goes to `integrator` (size bytes) and its parameters to *params (caller
+ * destroys). The image size is what the scene sees as image_width / image_height. */
+vbnl_result host_load_pov(vbnl_context *ctx, const char *path, uint32_t width, uint32_t height,
+                          vbnl_scene **out, char *integrator, size_t size, vbnl_params **params,
+                          vbnl_error *err);
 
 /* Writes the film as EXR (all layers, settings as attributes) and, if png_path, an sRGB PNG. */
 vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_settings *s,

@@ -87,7 +87,7 @@ static void render_usage(FILE *f)
             "\n"
             "  -o, --output PATH        EXR output (scene-linear, every layer, settings in the header)\n"
             "      --png PATH           sRGB PNG of the beauty image\n"
-            "      --integrator NAME    integrator (default: path); see `vbnl info`\n"
+            "      --integrator NAME    integrator (default: the .pov scene's, else path); see `vbnl info`\n"
             "      --set KEY=VALUE      integrator parameter (repeatable)\n"
             "      --save-lights PATH   vbnl: save the prepared virtual lights and photons (--set save_lights=PATH)\n"
             "      --load-lights PATH   vbnl: load them instead of preparing; A:B:... sums the photon ranges of\n"
@@ -259,15 +259,20 @@ static int cmd_render(int argc, char **argv)
         rc = VBNL_EXIT_FAILURE;
         goto out;
     }
+    /* A .pov scene names its integrator and parameters; --integrator and --set override them,
+     * so without --integrator validation waits for the scene. */
+    int pov = host_is_pov(scene_path);
     const char *iname = s.integrator ? s.integrator : "path";
     const vbnl_integrator_class *cls = vbnl_integrator_find(iname);
-    if (!cls) {
-        fprintf(stderr, "vbnl render: unknown integrator '%s' (see `vbnl info`)\n", iname);
-        goto out;
-    }
-    if (vbnl_params_validate(params, cls->params, cls->param_count, iname, &err) != VBNL_OK) {
-        fprintf(stderr, "vbnl render: %s\n", err.message);
-        goto out;
+    if (!(pov && !s.integrator)) {
+        if (!cls) {
+            fprintf(stderr, "vbnl render: unknown integrator '%s' (see `vbnl info`)\n", iname);
+            goto out;
+        }
+        if (vbnl_params_validate(params, cls->params, cls->param_count, iname, &err) != VBNL_OK) {
+            fprintf(stderr, "vbnl render: %s\n", err.message);
+            goto out;
+        }
     }
 
     vbnl_context *ctx = NULL;
@@ -279,10 +284,39 @@ static int cmd_render(int argc, char **argv)
         fprintf(stderr, "vbnl render: %s\n", err.message);
         goto out;
     }
-    if (host_load_scene(ctx, scene_path, &cam, (float)s.width / (float)s.height, &scene, &err) != VBNL_OK) {
+    char scene_integrator[64] = "";
+    vbnl_params *scene_params = NULL;
+    if ((pov ? host_load_pov(ctx, scene_path, s.width, s.height, &scene, scene_integrator,
+                             sizeof scene_integrator, &scene_params, &err)
+             : host_load_scene(ctx, scene_path, &cam, (float)s.width / (float)s.height, &scene, &err)) != VBNL_OK) {
         fprintf(stderr, "vbnl render: %s\n", err.message);
         rc = VBNL_EXIT_SCENE;
         goto cleanup;
+    }
+    if (pov) {
+        /* The scene's settings first, then the command line's (later settings win). */
+        if (!s.integrator || strcmp(s.integrator, scene_integrator) == 0) {
+            s.integrator = s.integrator ? s.integrator : scene_integrator;
+            if (vbnl_params_append(scene_params, params, &err) != VBNL_OK) {
+                fprintf(stderr, "vbnl render: %s\n", err.message);
+                vbnl_params_destroy(scene_params);
+                goto cleanup;
+            }
+            vbnl_params_destroy(params);
+            params = scene_params;
+            s.params = params;
+        } else {
+            if (vbnl_params_count(scene_params))
+                fprintf(stderr, "vbnl render: note: --integrator %s replaces the scene's '%s' and its parameters\n",
+                        s.integrator, scene_integrator);
+            vbnl_params_destroy(scene_params);
+        }
+        iname = s.integrator;
+        cls = vbnl_integrator_find(iname);
+        if (!cls || vbnl_params_validate(params, cls->params, cls->param_count, iname, &err) != VBNL_OK) {
+            fprintf(stderr, "vbnl render: %s\n", cls ? err.message : "unknown integrator");
+            goto cleanup;
+        }
     }
     if (vbnl_renderer_create(ctx, scene, &s, &r, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl render: %s\n", err.message);

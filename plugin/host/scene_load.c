@@ -1,4 +1,5 @@
-/* Loading scenes for the host: mesh files through assimp (the scene language comes later). */
+/* Loading scenes for the host: POV-Ray scene files through the scene parser, mesh files through
+ * assimp. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,6 +8,7 @@
 
 #include "host.h"
 #include "vbnl/mesh_import.h"
+#include "vbnl/pov_scene.h"
 
 int host_parse_camera(const char *text, host_camera *cam)
 {
@@ -30,15 +32,54 @@ static int has_extension(const char *path, const char *ext)
     return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
+int host_is_pov(const char *path) { return has_extension(path, ".pov") || has_extension(path, ".inc"); }
+
+static void print_diag(const vbnl_sdl_diag *d, void *user)
+{
+    (void)user;
+    fputs(d->text, stderr);
+}
+
+vbnl_result host_load_pov(vbnl_context *ctx, const char *path, uint32_t width, uint32_t height,
+                          vbnl_scene **out, char *integrator, size_t size, vbnl_params **params,
+                          vbnl_error *err)
+{
+    *out = NULL;
+    if (params)
+        *params = NULL;
+    vbnl_pov_options o;
+    vbnl_pov_options_init(&o);
+    o.width = (int)width;
+    o.height = (int)height;
+    o.diag = print_diag;
+    vbnl_pov_scene *ps = NULL;
+    vbnl_result r = vbnl_pov_load_file(ctx, path, &o, &ps, err);
+    if (r != VBNL_OK)
+        return r;
+    if (integrator && size)
+        snprintf(integrator, size, "%s", vbnl_pov_scene_integrator(ps));
+    if (params) {
+        if ((r = vbnl_params_create(params, err)) != VBNL_OK ||
+            (r = vbnl_params_append(*params, vbnl_pov_scene_params(ps), err)) != VBNL_OK) {
+            vbnl_params_destroy(*params);
+            *params = NULL;
+            vbnl_pov_scene_destroy(ps);
+            return r;
+        }
+    }
+    *out = vbnl_pov_scene_take_scene(ps);
+    vbnl_pov_scene_destroy(ps);
+    return VBNL_OK;
+}
+
 vbnl_result host_load_scene(vbnl_context *ctx, const char *path, const host_camera *cam, float aspect,
                             vbnl_scene **out, vbnl_error *err)
 {
     *out = NULL;
-    if (has_extension(path, ".pov") || has_extension(path, ".inc"))
-        return vbnl_error_set(err, VBNL_ERR_UNSUPPORTED,
-                              "%s: the scene language is not available in this build yet; give a mesh "
-                              "file (OBJ, PLY, glTF) and --camera",
-                              path);
+    if (host_is_pov(path)) {
+        uint32_t h = 480, w = (uint32_t)lroundf(480.0f * (aspect > 0 ? aspect : 1.0f));
+        return host_load_pov(ctx, path, w ? w : 1, h, out, NULL, 0, NULL, err);
+    }
     vbnl_scene *scene;
     vbnl_result r = vbnl_scene_create(ctx, &scene, err);
     if (r != VBNL_OK)

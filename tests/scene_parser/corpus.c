@@ -1,9 +1,11 @@
-/* vbnl: corpus check of the SDL language layer.
+/* vbnl: corpus check of the scene parser (language and object layers).
  *
- * Parses every .pov file under a directory (default: POV-Ray's sample scenes,
- * /usr/share/povray-3.7/scenes from Debian's povray-examples) with the language layer, each in a
+ * Loads every .pov file under a directory (default: POV-Ray's sample scenes,
+ * /usr/share/povray-3.7/scenes from Debian's povray-examples) with vbnl_pov_load_file, building
+ * the core scene without committing it (the BVH build adds nothing to the parser check), each in a
  * child process with a time limit, and prints a table: parsed clean / with warnings / error /
- * timeout / crash, followed by the most frequent error messages.
+ * timeout / crash, followed by the most frequent error messages and the most frequent
+ * unsupported features (warnings that something is skipped or ignored).
  *
  *     corpus [-t seconds] [-v] [--check PERCENT] [dir]
  *
@@ -21,7 +23,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "vbnl/sdl.h"
+#include "vbnl/pov_scene.h"
+#include "vbnl/render.h"
 
 typedef struct entry {
     char *path;
@@ -72,23 +75,57 @@ static int cmp_entry(const void *a, const void *b)
     return strcmp(((const entry *)a)->path, ((const entry *)b)->path);
 }
 
-/* Child: parse and write "status\twarnings\tmessage\n" to fd. */
+typedef struct child_state {
+    int warnings;
+    char features[600]; /* distinct "not supported"/"ignored" warnings, '|'-separated */
+} child_state;
+
+static void normalize(const char *msg, char *out, size_t n);
+
+static void on_diag(const vbnl_sdl_diag *d, void *user)
+{
+    child_state *c = user;
+    if (d->severity != VBNL_SDL_WARNING)
+        return;
+    c->warnings++;
+    if (!strstr(d->message, "not supported") && !strstr(d->message, "ignored") && !strstr(d->message, "skipped"))
+        return;
+    char key[200];
+    normalize(d->message, key, sizeof key);
+    if (strstr(c->features, key))
+        return;
+    size_t len = strlen(c->features);
+    if (len + strlen(key) + 2 < sizeof c->features)
+        snprintf(c->features + len, sizeof c->features - len, "%s%s", len ? "|" : "", key);
+}
+
+/* Child: load and write "status\twarnings\tmessage\n" to fd (message: the error, or for scenes
+ * with warnings the unsupported features). */
 static void child(const char *path, int fd)
 {
-    vbnl_sdl_parser *p;
     vbnl_error err = { 0 };
     char out[800];
-    if (vbnl_sdl_parser_create(&p, &err) != VBNL_OK) {
+    vbnl_context *ctx = NULL;
+    vbnl_context_desc cd = {1};
+    child_state cs = {0, ""};
+    if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK) {
         snprintf(out, sizeof out, "error\t0\t%.700s\n", err.message);
     } else {
-        vbnl_sdl_set_image_size(p, 320, 240);
-        vbnl_result r = vbnl_sdl_parse_file(p, path, &err);
-        size_t w = vbnl_sdl_warning_count(p);
+        vbnl_pov_options o;
+        vbnl_pov_options_init(&o);
+        o.width = 320;
+        o.height = 240;
+        o.no_commit = 1;
+        o.diag = on_diag;
+        o.diag_user = &cs;
+        vbnl_pov_scene *s = NULL;
+        vbnl_result r = vbnl_pov_load_file(ctx, path, &o, &s, &err);
         if (r == VBNL_OK)
-            snprintf(out, sizeof out, "%s\t%zu\t\n", w ? "warnings" : "clean", w);
+            snprintf(out, sizeof out, "%s\t%d\t%s\n", cs.warnings ? "warnings" : "clean", cs.warnings, cs.features);
         else
-            snprintf(out, sizeof out, "error\t%zu\t%.600s\n", w, err.message);
-        vbnl_sdl_parser_destroy(p);
+            snprintf(out, sizeof out, "error\t%d\t%.600s\n", cs.warnings, err.message);
+        vbnl_pov_scene_destroy(s);
+        vbnl_context_destroy(ctx);
     }
     for (char *c = out; *c; c++)
         if (*c == '\n' && c[1])
@@ -214,7 +251,7 @@ int main(int argc, char **argv)
             printf("%-9s %3d  %s  %s\n", e->status, e->warnings, e->path, e->message);
     }
     size_t n = nentries;
-    printf("\nSDL language layer corpus: %zu scenes under %s (time limit %d s each)\n\n", n, dir, timeout);
+    printf("\nScene parser corpus (language + object layers): %zu scenes under %s (time limit %d s each)\n\n", n, dir, timeout);
     printf("  %-22s %5s %7s\n", "result", "files", "share");
     printf("  %-22s %5d %6.1f%%\n", "parsed clean", clean, 100.0 * clean / n);
     printf("  %-22s %5d %6.1f%%\n", "parsed with warnings", warn, 100.0 * warn / n);
@@ -245,6 +282,35 @@ int main(int argc, char **argv)
         printf("\nTop error messages:\n");
         for (size_t k = 0; k < nc && k < 20; k++)
             printf("  %4d  %s\n        e.g. %.200s\n", counts[k].n, counts[k].msg, counts[k].example);
+    }
+    free(counts);
+    /* unsupported features: how many scenes report each */
+    counts = calloc(64 * n + 1, sizeof *counts);
+    nc = 0;
+    for (size_t i = 0; i < n && counts; i++) {
+        entry *e = &entries[i];
+        if (strcmp(e->status, "warnings"))
+            continue;
+        char list[600];
+        snprintf(list, sizeof list, "%s", e->message);
+        for (char *tok = strtok(list, "|"); tok; tok = strtok(NULL, "|")) {
+            size_t k;
+            for (k = 0; k < nc; k++)
+                if (strcmp(counts[k].msg, tok) == 0)
+                    break;
+            if (k == nc) {
+                snprintf(counts[nc].msg, sizeof counts[nc].msg, "%s", tok);
+                counts[nc].example = e->path;
+                nc++;
+            }
+            counts[k].n++;
+        }
+    }
+    if (nc) {
+        qsort(counts, nc, sizeof *counts, cmp_count);
+        printf("\nTop unsupported features (scenes reporting each):\n");
+        for (size_t k = 0; k < nc && k < 20; k++)
+            printf("  %4d  %s\n", counts[k].n, counts[k].msg);
     }
     free(counts);
     for (size_t i = 0; i < n; i++)

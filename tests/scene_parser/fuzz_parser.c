@@ -1,24 +1,31 @@
-/* vbnl: libFuzzer target for the SDL language layer.
+/* vbnl: libFuzzer target for the scene parser (language and object layers).
  *
- * The input is a scene text; #include is disabled and the limits are small so that every input
- * finishes quickly. Build and run:
- *   clang -g -O1 -fsanitize=fuzzer,address,undefined -D_GNU_SOURCE -I core/include -I scene_parser \
- *         -I scene_parser/include scene_parser/sdl_*.c core/src/error.c \
- *         tests/scene_parser/fuzz_parser.c -lm -lpthread -o fuzz_parser
+ * The input is a scene text loaded with vbnl_pov_load_text: #include is disabled, the limits are
+ * small so that every input finishes quickly, and the core scene is built but not committed.
+ * tools/fuzz.sh builds and runs it; by hand:
+ *   clang -g -O1 -fsanitize=fuzzer,address,undefined -D_GNU_SOURCE -I core/include -I core/src \
+ *         -I core/integrators/vbnl -I scene_parser -I scene_parser/include scene_parser/sdl_*.c \
+ *         scene_parser/pov_*.c core/src/*.c core/integrators/registry.c core/integrators/*\/*.c \
+ *         tests/scene_parser/fuzz_parser.c -lembree3 -lm -lpthread -o fuzz_parser
  *   ./fuzz_parser -dict=tests/scene_parser/sdl.dict -max_len=8192 corpus_dir /usr/share/povray-3.7/include
  * Crashes become regression inputs in tests/scene_parser/regressions/ (test_sdl_regressions). */
 #include <stddef.h>
 #include <stdint.h>
 
-#include "vbnl/sdl.h"
+#include "vbnl/pov_scene.h"
+#include "vbnl/render.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
+static vbnl_context *ctx;
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    vbnl_sdl_parser *p = NULL;
-    if (vbnl_sdl_parser_create(&p, NULL) != VBNL_OK)
-        return 0;
+    if (!ctx) {
+        vbnl_context_desc cd = {1};
+        if (vbnl_context_create(&cd, &ctx, NULL) != VBNL_OK)
+            return 0;
+    }
     vbnl_sdl_limits l;
     vbnl_sdl_limits_default(&l);
     l.max_loop_iterations = 2000;
@@ -27,9 +34,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     l.max_macro_depth = 64;
     l.max_nesting = 200;
     l.stack_bytes = (size_t)16 << 20;
-    vbnl_sdl_set_limits(p, &l);
-    vbnl_sdl_set_includes_enabled(p, 0);
-    vbnl_sdl_parse_text(p, "fuzz.pov", (const char *)data, size, NULL);
-    vbnl_sdl_parser_destroy(p);
+    vbnl_pov_options o;
+    vbnl_pov_options_init(&o);
+    o.limits = &l;
+    o.includes_disabled = 1;
+    o.no_commit = 1;
+    vbnl_pov_scene *s = NULL;
+    vbnl_pov_load_text(ctx, "fuzz.pov", (const char *)data, size, &o, &s, NULL);
+    vbnl_pov_scene_destroy(s);
     return 0;
 }

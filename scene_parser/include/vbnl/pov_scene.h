@@ -40,10 +40,12 @@ typedef struct vbnl_pov_options {
     double clock;                    /* clock (0) */
     const vbnl_sdl_limits *limits;   /* NULL: vbnl_sdl_limits_default */
     vbnl_sdl_diag_fn diag;           /* every warning, note and error (may be NULL) */
+    int no_commit;                   /* 1: build the scene but do not commit it (parser tests) */
+    int includes_disabled;           /* 1: #include is refused (fuzzing, untrusted input) */
     void *diag_user;
 } vbnl_pov_options;
 
-/* Zero include dirs, 640x480, clock 0, default limits, no callback. */
+/* Zero include dirs, 640x480, clock 0, default limits, no callback, commit, includes on. */
 void vbnl_pov_options_init(vbnl_pov_options *o);
 
 /* Parses `path` and builds a committed scene in `ctx`. */

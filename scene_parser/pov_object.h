@@ -1,0 +1,97 @@
+/* vbnl: the object layer's scene model between parsing and building the core scene.
+ *
+ * An object is a flat list of primitives, each with its own object-to-world transform (POV-Ray
+ * coordinates, kept unchanged in the core) and appearance (NULL: inherited from a CSG parent or
+ * the #default in effect). Unions concatenate their children's lists; transforms of a parent
+ * are composed into every primitive. Meshes are shared (reference counted) between copies. */
+#ifndef VBNL_POV_OBJECT_H
+#define VBNL_POV_OBJECT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pov_internal.h"
+
+typedef struct pov_mesh {
+    int refs;
+    float *pos, *nrm, *uv; /* nrm, uv may be NULL */
+    uint32_t nv, capv;
+    uint32_t *idx;
+    int32_t *ftex; /* per triangle: index into texs, -1 = the primitive's appearance; or NULL */
+    uint32_t nt, capt;
+    pov_appearance **texs;
+    uint32_t ntex;
+} pov_mesh;
+
+enum { POV_LIGHT_POINT = 0, POV_LIGHT_SPOT, POV_LIGHT_PARALLEL };
+
+typedef struct pov_light {
+    int type;
+    int cylinder;
+    double pos[3], color[3], point_at[3];
+    double radius, falloff, tightness;
+    int area;
+    double axis1[3], axis2[3];
+    double fade_distance, fade_power;
+} pov_light;
+
+enum { POV_PRIM_SPHERE = 0, POV_PRIM_PLANE, POV_PRIM_MESH, POV_PRIM_LIGHT, POV_PRIM_IMPORT };
+
+typedef struct pov_prim {
+    int kind;
+    double m[16];        /* object space -> world (POV-Ray coordinates) */
+    pov_appearance *app; /* owned; NULL = inherit */
+    double a[4];         /* sphere: centre, radius; plane: normal, distance */
+    pov_mesh *mesh;      /* MESH */
+    pov_light light;     /* LIGHT */
+    char *path;          /* IMPORT: resolved file name (owned) */
+    vbnl_sdl_loc loc;
+} pov_prim;
+
+typedef struct pov_obj {
+    pov_prim *v;
+    size_t n, cap;
+    pov_appearance *app; /* the object's own, handed to primitives without one when finished */
+    vbnl_sdl_loc loc;
+} pov_obj;
+
+/* ---- 4x4 row-major affine matrices (pov_geom.c) -------------------------------------------- */
+void pov_m4_identity(double m[16]);
+void pov_m4_mul(const double a[16], const double b[16], double out[16]); /* out = a b */
+void pov_m4_translate(const double v[3], double m[16]);
+void pov_m4_scale(const double v[3], double m[16]);
+/* POV-Ray rotate <a,b,c>: about x by a, then y by b, then z by c (degrees). */
+void pov_m4_rotate(const double deg[3], double m[16]);
+/* POV-Ray matrix <12 values>: row-vector convention, p' = p M. */
+void pov_m4_from_pov(const double v[12], double m[16]);
+int pov_m4_invert(const double m[16], double out[16]); /* 0: singular */
+void pov_m4_point(const double m[16], const double p[3], double out[3]);
+void pov_m4_dir(const double m[16], const double d[3], double out[3]);
+/* 1 when the linear part is a rotation times a uniform scale (returned in *s). */
+int pov_m4_is_similarity(const double m[16], double *s);
+
+/* ---- meshes (pov_geom.c) ------------------------------------------------------------------- */
+pov_mesh *pov_mesh_new(void);
+void pov_mesh_unref(pov_mesh *m);
+/* Appends a vertex (nrm/uv may be NULL; every vertex of a mesh must then agree); returns its
+ * index or UINT32_MAX when out of memory. */
+uint32_t pov_mesh_vertex(pov_mesh *m, const double p[3], const double n[3], const double uv[2]);
+int pov_mesh_tri(pov_mesh *m, uint32_t a, uint32_t b, uint32_t c, int32_t tex); /* 0: OOM */
+
+/* Tessellations (segment counts in pov_geom.c); NULL when out of memory. */
+#define POV_SEGMENTS 64 /* around an axis */
+#define POV_RINGS 32    /* pole to pole */
+pov_mesh *pov_tess_sphere(const double c[3], double r);
+pov_mesh *pov_tess_box(const double a[3], const double b[3]);
+pov_mesh *pov_tess_cone(const double b[3], double rb, const double t[3], double rt, int open);
+pov_mesh *pov_tess_disc(const double c[3], const double n[3], double r, double hole);
+pov_mesh *pov_tess_torus(double major, double minor);
+/* Patch of the plane n.p = d: a square of half-size `half` centred on the point of the plane
+ * nearest to `centre`. */
+pov_mesh *pov_tess_plane(const double n[3], double d, const double centre[3], double half);
+/* Polygon with POV-Ray's sub-polygon rule (a sub-polygon closes when a vertex repeats its first
+ * vertex); each sub-polygon is ear-clipped in its plane. *nested is set when a sub-polygon
+ * starts inside another (POV-Ray would cut a hole; it is filled here). */
+pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last);
+
+#endif
