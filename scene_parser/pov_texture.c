@@ -1567,6 +1567,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
         }
         for (int k = 0; k < 3; ++k)
             md.emission[k] = (float)(f->emission[k] * (textured ? 1.0 : pc[k]));
+        md.two_sided = 1; /* POV-Ray's emission glows on both sides of a surface */
         if (textured && (f->emission[0] > 0 || f->emission[1] > 0 || f->emission[2] > 0)) {
             double avg[5];
             color_map_average(&g->map, avg);
