@@ -199,6 +199,28 @@ static void test_acceptance_epsilon_one_is_plain_ir(void **state)
     vbnl_vpl_set_free(&gs);
 }
 
+/* Oracle 4, in expectation: the acceptance keeps the expected image of plain IR (the 1/p weight).
+ * Same number of light paths for both; means over independent seeds agree in total. */
+static void test_acceptance_unbiased(void **state)
+{
+    fixture *f = *state;
+    const char *const plain[] = {"indirect_only=on", "light_paths=200", NULL};
+    const char *const gs[] = {"indirect_only=on", "light_paths=200", "acceptance=on", "virtual_lights=150", NULL};
+    const int M = 32;
+    double sp = 0.0, sg = 0.0;
+    for (int m = 0; m < M; ++m) {
+        float *a = render(f->ctx, f->scene, "vpl", W, H, 1, 500 + (uint64_t)m, plain);
+        float *b = render(f->ctx, f->scene, "vpl", W, H, 1, 500 + (uint64_t)m, gs);
+        sp += sum_of(a, W * H);
+        sg += sum_of(b, W * H);
+        free(a);
+        free(b);
+    }
+    print_message("# acceptance / plain IR indirect energy over %d seeds: %.4f\n", M, sg / sp);
+    assert_true(sp > 0.0);
+    assert_true(fabs(sg / sp - 1.0) < 0.05);
+}
+
 /* Interior of an emitting Lambertian sphere (notes §6): G = 1/(4R^2) everywhere, so unclamped
  * VPLs have no singularity, and the indirect radiance is rho^2 Le / (1 - rho) = 0.5 for
  * rho = 0.5, Le = 1 in every pixel. Checks the flux normalisation by the path count and the
@@ -318,6 +340,7 @@ int main(void)
         cmocka_unit_test(test_vpl_converges_to_path),
         cmocka_unit_test(test_clamp_never_brightens),
         cmocka_unit_test(test_acceptance_epsilon_one_is_plain_ir),
+        cmocka_unit_test(test_acceptance_unbiased),
         cmocka_unit_test(test_vpl_furnace),
         cmocka_unit_test(test_vsl_preserves_energy),
         cmocka_unit_test(test_indirect_only_everywhere),

@@ -15,7 +15,7 @@
 static const vbnl_param_spec vpl_params[] = {
     {"virtual_lights", VBNL_PARAM_INT, 12000, NULL, 1, 5e7, NULL,
      "VPLs to generate (accepted ones with acceptance); the VBNL paper compares at 12K"},
-    {"light_paths", VBNL_PARAM_FLOAT, 0, NULL, 0, 1e10, NULL,
+    {"light_paths", VBNL_PARAM_INT, 0, NULL, 0, 1e10, NULL,
      "fixed number N of light paths instead (0 = trace until virtual_lights are stored)"},
     {"clamp", VBNL_PARAM_FLOAT, 0, NULL, 0, 1e30, NULL,
      "bound b of the geometry term cos cos / d^2 (1/scene unit^2); 0 = unclamped (the papers give none)"},

@@ -25,7 +25,7 @@
 static const vbnl_param_spec vsl_params[] = {
     {"virtual_lights", VBNL_PARAM_INT, 12000, NULL, 1, 5e7, NULL,
      "lights to generate; the VBNL paper compares at 12K"},
-    {"light_paths", VBNL_PARAM_FLOAT, 0, NULL, 0, 1e10, NULL,
+    {"light_paths", VBNL_PARAM_INT, 0, NULL, 0, 1e10, NULL,
      "fixed number N of light paths instead (0 = trace until virtual_lights are stored)"},
     {"rr_depth", VBNL_PARAM_INT, 0, NULL, 0, 1e6, NULL, "light-walk bounces before Russian roulette"},
     {"radius_scale", VBNL_PARAM_FLOAT, 4, NULL, 1e-3, 1e3, NULL,
