@@ -600,6 +600,58 @@ static const char *const fallback_patterns[] = {
 
 static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg);
 
+/* Block patterns and their number of colours (0: a continuous pattern). */
+static int discrete_pattern(const char *name)
+{
+    if (!strcmp(name, "hexagon"))
+        return 3;
+    if (!strcmp(name, "square"))
+        return 4;
+    if (!strcmp(name, "triangular") || !strcmp(name, "cubic"))
+        return 6;
+    if (!strcmp(name, "object"))
+        return 2;
+    return 0;
+}
+
+/* POV-Ray 3.7's default colour maps of the patterns (pattern.cpp); black to white otherwise. */
+static void default_color_map(const char *name, pov_color_map *m)
+{
+    typedef struct { double v, r, g, b; } E;
+    static const E agate[] = {{0.0, 1, 1, 1}, {0.5, 0.95, 0.75, 0.5}, {0.5, 0.9, 0.7, 0.5},
+                              {0.6, 0.9, 0.7, 0.4}, {0.6, 1, 0.7, 0.4}, {1.0, 0.6, 0.3, 0}};
+    static const E bozo[] = {{0.4, 1, 1, 1}, {0.4, 0, 1, 0}, {0.6, 0, 1, 0},
+                             {0.6, 0, 0, 1}, {0.8, 0, 0, 1}, {0.8, 1, 0, 0}};
+    static const E marble[] = {{0.0, 0.9, 0.8, 0.8}, {0.9, 0.9, 0.08, 0.08}, {0.9, 0, 0, 0}};
+    static const E radial[] = {{0.0, 0, 1, 1}, {0.333, 1, 1, 0}, {0.666, 1, 0, 1}, {1.0, 0, 1, 1}};
+    static const E wood[] = {{0.6, 0.666, 0.312, 0.2}, {0.6, 0.4, 0.1333, 0.066}};
+    static const E mandel[] = {{0.001, 0, 0, 0}, {0.001, 0, 1, 1}, {0.012, 1, 1, 0}, {0.015, 1, 0, 1}, {0.1, 0, 1, 1}};
+    static const E hexagon[] = {{0, 0, 0, 1}, {1, 0, 1, 0}, {2, 1, 0, 0}};
+    static const E six[] = {{0, 1, 0, 0}, {1, 0, 1, 0}, {2, 0, 0, 1}, {3, 1, 1, 0}, {4, 0, 1, 1}, {5, 1, 0, 1}};
+    static const E checker[] = {{0, 0, 0, 1}, {1, 0, 1, 0}};
+    static const E gray[] = {{0, 0, 0, 0}, {1, 1, 1, 1}};
+    const E *e = gray;
+    uint32_t n = 2;
+#define PICK(kw, arr)                                                                              \
+    else if (!strcmp(name, kw)) { e = arr; n = (uint32_t)(sizeof(arr) / sizeof(arr[0])); }
+    if (0) {
+    }
+    PICK("agate", agate) PICK("bozo", bozo) PICK("marble", marble)
+    PICK("radial", radial) PICK("wood", wood) PICK("mandel", mandel) PICK("hexagon", hexagon)
+    PICK("object", checker)
+    else if (!strcmp(name, "square")) { e = six; n = 4; }
+    PICK("triangular", six) PICK("cubic", six)
+#undef PICK
+    m->count = n;
+    for (uint32_t i = 0; i < n; ++i) {
+        m->e[i].value = e[i].v;
+        m->e[i].color[0] = e[i].r;
+        m->e[i].color[1] = e[i].g;
+        m->e[i].color[2] = e[i].b;
+        m->e[i].color[3] = m->e[i].color[4] = 0.0;
+    }
+}
+
 /* Two optional colours after checker / brick / hexagon: entries at 0 and 1 (and more). */
 static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
 {
@@ -779,12 +831,17 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
                 if (!strcmp(fallback, "spiral1") || !strcmp(fallback, "spiral2")) {
                     if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
                         return VBNL_ERR_PARSE;
-                } else if (!strcmp(fallback, "hexagon") || !strcmp(fallback, "square") ||
-                           !strcmp(fallback, "triangular")) {
-                    if (parse_block_colors(c, pg, 4) != VBNL_OK)
+                } else if (discrete_pattern(fallback)) {
+                    if (!strcmp(fallback, "object")) {
+                        const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+                        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
+                            return VBNL_ERR_PARSE;
+                    }
+                    pg->map.count = 0;
+                    if (parse_block_colors(c, pg, discrete_pattern(fallback)) != VBNL_OK)
                         return VBNL_ERR_PARSE;
-                } else if (!strcmp(fallback, "object") || !strcmp(fallback, "function") ||
-                           !strcmp(fallback, "pigment_pattern") || !strcmp(fallback, "density_file")) {
+                } else if (!strcmp(fallback, "function") || !strcmp(fallback, "pigment_pattern") ||
+                           !strcmp(fallback, "density_file")) {
                     const vbnl_sdl_token *n = vbnl_sdl_peek(p);
                     if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
                         return VBNL_ERR_PARSE;
@@ -807,7 +864,17 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
         }
     }
     if (fallback) {
-        color_map_average(&pg->map, pg->color);
+        if (pg->map.count == 0)
+            default_color_map(fallback, &pg->map);
+        if (discrete_pattern(fallback)) {
+            /* block patterns: every colour covers the same share of space */
+            memset(pg->color, 0, sizeof(pg->color));
+            for (uint32_t i = 0; i < pg->map.count; ++i)
+                for (int k = 0; k < 5; ++k)
+                    pg->color[k] += pg->map.e[i].color[k] / pg->map.count;
+        } else {
+            color_map_average(&pg->map, pg->color);
+        }
         pg->kind = PIG_SOLID;
         vbnl_sdl_warning(p, &fallback_loc,
                          "pattern '%s' is not supported: using the average colour of its colour map (%.3g %.3g %.3g)",

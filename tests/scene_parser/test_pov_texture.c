@@ -296,7 +296,11 @@ static void test_patterns(void **state)
         "object_test { pigment { brick color rgb 0.5, color rgb <0.6, 0.1, 0.1> brick_size <4, 1, 2> mortar 0.2 } }\n"
         "#declare CM = color_map { [0 rgb <1, 0, 0>] [1 rgb <0, 0, 1>] }\n"
         "object_test { pigment { bozo color_map { CM } } }\n"
-        "object_test { pigment { checker } }\n");
+        "object_test { pigment { checker } }\n"
+        /* POV-Ray's default map of bozo, averaged over [0, 1]: 0.4 white + 0.2 each of green, blue, red */
+        "object_test { pigment { bozo } finish { diffuse 1 } }\n"
+        /* block patterns: the mean of their colours */
+        "object_test { pigment { hexagon rgb <1, 0, 0>, rgb <0, 1, 0>, rgb <0, 0, 1> } finish { diffuse 1 } }\n");
     const vbnl_texture_desc *t = pov_texture_texture_desc(&h->c, h->mats[0]);
     assert_non_null(t);
     assert_int_equal(t->kind, VBNL_TEXTURE_CHECKER);
@@ -339,6 +343,8 @@ static void test_patterns(void **state)
     t = pov_texture_texture_desc(&h->c, h->mats[4]);
     expect3(t->color_map[0].color, 0, 0, 1, 0);
     expect3(t->color_map[1].color, 0, 1, 0, 0);
+    expect3(mat(h, 5)->base_color, 0.6, 0.6, 0.6, 1e-6);
+    expect3(mat(h, 6)->base_color, 1.0 / 3, 1.0 / 3, 1.0 / 3, 1e-6);
     done(h);
 }
 
