@@ -665,12 +665,8 @@ static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
             const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);
             starts = v && (v->kind == VBNL_SDL_COLOR || v->kind == VBNL_SDL_VECTOR);
         }
-        if (n > 0 && !starts)
-            break;
         if (!starts)
             break;
-        if (n > 0)
-            vbnl_sdl_accept(p, ',');
         if (vbnl_sdl_parse_color(p, pg->map.e[n].color) != VBNL_OK)
             return VBNL_ERR_PARSE;
         pg->map.e[n].value = (double)n;
@@ -1542,17 +1538,35 @@ int pov_appearance_is_emissive(const pov_appearance *a)
 
 /* ---- mapping onto the core ---------------------------------------------------------------- */
 
-static float clamp_albedo(pov_ctx *c, const pov_appearance *a, double v, const char *what, int *warned)
+/* Warnings found while mapping an appearance: reported only when it makes a new core material,
+ * so objects sharing an appearance warn once. */
+typedef struct map_notes {
+    const char *clamped_what;
+    double clamped_value;
+    int no_ior;
+} map_notes;
+
+static float clamp_albedo(map_notes *n, double v, const char *what)
 {
     if (v > 1.0 || v < 0.0) {
-        if (!*warned) {
-            vbnl_sdl_warning(c->parser, a->loc.file ? &a->loc : NULL,
-                             "%s %.3g exceeds the energy-conserving range [0, 1]: clamped", what, v);
-            *warned = 1;
+        if (!n->clamped_what) {
+            n->clamped_what = what;
+            n->clamped_value = v;
         }
         v = v > 1.0 ? 1.0 : 0.0;
     }
     return (float)v;
+}
+
+static void report_notes(pov_ctx *c, const pov_appearance *a, const map_notes *n)
+{
+    const vbnl_sdl_loc *loc = a->loc.file ? &a->loc : NULL;
+    if (n->clamped_what)
+        vbnl_sdl_warning(c->parser, loc, "%s %.3g exceeds the energy-conserving range [0, 1]: clamped",
+                         n->clamped_what, n->clamped_value);
+    if (n->no_ior)
+        vbnl_sdl_warning(c->parser, loc,
+                         "transparent pigment without interior { ior > 1 }: rendered as glass of ior 1.5");
 }
 
 /* Blinn-Phong exponent n to GGX alpha (Walter et al. 2007): alpha = sqrt(2 / (n + 2)). */
@@ -1574,7 +1588,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
     const pov_texture *tx = &a->tex;
     const pov_pigment *g = &tx->pig;
     const pov_finish *f = &tx->fin;
-    int warned = 0;
+    map_notes notes = {NULL, 0.0, 0};
 
     /* the pigment's representative colour (solid colour, or 1 where a texture supplies it) */
     double pc[5] = {1, 1, 1, 0, 0};
@@ -1600,10 +1614,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
         if (filter + transmit > 0.0) {
             md.type = VBNL_MATERIAL_DIELECTRIC;
             md.ior = (float)(a->interior.ior > 1.0 ? a->interior.ior : 1.5);
-            if (!(a->interior.ior > 1.0)) {
-                vbnl_sdl_warning(c->parser, a->loc.file ? &a->loc : NULL,
-                                 "transparent pigment without interior { ior > 1 }: rendered as glass of ior 1.5");
-            }
+            notes.no_ior = !(a->interior.ior > 1.0);
             /* filter tints by the colour, transmit passes light unchanged */
             double w = filter / (filter + transmit);
             for (int k = 0; k < 3; ++k)
@@ -1644,7 +1655,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
     for (int k = 0; k < 3; ++k) {
         if (!(md.emission[k] >= 0.0f) || !isfinite(md.emission[k]))
             md.emission[k] = 0.0f;
-        md.base_color[k] = clamp_albedo(c, a, scale[k] * (textured ? 1.0 : pc[k]), "albedo", &warned);
+        md.base_color[k] = clamp_albedo(&notes, scale[k] * (textured ? 1.0 : pc[k]), "albedo");
     }
 
     /* the texture */
@@ -1693,7 +1704,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
             for (uint32_t i = 0; i < g->map.count; ++i) {
                 map[i].value = (float)g->map.e[i].value;
                 for (int k = 0; k < 3; ++k)
-                    map[i].color[k] = clamp_albedo(c, a, g->map.e[i].color[k], "pigment colour", &warned);
+                    map[i].color[k] = clamp_albedo(&notes, g->map.e[i].color[k], "pigment colour");
             }
         }
     }
@@ -1744,6 +1755,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
             return VBNL_OK;
         }
     }
+    report_notes(c, a, &notes);
     if (textured) {
         uint32_t tid;
         vbnl_result r = vbnl_scene_add_texture(c->scene, &td, &tid, err);

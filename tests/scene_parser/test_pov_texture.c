@@ -279,11 +279,15 @@ static void test_finish_mapping(void **state)
 static void test_energy_clamp(void **state)
 {
     (void)state;
-    harness *h = run_ok("object_test { pigment { rgb <2, 0.5, 1> } finish { diffuse 0.8 } }\n");
+    harness *h = run_ok("object_test { pigment { rgb <2, 0.5, 1> } finish { diffuse 0.8 } }\n"
+                        "object_test { pigment { rgb <2, 0.5, 1> } finish { diffuse 0.8 } }\n");
     expect3(mat(h, 0)->base_color, 1, 0.4, 0.8, 1e-6);
     const char *w = warning_text(h, "clamped");
     assert_non_null(w);
     assert_non_null(strstr(w, "test.pov:1:15: warning: albedo 1.6 exceeds"));
+    /* the second object shares the material and does not warn again */
+    assert_int_equal(h->mats[1], h->mats[0]);
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 1);
     done(h);
 }
 
