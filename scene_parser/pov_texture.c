@@ -89,6 +89,7 @@ struct pov_texture_state {
     cache_entry **cache;
     uint32_t cache_count, cache_cap;
     int normal_warned;
+    int depth; /* nested pigments (pigment lists) */
 };
 
 /* ---- opaque values ------------------------------------------------------------------------- */
@@ -664,6 +665,34 @@ static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
         if (!starts && t->kind == VBNL_SDL_TOK_IDENT) {
             const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);
             starts = v && (v->kind == VBNL_SDL_COLOR || v->kind == VBNL_SDL_VECTOR);
+        }
+        if (is_kw(t, "pigment")) {
+            /* a pigment list entry: its representative colour */
+            vbnl_sdl_loc loc = t->loc;
+            vbnl_sdl_next(p);
+            if (c->tex->depth >= 64)
+                return vbnl_sdl_error(p, &loc, "pigments nested more than 64 deep");
+            pov_pigment *sub = malloc(sizeof(*sub));
+            if (!sub)
+                return vbnl_sdl_error(p, &loc, "out of memory");
+            pigment_init(sub);
+            c->tex->depth++;
+            vbnl_result r = parse_pigment_body(c, sub);
+            c->tex->depth--;
+            if (r == VBNL_OK) {
+                if (sub->kind == PIG_SOLID)
+                    memcpy(pg->map.e[n].color, sub->color, sizeof(sub->color));
+                else
+                    color_map_average(&sub->map, pg->map.e[n].color);
+                if (sub->kind != PIG_SOLID)
+                    vbnl_sdl_warning(p, &loc, "a patterned pigment inside a pattern's list is replaced by its average colour");
+            }
+            free(sub);
+            if (r != VBNL_OK)
+                return r;
+            pg->map.e[n].value = (double)n;
+            vbnl_sdl_accept(p, ',');
+            continue;
         }
         if (!starts)
             break;

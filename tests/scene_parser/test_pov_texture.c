@@ -295,6 +295,7 @@ static void test_patterns(void **state)
 {
     (void)state;
     harness *h = run_ok(
+        "#declare P_Blue = pigment { rgb <0, 0, 1> }\n"
         "object_test { pigment { checker color rgb <1, 0, 0> color rgb <0, 0, 1> scale 0.5 } finish { diffuse 1 } }\n"
         "object_test { pigment { gradient y color_map { [0 rgb 0] [0.5 rgb <1, 0, 0>] [1 rgb 1] } frequency 2 } }\n"
         "object_test { pigment { brick color rgb 0.5, color rgb <0.6, 0.1, 0.1> brick_size <4, 1, 2> mortar 0.2 } }\n"
@@ -304,7 +305,9 @@ static void test_patterns(void **state)
         /* POV-Ray's default map of bozo, averaged over [0, 1]: 0.4 white + 0.2 each of green, blue, red */
         "object_test { pigment { bozo } finish { diffuse 1 } }\n"
         /* block patterns: the mean of their colours */
-        "object_test { pigment { hexagon rgb <1, 0, 0>, rgb <0, 1, 0>, rgb <0, 0, 1> } finish { diffuse 1 } }\n");
+        "object_test { pigment { hexagon rgb <1, 0, 0>, rgb <0, 1, 0>, rgb <0, 0, 1> } finish { diffuse 1 } }\n"
+        /* pigment lists */
+        "object_test { pigment { checker pigment { rgb <1, 0, 0> } pigment { P_Blue } } }\n");
     const vbnl_texture_desc *t = pov_texture_texture_desc(&h->c, h->mats[0]);
     assert_non_null(t);
     assert_int_equal(t->kind, VBNL_TEXTURE_CHECKER);
@@ -342,13 +345,16 @@ static void test_patterns(void **state)
     expect3(mat(h, 3)->base_color, 0.3, 0, 0.3, 1e-6);
     const char *w = warning_text(h, "pattern 'bozo' is not supported");
     assert_non_null(w);
-    assert_non_null(strstr(w, "test.pov:5:25: warning:"));
+    assert_non_null(strstr(w, "test.pov:6:25: warning:"));
     /* checker without colours: POV-Ray's blue and green */
     t = pov_texture_texture_desc(&h->c, h->mats[4]);
     expect3(t->color_map[0].color, 0, 0, 1, 0);
     expect3(t->color_map[1].color, 0, 1, 0, 0);
     expect3(mat(h, 5)->base_color, 0.6, 0.6, 0.6, 1e-6);
     expect3(mat(h, 6)->base_color, 1.0 / 3, 1.0 / 3, 1.0 / 3, 1e-6);
+    t = pov_texture_texture_desc(&h->c, h->mats[7]);
+    expect3(t->color_map[0].color, 1, 0, 0, 0);
+    expect3(t->color_map[1].color, 0, 0, 1, 0);
     done(h);
 }
 
