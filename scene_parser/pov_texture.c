@@ -368,11 +368,14 @@ static vbnl_result parse_color_map_body(pov_ctx *c, pov_color_map *m)
         if (vbnl_sdl_parse_float(p, &v0) != VBNL_OK)
             return VBNL_ERR_PARSE;
         /* [v1, v2 colour1 colour2] (the comma is optional) */
-        int two = vbnl_sdl_accept(p, ',');
-        if (!two) {
+        /* ([v colour] may also be written [v, colour]) */
+        vbnl_sdl_accept(p, ',');
+        int two;
+        {
             const vbnl_sdl_token *n = vbnl_sdl_peek(p);
             const vbnl_sdl_value *nv = n->kind == VBNL_SDL_TOK_IDENT ? vbnl_sdl_lookup(p, n->text) : NULL;
-            two = n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT);
+            two = n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT) ||
+                  (n->kind == VBNL_SDL_TOK_PUNCT && (n->op == '(' || n->op == '-' || n->op == '+'));
         }
         if (two && vbnl_sdl_parse_float(p, &v1) != VBNL_OK)
             return VBNL_ERR_PARSE;
@@ -597,7 +600,7 @@ static const char *const fallback_patterns[] = {
     "waves", "crackle", "dents", "bumps", "radial", "spherical", "cylindrical", "boxed", "planar",
     "quilted", "cells", "mandel", "julia", "facets", "average", "aoi", "slope", "tiling", "pavement",
     "object", "function", "density_file", "spiral1", "spiral2", "hexagon", "square", "triangular",
-    "cubic", "pigment_pattern", "magnet", NULL};
+    "cubic", "pigment_pattern", "magnet", "image_pattern", NULL};
 
 static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg);
 
@@ -706,6 +709,135 @@ static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
     return VBNL_OK;
 }
 
+/* Pattern modifiers shared by pigments and texture patterns (waves, turbulence and the
+ * parameters of the patterns rendered as averages). 1 handled, 0 not a modifier, -1 error. */
+static int parse_pattern_modifier(pov_ctx *c, pov_pigment *pg)
+{
+    vbnl_sdl_parser *p = c->parser;
+    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+    vbnl_sdl_loc loc = t->loc;
+    double v;
+    if (0) {
+    } else if (is_kw(t, "frequency") || is_kw(t, "phase")) {
+        int freq = is_kw(t, "frequency");
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+        *(freq ? &pg->frequency : &pg->phase) = v;
+    } else if (is_kw(t, "ramp_wave") || is_kw(t, "triangle_wave") || is_kw(t, "sine_wave") ||
+               is_kw(t, "scallop_wave")) {
+        pg->wave = is_kw(t, "ramp_wave") ? VBNL_WAVE_RAMP
+                   : is_kw(t, "triangle_wave") ? VBNL_WAVE_TRIANGLE
+                   : is_kw(t, "sine_wave") ? VBNL_WAVE_SINE : VBNL_WAVE_SCALLOP;
+        vbnl_sdl_next(p);
+    } else if (is_kw(t, "cubic_wave") || is_kw(t, "poly_wave")) {
+        int poly = is_kw(t, "poly_wave");
+        vbnl_sdl_next(p);
+        const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+        if (poly && (n->kind == VBNL_SDL_TOK_NUMBER || (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '(')) &&
+            vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+        vbnl_sdl_warning(p, &loc, "'%s' is not supported: using ramp_wave", poly ? "poly_wave" : "cubic_wave");
+    } else if (is_kw(t, "turbulence") || is_kw(t, "octaves") || is_kw(t, "omega") || is_kw(t, "lambda")) {
+        int turb = is_kw(t, "turbulence");
+        vbnl_sdl_next(p);
+        double vv[3];
+        if ((turb ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
+            return -1;
+        if (turb)
+            vbnl_sdl_warning(p, &loc, "'turbulence' is not supported: the pattern is rendered without it");
+    } else if (is_kw(t, "agate_turb") || is_kw(t, "control0") || is_kw(t, "control1") ||
+               is_kw(t, "noise_generator") || is_kw(t, "offset") || is_kw(t, "metric") ||
+               is_kw(t, "max_iteration") || is_kw(t, "exponent") || is_kw(t, "precision") ||
+               is_kw(t, "coords") || is_kw(t, "form") || is_kw(t, "orientation") ||
+               is_kw(t, "dist_exp")) {
+        /* parameters of the fallback patterns (their look is replaced by an average) */
+        int vec = is_kw(t, "form") || is_kw(t, "orientation");
+        vbnl_sdl_next(p);
+        double vv[3];
+        if ((vec ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
+            return -1;
+    } else if (is_kw(t, "solid")) {
+        vbnl_sdl_next(p);
+    } else if (is_kw(t, "warp")) {
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_skip_block(p) != VBNL_OK)
+            return -1;
+        vbnl_sdl_warning(p, &loc, "'warp' is not supported: the pattern is rendered without it");
+    } else if (is_kw(t, "quick_color") || is_kw(t, "quick_colour")) {
+        vbnl_sdl_next(p);
+        double q[5];
+        if (vbnl_sdl_parse_color(p, q) != VBNL_OK)
+            return -1;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+/* The arguments after a pattern keyword rendered as an average (or a texture pattern). */
+static vbnl_result parse_pattern_args(pov_ctx *c, pov_pigment *pg, const char *name)
+{
+    vbnl_sdl_parser *p = c->parser;
+    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+    double v, vv[3];
+    if (!strcmp(name, "spiral1") || !strcmp(name, "spiral2") || !strcmp(name, "mandel") ||
+        !strcmp(name, "tiling") || !strcmp(name, "pavement")) {
+        if ((!strcmp(name, "tiling") || !strcmp(name, "pavement")) && !(n->kind == VBNL_SDL_TOK_NUMBER))
+            return VBNL_OK;
+        return vbnl_sdl_parse_float(p, &v);
+    }
+    if (!strcmp(name, "julia")) {
+        if (vbnl_sdl_parse_vector(p, 2, vv) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        vbnl_sdl_accept(p, ',');
+        return vbnl_sdl_parse_float(p, &v);
+    }
+    if (!strcmp(name, "magnet")) {
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        n = vbnl_sdl_peek(p);
+        if (is_kw(n, "julia")) {
+            vbnl_sdl_next(p);
+            if (vbnl_sdl_parse_vector(p, 2, vv) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+            vbnl_sdl_accept(p, ',');
+        } else if (is_kw(n, "mandel")) {
+            vbnl_sdl_next(p);
+        } else {
+            return vbnl_sdl_error(p, &n->loc, "expected 'mandel' or 'julia' after 'magnet %g'", v);
+        }
+        return vbnl_sdl_parse_float(p, &v);
+    }
+    if (!strcmp(name, "density_file")) {
+        if (is_kw(n, "df3"))
+            vbnl_sdl_next(p);
+        char *file = NULL;
+        vbnl_result r = vbnl_sdl_parse_string(p, &file);
+        free(file);
+        return r;
+    }
+    if (!strcmp(name, "slope")) {
+        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{')
+            return vbnl_sdl_skip_block(p);
+        return vbnl_sdl_parse_vector(p, 3, vv);
+    }
+    if (!strcmp(name, "gradient"))
+        return vbnl_sdl_parse_vector(p, 3, vv);
+    if (!strcmp(name, "object") || !strcmp(name, "function") || !strcmp(name, "pigment_pattern") ||
+        !strcmp(name, "image_pattern")) {
+        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (strcmp(name, "object"))
+            return VBNL_OK;
+    }
+    if (discrete_pattern(name) && pg) {
+        pg->map.count = 0;
+        return parse_block_colors(c, pg, discrete_pattern(name));
+    }
+    return VBNL_OK;
+}
+
 static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
 {
     vbnl_sdl_parser *p = c->parser;
@@ -736,7 +868,11 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
             m_mul(m, pg->xf, pg->xf);
             continue;
         }
-        double v;
+        int pm = parse_pattern_modifier(c, pg);
+        if (pm < 0)
+            return VBNL_ERR_PARSE;
+        if (pm > 0)
+            continue;
         if (is_kw(t, "checker") || is_kw(t, "brick")) {
             int brick = is_kw(t, "brick");
             vbnl_sdl_next(p);
@@ -783,57 +919,6 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
                 return VBNL_ERR_PARSE;
             if (!(pg->brick_size[0] > 0 && pg->brick_size[1] > 0 && pg->brick_size[2] > 0))
                 return vbnl_sdl_error(p, &loc, "brick_size components must be > 0");
-        } else if (is_kw(t, "frequency") || is_kw(t, "phase")) {
-            int freq = is_kw(t, "frequency");
-            vbnl_sdl_next(p);
-            if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            *(freq ? &pg->frequency : &pg->phase) = v;
-        } else if (is_kw(t, "ramp_wave") || is_kw(t, "triangle_wave") || is_kw(t, "sine_wave") ||
-                   is_kw(t, "scallop_wave")) {
-            pg->wave = is_kw(t, "ramp_wave") ? VBNL_WAVE_RAMP
-                       : is_kw(t, "triangle_wave") ? VBNL_WAVE_TRIANGLE
-                       : is_kw(t, "sine_wave") ? VBNL_WAVE_SINE : VBNL_WAVE_SCALLOP;
-            vbnl_sdl_next(p);
-        } else if (is_kw(t, "cubic_wave") || is_kw(t, "poly_wave")) {
-            int poly = is_kw(t, "poly_wave");
-            vbnl_sdl_next(p);
-            const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-            if (poly && (n->kind == VBNL_SDL_TOK_NUMBER || (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '(')) &&
-                vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            vbnl_sdl_warning(p, &loc, "'%s' is not supported: using ramp_wave", poly ? "poly_wave" : "cubic_wave");
-        } else if (is_kw(t, "turbulence") || is_kw(t, "octaves") || is_kw(t, "omega") || is_kw(t, "lambda")) {
-            int turb = is_kw(t, "turbulence");
-            vbnl_sdl_next(p);
-            double vv[3];
-            if ((turb ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            if (turb)
-                vbnl_sdl_warning(p, &loc, "'turbulence' is not supported: the pattern is rendered without it");
-        } else if (is_kw(t, "agate_turb") || is_kw(t, "control0") || is_kw(t, "control1") ||
-                   is_kw(t, "noise_generator") || is_kw(t, "offset") || is_kw(t, "metric") ||
-                   is_kw(t, "max_iteration") || is_kw(t, "exponent") || is_kw(t, "precision") ||
-                   is_kw(t, "coords") || is_kw(t, "form") || is_kw(t, "orientation") ||
-                   is_kw(t, "dist_exp")) {
-            /* parameters of the fallback patterns (their look is replaced by an average) */
-            int vec = is_kw(t, "form") || is_kw(t, "orientation");
-            vbnl_sdl_next(p);
-            double vv[3];
-            if ((vec ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-        } else if (is_kw(t, "solid")) {
-            vbnl_sdl_next(p);
-        } else if (is_kw(t, "warp")) {
-            vbnl_sdl_next(p);
-            if (vbnl_sdl_skip_block(p) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            vbnl_sdl_warning(p, &loc, "'warp' is not supported: the pattern is rendered without it");
-        } else if (is_kw(t, "quick_color") || is_kw(t, "quick_colour")) {
-            vbnl_sdl_next(p);
-            double q[5];
-            if (vbnl_sdl_parse_color(p, q) != VBNL_OK)
-                return VBNL_ERR_PARSE;
         } else if (is_kw(t, "uv_mapping")) {
             vbnl_sdl_next(p);
             pg->uv_mapping = 1;
@@ -853,31 +938,8 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
                 fallback = t->text;
                 fallback_loc = loc;
                 vbnl_sdl_next(p);
-                if (!strcmp(fallback, "spiral1") || !strcmp(fallback, "spiral2")) {
-                    if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                } else if (discrete_pattern(fallback)) {
-                    if (!strcmp(fallback, "object")) {
-                        const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-                        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
-                            return VBNL_ERR_PARSE;
-                    }
-                    pg->map.count = 0;
-                    if (parse_block_colors(c, pg, discrete_pattern(fallback)) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                } else if (!strcmp(fallback, "function") || !strcmp(fallback, "pigment_pattern") ||
-                           !strcmp(fallback, "density_file")) {
-                    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-                    if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                } else if (!strcmp(fallback, "tiling") || !strcmp(fallback, "pavement") ||
-                           !strcmp(fallback, "mandel") || !strcmp(fallback, "julia") ||
-                           !strcmp(fallback, "magnet") || !strcmp(fallback, "facets")) {
-                    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-                    if ((n->kind == VBNL_SDL_TOK_NUMBER || (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '<')) &&
-                        vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                }
+                if (parse_pattern_args(c, pg, fallback) != VBNL_OK)
+                    return VBNL_ERR_PARSE;
                 pg->kind = PIG_SOLID;
                 continue;
             }
@@ -1009,8 +1071,8 @@ static vbnl_result parse_finish_body(pov_ctx *c, pov_finish *f)
                     vbnl_sdl_next(p);
                 f->phong = v;
             } else if (!strcmp(kw, "phong_size")) {
-                if (!(v > 0.0))
-                    return vbnl_sdl_error(p, &loc, "phong_size must be > 0");
+                if (!(v >= 0.0))
+                    return vbnl_sdl_error(p, &loc, "phong_size must be >= 0");
                 f->phong_size = v;
             } else if (is_metal) {
                 f->metallic = v > 0.0;
@@ -1208,6 +1270,155 @@ static vbnl_result parse_ext_bsdf(pov_ctx *c, pov_ext_bsdf *e)
 /* ---- texture, material --------------------------------------------------------------------- */
 
 static vbnl_result parse_texture_item(pov_ctx *c, pov_texture *tx, int *handled);
+static vbnl_result parse_texture_body(pov_ctx *c, pov_texture *tx);
+
+static int is_pattern_keyword(const vbnl_sdl_token *t)
+{
+    if (is_kw(t, "checker") || is_kw(t, "brick") || is_kw(t, "gradient"))
+        return 1;
+    for (int i = 0; fallback_patterns[i]; ++i)
+        if (is_kw(t, fallback_patterns[i]))
+            return 1;
+    return 0;
+}
+
+/* One texture_map entry: [value texture-identifier | texture { } | pigment/finish/normal items]. */
+static vbnl_result parse_texture_map_entry(pov_ctx *c, pov_texture *out)
+{
+    vbnl_sdl_parser *p = c->parser;
+    if (vbnl_sdl_expect(p, '[', "to start a texture_map entry") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    double v;
+    if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (vbnl_sdl_accept(p, ',')) {
+        const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+        const vbnl_sdl_value *nv = n->kind == VBNL_SDL_TOK_IDENT ? vbnl_sdl_lookup(p, n->text) : NULL;
+        if ((n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT)) &&
+            vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+    }
+    texture_init(out);
+    for (;;) {
+        const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+        vbnl_sdl_loc loc = t->loc;
+        if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == ']') {
+            vbnl_sdl_next(p);
+            return VBNL_OK;
+        }
+        if (t->kind == VBNL_SDL_TOK_EOF)
+            return vbnl_sdl_error(p, &loc, "unexpected end of file in texture_map");
+        const pov_texture *id = ident_value(c, t, &type_texture);
+        if (id) {
+            vbnl_sdl_next(p);
+            *out = *id;
+            continue;
+        }
+        if (is_kw(t, "texture")) {
+            vbnl_sdl_next(p);
+            if (parse_texture_body(c, out) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+            continue;
+        }
+        int handled = 0;
+        if (parse_texture_item(c, out, &handled) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (!handled)
+            return vbnl_sdl_error(p, &loc, "unexpected '%s' in a texture_map entry", t->text);
+    }
+}
+
+/* Texture patterns (`texture { checker texture {A} texture {B} }`, `texture { gradient y
+ * texture_map { ... } }`): parsed in full; the first texture of the list or map is used, with a
+ * warning, as the scene's texture layers are not blended per point here. Positioned after the
+ * pattern keyword. */
+static vbnl_result parse_texture_pattern(pov_ctx *c, pov_texture *tx, const char *name, const vbnl_sdl_loc *ploc)
+{
+    vbnl_sdl_parser *p = c->parser;
+    pov_pigment *scratch = malloc(sizeof(*scratch));
+    pov_texture *entry = malloc(sizeof(*entry));
+    vbnl_result r = scratch && entry ? VBNL_OK : vbnl_sdl_error(p, ploc, "out of memory");
+    int have = 0;
+    double xf[16];
+    m_identity(xf);
+    if (r == VBNL_OK) {
+        pigment_init(scratch);
+        r = parse_pattern_args(c, NULL, name);
+    }
+    while (r == VBNL_OK) {
+        const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+        vbnl_sdl_loc loc = t->loc;
+        if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '}')
+            break; /* the caller closes the texture */
+        if (t->kind == VBNL_SDL_TOK_EOF) {
+            r = vbnl_sdl_error(p, &loc, "unexpected end of file in texture");
+            break;
+        }
+        if (is_kw(t, "texture")) {
+            vbnl_sdl_next(p);
+            texture_init(entry);
+            if ((r = parse_texture_body(c, entry)) == VBNL_OK && !have) {
+                *tx = *entry;
+                have = 1;
+            }
+            vbnl_sdl_accept(p, ',');
+            continue;
+        }
+        if (is_kw(t, "texture_map")) {
+            vbnl_sdl_next(p);
+            if ((r = vbnl_sdl_expect(p, '{', "after 'texture_map'")) != VBNL_OK)
+                break;
+            for (;;) {
+                const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+                if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '}') {
+                    vbnl_sdl_next(p);
+                    break;
+                }
+                if ((r = parse_texture_map_entry(c, entry)) != VBNL_OK)
+                    break;
+                if (!have) {
+                    *tx = *entry;
+                    have = 1;
+                }
+            }
+            continue;
+        }
+        if (is_kw(t, "brick_size") || is_kw(t, "mortar")) {
+            int vec = is_kw(t, "brick_size");
+            vbnl_sdl_next(p);
+            double v[3];
+            r = vec ? vbnl_sdl_parse_vector(p, 3, v) : vbnl_sdl_parse_float(p, v);
+            continue;
+        }
+        double m[16];
+        int tr = parse_transform_item(c, m);
+        if (tr < 0) {
+            r = VBNL_ERR_PARSE;
+            break;
+        }
+        if (tr > 0) {
+            m_mul(m, xf, xf);
+            continue;
+        }
+        int pm = parse_pattern_modifier(c, scratch);
+        if (pm < 0) {
+            r = VBNL_ERR_PARSE;
+            break;
+        }
+        if (pm == 0)
+            r = vbnl_sdl_error(p, &loc, "unexpected '%s' in a patterned texture", t->text);
+    }
+    if (r == VBNL_OK) {
+        m_mul(xf, tx->pig.xf, tx->pig.xf);
+        vbnl_sdl_warning(p, ploc,
+                         have ? "texture pattern '%s' is not supported: its first texture is used everywhere"
+                              : "texture pattern '%s' is not supported and lists no texture: ignored",
+                         name);
+    }
+    free(scratch);
+    free(entry);
+    return r;
+}
 
 static vbnl_result parse_texture_body(pov_ctx *c, pov_texture *tx)
 {
@@ -1242,9 +1453,20 @@ static vbnl_result parse_texture_body(pov_ctx *c, pov_texture *tx)
             m_mul(m, tx->pig.xf, tx->pig.xf);
             continue;
         }
-        if (is_kw(t, "material_map") || is_kw(t, "texture_map") || is_kw(t, "tiles")) {
-            return vbnl_sdl_error(p, &loc, "'%s' is not supported", t->text);
+        if (is_pattern_keyword(t)) {
+            const char *name = t->text;
+            vbnl_sdl_next(p);
+            if (c->tex->depth >= 64)
+                return vbnl_sdl_error(p, &loc, "textures nested more than 64 deep");
+            c->tex->depth++;
+            vbnl_result r = parse_texture_pattern(c, tx, name, &loc);
+            c->tex->depth--;
+            if (r != VBNL_OK)
+                return r;
+            continue;
         }
+        if (is_kw(t, "material_map") || is_kw(t, "tiles"))
+            return vbnl_sdl_error(p, &loc, "'%s' is not supported", t->text);
         return vbnl_sdl_error(p, &loc, "unexpected '%s' in texture", t->text);
     }
 }

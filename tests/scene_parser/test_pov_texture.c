@@ -306,6 +306,12 @@ static void test_patterns(void **state)
         "object_test { pigment { bozo } finish { diffuse 1 } }\n"
         /* block patterns: the mean of their colours */
         "object_test { pigment { hexagon rgb <1, 0, 0>, rgb <0, 1, 0>, rgb <0, 0, 1> } finish { diffuse 1 } }\n"
+        /* [v, colour] with a comma, as biscuit.pov writes it */
+        "object_test { pigment { gradient z color_map { [0.00, rgb <1, 0, 0>] [1.0, rgb <0, 0, 1>] } } }\n"
+        /* texture patterns: the first texture of the list / map, with a warning */
+        "#declare TA = texture { pigment { rgb <0.5, 0.25, 0> } finish { diffuse 1 } }\n"
+        "object_test { texture { checker texture { TA }, texture { pigment { rgb 1 } } scale 0.4 } }\n"
+        "object_test { texture { gradient y texture_map { [0 pigment { rgb <0, 0.5, 0> } finish { diffuse 1 }] [1 TA] } } }\n"
         /* pigment lists */
         "object_test { pigment { checker pigment { rgb <1, 0, 0> } pigment { P_Blue } } }\n");
     const vbnl_texture_desc *t = pov_texture_texture_desc(&h->c, h->mats[0]);
@@ -353,6 +359,12 @@ static void test_patterns(void **state)
     expect3(mat(h, 5)->base_color, 0.6, 0.6, 0.6, 1e-6);
     expect3(mat(h, 6)->base_color, 1.0 / 3, 1.0 / 3, 1.0 / 3, 1e-6);
     t = pov_texture_texture_desc(&h->c, h->mats[7]);
+    expect3(t->color_map[0].color, 1, 0, 0, 0);
+    expect3(t->color_map[1].color, 0, 0, 1, 0);
+    expect3(mat(h, 8)->base_color, 0.5, 0.25, 0, 1e-6);
+    expect3(mat(h, 9)->base_color, 0, 0.5, 0, 1e-6);
+    assert_non_null(warning_text(h, "texture pattern 'checker' is not supported: its first texture is used"));
+    t = pov_texture_texture_desc(&h->c, h->mats[10]);
     expect3(t->color_map[0].color, 1, 0, 0, 0);
     expect3(t->color_map[1].color, 0, 0, 1, 0);
     done(h);
