@@ -89,6 +89,7 @@ struct pov_texture_state {
     cache_entry **cache;
     uint32_t cache_count, cache_cap;
     int normal_warned;
+    int depth; /* nested pigments (pigment lists) */
 };
 
 /* ---- opaque values ------------------------------------------------------------------------- */
@@ -367,11 +368,14 @@ static vbnl_result parse_color_map_body(pov_ctx *c, pov_color_map *m)
         if (vbnl_sdl_parse_float(p, &v0) != VBNL_OK)
             return VBNL_ERR_PARSE;
         /* [v1, v2 colour1 colour2] (the comma is optional) */
-        int two = vbnl_sdl_accept(p, ',');
-        if (!two) {
+        /* ([v colour] may also be written [v, colour]) */
+        vbnl_sdl_accept(p, ',');
+        int two;
+        {
             const vbnl_sdl_token *n = vbnl_sdl_peek(p);
             const vbnl_sdl_value *nv = n->kind == VBNL_SDL_TOK_IDENT ? vbnl_sdl_lookup(p, n->text) : NULL;
-            two = n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT);
+            two = n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT) ||
+                  (n->kind == VBNL_SDL_TOK_PUNCT && (n->op == '(' || n->op == '-' || n->op == '+'));
         }
         if (two && vbnl_sdl_parse_float(p, &v1) != VBNL_OK)
             return VBNL_ERR_PARSE;
@@ -596,9 +600,61 @@ static const char *const fallback_patterns[] = {
     "waves", "crackle", "dents", "bumps", "radial", "spherical", "cylindrical", "boxed", "planar",
     "quilted", "cells", "mandel", "julia", "facets", "average", "aoi", "slope", "tiling", "pavement",
     "object", "function", "density_file", "spiral1", "spiral2", "hexagon", "square", "triangular",
-    "cubic", "pigment_pattern", "magnet", NULL};
+    "cubic", "pigment_pattern", "magnet", "image_pattern", NULL};
 
 static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg);
+
+/* Block patterns and their number of colours (0: a continuous pattern). */
+static int discrete_pattern(const char *name)
+{
+    if (!strcmp(name, "hexagon"))
+        return 3;
+    if (!strcmp(name, "square"))
+        return 4;
+    if (!strcmp(name, "triangular") || !strcmp(name, "cubic"))
+        return 6;
+    if (!strcmp(name, "object"))
+        return 2;
+    return 0;
+}
+
+/* POV-Ray 3.7's default colour maps of the patterns (pattern.cpp); black to white otherwise. */
+static void default_color_map(const char *name, pov_color_map *m)
+{
+    typedef struct { double v, r, g, b; } E;
+    static const E agate[] = {{0.0, 1, 1, 1}, {0.5, 0.95, 0.75, 0.5}, {0.5, 0.9, 0.7, 0.5},
+                              {0.6, 0.9, 0.7, 0.4}, {0.6, 1, 0.7, 0.4}, {1.0, 0.6, 0.3, 0}};
+    static const E bozo[] = {{0.4, 1, 1, 1}, {0.4, 0, 1, 0}, {0.6, 0, 1, 0},
+                             {0.6, 0, 0, 1}, {0.8, 0, 0, 1}, {0.8, 1, 0, 0}};
+    static const E marble[] = {{0.0, 0.9, 0.8, 0.8}, {0.9, 0.9, 0.08, 0.08}, {0.9, 0, 0, 0}};
+    static const E radial[] = {{0.0, 0, 1, 1}, {0.333, 1, 1, 0}, {0.666, 1, 0, 1}, {1.0, 0, 1, 1}};
+    static const E wood[] = {{0.6, 0.666, 0.312, 0.2}, {0.6, 0.4, 0.1333, 0.066}};
+    static const E mandel[] = {{0.001, 0, 0, 0}, {0.001, 0, 1, 1}, {0.012, 1, 1, 0}, {0.015, 1, 0, 1}, {0.1, 0, 1, 1}};
+    static const E hexagon[] = {{0, 0, 0, 1}, {1, 0, 1, 0}, {2, 1, 0, 0}};
+    static const E six[] = {{0, 1, 0, 0}, {1, 0, 1, 0}, {2, 0, 0, 1}, {3, 1, 1, 0}, {4, 0, 1, 1}, {5, 1, 0, 1}};
+    static const E checker[] = {{0, 0, 0, 1}, {1, 0, 1, 0}};
+    static const E gray[] = {{0, 0, 0, 0}, {1, 1, 1, 1}};
+    const E *e = gray;
+    uint32_t n = 2;
+#define PICK(kw, arr)                                                                              \
+    else if (!strcmp(name, kw)) { e = arr; n = (uint32_t)(sizeof(arr) / sizeof(arr[0])); }
+    if (0) {
+    }
+    PICK("agate", agate) PICK("bozo", bozo) PICK("marble", marble)
+    PICK("radial", radial) PICK("wood", wood) PICK("mandel", mandel) PICK("hexagon", hexagon)
+    PICK("object", checker)
+    else if (!strcmp(name, "square")) { e = six; n = 4; }
+    PICK("triangular", six) PICK("cubic", six)
+#undef PICK
+    m->count = n;
+    for (uint32_t i = 0; i < n; ++i) {
+        m->e[i].value = e[i].v;
+        m->e[i].color[0] = e[i].r;
+        m->e[i].color[1] = e[i].g;
+        m->e[i].color[2] = e[i].b;
+        m->e[i].color[3] = m->e[i].color[4] = 0.0;
+    }
+}
 
 /* Two optional colours after checker / brick / hexagon: entries at 0 and 1 (and more). */
 static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
@@ -613,12 +669,36 @@ static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
             const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);
             starts = v && (v->kind == VBNL_SDL_COLOR || v->kind == VBNL_SDL_VECTOR);
         }
-        if (n > 0 && !starts)
-            break;
+        if (is_kw(t, "pigment")) {
+            /* a pigment list entry: its representative colour */
+            vbnl_sdl_loc loc = t->loc;
+            vbnl_sdl_next(p);
+            if (c->tex->depth >= 64)
+                return vbnl_sdl_error(p, &loc, "pigments nested more than 64 deep");
+            pov_pigment *sub = malloc(sizeof(*sub));
+            if (!sub)
+                return vbnl_sdl_error(p, &loc, "out of memory");
+            pigment_init(sub);
+            c->tex->depth++;
+            vbnl_result r = parse_pigment_body(c, sub);
+            c->tex->depth--;
+            if (r == VBNL_OK) {
+                if (sub->kind == PIG_SOLID)
+                    memcpy(pg->map.e[n].color, sub->color, sizeof(sub->color));
+                else
+                    color_map_average(&sub->map, pg->map.e[n].color);
+                if (sub->kind != PIG_SOLID)
+                    vbnl_sdl_warning(p, &loc, "a patterned pigment inside a pattern's list is replaced by its average colour");
+            }
+            free(sub);
+            if (r != VBNL_OK)
+                return r;
+            pg->map.e[n].value = (double)n;
+            vbnl_sdl_accept(p, ',');
+            continue;
+        }
         if (!starts)
             break;
-        if (n > 0)
-            vbnl_sdl_accept(p, ',');
         if (vbnl_sdl_parse_color(p, pg->map.e[n].color) != VBNL_OK)
             return VBNL_ERR_PARSE;
         pg->map.e[n].value = (double)n;
@@ -626,6 +706,135 @@ static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
     }
     if (n > 0)
         pg->map.count = (uint32_t)n;
+    return VBNL_OK;
+}
+
+/* Pattern modifiers shared by pigments and texture patterns (waves, turbulence and the
+ * parameters of the patterns rendered as averages). 1 handled, 0 not a modifier, -1 error. */
+static int parse_pattern_modifier(pov_ctx *c, pov_pigment *pg)
+{
+    vbnl_sdl_parser *p = c->parser;
+    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+    vbnl_sdl_loc loc = t->loc;
+    double v;
+    if (0) {
+    } else if (is_kw(t, "frequency") || is_kw(t, "phase")) {
+        int freq = is_kw(t, "frequency");
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+        *(freq ? &pg->frequency : &pg->phase) = v;
+    } else if (is_kw(t, "ramp_wave") || is_kw(t, "triangle_wave") || is_kw(t, "sine_wave") ||
+               is_kw(t, "scallop_wave")) {
+        pg->wave = is_kw(t, "ramp_wave") ? VBNL_WAVE_RAMP
+                   : is_kw(t, "triangle_wave") ? VBNL_WAVE_TRIANGLE
+                   : is_kw(t, "sine_wave") ? VBNL_WAVE_SINE : VBNL_WAVE_SCALLOP;
+        vbnl_sdl_next(p);
+    } else if (is_kw(t, "cubic_wave") || is_kw(t, "poly_wave")) {
+        int poly = is_kw(t, "poly_wave");
+        vbnl_sdl_next(p);
+        const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+        if (poly && (n->kind == VBNL_SDL_TOK_NUMBER || (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '(')) &&
+            vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+        vbnl_sdl_warning(p, &loc, "'%s' is not supported: using ramp_wave", poly ? "poly_wave" : "cubic_wave");
+    } else if (is_kw(t, "turbulence") || is_kw(t, "octaves") || is_kw(t, "omega") || is_kw(t, "lambda")) {
+        int turb = is_kw(t, "turbulence");
+        vbnl_sdl_next(p);
+        double vv[3];
+        if ((turb ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
+            return -1;
+        if (turb)
+            vbnl_sdl_warning(p, &loc, "'turbulence' is not supported: the pattern is rendered without it");
+    } else if (is_kw(t, "agate_turb") || is_kw(t, "control0") || is_kw(t, "control1") ||
+               is_kw(t, "noise_generator") || is_kw(t, "offset") || is_kw(t, "metric") ||
+               is_kw(t, "max_iteration") || is_kw(t, "exponent") || is_kw(t, "precision") ||
+               is_kw(t, "coords") || is_kw(t, "form") || is_kw(t, "orientation") ||
+               is_kw(t, "dist_exp")) {
+        /* parameters of the fallback patterns (their look is replaced by an average) */
+        int vec = is_kw(t, "form") || is_kw(t, "orientation");
+        vbnl_sdl_next(p);
+        double vv[3];
+        if ((vec ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
+            return -1;
+    } else if (is_kw(t, "solid")) {
+        vbnl_sdl_next(p);
+    } else if (is_kw(t, "warp")) {
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_skip_block(p) != VBNL_OK)
+            return -1;
+        vbnl_sdl_warning(p, &loc, "'warp' is not supported: the pattern is rendered without it");
+    } else if (is_kw(t, "quick_color") || is_kw(t, "quick_colour")) {
+        vbnl_sdl_next(p);
+        double q[5];
+        if (vbnl_sdl_parse_color(p, q) != VBNL_OK)
+            return -1;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+/* The arguments after a pattern keyword rendered as an average (or a texture pattern). */
+static vbnl_result parse_pattern_args(pov_ctx *c, pov_pigment *pg, const char *name)
+{
+    vbnl_sdl_parser *p = c->parser;
+    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+    double v, vv[3];
+    if (!strcmp(name, "spiral1") || !strcmp(name, "spiral2") || !strcmp(name, "mandel") ||
+        !strcmp(name, "tiling") || !strcmp(name, "pavement")) {
+        if ((!strcmp(name, "tiling") || !strcmp(name, "pavement")) && !(n->kind == VBNL_SDL_TOK_NUMBER))
+            return VBNL_OK;
+        return vbnl_sdl_parse_float(p, &v);
+    }
+    if (!strcmp(name, "julia")) {
+        if (vbnl_sdl_parse_vector(p, 2, vv) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        vbnl_sdl_accept(p, ',');
+        return vbnl_sdl_parse_float(p, &v);
+    }
+    if (!strcmp(name, "magnet")) {
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        n = vbnl_sdl_peek(p);
+        if (is_kw(n, "julia")) {
+            vbnl_sdl_next(p);
+            if (vbnl_sdl_parse_vector(p, 2, vv) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+            vbnl_sdl_accept(p, ',');
+        } else if (is_kw(n, "mandel")) {
+            vbnl_sdl_next(p);
+        } else {
+            return vbnl_sdl_error(p, &n->loc, "expected 'mandel' or 'julia' after 'magnet %g'", v);
+        }
+        return vbnl_sdl_parse_float(p, &v);
+    }
+    if (!strcmp(name, "density_file")) {
+        if (is_kw(n, "df3"))
+            vbnl_sdl_next(p);
+        char *file = NULL;
+        vbnl_result r = vbnl_sdl_parse_string(p, &file);
+        free(file);
+        return r;
+    }
+    if (!strcmp(name, "slope")) {
+        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{')
+            return vbnl_sdl_skip_block(p);
+        return vbnl_sdl_parse_vector(p, 3, vv);
+    }
+    if (!strcmp(name, "gradient"))
+        return vbnl_sdl_parse_vector(p, 3, vv);
+    if (!strcmp(name, "object") || !strcmp(name, "function") || !strcmp(name, "pigment_pattern") ||
+        !strcmp(name, "image_pattern")) {
+        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (strcmp(name, "object"))
+            return VBNL_OK;
+    }
+    if (discrete_pattern(name) && pg) {
+        pg->map.count = 0;
+        return parse_block_colors(c, pg, discrete_pattern(name));
+    }
     return VBNL_OK;
 }
 
@@ -659,7 +868,11 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
             m_mul(m, pg->xf, pg->xf);
             continue;
         }
-        double v;
+        int pm = parse_pattern_modifier(c, pg);
+        if (pm < 0)
+            return VBNL_ERR_PARSE;
+        if (pm > 0)
+            continue;
         if (is_kw(t, "checker") || is_kw(t, "brick")) {
             int brick = is_kw(t, "brick");
             vbnl_sdl_next(p);
@@ -706,57 +919,6 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
                 return VBNL_ERR_PARSE;
             if (!(pg->brick_size[0] > 0 && pg->brick_size[1] > 0 && pg->brick_size[2] > 0))
                 return vbnl_sdl_error(p, &loc, "brick_size components must be > 0");
-        } else if (is_kw(t, "frequency") || is_kw(t, "phase")) {
-            int freq = is_kw(t, "frequency");
-            vbnl_sdl_next(p);
-            if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            *(freq ? &pg->frequency : &pg->phase) = v;
-        } else if (is_kw(t, "ramp_wave") || is_kw(t, "triangle_wave") || is_kw(t, "sine_wave") ||
-                   is_kw(t, "scallop_wave")) {
-            pg->wave = is_kw(t, "ramp_wave") ? VBNL_WAVE_RAMP
-                       : is_kw(t, "triangle_wave") ? VBNL_WAVE_TRIANGLE
-                       : is_kw(t, "sine_wave") ? VBNL_WAVE_SINE : VBNL_WAVE_SCALLOP;
-            vbnl_sdl_next(p);
-        } else if (is_kw(t, "cubic_wave") || is_kw(t, "poly_wave")) {
-            int poly = is_kw(t, "poly_wave");
-            vbnl_sdl_next(p);
-            const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-            if (poly && (n->kind == VBNL_SDL_TOK_NUMBER || (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '(')) &&
-                vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            vbnl_sdl_warning(p, &loc, "'%s' is not supported: using ramp_wave", poly ? "poly_wave" : "cubic_wave");
-        } else if (is_kw(t, "turbulence") || is_kw(t, "octaves") || is_kw(t, "omega") || is_kw(t, "lambda")) {
-            int turb = is_kw(t, "turbulence");
-            vbnl_sdl_next(p);
-            double vv[3];
-            if ((turb ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            if (turb)
-                vbnl_sdl_warning(p, &loc, "'turbulence' is not supported: the pattern is rendered without it");
-        } else if (is_kw(t, "agate_turb") || is_kw(t, "control0") || is_kw(t, "control1") ||
-                   is_kw(t, "noise_generator") || is_kw(t, "offset") || is_kw(t, "metric") ||
-                   is_kw(t, "max_iteration") || is_kw(t, "exponent") || is_kw(t, "precision") ||
-                   is_kw(t, "coords") || is_kw(t, "form") || is_kw(t, "orientation") ||
-                   is_kw(t, "dist_exp")) {
-            /* parameters of the fallback patterns (their look is replaced by an average) */
-            int vec = is_kw(t, "form") || is_kw(t, "orientation");
-            vbnl_sdl_next(p);
-            double vv[3];
-            if ((vec ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-        } else if (is_kw(t, "solid")) {
-            vbnl_sdl_next(p);
-        } else if (is_kw(t, "warp")) {
-            vbnl_sdl_next(p);
-            if (vbnl_sdl_skip_block(p) != VBNL_OK)
-                return VBNL_ERR_PARSE;
-            vbnl_sdl_warning(p, &loc, "'warp' is not supported: the pattern is rendered without it");
-        } else if (is_kw(t, "quick_color") || is_kw(t, "quick_colour")) {
-            vbnl_sdl_next(p);
-            double q[5];
-            if (vbnl_sdl_parse_color(p, q) != VBNL_OK)
-                return VBNL_ERR_PARSE;
         } else if (is_kw(t, "uv_mapping")) {
             vbnl_sdl_next(p);
             pg->uv_mapping = 1;
@@ -776,26 +938,8 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
                 fallback = t->text;
                 fallback_loc = loc;
                 vbnl_sdl_next(p);
-                if (!strcmp(fallback, "spiral1") || !strcmp(fallback, "spiral2")) {
-                    if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                } else if (!strcmp(fallback, "hexagon") || !strcmp(fallback, "square") ||
-                           !strcmp(fallback, "triangular")) {
-                    if (parse_block_colors(c, pg, 4) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                } else if (!strcmp(fallback, "object") || !strcmp(fallback, "function") ||
-                           !strcmp(fallback, "pigment_pattern") || !strcmp(fallback, "density_file")) {
-                    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-                    if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                } else if (!strcmp(fallback, "tiling") || !strcmp(fallback, "pavement") ||
-                           !strcmp(fallback, "mandel") || !strcmp(fallback, "julia") ||
-                           !strcmp(fallback, "magnet") || !strcmp(fallback, "facets")) {
-                    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-                    if ((n->kind == VBNL_SDL_TOK_NUMBER || (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '<')) &&
-                        vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-                        return VBNL_ERR_PARSE;
-                }
+                if (parse_pattern_args(c, pg, fallback) != VBNL_OK)
+                    return VBNL_ERR_PARSE;
                 pg->kind = PIG_SOLID;
                 continue;
             }
@@ -807,7 +951,17 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
         }
     }
     if (fallback) {
-        color_map_average(&pg->map, pg->color);
+        if (pg->map.count == 0)
+            default_color_map(fallback, &pg->map);
+        if (discrete_pattern(fallback)) {
+            /* block patterns: every colour covers the same share of space */
+            memset(pg->color, 0, sizeof(pg->color));
+            for (uint32_t i = 0; i < pg->map.count; ++i)
+                for (int k = 0; k < 5; ++k)
+                    pg->color[k] += pg->map.e[i].color[k] / pg->map.count;
+        } else {
+            color_map_average(&pg->map, pg->color);
+        }
         pg->kind = PIG_SOLID;
         vbnl_sdl_warning(p, &fallback_loc,
                          "pattern '%s' is not supported: using the average colour of its colour map (%.3g %.3g %.3g)",
@@ -917,8 +1071,8 @@ static vbnl_result parse_finish_body(pov_ctx *c, pov_finish *f)
                     vbnl_sdl_next(p);
                 f->phong = v;
             } else if (!strcmp(kw, "phong_size")) {
-                if (!(v > 0.0))
-                    return vbnl_sdl_error(p, &loc, "phong_size must be > 0");
+                if (!(v >= 0.0))
+                    return vbnl_sdl_error(p, &loc, "phong_size must be >= 0");
                 f->phong_size = v;
             } else if (is_metal) {
                 f->metallic = v > 0.0;
@@ -1116,6 +1270,155 @@ static vbnl_result parse_ext_bsdf(pov_ctx *c, pov_ext_bsdf *e)
 /* ---- texture, material --------------------------------------------------------------------- */
 
 static vbnl_result parse_texture_item(pov_ctx *c, pov_texture *tx, int *handled);
+static vbnl_result parse_texture_body(pov_ctx *c, pov_texture *tx);
+
+static int is_pattern_keyword(const vbnl_sdl_token *t)
+{
+    if (is_kw(t, "checker") || is_kw(t, "brick") || is_kw(t, "gradient"))
+        return 1;
+    for (int i = 0; fallback_patterns[i]; ++i)
+        if (is_kw(t, fallback_patterns[i]))
+            return 1;
+    return 0;
+}
+
+/* One texture_map entry: [value texture-identifier | texture { } | pigment/finish/normal items]. */
+static vbnl_result parse_texture_map_entry(pov_ctx *c, pov_texture *out)
+{
+    vbnl_sdl_parser *p = c->parser;
+    if (vbnl_sdl_expect(p, '[', "to start a texture_map entry") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    double v;
+    if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (vbnl_sdl_accept(p, ',')) {
+        const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+        const vbnl_sdl_value *nv = n->kind == VBNL_SDL_TOK_IDENT ? vbnl_sdl_lookup(p, n->text) : NULL;
+        if ((n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT)) &&
+            vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+    }
+    texture_init(out);
+    for (;;) {
+        const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+        vbnl_sdl_loc loc = t->loc;
+        if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == ']') {
+            vbnl_sdl_next(p);
+            return VBNL_OK;
+        }
+        if (t->kind == VBNL_SDL_TOK_EOF)
+            return vbnl_sdl_error(p, &loc, "unexpected end of file in texture_map");
+        const pov_texture *id = ident_value(c, t, &type_texture);
+        if (id) {
+            vbnl_sdl_next(p);
+            *out = *id;
+            continue;
+        }
+        if (is_kw(t, "texture")) {
+            vbnl_sdl_next(p);
+            if (parse_texture_body(c, out) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+            continue;
+        }
+        int handled = 0;
+        if (parse_texture_item(c, out, &handled) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (!handled)
+            return vbnl_sdl_error(p, &loc, "unexpected '%s' in a texture_map entry", t->text);
+    }
+}
+
+/* Texture patterns (`texture { checker texture {A} texture {B} }`, `texture { gradient y
+ * texture_map { ... } }`): parsed in full; the first texture of the list or map is used, with a
+ * warning, as the scene's texture layers are not blended per point here. Positioned after the
+ * pattern keyword. */
+static vbnl_result parse_texture_pattern(pov_ctx *c, pov_texture *tx, const char *name, const vbnl_sdl_loc *ploc)
+{
+    vbnl_sdl_parser *p = c->parser;
+    pov_pigment *scratch = malloc(sizeof(*scratch));
+    pov_texture *entry = malloc(sizeof(*entry));
+    vbnl_result r = scratch && entry ? VBNL_OK : vbnl_sdl_error(p, ploc, "out of memory");
+    int have = 0;
+    double xf[16];
+    m_identity(xf);
+    if (r == VBNL_OK) {
+        pigment_init(scratch);
+        r = parse_pattern_args(c, NULL, name);
+    }
+    while (r == VBNL_OK) {
+        const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+        vbnl_sdl_loc loc = t->loc;
+        if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '}')
+            break; /* the caller closes the texture */
+        if (t->kind == VBNL_SDL_TOK_EOF) {
+            r = vbnl_sdl_error(p, &loc, "unexpected end of file in texture");
+            break;
+        }
+        if (is_kw(t, "texture")) {
+            vbnl_sdl_next(p);
+            texture_init(entry);
+            if ((r = parse_texture_body(c, entry)) == VBNL_OK && !have) {
+                *tx = *entry;
+                have = 1;
+            }
+            vbnl_sdl_accept(p, ',');
+            continue;
+        }
+        if (is_kw(t, "texture_map")) {
+            vbnl_sdl_next(p);
+            if ((r = vbnl_sdl_expect(p, '{', "after 'texture_map'")) != VBNL_OK)
+                break;
+            for (;;) {
+                const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+                if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '}') {
+                    vbnl_sdl_next(p);
+                    break;
+                }
+                if ((r = parse_texture_map_entry(c, entry)) != VBNL_OK)
+                    break;
+                if (!have) {
+                    *tx = *entry;
+                    have = 1;
+                }
+            }
+            continue;
+        }
+        if (is_kw(t, "brick_size") || is_kw(t, "mortar")) {
+            int vec = is_kw(t, "brick_size");
+            vbnl_sdl_next(p);
+            double v[3];
+            r = vec ? vbnl_sdl_parse_vector(p, 3, v) : vbnl_sdl_parse_float(p, v);
+            continue;
+        }
+        double m[16];
+        int tr = parse_transform_item(c, m);
+        if (tr < 0) {
+            r = VBNL_ERR_PARSE;
+            break;
+        }
+        if (tr > 0) {
+            m_mul(m, xf, xf);
+            continue;
+        }
+        int pm = parse_pattern_modifier(c, scratch);
+        if (pm < 0) {
+            r = VBNL_ERR_PARSE;
+            break;
+        }
+        if (pm == 0)
+            r = vbnl_sdl_error(p, &loc, "unexpected '%s' in a patterned texture", t->text);
+    }
+    if (r == VBNL_OK) {
+        m_mul(xf, tx->pig.xf, tx->pig.xf);
+        vbnl_sdl_warning(p, ploc,
+                         have ? "texture pattern '%s' is not supported: its first texture is used everywhere"
+                              : "texture pattern '%s' is not supported and lists no texture: ignored",
+                         name);
+    }
+    free(scratch);
+    free(entry);
+    return r;
+}
 
 static vbnl_result parse_texture_body(pov_ctx *c, pov_texture *tx)
 {
@@ -1150,9 +1453,20 @@ static vbnl_result parse_texture_body(pov_ctx *c, pov_texture *tx)
             m_mul(m, tx->pig.xf, tx->pig.xf);
             continue;
         }
-        if (is_kw(t, "material_map") || is_kw(t, "texture_map") || is_kw(t, "tiles")) {
-            return vbnl_sdl_error(p, &loc, "'%s' is not supported", t->text);
+        if (is_pattern_keyword(t)) {
+            const char *name = t->text;
+            vbnl_sdl_next(p);
+            if (c->tex->depth >= 64)
+                return vbnl_sdl_error(p, &loc, "textures nested more than 64 deep");
+            c->tex->depth++;
+            vbnl_result r = parse_texture_pattern(c, tx, name, &loc);
+            c->tex->depth--;
+            if (r != VBNL_OK)
+                return r;
+            continue;
         }
+        if (is_kw(t, "material_map") || is_kw(t, "tiles"))
+            return vbnl_sdl_error(p, &loc, "'%s' is not supported", t->text);
         return vbnl_sdl_error(p, &loc, "unexpected '%s' in texture", t->text);
     }
 }
@@ -1475,17 +1789,35 @@ int pov_appearance_is_emissive(const pov_appearance *a)
 
 /* ---- mapping onto the core ---------------------------------------------------------------- */
 
-static float clamp_albedo(pov_ctx *c, const pov_appearance *a, double v, const char *what, int *warned)
+/* Warnings found while mapping an appearance: reported only when it makes a new core material,
+ * so objects sharing an appearance warn once. */
+typedef struct map_notes {
+    const char *clamped_what;
+    double clamped_value;
+    int no_ior;
+} map_notes;
+
+static float clamp_albedo(map_notes *n, double v, const char *what)
 {
     if (v > 1.0 || v < 0.0) {
-        if (!*warned) {
-            vbnl_sdl_warning(c->parser, a->loc.file ? &a->loc : NULL,
-                             "%s %.3g exceeds the energy-conserving range [0, 1]: clamped", what, v);
-            *warned = 1;
+        if (!n->clamped_what) {
+            n->clamped_what = what;
+            n->clamped_value = v;
         }
         v = v > 1.0 ? 1.0 : 0.0;
     }
     return (float)v;
+}
+
+static void report_notes(pov_ctx *c, const pov_appearance *a, const map_notes *n)
+{
+    const vbnl_sdl_loc *loc = a->loc.file ? &a->loc : NULL;
+    if (n->clamped_what)
+        vbnl_sdl_warning(c->parser, loc, "%s %.3g exceeds the energy-conserving range [0, 1]: clamped",
+                         n->clamped_what, n->clamped_value);
+    if (n->no_ior)
+        vbnl_sdl_warning(c->parser, loc,
+                         "transparent pigment without interior { ior > 1 }: rendered as glass of ior 1.5");
 }
 
 /* Blinn-Phong exponent n to GGX alpha (Walter et al. 2007): alpha = sqrt(2 / (n + 2)). */
@@ -1507,7 +1839,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
     const pov_texture *tx = &a->tex;
     const pov_pigment *g = &tx->pig;
     const pov_finish *f = &tx->fin;
-    int warned = 0;
+    map_notes notes = {NULL, 0.0, 0};
 
     /* the pigment's representative colour (solid colour, or 1 where a texture supplies it) */
     double pc[5] = {1, 1, 1, 0, 0};
@@ -1533,10 +1865,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
         if (filter + transmit > 0.0) {
             md.type = VBNL_MATERIAL_DIELECTRIC;
             md.ior = (float)(a->interior.ior > 1.0 ? a->interior.ior : 1.5);
-            if (!(a->interior.ior > 1.0)) {
-                vbnl_sdl_warning(c->parser, a->loc.file ? &a->loc : NULL,
-                                 "transparent pigment without interior { ior > 1 }: rendered as glass of ior 1.5");
-            }
+            notes.no_ior = !(a->interior.ior > 1.0);
             /* filter tints by the colour, transmit passes light unchanged */
             double w = filter / (filter + transmit);
             for (int k = 0; k < 3; ++k)
@@ -1578,7 +1907,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
     for (int k = 0; k < 3; ++k) {
         if (!(md.emission[k] >= 0.0f) || !isfinite(md.emission[k]))
             md.emission[k] = 0.0f;
-        md.base_color[k] = clamp_albedo(c, a, scale[k] * (textured ? 1.0 : pc[k]), "albedo", &warned);
+        md.base_color[k] = clamp_albedo(&notes, scale[k] * (textured ? 1.0 : pc[k]), "albedo");
     }
 
     /* the texture */
@@ -1627,7 +1956,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
             for (uint32_t i = 0; i < g->map.count; ++i) {
                 map[i].value = (float)g->map.e[i].value;
                 for (int k = 0; k < 3; ++k)
-                    map[i].color[k] = clamp_albedo(c, a, g->map.e[i].color[k], "pigment colour", &warned);
+                    map[i].color[k] = clamp_albedo(&notes, g->map.e[i].color[k], "pigment colour");
             }
         }
     }
@@ -1678,6 +2007,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
             return VBNL_OK;
         }
     }
+    report_notes(c, a, &notes);
     if (textured) {
         uint32_t tid;
         vbnl_result r = vbnl_scene_add_texture(c->scene, &td, &tid, err);

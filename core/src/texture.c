@@ -39,17 +39,25 @@ static float wave_shape(const vbnl_texture *t, float v)
     }
 }
 
-/* Bricks: courses of height size.y along y; odd courses shifted by half a brick in x and z. */
+static double fracd(double x) { return x - floor(x); }
+
+/* POV-Ray's brick (its BrickPattern, re-derived): the point is shifted by the mortar width (plus
+ * 1e-10) so joints sit just below / left of the multiples of the brick size; bed joints every
+ * course (height size.y); courses alternate, the head joints in x on odd courses and the joints
+ * in z on even courses being offset by half a brick. Double precision, as POV-Ray. */
 static float brick_value(const vbnl_texture *t, vec3 q)
 {
-    vec3 s = t->brick_size;
-    float row = floorf(q.y / s.y);
-    float shift = fmodf(row, 2.0f) != 0.0f ? 0.5f : 0.0f;
-    float fx = fracf(q.x / s.x + shift) * s.x;
-    float fy = (q.y / s.y - row) * s.y;
-    float fz = fracf(q.z / s.z + shift) * s.z;
-    float m = t->mortar;
-    return (fx < m || fy < m || fz < m) ? 0.0f : 1.0f;
+    const double m = t->mortar, f = 1e-10 + m;
+    const double w = t->brick_size.x, h = t->brick_size.y, d = t->brick_size.z;
+    const double x = (double)q.x + f, y = (double)q.y + f, z = (double)q.z + f;
+    if (fracd(y / h) <= m / h)
+        return 0.0f;
+    const int odd = fracd(y / (2.0 * h)) > 0.5;
+    if (fracd(x / w + (odd ? 0.5 : 0.0)) <= m / w)
+        return 0.0f;
+    if (fracd(z / d + (odd ? 0.0 : 0.5)) <= m / d)
+        return 0.0f;
+    return 1.0f;
 }
 
 float vbnl_texture_pattern(const vbnl_texture *t, vec3 q)
@@ -129,12 +137,12 @@ vec3 vbnl_texture_eval(const vbnl_texture *t, vec3 p, vec2 uv)
         switch (t->projection) {
         case VBNL_PROJECTION_SPHERICAL: {
             float r = v3_len(q);
-            u = fracf(atan2f(q.x, q.z) * (0.5f / VBNL_PI));
+            u = fracf(atan2f(q.z, q.x) * (0.5f / VBNL_PI));
             v = r > 0.0f ? acosf(clampf(-q.y / r, -1.0f, 1.0f)) * (1.0f / VBNL_PI) : 0.5f;
             break;
         }
         case VBNL_PROJECTION_CYLINDRICAL:
-            u = fracf(atan2f(q.x, q.z) * (0.5f / VBNL_PI));
+            u = fracf(atan2f(q.z, q.x) * (0.5f / VBNL_PI));
             v = q.y;
             break;
         case VBNL_PROJECTION_PLANAR:

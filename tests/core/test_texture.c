@@ -130,25 +130,29 @@ static void test_brick(void **state)
     d.color_map = two_colors;
     d.color_map_count = 2;
     const vbnl_texture *t = add(f, &d);
+    /* expected values from POV-Ray's brick definition (scene.h) */
     const float pts[][4] = {
-        {4.0f, 1.5f, 2.0f, 1},  /* inside a brick */
-        {0.2f, 1.5f, 2.0f, 0},  /* mortar along x */
-        {4.0f, 0.2f, 2.0f, 0},  /* mortar along y (bed joint) */
-        {4.0f, 1.5f, 0.3f, 0},  /* mortar along z */
-        {8.3f, 1.5f, 2.0f, 0},  /* next brick's mortar */
-        {4.0f, 3.2f, 2.0f, 0},  /* odd course (y in [3, 6)): bed joint */
-        {0.2f, 5.1f, 1.0f, 1},  /* odd course shifted by half a brick: x = 0.2 is inside */
-        {4.2f, 5.0f, 1.0f, 0},  /* ... and its joint moved to x = 4 */
-        {4.0f, 5.0f, 2.5f, 0},  /* ... and in z to 2.25 */
-        {-7.0f, -1.5f, -1.0f, 1}, {-7.0f, -1.5f, -2.0f, 0}, /* negative odd course, shifted */
+        {4.0f, 1.5f, 1.0f, 1},   /* inside a brick */
+        {7.6f, 1.5f, 1.0f, 0},   /* head joint in x: [7.5, 8) on even courses */
+        {0.0f, 1.5f, 1.0f, 1},   /* ... so x = 0 is brick */
+        {-0.6f, 1.5f, 1.0f, 1},
+        {4.0f, 2.6f, 1.0f, 0},   /* bed joint: y in [2.5, 3) */
+        {4.0f, 1.5f, 1.8f, 0},   /* joint in z, even course: z + 0.5 near 2.25 mod 4.5 */
+        {4.0f, 1.5f, 2.5f, 1},
+        {3.6f, 4.5f, 1.0f, 0},   /* odd course: head joints moved by half a brick */
+        {0.2f, 4.5f, 1.0f, 1},
+        {4.0f, 4.5f, 4.2f, 0},   /* odd course: joint in z at [4, 4.5) */
+        {4.0f, -0.2f, 1.0f, 0},  /* bed joint below y = 0 */
+        {-7.0f, -1.5f, -1.0f, 1},
+        {-4.2f, -1.5f, -1.0f, 0}, /* negative odd course */
     };
     for (size_t i = 0; i < sizeof(pts) / sizeof(pts[0]); ++i) {
         float v = vbnl_texture_pattern(t, v3(pts[i][0], pts[i][1], pts[i][2]));
         if (v != pts[i][3])
             fail_msg("brick at (%g %g %g) = %g, expected %g", pts[i][0], pts[i][1], pts[i][2], v, pts[i][3]);
     }
-    expect_color(vbnl_texture_eval(t, v3(4.0f, 1.5f, 2.0f), (vec2){0, 0}), 0, 0, 1, 0);
-    expect_color(vbnl_texture_eval(t, v3(0.2f, 1.5f, 2.0f), (vec2){0, 0}), 1, 0, 0, 0);
+    expect_color(vbnl_texture_eval(t, v3(4.0f, 1.5f, 1.0f), (vec2){0, 0}), 0, 0, 1, 0);
+    expect_color(vbnl_texture_eval(t, v3(7.6f, 1.5f, 1.0f), (vec2){0, 0}), 1, 0, 0, 0);
 }
 
 /* 2 x 2 image: rows top to bottom (0 1) / (2 3) as grey levels. */
@@ -187,12 +191,17 @@ static void test_image_bilinear(void **state)
     d.projection = VBNL_PROJECTION_PLANAR;
     t = add(f, &d);
     expect_color(vbnl_texture_eval(t, v3(0.75f, 0.75f, 5.0f), (vec2){0, 0}), 1, 1, 1, 0);
-    /* spherical: +z is u = 0, +x is u = 0.25; the top pole is v = 1 */
+    /* spherical (POV-Ray's): +x is u = 0, +z is u = 0.25; the top pole is v = 1 */
     d.projection = VBNL_PROJECTION_SPHERICAL;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0.2f, 0.9f, 1.0f), (vec2){0, 0}), 0, 0, 0, 0);
-    expect_color(vbnl_texture_eval(t, v3(1.0f, -0.5f, -0.2f), (vec2){0, 0}), 2, 2, 2, 0);
-    expect_color(vbnl_texture_eval(t, v3(-1.0f, -0.5f, -0.2f), (vec2){0, 0}), 3, 3, 3, 0);
+    expect_color(vbnl_texture_eval(t, v3(0.2f, 0.9f, 1.0f), (vec2){0, 0}), 0, 0, 0, 0);   /* u 0.22, v 0.73 */
+    expect_color(vbnl_texture_eval(t, v3(1.0f, -0.5f, -0.2f), (vec2){0, 0}), 3, 3, 3, 0); /* u 0.97, v 0.36 */
+    expect_color(vbnl_texture_eval(t, v3(-1.0f, -0.5f, 0.2f), (vec2){0, 0}), 2, 2, 2, 0); /* u 0.47, v 0.36 */
+    /* cylindrical: u as spherical, v = y */
+    d.projection = VBNL_PROJECTION_CYLINDRICAL;
+    t = add(f, &d);
+    expect_color(vbnl_texture_eval(t, v3(0.0f, 0.3f, -1.0f), (vec2){0, 0}), 3, 3, 3, 0);  /* u 0.75, v 0.3 */
+    expect_color(vbnl_texture_eval(t, v3(0.0f, 0.7f, 1.0f), (vec2){0, 0}), 0, 0, 0, 0);   /* u 0.25, v 0.7 */
 }
 
 static void expect_add_error(fixture *f, const vbnl_texture_desc *d, const char *text)

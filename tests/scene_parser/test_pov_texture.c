@@ -279,11 +279,15 @@ static void test_finish_mapping(void **state)
 static void test_energy_clamp(void **state)
 {
     (void)state;
-    harness *h = run_ok("object_test { pigment { rgb <2, 0.5, 1> } finish { diffuse 0.8 } }\n");
+    harness *h = run_ok("object_test { pigment { rgb <2, 0.5, 1> } finish { diffuse 0.8 } }\n"
+                        "object_test { pigment { rgb <2, 0.5, 1> } finish { diffuse 0.8 } }\n");
     expect3(mat(h, 0)->base_color, 1, 0.4, 0.8, 1e-6);
     const char *w = warning_text(h, "clamped");
     assert_non_null(w);
     assert_non_null(strstr(w, "test.pov:1:15: warning: albedo 1.6 exceeds"));
+    /* the second object shares the material and does not warn again */
+    assert_int_equal(h->mats[1], h->mats[0]);
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 1);
     done(h);
 }
 
@@ -291,12 +295,25 @@ static void test_patterns(void **state)
 {
     (void)state;
     harness *h = run_ok(
+        "#declare P_Blue = pigment { rgb <0, 0, 1> }\n"
         "object_test { pigment { checker color rgb <1, 0, 0> color rgb <0, 0, 1> scale 0.5 } finish { diffuse 1 } }\n"
         "object_test { pigment { gradient y color_map { [0 rgb 0] [0.5 rgb <1, 0, 0>] [1 rgb 1] } frequency 2 } }\n"
         "object_test { pigment { brick color rgb 0.5, color rgb <0.6, 0.1, 0.1> brick_size <4, 1, 2> mortar 0.2 } }\n"
         "#declare CM = color_map { [0 rgb <1, 0, 0>] [1 rgb <0, 0, 1>] }\n"
         "object_test { pigment { bozo color_map { CM } } }\n"
-        "object_test { pigment { checker } }\n");
+        "object_test { pigment { checker } }\n"
+        /* POV-Ray's default map of bozo, averaged over [0, 1]: 0.4 white + 0.2 each of green, blue, red */
+        "object_test { pigment { bozo } finish { diffuse 1 } }\n"
+        /* block patterns: the mean of their colours */
+        "object_test { pigment { hexagon rgb <1, 0, 0>, rgb <0, 1, 0>, rgb <0, 0, 1> } finish { diffuse 1 } }\n"
+        /* [v, colour] with a comma, as biscuit.pov writes it */
+        "object_test { pigment { gradient z color_map { [0.00, rgb <1, 0, 0>] [1.0, rgb <0, 0, 1>] } } }\n"
+        /* texture patterns: the first texture of the list / map, with a warning */
+        "#declare TA = texture { pigment { rgb <0.5, 0.25, 0> } finish { diffuse 1 } }\n"
+        "object_test { texture { checker texture { TA }, texture { pigment { rgb 1 } } scale 0.4 } }\n"
+        "object_test { texture { gradient y texture_map { [0 pigment { rgb <0, 0.5, 0> } finish { diffuse 1 }] [1 TA] } } }\n"
+        /* pigment lists */
+        "object_test { pigment { checker pigment { rgb <1, 0, 0> } pigment { P_Blue } } }\n");
     const vbnl_texture_desc *t = pov_texture_texture_desc(&h->c, h->mats[0]);
     assert_non_null(t);
     assert_int_equal(t->kind, VBNL_TEXTURE_CHECKER);
@@ -334,11 +351,22 @@ static void test_patterns(void **state)
     expect3(mat(h, 3)->base_color, 0.3, 0, 0.3, 1e-6);
     const char *w = warning_text(h, "pattern 'bozo' is not supported");
     assert_non_null(w);
-    assert_non_null(strstr(w, "test.pov:5:25: warning:"));
+    assert_non_null(strstr(w, "test.pov:6:25: warning:"));
     /* checker without colours: POV-Ray's blue and green */
     t = pov_texture_texture_desc(&h->c, h->mats[4]);
     expect3(t->color_map[0].color, 0, 0, 1, 0);
     expect3(t->color_map[1].color, 0, 1, 0, 0);
+    expect3(mat(h, 5)->base_color, 0.6, 0.6, 0.6, 1e-6);
+    expect3(mat(h, 6)->base_color, 1.0 / 3, 1.0 / 3, 1.0 / 3, 1e-6);
+    t = pov_texture_texture_desc(&h->c, h->mats[7]);
+    expect3(t->color_map[0].color, 1, 0, 0, 0);
+    expect3(t->color_map[1].color, 0, 0, 1, 0);
+    expect3(mat(h, 8)->base_color, 0.5, 0.25, 0, 1e-6);
+    expect3(mat(h, 9)->base_color, 0, 0.5, 0, 1e-6);
+    assert_non_null(warning_text(h, "texture pattern 'checker' is not supported: its first texture is used"));
+    t = pov_texture_texture_desc(&h->c, h->mats[10]);
+    expect3(t->color_map[0].color, 1, 0, 0, 0);
+    expect3(t->color_map[1].color, 0, 0, 1, 0);
     done(h);
 }
 

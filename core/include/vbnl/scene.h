@@ -61,21 +61,28 @@ void vbnl_material_desc_init(vbnl_material_desc *d);
  * texture space: q = pattern_from_world * p.
  *
  *   IMAGE     RGB float texels, row 0 at the top (v = 1). The lookup coordinate (u, v) is the
- *             hit's mesh UV (projection UV) or a projection of q: PLANAR (u, v) = (q.x, q.y);
- *             SPHERICAL u = longitude around +y (atan2(q.x, q.z) / 2 pi, in [0, 1)),
- *             v = latitude (0 at -y, 1 at +y); CYLINDRICAL u as spherical, v = q.y.
+ *             hit's mesh UV (projection UV) or a projection of q, POV-Ray's image_map ones:
+ *             PLANAR (u, v) = (q.x, q.y); SPHERICAL u = longitude around +y measured from +x
+ *             towards +z (atan2(q.z, q.x) / 2 pi, in [0, 1)), v = latitude (0 at -y, 1 at +y);
+ *             CYLINDRICAL u as spherical, v = q.y.
  *             Texel centres sit at ((i + 0.5) / width, 1 - (j + 0.5) / height); bilinear
  *             (interpolate = 1) or nearest; wrap REPEAT (fractional part) or CLAMP.
- *   CHECKER   value floor(q.x) + floor(q.y) + floor(q.z) mod 2 (0 or 1): unit cubes.
- *   GRADIENT  value = dot(q, normalize(gradient)), then frequency/phase/wave (below).
- *   BRICK     bricks of brick_size (x width, y height, z depth) in courses along y, odd courses
- *             shifted by half a brick in x and z; mortar of thickness `mortar` along the lower
- *             x, y and z faces of every brick. Value 0 in the mortar, 1 in a brick.
+ *   CHECKER   value floor(q.x + e) + floor(q.y + e) + floor(q.z + e) mod 2 (0 or 1): unit
+ *             cubes (POV-Ray's; e = 1e-4, so surfaces lying on integer planes, hit at single
+ *             precision, stay in one cell).
+ *   GRADIENT  value = dot(q, normalize(gradient)) (POV-Ray normalises the vector too), then
+ *             frequency/phase/wave (below).
+ *   BRICK     POV-Ray's brick: bricks of brick_size (x width w, y height h, z depth d) in
+ *             courses along y. With p = q + mortar (+1e-10): mortar (value 0) where
+ *             frac(p.y / h) <= mortar / h, or frac(p.x / w + s) <= mortar / w, or
+ *             frac(p.z / d + 0.5 - s) <= mortar / d, where s = 0.5 on odd courses
+ *             (frac(p.y / 2h) > 0.5) and 0 on even ones; 1 in a brick.
  *
  * Pattern values become colours through the colour map: entries sorted by value, linear
  * interpolation between neighbours, the first / last colour outside their range. CHECKER and
  * BRICK are block patterns (values exactly 0 or 1: give entries at 0 and 1). For GRADIENT the
- * raw value v is turned into v' = frac(v * frequency + phase) then shaped by the wave: RAMP v',
+ * raw value v is turned into v' = frac(v * frequency + phase) (POV-Ray: fmod by 1.00001, then
+ * the same for negatives) then shaped by the wave: RAMP v',
  * TRIANGLE 1 - |2 v' - 1|, SINE (1 + sin(2 pi v')) / 2, SCALLOP
  * |sin(pi v')|. */
 typedef enum vbnl_texture_kind {
