@@ -95,13 +95,25 @@ static void test_sphere_analytic(void **state)
 static void test_sphere_tessellated(void **state)
 {
     (void)state;
-    vbnl_pov_scene *s = ok(BASE_B "sphere { 0, 1 scale <2, 1, 1> }");
+    /* an ellipsoid: an instance of an analytic unit sphere */
+    vbnl_pov_scene *s = ok(BASE_B "sphere { 0, 1 scale <2, 1, 1> }\nsphere { <0, 5, 0>, 1 scale <2, 1, 1> }");
     vbnl_scene_info i = info(s);
-    assert_int_equal(i.sphere_count, 0);
+    assert_int_equal(i.instance_count, 2);
+    assert_int_equal(i.triangle_count, 0);
+    NEAR(i.bounds_max[0], 2.0f);
+    NEAR(i.bounds_max[1], 6.0f);
+    vbnl_hit h;
+    assert_true(hit(s, -10, 0, 0, 1, 0, 0, &h));
+    NEAR(h.t, 8.0f);
+    assert_true(hit(s, -10, 5, 0, 1, 0, 0, &h));
+    NEAR(h.t, 8.0f);
+    vbnl_pov_scene_destroy(s);
+    /* emissive ones are tessellated (emitters must be world geometry) */
+    s = ok(BASE_B "sphere { 0, 1 scale <2, 1, 1> pigment { rgb 1 } finish { emission 1 } }");
+    i = info(s);
+    assert_int_equal(i.instance_count, 0);
     assert_int_equal(i.triangle_count, 2 * 64 * 31);
     NEAR(i.bounds_max[0], 2.0f);
-    NEAR(i.bounds_max[1], 1.0f);
-    vbnl_hit h;
     assert_true(hit(s, -10, 0, 0, 1, 0, 0, &h));
     NEAR(h.t, 8.0f);
     vbnl_pov_scene_destroy(s);
@@ -300,6 +312,11 @@ static void test_vbnl_mesh(void **state)
     assert_int_equal(vbnl_pov_load_file(g_ctx, path, &o, &s, &err), VBNL_OK);
     assert_int_equal(info(s).triangle_count, 32);
     vbnl_pov_scene_destroy(s);
+    /* untrusted input: no file access */
+    o.includes_disabled = 1;
+    const char *t = BASE "vbnl_mesh { \"cornell-box.obj\" }";
+    assert_int_equal(vbnl_pov_load_text(g_ctx, "x.pov", t, strlen(t), &o, &s, &err), VBNL_ERR_PARSE);
+    assert_string_equal(err.message, "x.pov:3:13: vbnl_mesh: file access is disabled");
     /* material override and transform */
     snprintf(text, sizeof text,
              BASE_B "vbnl_mesh { \"%s/examples/cornell-box.obj\" pigment { rgb <0, 0, 1> } scale 2 translate x * 100 }", src);
