@@ -308,11 +308,11 @@ static int parse_transform_item(loader *L, double m[16])
         vbnl_sdl_next(p);
         if (vec3(L, v) != VBNL_OK)
             return -1;
+        if (v[0] == 0 || v[1] == 0 || v[2] == 0)
+            vbnl_sdl_warning(p, &loc, "scale by 0 changed to 1 (as POV-Ray does)");
         for (int i = 0; i < 3; ++i)
-            if (v[i] == 0) {
-                vbnl_sdl_warning(p, &loc, "scale by 0 changed to 1 (as POV-Ray does)");
+            if (v[i] == 0)
                 v[i] = 1;
-            }
         pov_m4_scale(v, m);
         return 1;
     }

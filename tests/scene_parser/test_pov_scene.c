@@ -297,6 +297,22 @@ static void test_skipped_shapes_warn(void **state)
     vbnl_pov_scene_destroy(s);
 }
 
+static void test_ignored_modifiers(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 hollow on no_shadow no_image inverse sturm bounded_by { box { -1, 1 } }\n"
+                                "  photons { target } double_illuminate }\n"
+                                "sphere { x * 3, 1 no_shadow clipped_by { plane { y, 0 } } scale 0 }");
+    assert_int_equal(info(s).sphere_count, 2);
+    assert_non_null(strstr(g_diags, "test.pov:3:25: warning: no_shadow is ignored: every object casts shadows under global illumination"));
+    assert_null(strstr(g_diags, "test.pov:5:19: warning: no_shadow")); /* once */
+    assert_non_null(strstr(g_diags, "test.pov:5:29: warning: clipped_by is not supported; the object is rendered unclipped"));
+    const char *sc0 = strstr(g_diags, "test.pov:5:59: warning: scale by 0 changed to 1 (as POV-Ray does)");
+    assert_non_null(sc0);
+    assert_null(strstr(sc0 + 40, "scale by 0")); /* once per scale */
+    vbnl_pov_scene_destroy(s);
+}
+
 static void test_vbnl_mesh(void **state)
 {
     (void)state;
@@ -395,6 +411,11 @@ static void test_lights(void **state)
     /* fade_power 2: 2 D^2 colour */
     s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
     NEAR(light0(s)->L.x, 18.0f);
+    vbnl_pov_scene_destroy(s);
+    /* other fade powers: equal to POV-Ray's at fade_distance, with a warning */
+    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 1 }");
+    NEAR(light0(s)->L.x, 9.0f);
+    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: fade_power 1: light falls off as 1/d^2; its intensity matches POV-Ray's at fade_distance"));
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 5, 0> rgb 2 spotlight point_at <0, 0, 0> radius 10 falloff 20 tightness 5 }");
     assert_int_equal(light0(s)->type, VBNL_LIGHT_SPOT);
@@ -567,6 +588,7 @@ int main(void)
         cmocka_unit_test(test_mesh_mesh2_textures),
         cmocka_unit_test(test_union_inheritance),
         cmocka_unit_test(test_skipped_shapes_warn),
+        cmocka_unit_test(test_ignored_modifiers),
         cmocka_unit_test(test_vbnl_mesh),
         cmocka_unit_test(test_camera),
         cmocka_unit_test(test_lights),
