@@ -38,6 +38,9 @@ typedef struct loader {
     vbnl_sdl_diag_fn user_diag;
     void *user_diag_user;
     int warned_shadowless, warned_no_shadow, warned_fade;
+    int files_disabled; /* includes disabled: vbnl_mesh is refused too */
+    uint32_t *sphere_groups; /* per material: group holding a unit sphere (ellipsoids), or 0 */
+    uint32_t nsphere_groups;
 } loader;
 
 struct vbnl_pov_scene {
@@ -305,11 +308,11 @@ static int parse_transform_item(loader *L, double m[16])
         vbnl_sdl_next(p);
         if (vec3(L, v) != VBNL_OK)
             return -1;
+        if (v[0] == 0 || v[1] == 0 || v[2] == 0)
+            vbnl_sdl_warning(p, &loc, "scale by 0 changed to 1 (as POV-Ray does)");
         for (int i = 0; i < 3; ++i)
-            if (v[i] == 0) {
-                vbnl_sdl_warning(p, &loc, "scale by 0 changed to 1 (as POV-Ray does)");
+            if (v[i] == 0)
                 v[i] = 1;
-            }
         pov_m4_scale(v, m);
         return 1;
     }
@@ -933,6 +936,10 @@ static vbnl_result parse_vbnl_mesh(loader *L, pov_obj *o, vbnl_sdl_loc loc)
     char *name = NULL;
     if (vbnl_sdl_parse_string(p, &name) != VBNL_OK)
         return VBNL_ERR_PARSE;
+    if (L->files_disabled) {
+        free(name);
+        return vbnl_sdl_error(p, &sl, "vbnl_mesh: file access is disabled");
+    }
     char *path;
     const char *slash = strrchr(sl.file ? sl.file : "", '/');
     if (name[0] == '/' || !slash) {
@@ -1932,7 +1939,35 @@ static vbnl_result build(loader *L, vbnl_error *err)
                 float cf[3] = {(float)c[0], (float)c[1], (float)c[2]};
                 if ((r = pov_appearance_material(&L->c, pr->app, ident, &mat, err)) == VBNL_OK)
                     r = vbnl_scene_add_sphere(L->c.scene, cf, (float)(pr->a[3] * s), mat, VBNL_GROUP_WORLD, NULL, err);
-            } else {
+            } else if (!pov_appearance_is_emissive(pr->app)) {
+                /* An ellipsoid: an instance of an analytic unit sphere (exact surface and normals). */
+                uint32_t mat;
+                if ((r = pov_appearance_material(&L->c, pr->app, ident, &mat, err)) != VBNL_OK)
+                    break;
+                if (mat >= L->nsphere_groups) {
+                    uint32_t *g = realloc(L->sphere_groups, sizeof *g * (mat + 1));
+                    if (!g)
+                        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                    memset(g + L->nsphere_groups, 0, sizeof *g * (mat + 1 - L->nsphere_groups));
+                    L->sphere_groups = g;
+                    L->nsphere_groups = mat + 1;
+                }
+                if (!L->sphere_groups[mat]) {
+                    static const float zero[3] = {0, 0, 0};
+                    if ((r = vbnl_scene_add_group(L->c.scene, &L->sphere_groups[mat], err)) != VBNL_OK ||
+                        (r = vbnl_scene_add_sphere(L->c.scene, zero, 1.0f, mat, L->sphere_groups[mat], NULL, err)) != VBNL_OK)
+                        break;
+                }
+                double local[16], xf[16];
+                pov_m4_scale((double[3]){pr->a[3], pr->a[3], pr->a[3]}, local);
+                local[3] = pr->a[0];
+                local[7] = pr->a[1];
+                local[11] = pr->a[2];
+                pov_m4_mul(pr->m, local, xf);
+                float xff[16];
+                m4f(xf, xff);
+                r = vbnl_scene_add_instance(L->c.scene, L->sphere_groups[mat], xff, NULL, err);
+            } else { /* emissive: emitters must be world geometry */
                 pov_mesh *m = pov_tess_sphere(pr->a, pr->a[3]);
                 if (!m)
                     return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
@@ -2043,8 +2078,10 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
         goto done;
     vbnl_sdl_set_image_size(p, opt->width, opt->height);
     vbnl_sdl_set_clock(p, opt->clock, 0, 0, 0, 0, 0);
-    if (opt->includes_disabled)
+    if (opt->includes_disabled) {
         vbnl_sdl_set_includes_enabled(p, 0);
+        L->files_disabled = 1;
+    }
     vbnl_sdl_set_diag_callback(p, on_diag, L);
     vbnl_sdl_hooks h = {L, hook_statement, hook_rvalue, hook_default};
     vbnl_sdl_set_hooks(p, &h);
@@ -2070,6 +2107,7 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
     s = NULL;
 done:
     obj_clear(&L->world);
+    free(L->sphere_groups);
     pov_texture_state_destroy(&L->c);
     vbnl_sdl_parser_destroy(L->c.parser);
     vbnl_scene_destroy(L->c.scene);

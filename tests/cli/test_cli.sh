@@ -40,7 +40,28 @@ expect "unknown integrator" 2 "unknown integrator 'pathh'" -- "$VBNL" render "$S
 expect "unknown parameter suggests" 2 "did you mean 'max_depth'" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --set max_dpth=3
 expect "parameter out of range" 2 "must lie in" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --set max_depth=-7
 expect "missing scene file" 3 "cannot import" -- "$VBNL" render "$TMP/none.obj" -o "$TMP/a.exr"
-expect "scene language not yet" 3 "scene language" -- "$VBNL" render "$TMP/x.pov" -o "$TMP/a.exr"
+expect "missing .pov scene" 3 "cannot open scene file" -- "$VBNL" render "$TMP/x.pov" -o "$TMP/a.exr"
+
+# POV-Ray scenes: the scene's integrator and parameters, overridden by the command line.
+cat > "$TMP/s.pov" <<'POV'
+camera { location <0, 0, -5> look_at 0 }
+light_source { <0, 5, -5> rgb 10 }
+sphere { 0, 1 pigment { rgb 0.5 } }
+#ifdef (vbnl_version)
+global_settings { integrator { "path" max_depth 3 } }
+#end
+POV
+printf 'camera { location 0 look_at z }\nsphere { 0, 1 frobnicate }\n' > "$TMP/bad.pov"
+expect "scene error with file:line:col" 3 "bad.pov:2:15: error: unexpected 'frobnicate' in 'sphere'" -- "$VBNL" render "$TMP/bad.pov" -o "$TMP/a.exr"
+printf 'global_settings { integrator { "path" max_dept 3 } }\n' > "$TMP/badp.pov"
+expect "scene parameter error names the closest" 3 "badp.pov:1:39: error: unknown parameter 'max_dept' for integrator 'path'; did you mean 'max_depth'" -- "$VBNL" render "$TMP/badp.pov" -o "$TMP/a.exr"
+expect "scene integrator and parameters" 0 "" -- "$VBNL" render "$TMP/s.pov" -o "$TMP/pov.exr" --width 16 --height 16 --spp 1 --quiet
+hdr=$($HDR "$TMP/pov.exr" 2>&1)
+grep -q "vbnl/integrator=path" <<<"$hdr" && grep -q "max_depth=3" <<<"$hdr" && ok "the EXR records the scene's integrator and parameters" || not_ok "the EXR records the scene's integrator and parameters" "$hdr"
+expect "--set overrides the scene" 0 "" -- "$VBNL" render "$TMP/s.pov" -o "$TMP/pov2.exr" --width 16 --height 16 --spp 1 --quiet --set max_depth=5
+hdr=$($HDR "$TMP/pov2.exr" 2>&1)
+grep -q "max_depth=5" <<<"$hdr" && ok "--set wins over the scene" || not_ok "--set wins over the scene" "$hdr"
+expect "--integrator replaces the scene's" 0 "replaces the scene's 'vbnl'" -- "$VBNL" render "$SRC/examples/cornell-box.pov" -o "$TMP/pov3.exr" --width 16 --height 16 --spp 1 --quiet --integrator path
 
 # An unwritable output fails at once, not after the render (a huge spp would take hours).
 start=$(date +%s)

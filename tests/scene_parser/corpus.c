@@ -80,8 +80,6 @@ typedef struct child_state {
     char features[600]; /* distinct "not supported"/"ignored" warnings, '|'-separated */
 } child_state;
 
-static void normalize(const char *msg, char *out, size_t n);
-
 static void on_diag(const vbnl_sdl_diag *d, void *user)
 {
     child_state *c = user;
@@ -91,7 +89,10 @@ static void on_diag(const vbnl_sdl_diag *d, void *user)
     if (!strstr(d->message, "not supported") && !strstr(d->message, "ignored") && !strstr(d->message, "skipped"))
         return;
     char key[200];
-    normalize(d->message, key, sizeof key);
+    snprintf(key, sizeof key, "%s", d->message);
+    for (char *k = key; *k; ++k)
+        if (*k == '|')
+            *k = '/';
     if (strstr(c->features, key))
         return;
     size_t len = strlen(c->features);

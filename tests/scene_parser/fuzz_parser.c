@@ -2,12 +2,8 @@
  *
  * The input is a scene text loaded with vbnl_pov_load_text: #include is disabled, the limits are
  * small so that every input finishes quickly, and the core scene is built but not committed.
- * tools/fuzz.sh builds and runs it; by hand:
- *   clang -g -O1 -fsanitize=fuzzer,address,undefined -D_GNU_SOURCE -I core/include -I core/src \
- *         -I core/integrators/vbnl -I scene_parser -I scene_parser/include scene_parser/sdl_*.c \
- *         scene_parser/pov_*.c core/src/*.c core/integrators/registry.c core/integrators/*\/*.c \
- *         tests/scene_parser/fuzz_parser.c -lembree3 -lm -lpthread -o fuzz_parser
- *   ./fuzz_parser -dict=tests/scene_parser/sdl.dict -max_len=8192 corpus_dir /usr/share/povray-3.7/include
+ * tools/fuzz.sh builds it (the parser's and the core's sources with -fsanitize=fuzzer,address,
+ * undefined, linked with Embree and assimp) and runs it, seeded with the examples and includes.
  * Crashes become regression inputs in tests/scene_parser/regressions/ (test_sdl_regressions). */
 #include <stddef.h>
 #include <stdint.h>

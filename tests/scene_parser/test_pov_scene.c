@@ -95,13 +95,25 @@ static void test_sphere_analytic(void **state)
 static void test_sphere_tessellated(void **state)
 {
     (void)state;
-    vbnl_pov_scene *s = ok(BASE_B "sphere { 0, 1 scale <2, 1, 1> }");
+    /* an ellipsoid: an instance of an analytic unit sphere */
+    vbnl_pov_scene *s = ok(BASE_B "sphere { 0, 1 scale <2, 1, 1> }\nsphere { <0, 5, 0>, 1 scale <2, 1, 1> }");
     vbnl_scene_info i = info(s);
-    assert_int_equal(i.sphere_count, 0);
+    assert_int_equal(i.instance_count, 2);
+    assert_int_equal(i.triangle_count, 0);
+    NEAR(i.bounds_max[0], 2.0f);
+    NEAR(i.bounds_max[1], 6.0f);
+    vbnl_hit h;
+    assert_true(hit(s, -10, 0, 0, 1, 0, 0, &h));
+    NEAR(h.t, 8.0f);
+    assert_true(hit(s, -10, 5, 0, 1, 0, 0, &h));
+    NEAR(h.t, 8.0f);
+    vbnl_pov_scene_destroy(s);
+    /* emissive ones are tessellated (emitters must be world geometry) */
+    s = ok(BASE_B "sphere { 0, 1 scale <2, 1, 1> pigment { rgb 1 } finish { emission 1 } }");
+    i = info(s);
+    assert_int_equal(i.instance_count, 0);
     assert_int_equal(i.triangle_count, 2 * 64 * 31);
     NEAR(i.bounds_max[0], 2.0f);
-    NEAR(i.bounds_max[1], 1.0f);
-    vbnl_hit h;
     assert_true(hit(s, -10, 0, 0, 1, 0, 0, &h));
     NEAR(h.t, 8.0f);
     vbnl_pov_scene_destroy(s);
@@ -285,6 +297,22 @@ static void test_skipped_shapes_warn(void **state)
     vbnl_pov_scene_destroy(s);
 }
 
+static void test_ignored_modifiers(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 hollow on no_shadow no_image inverse sturm bounded_by { box { -1, 1 } }\n"
+                                "  photons { target } double_illuminate }\n"
+                                "sphere { x * 3, 1 no_shadow clipped_by { plane { y, 0 } } scale 0 }");
+    assert_int_equal(info(s).sphere_count, 2);
+    assert_non_null(strstr(g_diags, "test.pov:3:25: warning: no_shadow is ignored: every object casts shadows under global illumination"));
+    assert_null(strstr(g_diags, "test.pov:5:19: warning: no_shadow")); /* once */
+    assert_non_null(strstr(g_diags, "test.pov:5:29: warning: clipped_by is not supported; the object is rendered unclipped"));
+    const char *sc0 = strstr(g_diags, "test.pov:5:59: warning: scale by 0 changed to 1 (as POV-Ray does)");
+    assert_non_null(sc0);
+    assert_null(strstr(sc0 + 40, "scale by 0")); /* once per scale */
+    vbnl_pov_scene_destroy(s);
+}
+
 static void test_vbnl_mesh(void **state)
 {
     (void)state;
@@ -300,6 +328,11 @@ static void test_vbnl_mesh(void **state)
     assert_int_equal(vbnl_pov_load_file(g_ctx, path, &o, &s, &err), VBNL_OK);
     assert_int_equal(info(s).triangle_count, 32);
     vbnl_pov_scene_destroy(s);
+    /* untrusted input: no file access */
+    o.includes_disabled = 1;
+    const char *t = BASE "vbnl_mesh { \"cornell-box.obj\" }";
+    assert_int_equal(vbnl_pov_load_text(g_ctx, "x.pov", t, strlen(t), &o, &s, &err), VBNL_ERR_PARSE);
+    assert_string_equal(err.message, "x.pov:3:13: vbnl_mesh: file access is disabled");
     /* material override and transform */
     snprintf(text, sizeof text,
              BASE_B "vbnl_mesh { \"%s/examples/cornell-box.obj\" pigment { rgb <0, 0, 1> } scale 2 translate x * 100 }", src);
@@ -378,6 +411,11 @@ static void test_lights(void **state)
     /* fade_power 2: 2 D^2 colour */
     s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
     NEAR(light0(s)->L.x, 18.0f);
+    vbnl_pov_scene_destroy(s);
+    /* other fade powers: equal to POV-Ray's at fade_distance, with a warning */
+    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 1 }");
+    NEAR(light0(s)->L.x, 9.0f);
+    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: fade_power 1: light falls off as 1/d^2; its intensity matches POV-Ray's at fade_distance"));
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 5, 0> rgb 2 spotlight point_at <0, 0, 0> radius 10 falloff 20 tightness 5 }");
     assert_int_equal(light0(s)->type, VBNL_LIGHT_SPOT);
@@ -550,6 +588,7 @@ int main(void)
         cmocka_unit_test(test_mesh_mesh2_textures),
         cmocka_unit_test(test_union_inheritance),
         cmocka_unit_test(test_skipped_shapes_warn),
+        cmocka_unit_test(test_ignored_modifiers),
         cmocka_unit_test(test_vbnl_mesh),
         cmocka_unit_test(test_camera),
         cmocka_unit_test(test_lights),

@@ -41,7 +41,7 @@ typedef struct vbnl_pov_options {
     const vbnl_sdl_limits *limits;   /* NULL: vbnl_sdl_limits_default */
     vbnl_sdl_diag_fn diag;           /* every warning, note and error (may be NULL) */
     int no_commit;                   /* 1: build the scene but do not commit it (parser tests) */
-    int includes_disabled;           /* 1: #include is refused (fuzzing, untrusted input) */
+    int includes_disabled;           /* 1: #include and vbnl_mesh are refused (fuzzing, untrusted input) */
     void *diag_user;
 } vbnl_pov_options;
 
