@@ -113,15 +113,13 @@ static void split_hit(const split_job *job, vbnl_split_stats *st, vec3 p, vec3 n
 
 /* ---- one photon path ------------------------------------------------------------------------ */
 
-static void trace_photon(const split_job *job, vbnl_split_stats *st, uint64_t k)
+void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
+                      vbnl_photon_walk_stats *st)
 {
-    const vbnl_split_desc *d = job->d;
-    const vbnl_scene *sc = d->scene;
-    vbnl_rng rng = vbnl_rng_for(d->seed, k, 0);
-    st->paths++;
+    const vbnl_scene *sc = w->scene;
     float pmf;
-    uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(&rng), &pmf);
-    vec2 u_pos = vbnl_rng_next2(&rng), u_dir = vbnl_rng_next2(&rng);
+    uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
+    vec2 u_pos = vbnl_rng_next2(rng), u_dir = vbnl_rng_next2(rng);
     vbnl_light_le_sample les;
     if (!(pmf > 0.0f) || !vbnl_light_sample_le(&sc->lights[li], u_pos, u_dir, &les))
         return;
@@ -129,11 +127,11 @@ static void trace_photon(const split_job *job, vbnl_split_stats *st, uint64_t k)
     if (!(den > 0.0f))
         return;
     /* Flux of the photon: Le |cos| / (p_j pdf_pos pdf_dir) / N (lights.h). */
-    vec3 beta = v3_scale(les.Le, les.cos_at_light / den * job->inv_paths);
+    vec3 beta = v3_scale(les.Le, les.cos_at_light / den * w->inv_paths);
     if (!v3_is_finite(beta) || v3_is_black(beta))
         return;
     vec3 o = vbnl_offset_ray_origin(les.p, les.n, les.dir), dir = les.dir;
-    int max_depth = d->max_depth > 0 && d->max_depth < VBNL_SPLIT_SAFETY_DEPTH ? d->max_depth
+    int max_depth = w->max_depth > 0 && w->max_depth < VBNL_SPLIT_SAFETY_DEPTH ? w->max_depth
                                                                               : VBNL_SPLIT_SAFETY_DEPTH;
     for (int depth = 0; depth < max_depth; ++depth) {
         vbnl_hit hit;
@@ -154,34 +152,38 @@ static void trace_photon(const split_job *job, vbnl_split_stats *st, uint64_t k)
             if (v3_dot(ns, wo_w) <= 0.0f)
                 ns = ng;
         }
-        if (vbnl_bsdf_is_delta(bsdf))
+        if (vbnl_bsdf_is_delta(bsdf)) {
             st->delta_hits++;
-        else
-            split_hit(job, st, hit.p, ng, wo_w, beta);
+        } else {
+            vbnl_photon_vertex v = {&hit, bsdf, ng, ns, wo_w, beta, depth};
+            visit(user, &v);
+        }
 
         /* Bounce (importance transport, splitting.h). */
         frame fr = frame_from_normal(ns);
         vec3 wo = frame_to_local(&fr, wo_w);
         vbnl_bsdf_sample_rec bs;
-        float ulobe = vbnl_rng_next(&rng);
-        vec2 ub = vbnl_rng_next2(&rng);
+        float ulobe = vbnl_rng_next(rng);
+        vec2 ub = vbnl_rng_next2(rng);
         if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
             return;
         vec3 wi_w = frame_to_world(&fr, bs.wi);
         if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
             return; /* a reflection must leave on the photon's side of the real surface */
-        vec3 w = bs.weight;
+        vec3 wt = bs.weight;
         if (bs.lobe & VBNL_LOBE_TRANSMISSION)
-            w = v3_scale(w, bs.eta * bs.eta); /* flux is not compressed by refraction */
+            wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
         /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); 1 when ns == ng. */
         float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
         if (den_c > 0.0f)
-            w = v3_scale(w, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
-        vec3 nb = v3_mul(beta, w);
-        if (depth + 1 >= d->rr_depth) {
-            /* Authors' rule: continue with q = sqrt(max(new) / max(old)), at most 1. */
-            float q = fminf(1.0f, sqrtf(v3_max_comp(nb) / v3_max_comp(beta)));
-            if (!(q > 0.0f) || vbnl_rng_next(&rng) >= q)
+            wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
+        vec3 nb = v3_mul(beta, wt);
+        if (depth + 1 >= w->rr_depth) {
+            /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
+             * (q = max(new) / max(old), the sampled albedo) otherwise; at most 1. */
+            float ratio = v3_max_comp(nb) / v3_max_comp(beta);
+            float q = fminf(1.0f, w->rr_sqrt ? sqrtf(ratio) : ratio);
+            if (!(q > 0.0f) || vbnl_rng_next(rng) >= q)
                 return;
             nb = v3_scale(nb, 1.0f / q);
         }
@@ -191,6 +193,31 @@ static void trace_photon(const split_job *job, vbnl_split_stats *st, uint64_t k)
         o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
         dir = wi_w;
     }
+}
+
+typedef struct split_visit {
+    const split_job *job;
+    vbnl_split_stats *st;
+} split_visit;
+
+static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
+{
+    split_visit *sv = user;
+    split_hit(sv->job, sv->st, v->hit->p, v->ng, v->wo, v->beta);
+}
+
+static void trace_photon(const split_job *job, vbnl_split_stats *st, uint64_t k)
+{
+    const vbnl_split_desc *d = job->d;
+    vbnl_rng rng = vbnl_rng_for(d->seed, k, 0);
+    st->paths++;
+    vbnl_photon_walk_desc w = {d->scene, job->inv_paths, d->rr_depth, d->max_depth, 1};
+    vbnl_photon_walk_stats ws = {0, 0, 0};
+    split_visit sv = {job, st};
+    vbnl_photon_walk(&w, &rng, split_visit_fn, &sv, &ws);
+    st->rays += ws.rays;
+    st->hits += ws.hits;
+    st->delta_hits += ws.delta_hits;
 }
 
 /* vbnl_pool_run with poll == NULL never moves its wake-up time forward once it has passed and

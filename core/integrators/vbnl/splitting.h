@@ -93,6 +93,32 @@ typedef struct vbnl_split_stats {
  * the total light power (max channel) / photon_paths, the power of an emitted photon. */
 double vbnl_split_photon_unit(const vbnl_scene *scene, uint64_t photon_paths);
 
+/* One photon path (light random walk), shared with the many-light baselines (vpl, vsl): the
+ * rules above (light by power, importance transport, Russian roulette, safety cap). `visit` is
+ * called at every non-delta hit, before the bounce, with the flux arriving there. Draws from
+ * `rng` only, in a fixed order, so a path is a function of its stream. */
+typedef struct vbnl_photon_vertex {
+    const vbnl_hit *hit;
+    const vbnl_bsdf *bsdf;  /* vbnl_surface_bsdf at the hit */
+    vec3 ng, ns;            /* unit normals facing the arriving photon (opaque surfaces) */
+    vec3 wo;                /* unit, toward where the photon came from */
+    vec3 beta;              /* flux arriving (already divided by the path count) */
+    int depth;              /* 0 at the first hit */
+} vbnl_photon_vertex;
+typedef void (*vbnl_photon_visit_fn)(void *user, const vbnl_photon_vertex *v);
+typedef struct vbnl_photon_walk_desc {
+    const vbnl_scene *scene;
+    float inv_paths;        /* 1 / N, the flux normalisation by the number of paths */
+    int rr_depth;           /* bounces before Russian roulette */
+    int max_depth;          /* 0 = unlimited (up to VBNL_SPLIT_SAFETY_DEPTH) */
+    int rr_sqrt;            /* 1: VBNL authors' sqrt rule; 0: survival = sampled albedo ratio */
+} vbnl_photon_walk_desc;
+typedef struct vbnl_photon_walk_stats {
+    uint64_t rays, hits, delta_hits;
+} vbnl_photon_walk_stats;
+void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
+                      vbnl_photon_walk_stats *stats);
+
 /* Traces the photon paths of `d` and deposits into d->profiles. Work items run on `stage`'s
  * workers with progress in photon paths when stage is not NULL (cancellation:
  * VBNL_ERR_CANCELLED, deposits of finished items stay), else on `pool` (which must then be
