@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "richvsl.h"
+#include "sampling.h"
 
 #define PLACE_STREAM 0x706c6163655f7273ull
 #define W_CHUNK 2048u
@@ -143,6 +144,17 @@ static void relax_chunk(void *user, uint64_t item, unsigned thread)
         for (uint32_t k = 0; k < job->K; ++k) {
             const float *y = job->lights.pts[idx[k]].p;
             float dist = sqrtf(d2[k]);
+            if (!(dist > 0.0f)) {
+                /* A twin on the same photon (two lights snapped to one): the formula gives no
+                 * push, so the twins would move together forever. Each takes a step of length d
+                 * along its own direction, hashed from its index (deterministic). */
+                vbnl_rng rr = vbnl_rng_make(li, 0x7477696eu);
+                vec3 u = sample_uniform_sphere(vbnl_rng_next2(&rr));
+                dx[0] += u.x * d;
+                dx[1] += u.y * d;
+                dx[2] += u.z * d;
+                continue;
+            }
             float s = d / (dist + eps) - 1.0f;
             for (int c = 0; c < 3; ++c)
                 dx[c] += (x[c] - y[c]) * s;
