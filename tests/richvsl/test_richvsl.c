@@ -318,11 +318,12 @@ static vbnl_scene *cornell(vbnl_context *ctx)
 
 /* The Cornell box: the mean of the indirect-only image against the path tracer's 'indirect'
  * layer. The P_RS-weighted emission is energy-consistent in expectation, so the point form
- * (radius_scale = 0, unclamped) keeps the total up to the gathering bias at corners (photons of
- * the other wall are left out): within 4% (measured -2.6% at 1500 lights, -0.9% at 4000). The
- * sphere term removes light from receivers closer than r to a light and adds a little farther
- * out; the net loss grows with r: with r = the 10th-neighbour distance (radius_scale = 1) within
- * 5% (measured -3.8%); the default radius_scale = 4 loses 15% at 1500 lights and 8% at 4000
+ * (radius_scale = 0, unclamped) keeps the total up to its variance (heavy-tailed near the 1/d^2
+ * singularity in the corners, which one light set samples once) and the gathering bias at
+ * corners: within 4% at 3000 lights (measured -0.5%; -4.5% at 1500, -1.5% at 12000). The sphere
+ * term removes light from receivers closer than r to a light and adds a little farther out; the
+ * net loss grows with r: with r = the 10th-neighbour distance (radius_scale = 1) within 4%
+ * (measured -1.1%); the default radius_scale = 4 loses 9.8% at 3000 lights and 5.3% at 12000
  * (README). */
 static void test_cornell_indirect_energy(void **state)
 {
@@ -334,19 +335,19 @@ static void test_cornell_indirect_energy(void **state)
     const uint32_t W = 24, H = 24;
     const char *const ps[] = {"split_direct=1", NULL};
     float *ref = render(ctx, s, "path", W, H, 2048, 1, ps, "indirect");
-    const char *const rs[] = {"virtual_lights=1500", "indirect_only=1", "radius_scale=1", NULL};
-    float *img = render(ctx, s, "richvsl", W, H, 8, 2, rs, "");
-    const char *const rp[] = {"virtual_lights=1500", "indirect_only=1", "radius_scale=0", NULL};
-    float *pt = render(ctx, s, "richvsl", W, H, 8, 2, rp, "");
+    const char *const rs[] = {"virtual_lights=3000", "indirect_only=1", "radius_scale=1", NULL};
+    float *img = render(ctx, s, "richvsl", W, H, 4, 2, rs, "");
+    const char *const rp[] = {"virtual_lights=3000", "indirect_only=1", "radius_scale=0", NULL};
+    float *pt = render(ctx, s, "richvsl", W, H, 4, 2, rp, "");
     double mr = channel_mean(ref, W * H, 3), mi = channel_mean(img, W * H, 4), mp = channel_mean(pt, W * H, 4);
     print_message("# cornell indirect mean: path %.5f, richvsl (spheres) %.5f (%+.2f%%), richvsl (points, "
                   "unclamped) %.5f (%+.2f%%)\n",
                   mr, mi, 100.0 * (mi / mr - 1.0), mp, 100.0 * (mp / mr - 1.0));
-    assert_true(fabs(mi / mr - 1.0) < 0.05);
+    assert_true(fabs(mi / mr - 1.0) < 0.04);
     assert_true(fabs(mp / mr - 1.0) < 0.04);
     /* clamping only removes light */
-    const char *const rc[] = {"virtual_lights=1500", "indirect_only=1", "radius_scale=0", "clamp=2", NULL};
-    float *cl = render(ctx, s, "richvsl", W, H, 8, 2, rc, "");
+    const char *const rc[] = {"virtual_lights=3000", "indirect_only=1", "radius_scale=0", "clamp=2", NULL};
+    float *cl = render(ctx, s, "richvsl", W, H, 4, 2, rc, "");
     double mc = channel_mean(cl, W * H, 4);
     print_message("# clamp=2: %.5f\n", mc);
     for (uint32_t i = 0; i < W * H; ++i)

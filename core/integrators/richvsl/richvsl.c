@@ -229,8 +229,11 @@ static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *er
         W = malloc(sizeof(float) * m.ph_count);
         r = W ? rv_importance_at_photons(&m, s->k_importance, stage, NULL, W, &W_mean, err)
               : vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        /* The photon map holds whole paths, so slightly more than q N photons: the ratio q in P_RS
+         * is the actual photons per wanted light, which keeps the expected count sum P_RS <= N. */
+        double q_eff = (double)m.ph_count / s->virtual_lights;
         if (r == VBNL_OK)
-            r = rv_place(W, m.ph_count, s->q, W_mean, s->seed, &ids, &p_rs, &count, err);
+            r = rv_place(W, m.ph_count, q_eff, W_mean, s->seed, &ids, &p_rs, &count, err);
         if (stage)
             vbnl_stage_end(stage);
         if (r == VBNL_OK && count == 0)
