@@ -19,6 +19,7 @@ void rv_lights_free(rv_lights *l)
     free(l->intensity);
     free(l->table);
     free(l->lambert);
+    free(l->sampled);
     memset(l, 0, sizeof(*l));
 }
 
@@ -75,12 +76,39 @@ void rv_emission_table(const vbnl_hemioct *map, const vbnl_hemioct *incident_map
     }
 }
 
+void rv_emission_table_sampled(const vbnl_hemioct *map, const vbnl_bsdf *bsdf, vec3 n, const rv_gathered *g,
+                               uint32_t count, uint32_t samples, vbnl_rng *rng, float *rgb)
+{
+    const uint32_t T = vbnl_hemioct_texel_count(map);
+    memset(rgb, 0, sizeof(float) * 3 * T);
+    frame f = frame_from_normal(n);
+    const float inv_s = 1.0f / (float)samples;
+    for (uint32_t j = 0; j < count; ++j) {
+        vec3 wi = frame_to_local(&f, g[j].wi);
+        int below = wi.z <= 1e-4f;
+        for (uint32_t k = 0; k < samples; ++k) {
+            /* fixed use of the stream per sample */
+            float ul = vbnl_rng_next(rng);
+            vec2 u = vbnl_rng_next2(rng);
+            vbnl_bsdf_sample_rec bs;
+            if (below || !vbnl_bsdf_sample(bsdf, wi, ul, u, &bs) || bs.wi.z <= 0.0f || v3_is_black(bs.weight))
+                continue;
+            vbnl_hemioct_splat(map, rgb, bs.wi, v3_scale(v3_mul(g[j].flux, bs.weight), inv_s));
+        }
+    }
+    const float *C = vbnl_hemioct_bilinear_projected(map);
+    for (uint32_t t = 0; t < T; ++t)
+        for (int c = 0; c < 3; ++c)
+            rgb[3 * t + c] = C[t] > 0.0f ? rgb[3 * t + c] / C[t] : 0.0f;
+}
+
 /* ---- every light ---------------------------------------------------------------------------- */
 
 typedef struct em_job {
     const vbnl_scene *sc;
     const rv_maps *m;
     const vbnl_hemioct *map, *incident;
+    const rv_emission_params *ep;
     rv_lights *l;
     vbnl_kd_tree lights;
     uint32_t *idx;   /* per thread, RV_GATHER_MAX + 1 each */
@@ -89,6 +117,7 @@ typedef struct em_job {
 } em_job;
 
 #define EM_CHUNK 64u
+#define EMISSION_STREAM 0x656d697373696f6eull
 
 static void em_light(em_job *job, uint32_t li, uint32_t *idx, float *d2, rv_gathered *g)
 {
@@ -140,7 +169,11 @@ static void em_light(em_job *job, uint32_t li, uint32_t *idx, float *d2, rv_gath
     const vbnl_bsdf *bsdf = vbnl_surface_bsdf(job->sc, &self->hit, &store);
     if (l->lambert[li])
         l->intensity[li] = rv_lambert_intensity(bsdf, l->n[li], g, c);
-    else
+    else if (l->sampled[li]) {
+        vbnl_rng rng = vbnl_rng_for(job->ep->seed ^ EMISSION_STREAM, li, 0);
+        rv_emission_table_sampled(job->map, bsdf, l->n[li], g, c, job->ep->samples, &rng,
+                                  l->table + (size_t)li * 3 * vbnl_hemioct_texel_count(job->map));
+    } else
         rv_emission_table(job->map, job->incident, bsdf, l->n[li], g, c,
                           l->table + (size_t)li * 3 * vbnl_hemioct_texel_count(job->map));
 }
@@ -155,16 +188,28 @@ static void em_chunk(void *user, uint64_t item, unsigned thread)
         em_light(job, li, job->idx + o, job->d2 + o, job->g + o);
 }
 
-vbnl_result rv_build_emission(const vbnl_scene *sc, const rv_maps *m, const vbnl_hemioct *map, rv_lights *l,
-                              vbnl_stage_ctx *stage, vbnl_pool *pool, vbnl_error *err)
+vbnl_result rv_build_emission(const vbnl_scene *sc, const rv_maps *m, const vbnl_hemioct *map,
+                              const rv_emission_params *ep, rv_lights *l, vbnl_stage_ctx *stage, vbnl_pool *pool,
+                              vbnl_error *err)
 {
     em_job job;
     memset(&job, 0, sizeof(job));
     job.sc = sc;
     job.m = m;
     job.map = map;
+    job.ep = ep;
     job.l = l;
     const uint32_t n = l->count;
+    l->sampled = calloc(n ? n : 1, 1);
+    if (!l->sampled)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    for (uint32_t i = 0; i < n; ++i) {
+        if (l->lambert[i])
+            continue;
+        vbnl_bsdf store;
+        const vbnl_bsdf *b = vbnl_surface_bsdf(sc, &m->ph[l->photon[i]].hit, &store);
+        l->sampled[i] = b->type == VBNL_MATERIAL_CONDUCTOR && b->alpha < ep->sampled_alpha && ep->samples > 0;
+    }
     vbnl_hemioct *incident = NULL;
     vbnl_kd_pt *pts = malloc(sizeof(vbnl_kd_pt) * (n ? n : 1));
     uint32_t glossy = 0;

@@ -40,6 +40,11 @@ static const vbnl_param_spec rv_params[] = {
     {"relax_iterations", VBNL_PARAM_INT, 20, NULL, 0, 1000, NULL, "relaxation steps (§4.2: 20; 0 = off)"},
     {"profile_resolution", VBNL_PARAM_INT, 32, NULL, 8, 32, NULL,
      "side of the hemi-octahedral emission table: 8, 16 or 32 (§7: 32)"},
+    {"sampled_alpha", VBNL_PARAM_FLOAT, 0.1, NULL, 0, 1, NULL,
+     "conductors smoother than this GGX alpha tabulate by sampling the BSDF per photon and splatting "
+     "(the paper's highly glossy path, threshold not given); others by binned convolution"},
+    {"emission_samples", VBNL_PARAM_INT, 16, NULL, 1, 4096, NULL,
+     "BSDF samples per gathered photon for sampled_alpha lights (not given in the paper)"},
     {"radius_scale", VBNL_PARAM_FLOAT, 4, NULL, 0, 1e3, NULL,
      "M: sphere radius = M x distance to the radius_neighbour-th nearest light (HKWB09: 4 to 10); "
      "0 = point lights (Rich-VPL)"},
@@ -57,7 +62,8 @@ typedef struct rv_state {
     uint64_t seed;
     uint32_t virtual_lights, importon_paths, k_importance, k_relax, relax_iterations, res, radius_k;
     double q;
-    float radius_scale, clamp;
+    float radius_scale, clamp, sampled_alpha;
+    uint32_t emission_samples;
     int indirect_only;
     uint32_t stride;
     vec3 cam_forward;
@@ -93,6 +99,8 @@ static vbnl_result rv_create(const vbnl_integrator_env *env, void **out, vbnl_er
     s->k_relax = (uint32_t)param(env, "relax_neighbours");
     s->relax_iterations = (uint32_t)param(env, "relax_iterations");
     s->res = (uint32_t)param(env, "profile_resolution");
+    s->sampled_alpha = (float)param(env, "sampled_alpha");
+    s->emission_samples = (uint32_t)param(env, "emission_samples");
     s->radius_scale = (float)param(env, "radius_scale");
     s->radius_k = (uint32_t)param(env, "radius_neighbour");
     s->clamp = (float)param(env, "clamp");
@@ -282,7 +290,8 @@ static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *er
         if (r == VBNL_OK) {
             if (stage)
                 vbnl_stage_begin(stage, "emission", count, "lights");
-            r = rv_build_emission(sc, &m, s->map, l, stage, NULL, err);
+            rv_emission_params ep = {s->sampled_alpha, s->emission_samples, s->seed};
+            r = rv_build_emission(sc, &m, s->map, &ep, l, stage, NULL, err);
             if (r == VBNL_OK)
                 r = set_radii(s, err);
             if (stage)

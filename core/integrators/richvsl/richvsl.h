@@ -127,6 +127,15 @@ typedef struct rv_gathered {
 void rv_emission_table(const vbnl_hemioct *map, const vbnl_hemioct *incident_map, const vbnl_bsdf *bsdf, vec3 n,
                        const rv_gathered *g, uint32_t count, float *rgb);
 
+/* The table of a highly glossy light (§5, "highly glossy/specular"): for every photon,
+ * `samples` outgoing directions drawn from the BSDF at the light given the photon's incident
+ * direction (adjoint sampling, reciprocal BSDFs), each carrying flux_j f cos / (pdf samples) of
+ * reflected power, splatted bilinearly; then I_t = E_t / C_t (the texel's bilinear projected
+ * solid angle), so the table's power sum_t I_t C_t is exactly the power splatted and a lobe
+ * narrower than a texel keeps its energy (the paper's built-in mollification). */
+void rv_emission_table_sampled(const vbnl_hemioct *map, const vbnl_bsdf *bsdf, vec3 n, const rv_gathered *g,
+                               uint32_t count, uint32_t samples, vbnl_rng *rng, float *rgb);
+
 /* Lambertian light: the constant intensity rho / pi sum_j flux_j (incident directions below the
  * light's horizon excluded). */
 vec3 rv_lambert_intensity(const vbnl_bsdf *bsdf, vec3 n, const rv_gathered *g, uint32_t count);
@@ -144,6 +153,7 @@ typedef struct rv_lights {
     vec3 *intensity;    /* Lambertian lights: I; others: unused */
     float *table;       /* count x R^2 x 3 floats; NULL rows not used for Lambertian lights */
     uint8_t *lambert;
+    uint8_t *sampled;   /* table made by rv_emission_table_sampled */
     uint32_t res;
 } rv_lights;
 
@@ -155,7 +165,13 @@ void rv_lights_free(rv_lights *l);
  * (1 - d^2 / r^2) normalised to one (at most RV_GATHER_MAX nearest photons). */
 #define RV_NORMAL_COS 0.7f
 #define RV_GATHER_MAX 1024u
-vbnl_result rv_build_emission(const vbnl_scene *sc, const rv_maps *m, const vbnl_hemioct *map, rv_lights *l,
-                              vbnl_stage_ctx *stage, vbnl_pool *pool, vbnl_error *err);
+typedef struct rv_emission_params {
+    float sampled_alpha;  /* conductors with GGX alpha below this use rv_emission_table_sampled */
+    uint32_t samples;     /* BSDF samples per photon there */
+    uint64_t seed;        /* light i draws from vbnl_rng_for(seed ^ stream, i, 0) */
+} rv_emission_params;
+vbnl_result rv_build_emission(const vbnl_scene *sc, const rv_maps *m, const vbnl_hemioct *map,
+                              const rv_emission_params *ep, rv_lights *l, vbnl_stage_ctx *stage, vbnl_pool *pool,
+                              vbnl_error *err);
 
 #endif
