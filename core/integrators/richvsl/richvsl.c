@@ -125,8 +125,8 @@ static vbnl_result rv_create(const vbnl_integrator_env *env, void **out, vbnl_er
                            "4e9",
                            s->width, s->height, s->importon_paths, importons);
     if (r == VBNL_OK) {
-        /* peak memory: importon tracing (~37 B each), photons (~110 B with tree), tables */
-        double bytes = importons * 37.0 + photons * 110.0 +
+        /* peak memory: importon tracing (~37 B each), photons (~130 B with tree), tables */
+        double bytes = importons * 37.0 + photons * 130.0 +
                        (double)s->virtual_lights * (12.0 * s->res * s->res + 96.0);
         double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
         if (phys > 0.0 && bytes > 0.8 * phys)
