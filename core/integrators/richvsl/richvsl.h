@@ -9,9 +9,10 @@
  *                §4.1), one Bernoulli trial per photon with P_RS = min(1, W / (q W_mean)), and
  *                the relaxation of §4.2 (K = 6, snap to the nearest photon after every step);
  *   emission.c   the emission profile of every light (§5): normalised-kernel gathering of the
- *                photons within the distance to the second-closest light, reflected with the
- *                BSDF at the light into a 32 x 32 hemi-octahedral intensity table
- *                (octahedral.h); Lambertian lights keep only their flux;
+ *                photons within the distance to the second-closest other light, reflected with
+ *                the BSDF at the light into a 32 x 32 hemi-octahedral intensity table
+ *                (octahedral.h) by binned convolution, or for near-mirror conductors by BSDF
+ *                sampling per photon and splatting; Lambertian lights keep only their flux;
  *   richvsl.c    the integrator: parameters, stages, sphere radii and shading (§6 Rich-VSL).
  *
  * Units: a light's intensity I(w) is reflected power per steradian leaving along w (W/sr,
@@ -151,7 +152,8 @@ typedef struct rv_lights {
     float *gather_r;    /* radius photons were gathered in */
     uint32_t *gathered; /* photons gathered */
     vec3 *intensity;    /* Lambertian lights: I; others: unused */
-    float *table;       /* count x R^2 x 3 floats; NULL rows not used for Lambertian lights */
+    float *table;       /* count x R^2 x 3 floats (rows of Lambertian lights stay unused); NULL
+                         * when every light is Lambertian */
     uint8_t *lambert;
     uint8_t *sampled;   /* table made by rv_emission_table_sampled */
     uint32_t res;
