@@ -1,0 +1,515 @@
+/* `richvsl`: Rich-VPLs with importon-driven placement, relaxation and the spherical variant
+ * (Simon, Hanika, Dachsbacher 2015; notes: shared/design/baselines-notes.md §2.5).
+ *
+ * prepare: importon map (importons per pixel, §4.1) -> photon map (q photons per light) ->
+ *          importance W at every photon (Epanechnikov K-NN estimate) -> one Bernoulli trial per
+ *          photon with P_RS = min(1, W / (q W_mean)) -> relaxation (K = 6, 20 iterations, snap
+ *          to the nearest photon, §4.2) -> emission tables (maps.c, placement.c, emission.c)
+ *          -> sphere radii r_i = M x the distance to the 10th nearest light (§7, HKWB09).
+ * render:  camera paths pass through delta surfaces to the first non-delta vertex x, which gets
+ *          the direct light of the real lights (the estimator of `path` and `vbnl`: next-event
+ *          estimation with MIS against a BSDF sample) and, from every light i, the Rich-VSL term
+ *            L_i = V(x, y_i) / (pi r_i^2) Int_cone f_x(w) cos_x I_i(-w) cos_i dw
+ *          over the cone of directions toward the light's sphere (all directions inside it),
+ *          visibility to the centre only (§6). The integral is estimated by sampling the BSDF at
+ *          x and, so that far lights whose cones BSDF samples rarely hit are not noisy, a uniform
+ *          direction in the cone (VBNL Eq. 4), combined by the power heuristic; the emission is
+ *          not importance-sampled (§6). As r -> 0 the term is the Rich-VPL term
+ *          f_x I_i(-w) cos_x cos_i / d^2; radius_scale = 0 renders that point form.
+ *
+ * Clamping (`clamp` = b > 0, as for every VPL-type method; BSDFs never clamped): the point form
+ * bounds G = cos_x cos_i / d^2 by b. The sphere form bounds the same quantity for each direction
+ * of the cone, with 1 / d^2 replaced by the cone's solid angle over pi r^2 (which tends to
+ * 1 / d^2 as r -> 0), so both agree in the limit and clamping never adds light. */
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "richvsl.h"
+#include "shading.h"
+
+static const vbnl_param_spec rv_params[] = {
+    {"virtual_lights", VBNL_PARAM_INT, 12000, NULL, 1, 5e7, NULL,
+     "N: the photon map holds q N photons, so about N lights (at most) are placed; the VBNL paper "
+     "compares at 12K"},
+    {"importon_paths", VBNL_PARAM_INT, 32, NULL, 1, 4096, NULL, "camera (importon) paths per pixel (§7: 32)"},
+    {"photons_per_light", VBNL_PARAM_FLOAT, 100, NULL, 1, 1e6, NULL, "q: photons per light (§7: 100)"},
+    {"importance_neighbours", VBNL_PARAM_INT, 16, NULL, 2, 1024, NULL,
+     "K of the importance estimate at the photons (not given in the paper)"},
+    {"relax_neighbours", VBNL_PARAM_INT, 6, NULL, 1, 1000, NULL, "K of the relaxation (§4.2: 6)"},
+    {"relax_iterations", VBNL_PARAM_INT, 20, NULL, 0, 1000, NULL, "relaxation steps (§4.2: 20; 0 = off)"},
+    {"profile_resolution", VBNL_PARAM_INT, 32, NULL, 8, 32, NULL,
+     "side of the hemi-octahedral emission table: 8, 16 or 32 (§7: 32)"},
+    {"sampled_alpha", VBNL_PARAM_FLOAT, 0.1, NULL, 0, 1, NULL,
+     "conductors smoother than this GGX alpha tabulate by sampling the BSDF per photon and splatting "
+     "(the paper's highly glossy path, threshold not given); others by binned convolution"},
+    {"emission_samples", VBNL_PARAM_INT, 16, NULL, 1, 4096, NULL,
+     "BSDF samples per gathered photon for sampled_alpha lights (not given in the paper)"},
+    {"radius_scale", VBNL_PARAM_FLOAT, 4, NULL, 0, 1e3, NULL,
+     "M: sphere radius = M x distance to the radius_neighbour-th nearest light (HKWB09: 4 to 10); "
+     "0 = point lights (Rich-VPL)"},
+    {"radius_neighbour", VBNL_PARAM_INT, 10, NULL, 1, 1000, NULL, "k of the radius rule (10)"},
+    {"clamp", VBNL_PARAM_FLOAT, 0, NULL, 0, 1e30, NULL,
+     "bound b of the geometry term cos cos / d^2 (1/scene unit^2), as for vpl; 0 = unclamped"},
+    {"indirect_only", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
+     "leave out emission and single scattering (the 'direct' part of `path`), to compare indirect light"},
+};
+#define N_PARAMS (sizeof(rv_params) / sizeof(rv_params[0]))
+
+typedef struct rv_state {
+    const vbnl_scene *scene;
+    uint32_t width, height;
+    uint64_t seed;
+    uint32_t virtual_lights, importon_paths, k_importance, k_relax, relax_iterations, res, radius_k;
+    double q;
+    float radius_scale, clamp, sampled_alpha;
+    uint32_t emission_samples;
+    int indirect_only;
+    uint32_t stride;
+    vec3 cam_forward;
+    /* the prepared set */
+    vbnl_hemioct *map;
+    rv_lights l;
+    frame *fr;        /* local frame of each light (z = n) */
+    float *inv_area;  /* 1 / (pi r^2), 0 for point lights */
+    /* statistics of the last prepare (tests, README) */
+    uint32_t importons, photons;
+    uint64_t photon_paths;
+    int prepared;
+} rv_state;
+
+static double param(const vbnl_integrator_env *env, const char *name)
+{
+    return vbnl_params_number(env->params, rv_params, N_PARAMS, name);
+}
+
+static vbnl_result rv_create(const vbnl_integrator_env *env, void **out, vbnl_error *err)
+{
+    rv_state *s = calloc(1, sizeof(*s));
+    if (!s)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    s->scene = env->scene;
+    s->width = env->settings->width;
+    s->height = env->settings->height;
+    s->seed = env->settings->seed;
+    s->virtual_lights = (uint32_t)param(env, "virtual_lights");
+    s->importon_paths = (uint32_t)param(env, "importon_paths");
+    s->q = param(env, "photons_per_light");
+    s->k_importance = (uint32_t)param(env, "importance_neighbours");
+    s->k_relax = (uint32_t)param(env, "relax_neighbours");
+    s->relax_iterations = (uint32_t)param(env, "relax_iterations");
+    s->res = (uint32_t)param(env, "profile_resolution");
+    s->sampled_alpha = (float)param(env, "sampled_alpha");
+    s->emission_samples = (uint32_t)param(env, "emission_samples");
+    s->radius_scale = (float)param(env, "radius_scale");
+    s->radius_k = (uint32_t)param(env, "radius_neighbour");
+    s->clamp = (float)param(env, "clamp");
+    s->indirect_only = param(env, "indirect_only") != 0.0;
+    s->stride = env->film->stride;
+    s->cam_forward = v3_norm(v3_load(env->scene->camera.forward));
+
+    vbnl_result r = VBNL_OK;
+    double photons = s->q * s->virtual_lights;
+    double importons = (double)s->width * s->height * s->importon_paths;
+    if (s->res != 8 && s->res != 16 && s->res != 32)
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'richvsl': profile_resolution must be 8, 16 or 32, got %u", s->res);
+    else if (photons >= 2.0e9)
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'richvsl': photons_per_light x virtual_lights = %.3g photons, more than "
+                           "the 2e9 the photon map holds",
+                           photons);
+    else if (importons >= 4.0e9)
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'richvsl': %ux%u pixels x %u importon_paths = %.3g importons, more than "
+                           "4e9",
+                           s->width, s->height, s->importon_paths, importons);
+    if (r == VBNL_OK) {
+        /* peak memory: importon tracing (~37 B each), photons (~130 B with tree), tables */
+        double bytes = importons * 37.0 + photons * 130.0 +
+                       (double)s->virtual_lights * (12.0 * s->res * s->res + 96.0);
+        double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+        if (phys > 0.0 && bytes > 0.8 * phys)
+            r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
+                               "integrator 'richvsl': this request needs about %.1f GB (%.3g importons, %.3g "
+                               "photons, %u tables of %ux%u) but the machine has %.1f GB",
+                               bytes / 1e9, importons, photons, s->virtual_lights, s->res, s->res, phys / 1e9);
+    }
+    if (r != VBNL_OK) {
+        free(s);
+        return r;
+    }
+    *out = s;
+    return VBNL_OK;
+}
+
+static void rv_destroy(void *state)
+{
+    rv_state *s = state;
+    if (!s)
+        return;
+    rv_lights_free(&s->l);
+    vbnl_hemioct_destroy(s->map);
+    free(s->fr);
+    free(s->inv_area);
+    free(s);
+}
+
+/* Sphere radii: M x the distance to the k-th nearest other light (0: a point light). */
+static vbnl_result set_radii(rv_state *s, vbnl_error *err)
+{
+    rv_lights *l = &s->l;
+    uint32_t n = l->count;
+    l->radius = calloc(n, sizeof(float));
+    s->inv_area = calloc(n, sizeof(float));
+    s->fr = malloc(sizeof(frame) * n);
+    vbnl_kd_pt *pts = malloc(sizeof(vbnl_kd_pt) * n);
+    uint32_t *idx = malloc(sizeof(uint32_t) * (s->radius_k + 1));
+    float *d2 = malloc(sizeof(float) * (s->radius_k + 1));
+    vbnl_kd_tree t;
+    memset(&t, 0, sizeof(t));
+    vbnl_result r = VBNL_OK;
+    if (!l->radius || !s->inv_area || !s->fr || !pts || !idx || !d2)
+        r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u lights", n);
+    for (uint32_t i = 0; r == VBNL_OK && i < n; ++i) {
+        s->fr[i] = frame_from_normal(l->n[i]);
+        pts[i].p[0] = l->p[i].x;
+        pts[i].p[1] = l->p[i].y;
+        pts[i].p[2] = l->p[i].z;
+        pts[i].id = i;
+    }
+    if (r == VBNL_OK && s->radius_scale > 0.0f && n > s->radius_k) {
+        if (vbnl_kd_build(&t, pts, n) != 0)
+            r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u lights", n);
+        for (uint32_t i = 0; r == VBNL_OK && i < n; ++i) {
+            const float q[3] = {l->p[i].x, l->p[i].y, l->p[i].z};
+            uint32_t c = rv_knn(&t, q, s->radius_k + 1, UINT32_MAX, idx, d2);
+            uint32_t seen = 0;
+            for (uint32_t k = 0; k < c; ++k) {
+                if (t.pts[idx[k]].id == i)
+                    continue;
+                if (++seen == s->radius_k) {
+                    l->radius[i] = s->radius_scale * sqrtf(d2[k]);
+                    break;
+                }
+            }
+            if (l->radius[i] > 0.0f)
+                s->inv_area[i] = 1.0f / (VBNL_PI * l->radius[i] * l->radius[i]);
+        }
+    }
+    vbnl_kd_free(&t);
+    free(pts);
+    free(idx);
+    free(d2);
+    return r;
+}
+
+static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    rv_state *s = state;
+    const vbnl_scene *sc = s->scene;
+    rv_maps m;
+    memset(&m, 0, sizeof(m));
+    float *W = NULL, *p_rs = NULL;
+    uint32_t *ids = NULL, count = 0;
+    vec3 *pos = NULL;
+    vbnl_result r;
+
+    if (stage)
+        vbnl_stage_begin(stage, "importons", 0, "chunks");
+    r = rv_trace_importons(sc, s->width, s->height, s->importon_paths, s->seed, stage, NULL, &m, err);
+    if (stage)
+        vbnl_stage_end(stage);
+    if (r == VBNL_OK) {
+        if (stage)
+            vbnl_stage_begin(stage, "photons", 0, "batches");
+        r = rv_trace_photons(sc, (uint64_t)(s->q * s->virtual_lights + 0.5), s->seed, stage, NULL, &m, err);
+        if (stage)
+            vbnl_stage_end(stage);
+    }
+    if (r == VBNL_OK) {
+        s->importons = m.imp_count;
+        s->photons = m.ph_count;
+        s->photon_paths = m.ph_paths;
+        if (stage)
+            vbnl_stage_begin(stage, "importance", m.ph_count, "photons");
+        double W_mean = 0.0;
+        W = malloc(sizeof(float) * m.ph_count);
+        r = W ? rv_importance_at_photons(&m, s->k_importance, stage, NULL, W, &W_mean, err)
+              : vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        /* The photon map holds whole paths, so slightly more than q N photons: the ratio q in P_RS
+         * is the actual photons per wanted light, which keeps the expected count sum P_RS <= N. */
+        double q_eff = (double)m.ph_count / s->virtual_lights;
+        if (r == VBNL_OK)
+            r = rv_place(W, m.ph_count, q_eff, W_mean, s->seed, &ids, &p_rs, &count, err);
+        if (stage)
+            vbnl_stage_end(stage);
+        if (r == VBNL_OK && count == 0)
+            r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                               "integrator 'richvsl': no light was placed (no photon lies where the camera's "
+                               "importons are: nothing in view is lit indirectly)");
+    }
+    free(W);
+    if (r == VBNL_OK) {
+        if (stage)
+            vbnl_stage_begin(stage, "relaxation", s->relax_iterations, "iterations");
+        pos = malloc(sizeof(vec3) * m.ph_count);
+        if (!pos)
+            r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        for (uint32_t i = 0; pos && i < m.ph_count; ++i)
+            pos[i] = m.ph[i].hit.p;
+        if (r == VBNL_OK)
+            r = rv_relax(&m.ph_tree, pos, ids, count, s->k_relax, s->relax_iterations, stage, NULL, err);
+        if (stage)
+            vbnl_stage_end(stage);
+    }
+    free(pos);
+    if (r == VBNL_OK) {
+        rv_lights *l = &s->l;
+        l->count = count;
+        l->photon = ids;
+        l->p_rs = p_rs; /* the probability of the photon each light was placed on */
+        ids = NULL;
+        p_rs = NULL;
+        l->p = malloc(sizeof(vec3) * count);
+        l->n = malloc(sizeof(vec3) * count);
+        l->ng = malloc(sizeof(vec3) * count);
+        l->lambert = malloc(count);
+        if (!l->p || !l->n || !l->ng || !l->lambert)
+            r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u lights", count);
+        for (uint32_t i = 0; r == VBNL_OK && i < count; ++i) {
+            const rv_photon *ph = &m.ph[l->photon[i]];
+            l->p[i] = ph->hit.p;
+            l->n[i] = ph->ns;
+            l->ng[i] = ph->ng;
+            vbnl_bsdf store;
+            l->lambert[i] = vbnl_surface_bsdf(sc, &ph->hit, &store)->type == VBNL_MATERIAL_LAMBERT;
+        }
+        if (r == VBNL_OK && vbnl_hemioct_create(s->res, &s->map) != VBNL_OK)
+            r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        if (r == VBNL_OK) {
+            if (stage)
+                vbnl_stage_begin(stage, "emission", count, "lights");
+            rv_emission_params ep = {s->sampled_alpha, s->emission_samples, s->seed};
+            r = rv_build_emission(sc, &m, s->map, &ep, l, stage, NULL, err);
+            if (r == VBNL_OK)
+                r = set_radii(s, err);
+            if (stage)
+                vbnl_stage_end(stage);
+        }
+    }
+    free(ids);
+    free(p_rs);
+    rv_maps_free(&m); /* rendering needs only the lights */
+    if (r == VBNL_OK)
+        s->prepared = 1;
+    return r;
+}
+
+/* ---- rendering ------------------------------------------------------------------------------ */
+
+/* Intensity of light i toward the world direction w (leaving the light). */
+static inline vec3 intensity(const rv_state *s, uint32_t i, vec3 w)
+{
+    vec3 wl = frame_to_local(&s->fr[i], w);
+    if (wl.z <= 0.0f)
+        return v3s(0.0f);
+    if (s->l.lambert[i])
+        return s->l.intensity[i];
+    return vbnl_hemioct_lookup(s->map, s->l.table + (size_t)i * 3 * vbnl_hemioct_texel_count(s->map), wl);
+}
+
+/* f_x cos_x I(-w) cos_i along w (from x toward light i), times the clamp factor; *pdf_x the
+ * BSDF's pdf of w. 0 outside the cone (axis, cos_max) or behind either surface. */
+static vec3 integrand(const rv_state *s, uint32_t i, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 w,
+                      vec3 axis, float cos_max, float g_scale, float *pdf_x)
+{
+    *pdf_x = 0.0f;
+    if (v3_dot(w, axis) < cos_max || v3_dot(w, sf->ng) <= 0.0f)
+        return v3s(0.0f);
+    float cos_i = -v3_dot(w, s->l.n[i]);
+    if (cos_i <= 0.0f)
+        return v3s(0.0f);
+    vec3 wx = frame_to_local(&sf->fr, w);
+    *pdf_x = vbnl_bsdf_pdf(bsdf, sf->wo, wx);
+    vec3 fx = vbnl_bsdf_eval(bsdf, sf->wo, wx); /* includes cos_x */
+    if (v3_is_black(fx))
+        return v3s(0.0f);
+    float c = cos_i;
+    if (s->clamp > 0.0f) {
+        float G = fabsf(wx.z) * cos_i * g_scale; /* g_scale: 1/d^2 or cone solid angle / (pi r^2) */
+        if (G > s->clamp)
+            c *= s->clamp / G;
+    }
+    return v3_scale(v3_mul(fx, intensity(s, i, v3_neg(w))), c);
+}
+
+static inline float sq(float x) { return x * x; }
+
+/* Light reflected at x toward the viewer from every Rich-VSL. */
+static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_rng *rng,
+                   vbnl_thread_stats *stats)
+{
+    const vbnl_scene *sc = s->scene;
+    vec3 sum = v3s(0.0f);
+    const vec3 org_base = x;
+    for (uint32_t i = 0; i < s->l.count; ++i) {
+        /* fixed use of the stream per light, whether or not it contributes */
+        vec2 uc = vbnl_rng_next2(rng);
+        float ul = vbnl_rng_next(rng);
+        vec2 ub = vbnl_rng_next2(rng);
+        vec3 to = v3_sub(s->l.p[i], x);
+        float d2 = v3_len2(to);
+        if (!(d2 > 0.0f))
+            continue;
+        float dist = sqrtf(d2);
+        vec3 axis = v3_scale(to, 1.0f / dist);
+        float r = s->l.radius[i];
+        vec3 L;
+        float pdf;
+        if (!(r > 0.0f)) {
+            /* point form: f_x I cos_x cos_i / d^2, G clamped */
+            L = v3_scale(integrand(s, i, bsdf, sf, axis, axis, -1.0f, 1.0f / d2, &pdf), 1.0f / d2);
+        } else {
+            float cos_max = d2 <= r * r ? -1.0f : sqrtf(1.0f - r * r / d2);
+            float omega = 2.0f * VBNL_PI * (1.0f - cos_max);
+            float pc = 1.0f / omega;
+            float g_scale = omega * s->inv_area[i];
+            vec3 est = v3s(0.0f);
+            /* 1: uniform direction in the cone */
+            frame cf = frame_from_normal(axis);
+            vec3 w = frame_to_world(&cf, sample_uniform_cone(uc, cos_max));
+            vec3 h = integrand(s, i, bsdf, sf, w, axis, cos_max, g_scale, &pdf);
+            if (!v3_is_black(h))
+                est = v3_add(est, v3_scale(h, pc / (sq(pc) + sq(pdf))));
+            /* 2: the BSDF at x */
+            vbnl_bsdf_sample_rec bs;
+            if (vbnl_bsdf_sample(bsdf, sf->wo, ul, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
+                w = frame_to_world(&sf->fr, bs.wi);
+                h = integrand(s, i, bsdf, sf, w, axis, cos_max, g_scale, &pdf);
+                if (!v3_is_black(h) && pdf > 0.0f)
+                    est = v3_add(est, v3_scale(h, pdf / (sq(pc) + sq(pdf))));
+            }
+            L = v3_scale(est, s->inv_area[i]);
+        }
+        if (v3_is_black(L) || !v3_is_finite(L))
+            continue;
+        /* visibility to the centre, both ends offset off their surfaces */
+        vec3 o = vbnl_offset_ray_origin(org_base, sf->ng, axis);
+        vec3 t = vbnl_offset_ray_origin(s->l.p[i], s->l.ng[i], v3_neg(axis));
+        vec3 dv = v3_sub(t, o);
+        float len = v3_len(dv);
+        if (!(len > 0.0f))
+            continue;
+        stats->rays++;
+        if (!vbnl_scene_occluded(sc, o, v3_scale(dv, 1.0f / len), len))
+            sum = v3_add(sum, L);
+    }
+    return sum;
+}
+
+static inline void add_L(float *out, vec3 c)
+{
+    out[0] += c.x;
+    out[1] += c.y;
+    out[2] += c.z;
+}
+
+static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+                  vbnl_thread_stats *stats)
+{
+    const rv_state *s = state;
+    const vbnl_scene *sc = s->scene;
+    const int direct = !s->indirect_only;
+    vbnl_hit hit = *first;
+    vec3 beta = v3s(1.0f);
+    out[3] = 1.0f;
+    if (!hit_ok) {
+        if (sc->env_light != VBNL_NO_LIGHT && direct)
+            add_L(out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
+        return;
+    }
+    {
+        vbnl_bsdf tmp;
+        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
+    }
+    v3_store(out + VBNL_FILM_NORMAL, hit.ns);
+    out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), s->cam_forward);
+    if (hit.light != VBNL_NO_LIGHT && direct)
+        add_L(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
+    for (int chain = 0;; ++chain) {
+        vbnl_bsdf store;
+        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &store);
+        vbnl_shading_frame sf;
+        vbnl_shading_frame_make(bsdf, &hit, d, &sf);
+        const vec3 x = hit.p;
+        const int delta = vbnl_bsdf_is_delta(bsdf);
+        if (!delta) {
+            /* the first non-delta vertex: direct light as `path`, then the virtual lights */
+            if (direct) {
+                add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)));
+                vbnl_bsdf_sample_rec bs;
+                float ulobe = vbnl_rng_next(rng);
+                vec2 ub = vbnl_rng_next2(rng);
+                if (vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) && !v3_is_black(bs.weight)) {
+                    vec3 w = frame_to_world(&sf.fr, bs.wi);
+                    if ((bs.lobe & VBNL_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f) {
+                        vbnl_hit y;
+                        stats->rays++;
+                        int ok = vbnl_scene_intersect(sc, vbnl_offset_ray_origin(x, hit.ng, w), w, INFINITY, &y);
+                        vec3 Le;
+                        float mw = vbnl_arriving_light(sc, ok, &y, x, w, bs.pdf,
+                                                       (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
+                        if (mw > 0.0f)
+                            add_L(out, v3_scale(v3_mul(v3_mul(beta, bs.weight), Le), mw));
+                    }
+                }
+            }
+            if (s->prepared)
+                add_L(out, v3_mul(beta, gather(s, bsdf, x, &sf, rng, stats)));
+            return;
+        }
+        /* a delta vertex: the camera path goes on (the VPLs never shade specular surfaces) */
+        if (chain >= RV_MAX_SPECULAR_CHAIN)
+            return;
+        vbnl_bsdf_sample_rec bs;
+        float ulobe = vbnl_rng_next(rng);
+        vec2 ub = vbnl_rng_next2(rng);
+        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+            return;
+        vec3 w = frame_to_world(&sf.fr, bs.wi);
+        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
+            return;
+        beta = v3_mul(beta, bs.weight);
+        o = vbnl_offset_ray_origin(x, hit.ng, w);
+        d = w;
+        stats->rays++;
+        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
+        vec3 Le;
+        float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, 1, &Le);
+        if (mw > 0.0f && direct)
+            add_L(out, v3_scale(v3_mul(beta, Le), mw));
+        if (!hit_ok || !v3_is_finite(beta))
+            return;
+    }
+}
+
+static void rv_render_tile(void *state, vbnl_tile_job *job)
+{
+    const rv_state *s = state;
+    vbnl_render_camera_paths(job, s->stride, trace, state);
+}
+
+const vbnl_integrator_class vbnl_integrator_richvsl = {
+    VBNL_INTEGRATOR_ABI_MAJOR,
+    VBNL_INTEGRATOR_ABI_MINOR,
+    sizeof(vbnl_integrator_class),
+    "richvsl",
+    "Rich-VSL: importance-placed, relaxed virtual lights with tabulated multi-photon emission, shaded as spheres",
+    rv_params,
+    N_PARAMS,
+    rv_create,
+    rv_prepare,
+    rv_render_tile,
+    rv_destroy,
+};
