@@ -164,7 +164,7 @@ static int on_progress(void *user, const vbnl_plugin_progress *p)
                     p->rate, eta);
             fflush(stderr);
         } else if (new_stage || p->elapsed - ps->last_plain >= 5.0 || (p->total > 0.0 && p->done >= p->total)) {
-            fprintf(stderr, "%s: %s%s%.4g %s, %.3g/s, ETA %s\n", p->stage, pct, pct[0] ? " (" : "(", p->done,
+            fprintf(stderr, "%s: %s%s%.4g %s, %.3g/s, ETA %s)\n", p->stage, pct, pct[0] ? " (" : "(", p->done,
                     p->unit, p->rate, eta);
             ps->last_plain = p->elapsed;
         }
