@@ -174,6 +174,15 @@ static int on_progress(void *user, const vbnl_plugin_progress *p)
     return g_interrupts > 0;
 }
 
+/* Scene notes, warnings and errors in full (source line, caret, include chain). */
+static void on_message(void *user, vbnl_plugin_severity severity, const char *text)
+{
+    (void)user;
+    (void)severity;
+    size_t n = strlen(text);
+    fprintf(stderr, "%s%s", text, n && text[n - 1] == '\n' ? "" : "\n");
+}
+
 /* ---- usage --------------------------------------------------------------------------------------- */
 
 static void usage(FILE *f, const plugin *pl)
@@ -433,6 +442,7 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
         fprintf(stderr, "vbnl render: %s\n", msg);
         goto cleanup;
     }
+    api->set_message_callback(r, on_message, NULL, msg, sizeof(msg));
     for (int i = 0; i < nsets; ++i)
         if (api->set_param(r, sets[i], set_where[i], msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
             fprintf(stderr, "vbnl render: %s: %s\n", set_where[i], msg);

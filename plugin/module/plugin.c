@@ -23,6 +23,8 @@ _Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 0u, "upda
 _Static_assert(VBNL_PLUGIN_ERR_CORRUPT == (int)VBNL_ERR_CORRUPT, "result codes must match");
 _Static_assert(VBNL_PLUGIN_ERR_CANCELLED == (int)VBNL_ERR_CANCELLED, "result codes must match");
 _Static_assert(VBNL_PLUGIN_PARAM_STRING == (int)VBNL_PARAM_STRING, "parameter types must match");
+_Static_assert(VBNL_PLUGIN_ERROR == (int)VBNL_SDL_ERROR && VBNL_PLUGIN_NOTE == (int)VBNL_SDL_NOTE,
+               "severities must match");
 
 struct vbnl_plugin_renderer {
     vbnl_plugin_options opt;
@@ -37,6 +39,8 @@ struct vbnl_plugin_renderer {
     char resolved[64];
     vbnl_renderer *core;          /* after configure */
     int partial;
+    vbnl_plugin_message_fn message;
+    void *message_user;
 };
 
 static vbnl_result to_msg(vbnl_result r, const vbnl_error *e, char *msg, size_t n)
@@ -249,11 +253,31 @@ static vbnl_result adopt_pov(vbnl_plugin_renderer *r, vbnl_pov_scene *ps, vbnl_e
     return VBNL_OK;
 }
 
-static void pov_options(const vbnl_plugin_renderer *r, vbnl_pov_options *po)
+static void forward_diag(const vbnl_sdl_diag *d, void *user)
+{
+    const vbnl_plugin_renderer *r = user;
+    r->message(r->message_user, (vbnl_plugin_severity)d->severity, d->text ? d->text : d->message);
+}
+
+static void pov_options(vbnl_plugin_renderer *r, vbnl_pov_options *po)
 {
     vbnl_pov_options_init(po);
     po->width = (int)r->opt.width;
     po->height = (int)r->opt.height;
+    if (r->message) {
+        po->diag = forward_diag;
+        po->diag_user = r;
+    }
+}
+
+static vbnl_plugin_result p_set_message_callback(vbnl_plugin_renderer *r, vbnl_plugin_message_fn fn, void *user,
+                                                 char *msg, size_t n)
+{
+    if (!r)
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "set_message_callback: renderer is NULL");
+    r->message = fn;
+    r->message_user = user;
+    return VBNL_OK;
 }
 
 static vbnl_plugin_result p_load_scene_file(vbnl_plugin_renderer *r, const char *path, char *msg, size_t n)
@@ -587,6 +611,7 @@ static const vbnl_plugin_api api = {
     .renderer_destroy = p_renderer_destroy,
     .set_options = p_set_options,
     .set_param = p_set_param,
+    .set_message_callback = p_set_message_callback,
     .load_scene_file = p_load_scene_file,
     .load_scene_text = p_load_scene_text,
     .configure = p_configure,

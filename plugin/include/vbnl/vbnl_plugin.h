@@ -151,6 +151,21 @@ typedef struct vbnl_plugin_stats {
     int partial;                 /* the last prepare/render was cancelled */
 } vbnl_plugin_stats;
 
+/* ---- scene messages -------------------------------------------------------------------------- */
+
+typedef enum vbnl_plugin_severity {
+    VBNL_PLUGIN_NOTE = 0,        /* the scene's #debug output */
+    VBNL_PLUGIN_WARNING = 1,
+    VBNL_PLUGIN_ERROR = 2
+} vbnl_plugin_severity;
+
+/* Receives the full text of every note, warning and error of a scene load ("file:line:col: ...",
+ * the source line, a caret, the chain of includes and macros). Called while load_scene_file or
+ * load_scene_text runs, one message at a time, possibly on a thread of the module (the parser runs
+ * on its own thread with a large stack) while the calling thread waits. `text` is valid during
+ * the call only. */
+typedef void (*vbnl_plugin_message_fn)(void *user, vbnl_plugin_severity severity, const char *text);
+
 /* ---- colour-managed view --------------------------------------------------------------------- */
 
 typedef struct vbnl_plugin_view {
@@ -194,6 +209,10 @@ typedef struct vbnl_plugin_api {
      * against the integrator's table by configure. */
     vbnl_plugin_result (*set_param)(vbnl_plugin_renderer *r, const char *key_equals_value,
                                     const char *where, char *msg, size_t msg_size);
+
+    /* Where the scene's messages go (NULL: nowhere). Kept until changed. */
+    vbnl_plugin_result (*set_message_callback)(vbnl_plugin_renderer *r, vbnl_plugin_message_fn fn,
+                                               void *user, char *msg, size_t msg_size);
 
     /* Loads a scene: files named .pov or .inc through the POV-Ray scene language (the scene may select its
      * integrator and parameters), anything else as a mesh file (OBJ/MTL, PLY, glTF, ...), framed
