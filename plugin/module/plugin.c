@@ -164,44 +164,52 @@ static void p_renderer_destroy(vbnl_plugin_renderer *r)
     free(r);
 }
 
-static vbnl_plugin_result p_set_options(vbnl_plugin_renderer *r, const vbnl_plugin_options *o, char *msg, size_t n)
+static vbnl_plugin_result p_set_options(vbnl_plugin_renderer *r, const vbnl_plugin_options *given, char *msg,
+                                        size_t n)
 {
-    if (!r || !o)
+    if (!r || !given)
         return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "set_options: NULL renderer or options");
-    if (o->size < offsetof(vbnl_plugin_options, camera_fov_y) + sizeof(o->camera_fov_y) ||
-        o->size > sizeof(vbnl_plugin_options))
+    /* A host built for an older minor passes a shorter struct: later fields keep their defaults. */
+    if (given->size < offsetof(vbnl_plugin_options, camera_fov_y) + sizeof(given->camera_fov_y) ||
+        given->size > sizeof(vbnl_plugin_options))
         return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT,
                     "set_options: options.size does not match this ABI (use options_init)");
+    vbnl_plugin_options o;
+    p_options_init(&o);
+    memcpy(&o, given, given->size);
+    o.size = sizeof(o);
     char text[256];
-    if (o->width < 1 || o->height < 1 || o->width > 65536 || o->height > 65536) {
-        snprintf(text, sizeof(text), "image size %ux%u: width and height must lie in 1..65536", o->width, o->height);
+    if (o.width < 1 || o.height < 1 || o.width > 65536 || o.height > 65536) {
+        snprintf(text, sizeof(text), "image size %ux%u: width and height must lie in 1..65536", o.width, o.height);
         return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, text);
     }
-    if (!(o->time_budget >= 0.0) || !isfinite(o->time_budget) || (o->spp == 0 && o->time_budget == 0.0))
+    if (!(o.time_budget >= 0.0) || !isfinite(o.time_budget) || (o.spp == 0 && o.time_budget == 0.0))
         return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "give samples per pixel > 0 or a time budget > 0 seconds");
-    if (o->integrator && !vbnl_integrator_find(o->integrator)) {
-        size_t len = (size_t)snprintf(text, sizeof(text), "unknown integrator '%.64s' (available:", o->integrator);
+    if ((o.crop[0] | o.crop[1] | o.crop[2] | o.crop[3]) &&
+        (o.crop[0] >= o.crop[2] || o.crop[1] >= o.crop[3] || o.crop[2] > o.width || o.crop[3] > o.height))
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "the crop window must be non-empty and inside the image");
+    if (o.integrator && !vbnl_integrator_find(o.integrator)) {
+        size_t len = (size_t)snprintf(text, sizeof(text), "unknown integrator '%.64s' (available:", o.integrator);
         for (uint32_t i = 0; i < vbnl_integrator_count() && len < sizeof(text); ++i)
             len += (size_t)snprintf(text + len, sizeof(text) - len, " %s", vbnl_integrator_at(i)->name);
         if (len < sizeof(text))
             snprintf(text + len, sizeof(text) - len, ")");
         return fail(msg, n, VBNL_ERR_UNKNOWN_NAME, text);
     }
-    if (o->camera_given) {
-        const float *v[2] = {o->camera_position, o->camera_target};
+    if (o.camera_given) {
+        const float *v[2] = {o.camera_position, o.camera_target};
         for (int i = 0; i < 2; ++i)
             if (!isfinite(v[i][0]) || !isfinite(v[i][1]) || !isfinite(v[i][2]))
                 return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "camera position and target must be finite");
-        if (!(o->camera_fov_y > 0.0f && o->camera_fov_y < 180.0f))
+        if (!(o.camera_fov_y > 0.0f && o.camera_fov_y < 180.0f))
             return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "camera field of view must lie in (0, 180) degrees");
     }
-    if (r->ctx && o->threads != r->opt.threads)
+    if (r->ctx && o.threads != r->opt.threads)
         return fail(msg, n, VBNL_ERR_STATE, "the thread count cannot change once a scene is loaded");
     drop_configuration(r);
-    memcpy(&r->opt, o, o->size);
-    r->opt.size = sizeof(r->opt);
-    if (o->integrator) {
-        snprintf(r->integrator, sizeof(r->integrator), "%s", o->integrator);
+    r->opt = o;
+    if (o.integrator) {
+        snprintf(r->integrator, sizeof(r->integrator), "%s", o.integrator);
         r->opt.integrator = r->integrator;
     }
     return VBNL_OK;

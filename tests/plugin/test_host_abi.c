@@ -355,6 +355,11 @@ static void test_bad_arguments(void **state)
     o.spp = 0;
     assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
     api->options_init(&o);
+    o.crop[2] = o.width + 1;
+    o.crop[3] = 4;
+    assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg, "crop window"));
+    api->options_init(&o);
     o.integrator = "pathh";
     assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_ERR_UNKNOWN_NAME);
     assert_non_null(strstr(msg, "unknown integrator 'pathh' (available: path"));

@@ -85,12 +85,15 @@ int main(int argc, char **argv)
     return 0;
 }
 C
+# a module built with sanitizers needs their runtimes first in the host too
+san=""
+readelf -d "$mod" | grep -q "libasan" && san="-fsanitize=address,undefined"
 export PKG_CONFIG_PATH=$(dirname "$pc")
 prefix=$(pkg-config --variable=prefix vbnl-plugin)
 PC="pkg-config --define-variable=prefix=$DEST$prefix"
 cflags=$($PC --cflags vbnl-plugin 2>&1) && libs=$($PC --libs vbnl-plugin 2>&1) \
     && plugvar=$($PC --variable=plugin vbnl-plugin) \
-    && $CC -std=c11 $cflags "$TMP/mini.c" -o "$TMP/mini" $libs 2>"$TMP/cc.log" \
+    && $CC -std=c11 $san $cflags "$TMP/mini.c" -o "$TMP/mini" $libs 2>"$TMP/cc.log" \
     && out=$("$TMP/mini" "$plugvar" 2>&1) && grep -q "version 0.1.0, [1-9]" <<<"$out" \
     && [[ "$plugvar" == "$DEST"* ]] \
     && ok "pkg-config: a host built from the installed header loads the installed plugin" \
