@@ -82,11 +82,12 @@ static int try_plugin(const char *path, plugin *pl, int must_exist)
     const char *why = NULL;
     const vbnl_plugin_api *api = entry(VBNL_PLUGIN_ABI_MAJOR, &why);
     if (!api || api->abi_major != VBNL_PLUGIN_ABI_MAJOR || api->size < offsetof(vbnl_plugin_api, run_command)) {
+        char table[96];
+        if (api)
+            snprintf(table, sizeof(table), "its table has ABI %u.%u and %u bytes", api->abi_major,
+                     api->abi_minor, api->size);
         PLUGIN_ERROR("vbnl: plugin '%s' has another ABI (this host needs ABI major %u): %s\n", path,
-                VBNL_PLUGIN_ABI_MAJOR,
-                !api ? (why ? why : "the module refused") : api->abi_major != VBNL_PLUGIN_ABI_MAJOR
-                                                                ? "its table has another major version"
-                                                                : "its table is too small");
+                     VBNL_PLUGIN_ABI_MAJOR, !api ? (why ? why : "the module refused") : table);
         dlclose(h);
         return 1;
     }

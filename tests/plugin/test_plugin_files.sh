@@ -44,7 +44,7 @@ check "header compiles as C++11 -pedantic" $CXX -std=c++11 -pedantic-errors -Wal
 
 # The host refuses a module of another ABI, a lying module and a missing one, with exit 4.
 expect "fake plugin of ABI 99 is refused" 4 "has another ABI \(this host needs ABI major 1\): fake module built for plugin ABI 99.0" -- "$VBNL" --plugin "$FAKE" info
-expect "a table with another major is refused" 4 "its table has another major version" -- "$VBNL" --plugin "$LYING" info
+expect "a table with another major is refused" 4 "its table has ABI 99.0" -- "$VBNL" --plugin "$LYING" info
 expect "missing plugin named by --plugin" 4 "plugin '$TMP/none.so': No such file" -- "$VBNL" --plugin "$TMP/none.so" info
 expect "missing plugin named by VBNL_PLUGIN" 4 "plugin '$TMP/none.so'" -- env VBNL_PLUGIN="$TMP/none.so" "$VBNL" info
 expect "a file that is not a module" 4 "cannot load plugin" -- "$VBNL" --plugin "$SRC/README.md" info
