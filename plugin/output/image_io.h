@@ -7,8 +7,10 @@
  *   - vbnl_exr_read: every channel of a scanline or tiled (level 0) EXR file, any writer, as planar
  *     float arrays keyed by full channel name, plus its string/int/float/double attributes.
  *   - vbnl_png_write / vbnl_png_read: 8- or 16-bit gray, RGB or RGBA PNG with an sRGB chunk.
- *   - vbnl_linear_to_srgb8: the temporary display transform (exposure, sRGB OETF, clamp,
- *     deterministic dither) until OpenColorIO lands.
+ *   - vbnl_display_quantise: clamp, deterministic dither and 8/16-bit quantisation of values a
+ *     colour view (OpenColorIO, plugin/colour) has made display-referred: the PNG path.
+ *   - vbnl_linear_to_srgb8: plain sRGB without OpenColorIO (exposure, sRGB OETF, clamp, dither),
+ *     for benchmark images.
  *
  * Pixel layout (everywhere in this header): row 0 is the top row; rows are tightly packed;
  * interleaved buffers hold `channels` values per pixel in channel order.
