@@ -3,8 +3,8 @@
 # Sourced by tools/quickstart.sh and tools/test.sh; run alone it just installs.
 set -euo pipefail
 
-VBNL_PACKAGES=(meson ninja-build pkg-config gcc libc6-dev cmake python3
-    libembree-dev libtbb-dev libopenexr-dev libimath-dev libpng-dev libassimp-dev libcmocka-dev)
+VBNL_PACKAGES=(meson ninja-build pkg-config gcc g++ libc6-dev cmake python3 binutils
+    libembree-dev libtbb-dev libopenexr-dev libimath-dev libpng-dev libassimp-dev libcmocka-dev libopencolorio-dev)
 
 vbnl_install_deps() {
     local missing=()

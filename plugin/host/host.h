@@ -1,4 +1,5 @@
-/* The `vbnl` command-line host (private header shared by its source files). */
+/* Helpers of the `vbnl` command that run inside the plugin module (scene loading, EXR writing,
+ * the bench commands): they use the core's public API, which the host executable never links. */
 #ifndef VBNL_HOST_H
 #define VBNL_HOST_H
 
@@ -7,14 +8,7 @@
 
 #include "vbnl/vbnl.h"
 
-/* Exit codes (documented in `vbnl --help` and the README). */
-enum {
-    VBNL_EXIT_OK = 0,
-    VBNL_EXIT_FAILURE = 1,     /* the render or a file operation failed */
-    VBNL_EXIT_USAGE = 2,       /* bad command line */
-    VBNL_EXIT_SCENE = 3,       /* the scene could not be loaded */
-    VBNL_EXIT_INTERRUPTED = 130,
-};
+#include "exit_codes.h"
 
 typedef struct host_camera {
     int given;

@@ -7,8 +7,10 @@
  *   - vbnl_exr_read: every channel of a scanline or tiled (level 0) EXR file, any writer, as planar
  *     float arrays keyed by full channel name, plus its string/int/float/double attributes.
  *   - vbnl_png_write / vbnl_png_read: 8- or 16-bit gray, RGB or RGBA PNG with an sRGB chunk.
- *   - vbnl_linear_to_srgb8: the temporary display transform (exposure, sRGB OETF, clamp,
- *     deterministic dither) until OpenColorIO lands.
+ *   - vbnl_display_quantise: clamp, deterministic dither and 8/16-bit quantisation of values a
+ *     colour view (OpenColorIO, plugin/colour) has made display-referred: the PNG path.
+ *   - vbnl_linear_to_srgb8: plain sRGB without OpenColorIO (exposure, sRGB OETF, clamp, dither),
+ *     for benchmark images.
  *
  * Pixel layout (everywhere in this header): row 0 is the top row; rows are tightly packed;
  * interleaved buffers hold `channels` values per pixel in channel order.
@@ -174,6 +176,16 @@ void vbnl_png_image_free(vbnl_png_image *img);
 vbnl_result vbnl_linear_to_srgb8(const float *src, uint32_t width, uint32_t height,
                                  uint32_t src_channels, float exposure_stops, int dither,
                                  uint8_t *dst, uint32_t dst_channels, vbnl_error *err);
+
+/* Quantises display-referred values (already through a view, e.g. OpenColorIO) for a PNG:
+ *   out = round(maxv * clamp(v, 0, 1) + dither),  maxv = 255 (bits 8) or 65535 (bits 16)
+ * NaN becomes 0. dither != 0 adds the same position-hashed triangular noise as
+ * vbnl_linear_to_srgb8 (exact 0 and maxv stay exact). dst holds uint8_t (8 bits) or uint16_t
+ * (16 bits), dst_channels per pixel (3 or 4; from 3 source channels alpha is opaque).
+ * Errors: VBNL_ERR_INVALID_ARGUMENT only. */
+vbnl_result vbnl_display_quantise(const float *src, uint32_t width, uint32_t height, uint32_t src_channels,
+                                  uint32_t bits, int dither, void *dst, uint32_t dst_channels,
+                                  vbnl_error *err);
 
 /* ---------------------------------------------------------------------------------------------- */
 /* Internal helpers shared by exr_io.c and png_io.c (atomic_file.c)                               */

@@ -1,4 +1,5 @@
-/* Temporary display transform: exposure, sRGB OETF, 8-bit quantisation with dither. */
+/* Display quantisation: clamp, position-hashed dither, 8/16 bits; and the plain sRGB transform
+ * used where no OpenColorIO view is involved (benchmark images). */
 #include <math.h>
 #include <stdint.h>
 
@@ -70,5 +71,36 @@ vbnl_result vbnl_linear_to_srgb8(const float *src, uint32_t width, uint32_t heig
                 q[3] = src_channels == 4 ? vbnl_quantise(vbnl_clamp01(p[3]), dither, x, y, 3) : 255;
         }
     }
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_display_quantise(const float *src, uint32_t width, uint32_t height, uint32_t src_channels,
+                                  uint32_t bits, int dither, void *dst, uint32_t dst_channels,
+                                  vbnl_error *err)
+{
+    if (!src || !dst)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "display_quantise: %s is NULL", !src ? "src" : "dst");
+    if ((src_channels != 3 && src_channels != 4) || (dst_channels != 3 && dst_channels != 4) ||
+        (bits != 8 && bits != 16))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "display_quantise: channels %u -> %u, %u bits (3 or 4 channels, 8 or 16 bits)",
+                              src_channels, dst_channels, bits);
+    const float maxv = bits == 8 ? 255.0f : 65535.0f;
+    for (uint32_t y = 0; y < height; y++)
+        for (uint32_t x = 0; x < width; x++) {
+            size_t i = (size_t)y * width + x;
+            const float *p = src + i * src_channels;
+            for (uint32_t c = 0; c < dst_channels; c++) {
+                float s = c < 3 || src_channels == 4 ? vbnl_clamp01(p[c]) * maxv : maxv;
+                if (dither && s > 0.0f && s < maxv)
+                    s += vbnl_tpdf(x, y, c);
+                s = floorf(s + 0.5f);
+                s = s < 0.0f ? 0.0f : s > maxv ? maxv : s;
+                if (bits == 8)
+                    ((uint8_t *)dst)[i * dst_channels + c] = (uint8_t)s;
+                else
+                    ((uint16_t *)dst)[i * dst_channels + c] = (uint16_t)s;
+            }
+        }
     return VBNL_OK;
 }

@@ -27,6 +27,8 @@ expect() {
 }
 
 expect "help" 0 "usage: vbnl" -- "$VBNL" --help
+expect "help lists the plugin commands" 0 "bench +path tracer speed" -- "$VBNL" --help
+expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.0\)" -- "$VBNL" --version
 expect "no command" 2 "usage: vbnl" -- "$VBNL"
 expect "unknown command" 2 "unknown command 'frobnicate'" -- "$VBNL" frobnicate
 expect "render help" 0 "--spp N" -- "$VBNL" render --help
@@ -99,6 +101,52 @@ if [ $rc -eq 130 ] && [ -s "$TMP/int.exr" ] && [ -s "$TMP/int.png" ] && $HDR "$T
 else
     not_ok "SIGINT writes a partial image and exits 130" "exit $rc" "$($HDR "$TMP/int.exr" 2>&1 | head -3)"
 fi
+
+# The partial files are valid: the EXR header parsed above, the PNG decodes (CRCs, zlib stream, size).
+png_ok() {
+    python3 - "$1" <<'PY'
+import struct, sys, zlib
+d = open(sys.argv[1], 'rb').read()
+assert d[:8] == b'\x89PNG\r\n\x1a\n'
+i, idat, w = 8, b'', None
+while i < len(d):
+    n, t = struct.unpack('>I4s', d[i:i + 8])
+    body = d[i + 8:i + 8 + n]
+    assert zlib.crc32(t + body) == struct.unpack('>I', d[i + 8 + n:i + 12 + n])[0]
+    if t == b'IHDR':
+        w, h, depth, ctype = struct.unpack('>IIBB', body[:10])
+    if t == b'IDAT':
+        idat += body
+    i += 12 + n
+raw = zlib.decompress(idat)
+assert len(raw) == h * (1 + w * 3 * depth // 8), (len(raw), w, h, depth)
+print(w, h, depth)
+PY
+}
+[ "$(png_ok "$TMP/int.png")" = "64 64 8" ] && ok "partial PNG decodes" || not_ok "partial PNG decodes" "$(png_ok "$TMP/int.png" 2>&1)"
+
+# Colour management: views, bit depth, configs; display and view errors come before rendering.
+expect "unknown view lists the views" 2 "unknown view 'Filmic'.*'Standard', 'ACES 1.0 SDR-video', 'Raw'" -- timeout 20 "$VBNL" render "$SCENE" --png "$TMP/v.png" --spp 1000000 --view Filmic
+expect "unknown display lists the displays" 2 "unknown display 'P3'.*display 'sRGB'" -- timeout 20 "$VBNL" render "$SCENE" --png "$TMP/v.png" --spp 1000000 --display P3
+expect "missing --ocio config" 1 "OCIO config '$TMP/none.ocio'" -- timeout 20 "$VBNL" render "$SCENE" --png "$TMP/v.png" --spp 1000000 --ocio "$TMP/none.ocio"
+expect "bad \$OCIO" 1 "from \\\$OCIO" -- env OCIO="$TMP/none.ocio" timeout 20 "$VBNL" render "$SCENE" --png "$TMP/v.png" --spp 1000000
+expect "bad --png-bits" 2 "--png-bits takes 8 or 16" -- "$VBNL" render "$SCENE" --png "$TMP/v.png" --png-bits 12
+"$VBNL" render "$SCENE" --png "$TMP/v16.png" --png-bits 16 --view "ACES 1.0 SDR-video" --width 20 --height 10 --spp 2 -q
+[ "$(png_ok "$TMP/v16.png")" = "20 10 16" ] && ok "16-bit PNG through the ACES view" || not_ok "16-bit PNG through the ACES view" "$(png_ok "$TMP/v16.png" 2>&1)"
+"$VBNL" render "$SCENE" --png "$TMP/raw.png" --view Raw --width 20 --height 10 --spp 2 -q
+"$VBNL" render "$SCENE" --png "$TMP/std.png" --width 20 --height 10 --spp 2 -q
+cmp -s "$TMP/raw.png" "$TMP/std.png" && not_ok "the Raw view differs from Standard" || ok "the Raw view differs from Standard"
+
+# Progress: plain lines per stage when stderr is not a terminal; nothing with --quiet.
+out=$("$VBNL" render "$SCENE" --png "$TMP/p.png" --integrator vbnl --set virtual_lights=500 --set photon_paths=5000 --width 16 --height 16 --spp 2 2>&1 >/dev/null)
+for st in placement elimination photons profiles render; do
+    grep -qE "^$st: .*/s, ETA" <<<"$out" && ok "progress line for $st" || not_ok "progress line for $st" "$out"
+done
+grep -q $'\r' <<<"$out" && not_ok "no carriage returns when not a terminal" || ok "no carriage returns when not a terminal"
+out=$("$VBNL" render "$SCENE" --png "$TMP/p.png" --width 16 --height 16 --spp 2 -q 2>&1)
+[ -z "$out" ] && ok "--quiet prints nothing" || not_ok "--quiet prints nothing" "$out"
+expect "crop outside the image" 2 "--crop window reaches outside" -- "$VBNL" render "$SCENE" --png "$TMP/c.png" --width 16 --height 16 --crop 0,0,20,8
+expect "crop window renders" 0 "spp in" -- "$VBNL" render "$SCENE" -o "$TMP/c.exr" --width 16 --height 16 --crop 4,4,12,8 --spp 2
 
 # Saved virtual lights: --save-lights then --load-lights renders the same image; a damaged file
 # is refused with a clear message and a non-zero exit.
