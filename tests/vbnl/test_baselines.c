@@ -102,7 +102,7 @@ static void test_vpl_converges_to_path(void **state)
     const char *const pt[] = {"indirect_only=on", NULL};
     float *ref = render(f->ctx, f->scene, "path", W, H, 4096, 99, pt);
     const char *const vs[] = {"indirect_only=on", "light_paths=300", NULL};
-    const int M = 48;
+    const int M = 32;
     double *acc = calloc((size_t)4 * W * H, sizeof(double));
     for (int m = 0; m < M; ++m) {
         float *img = render(f->ctx, f->scene, "vpl", W, H, 4, 1000 + (uint64_t)m, vs);
@@ -206,7 +206,7 @@ static void test_acceptance_unbiased(void **state)
     fixture *f = *state;
     const char *const plain[] = {"indirect_only=on", "light_paths=200", NULL};
     const char *const gs[] = {"indirect_only=on", "light_paths=200", "acceptance=on", "virtual_lights=150", NULL};
-    const int M = 32;
+    const int M = 24;
     double sp = 0.0, sg = 0.0;
     for (int m = 0; m < M; ++m) {
         float *a = render(f->ctx, f->scene, "vpl", W, H, 1, 500 + (uint64_t)m, plain);
