@@ -354,6 +354,13 @@ static vbnl_plugin_result p_configure(vbnl_plugin_renderer *r, char *msg, size_t
     vbnl_error e = {0};
     const char *name = r->opt.integrator ? r->opt.integrator : r->scene_integrator[0] ? r->scene_integrator : "path";
     snprintf(r->resolved, sizeof(r->resolved), "%s", name);
+    if (r->opt.integrator && r->scene_integrator[0] && strcmp(r->opt.integrator, r->scene_integrator) &&
+        r->message) {
+        char note[192];
+        snprintf(note, sizeof(note), "note: integrator '%s' replaces the scene's '%s' and its parameters",
+                 r->opt.integrator, r->scene_integrator);
+        r->message(r->message_user, VBNL_PLUGIN_NOTE, note);
+    }
     vbnl_result res = vbnl_params_create(&r->merged, &e);
     if (res == VBNL_OK && r->scene_params && !r->opt.integrator)
         res = vbnl_params_append(r->merged, r->scene_params, &e);

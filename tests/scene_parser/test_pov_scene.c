@@ -13,6 +13,8 @@
 #include <string.h>
 
 #include "scene_internal.h"
+#include "vbnl/integrator.h"
+#include "vbnl/integrator.h"
 #include "vbnl/pov_scene.h"
 #include "vbnl/render.h"
 
@@ -471,10 +473,19 @@ static void test_integrator_block(void **state)
     s = ok(BASE "global_settings { radiosity { count 100 } ambient_light rgb 0 }");
     assert_non_null(strstr(g_diags, "test.pov:3:19: note: radiosity: global illumination is always on in vbnl; the block's settings are ignored"));
     vbnl_pov_scene_destroy(s);
-    expect_error(BASE "global_settings { integrator { \"pathh\" } }",
-                 "test.pov:3:32: unknown integrator 'pathh' (registered: path, vbnl)");
+    {
+        /* the message lists every registered integrator, in registry order */
+        char want[512] = "test.pov:3:32: unknown integrator 'pathh' (registered: ";
+        for (uint32_t i = 0; i < vbnl_integrator_count(); ++i) {
+            strcat(want, i ? ", " : "");
+            strcat(want, vbnl_integrator_at(i)->name);
+        }
+        strcat(want, ")");
+        assert_non_null(strstr(want, "path, vbnl, "));
+        expect_error(BASE "global_settings { integrator { \"pathh\" } }", want);
+    }
     expect_error(BASE "global_settings {\n  integrator { \"path\" max_dept 4 } }",
-                 "test.pov:4:23: unknown parameter 'max_dept' for integrator 'path'; did you mean 'max_depth'? (valid: max_depth, rr_depth, split_direct)");
+                 "test.pov:4:23: unknown parameter 'max_dept' for integrator 'path'; did you mean 'max_depth'? (valid: max_depth, rr_depth, split_direct, indirect_only)");
     expect_error(BASE "global_settings { integrator { \"path\" max_depth 2.5 } }",
                  "test.pov:3:39: parameter 'max_depth' of integrator 'path' takes an integer, got 2.5");
     expect_error(BASE "global_settings { integrator { \"path\" max_depth \"deep\" } }",
