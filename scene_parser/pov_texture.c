@@ -464,6 +464,17 @@ static int load_image(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc)
                 path[0] = '\0';
         }
     }
+    /* then the standard POV-Ray include folders (POV-Ray's library path) */
+    static const char *const libs[] = {"/usr/share/povray-3.7/include", "/usr/share/povray/include",
+                                       "/usr/local/share/povray-3.7/include"};
+    for (size_t i = 0; !path[0] && name[0] != '/' && i < sizeof(libs) / sizeof(libs[0]); ++i) {
+        int n = snprintf(path, sizeof(path), "%s/%s", libs[i], name);
+        FILE *f = n > 0 && (size_t)n < sizeof(path) ? fopen(path, "rb") : NULL;
+        if (f)
+            fclose(f);
+        else
+            path[0] = '\0';
+    }
     if (!path[0]) {
         if (strlen(name) >= sizeof(path)) {
             vbnl_sdl_error(c->parser, loc, "image file name too long");
@@ -756,6 +767,18 @@ static int parse_pattern_modifier(pov_ctx *c, pov_pigment *pg)
         vbnl_sdl_next(p);
         double vv[3];
         if ((vec ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
+            return -1;
+    } else if (is_kw(t, "interior") || is_kw(t, "exterior")) {
+        /* fractal patterns: interior / exterior type, factor */
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+        vbnl_sdl_accept(p, ',');
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+    } else if (is_kw(t, "interpolate")) {
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
             return -1;
     } else if (is_kw(t, "solid")) {
         vbnl_sdl_next(p);
