@@ -585,6 +585,7 @@ static vbnl_result parse_image_map(pov_ctx *c, pov_pigment *pg)
                 vbnl_sdl_next(p);
             else if (vbnl_sdl_parse_float(p, &v) != VBNL_OK) /* palette index */
                 return VBNL_ERR_PARSE;
+            vbnl_sdl_accept(p, ',');
             if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
                 return VBNL_ERR_PARSE;
             vbnl_sdl_warning(p, &loc, "image_map: '%s' is ignored (image maps are opaque here)", t->text);
