@@ -676,7 +676,9 @@ static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
     for (; n < max; ++n) {
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
         int starts = is_kw(t, "color") || is_kw(t, "colour") || is_kw(t, "rgb") || is_kw(t, "rgbf") ||
-                     is_kw(t, "rgbt") || is_kw(t, "rgbft") || (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '<');
+                     is_kw(t, "rgbt") || is_kw(t, "rgbft") || is_kw(t, "srgb") || is_kw(t, "srgbf") ||
+                     is_kw(t, "srgbt") || is_kw(t, "srgbft") || is_kw(t, "red") || is_kw(t, "green") ||
+                     is_kw(t, "blue") || (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '<');
         if (!starts && t->kind == VBNL_SDL_TOK_IDENT) {
             const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);
             starts = v && (v->kind == VBNL_SDL_COLOR || v->kind == VBNL_SDL_VECTOR);
@@ -1009,7 +1011,8 @@ static int optional_value_follows(const vbnl_sdl_token *n)
     static const char *const kws[] = {
         "ambient", "diffuse", "specular", "emission", "roughness", "phong", "phong_size", "brilliance",
         "crand", "reflection_exponent", "metallic", "reflection", "irid", "subsurface", "conserve_energy",
-        "fresnel", "falloff", "exponent", "color", "colour", "rgb", "rgbf", "rgbt", "rgbft", "albedo", NULL};
+        "fresnel", "falloff", "exponent", "color", "colour", "rgb", "rgbf", "rgbt", "rgbft", "srgb",
+        "srgbf", "srgbt", "srgbft", "albedo", NULL};
     if (n->kind == VBNL_SDL_TOK_PUNCT)
         return n->op == '(' || n->op == '-' || n->op == '+';
     if (n->kind == VBNL_SDL_TOK_NUMBER)
