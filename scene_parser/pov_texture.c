@@ -464,6 +464,17 @@ static int load_image(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc)
                 path[0] = '\0';
         }
     }
+    /* then the standard POV-Ray include folders (POV-Ray's library path) */
+    static const char *const libs[] = {"/usr/share/povray-3.7/include", "/usr/share/povray/include",
+                                       "/usr/local/share/povray-3.7/include"};
+    for (size_t i = 0; !path[0] && name[0] != '/' && i < sizeof(libs) / sizeof(libs[0]); ++i) {
+        int n = snprintf(path, sizeof(path), "%s/%s", libs[i], name);
+        FILE *f = n > 0 && (size_t)n < sizeof(path) ? fopen(path, "rb") : NULL;
+        if (f)
+            fclose(f);
+        else
+            path[0] = '\0';
+    }
     if (!path[0]) {
         if (strlen(name) >= sizeof(path)) {
             vbnl_sdl_error(c->parser, loc, "image file name too long");
@@ -574,6 +585,7 @@ static vbnl_result parse_image_map(pov_ctx *c, pov_pigment *pg)
                 vbnl_sdl_next(p);
             else if (vbnl_sdl_parse_float(p, &v) != VBNL_OK) /* palette index */
                 return VBNL_ERR_PARSE;
+            vbnl_sdl_accept(p, ',');
             if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
                 return VBNL_ERR_PARSE;
             vbnl_sdl_warning(p, &loc, "image_map: '%s' is ignored (image maps are opaque here)", t->text);
@@ -664,7 +676,9 @@ static vbnl_result parse_block_colors(pov_ctx *c, pov_pigment *pg, int max)
     for (; n < max; ++n) {
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
         int starts = is_kw(t, "color") || is_kw(t, "colour") || is_kw(t, "rgb") || is_kw(t, "rgbf") ||
-                     is_kw(t, "rgbt") || is_kw(t, "rgbft") || (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '<');
+                     is_kw(t, "rgbt") || is_kw(t, "rgbft") || is_kw(t, "srgb") || is_kw(t, "srgbf") ||
+                     is_kw(t, "srgbt") || is_kw(t, "srgbft") || is_kw(t, "red") || is_kw(t, "green") ||
+                     is_kw(t, "blue") || (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '<');
         if (!starts && t->kind == VBNL_SDL_TOK_IDENT) {
             const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);
             starts = v && (v->kind == VBNL_SDL_COLOR || v->kind == VBNL_SDL_VECTOR);
@@ -756,6 +770,18 @@ static int parse_pattern_modifier(pov_ctx *c, pov_pigment *pg)
         vbnl_sdl_next(p);
         double vv[3];
         if ((vec ? vbnl_sdl_parse_vector(p, 3, vv) : vbnl_sdl_parse_float(p, &v)) != VBNL_OK)
+            return -1;
+    } else if (is_kw(t, "interior") || is_kw(t, "exterior")) {
+        /* fractal patterns: interior / exterior type, factor */
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+        vbnl_sdl_accept(p, ',');
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+            return -1;
+    } else if (is_kw(t, "interpolate")) {
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
             return -1;
     } else if (is_kw(t, "solid")) {
         vbnl_sdl_next(p);
@@ -985,7 +1011,8 @@ static int optional_value_follows(const vbnl_sdl_token *n)
     static const char *const kws[] = {
         "ambient", "diffuse", "specular", "emission", "roughness", "phong", "phong_size", "brilliance",
         "crand", "reflection_exponent", "metallic", "reflection", "irid", "subsurface", "conserve_energy",
-        "fresnel", "falloff", "exponent", "color", "colour", "rgb", "rgbf", "rgbt", "rgbft", "albedo", NULL};
+        "fresnel", "falloff", "exponent", "color", "colour", "rgb", "rgbf", "rgbt", "rgbft", "srgb",
+        "srgbf", "srgbt", "srgbft", "albedo", NULL};
     if (n->kind == VBNL_SDL_TOK_PUNCT)
         return n->op == '(' || n->op == '-' || n->op == '+';
     if (n->kind == VBNL_SDL_TOK_NUMBER)

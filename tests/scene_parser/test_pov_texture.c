@@ -301,7 +301,7 @@ static void test_patterns(void **state)
         "object_test { pigment { brick color rgb 0.5, color rgb <0.6, 0.1, 0.1> brick_size <4, 1, 2> mortar 0.2 } }\n"
         "#declare CM = color_map { [0 rgb <1, 0, 0>] [1 rgb <0, 0, 1>] }\n"
         "object_test { pigment { bozo color_map { CM } } }\n"
-        "object_test { pigment { checker } }\n"
+        "object_test { pigment { checker srgb 1, srgb <0, 0, 0> } }\n"
         /* POV-Ray's default map of bozo, averaged over [0, 1]: 0.4 white + 0.2 each of green, blue, red */
         "object_test { pigment { bozo } finish { diffuse 1 } }\n"
         /* block patterns: the mean of their colours */
@@ -313,7 +313,9 @@ static void test_patterns(void **state)
         "object_test { texture { checker texture { TA }, texture { pigment { rgb 1 } } scale 0.4 } }\n"
         "object_test { texture { gradient y texture_map { [0 pigment { rgb <0, 0.5, 0> } finish { diffuse 1 }] [1 TA] } } }\n"
         /* pigment lists */
-        "object_test { pigment { checker pigment { rgb <1, 0, 0> } pigment { P_Blue } } }\n");
+        "object_test { pigment { checker pigment { rgb <1, 0, 0> } pigment { P_Blue } } }\n"
+        /* checker without colours: POV-Ray's blue and green */
+        "object_test { pigment { checker } }\n");
     const vbnl_texture_desc *t = pov_texture_texture_desc(&h->c, h->mats[0]);
     assert_non_null(t);
     assert_int_equal(t->kind, VBNL_TEXTURE_CHECKER);
@@ -352,10 +354,10 @@ static void test_patterns(void **state)
     const char *w = warning_text(h, "pattern 'bozo' is not supported");
     assert_non_null(w);
     assert_non_null(strstr(w, "test.pov:6:25: warning:"));
-    /* checker without colours: POV-Ray's blue and green */
+    /* checker with srgb colours */
     t = pov_texture_texture_desc(&h->c, h->mats[4]);
-    expect3(t->color_map[0].color, 0, 0, 1, 0);
-    expect3(t->color_map[1].color, 0, 1, 0, 0);
+    expect3(t->color_map[0].color, 1, 1, 1, 1e-6);
+    expect3(t->color_map[1].color, 0, 0, 0, 0);
     expect3(mat(h, 5)->base_color, 0.6, 0.6, 0.6, 1e-6);
     expect3(mat(h, 6)->base_color, 1.0 / 3, 1.0 / 3, 1.0 / 3, 1e-6);
     t = pov_texture_texture_desc(&h->c, h->mats[7]);
@@ -367,6 +369,9 @@ static void test_patterns(void **state)
     t = pov_texture_texture_desc(&h->c, h->mats[10]);
     expect3(t->color_map[0].color, 1, 0, 0, 0);
     expect3(t->color_map[1].color, 0, 0, 1, 0);
+    t = pov_texture_texture_desc(&h->c, h->mats[11]);
+    expect3(t->color_map[0].color, 0, 0, 1, 0);
+    expect3(t->color_map[1].color, 0, 1, 0, 0);
     done(h);
 }
 
