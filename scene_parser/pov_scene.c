@@ -918,8 +918,11 @@ static vbnl_result parse_polygon(loader *L, pov_obj *o, vbnl_sdl_loc loc)
         }
         vbnl_sdl_value_clear(p, &v);
     }
-    int nested, open_last;
-    pov_mesh *m = pov_tess_polygon(pts, (int)n, &nested, &open_last);
+    int nested, open_last, huge;
+    pov_mesh *m = pov_tess_polygon(pts, (int)n, &nested, &open_last, &huge);
+    if (huge)
+        vbnl_sdl_warning(p, &loc, "polygon: a sub-polygon has more than %d points; it is triangulated as a fan from its first point (exact when convex)",
+                         POV_EAR_CLIP_MAX);
     free(pts);
     if (nested)
         vbnl_sdl_warning(p, &loc, "polygon: a sub-polygon inside another is filled, not cut out as a hole");
@@ -971,8 +974,21 @@ static vbnl_result parse_vbnl_mesh(loader *L, pov_obj *o, vbnl_sdl_loc loc)
     return VBNL_OK;
 }
 
-/* The statement/value starting with a shape keyword (not consumed yet). */
+static vbnl_result parse_object_inner(loader *L, pov_obj *o);
+
+/* The statement/value starting with a shape keyword (not consumed yet). Nested objects count
+ * against the language layer's nesting limit, so deep CSG cannot exhaust the stack. */
 static vbnl_result parse_object(loader *L, pov_obj *o)
+{
+    vbnl_sdl_loc loc = vbnl_sdl_peek(L->c.parser)->loc;
+    if (!sdl_enter(L->c.parser, &loc))
+        return VBNL_ERR_PARSE;
+    vbnl_result r = parse_object_inner(L, o);
+    sdl_leave(L->c.parser);
+    return r;
+}
+
+static vbnl_result parse_object_inner(loader *L, pov_obj *o)
 {
     vbnl_sdl_parser *p = L->c.parser;
     vbnl_sdl_token kw = *vbnl_sdl_next(p);
