@@ -253,6 +253,19 @@ static void test_mesh_mesh2_textures(void **state)
                 "  normal_indices { 2, <0, 0, 0>, <0, 0, 0> }\n"
                 "  translate <10, 0, 0> }");
     assert_int_equal(info(s).triangle_count, 2);
+    vbnl_pov_scene_destroy(s);
+    /* counts followed directly by the first vector (no comma), as POV-Ray accepts */
+    s = ok(BASE "mesh2 { vertex_vectors { 4 <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }\n"
+                "  face_indices { 2 <0, 1, 2> <0, 2, 3> } }\n"
+                "polygon { 4 <5, 0>, <6, 0>, <6, 1>, <5, 0> }");
+    assert_int_equal(info(s).triangle_count, 3);
+    vbnl_pov_scene_destroy(s);
+    s = ok(BASE "mesh2 { vertex_vectors { 4, <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }\n"
+                "  normal_vectors { 1, -z }\n"
+                "  texture_list { 2, texture { pigment { rgb <0, 1, 0> } }, texture { pigment { rgb <1, 1, 0> } } }\n"
+                "  face_indices { 2, <0, 1, 2>, 0, <0, 2, 3>, 1 }\n"
+                "  normal_indices { 2, <0, 0, 0>, <0, 0, 0> }\n"
+                "  translate <10, 0, 0> }");
     NEAR(mat_at(s, 10.8f, 0.2f)->base_color[1], 0.6f); /* diffuse 0.6 (POV-Ray's default) x 1 */
     NEAR(mat_at(s, 10.8f, 0.2f)->base_color[0], 0.0f);
     NEAR(mat_at(s, 10.2f, 0.8f)->base_color[0], 0.6f);
