@@ -256,7 +256,7 @@ static void test_mesh_mesh2_textures(void **state)
     vbnl_pov_scene_destroy(s);
     /* counts followed directly by the first vector (no comma), as POV-Ray accepts */
     s = ok(BASE "mesh2 { vertex_vectors { 4 <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }\n"
-                "  face_indices { 2 <0, 1, 2> <0, 2, 3> } }\n"
+                "  face_indices { 2 #local I = 0; #while (I < 2) <0, 1 + I, 2 + I> #local I = I + 1; #end } }\n"
                 "polygon { 4 <5, 0>, <6, 0>, <6, 1>, <5, 0> }");
     assert_int_equal(info(s).triangle_count, 3);
     vbnl_pov_scene_destroy(s);
