@@ -513,9 +513,10 @@ static int ear_clip(pov_mesh *m, const double *xy, const uint32_t *ids, int n)
     return 1;
 }
 
-pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last)
+pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last, int *huge)
 {
     *nested = 0;
+    *huge = 0;
     *open_last = 0;
     /* Newell normal of the whole point list picks the projection plane. */
     double nrm[3] = {0, 0, 0};
@@ -551,8 +552,14 @@ pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last
             for (int k = start; k < end; ++k)
                 if ((ids[k] = pov_mesh_vertex(m, pts + 3 * k, NULL, NULL)) == UINT32_MAX)
                     goto oom;
-            if (!ear_clip(m, xy + 2 * start, ids + start, end - start))
+            if (end - start > POV_EAR_CLIP_MAX) { /* bounded work: a fan from the first point */
+                *huge = 1;
+                for (int k = start + 1; k + 1 < end; ++k)
+                    if (!pov_mesh_tri(m, ids[start], ids[k], ids[k + 1], -1))
+                        goto oom;
+            } else if (!ear_clip(m, xy + 2 * start, ids + start, end - start)) {
                 goto oom;
+            }
         }
         start = end + 1;
         i = start + 1;

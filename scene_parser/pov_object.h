@@ -91,7 +91,10 @@ pov_mesh *pov_tess_torus(double major, double minor);
 pov_mesh *pov_tess_plane(const double n[3], double d, const double centre[3], double half);
 /* Polygon with POV-Ray's sub-polygon rule (a sub-polygon closes when a vertex repeats its first
  * vertex); each sub-polygon is ear-clipped in its plane. *nested is set when a sub-polygon
- * starts inside another (POV-Ray would cut a hole; it is filled here). */
-pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last);
+ * starts inside another (POV-Ray would cut a hole; it is filled here). Ear clipping costs up to
+ * O(n^3); sub-polygons of more than POV_EAR_CLIP_MAX points are fanned from their first point
+ * instead (exact for convex and star-shaped ones) and *huge is set. */
+#define POV_EAR_CLIP_MAX 4096
+pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last, int *huge);
 
 #endif

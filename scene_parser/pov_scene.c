@@ -111,6 +111,16 @@ static vbnl_result oom(loader *L) { return vbnl_sdl_error(L->c.parser, NULL, "ou
 
 static vbnl_result vec3(loader *L, double o[3]) { return vbnl_sdl_parse_vector(L->c.parser, 3, o); }
 static vbnl_result flt(loader *L, double *o) { return vbnl_sdl_parse_float(L->c.parser, o); }
+
+/* The count of a list ("vertex_vectors { 14 <..>, ...}"): '<' after it starts the first item,
+ * as in POV-Ray, instead of comparing. */
+static vbnl_result list_count(loader *L, double *o)
+{
+    L->c.parser->in_count++;
+    vbnl_result r = vbnl_sdl_parse_float(L->c.parser, o);
+    L->c.parser->in_count--;
+    return r;
+}
 static void comma(loader *L) { vbnl_sdl_accept(L->c.parser, ','); }
 
 /* An optional boolean after a flag keyword ("hollow", "hollow on", "hollow false"). */
@@ -654,7 +664,7 @@ static vbnl_result counted_vectors(loader *L, const char *what, int dim, double 
     double n;
     *out = NULL;
     *count = 0;
-    if (vbnl_sdl_expect(p, '{', "after the list keyword") != VBNL_OK || flt(L, &n) != VBNL_OK)
+    if (vbnl_sdl_expect(p, '{', "after the list keyword") != VBNL_OK || list_count(L, &n) != VBNL_OK)
         return VBNL_ERR_PARSE;
     vbnl_sdl_loc loc = vbnl_sdl_peek(p)->loc;
     if (!(n >= 0 && n <= 1e8) || n != floor(n))
@@ -757,7 +767,7 @@ static vbnl_result parse_mesh2(loader *L, pov_obj *o, vbnl_sdl_loc loc)
         } else if (is_word(t, "face_indices")) {
             double n;
             vbnl_sdl_next(p);
-            if ((r = vbnl_sdl_expect(p, '{', "after 'face_indices'")) != VBNL_OK || (r = flt(L, &n)) != VBNL_OK)
+            if ((r = vbnl_sdl_expect(p, '{', "after 'face_indices'")) != VBNL_OK || (r = list_count(L, &n)) != VBNL_OK)
                 goto done;
             if (!(n >= 0 && n <= 1e8) || n != floor(n)) {
                 r = vbnl_sdl_error(p, &tl, "face_indices: the count must be a whole number in [0, 1e8], got %g", n);
@@ -891,7 +901,7 @@ static vbnl_result parse_polygon(loader *L, pov_obj *o, vbnl_sdl_loc loc)
 {
     vbnl_sdl_parser *p = L->c.parser;
     double n;
-    if (flt(L, &n) != VBNL_OK)
+    if (list_count(L, &n) != VBNL_OK)
         return VBNL_ERR_PARSE;
     if (!(n >= 3 && n <= 1e7) || n != floor(n))
         return vbnl_sdl_error(p, &loc, "polygon needs a whole number of at least 3 points, got %g", n);
@@ -918,8 +928,11 @@ static vbnl_result parse_polygon(loader *L, pov_obj *o, vbnl_sdl_loc loc)
         }
         vbnl_sdl_value_clear(p, &v);
     }
-    int nested, open_last;
-    pov_mesh *m = pov_tess_polygon(pts, (int)n, &nested, &open_last);
+    int nested, open_last, huge;
+    pov_mesh *m = pov_tess_polygon(pts, (int)n, &nested, &open_last, &huge);
+    if (huge)
+        vbnl_sdl_warning(p, &loc, "polygon: a sub-polygon has more than %d points; it is triangulated as a fan from its first point (exact when convex)",
+                         POV_EAR_CLIP_MAX);
     free(pts);
     if (nested)
         vbnl_sdl_warning(p, &loc, "polygon: a sub-polygon inside another is filled, not cut out as a hole");
@@ -971,8 +984,21 @@ static vbnl_result parse_vbnl_mesh(loader *L, pov_obj *o, vbnl_sdl_loc loc)
     return VBNL_OK;
 }
 
-/* The statement/value starting with a shape keyword (not consumed yet). */
+static vbnl_result parse_object_inner(loader *L, pov_obj *o);
+
+/* The statement/value starting with a shape keyword (not consumed yet). Nested objects count
+ * against the language layer's nesting limit, so deep CSG cannot exhaust the stack. */
 static vbnl_result parse_object(loader *L, pov_obj *o)
+{
+    vbnl_sdl_loc loc = vbnl_sdl_peek(L->c.parser)->loc;
+    if (!sdl_enter(L->c.parser, &loc))
+        return VBNL_ERR_PARSE;
+    vbnl_result r = parse_object_inner(L, o);
+    sdl_leave(L->c.parser);
+    return r;
+}
+
+static vbnl_result parse_object_inner(loader *L, pov_obj *o)
 {
     vbnl_sdl_parser *p = L->c.parser;
     vbnl_sdl_token kw = *vbnl_sdl_next(p);

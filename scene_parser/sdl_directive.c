@@ -778,7 +778,20 @@ static void do_file_io(vbnl_sdl_parser *p, int kw, const vbnl_sdl_loc *hash)
         p->frames[fi].in_directive--;
 }
 
+static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash);
+
 void sdl_directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
+{
+    /* A directive met while a caller's expression looks ahead parses its own expressions. */
+    int saved_vector = p->in_vector, saved_count = p->in_count;
+    p->in_vector = 0;
+    p->in_count = 0;
+    directive(p, hash);
+    p->in_vector = saved_vector;
+    p->in_count = saved_count;
+}
+
+static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
 {
     if (!sdl_enter(p, hash))
         return;

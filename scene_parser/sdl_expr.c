@@ -517,20 +517,24 @@ static bool primary(vbnl_sdl_parser *p, vbnl_sdl_value *out)
     case VBNL_SDL_TOK_PUNCT:
         if (t->op == '(') {
             vbnl_sdl_next(p);
-            int saved = p->in_vector;
+            int saved = p->in_vector, saved_count = p->in_count;
             p->in_vector = 0;
+            p->in_count = 0;
             bool ok = sdl_expr(p, out) && sdl_expect_op(p, ')', "to close '('");
             p->in_vector = saved;
+            p->in_count = saved_count;
             if (!ok)
                 vbnl_sdl_value_clear(p, out);
             return ok;
         }
         if (t->op == '<') {
             vbnl_sdl_next(p);
-            int saved = p->in_vector;
+            int saved = p->in_vector, saved_count = p->in_count;
             p->in_vector = 0;
+            p->in_count = 0;
             bool ok = vector_literal(p, out, &loc);
             p->in_vector = saved;
+            p->in_count = saved_count;
             return ok;
         }
         break;
@@ -662,7 +666,7 @@ static bool binary_level(vbnl_sdl_parser *p, vbnl_sdl_value *out, level_fn next,
         if (!match || (op == '>' && p->in_vector > 0))
             return true;
         /* "<1,2> <3,4>" in an initializer without commas: a new vector, not a comparison */
-        if (op == '<' && (out->kind == VBNL_SDL_VECTOR || out->kind == VBNL_SDL_COLOR))
+        if (op == '<' && (out->kind == VBNL_SDL_VECTOR || out->kind == VBNL_SDL_COLOR || p->in_count > 0))
             return true;
         vbnl_sdl_loc loc = t->loc;
         vbnl_sdl_next(p);

@@ -187,6 +187,7 @@ struct vbnl_sdl_parser {
     void *diag_user;
     vbnl_sdl_hooks hooks;
     int in_vector; /* > 0: '>' closes a vector literal instead of comparing */
+    int in_count;  /* > 0: '<' ends the float (a list count followed by vectors, as in mesh2) */
     unsigned warned; /* one-time warnings already given (bit per kind) */
 };
 

@@ -221,6 +221,12 @@ static void test_triangles_polygon(void **state)
     assert_false(hit(s, 1.5f, 1.5f, -3, 0, 0, 1, &h)); /* the notch of the L */
     assert_true(hit(s, 5.5f, 0.5f, -3, 0, 0, 1, &h));
     vbnl_pov_scene_destroy(s);
+    /* a 5000-gon (a disc): fanned, with a warning, instead of O(n^3) ear clipping */
+    s = ok(BASE "polygon { 5001, #for (I, 0, 4999) <cos(2 * pi * I / 5000), sin(2 * pi * I / 5000)>, #end <1, 0> }");
+    assert_int_equal(info(s).triangle_count, 4998);
+    assert_true(hit(s, 0.1f, 0.2f, -3, 0, 0, 1, &h));
+    assert_non_null(strstr(g_diags, "test.pov:3:1: warning: polygon: a sub-polygon has more than 4096 points"));
+    vbnl_pov_scene_destroy(s);
 }
 
 static const vbnl_material_desc *mat_at(vbnl_pov_scene *s, float x, float y)
@@ -249,6 +255,19 @@ static void test_mesh_mesh2_textures(void **state)
                 "  normal_indices { 2, <0, 0, 0>, <0, 0, 0> }\n"
                 "  translate <10, 0, 0> }");
     assert_int_equal(info(s).triangle_count, 2);
+    vbnl_pov_scene_destroy(s);
+    /* counts followed directly by the first vector (no comma), as POV-Ray accepts */
+    s = ok(BASE "mesh2 { vertex_vectors { 4 <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }\n"
+                "  face_indices { 2 #local I = 0; #while (I < 2) <0, 1 + I, 2 + I> #local I = I + 1; #end } }\n"
+                "polygon { 4 <5, 0>, <6, 0>, <6, 1>, <5, 0> }");
+    assert_int_equal(info(s).triangle_count, 3);
+    vbnl_pov_scene_destroy(s);
+    s = ok(BASE "mesh2 { vertex_vectors { 4, <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }\n"
+                "  normal_vectors { 1, -z }\n"
+                "  texture_list { 2, texture { pigment { rgb <0, 1, 0> } }, texture { pigment { rgb <1, 1, 0> } } }\n"
+                "  face_indices { 2, <0, 1, 2>, 0, <0, 2, 3>, 1 }\n"
+                "  normal_indices { 2, <0, 0, 0>, <0, 0, 0> }\n"
+                "  translate <10, 0, 0> }");
     NEAR(mat_at(s, 10.8f, 0.2f)->base_color[1], 0.6f); /* diffuse 0.6 (POV-Ray's default) x 1 */
     NEAR(mat_at(s, 10.8f, 0.2f)->base_color[0], 0.0f);
     NEAR(mat_at(s, 10.2f, 0.8f)->base_color[0], 0.6f);
@@ -528,6 +547,20 @@ static void test_errors(void **state)
     expect_error(BASE "union { sphere { 0, 1 } ", "test.pov:3:25: missing '}' at the end of 'union'");
     expect_error(BASE "global_settings { max_trace_levle 5 }", "test.pov:3:19: unknown global_settings item 'max_trace_levle'");
     expect_error(BASE "sphere { 0, 1 matrix <1,0,0, 0,0,0, 0,0,1, 0,0,0> }", "test.pov:3:15: matrix is singular");
+    {
+        /* nested CSG counts against the nesting limit (512) instead of exhausting the stack */
+        size_t n = 600, len = strlen(BASE) + n * 10 + 64;
+        char *deep = malloc(len);
+        assert_non_null(deep);
+        strcpy(deep, BASE);
+        for (size_t i = 0; i < n; ++i)
+            strcat(deep, "union { ");
+        vbnl_pov_scene *s = NULL;
+        vbnl_error err;
+        assert_int_equal(load(deep, &s, &err), VBNL_ERR_PARSE);
+        assert_string_equal(err.message, "test.pov:3:4097: nesting too deep (more than 512 levels of expressions, blocks or directives)");
+        free(deep);
+    }
     expect_error(BASE "vbnl_mesh { \"no-such-file.obj\" }", "test.pov:3:13: vbnl_mesh: cannot open 'no-such-file.obj'");
 }
 
