@@ -7,6 +7,7 @@ source "$here/tools/deps.sh"
 vbnl_install_deps
 [ -f "$here/build/build.ninja" ] || meson setup "$here/build" "$here" --buildtype=release >/dev/null
 ninja -C "$here/build" >/dev/null
-"$here/build/plugin/vbnl" render "$here/examples/cornell-box.obj" -o out.exr --png out.png \
+# The scene selects the vbnl integrator and its parameters in its global_settings block.
+"$here/build/plugin/vbnl" render "$here/examples/cornell-box.pov" -o out.exr --png out.png \
     --width 512 --height 512 --spp 64
-echo "wrote out.exr (scene-linear, with albedo, normal and depth layers) and out.png (sRGB)"
+echo "wrote out.exr (scene-linear, with albedo, normal and depth layers) and out.png (sRGB, Standard view)"
