@@ -74,13 +74,13 @@ static int in_list(const char *w, const char *const *list)
 static const char *const shape_words[] = {
     "sphere", "box", "plane", "cylinder", "cone", "disc", "torus", "triangle", "smooth_triangle",
     "polygon", "mesh", "mesh2", "union", "merge", "object", "light_source", "intersection",
-    "difference", "vbnl_mesh", NULL};
+    "difference", "vbnl_mesh", "light_group", NULL};
 
 /* Shapes parsed (their block skipped) and left out with a warning. */
 static const char *const skipped_shapes[] = {
     "height_field", "isosurface", "blob", "lathe", "sor", "prism", "text", "julia_fractal",
     "superellipsoid", "parametric", "poly", "polynomial", "quartic", "cubic", "quadric",
-    "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal", "light_group", NULL};
+    "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal", NULL};
 
 static int is_shape(const vbnl_sdl_token *t)
 {
@@ -1180,7 +1180,9 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
                    !in_list(t->text, (const char *const[]){"translate", "rotate", "scale", "matrix", "transform", NULL})) {
             return vbnl_sdl_error(p, &t->loc, "undeclared object identifier '%s'", t->text);
         }
-    } else if (strcmp(w, "union") == 0 || strcmp(w, "merge") == 0) {
+    } else if (strcmp(w, "union") == 0 || strcmp(w, "merge") == 0 || strcmp(w, "light_group") == 0) {
+        if (w[0] == 'l')
+            vbnl_sdl_warning(p, &loc, "light_group is rendered as a union: its lights illuminate the whole scene");
         for (;;) {
             const vbnl_sdl_token *t = vbnl_sdl_peek(p);
             if (is_punct(t, '}')) {
@@ -1194,6 +1196,13 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
                     return vbnl_sdl_failed(p) ? VBNL_ERR_PARSE : oom(L);
                 }
                 obj_clear(&child);
+                continue;
+            }
+            if (w[0] == 'l' && is_word(t, "global_lights")) {
+                double on;
+                vbnl_sdl_next(p);
+                if (opt_bool(L, &on) != VBNL_OK)
+                    return VBNL_ERR_PARSE;
                 continue;
             }
             int r = parse_modifier(L, o, NULL);

@@ -464,6 +464,11 @@ static void test_lights(void **state)
     s = ok("#declare L = union { light_source { <1, 0, 0> rgb 1 } sphere { <0, -5, 0>, 1 } }\nobject { L translate y * 4 }");
     NEAR(light0(s)->p.y, 4.0f);
     vbnl_pov_scene_destroy(s);
+    s = ok("light_group { light_source { <1, 0, 0> rgb 1 } sphere { <0, -5, 0>, 1 } global_lights on translate x }");
+    NEAR(light0(s)->p.x, 2.0f);
+    assert_int_equal(info(s).sphere_count, 1);
+    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: light_group is rendered as a union: its lights illuminate the whole scene"));
+    vbnl_pov_scene_destroy(s);
 }
 
 /* ---- global settings, integrator block ---------------------------------------------------------- */
