@@ -575,6 +575,12 @@ static void test_render_cornell(void **state)
     vbnl_error err = {0};
     assert_int_equal(vbnl_pov_load_file(g_ctx, path, &o, &s, &err), VBNL_OK);
     assert_string_equal(vbnl_pov_scene_integrator(s), "vbnl");
+    /* the light panel's winding faces down (for one-sided emitters) */
+    vbnl_hit h;
+    assert_true(hit(s, 0, 1, 0, 0, 1, 0, &h));
+    NEAR(h.p.y, 1.97374f);
+    assert_true(h.ng.y < -0.99f);
+    assert_true(h.light != VBNL_NO_LIGHT);
     vbnl_render_settings rs;
     vbnl_render_settings_init(&rs);
     rs.width = rs.height = 24;
