@@ -306,12 +306,19 @@ static void test_skipped_shapes_warn(void **state)
                                 "lathe { linear_spline 3, <0,0>, <1,1>, <0,2> }\n"
                                 "#declare I = intersection { box { -1, 1 } sphere { 0, 1.2 } }\n"
                                 "object { I }\n"
-                                "cylinder { <1, 1, 1>, <1, 1, 1>, 1 }");
+                                "cylinder { <1, 1, 1>, <1, 1, 1>, 1 }\n"
+                                "#declare Unused = quadric { <1, 1, 0>, <0, 0, 0>, <0, 0, 0>, -1 }\n"
+                                "#declare U = union { object { I } sphere { 0, 1 } }\n"
+                                "object { U translate x } object { U translate -x }");
     assert_non_null(strstr(g_diags, "test.pov:4:1: warning: 'difference' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:5:1: warning: 'lathe' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:6:14: warning: 'intersection' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:8:1: warning: cylinder: the two end points coincide; the object is skipped"));
-    assert_int_equal(info(s).sphere_count, 1);
+    assert_null(strstr(g_diags, "quadric")); /* declared, never placed: silent */
+    const char *w = strstr(g_diags, "test.pov:6:14: warning");
+    assert_non_null(w);
+    assert_null(strstr(w + 30, "test.pov:6:14: warning")); /* once, though placed three times */
+    assert_int_equal(info(s).sphere_count, 3);
     assert_int_equal(info(s).triangle_count, 0);
     vbnl_pov_scene_destroy(s);
 }
