@@ -46,5 +46,8 @@ box { <-0.05, 0, -0.49>, <0, 1.98, 0.5>
   translate -0.5 * z rotate -Open * y translate 0.5 * z
   texture { Door } }
 // The light: a panel just below the far room's ceiling.
-polygon { 5, <-2.2, H - 0.01, -0.6>, <-0.8, H - 0.01, -0.6>, <-0.8, H - 0.01, 0.6>,
-  <-2.2, H - 0.01, 0.6>, <-2.2, H - 0.01, -0.6> texture { Light } }
+// (wound so that its geometric normal faces down, for renderers with one-sided emitters)
+mesh {
+  triangle { <-2.2, H - 0.01, -0.6>, <-0.8, H - 0.01, 0.6>, <-2.2, H - 0.01, 0.6> }
+  triangle { <-2.2, H - 0.01, -0.6>, <-0.8, H - 0.01, -0.6>, <-0.8, H - 0.01, 0.6> }
+  texture { Light } }

@@ -28,7 +28,10 @@ union {
   texture { White }
 }
 // Ceiling panel.
-polygon { 5, <-0.6, 2.99, -0.6>, <0.6, 2.99, -0.6>, <0.6, 2.99, 0.6>, <-0.6, 2.99, 0.6>, <-0.6, 2.99, -0.6>
+// (wound so that its geometric normal faces down, for renderers with one-sided emitters)
+mesh {
+  triangle { <-0.6, 2.99, -0.6>, <0.6, 2.99, 0.6>, <-0.6, 2.99, 0.6> }
+  triangle { <-0.6, 2.99, -0.6>, <0.6, 2.99, -0.6>, <0.6, 2.99, 0.6> }
   pigment { rgb <18, 16, 13> } finish { emission 1 diffuse 0 } }
 // A mirror on the back wall.
 box { <-1.2, 0.6, 2.45>, <1.2, 2.4, 2.5>

@@ -35,7 +35,8 @@ typedef struct pov_light {
     double fade_distance, fade_power;
 } pov_light;
 
-enum { POV_PRIM_SPHERE = 0, POV_PRIM_PLANE, POV_PRIM_MESH, POV_PRIM_LIGHT, POV_PRIM_IMPORT };
+/* SKIPPED: an unsupported shape (path holds its keyword); warned about where it is placed. */
+enum { POV_PRIM_SPHERE = 0, POV_PRIM_PLANE, POV_PRIM_MESH, POV_PRIM_LIGHT, POV_PRIM_IMPORT, POV_PRIM_SKIPPED };
 
 typedef struct pov_prim {
     int kind;

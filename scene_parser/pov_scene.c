@@ -39,6 +39,8 @@ typedef struct loader {
     void *user_diag_user;
     int warned_shadowless, warned_no_shadow, warned_fade;
     int files_disabled; /* includes disabled: vbnl_mesh is refused too */
+    vbnl_sdl_loc *warned;    /* skipped shapes already warned about */
+    size_t nwarned;
     uint32_t *sphere_groups; /* per material: group holding a unit sphere (ellipsoids), or 0 */
     uint32_t nsphere_groups;
 } loader;
@@ -74,13 +76,13 @@ static int in_list(const char *w, const char *const *list)
 static const char *const shape_words[] = {
     "sphere", "box", "plane", "cylinder", "cone", "disc", "torus", "triangle", "smooth_triangle",
     "polygon", "mesh", "mesh2", "union", "merge", "object", "light_source", "intersection",
-    "difference", "vbnl_mesh", NULL};
+    "difference", "vbnl_mesh", "light_group", NULL};
 
 /* Shapes parsed (their block skipped) and left out with a warning. */
 static const char *const skipped_shapes[] = {
     "height_field", "isosurface", "blob", "lathe", "sor", "prism", "text", "julia_fractal",
     "superellipsoid", "parametric", "poly", "polynomial", "quartic", "cubic", "quadric",
-    "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal", "light_group", NULL};
+    "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal", NULL};
 
 static int is_shape(const vbnl_sdl_token *t)
 {
@@ -209,7 +211,8 @@ static int obj_finish(pov_obj *o)
 {
     if (o->app) {
         for (size_t i = 0; i < o->n; ++i)
-            if (!o->v[i].app && o->v[i].kind != POV_PRIM_LIGHT && !(o->v[i].app = pov_appearance_copy(o->app)))
+            if (!o->v[i].app && o->v[i].kind != POV_PRIM_LIGHT && o->v[i].kind != POV_PRIM_SKIPPED &&
+                !(o->v[i].app = pov_appearance_copy(o->app)))
                 return 0;
         pov_appearance_free(o->app);
         o->app = NULL;
@@ -1006,7 +1009,11 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
     vbnl_sdl_loc loc = kw.loc;
     o->loc = loc;
     if (in_list(w, skipped_shapes) || strcmp(w, "intersection") == 0 || strcmp(w, "difference") == 0) {
-        vbnl_sdl_warning(p, &loc, "'%s' is not supported; the object is skipped", w);
+        /* The warning comes where the shape is placed in the scene (a declared but unused one,
+         * as in shapes.inc, is silent). */
+        pov_prim *pr = obj_add(o, POV_PRIM_SKIPPED, loc);
+        if (!pr || !(pr->path = strdup(w)))
+            return oom(L);
         return vbnl_sdl_skip_block(p);
     }
     if (strcmp(w, "light_source") == 0)
@@ -1180,7 +1187,9 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
                    !in_list(t->text, (const char *const[]){"translate", "rotate", "scale", "matrix", "transform", NULL})) {
             return vbnl_sdl_error(p, &t->loc, "undeclared object identifier '%s'", t->text);
         }
-    } else if (strcmp(w, "union") == 0 || strcmp(w, "merge") == 0) {
+    } else if (strcmp(w, "union") == 0 || strcmp(w, "merge") == 0 || strcmp(w, "light_group") == 0) {
+        if (w[0] == 'l')
+            vbnl_sdl_warning(p, &loc, "light_group is rendered as a union: its lights illuminate the whole scene");
         for (;;) {
             const vbnl_sdl_token *t = vbnl_sdl_peek(p);
             if (is_punct(t, '}')) {
@@ -1194,6 +1203,13 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
                     return vbnl_sdl_failed(p) ? VBNL_ERR_PARSE : oom(L);
                 }
                 obj_clear(&child);
+                continue;
+            }
+            if (w[0] == 'l' && is_word(t, "global_lights")) {
+                double on;
+                vbnl_sdl_next(p);
+                if (opt_bool(L, &on) != VBNL_OK)
+                    return VBNL_ERR_PARSE;
                 continue;
             }
             int r = parse_modifier(L, o, NULL);
@@ -1627,6 +1643,20 @@ static vbnl_result parse_global_settings(loader *L)
 
 /* ---- hooks ----------------------------------------------------------------------------------- */
 
+/* Once per skipped shape (a declared one may be placed many times). */
+static void warn_skipped(loader *L, const pov_prim *pr)
+{
+    for (size_t i = 0; i < L->nwarned; ++i)
+        if (L->warned[i].file == pr->loc.file && L->warned[i].line == pr->loc.line && L->warned[i].col == pr->loc.col)
+            return;
+    vbnl_sdl_loc *n = realloc(L->warned, (L->nwarned + 1) * sizeof *n);
+    if (n) {
+        L->warned = n;
+        L->warned[L->nwarned++] = pr->loc;
+    }
+    vbnl_sdl_warning(L->c.parser, &pr->loc, "'%s' is not supported; the object is skipped", pr->path);
+}
+
 static int hook_statement(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, void *user)
 {
     loader *L = user;
@@ -1638,9 +1668,12 @@ static int hook_statement(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, void *u
         if (r == VBNL_OK && !obj_finish(&o))
             r = oom(L);
         for (size_t i = 0; r == VBNL_OK && i < o.n; ++i)
-            if (o.v[i].kind != POV_PRIM_LIGHT && o.v[i].kind != POV_PRIM_IMPORT && !o.v[i].app &&
+            if (o.v[i].kind != POV_PRIM_LIGHT && o.v[i].kind != POV_PRIM_IMPORT && o.v[i].kind != POV_PRIM_SKIPPED && !o.v[i].app &&
                 !(o.v[i].app = pov_appearance_default(&L->c)))
                 r = oom(L);
+        for (size_t i = 0; r == VBNL_OK && i < o.n; ++i)
+            if (o.v[i].kind == POV_PRIM_SKIPPED)
+                warn_skipped(L, &o.v[i]);
         if (r == VBNL_OK && !obj_move(&L->world, &o))
             r = oom(L);
         obj_clear(&o);
@@ -2029,6 +2062,8 @@ static vbnl_result build(loader *L, vbnl_error *err)
         case POV_PRIM_LIGHT:
             r = emit_light(L, pr, err);
             break;
+        case POV_PRIM_SKIPPED:
+            break;
         case POV_PRIM_IMPORT: {
             float xf[16];
             m4f(pr->m, xf);
@@ -2134,6 +2169,7 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
 done:
     obj_clear(&L->world);
     free(L->sphere_groups);
+    free(L->warned);
     pov_texture_state_destroy(&L->c);
     vbnl_sdl_parser_destroy(L->c.parser);
     vbnl_scene_destroy(L->c.scene);

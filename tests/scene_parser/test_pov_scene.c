@@ -308,12 +308,19 @@ static void test_skipped_shapes_warn(void **state)
                                 "lathe { linear_spline 3, <0,0>, <1,1>, <0,2> }\n"
                                 "#declare I = intersection { box { -1, 1 } sphere { 0, 1.2 } }\n"
                                 "object { I }\n"
-                                "cylinder { <1, 1, 1>, <1, 1, 1>, 1 }");
+                                "cylinder { <1, 1, 1>, <1, 1, 1>, 1 }\n"
+                                "#declare Unused = quadric { <1, 1, 0>, <0, 0, 0>, <0, 0, 0>, -1 }\n"
+                                "#declare U = union { object { I } sphere { 0, 1 } }\n"
+                                "object { U translate x } object { U translate -x }");
     assert_non_null(strstr(g_diags, "test.pov:4:1: warning: 'difference' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:5:1: warning: 'lathe' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:6:14: warning: 'intersection' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:8:1: warning: cylinder: the two end points coincide; the object is skipped"));
-    assert_int_equal(info(s).sphere_count, 1);
+    assert_null(strstr(g_diags, "quadric")); /* declared, never placed: silent */
+    const char *w = strstr(g_diags, "test.pov:6:14: warning");
+    assert_non_null(w);
+    assert_null(strstr(w + 30, "test.pov:6:14: warning")); /* once, though placed three times */
+    assert_int_equal(info(s).sphere_count, 3);
     assert_int_equal(info(s).triangle_count, 0);
     vbnl_pov_scene_destroy(s);
 }
@@ -466,6 +473,11 @@ static void test_lights(void **state)
     s = ok("#declare L = union { light_source { <1, 0, 0> rgb 1 } sphere { <0, -5, 0>, 1 } }\nobject { L translate y * 4 }");
     NEAR(light0(s)->p.y, 4.0f);
     vbnl_pov_scene_destroy(s);
+    s = ok("light_group { light_source { <1, 0, 0> rgb 1 } sphere { <0, -5, 0>, 1 } global_lights on translate x }");
+    NEAR(light0(s)->p.x, 2.0f);
+    assert_int_equal(info(s).sphere_count, 1);
+    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: light_group is rendered as a union: its lights illuminate the whole scene"));
+    vbnl_pov_scene_destroy(s);
 }
 
 /* ---- global settings, integrator block ---------------------------------------------------------- */
@@ -581,6 +593,12 @@ static void test_render_cornell(void **state)
     vbnl_error err = {0};
     assert_int_equal(vbnl_pov_load_file(g_ctx, path, &o, &s, &err), VBNL_OK);
     assert_string_equal(vbnl_pov_scene_integrator(s), "vbnl");
+    /* the light panel's winding faces down (for one-sided emitters) */
+    vbnl_hit h;
+    assert_true(hit(s, 0, 1, 0, 0, 1, 0, &h));
+    NEAR(h.p.y, 1.97374f);
+    assert_true(h.ng.y < -0.99f);
+    assert_true(h.light != VBNL_NO_LIGHT);
     vbnl_render_settings rs;
     vbnl_render_settings_init(&rs);
     rs.width = rs.height = 24;
