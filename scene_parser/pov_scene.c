@@ -277,9 +277,9 @@ static void memv_destroy(void *ptr, void *user)
     free(ptr);
 }
 
-static const vbnl_sdl_opaque_type object_type = {"object", objv_destroy, objv_copy, NULL};
-static const vbnl_sdl_opaque_type transform_type = {"transform", memv_destroy, memv_copy_m4, NULL};
-static const vbnl_sdl_opaque_type camera_type = {"camera", memv_destroy, memv_copy_cam, NULL};
+static const vbnl_sdl_opaque_type object_type = {"object", objv_destroy, objv_copy, NULL, NULL};
+static const vbnl_sdl_opaque_type transform_type = {"transform", memv_destroy, memv_copy_m4, NULL, NULL};
+static const vbnl_sdl_opaque_type camera_type = {"camera", memv_destroy, memv_copy_cam, NULL, NULL};
 
 static const void *declared(loader *L, const vbnl_sdl_token *t, const vbnl_sdl_opaque_type *type)
 {
@@ -790,8 +790,9 @@ static vbnl_result parse_mesh2(loader *L, pov_obj *o, vbnl_sdl_loc loc)
                 if ((r = vbnl_sdl_parse_vector(p, 3, fi + 3 * i)) != VBNL_OK)
                     goto done;
                 ftex[i] = -1;
-                /* optional texture indices: one, or three (per vertex; the first is used) */
-                for (int k = 0; k < 3; ++k) {
+                /* texture indices, only after a texture_list (as POV-Ray reads them): one, or
+                 * three (per vertex; the first is used) */
+                for (int k = 0; k < (ntex > 0 ? 3 : 0); ++k) {
                     const vbnl_sdl_token *a = vbnl_sdl_peek(p);
                     if (!is_punct(a, ','))
                         break;

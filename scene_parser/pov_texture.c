@@ -111,8 +111,10 @@ static void blob_free(void *ptr, void *user)
 }
 
 #define OPAQUE(var, nm, T) \
-    static const vbnl_sdl_opaque_type var = {nm, blob_free, blob_copy, (void *)(uintptr_t)sizeof(T)}
-OPAQUE(type_texture, "texture", pov_texture);
+    static const vbnl_sdl_opaque_type var = {nm, blob_free, blob_copy, (void *)(uintptr_t)sizeof(T), NULL}
+static void *texture_layer(void *below, void *above, void *user);
+static const vbnl_sdl_opaque_type type_texture = {"texture", blob_free, blob_copy,
+                                                  (void *)(uintptr_t)sizeof(pov_texture), texture_layer};
 OPAQUE(type_pigment, "pigment", pov_pigment);
 OPAQUE(type_finish, "finish", pov_finish);
 OPAQUE(type_normal, "normal", pov_normal);
@@ -120,15 +122,41 @@ OPAQUE(type_interior, "interior", pov_interior);
 OPAQUE(type_material, "material", pov_appearance);
 OPAQUE(type_color_map, "color_map", pov_color_map);
 
-/* The value of identifier `tok` when it holds an object-layer value of this type. */
-static const void *ident_value(pov_ctx *c, const vbnl_sdl_token *tok, const vbnl_sdl_opaque_type *type)
+/* Takes the value of an identifier, or of an array element `Arr[i]...`, holding an object-layer
+ * value of this type into dst. Returns 1 when taken (tokens consumed), 0 when the next token is
+ * not such a value, -1 on a parse error. */
+static int take_ident(pov_ctx *c, const vbnl_sdl_opaque_type *type, void *dst, size_t size)
 {
+    vbnl_sdl_parser *p = c->parser;
+    const vbnl_sdl_token *tok = vbnl_sdl_peek(p);
     if (tok->kind != VBNL_SDL_TOK_IDENT)
-        return NULL;
-    const vbnl_sdl_value *v = vbnl_sdl_lookup(c->parser, tok->text);
-    if (!v || v->kind != VBNL_SDL_OBJECT || v->u.obj.type != type)
-        return NULL;
-    return v->u.obj.ptr;
+        return 0;
+    const vbnl_sdl_value *v = vbnl_sdl_lookup(p, tok->text);
+    if (!v)
+        return 0;
+    if (v->kind == VBNL_SDL_OBJECT && v->u.obj.type == type) {
+        vbnl_sdl_loc use = tok->loc;
+        memcpy(dst, v->u.obj.ptr, size);
+        vbnl_sdl_defer_use(p, v->u.obj.deferred, &use);
+        vbnl_sdl_next(p);
+        return 1;
+    }
+    if (v->kind != VBNL_SDL_ARRAY)
+        return 0;
+    vbnl_sdl_loc loc = tok->loc;
+    vbnl_sdl_value e;
+    if (vbnl_sdl_parse_expression(p, &e) != VBNL_OK)
+        return -1;
+    if (e.kind != VBNL_SDL_OBJECT || e.u.obj.type != type) {
+        const char *kind = e.kind == VBNL_SDL_OBJECT ? e.u.obj.type->name : vbnl_sdl_kind_name(e.kind);
+        vbnl_sdl_value_clear(p, &e);
+        vbnl_sdl_error(p, &loc, "array element is a %s, not a %s", kind, type->name);
+        return -1;
+    }
+    memcpy(dst, e.u.obj.ptr, size);
+    vbnl_sdl_defer_use(p, e.u.obj.deferred, &loc);
+    vbnl_sdl_value_clear(p, &e);
+    return 1;
 }
 
 static int is_kw(const vbnl_sdl_token *t, const char *kw)
@@ -350,11 +378,9 @@ static vbnl_result parse_color_map_body(pov_ctx *c, pov_color_map *m)
     m->count = 0;
     int unsorted = 0;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    const pov_color_map *id = ident_value(c, t, &type_color_map);
-    if (id) {
-        vbnl_sdl_next(p);
-        *m = *id;
-    }
+    int taken_m = take_ident(c, &type_color_map, m, sizeof *m);
+    if (taken_m < 0)
+        return VBNL_ERR_PARSE;
     for (;;) {
         t = vbnl_sdl_peek(p);
         vbnl_sdl_loc loc = t->loc;
@@ -438,6 +464,37 @@ static void color_map_average(const pov_color_map *m, double out[5])
         prev_v = v;
         prev_c = col;
     }
+}
+
+/* Mean filter + transmit of a pigment (its colour map's average for patterns; images count as
+ * opaque). */
+static double pigment_transparency(const pov_pigment *g)
+{
+    double col[5];
+    if (g->kind == PIG_IMAGE)
+        return 0.0;
+    if (g->kind == PIG_SOLID)
+        memcpy(col, g->color, sizeof col);
+    else
+        color_map_average(&g->map, col);
+    return col[3] + col[4];
+}
+
+/* Layered textures (POV-Ray shows lower layers through the transparent parts of upper ones) are
+ * rendered as one layer: the next layer replaces the one below unless its pigment is mostly
+ * transparent (filter + transmit >= 0.5 on average), as the top layers of stones.inc are. */
+static void texture_put_layer(pov_texture *below, const pov_texture *above)
+{
+    if (pigment_transparency(&above->pig) < 0.5)
+        *below = *above;
+}
+
+static void *texture_layer(void *below, void *above, void *user)
+{
+    (void)user;
+    texture_put_layer(below, above);
+    free(above);
+    return below;
 }
 
 /* ---- images -------------------------------------------------------------------------------- */
@@ -870,11 +927,9 @@ static vbnl_result parse_pigment_body(pov_ctx *c, pov_pigment *pg)
     if (vbnl_sdl_expect(p, '{', "after 'pigment'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    const pov_pigment *id = ident_value(c, t, &type_pigment);
-    if (id) {
-        vbnl_sdl_next(p);
-        *pg = *id;
-    }
+    int taken_pg = take_ident(c, &type_pigment, pg, sizeof *pg);
+    if (taken_pg < 0)
+        return VBNL_ERR_PARSE;
     const char *fallback = NULL;
     vbnl_sdl_loc fallback_loc = {0};
     for (;;) {
@@ -1042,11 +1097,9 @@ static vbnl_result parse_finish_body(pov_ctx *c, pov_finish *f)
     if (vbnl_sdl_expect(p, '{', "after 'finish'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    const pov_finish *id = ident_value(c, t, &type_finish);
-    if (id) {
-        vbnl_sdl_next(p);
-        *f = *id;
-    }
+    int taken_f = take_ident(c, &type_finish, f, sizeof *f);
+    if (taken_f < 0)
+        return VBNL_ERR_PARSE;
     for (;;) {
         t = vbnl_sdl_peek(p);
         vbnl_sdl_loc loc = t->loc;
@@ -1179,11 +1232,9 @@ static vbnl_result parse_interior_body(pov_ctx *c, pov_interior *in)
     if (vbnl_sdl_expect(p, '{', "after 'interior'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    const pov_interior *id = ident_value(c, t, &type_interior);
-    if (id) {
-        vbnl_sdl_next(p);
-        *in = *id;
-    }
+    int taken_in = take_ident(c, &type_interior, in, sizeof *in);
+    if (taken_in < 0)
+        return VBNL_ERR_PARSE;
     for (;;) {
         t = vbnl_sdl_peek(p);
         vbnl_sdl_loc loc = t->loc;
@@ -1335,12 +1386,11 @@ static vbnl_result parse_texture_map_entry(pov_ctx *c, pov_texture *out)
         }
         if (t->kind == VBNL_SDL_TOK_EOF)
             return vbnl_sdl_error(p, &loc, "unexpected end of file in texture_map");
-        const pov_texture *id = ident_value(c, t, &type_texture);
-        if (id) {
-            vbnl_sdl_next(p);
-            *out = *id;
+        int taken_out = take_ident(c, &type_texture, out, sizeof *out);
+        if (taken_out < 0)
+            return VBNL_ERR_PARSE;
+        if (taken_out)
             continue;
-        }
         if (is_kw(t, "texture")) {
             vbnl_sdl_next(p);
             if (parse_texture_body(c, out) != VBNL_OK)
@@ -1453,11 +1503,9 @@ static vbnl_result parse_texture_body(pov_ctx *c, pov_texture *tx)
     if (vbnl_sdl_expect(p, '{', "after 'texture'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    const pov_texture *id = ident_value(c, t, &type_texture);
-    if (id) {
-        vbnl_sdl_next(p);
-        *tx = *id;
-    }
+    int taken_tx = take_ident(c, &type_texture, tx, sizeof *tx);
+    if (taken_tx < 0)
+        return VBNL_ERR_PARSE;
     for (;;) {
         t = vbnl_sdl_peek(p);
         vbnl_sdl_loc loc = t->loc;
@@ -1536,11 +1584,9 @@ static vbnl_result parse_material_body(pov_ctx *c, pov_appearance *a)
     if (vbnl_sdl_expect(p, '{', "after 'material'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    const pov_appearance *id = ident_value(c, t, &type_material);
-    if (id) {
-        vbnl_sdl_next(p);
-        *a = *id;
-    }
+    int taken_a = take_ident(c, &type_material, a, sizeof *a);
+    if (taken_a < 0)
+        return VBNL_ERR_PARSE;
     for (;;) {
         t = vbnl_sdl_peek(p);
         vbnl_sdl_loc loc = t->loc;
@@ -1628,11 +1674,19 @@ vbnl_result pov_appearance_parse_modifier(pov_ctx *c, pov_appearance **app)
         a->loc = loc;
     if (is_kw(t, "texture")) {
         vbnl_sdl_next(p);
-        if (a->own_texture)
-            vbnl_sdl_warning(p, &loc, "layered textures: only the top (last) layer is rendered");
-        if (parse_texture_body(c, &a->tex) != VBNL_OK)
+        if (!a->own_texture) {
+            if (parse_texture_body(c, &a->tex) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+            a->own_texture = 1;
+            return VBNL_OK;
+        }
+        if (a->own_texture == 1)
+            vbnl_sdl_warning(p, &loc, "layered textures are rendered as one layer (the top opaque one)");
+        a->own_texture = 2;
+        pov_texture layer = c->tex->deflt.tex;
+        if (parse_texture_body(c, &layer) != VBNL_OK)
             return VBNL_ERR_PARSE;
-        a->own_texture = 1;
+        texture_put_layer(&a->tex, &layer);
         return VBNL_OK;
     }
     if (is_kw(t, "interior")) {
@@ -1656,7 +1710,7 @@ vbnl_result pov_appearance_parse_modifier(pov_ctx *c, pov_appearance **app)
     return VBNL_OK;
 }
 
-int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value *out)
+static int appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value *out)
 {
     vbnl_sdl_parser *p = c->parser;
     void *obj = NULL;
@@ -1737,6 +1791,18 @@ int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value 
     }
     vbnl_sdl_value_object(out, obj, type, tag);
     return 1;
+}
+
+/* A declared texture (pigment, finish, ...) warns about what it cannot render where the scene
+ * uses it, not where it is declared: POV-Ray's standard includes declare many. */
+int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value *out)
+{
+    int group = vbnl_sdl_defer_begin(c->parser);
+    int r = appearance_rvalue(c, tok, out);
+    vbnl_sdl_defer_end(c->parser, group);
+    if (r > 0)
+        out->u.obj.deferred = group;
+    return r;
 }
 
 int pov_appearance_default_block(pov_ctx *c)

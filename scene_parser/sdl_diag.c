@@ -80,6 +80,8 @@ static void add_source_line(vbnl_sdl_parser *p, sbuf *b, const vbnl_sdl_loc *loc
     sb_add(b, "^\n", 2);
 }
 
+static void deliver(vbnl_sdl_parser *p, const vbnl_sdl_diag *dp, char *m, char *text);
+
 void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc *loc,
                    const char *msg)
 {
@@ -126,10 +128,34 @@ void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc
     char *m = strdup(msg);
     d.message = m ? m : no_text;
     d.text = b.s ? b.s : no_text;
+    if (sev == VBNL_SDL_WARNING && p->ndefer_open > 0) {
+        p->diags.warnings--;
+        sdl_defer_group *g = &p->defer[p->defer_open[p->ndefer_open - 1] - 1];
+        if (g->count == g->cap) {
+            size_t cap = g->cap ? g->cap * 2 : 4;
+            vbnl_sdl_diag *q = realloc(g->items, cap * sizeof *q);
+            if (q) {
+                g->items = q;
+                g->cap = cap;
+            }
+        }
+        if (g->count < g->cap) {
+            g->items[g->count++] = d;
+            return;
+        }
+        p->diags.warnings++; /* out of memory: report it now */
+    }
+    deliver(p, &d, m, b.s);
+}
+
+/* Hands a diagnostic to the callback and the store (which takes the strings, or they are freed). */
+static void deliver(vbnl_sdl_parser *p, const vbnl_sdl_diag *dp, char *m, char *text)
+{
+    vbnl_sdl_diag d = *dp;
     if (p->diag_fn)
         p->diag_fn(&d, p->diag_user);
     sdl_diag_store *st = &p->diags;
-    if (st->count < VBNL_SDL_MAX_STORED_DIAGS || sev == VBNL_SDL_ERROR) {
+    if (st->count < VBNL_SDL_MAX_STORED_DIAGS || d.severity == VBNL_SDL_ERROR) {
         if (st->count == st->cap) {
             size_t cap = st->cap ? st->cap * 2 : 16;
             vbnl_sdl_diag *q = realloc(st->items, cap * sizeof *q);
@@ -144,7 +170,7 @@ void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc
         }
     }
     free(m);
-    free(b.s);
+    free(text);
 }
 
 void sdl_errorf(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
@@ -280,4 +306,125 @@ const char *sdl_suggest(vbnl_sdl_parser *p, const char *name)
     for (size_t k = 0; k < p->globals.cap; k++)
         consider(name, p->globals.slots[k].name, &best, &bestd);
     return best;
+}
+
+/* ---- deferred warnings ------------------------------------------------------------------- */
+
+int vbnl_sdl_defer_begin(vbnl_sdl_parser *p)
+{
+    if (!p)
+        return 0;
+    if (p->ndefer == p->capdefer) {
+        int cap = p->capdefer ? p->capdefer * 2 : 64;
+        sdl_defer_group *q = realloc(p->defer, (size_t)cap * sizeof *q);
+        if (!q)
+            return 0;
+        p->defer = q;
+        p->capdefer = cap;
+    }
+    if (p->ndefer_open == p->capdefer_open) {
+        int cap = p->capdefer_open ? p->capdefer_open * 2 : 16;
+        int *q = realloc(p->defer_open, (size_t)cap * sizeof *q);
+        if (!q)
+            return 0;
+        p->defer_open = q;
+        p->capdefer_open = cap;
+    }
+    memset(&p->defer[p->ndefer], 0, sizeof p->defer[0]);
+    int g = ++p->ndefer;
+    p->defer_open[p->ndefer_open++] = g;
+    return g;
+}
+
+void vbnl_sdl_defer_end(vbnl_sdl_parser *p, int group)
+{
+    if (!p || group <= 0)
+        return;
+    /* close it and anything left open above it */
+    for (int i = p->ndefer_open - 1; i >= 0; i--)
+        if (p->defer_open[i] == group) {
+            p->ndefer_open = i;
+            return;
+        }
+}
+
+void sdl_defer_link(vbnl_sdl_parser *p, int parent, int child)
+{
+    if (parent <= 0 || parent > p->ndefer || child <= 0 || child > p->ndefer || parent == child)
+        return;
+    sdl_defer_group *g = &p->defer[parent - 1];
+    for (size_t i = 0; i < g->nchildren; i++)
+        if (g->children[i] == child)
+            return;
+    if (g->nchildren == g->capchildren) {
+        size_t cap = g->capchildren ? g->capchildren * 2 : 4;
+        int *q = realloc(g->children, cap * sizeof *q);
+        if (!q)
+            return;
+        g->children = q;
+        g->capchildren = cap;
+    }
+    g->children[g->nchildren++] = child;
+}
+
+static void deliver_group(vbnl_sdl_parser *p, int group, const vbnl_sdl_loc *use, int depth)
+{
+    if (group <= 0 || group > p->ndefer || depth > 64)
+        return;
+    sdl_defer_group *g = &p->defer[group - 1];
+    if (g->delivered)
+        return;
+    g->delivered = true;
+    for (size_t i = 0; i < g->count; i++) {
+        vbnl_sdl_diag d = g->items[i];
+        char *text = (char *)d.text;
+        if (use && use->file && use->line > 0) {
+            sbuf b = { 0 };
+            sb_add(&b, d.text, strlen(d.text));
+            sb_printf(&b, "  reported where it is used: %s:%d:%d\n", use->file, use->line, use->col);
+            if (b.s) {
+                if (text != no_text)
+                    free(text);
+                text = b.s;
+            }
+        }
+        d.text = text;
+        p->diags.warnings++;
+        deliver(p, &d, (char *)d.message == no_text ? NULL : (char *)d.message, text == no_text ? NULL : text);
+    }
+    free(g->items);
+    g->items = NULL;
+    g->count = g->cap = 0;
+    for (size_t i = 0; i < g->nchildren; i++)
+        deliver_group(p, g->children[i], use, depth + 1);
+}
+
+void vbnl_sdl_defer_use(vbnl_sdl_parser *p, int group, const vbnl_sdl_loc *use)
+{
+    if (!p || group <= 0 || group > p->ndefer)
+        return;
+    if (p->ndefer_open > 0)
+        sdl_defer_link(p, p->defer_open[p->ndefer_open - 1], group);
+    else
+        deliver_group(p, group, use, 0);
+}
+
+void sdl_defer_free(vbnl_sdl_parser *p)
+{
+    for (int i = 0; i < p->ndefer; i++) {
+        sdl_defer_group *g = &p->defer[i];
+        for (size_t k = 0; k < g->count; k++) {
+            if (g->items[k].message != no_text)
+                free((char *)g->items[k].message);
+            if (g->items[k].text != no_text)
+                free((char *)g->items[k].text);
+        }
+        free(g->items);
+        free(g->children);
+    }
+    free(p->defer);
+    free(p->defer_open);
+    p->defer = NULL;
+    p->defer_open = NULL;
+    p->ndefer = p->capdefer = p->ndefer_open = p->capdefer_open = 0;
 }

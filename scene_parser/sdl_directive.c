@@ -177,6 +177,56 @@ bool sdl_parse_rvalue(vbnl_sdl_parser *p, vbnl_sdl_value *out)
                 int r = p->hooks.rvalue(p, &copy, out, p->hooks.user);
                 if (fi < p->nframes)
                     p->frames[fi].in_directive = saved;
+                /* Layered textures, `texture { A } texture { B }`: combined by the value's type
+                 * (else the last layer replaces the others). The layers' deferred warnings
+                 * and the note on layering are reported where the result is used. */
+                const char *kw = copy.text;
+                for (bool noted = false; r > 0 && !p->failed && strcmp(kw, "texture") == 0;) {
+                    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+                    if (!(n->kind == VBNL_SDL_TOK_IDENT && strcmp(n->text, "texture") == 0))
+                        break;
+                    vbnl_sdl_token layer = *n;
+                    vbnl_sdl_value top;
+                    memset(&top, 0, sizeof top);
+                    fi = p->nframes - 1, saved = p->frames[fi].in_directive;
+                    p->frames[fi].in_directive = 0;
+                    r = p->hooks.rvalue(p, &layer, &top, p->hooks.user);
+                    if (fi < p->nframes)
+                        p->frames[fi].in_directive = saved;
+                    if (r <= 0) {
+                        vbnl_sdl_value_clear(p, &top);
+                        if (r == 0)
+                            sdl_errorf(p, &layer.loc, "unexpected texture layer");
+                        return false;
+                    }
+                    int group = out->kind == VBNL_SDL_OBJECT ? out->u.obj.deferred : 0;
+                    if (!group && (group = vbnl_sdl_defer_begin(p)))
+                        vbnl_sdl_defer_end(p, group);
+                    if (!noted) {
+                        int note = vbnl_sdl_defer_begin(p);
+                        sdl_warnf(p, &layer.loc, "layered textures are rendered as one layer (the top opaque one)");
+                        vbnl_sdl_defer_end(p, note);
+                        sdl_defer_link(p, group, note);
+                        noted = true;
+                    }
+                    if (top.kind == VBNL_SDL_OBJECT)
+                        sdl_defer_link(p, group, top.u.obj.deferred);
+                    if (out->kind == VBNL_SDL_OBJECT && top.kind == VBNL_SDL_OBJECT &&
+                        out->u.obj.type == top.u.obj.type && top.u.obj.type->layer) {
+                        void *m = top.u.obj.type->layer(out->u.obj.ptr, top.u.obj.ptr, top.u.obj.type->user);
+                        out->u.obj.ptr = NULL; /* taken */
+                        top.u.obj.ptr = m;
+                        if (!m) {
+                            top.u.obj.type = NULL;
+                            sdl_errorf(p, &layer.loc, "out of memory combining texture layers");
+                            return false;
+                        }
+                    }
+                    vbnl_sdl_value_clear(p, out);
+                    *out = top;
+                    if (out->kind == VBNL_SDL_OBJECT)
+                        out->u.obj.deferred = group;
+                }
                 if (r != 0)
                     return r > 0 && !p->failed;
             }

@@ -135,6 +135,15 @@ typedef struct sdl_diag_store {
     size_t count, cap, warnings;
 } sdl_diag_store;
 
+/* A group of deferred warnings (vbnl_sdl_defer_begin). */
+typedef struct sdl_defer_group {
+    vbnl_sdl_diag *items; /* formatted when they happened; delivered at the first use */
+    size_t count, cap;
+    int *children;        /* groups used while this one was open */
+    size_t nchildren, capchildren;
+    bool delivered;
+} sdl_defer_group;
+
 typedef struct sdl_rng {
     uint64_t state;
 } sdl_rng;
@@ -189,6 +198,10 @@ struct vbnl_sdl_parser {
     int in_vector; /* > 0: '>' closes a vector literal instead of comparing */
     int in_count;  /* > 0: '<' ends the float (a list count followed by vectors, as in mesh2) */
     unsigned warned; /* one-time warnings already given (bit per kind) */
+    sdl_defer_group *defer;  /* group g is defer[g - 1] */
+    int ndefer, capdefer;
+    int *defer_open;         /* stack of open groups */
+    int ndefer_open, capdefer_open;
 };
 
 /* sdl_names.c / sdl_parser.c */
@@ -214,6 +227,8 @@ void sdl_errorf(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ..
 void sdl_warnf(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 void sdl_diag_free(sdl_diag_store *d);
+void sdl_defer_free(vbnl_sdl_parser *p);
+void sdl_defer_link(vbnl_sdl_parser *p, int parent, int child);
 const char *sdl_suggest(vbnl_sdl_parser *p, const char *name);
 
 /* sdl_value.c */

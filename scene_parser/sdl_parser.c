@@ -148,6 +148,7 @@ void vbnl_sdl_parser_destroy(vbnl_sdl_parser *p)
     free(p->scene_dir);
     free(p->rngs);
     sdl_diag_free(&p->diags);
+    sdl_defer_free(p);
     free(p);
 }
 

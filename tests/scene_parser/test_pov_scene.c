@@ -262,6 +262,13 @@ static void test_mesh_mesh2_textures(void **state)
                 "polygon { 4 <5, 0>, <6, 0>, <6, 1>, <5, 0> }");
     assert_int_equal(info(s).triangle_count, 3);
     vbnl_pov_scene_destroy(s);
+    /* without a texture_list, face entries are vector expressions, not texture indices
+     * (shapes.inc writes `F1+A, F2+A,`) */
+    s = ok(BASE "#declare F = <0, 1, 2>;\n"
+                "mesh2 { vertex_vectors { 4, <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }\n"
+                "  face_indices { 2, F, F + <0, 1, 1>, } }");
+    assert_int_equal(info(s).triangle_count, 2);
+    vbnl_pov_scene_destroy(s);
     s = ok(BASE "mesh2 { vertex_vectors { 4, <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }\n"
                 "  normal_vectors { 1, -z }\n"
                 "  texture_list { 2, texture { pigment { rgb <0, 1, 0> } }, texture { pigment { rgb <1, 1, 0> } } }\n"

@@ -491,6 +491,61 @@ static void test_layers_and_ext(void **state)
     done(h);
 }
 
+/* Declarations warn where they are used: an unused declared texture is silent, a used one warns
+ * once with the place of use; layered declared textures keep the top opaque layer. */
+static void test_deferred_warnings(void **state)
+{
+    (void)state;
+    harness *h = run_ok("#declare Unused = texture { pigment { marble color_map { [0 rgb 0] [1 rgb 1] } turbulence 1 } }\n"
+                        "#declare Layered = texture { pigment { rgb <1, 0, 0> } }\n"
+                        "  texture { pigment { bozo color_map { [0 rgbt <0, 0, 1, 0.8>] [1 rgbt <0, 0, 1, 1>] } } }\n");
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 0);
+    done(h);
+
+    h = run_ok("#declare Layered = texture { pigment { rgb <1, 0, 0> } }\n"
+               "  texture { pigment { bozo color_map { [0 rgbt <0, 0, 1, 0.8>] [1 rgbt <0, 0, 1, 1>] } } }\n"
+               "#declare Over = texture { pigment { rgb <1, 0, 0> } } texture { pigment { rgb <0, 1, 0> } }\n"
+               "object_test { texture { Layered } }\n"
+               "object_test { texture { Layered } }\n"
+               "object_test { texture { Over } }\n");
+    assert_int_equal(h->nmats, 3);
+    expect3(mat(h, 0)->base_color, 0.6, 0, 0, 1e-6); /* diffuse 0.6 x red: the transparent top layer is not rendered */
+    expect3(mat(h, 2)->base_color, 0, 0.6, 0, 1e-6); /* an opaque top layer is */
+    const char *w = warning_text(h, "layered textures are rendered as one layer");
+    assert_non_null(w);
+    assert_non_null(strstr(w, "test.pov:2:3: warning:"));
+    assert_non_null(strstr(w, "reported where it is used: test.pov:4:25"));
+    w = warning_text(h, "pattern 'bozo' is not supported");
+    assert_non_null(w);
+    assert_non_null(strstr(w, "reported where it is used: test.pov:4:25"));
+    /* once per declaration, not per use: bozo and the layering note for Layered, the note for Over */
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 3);
+    done(h);
+
+    /* a declaration built from another one carries its warnings to where it is used */
+    h = run_ok("#declare P = pigment { wood color_map { [0 rgb 0.2] [1 rgb 0.8] } }\n"
+               "#declare T = texture { pigment { P } }\n"
+               "#declare U = T\n"
+               "object_test { texture { U } }\n");
+    w = warning_text(h, "pattern 'wood' is not supported");
+    assert_non_null(w);
+    assert_non_null(strstr(w, "test.pov:1:24: warning:"));
+    assert_non_null(strstr(w, "reported where it is used: test.pov:4:25"));
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 1);
+    done(h);
+
+    FILE *probe = fopen("/usr/share/povray-3.7/include/textures.inc", "r");
+    if (probe) {
+        fclose(probe);
+        h = run_ok("#include \"colors.inc\"\n#include \"textures.inc\"\n#include \"stones.inc\"\n"
+                   "#include \"woods.inc\"\n#include \"metals.inc\"\n");
+        print_message("# textures, stones, woods, metals.inc included, nothing used: %zu warnings\n",
+                      vbnl_sdl_warning_count(h->c.parser));
+        assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 0);
+        done(h);
+    }
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -575,6 +630,7 @@ int main(void)
         cmocka_unit_test(test_transforms),
         cmocka_unit_test(test_image_map),
         cmocka_unit_test(test_layers_and_ext),
+        cmocka_unit_test(test_deferred_warnings),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_standard_includes),
     };

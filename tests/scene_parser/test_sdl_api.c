@@ -131,7 +131,7 @@ static void *tex_copy(const void *ptr, void *user)
     return c;
 }
 
-static const vbnl_sdl_opaque_type tex_type = { "texture", tex_destroy, tex_copy, NULL };
+static const vbnl_sdl_opaque_type tex_type = { "texture", tex_destroy, tex_copy, NULL, NULL };
 
 static int stmt_hook(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, void *user)
 {

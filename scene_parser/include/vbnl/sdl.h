@@ -117,6 +117,10 @@ typedef struct vbnl_sdl_opaque_type {
     void (*destroy)(void *ptr, void *user);
     void *(*copy)(const void *ptr, void *user);
     void *user;
+    /* Optional: `#declare T = texture { A } texture { B }` (layers, lowest first). Combines the
+     * value so far with the next layer, taking both; returns the combined value (NULL: out of
+     * memory, both freed). Without it the last layer replaces the others. */
+    void *(*layer)(void *below, void *above, void *user);
 } vbnl_sdl_opaque_type;
 
 typedef struct vbnl_sdl_array vbnl_sdl_array;
@@ -133,7 +137,7 @@ typedef struct vbnl_sdl_value {
         struct { char *s; size_t len; } str;            /* STRING: owned, NUL-terminated */
         vbnl_sdl_array *array;                          /* ARRAY: owned */
         vbnl_sdl_function *fn;                          /* FUNCTION: shared, refcounted */
-        struct { void *ptr; const vbnl_sdl_opaque_type *type; int tag; } obj; /* OBJECT */
+        struct { void *ptr; const vbnl_sdl_opaque_type *type; int tag; int deferred; } obj; /* OBJECT; deferred: warning group (vbnl_sdl_defer_begin) */
         vbnl_sdl_block *block;                          /* BLOCK: shared, refcounted */
         vbnl_sdl_macro *macro;                          /* MACRO: owned by the symbol table */
         vbnl_sdl_spline *spline;                        /* SPLINE: shared, refcounted */
@@ -236,6 +240,17 @@ const vbnl_sdl_value *vbnl_sdl_default_get(const vbnl_sdl_parser *p, size_t i);
 double vbnl_sdl_language_version(const vbnl_sdl_parser *p);
 
 /* ---- for the object layer, during a parse (called from hooks) --------------------------- */
+
+/* Deferred warnings. A declaration in an include file (textures.inc declares a hundred textures)
+ * should warn where a scene uses what it declares, not where it is declared. Between begin and
+ * end, warnings are kept in a group (groups nest: the innermost collects). The value built is
+ * tagged with the group (obj.deferred). vbnl_sdl_defer_use, where the value is used: inside an
+ * open group, links the used group into it; otherwise reports the group's warnings (each once
+ * per parse), noting the place of use. begin returns 0 when out of memory (warnings are then
+ * reported at once); every call accepts group 0. */
+int vbnl_sdl_defer_begin(vbnl_sdl_parser *p);
+void vbnl_sdl_defer_end(vbnl_sdl_parser *p, int group);
+void vbnl_sdl_defer_use(vbnl_sdl_parser *p, int group, const vbnl_sdl_loc *use);
 
 /* Tokens after directive processing and macro expansion. The returned pointer is valid until
  * the next vbnl_sdl_next/vbnl_sdl_peek call. After an error both return EOF. */
