@@ -8,12 +8,14 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${1:-60}
 out="$here/build-fuzz"
 mkdir -p "$out/corpus" "$out/seeds"
+# every integrator folder is an include directory (they share headers, as in meson.build)
+integrator_dirs=$(for d in "$here"/core/integrators/*/; do printf -- '-I %s ' "${d%/}"; done)
 clang -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -D_GNU_SOURCE \
-    -I "$here/core/include" -I "$here/core/src" -I "$here/core/integrators/vbnl" \
+    -I "$here/core/include" -I "$here/core/src" $integrator_dirs \
     -I "$here/scene_parser" -I "$here/scene_parser/include" \
     "$here"/scene_parser/sdl_*.c "$here"/scene_parser/pov_*.c "$here/scene_parser/mesh_import.c" "$here"/core/src/*.c \
     "$here"/core/integrators/registry.c "$here"/core/integrators/*/*.c \
-    "$here/tests/scene_parser/fuzz_parser.c" -lembree3 -lassimp -lm -lpthread -o "$out/fuzz_parser"
+    "$here/tests/scene_parser/fuzz_parser.c" -lembree3 -lassimp -lpng -lm -lpthread -o "$out/fuzz_parser"
 cp "$here"/tests/scene_parser/regressions/*.pov "$out/seeds/" 2>/dev/null || true
 cp /usr/share/povray-3.7/include/*.inc "$out/seeds/" 2>/dev/null || true
 cp "$here"/examples/*.pov "$out/seeds/" 2>/dev/null || true
