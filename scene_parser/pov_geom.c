@@ -267,9 +267,11 @@ pov_mesh *pov_tess_sphere(const double c[3], double r)
         return NULL;
     for (int i = 0; i <= POV_RINGS; ++i) {
         double th = PI * i / POV_RINGS;
+        /* the poles exactly on the axis: their triangles share one point (watertight) */
+        double st = i == 0 || i == POV_RINGS ? 0.0 : sin(th), ct = i == 0 ? 1.0 : i == POV_RINGS ? -1.0 : cos(th);
         for (int j = 0; j <= POV_SEGMENTS; ++j) {
             double ph = 2 * PI * j / POV_SEGMENTS;
-            double n[3] = {sin(th) * cos(ph), cos(th), sin(th) * sin(ph)};
+            double n[3] = {st * cos(ph), ct, st * sin(ph)};
             double p[3] = {c[0] + r * n[0], c[1] + r * n[1], c[2] + r * n[2]};
             if (pov_mesh_vertex(m, p, n, NULL) == UINT32_MAX)
                 return fail(m);

@@ -35,6 +35,10 @@ typedef struct pov_light {
     double fade_distance, fade_power;
 } pov_light;
 
+/* The inside of a shape that tessellates to a mesh (box, cylinder, cone, torus) or of a CSG, in
+ * its primitive's object space (pov_csg.c). Shared between copies (reference counted). */
+typedef struct pov_solid pov_solid;
+
 /* SKIPPED: an unsupported shape (path holds its keyword); warned about where it is placed. */
 enum { POV_PRIM_SPHERE = 0, POV_PRIM_PLANE, POV_PRIM_MESH, POV_PRIM_LIGHT, POV_PRIM_IMPORT, POV_PRIM_SKIPPED };
 
@@ -46,6 +50,8 @@ typedef struct pov_prim {
     pov_mesh *mesh;      /* MESH */
     pov_light light;     /* LIGHT */
     char *path;          /* IMPORT: resolved file name (owned) */
+    pov_solid *solid;    /* MESH: its inside for CSG (a reference), NULL when it has none */
+    int inverse;         /* `inverse`: inside and outside swapped (CSG) */
     vbnl_sdl_loc loc;
 } pov_prim;
 
@@ -97,5 +103,25 @@ pov_mesh *pov_tess_plane(const double n[3], double d, const double centre[3], do
  * instead (exact for convex and star-shaped ones) and *huge is set. */
 #define POV_EAR_CLIP_MAX 4096
 pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last, int *huge);
+
+/* Appends a primitive (identity transform); NULL when out of memory (pov_scene.c). */
+pov_prim *pov_obj_add(pov_obj *o, int kind, vbnl_sdl_loc loc);
+
+/* ---- CSG (pov_csg.c) ----------------------------------------------------------------------- */
+pov_solid *pov_solid_box(const double a[3], const double b[3]);
+pov_solid *pov_solid_cone(const double base[3], double rb, const double top[3], double rt);
+pov_solid *pov_solid_torus(double major, double minor);
+pov_solid *pov_solid_ref(pov_solid *s);
+void pov_solid_unref(pov_solid *s);
+
+enum { POV_CSG_INTERSECTION = 0, POV_CSG_DIFFERENCE, POV_CSG_MERGE };
+/* Appends to `out` the surface of the CSG of the operands (objects whose primitives are in the
+ * CSG's space, appearances handed down): mesh pieces carrying the CSG as their solid, and the
+ * operands' lights, skipped shapes and imported meshes unchanged. Returns 0 with *error set on
+ * failure (out of memory, or a surface of more than 2M triangles). */
+int pov_csg_build(int op, const pov_obj *ops, size_t nops, pov_obj *out, const char **error);
+/* The same with the surfaces of the first nsurf operands only: `clipped_by { S }` is the
+ * intersection of the object and S without S's surface. */
+int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf, pov_obj *out, const char **error);
 
 #endif

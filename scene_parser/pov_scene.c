@@ -149,12 +149,16 @@ static void obj_clear(pov_obj *o)
     for (size_t i = 0; i < o->n; ++i) {
         pov_appearance_free(o->v[i].app);
         pov_mesh_unref(o->v[i].mesh);
+        pov_solid_unref(o->v[i].solid);
         free(o->v[i].path);
     }
     free(o->v);
     pov_appearance_free(o->app);
     memset(o, 0, sizeof *o);
 }
+
+static pov_prim *obj_add(pov_obj *o, int kind, vbnl_sdl_loc loc);
+pov_prim *pov_obj_add(pov_obj *o, int kind, vbnl_sdl_loc loc) { return obj_add(o, kind, loc); }
 
 static pov_prim *obj_add(pov_obj *o, int kind, vbnl_sdl_loc loc)
 {
@@ -187,6 +191,7 @@ static int obj_append_copy(pov_obj *dst, const pov_obj *src)
         d->path = NULL;
         if (s->mesh)
             s->mesh->refs++;
+        pov_solid_ref(s->solid);
         if ((s->app && !(d->app = pov_appearance_copy(s->app))) || (s->path && !(d->path = strdup(s->path))))
             return 0;
     }
@@ -412,7 +417,61 @@ static vbnl_result parse_transform_block(loader *L, double m[16])
 typedef struct shape_flags {
     int open;      /* cylinder/cone: "open" seen */
     int allow_open;
+    pov_obj clip;  /* clipped_by shapes, applied once the shape is built (a cylinder's mesh is
+                    * made after its modifiers) */
+    vbnl_sdl_loc clip_loc;
 } shape_flags;
+
+static vbnl_result unexpected(loader *L, const char *what);
+
+/* clipped_by: the object keeps its surface inside the union of the clipping shapes (POV-Ray's
+ * clipping; the shapes' own surfaces are not added). Consumes clip. */
+static vbnl_result apply_clip(loader *L, pov_obj *o, pov_obj *clip, vbnl_sdl_loc loc)
+{
+    pov_obj ops[2];
+    memset(ops, 0, sizeof ops);
+    ops[1] = *clip;
+    memset(clip, 0, sizeof *clip);
+    /* the object's primitives so far are the clipped operand; its own appearance stays with it
+     * and reaches the pieces later, as it would have reached the primitives */
+    ops[0].v = o->v;
+    ops[0].n = o->n;
+    ops[0].cap = o->cap;
+    o->v = NULL;
+    o->n = o->cap = 0;
+    vbnl_result r = VBNL_OK;
+    const char *error = NULL;
+    if (!pov_csg_build_surfaces(POV_CSG_INTERSECTION, ops, 2, 1, o, &error))
+        r = strcmp(error, "out of memory") ? vbnl_sdl_error(L->c.parser, &loc, "clipped_by: %s", error) : oom(L);
+    obj_clear(&ops[0]);
+    obj_clear(&ops[1]);
+    return r;
+}
+
+/* clipped_by { shapes } (the parser is on the keyword) into clip (shapes added). */
+static vbnl_result parse_clipped_by(loader *L, pov_obj *clip)
+{
+    vbnl_sdl_parser *p = L->c.parser;
+    vbnl_sdl_next(p);
+    if (vbnl_sdl_expect(p, '{', "after 'clipped_by'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (is_word(vbnl_sdl_peek(p), "bounded_by")) { /* clipped_by { bounded_by }: no clipping */
+        vbnl_sdl_next(p);
+        return vbnl_sdl_expect(p, '}', "after 'bounded_by' in 'clipped_by'");
+    }
+    while (!is_punct(vbnl_sdl_peek(p), '}')) {
+        if (!is_shape(vbnl_sdl_peek(p)))
+            return unexpected(L, "clipped_by");
+        pov_obj child = {0};
+        if (parse_object(L, &child) != VBNL_OK || !obj_move(clip, &child)) {
+            obj_clear(&child);
+            return vbnl_sdl_failed(p) ? VBNL_ERR_PARSE : oom(L);
+        }
+        obj_clear(&child);
+    }
+    vbnl_sdl_next(p);
+    return VBNL_OK;
+}
 
 /* One object modifier (the parser is on it). Returns 1 if consumed, 0 if not a modifier. */
 static int parse_modifier(loader *L, pov_obj *o, shape_flags *sf)
@@ -430,12 +489,20 @@ static int parse_modifier(loader *L, pov_obj *o, shape_flags *sf)
         return -1;
     if (r > 0) {
         obj_transform(o, m);
+        if (sf)
+            obj_transform(&sf->clip, m);
         return 1;
     }
     static const char *const flags[] = {"no_image", "no_reflection", "no_radiosity", "double_illuminate",
-                                        "inverse", "smooth", "uv_mapping", "cutaway_textures", NULL};
+                                        "smooth", "uv_mapping", "cutaway_textures", NULL};
     static const char *const bool_flags[] = {"hollow", "sturm", "split_union", "hierarchy", NULL};
     static const char *const skipped_blocks[] = {"bounded_by", "photons", "radiosity", NULL};
+    if (is_word(t, "inverse")) { /* swaps inside and outside (CSG) */
+        vbnl_sdl_next(p);
+        for (size_t i = 0; i < o->n; ++i)
+            o->v[i].inverse = !o->v[i].inverse;
+        return 1;
+    }
     if (is_word(t, "no_shadow")) {
         vbnl_sdl_next(p);
         if (!L->warned_no_shadow++)
@@ -461,9 +528,16 @@ static int parse_modifier(loader *L, pov_obj *o, shape_flags *sf)
         return vbnl_sdl_skip_block(p) == VBNL_OK ? 1 : -1;
     }
     if (is_word(t, "clipped_by")) {
-        vbnl_sdl_next(p);
-        vbnl_sdl_warning(p, &loc, "clipped_by is not supported; the object is rendered unclipped");
-        return vbnl_sdl_skip_block(p) == VBNL_OK ? 1 : -1;
+        if (sf) { /* applied by the shape when it is built */
+            sf->clip_loc = loc;
+            return parse_clipped_by(L, &sf->clip) == VBNL_OK ? 1 : -1;
+        }
+        pov_obj clip = {0};
+        if (parse_clipped_by(L, &clip) != VBNL_OK) {
+            obj_clear(&clip);
+            return -1;
+        }
+        return apply_clip(L, o, &clip, loc) == VBNL_OK ? 1 : -1;
     }
     return 0;
 }
@@ -1002,6 +1076,47 @@ static vbnl_result parse_object(loader *L, pov_obj *o)
     return r;
 }
 
+/* intersection / difference / merge { objects... modifiers } (after the '{'): the operands
+ * come first (as in POV-Ray); the surface is built when the first modifier or the '}' comes, so
+ * the modifiers apply to it as to any object. */
+static vbnl_result parse_csg(loader *L, pov_obj *o, const char *w, vbnl_sdl_loc loc)
+{
+    vbnl_sdl_parser *p = L->c.parser;
+    pov_obj *ops = NULL;
+    size_t nops = 0;
+    vbnl_result r = VBNL_OK;
+    while (is_shape(vbnl_sdl_peek(p))) {
+        pov_obj *n = realloc(ops, (nops + 1) * sizeof *n);
+        if (!n) {
+            r = oom(L);
+            goto done;
+        }
+        ops = n;
+        memset(&ops[nops], 0, sizeof ops[nops]);
+        nops++;
+        if (parse_object(L, &ops[nops - 1]) != VBNL_OK || !obj_finish(&ops[nops - 1])) {
+            r = vbnl_sdl_failed(p) ? VBNL_ERR_PARSE : oom(L);
+            goto done;
+        }
+    }
+    int op = w[0] == 'i' ? POV_CSG_INTERSECTION : w[0] == 'd' ? POV_CSG_DIFFERENCE : POV_CSG_MERGE;
+    if (nops == 0) {
+        vbnl_sdl_warning(p, &loc, "'%s' without objects is empty", w);
+    } else {
+        const char *error = NULL;
+        if (!pov_csg_build(op, ops, nops, o, &error)) {
+            r = strcmp(error, "out of memory") ? vbnl_sdl_error(p, &loc, "%s: %s", w, error) : oom(L);
+            goto done;
+        }
+    }
+    r = parse_modifiers(L, o, NULL, w);
+done:
+    for (size_t i = 0; i < nops; ++i)
+        obj_clear(&ops[i]);
+    free(ops);
+    return r;
+}
+
 static vbnl_result parse_object_inner(loader *L, pov_obj *o)
 {
     vbnl_sdl_parser *p = L->c.parser;
@@ -1009,7 +1124,7 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
     const char *w = kw.text;
     vbnl_sdl_loc loc = kw.loc;
     o->loc = loc;
-    if (in_list(w, skipped_shapes) || strcmp(w, "intersection") == 0 || strcmp(w, "difference") == 0) {
+    if (in_list(w, skipped_shapes)) {
         /* The warning comes where the shape is placed in the scene (a declared but unused one,
          * as in shapes.inc, is silent). */
         pov_prim *pr = obj_add(o, POV_PRIM_SKIPPED, loc);
@@ -1023,7 +1138,8 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
     snprintf(ctx, sizeof ctx, "after '%s'", w);
     if (vbnl_sdl_expect(p, '{', ctx) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    shape_flags sf = {0, 0};
+    shape_flags sf;
+    memset(&sf, 0, sizeof sf);
     double a[3], b[3], r1, r2;
     if (strcmp(w, "sphere") == 0) {
         if (vec3(L, a) != VBNL_OK)
@@ -1042,6 +1158,8 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
         comma(L);
         if (vec3(L, b) != VBNL_OK || add_mesh_prim(L, o, pov_tess_box(a, b), loc) != VBNL_OK)
             return VBNL_ERR_PARSE;
+        if (!(o->v[o->n - 1].solid = pov_solid_box(a, b)))
+            return oom(L);
     } else if (strcmp(w, "plane") == 0) {
         if (vec3(L, a) != VBNL_OK)
             return VBNL_ERR_PARSE;
@@ -1082,17 +1200,23 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
         if (!pr)
             return oom(L);
         size_t idx = o->n - 1;
-        if (parse_modifiers(L, o, &sf, w) != VBNL_OK)
+        if (parse_modifiers(L, o, &sf, w) != VBNL_OK) {
+            obj_clear(&sf.clip);
             return VBNL_ERR_PARSE;
+        }
         if (degenerate) { /* POV-Ray warns and drops it too */
             vbnl_sdl_warning(p, &loc, "%s: the two end points coincide; the object is skipped", w);
             o->v[idx].mesh = pov_mesh_new();
         } else {
             o->v[idx].mesh = pov_tess_cone(a, r1, b, r2, sf.open);
+            if (!(o->v[idx].solid = pov_solid_cone(a, r1, b, r2)))
+                return oom(L);
         }
-        if (!o->v[idx].mesh)
+        if (!o->v[idx].mesh) {
+            obj_clear(&sf.clip);
             return oom(L);
-        return VBNL_OK;
+        }
+        return sf.clip.n ? apply_clip(L, o, &sf.clip, sf.clip_loc) : VBNL_OK;
     } else if (strcmp(w, "disc") == 0) {
         double n[3], hole = 0;
         if (vec3(L, a) != VBNL_OK)
@@ -1118,6 +1242,8 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
             return VBNL_ERR_PARSE;
         if (add_mesh_prim(L, o, pov_tess_torus(r1, r2), loc) != VBNL_OK)
             return VBNL_ERR_PARSE;
+        if (!(o->v[o->n - 1].solid = pov_solid_torus(r1, r2)))
+            return oom(L);
     } else if (strcmp(w, "triangle") == 0 || strcmp(w, "smooth_triangle") == 0) {
         int smooth = w[0] == 's';
         double v[3][3], n[3][3];
@@ -1188,7 +1314,9 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
                    !in_list(t->text, (const char *const[]){"translate", "rotate", "scale", "matrix", "transform", NULL})) {
             return vbnl_sdl_error(p, &t->loc, "undeclared object identifier '%s'", t->text);
         }
-    } else if (strcmp(w, "union") == 0 || strcmp(w, "merge") == 0 || strcmp(w, "light_group") == 0) {
+    } else if (strcmp(w, "intersection") == 0 || strcmp(w, "difference") == 0 || strcmp(w, "merge") == 0) {
+        return parse_csg(L, o, w, loc);
+    } else if (strcmp(w, "union") == 0 || strcmp(w, "light_group") == 0) {
         if (w[0] == 'l')
             vbnl_sdl_warning(p, &loc, "light_group is rendered as a union: its lights illuminate the whole scene");
         for (;;) {
@@ -1223,7 +1351,11 @@ static vbnl_result parse_object_inner(loader *L, pov_obj *o)
     } else {
         return vbnl_sdl_error(p, &loc, "unknown object '%s'", w);
     }
-    return parse_modifiers(L, o, &sf, w);
+    vbnl_result r = parse_modifiers(L, o, &sf, w);
+    if (r == VBNL_OK && sf.clip.n)
+        return apply_clip(L, o, &sf.clip, sf.clip_loc);
+    obj_clear(&sf.clip);
+    return r;
 }
 
 /* ---- light_source ---------------------------------------------------------------------------- */

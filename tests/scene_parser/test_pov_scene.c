@@ -311,17 +311,17 @@ static void test_skipped_shapes_warn(void **state)
 {
     (void)state;
     vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 }\n"
-                                "difference { box { -1, 1 } sphere { 0, 1.2 } }\n"
+                                "superellipsoid { <0.5, 0.5> }\n"
                                 "lathe { linear_spline 3, <0,0>, <1,1>, <0,2> }\n"
-                                "#declare I = intersection { box { -1, 1 } sphere { 0, 1.2 } }\n"
+                                "#declare I = ovus { 1, 0.5 }\n"
                                 "object { I }\n"
                                 "cylinder { <1, 1, 1>, <1, 1, 1>, 1 }\n"
                                 "#declare Unused = quadric { <1, 1, 0>, <0, 0, 0>, <0, 0, 0>, -1 }\n"
                                 "#declare U = union { object { I } sphere { 0, 1 } }\n"
                                 "object { U translate x } object { U translate -x }");
-    assert_non_null(strstr(g_diags, "test.pov:4:1: warning: 'difference' is not supported; the object is skipped"));
+    assert_non_null(strstr(g_diags, "test.pov:4:1: warning: 'superellipsoid' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:5:1: warning: 'lathe' is not supported; the object is skipped"));
-    assert_non_null(strstr(g_diags, "test.pov:6:14: warning: 'intersection' is not supported; the object is skipped"));
+    assert_non_null(strstr(g_diags, "test.pov:6:14: warning: 'ovus' is not supported; the object is skipped"));
     assert_non_null(strstr(g_diags, "test.pov:8:1: warning: cylinder: the two end points coincide; the object is skipped"));
     assert_null(strstr(g_diags, "quadric")); /* declared, never placed: silent */
     const char *w = strstr(g_diags, "test.pov:6:14: warning");
@@ -332,17 +332,96 @@ static void test_skipped_shapes_warn(void **state)
     vbnl_pov_scene_destroy(s);
 }
 
+/* Does a ray from o along d hit the scene, and where (t)? */
+static float hit_t(vbnl_pov_scene *s, float ox, float oy, float oz, float dx, float dy, float dz)
+{
+    vbnl_hit h;
+    return hit(s, ox, oy, oz, dx, dy, dz, &h) ? h.t : -1.0f;
+}
+
+/* CSG: the surfaces of intersection, difference and merge against the exact solids, nesting,
+ * transforms after the operands, inverse, half-spaces, textures of the cut walls. */
+static void test_csg(void **state)
+{
+    (void)state;
+    /* a box minus a sphere poking out of its front face: the ray through the centre enters the
+     * hole and meets the sphere's inner wall at z = -0.3 + ... (sphere radius 0.5 at z = -1) */
+    vbnl_pov_scene *s = ok(BASE "difference { box { -1, 1 } sphere { <0, 0, -1>, 0.5 } }");
+    float t = hit_t(s, 0, 0, -10, 0, 0, 1);
+    assert_float_equal(t, 9.5f, 0.01f); /* the bottom of the spherical dent, z = -0.5 */
+    assert_float_equal(hit_t(s, 0.8f, 0.8f, -10, 0, 0, 1), 9.0f, 1e-3f); /* the box face beside it */
+    /* a ray just inside the hole's rim still reaches the dent (the seam is cut, not stair-stepped) */
+    assert_float_equal(hit_t(s, 0.49f, 0, -10, 0, 0, 1), 9.0f + sqrtf(0.25f - 0.49f * 0.49f), 0.03f);
+    assert_float_equal(hit_t(s, 0.52f, 0, -10, 0, 0, 1), 9.0f, 1e-3f);
+    /* no sphere left outside the box: from the side, the box face at x = -1 comes first */
+    assert_float_equal(hit_t(s, -10, 0, -1.2f, 1, 0, 0), -1.0f, 0);
+    assert_float_equal(hit_t(s, -10, 0, -0.9f, 1, 0, 0), 9.0f, 1e-3f);
+    vbnl_pov_scene_destroy(s);
+
+    /* intersection of a sphere and a box: a rounded cube; the half-space below a plane */
+    s = ok(BASE "intersection { sphere { 0, 1.3 } box { -1, 1 } }\n"
+                "intersection { plane { y, 0 } sphere { <5, 0, 0>, 1 } }\n");
+    assert_float_equal(hit_t(s, 0, 0, -10, 0, 0, 1), 9.0f, 1e-3f);     /* the box face */
+    assert_float_equal(hit_t(s, 0.95f, 0.95f, -10, 0, 0, 1), -1.0f, 0); /* the corner is cut off */
+    assert_float_equal(hit_t(s, 0.95f, 0.5f, -10, 0, 0, 1), 10.0f - sqrtf(1.69f - 0.95f * 0.95f - 0.25f), 0.01f);
+    assert_float_equal(hit_t(s, 5, 3, 0, 0, -1, 0), 3.0f, 1e-3f);    /* the flat top of the half ball */
+    assert_float_equal(hit_t(s, 5, -3, 0, 0, 1, 0), 2.0f, 0.01f);    /* its round bottom */
+    assert_float_equal(hit_t(s, 5, 0.5f, -10, 0, 0, 1), -1.0f, 0);   /* nothing above the plane */
+    assert_float_equal(hit_t(s, 20, -0.5f, 10, 0, 0, -1), -1.0f, 0); /* the plane is bounded by the ball */
+    vbnl_pov_scene_destroy(s);
+
+    /* nesting, transforms after the operands, inverse and a cut wall's own texture */
+    s = ok(BASE "#declare Ring = difference { cylinder { -z, z, 1 } cylinder { -2 * z, 2 * z, 0.5 } }\n"
+                "difference { object { Ring } box { <0, -2, -2>, <2, 2, 2> pigment { rgb <0, 1, 0> } }\n"
+                "  pigment { rgb <1, 0, 0> } rotate z * 90 translate x * 5 }\n"
+                "intersection { sphere { <10, 0, 0>, 1 } sphere { <10, 0, 0>, 0.5 inverse } }\n");
+    /* the half ring, turned: its remaining half is at y < 0 ... rotate z*90 maps -x to -y */
+    assert_float_equal(hit_t(s, 5, -0.75f, -10, 0, 0, 1), 9.0f, 1e-3f); /* the ring's front face */
+    assert_float_equal(hit_t(s, 5, 0.75f, -10, 0, 0, 1), -1.0f, 0);     /* the removed half */
+    assert_float_equal(hit_t(s, 5, 0, -10, 0, 0, 1), -1.0f, 0);         /* the hole */
+    assert_float_equal(hit_t(s, 5, -3, 0, 0, 1, 0), 2.0f, 0.01f);       /* outer wall from below */
+    /* the cut face (at y = 0 after the rotation) has the box's green; the rest the CSG's red */
+    vbnl_hit h;
+    assert_true(hit(s, 5.75f, 3, 0.5f, 0, -1, 0, &h));
+    assert_float_equal(h.t, 3.0f, 1e-3f);
+    NEAR(sc(s)->materials[h.material].desc.base_color[0], 0.0f);
+    NEAR(sc(s)->materials[h.material].desc.base_color[1], 0.6f);
+    NEAR(mat_at(s, 5, -0.75f)->base_color[0], 0.6f);
+    /* a hollow ball: from outside the outer shell, from inside the inner one (facing inwards) */
+    assert_float_equal(hit_t(s, 10, 0, -10, 0, 0, 1), 9.0f, 0.01f);
+    assert_float_equal(hit_t(s, 10, 0, 0, 0, 0, 1), 0.5f, 0.01f);
+    vbnl_pov_scene_destroy(s);
+
+    /* merge keeps only the outer surface; two overlapping balls */
+    s = ok(BASE "merge { sphere { <-0.5, 0, 0>, 1 } sphere { <0.5, 0, 0>, 1 } }");
+    assert_float_equal(hit_t(s, 0, 0, 0, 1, 0, 0), 1.5f, 0.01f); /* no inner wall at x = 0.5 */
+    assert_float_equal(hit_t(s, -0.2f, 0, -10, 0, 0, 1), 10.0f - sqrtf(1.0f - 0.09f), 0.01f);
+    vbnl_pov_scene_destroy(s);
+    assert_null(strstr(g_diags, "not supported"));
+
+    /* clipped_by: the surface inside the clipping shapes, without their surfaces; a cylinder
+     * (built after its modifiers) clipped, then moved with its clip */
+    s = ok(BASE "sphere { 0, 1 clipped_by { plane { y, 0 } } }\n"
+                "cylinder { -z, z, 1 clipped_by { box { <-2, -2, -0.5>, <2, 2, 0.5> } } translate x * 5 }\n");
+    assert_float_equal(hit_t(s, 0, 3, 0, 0, -1, 0), 4.0f, 0.01f);  /* no cap: the inside bottom */
+    assert_float_equal(hit_t(s, 0, -3, 0, 0, 1, 0), 2.0f, 0.01f);
+    assert_float_equal(hit_t(s, 0, 0.5f, -10, 0, 0, 1), -1.0f, 0); /* the top half is gone */
+    assert_float_equal(hit_t(s, 5, 0, -10, 0, 0, 1), -1.0f, 0);    /* the cylinder's caps are cut off */
+    assert_float_equal(hit_t(s, 5, -3, 0, 0, 1, 0), 2.0f, 0.01f);  /* its wall within |z| < 0.5 */
+    assert_float_equal(hit_t(s, 5, -3, 0.8f, 0, 1, 0), -1.0f, 0);  /* but not beyond */
+    vbnl_pov_scene_destroy(s);
+}
+
 static void test_ignored_modifiers(void **state)
 {
     (void)state;
     vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 hollow on no_shadow no_image inverse sturm bounded_by { box { -1, 1 } }\n"
                                 "  photons { target } double_illuminate }\n"
-                                "sphere { x * 3, 1 no_shadow clipped_by { plane { y, 0 } } scale 0 }");
+                                "sphere { x * 3, 1 no_shadow bounded_by { box { -1, 1 } } scale 0 }");
     assert_int_equal(info(s).sphere_count, 2);
     assert_non_null(strstr(g_diags, "test.pov:3:25: warning: no_shadow is ignored: every object casts shadows under global illumination"));
     assert_null(strstr(g_diags, "test.pov:5:19: warning: no_shadow")); /* once */
-    assert_non_null(strstr(g_diags, "test.pov:5:29: warning: clipped_by is not supported; the object is rendered unclipped"));
-    const char *sc0 = strstr(g_diags, "test.pov:5:59: warning: scale by 0 changed to 1 (as POV-Ray does)");
+    const char *sc0 = strstr(g_diags, "test.pov:5:58: warning: scale by 0 changed to 1 (as POV-Ray does)");
     assert_non_null(sc0);
     assert_null(strstr(sc0 + 40, "scale by 0")); /* once per scale */
     vbnl_pov_scene_destroy(s);
@@ -658,6 +737,7 @@ int main(void)
         cmocka_unit_test(test_union_inheritance),
         cmocka_unit_test(test_skipped_shapes_warn),
         cmocka_unit_test(test_ignored_modifiers),
+        cmocka_unit_test(test_csg),
         cmocka_unit_test(test_vbnl_mesh),
         cmocka_unit_test(test_camera),
         cmocka_unit_test(test_lights),

@@ -301,8 +301,17 @@ static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *er
     free(ids);
     free(p_rs);
     rv_maps_free(&m); /* rendering needs only the lights */
-    if (r == VBNL_OK)
+    if (r == VBNL_OK) {
         s->prepared = 1;
+        if (stage) { /* the lights and their emission tables */
+            const rv_lights *l = &s->l;
+            uint64_t per_light = sizeof(uint32_t) * 2 + sizeof(vec3) * 4 + sizeof(float) * 4 + 2 + sizeof(frame);
+            uint64_t bytes = (uint64_t)l->count * per_light;
+            if (l->table)
+                bytes += (uint64_t)l->count * 3 * vbnl_hemioct_texel_count(s->map) * sizeof(float);
+            vbnl_stage_set_storage(stage, bytes);
+        }
+    }
     return r;
 }
 
