@@ -7,7 +7,7 @@
  * semantics: spheres, boxes, cylinders, cones, tori, the half-space below a plane, nested CSG,
  * `inverse`; triangles, discs, polygons and meshes have no inside). Where another operand's
  * boundary can hide inside a large triangle (a small sphere cut out of a box face), triangles that
- * overlap its bounds are split first to 1/32 of its size. Cuts follow the boundary by bisection
+ * overlap its bounds are split first (longest edge halved) to 1/32 of its size. Cuts follow the boundary by bisection
  * on the triangle edges, so the seam is exact at the split vertices and piecewise linear between
  * them. Each result piece carries the CSG as its solid, so CSG nests. */
 #include <math.h>
@@ -365,7 +365,7 @@ typedef struct vtx {
     double p[3], n[3], uv[2];
 } vtx;
 
-#define CSG_MAX_DEPTH 14
+#define CSG_MAX_DEPTH 28 /* longest-edge halvings */
 #define CSG_MAX_TRIANGLES 2000000u
 
 typedef struct clipper {
@@ -468,14 +468,23 @@ static void clip_tri(clipper *c, const vtx *v0, const vtx *v1, const vtx *v2, in
             if (lo[0] > f->hi[0] || hi[0] < f->lo[0] || lo[1] > f->hi[1] || hi[1] < f->lo[1] || lo[2] > f->hi[2] ||
                 hi[2] < f->lo[2])
                 continue;
-            vtx m01, m12, m20;
-            lerp(v0, v1, 0.5, &m01);
-            lerp(v1, v2, 0.5, &m12);
-            lerp(v2, v0, 0.5, &m20);
-            clip_tri(c, v0, &m01, &m20, depth + 1);
-            clip_tri(c, &m01, v1, &m12, depth + 1);
-            clip_tri(c, &m20, &m12, v2, depth + 1);
-            clip_tri(c, &m01, &m12, &m20, depth + 1);
+            /* halve the longest edge (thin triangles stay few) */
+            int e = 0;
+            double best = -1;
+            for (int j = 0; j < 3; ++j) {
+                double d2 = 0;
+                for (int k = 0; k < 3; ++k) {
+                    double d = v[(j + 1) % 3]->p[k] - v[j]->p[k];
+                    d2 += d * d;
+                }
+                if (d2 > best)
+                    best = d2, e = j;
+            }
+            const vtx *a = v[e], *b = v[(e + 1) % 3], *o = v[(e + 2) % 3];
+            vtx mid;
+            lerp(a, b, 0.5, &mid);
+            clip_tri(c, a, &mid, o, depth + 1);
+            clip_tri(c, &mid, b, o, depth + 1);
             return;
         }
     }

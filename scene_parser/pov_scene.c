@@ -27,6 +27,8 @@ typedef struct pov_cam {
 typedef struct loader {
     pov_ctx c;
     pov_obj world;
+    double geo_centre[3]; /* centre of the geometry's bounds (build), for unfaded lights */
+    int have_geo;
     pov_cam cam;
     int have_camera;
     double env[3];
@@ -1954,6 +1956,13 @@ static vbnl_result emit_mesh(loader *L, const pov_prim *pr, const pov_mesh *m, v
 {
     if (m->nt == 0)
         return VBNL_OK;
+    const double *q = pr->m;
+    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
+                 q[2] * (q[4] * q[9] - q[5] * q[8]);
+    if (!(fabs(det) > 1e-12)) { /* e.g. `scale <1e-16, 1, 1>` from a loop: nothing to see */
+        vbnl_sdl_warning(L->c.parser, &pr->loc, "the object is scaled flat (singular transform): skipped");
+        return VBNL_OK;
+    }
     static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     uint32_t mat;
     vbnl_result r = pov_appearance_material(&L->c, pr->app, ident, &mat, err);
@@ -2010,9 +2019,16 @@ static vbnl_result emit_light(loader *L, const pov_prim *pr, vbnl_error *err)
     pov_m4_point(pr->m, l->point_at, at);
     pov_m4_dir(pr->m, l->axis1, a1);
     pov_m4_dir(pr->m, l->axis2, a2);
-    /* Radiant intensity I = colour (W/sr): POV-Ray's unfaded irradiance at distance 1. With
+    /* An unfaded POV-Ray light gives the same irradiance at any distance. Radiant intensity
+     * I = colour D^2 (W/sr) matches it at distance D, the distance from the light to the centre
+     * of the scene's geometry (at least 1): a distant "sun" lights the scene as in POV-Ray. With
      * fade_power 2, POV-Ray's 2/(1 + (d/D)^2) tends to 2 D^2 / d^2: I = 2 D^2 colour. */
     double s = 1;
+    if (L->have_geo && !(l->fade_distance > 0 && l->fade_power > 0)) {
+        double d[3] = {pos[0] - L->geo_centre[0], pos[1] - L->geo_centre[1], pos[2] - L->geo_centre[2]};
+        double D = fmax(1.0, len3(d));
+        s = D * D;
+    }
     if (l->fade_distance > 0 && l->fade_power > 0) {
         if (fabs(l->fade_power - 2) < 1e-9) {
             s = 2 * l->fade_distance * l->fade_distance;
@@ -2084,6 +2100,30 @@ static vbnl_result build(loader *L, vbnl_error *err)
     vbnl_sdl_loc nowhere = {"", 0, 0};
     if ((r = cam_resolve(L, &L->cam, nowhere, &cd)) != VBNL_OK)
         return vbnl_error_set(err, r, "camera: invalid vectors");
+    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < L->world.n; ++i) { /* the geometry alone (unfaded lights) */
+        const pov_prim *pr = &L->world.v[i];
+        double q[3];
+        if (pr->kind == POV_PRIM_SPHERE) {
+            pov_m4_point(pr->m, pr->a, q);
+            bounds_add(glo, ghi, q);
+        } else if (pr->kind == POV_PRIM_MESH) {
+            for (uint32_t v = 0; v < pr->mesh->nv; ++v) {
+                double pp[3] = {pr->mesh->pos[3 * v], pr->mesh->pos[3 * v + 1], pr->mesh->pos[3 * v + 2]};
+                pov_m4_point(pr->m, pp, q);
+                bounds_add(glo, ghi, q);
+            }
+        } else if (pr->kind == POV_PRIM_PLANE) { /* its point nearest the origin */
+            double nl2 = dot3(pr->a, pr->a), p0[3];
+            for (int k = 0; k < 3; ++k)
+                p0[k] = pr->a[k] * pr->a[3] / nl2;
+            pov_m4_point(pr->m, p0, q);
+            bounds_add(glo, ghi, q);
+        }
+    }
+    L->have_geo = glo[0] <= ghi[0];
+    for (int k = 0; k < 3; ++k)
+        L->geo_centre[k] = L->have_geo ? 0.5 * (glo[k] + ghi[k]) : 0.0;
     double cp[3] = {cd.position[0], cd.position[1], cd.position[2]};
     bounds_add(lo, hi, cp);
     for (size_t i = 0; i < L->world.n; ++i) {

@@ -522,6 +522,14 @@ static void test_lights(void **state)
     NEAR(light0(s)->p.x, 2.0f);
     NEAR(light0(s)->L.y, 2.0f);
     vbnl_pov_scene_destroy(s);
+    /* unfaded: POV-Ray's irradiance at the geometry's centre (distance 100 here), so a distant
+     * sun lights the scene; at least the colour itself (distance 1) */
+    s = ok("sphere { 0, 1 } light_source { <0, 100, 0> rgb <1, 2, 3> }");
+    NEAR(light0(s)->L.y / 2e4f, 1.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("sphere { 0, 1 } light_source { <0, 0.5, 0> rgb <1, 2, 3> }");
+    NEAR(light0(s)->L.y, 2.0f);
+    vbnl_pov_scene_destroy(s);
     /* fade_power 2: 2 D^2 colour */
     s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
     NEAR(light0(s)->L.x, 18.0f);
