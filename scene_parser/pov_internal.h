@@ -54,6 +54,9 @@ vbnl_result pov_appearance_parse_modifier(pov_ctx *c, pov_appearance **app);
  * slope_map, density, media. Same return convention as vbnl_sdl_hooks.rvalue. */
 int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value *out);
 
+/* The average colour of an appearance's pigment (solid colour, colour map or image average). */
+void pov_appearance_average_color(pov_ctx *c, const pov_appearance *a, double rgb[3]);
+
 /* The default_block hook: `#default { texture/pigment/finish/normal { ... } }`. */
 int pov_appearance_default_block(pov_ctx *c);
 

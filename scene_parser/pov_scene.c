@@ -1779,6 +1779,72 @@ static vbnl_result parse_global_settings(loader *L)
 /* ---- hooks ----------------------------------------------------------------------------------- */
 
 /* Once per skipped shape (a declared one may be placed many times). */
+/* sky_sphere { pigment { ... } [emission c] [transforms] } (after the keyword): a constant
+ * environment of the pigment's average colour, which lights the scene as the sky does in
+ * POV-Ray with radiosity and is what rays that leave the scene see (replaces `background`). */
+static vbnl_result parse_sky_sphere(loader *L, const vbnl_sdl_loc *loc)
+{
+    vbnl_sdl_parser *p = L->c.parser;
+    if (vbnl_sdl_expect(p, '{', "after 'sky_sphere'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    pov_appearance *app = NULL;
+    double emission[3] = {1, 1, 1}, m[16];
+    vbnl_result r = VBNL_OK;
+    for (;;) {
+        const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+        if (is_punct(t, '}')) {
+            vbnl_sdl_next(p);
+            break;
+        }
+        if (is_word(t, "pigment")) {
+            if ((r = pov_appearance_parse_modifier(&L->c, &app)) != VBNL_OK)
+                break;
+            continue;
+        }
+        if (is_word(t, "emission")) {
+            double col[5];
+            vbnl_sdl_next(p);
+            if ((r = vbnl_sdl_parse_color(p, col)) != VBNL_OK)
+                break;
+            v3(emission, col[0], col[1], col[2]);
+            continue;
+        }
+        int tr = parse_transform_item(L, m); /* a constant sky does not turn */
+        if (tr < 0) {
+            r = VBNL_ERR_PARSE;
+            break;
+        }
+        if (tr == 0) { /* a declared sky_sphere, pigment_map, ...: the sky is left out, as before */
+            char what[64];
+            snprintf(what, sizeof what, "%s", t->text ? t->text : "?");
+            vbnl_sdl_loc wl = t->loc;
+            for (int depth = 1; depth > 0;) {
+                const vbnl_sdl_token *n = vbnl_sdl_next(p);
+                if (n->kind == VBNL_SDL_TOK_EOF) {
+                    pov_appearance_free(app);
+                    return vbnl_sdl_failed(p) ? VBNL_ERR_PARSE : vbnl_sdl_error(p, loc, "missing '}' at the end of 'sky_sphere'");
+                }
+                depth += is_punct(n, '{') - is_punct(n, '}');
+            }
+            vbnl_sdl_warning(p, &wl, "'%s' in sky_sphere is not supported; the sky_sphere is skipped", what);
+            pov_appearance_free(app);
+            return VBNL_OK;
+        }
+    }
+    if (r == VBNL_OK) {
+        double rgb[3] = {0, 0, 0};
+        if (app)
+            pov_appearance_average_color(&L->c, app, rgb);
+        for (int k = 0; k < 3; ++k)
+            L->env[k] = fmax(rgb[k] * emission[k], 0);
+        L->have_env = 1;
+        vbnl_sdl_warning(p, loc, "sky_sphere is rendered as a constant sky of its pigment's average colour (%.3g %.3g %.3g)",
+                         L->env[0], L->env[1], L->env[2]);
+    }
+    pov_appearance_free(app);
+    return r;
+}
+
 static void warn_skipped(loader *L, const pov_prim *pr)
 {
     for (size_t i = 0; i < L->nwarned; ++i)
@@ -1841,7 +1907,11 @@ static int hook_statement(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, void *u
         L->have_env = 1;
         return 1;
     }
-    static const char *const skipped[] = {"fog", "sky_sphere", "rainbow", "media", "atmosphere", NULL};
+    if (strcmp(w, "sky_sphere") == 0) {
+        vbnl_sdl_next(p);
+        return parse_sky_sphere(L, &loc) == VBNL_OK ? 1 : -1;
+    }
+    static const char *const skipped[] = {"fog", "rainbow", "media", "atmosphere", NULL};
     if (in_list(w, skipped)) {
         vbnl_sdl_next(p);
         vbnl_sdl_warning(p, &loc, "'%s' is not supported; skipped", w);

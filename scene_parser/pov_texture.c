@@ -1805,6 +1805,25 @@ int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value 
     return r;
 }
 
+void pov_appearance_average_color(pov_ctx *c, const pov_appearance *a, double rgb[3])
+{
+    const pov_pigment *g = &a->tex.pig;
+    double col[5] = {0, 0, 0, 0, 0};
+    if (g->kind == PIG_SOLID) {
+        memcpy(col, g->color, sizeof col);
+    } else if (g->kind == PIG_IMAGE) {
+        const image_entry *im = g->image >= 0 && (uint32_t)g->image < c->tex->image_count ? &c->tex->images[g->image] : NULL;
+        size_t n = im ? (size_t)im->width * im->height : 0;
+        for (size_t i = 0; i < n; ++i)
+            for (int k = 0; k < 3; ++k)
+                col[k] += im->texels[3 * i + k] / (double)n;
+    } else {
+        color_map_average(&g->map, col);
+    }
+    for (int k = 0; k < 3; ++k)
+        rgb[k] = col[k] > 0 ? col[k] : 0;
+}
+
 int pov_appearance_default_block(pov_ctx *c)
 {
     vbnl_sdl_parser *p = c->parser;

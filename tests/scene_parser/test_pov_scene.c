@@ -626,6 +626,15 @@ static void test_background(void **state)
     assert_true(sc(s)->env_light != VBNL_NO_LIGHT);
     NEAR(sc(s)->env_radiance.y, 0.25f);
     vbnl_pov_scene_destroy(s);
+    /* sky_sphere: a constant sky of the pigment's average colour times its emission */
+    s = ok("camera { location -5 look_at 0 }\nsphere { 0, 1 }\n"
+           "sky_sphere { pigment { gradient y color_map { [0 rgb <0, 0.2, 1>] [1 rgb <1, 0.6, 1>] } } emission 2 rotate x * 10 }");
+    assert_true(sc(s)->env_light != VBNL_NO_LIGHT);
+    NEAR(sc(s)->env_radiance.x, 1.0f);
+    NEAR(sc(s)->env_radiance.y, 0.8f);
+    NEAR(sc(s)->env_radiance.z, 2.0f);
+    assert_non_null(strstr(g_diags, "test.pov:3:1: warning: sky_sphere is rendered as a constant sky of its pigment's average colour (1 0.8 2)"));
+    vbnl_pov_scene_destroy(s);
 }
 
 /* ---- errors ------------------------------------------------------------------------------------- */
