@@ -12,10 +12,10 @@
  *            L_i = V(x, y_i) / (pi r_i^2) Int_cone f_x(w) cos_x I_i(-w) cos_i dw
  *          over the cone of directions toward the light's sphere (all directions inside it),
  *          visibility to the centre only (§6), and only when x is in front of the light's surface
- *          and the centre in front of x's (as `vsl`; against light leaking through thin walls). The integral is estimated by sampling the BSDF at
- *          x and, so that far lights whose cones BSDF samples rarely hit are not noisy, a uniform
- *          direction in the cone (VBNL Eq. 4), combined by the power heuristic; the emission is
- *          not importance-sampled (§6). As r -> 0 the term is the Rich-VPL term
+ *          and the centre in front of x's (as `vsl`; against light leaking through thin walls).
+ *          The integral is estimated by sampling the BSDF at x and, so that far lights whose
+ *          cones BSDF samples rarely hit are not noisy, a uniform direction in the cone (VBNL
+ *          Eq. 4), combined by the power heuristic; the emission is not importance-sampled (§6). As r -> 0 the term is the Rich-VPL term
  *          f_x I_i(-w) cos_x cos_i / d^2; radius_scale = 0 renders that point form.
  *
  * Clamping (`clamp` = b > 0, as for every VPL-type method; BSDFs never clamped): the point form
