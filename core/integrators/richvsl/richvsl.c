@@ -11,10 +11,11 @@
  *          estimation with MIS against a BSDF sample) and, from every light i, the Rich-VSL term
  *            L_i = V(x, y_i) / (pi r_i^2) Int_cone f_x(w) cos_x I_i(-w) cos_i dw
  *          over the cone of directions toward the light's sphere (all directions inside it),
- *          visibility to the centre only (§6). The integral is estimated by sampling the BSDF at
- *          x and, so that far lights whose cones BSDF samples rarely hit are not noisy, a uniform
- *          direction in the cone (VBNL Eq. 4), combined by the power heuristic; the emission is
- *          not importance-sampled (§6). As r -> 0 the term is the Rich-VPL term
+ *          visibility to the centre only (§6), and only when x is in front of the light's surface
+ *          and the centre in front of x's (as `vsl`; against light leaking through thin walls).
+ *          The integral is estimated by sampling the BSDF at x and, so that far lights whose
+ *          cones BSDF samples rarely hit are not noisy, a uniform direction in the cone (VBNL
+ *          Eq. 4), combined by the power heuristic; the emission is not importance-sampled (§6). As r -> 0 the term is the Rich-VPL term
  *          f_x I_i(-w) cos_x cos_i / d^2; radius_scale = 0 renders that point form.
  *
  * Clamping (`clamp` = b > 0, as for every VPL-type method; BSDFs never clamped): the point form
@@ -373,6 +374,14 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
             continue;
         float dist = sqrtf(d2);
         vec3 axis = v3_scale(to, 1.0f / dist);
+        /* x in front of the light's plane and the centre in front of x's: the conditions of the
+         * point term at the centre, as in `vsl`. Without them a point inside a sphere but behind
+         * the light's surface receives light through directions that never meet the light's disk
+         * (the cone is every direction there), and the visibility ray to the centre, offset to
+         * the back of both surfaces, runs inside a thin wall: light leaks through walls and
+         * around edges. */
+        if (v3_dot(axis, s->l.ng[i]) >= 0.0f || v3_dot(axis, sf->ng) <= 0.0f)
+            continue;
         float r = s->l.radius[i];
         vec3 L;
         float pdf;
