@@ -27,6 +27,7 @@
 #include <unistd.h>
 
 #include "richvsl.h"
+#include "vpl_set.h"
 #include "shading.h"
 
 static const vbnl_param_spec rv_params[] = {
@@ -426,90 +427,21 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
     return sum;
 }
 
-static inline void add_L(float *out, vec3 c)
+/* The virtual lights' share at a camera path's first non-delta vertex (nothing before preparing). */
+static vec3 gather_cb(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
+                      vbnl_rng *rng, vbnl_thread_stats *stats)
 {
-    out[0] += c.x;
-    out[1] += c.y;
-    out[2] += c.z;
+    const rv_state *s = state;
+    return s->prepared ? gather(s, bsdf, x, sf, rng, stats) : v3s(0.0f);
 }
 
+/* The camera path, direct light and film layers exactly as `vpl` and `vsl` (the same estimator for
+ * every many-light method). */
 static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
     const rv_state *s = state;
-    const vbnl_scene *sc = s->scene;
-    const int direct = !s->indirect_only;
-    vbnl_hit hit = *first;
-    vec3 beta = v3s(1.0f);
-    out[3] = 1.0f;
-    if (!hit_ok) {
-        if (sc->env_light != VBNL_NO_LIGHT && direct)
-            add_L(out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
-        return;
-    }
-    {
-        vbnl_bsdf tmp;
-        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
-    }
-    v3_store(out + VBNL_FILM_NORMAL, hit.ns);
-    out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), s->cam_forward);
-    if (hit.light != VBNL_NO_LIGHT && direct)
-        add_L(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
-    for (int chain = 0;; ++chain) {
-        vbnl_bsdf store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &store);
-        vbnl_shading_frame sf;
-        vbnl_shading_frame_make(bsdf, &hit, d, &sf);
-        const vec3 x = hit.p;
-        const int delta = vbnl_bsdf_is_delta(bsdf);
-        if (!delta) {
-            /* the first non-delta vertex: direct light as `path`, then the virtual lights */
-            if (direct) {
-                add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)));
-                vbnl_bsdf_sample_rec bs;
-                float ulobe = vbnl_rng_next(rng);
-                vec2 ub = vbnl_rng_next2(rng);
-                if (vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) && !v3_is_black(bs.weight)) {
-                    vec3 w = frame_to_world(&sf.fr, bs.wi);
-                    if ((bs.lobe & VBNL_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f) {
-                        vbnl_hit y;
-                        stats->rays++;
-                        int ok = vbnl_scene_intersect(sc, vbnl_offset_ray_origin(x, hit.ng, w), w, INFINITY, &y);
-                        vec3 Le;
-                        float mw = vbnl_arriving_light(sc, ok, &y, x, w, bs.pdf,
-                                                       (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
-                        if (mw > 0.0f)
-                            add_L(out, v3_scale(v3_mul(v3_mul(beta, bs.weight), Le), mw));
-                    }
-                }
-            }
-            if (s->prepared)
-                add_L(out, v3_mul(beta, gather(s, bsdf, x, &sf, rng, stats)));
-            return;
-        }
-        /* a delta vertex: the camera path goes on (the VPLs never shade specular surfaces) */
-        if (chain >= RV_MAX_SPECULAR_CHAIN)
-            return;
-        vbnl_bsdf_sample_rec bs;
-        float ulobe = vbnl_rng_next(rng);
-        vec2 ub = vbnl_rng_next2(rng);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
-            return;
-        vec3 w = frame_to_world(&sf.fr, bs.wi);
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
-            return;
-        beta = v3_mul(beta, bs.weight);
-        o = vbnl_offset_ray_origin(x, hit.ng, w);
-        d = w;
-        stats->rays++;
-        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
-        vec3 Le;
-        float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, 1, &Le);
-        if (mw > 0.0f && direct)
-            add_L(out, v3_scale(v3_mul(beta, Le), mw));
-        if (!hit_ok || !v3_is_finite(beta))
-            return;
-    }
+    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather_cb, s, rng, o, d, hit_ok, first, out, stats);
 }
 
 static void rv_render_tile(void *state, vbnl_tile_job *job)
