@@ -93,14 +93,14 @@ static float fresnel_conductor(float cos_i, float eta, float k)
     float s2 = 1.0f - c2;
     float eta2 = eta * eta, k2 = k * k;
     float t0 = eta2 - k2 - s2;
-    float a2b2 = sqrtf(fmaxf(t0 * t0 + 4.0f * eta2 * k2, 0.0f));
+    float a2b2 = sqrtf(maxf(t0 * t0 + 4.0f * eta2 * k2, 0.0f));
     float t1 = a2b2 + c2;
     float a = safe_sqrtf(0.5f * (a2b2 + t0));
     float t2 = 2.0f * sqrtf(c2) * a;
-    float rs = (t1 - t2) / fmaxf(t1 + t2, 1e-20f);
+    float rs = (t1 - t2) / maxf(t1 + t2, 1e-20f);
     float t3 = c2 * a2b2 + s2 * s2;
     float t4 = t2 * s2;
-    float rp = rs * (t3 - t4) / fmaxf(t3 + t4, 1e-20f);
+    float rp = rs * (t3 - t4) / maxf(t3 + t4, 1e-20f);
     return clampf(0.5f * (rp + rs), 0.0f, 1.0f);
 }
 
@@ -210,7 +210,7 @@ static vec3 conductor_eval_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 
     vec3 f = v3_scale(conductor_fresnel(b, v3_dot(wo, h)), dg);
     /* Multiple scattering (Kulla & Conty 2017), times cos theta_i. */
     float e_i = conductor_E(wi.z, b->alpha);
-    float ms = (1.0f - c->e_o) * (1.0f - e_i) / (VBNL_PI * fmaxf(1.0f - c->e_avg, 1e-6f)) * wi.z;
+    float ms = (1.0f - c->e_o) * (1.0f - e_i) / (VBNL_PI * maxf(1.0f - c->e_avg, 1e-6f)) * wi.z;
     return v3_fma(f, c->fms, ms);
 }
 
@@ -297,7 +297,7 @@ static vec3 plastic_eval_ctx(const vbnl_bsdf *b, const plastic_ctx *c, vec3 wo, 
     float spec = vbnl_fresnel_dielectric(v3_dot(wo, h), b->ior) * ggx_d(h, b->alpha) *
                  ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
     float es_i = coat_E(wi.z, b->alpha, b->ior);
-    float diff = (1.0f - c->es_o) * (1.0f - es_i) / fmaxf(1.0f - c->es_avg, 1e-6f) * VBNL_INV_PI * wi.z;
+    float diff = (1.0f - c->es_o) * (1.0f - es_i) / maxf(1.0f - c->es_avg, 1e-6f) * VBNL_INV_PI * wi.z;
     return v3_add(v3s(spec), v3_scale(b->color, diff));
 }
 
@@ -460,16 +460,9 @@ uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b)
     return 0;
 }
 
-int vbnl_bsdf_is_delta(const vbnl_bsdf *b)
-{
-    return b->type == VBNL_MATERIAL_MIRROR || b->type == VBNL_MATERIAL_DIELECTRIC;
-}
-
 vec3 vbnl_bsdf_albedo(const vbnl_bsdf *b)
 {
     if (b->type == VBNL_MATERIAL_CONDUCTOR)
         return conductor_fresnel(b, 1.0f); /* F0 */
     return b->color;
 }
-
-int vbnl_bsdf_is_transmissive(const vbnl_bsdf *b) { return b->type == VBNL_MATERIAL_DIELECTRIC; }

@@ -37,12 +37,12 @@ static float spot_smoothstep(float x, float a, float b)
  * A cos_inner below cos_outer is treated as a hard edge at cos_outer. */
 static float spot_falloff(const vbnl_light *l, float cos_t)
 {
-    float co = l->cos_outer, ci = fmaxf(l->cos_inner, l->cos_outer);
+    float co = l->cos_outer, ci = maxf(l->cos_inner, l->cos_outer);
     if (cos_t < co)
         return 0.0f;
     float f = spot_smoothstep(cos_t, co, ci);
     if (l->exponent > 0.0f)
-        f *= powf(fmaxf(cos_t, 0.0f), l->exponent);
+        f *= powf(maxf(cos_t, 0.0f), l->exponent);
     return f;
 }
 
@@ -224,7 +224,7 @@ static void fill_distant(const vbnl_light *l, vec3 ref, vec3 wi, vbnl_light_li_s
 {
     out->wi = wi;
     out->dist = INFINITY;
-    out->p = v3_fma(ref, wi, 2.0f * fmaxf(l->world_radius, 1.0f));
+    out->p = v3_fma(ref, wi, 2.0f * maxf(l->world_radius, 1.0f));
     out->n = v3_neg(wi);
     out->Li = l->L;
 }
@@ -356,9 +356,9 @@ static void sample_le_lambert(const vbnl_light *l, vec3 q, vec3 n, vec2 u, vbnl_
     if (l->two_sided) {
         side_pdf = 0.5f;
         if (u.x < 0.5f) {
-            u.x = fminf(u.x * 2.0f, VBNL_ONE_MINUS_EPS);
+            u.x = minf(u.x * 2.0f, VBNL_ONE_MINUS_EPS);
         } else {
-            u.x = fminf(u.x * 2.0f - 1.0f, VBNL_ONE_MINUS_EPS);
+            u.x = minf(u.x * 2.0f - 1.0f, VBNL_ONE_MINUS_EPS);
             n = v3_neg(n);
         }
     }

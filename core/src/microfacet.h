@@ -67,7 +67,7 @@ static inline vec3 ggx_sample_vndf(vec3 wo, float alpha, vec2 u)
     vec3 nh = v3_add(v3_add(v3_scale(t1, p1), v3_scale(t2, p2)),
                      v3_scale(vh, safe_sqrtf(1.0f - p1 * p1 - p2 * p2)));
     /* Section 3.4: unstretch back to the ellipsoid configuration. */
-    return v3_norm(v3(alpha * nh.x, alpha * nh.y, fmaxf(1e-6f, nh.z)));
+    return v3_norm(v3(alpha * nh.x, alpha * nh.y, maxf(1e-6f, nh.z)));
 }
 
 /* Solid-angle pdf of wi = reflect(wo, h) when h is drawn from the VNDF: D_wo(h) / (4 wo.h)
@@ -149,7 +149,7 @@ static inline float ggx_table_x_ior(float ior)
     return clampf((s - s0) / (s1 - s0), 0.0f, 1.0f) * (float)(VBNL_GGX_N_IOR - 1);
 }
 /* Inverse maps: the parameter value at grid coordinate x (integer or not). */
-static inline float ggx_table_mu_at(float x) { return fmaxf(sqr(x / (float)(VBNL_GGX_N_MU - 1)), VBNL_GGX_MU_MIN); }
+static inline float ggx_table_mu_at(float x) { return maxf(sqr(x / (float)(VBNL_GGX_N_MU - 1)), VBNL_GGX_MU_MIN); }
 static inline float ggx_table_alpha_at(float x)
 {
     float r0 = sqrtf(VBNL_GGX_ALPHA_MIN);

@@ -358,35 +358,10 @@ vbnl_result vbnl_scene_get_info(const vbnl_scene *s, vbnl_scene_info *out, vbnl_
 
 /* ---- queries ------------------------------------------------------------------------------ */
 
-static inline float int_as_float(int32_t i)
-{
-    float f;
-    memcpy(&f, &i, sizeof(f));
-    return f;
-}
-static inline int32_t float_as_int(float f)
-{
-    int32_t i;
-    memcpy(&i, &f, sizeof(i));
-    return i;
-}
-
-vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
-{
-    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    if (v3_dot(n, w) < 0.0f)
-        n = v3_neg(n);
-    float pc[3] = {p.x, p.y, p.z}, nc[3] = {n.x, n.y, n.z}, out[3];
-    for (int i = 0; i < 3; ++i) {
-        int32_t of = (int32_t)(int_scale * nc[i]);
-        float pi = int_as_float(float_as_int(pc[i]) + (pc[i] < 0.0f ? -of : of));
-        out[i] = fabsf(pc[i]) < origin ? pc[i] + float_scale * nc[i] : pi;
-    }
-    return v3(out[0], out[1], out[2]);
-}
-
+/* Embree's geometric normal (e_ng, unnormalised, object space) is (p1 - p0) x (p2 - p0) for
+ * triangles: the same orientation the scene's winding gives, without reloading the vertices. */
 static void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned prim_id, unsigned inst_id,
-                     float bu, float bv, float t, vec3 o, vec3 d, vbnl_hit *h)
+                     float bu, float bv, float t, vec3 o, vec3 d, vec3 e_ng, vbnl_hit *h)
 {
     h->t = t;
     h->p = v3_fma(o, d, t);
@@ -407,10 +382,7 @@ static void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned prim_id, un
     case SCENE_GEOM_MESH: {
         const scene_mesh *m = &g->u.mesh;
         const uint32_t *tri = m->indices + 3 * (size_t)prim_id;
-        vec3 p0 = v3_load(m->positions + 3 * tri[0]);
-        vec3 p1 = v3_load(m->positions + 3 * tri[1]);
-        vec3 p2 = v3_load(m->positions + 3 * tri[2]);
-        ng = v3_norm(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+        ng = v3_norm(e_ng);
         float b0 = 1.0f - bu - bv;
         if (m->normals) {
             ns = v3_add(v3_add(v3_scale(v3_load(m->normals + 3 * tri[0]), b0),
@@ -483,7 +455,8 @@ int vbnl_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbnl_h
     rtcIntersect1(s->world, &ictx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
         return 0;
-    fill_hit(s, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar, o, d, hit);
+    fill_hit(s, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar, o, d,
+             v3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), hit);
     return 1;
 }
 
@@ -537,8 +510,8 @@ void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 
     for (int i = 0; i < 8; ++i) {
         hit_mask[i] = active[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
         if (hit_mask[i])
-            fill_hit(s, rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i], rh.hit.u[i],
-                     rh.hit.v[i], rh.ray.tfar[i], o[i], d[i], &hits[i]);
+            fill_hit(s, rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i], rh.hit.u[i], rh.hit.v[i],
+                     rh.ray.tfar[i], o[i], d[i], v3(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]);
     }
 }
 

@@ -27,6 +27,12 @@ typedef struct vec2 {
     float x, y;
 } vec2;
 
+/* fmaxf / fminf with the same results (the non-NaN operand wins; NaN only when both are), as
+ * two compares and a blend: GCC calls libm for fmaxf unless NaNs are ruled out, and these sit
+ * in every shading step. */
+static inline float maxf(float a, float b) { return (a > b || b != b) ? a : b; }
+static inline float minf(float a, float b) { return (a < b || b != b) ? a : b; }
+
 static inline vec3 v3(float x, float y, float z) { return (vec3){x, y, z}; }
 static inline vec3 v3s(float s) { return (vec3){s, s, s}; }
 static inline vec3 v3_load(const float *p) { return (vec3){p[0], p[1], p[2]}; }
@@ -52,10 +58,10 @@ static inline vec3 v3_norm(vec3 a)
     float l = v3_len(a);
     return l > 0.0f ? v3_scale(a, 1.0f / l) : a;
 }
-static inline float v3_max_comp(vec3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
-static inline float v3_min_comp(vec3 a) { return fminf(a.x, fminf(a.y, a.z)); }
-static inline vec3 v3_min(vec3 a, vec3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
-static inline vec3 v3_max(vec3 a, vec3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+static inline float v3_max_comp(vec3 a) { return maxf(a.x, maxf(a.y, a.z)); }
+static inline float v3_min_comp(vec3 a) { return minf(a.x, minf(a.y, a.z)); }
+static inline vec3 v3_min(vec3 a, vec3 b) { return v3(minf(a.x, b.x), minf(a.y, b.y), minf(a.z, b.z)); }
+static inline vec3 v3_max(vec3 a, vec3 b) { return v3(maxf(a.x, b.x), maxf(a.y, b.y), maxf(a.z, b.z)); }
 static inline float v3_avg(vec3 a) { return (a.x + a.y + a.z) * (1.0f / 3.0f); }
 /* Rec. 709 luminance of a linear RGB colour. */
 static inline float v3_luminance(vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
@@ -66,7 +72,7 @@ static inline float v3_comp(vec3 a, int i) { return i == 0 ? a.x : (i == 1 ? a.y
 
 static inline float clampf(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
 static inline float sqr(float v) { return v * v; }
-static inline float safe_sqrtf(float v) { return sqrtf(fmaxf(v, 0.0f)); }
+static inline float safe_sqrtf(float v) { return sqrtf(maxf(v, 0.0f)); }
 
 /* Orthonormal frame with z as the given unit normal (Duff et al. 2017, branchless ONB). */
 typedef struct frame {

@@ -137,7 +137,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         if (!hit_ok)
             break;
         if (depth >= ps->rr_depth) {
-            float q = fmaxf(0.05f, 1.0f - v3_max_comp(beta));
+            float q = maxf(0.05f, 1.0f - v3_max_comp(beta));
             if (vbnl_rng_next(rng) < q)
                 break;
             beta = v3_scale(beta, 1.0f / (1.0f - q));
