@@ -23,6 +23,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "exit_codes.h"
@@ -151,7 +152,19 @@ typedef struct progress_state {
     double last_plain;
     char last_stage[64];
     int announced;        /* the first Ctrl-C has been reported */
+    int pause_interrupt;  /* VBNL_TEST_PAUSE=interrupt */
 } progress_state;
+
+/* VBNL_TEST_PAUSE=interrupt (tests only; see the README's Tests section): once the first Ctrl-C is
+ * seen, wait 30 s before the render is told to stop, after saying so on stderr, so that a test
+ * can send the second one while the render is surely still running. */
+static void test_pause_interrupt(void)
+{
+    fprintf(stderr, "vbnl: test pause (VBNL_TEST_PAUSE=interrupt): the render has not been stopped yet\n");
+    struct timespec left = {30, 0};
+    while (nanosleep(&left, &left) != 0 && errno == EINTR) {
+    }
+}
 
 static void format_eta(double s, char *buf, size_t n)
 {
@@ -178,6 +191,8 @@ static int on_progress(void *user, const vbnl_plugin_progress *p)
                 fputc('\n', stderr);
             fprintf(stderr, "vbnl: interrupted, finishing the current tiles (Ctrl-C again to quit without writing)\n");
         }
+        if (ps->pause_interrupt)
+            test_pause_interrupt();
     }
     if (!ps->quiet) {
         char eta[32];
@@ -507,7 +522,8 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     memset(&sa, 0, sizeof(sa));
     sa.sa_handler = on_sigint;
     sigaction(SIGINT, &sa, NULL);
-    progress_state ps = {quiet, isatty(STDERR_FILENO), -1e9, "", 0};
+    const char *pause = getenv("VBNL_TEST_PAUSE");
+    progress_state ps = {quiet, isatty(STDERR_FILENO), -1e9, "", 0, pause && !strcmp(pause, "interrupt")};
     res = api->prepare(r, on_progress, &ps, msg, sizeof(msg));
     if (res == VBNL_PLUGIN_OK)
         res = api->render(r, on_progress, &ps, msg, sizeof(msg));

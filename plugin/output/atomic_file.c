@@ -122,6 +122,22 @@ void vbnl_atomic_file_abandon_all(void)
     }
 }
 
+/* ---- test hook ------------------------------------------------------------------------------------
+ * VBNL_TEST_PAUSE=write (tests only; see the README's Tests section): every commit waits 30 s with
+ * its temporary file complete and not yet renamed, after saying so on stderr, so that a test can
+ * interrupt a write at a known point without depending on timing. */
+static void vbnl_test_pause_in_write(const vbnl_atomic_file *f)
+{
+    const char *p = getenv("VBNL_TEST_PAUSE");
+    if (!p || strcmp(p, "write") != 0)
+        return;
+    fprintf(stderr, "vbnl: test pause (VBNL_TEST_PAUSE=write): '%s' written, not yet renamed to '%s'\n",
+            f->tmp_path, f->path);
+    struct timespec left = {30, 0};
+    while (nanosleep(&left, &left) != 0 && errno == EINTR) {
+    }
+}
+
 /* ---- atomic files ---------------------------------------------------------------------------------- */
 
 static uint64_t vbnl_mix64(uint64_t x)
@@ -199,6 +215,7 @@ vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err)
 {
     if (f->fd < 0 || !f->tmp_path)
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': file not open", f->path);
+    vbnl_test_pause_in_write(f);
     /* fsync before rename, or a crash could leave a renamed but empty file. */
     if (fsync(f->fd) != 0) {
         int e = errno;
