@@ -7,7 +7,11 @@
  *
  * The module is looked for in this order: --plugin, $VBNL_PLUGIN, beside this executable, in
  * <executable>/../<libdir>/vbnl (an installed tree, wherever it was moved), in the configured
- * install directory. */
+ * install directory.
+ *
+ * Ctrl-C during a render: the first stops it after the tiles in flight and the partial image is
+ * written (exit 130); the second ends the process at once from the signal handler (exit 130),
+ * after the module's abandon_writes has removed the temporary file of a write under way. */
 #include <dlfcn.h>
 #include <errno.h>
 #include <getopt.h>
@@ -15,9 +19,11 @@
 #include <limits.h>
 #include <math.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "exit_codes.h"
@@ -35,13 +41,25 @@
 
 #define MSG_SIZE 2048
 
-static volatile sig_atomic_t g_interrupts; /* the signal handler's only state */
+/* The signal handler's state. Lock-free atomics: the handler may run on any thread, the module's
+ * workers included, while the main thread reads the count. g_abandon_writes is the module's
+ * abandon_writes (NULL for a 1.0 module), set before the handler is installed. */
+_Static_assert(ATOMIC_INT_LOCK_FREE == 2 && ATOMIC_POINTER_LOCK_FREE == 2, "the handler needs lock-free atomics");
+static atomic_int g_interrupts;
+static void (*_Atomic g_abandon_writes)(void);
 
+/* First Ctrl-C: the progress callback cancels, the partial image is written. Second: leave at
+ * once, writing nothing; the module removes the temporary file of a write under way (only
+ * async-signal-safe calls here). */
 static void on_sigint(int sig)
 {
     (void)sig;
-    if (++g_interrupts >= 2)
-        _exit(VBNL_EXIT_INTERRUPTED); /* second Ctrl-C: leave at once, write nothing */
+    if (atomic_fetch_add(&g_interrupts, 1) + 1 >= 2) {
+        void (*abandon)(void) = atomic_load(&g_abandon_writes);
+        if (abandon)
+            abandon();
+        _exit(VBNL_EXIT_INTERRUPTED);
+    }
 }
 
 /* ---- loading the plugin ------------------------------------------------------------------------ */
@@ -133,7 +151,20 @@ typedef struct progress_state {
     int quiet, tty;
     double last_plain;
     char last_stage[64];
+    int announced;        /* the first Ctrl-C has been reported */
+    int pause_interrupt;  /* VBNL_TEST_PAUSE=interrupt */
 } progress_state;
+
+/* VBNL_TEST_PAUSE=interrupt (tests only; see the README's Tests section): once the first Ctrl-C is
+ * seen, wait 30 s before the render is told to stop, after saying so on stderr, so that a test
+ * can send the second one while the render is surely still running. */
+static void test_pause_interrupt(void)
+{
+    fprintf(stderr, "vbnl: test pause (VBNL_TEST_PAUSE=interrupt): the render has not been stopped yet\n");
+    struct timespec left = {30, 0};
+    while (nanosleep(&left, &left) != 0 && errno == EINTR) {
+    }
+}
 
 static void format_eta(double s, char *buf, size_t n)
 {
@@ -147,10 +178,22 @@ static void format_eta(double s, char *buf, size_t n)
 
 /* Called on the thread that called prepare/render (this program's main thread). On a terminal:
  * one line per stage, rewritten in place; otherwise a plain line at a stage's start and end and
- * every 5 seconds. Returns non-zero after Ctrl-C, which cancels the render. */
+ * every 5 seconds. Returns non-zero after Ctrl-C, which cancels the render; the first call that
+ * sees it says so on stderr (the point after which a second Ctrl-C counts as the second). */
 static int on_progress(void *user, const vbnl_plugin_progress *p)
 {
     progress_state *ps = user;
+    int interrupted = atomic_load(&g_interrupts) > 0;
+    if (interrupted && !ps->announced) {
+        ps->announced = 1;
+        if (!ps->quiet) {
+            if (ps->tty && ps->last_stage[0])
+                fputc('\n', stderr);
+            fprintf(stderr, "vbnl: interrupted, finishing the current tiles (Ctrl-C again to quit without writing)\n");
+        }
+        if (ps->pause_interrupt)
+            test_pause_interrupt();
+    }
     if (!ps->quiet) {
         char eta[32];
         format_eta(p->eta, eta, sizeof(eta));
@@ -172,7 +215,7 @@ static int on_progress(void *user, const vbnl_plugin_progress *p)
         if (new_stage)
             snprintf(ps->last_stage, sizeof(ps->last_stage), "%s", p->stage);
     }
-    return g_interrupts > 0;
+    return interrupted;
 }
 
 /* Scene notes, warnings and errors in full (source line, caret, include chain). */
@@ -474,11 +517,13 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     }
 
     rc = VBNL_EXIT_FAILURE;
+    atomic_store(&g_abandon_writes, VBNL_PLUGIN_HAS(api, abandon_writes) ? api->abandon_writes : NULL);
     struct sigaction sa;
     memset(&sa, 0, sizeof(sa));
     sa.sa_handler = on_sigint;
     sigaction(SIGINT, &sa, NULL);
-    progress_state ps = {quiet, isatty(STDERR_FILENO), -1e9, ""};
+    const char *pause = getenv("VBNL_TEST_PAUSE");
+    progress_state ps = {quiet, isatty(STDERR_FILENO), -1e9, "", 0, pause && !strcmp(pause, "interrupt")};
     res = api->prepare(r, on_progress, &ps, msg, sizeof(msg));
     if (res == VBNL_PLUGIN_OK)
         res = api->render(r, on_progress, &ps, msg, sizeof(msg));

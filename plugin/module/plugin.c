@@ -16,8 +16,8 @@
 
 #define VBNL_PLUGIN_EXPORT __attribute__((visibility("default")))
 /* VBNL_PLUGIN_ABI_MAJOR.MINOR as text, for messages */
-#define VBNL_PLUGIN_ABI_STR "1.0"
-_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 0u, "update VBNL_PLUGIN_ABI_STR");
+#define VBNL_PLUGIN_ABI_STR "1.1"
+_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 1u, "update VBNL_PLUGIN_ABI_STR");
 
 /* The plugin's result codes are the core's. */
 _Static_assert(VBNL_PLUGIN_ERR_CORRUPT == (int)VBNL_ERR_CORRUPT, "result codes must match");
@@ -581,6 +581,9 @@ done:
     return res;
 }
 
+/* Async-signal-safe (see vbnl_plugin.h): the registry of temporaries lives in atomic_file.c. */
+static void p_abandon_writes(void) { vbnl_atomic_file_abandon_all(); }
+
 /* ---- developer commands that need the core beyond this ABI ------------------------------------ */
 
 typedef struct plugin_command {
@@ -643,6 +646,7 @@ static const vbnl_plugin_api api = {
     .write_png = p_write_png,
     .command_at = p_command_at,
     .run_command = p_run_command,
+    .abandon_writes = p_abandon_writes,
 };
 
 VBNL_PLUGIN_EXPORT const vbnl_plugin_api *vbnl_plugin_entry(uint32_t host_abi_major, const char **why);

@@ -1,9 +1,14 @@
-/* Write-to-temporary-then-rename, shared by the EXR and PNG writers. */
+/* Write-to-temporary-then-rename, shared by the EXR and PNG writers, and the registry of the
+ * temporary files in progress that lets a signal handler remove them before the process ends. */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,6 +19,127 @@
 
 #include "image_io.h"
 
+/* ---- the registry of temporary files in progress ------------------------------------------------
+ *
+ * A signal handler is given no context, so this table is the output code's one piece of
+ * process-wide mutable state (the style rule is "no globals"; a handler cannot be passed one).
+ * It has fixed-size slots and is walked by vbnl_atomic_file_abandon_all() with lock-free atomics
+ * and unlink() only, both async-signal-safe.
+ *
+ * A slot goes FREE -> BUSY (a writer claimed it) -> ARMED (its path names a temporary file this
+ * process created) -> BUSY (the writer renames or removes it) -> FREE, or ARMED -> ABANDONED (the
+ * handler removed it; final). Every change is a compare-and-swap or a store by the slot's owner.
+ * BUSY covers only the open() of the temporary and its rename() or unlink(): the writer blocks
+ * signals on its thread for that window, so a handler that finds a slot BUSY runs on another
+ * thread and may wait for it (a few system calls). The handler never reads a path it has not won
+ * by a compare-and-swap, so it never sees a half-copied one, and never removes a file that this
+ * process did not create (a name taken by someone else, EEXIST, is never ARMED).
+ *
+ * g_abandoned is raised before the walk, and writers test it after they made their slot BUSY
+ * (sequentially consistent on both sides): a writer either sees it and backs out, or the walk
+ * sees its slot BUSY and waits for it. So no temporary file is created, and none is renamed into
+ * place, once the walk has started. */
+
+enum { VBNL_SLOT_FREE, VBNL_SLOT_BUSY, VBNL_SLOT_ARMED, VBNL_SLOT_ABANDONED };
+
+#define VBNL_ATOMIC_SLOTS 16
+
+_Static_assert(ATOMIC_INT_LOCK_FREE == 2, "the signal-handler path needs lock-free atomic ints");
+
+typedef struct vbnl_temp_slot {
+    atomic_int state;
+    char path[PATH_MAX]; /* open() refuses longer paths (ENAMETOOLONG) */
+} vbnl_temp_slot;
+
+static vbnl_temp_slot g_temps[VBNL_ATOMIC_SLOTS];
+static atomic_int g_abandoned;
+
+/* Blocks the asynchronous signals on this thread; faults stay deliverable (a fault while blocked
+ * would kill the process without its handler). */
+static void vbnl_block_signals(sigset_t *old)
+{
+    sigset_t set;
+    sigfillset(&set);
+    sigdelset(&set, SIGSEGV);
+    sigdelset(&set, SIGBUS);
+    sigdelset(&set, SIGFPE);
+    sigdelset(&set, SIGILL);
+    sigdelset(&set, SIGTRAP);
+    pthread_sigmask(SIG_BLOCK, &set, old);
+}
+
+static void vbnl_restore_signals(const sigset_t *old)
+{
+    pthread_sigmask(SIG_SETMASK, old, NULL);
+}
+
+/* A FREE slot made BUSY, or -1 when every slot is taken or the path cannot fit (open() will fail
+ * on such a path anyway). Signals must be blocked. */
+static int vbnl_slot_claim(size_t tmp_len)
+{
+    if (tmp_len >= PATH_MAX)
+        return -1;
+    for (int i = 0; i < VBNL_ATOMIC_SLOTS; i++) {
+        int expected = VBNL_SLOT_FREE;
+        if (atomic_compare_exchange_strong(&g_temps[i].state, &expected, VBNL_SLOT_BUSY))
+            return i;
+    }
+    return -1;
+}
+
+/* ARMED -> BUSY before the owner renames or removes its temporary. 0 when the handler took it
+ * (ABANDONED: it removes the file). Signals must be blocked. */
+static int vbnl_slot_disarm(int slot)
+{
+    if (slot < 0)
+        return 1;
+    int expected = VBNL_SLOT_ARMED;
+    return atomic_compare_exchange_strong(&g_temps[slot].state, &expected, VBNL_SLOT_BUSY);
+}
+
+static void vbnl_slot_release(int slot)
+{
+    if (slot >= 0)
+        atomic_store(&g_temps[slot].state, VBNL_SLOT_FREE);
+}
+
+void vbnl_atomic_file_abandon_all(void)
+{
+    atomic_store(&g_abandoned, 1);
+    for (int i = 0; i < VBNL_ATOMIC_SLOTS; i++) {
+        for (;;) {
+            int s = atomic_load(&g_temps[i].state);
+            if (s == VBNL_SLOT_BUSY)
+                continue; /* another thread is inside open() or rename(), signals blocked */
+            if (s != VBNL_SLOT_ARMED)
+                break;
+            int expected = VBNL_SLOT_ARMED;
+            if (atomic_compare_exchange_strong(&g_temps[i].state, &expected, VBNL_SLOT_ABANDONED)) {
+                unlink(g_temps[i].path);
+                break;
+            }
+        }
+    }
+}
+
+/* ---- test hook ------------------------------------------------------------------------------------
+ * VBNL_TEST_PAUSE=write (tests only; see the README's Tests section): every commit waits 30 s with
+ * its temporary file complete and not yet renamed, after saying so on stderr, so that a test can
+ * interrupt a write at a known point without depending on timing. */
+static void vbnl_test_pause_in_write(const vbnl_atomic_file *f)
+{
+    const char *p = getenv("VBNL_TEST_PAUSE");
+    if (!p || strcmp(p, "write") != 0)
+        return;
+    fprintf(stderr, "vbnl: test pause (VBNL_TEST_PAUSE=write): '%s' written, not yet renamed to '%s'\n",
+            f->tmp_path, f->path);
+    struct timespec left = {30, 0};
+    while (nanosleep(&left, &left) != 0 && errno == EINTR) {
+    }
+}
+
+/* ---- atomic files ---------------------------------------------------------------------------------- */
+
 static uint64_t vbnl_mix64(uint64_t x)
 {
     /* splitmix64 finaliser */
@@ -23,10 +149,17 @@ static uint64_t vbnl_mix64(uint64_t x)
     return x ^ (x >> 31);
 }
 
+static vbnl_result vbnl_abandoned_error(vbnl_error *err, const char *path)
+{
+    return vbnl_error_set(err, VBNL_ERR_CANCELLED, "cannot write '%s': writes were abandoned (the process is ending)",
+                          path);
+}
+
 vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_error *err)
 {
     static const char digits[] = "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ";
     f->fd = -1;
+    f->slot = -1;
     f->path = path;
     size_t n = strlen(path);
     f->tmp_path = malloc(n + sizeof(".tmp-XXXXXX"));
@@ -39,6 +172,18 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
     clock_gettime(CLOCK_REALTIME, &ts);
     uint64_t seed = vbnl_mix64(((uint64_t)ts.tv_sec << 32) ^ (uint64_t)ts.tv_nsec ^
                                ((uint64_t)getpid() << 16) ^ (uint64_t)(uintptr_t)f);
+
+    /* Created and registered with signals blocked: a handler never sees the file without its slot. */
+    sigset_t old;
+    vbnl_block_signals(&old);
+    int slot = vbnl_slot_claim(n + sizeof(".tmp-XXXXXX") - 1);
+    if (atomic_load(&g_abandoned)) {
+        vbnl_slot_release(slot);
+        vbnl_restore_signals(&old);
+        free(f->tmp_path);
+        f->tmp_path = NULL;
+        return vbnl_abandoned_error(err, path);
+    }
     int e = EEXIST;
     for (int attempt = 0; attempt < 100 && e == EEXIST; attempt++) {
         uint64_t r = vbnl_mix64(seed + (uint64_t)attempt);
@@ -50,6 +195,14 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
         f->fd = open(f->tmp_path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
         e = f->fd < 0 ? errno : 0;
     }
+    if (f->fd >= 0 && slot >= 0) {
+        memcpy(g_temps[slot].path, f->tmp_path, n + sizeof(".tmp-XXXXXX"));
+        atomic_store(&g_temps[slot].state, VBNL_SLOT_ARMED);
+        f->slot = slot;
+    } else {
+        vbnl_slot_release(slot);
+    }
+    vbnl_restore_signals(&old);
     if (f->fd < 0) {
         free(f->tmp_path);
         f->tmp_path = NULL;
@@ -62,6 +215,7 @@ vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err)
 {
     if (f->fd < 0 || !f->tmp_path)
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': file not open", f->path);
+    vbnl_test_pause_in_write(f);
     /* fsync before rename, or a crash could leave a renamed but empty file. */
     if (fsync(f->fd) != 0) {
         int e = errno;
@@ -75,13 +229,32 @@ vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err)
         vbnl_atomic_file_discard(f);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", f->path, strerror(e));
     }
-    if (rename(f->tmp_path, f->path) != 0) {
-        int e = errno;
-        vbnl_atomic_file_discard(f);
-        return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", f->path, strerror(e));
+    sigset_t old;
+    vbnl_block_signals(&old);
+    if (!vbnl_slot_disarm(f->slot)) {
+        /* abandoned: the walk has removed the temporary file */
+        vbnl_restore_signals(&old);
+        f->slot = -1;
+        free(f->tmp_path);
+        f->tmp_path = NULL;
+        return vbnl_abandoned_error(err, f->path);
     }
+    int e = 0;
+    if (atomic_load(&g_abandoned))
+        e = -1; /* the walk started after we took the slot: nothing may be renamed into place now */
+    else if (rename(f->tmp_path, f->path) != 0)
+        e = errno;
+    if (e != 0)
+        unlink(f->tmp_path);
+    vbnl_slot_release(f->slot);
+    vbnl_restore_signals(&old);
+    f->slot = -1;
     free(f->tmp_path);
     f->tmp_path = NULL;
+    if (e < 0)
+        return vbnl_abandoned_error(err, f->path);
+    if (e > 0)
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", f->path, strerror(e));
     return VBNL_OK;
 }
 
@@ -92,7 +265,14 @@ void vbnl_atomic_file_discard(vbnl_atomic_file *f)
         f->fd = -1;
     }
     if (f->tmp_path) {
-        unlink(f->tmp_path);
+        sigset_t old;
+        vbnl_block_signals(&old);
+        if (vbnl_slot_disarm(f->slot)) { /* else abandoned: the walk removed it */
+            unlink(f->tmp_path);
+            vbnl_slot_release(f->slot);
+        }
+        vbnl_restore_signals(&old);
+        f->slot = -1;
         free(f->tmp_path);
         f->tmp_path = NULL;
     }

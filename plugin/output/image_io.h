@@ -17,7 +17,9 @@
  *
  * Files are written atomically: the data goes to "<path>.tmp-XXXXXX" in the same directory, is
  * fsync'ed and then renamed over `path`. On any failure the temporary file is removed and an
- * existing file at `path` is left untouched; a reader never sees a half-written image.
+ * existing file at `path` is left untouched; a reader never sees a half-written image. A signal
+ * handler can remove the temporaries of writes under way with vbnl_atomic_file_abandon_all before
+ * it ends the process (the plugin's abandon_writes), so an interrupted write leaves nothing.
  *
  * Errors: every fallible function returns a vbnl_result and, if `err` is non-NULL, fills it with one
  * sentence naming the path and the library's or the system's reason, e.g.
@@ -26,9 +28,11 @@
  *   VBNL_ERR_IO                a file could not be opened, created, written, synced or renamed;
  *   VBNL_ERR_CORRUPT           a file is not an EXR/PNG or is truncated or damaged;
  *   VBNL_ERR_UNSUPPORTED       valid file this module does not read (deep data, subsampled channels);
- *   VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_BACKEND (any other OpenEXR/libpng failure).
+ *   VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_BACKEND (any other OpenEXR/libpng failure);
+ *   VBNL_ERR_CANCELLED         writes were abandoned (vbnl_atomic_file_abandon_all).
  *
- * Thread-safety: no shared mutable state is used or changed (no OpenEXR process-wide defaults;
+ * Thread-safety: the only shared mutable state is the lock-free table of temporaries in progress
+ * (atomic_file.c), which a signal handler must be able to reach (no OpenEXR process-wide defaults;
  * OpenEXR error messages reach the call through a thread-local pointer valid during that call;
  * libpng errors go through a per-call setjmp). Different calls may run concurrently on different threads;
  * two calls writing the same `path` at once both succeed and the last rename wins. */
@@ -190,11 +194,14 @@ vbnl_result vbnl_display_quantise(const float *src, uint32_t width, uint32_t hei
 /* ---------------------------------------------------------------------------------------------- */
 /* Internal helpers shared by exr_io.c and png_io.c (atomic_file.c)                               */
 
-/* A temporary file "<path>.tmp-XXXXXX" created next to `path` with mode 0666 & ~umask. */
+/* A temporary file "<path>.tmp-XXXXXX" created next to `path` with mode 0666 & ~umask. While it
+ * exists it is listed in a fixed table of at most 16 temporaries (more are written untracked), so
+ * that vbnl_atomic_file_abandon_all can remove it from a signal handler. */
 typedef struct vbnl_atomic_file {
     int fd;          /* -1 when not open */
     char *tmp_path;  /* malloc'ed */
     const char *path;
+    int slot;        /* its entry in the table of temporaries, -1 when untracked */
 } vbnl_atomic_file;
 
 /* Creates the temporary file. On failure returns VBNL_ERR_IO ("cannot write '<path>': <errno>"). */
@@ -203,6 +210,14 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
 vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err);
 /* Closes and removes the temporary file (if any). Safe to call twice. */
 void vbnl_atomic_file_discard(vbnl_atomic_file *f);
+
+/* For a signal handler just before _exit(): removes the temporary file of every atomic file of
+ * this process that is open and not yet committed or discarded, on any thread. From then on every
+ * open and commit fails with VBNL_ERR_CANCELLED and leaves no file (targets keep their previous
+ * content, or stay absent); there is no way back. Async-signal-safe: lock-free atomics and
+ * unlink() only, no lock, no allocation; it may wait while another thread is inside the open() or
+ * rename() of a temporary (that thread blocks signals for those calls only). */
+void vbnl_atomic_file_abandon_all(void);
 
 #ifdef __cplusplus
 }

@@ -28,7 +28,7 @@ expect() {
 
 expect "help" 0 "usage: vbnl" -- "$VBNL" --help
 expect "help lists the plugin commands" 0 "bench +path tracer speed" -- "$VBNL" --help
-expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.0\)" -- "$VBNL" --version
+expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.1\)" -- "$VBNL" --version
 expect "no command" 2 "usage: vbnl" -- "$VBNL"
 expect "unknown command" 2 "unknown command 'frobnicate'" -- "$VBNL" frobnicate
 expect "render help" 0 "--spp N" -- "$VBNL" render --help
@@ -100,6 +100,58 @@ if [ $rc -eq 130 ] && [ -s "$TMP/int.exr" ] && [ -s "$TMP/int.png" ] && $HDR "$T
     ok "SIGINT writes a partial image and exits 130"
 else
     not_ok "SIGINT writes a partial image and exits 130" "exit $rc" "$($HDR "$TMP/int.exr" 2>&1 | head -3)"
+fi
+
+# A second Ctrl-C exits 130 at once and writes nothing. Two signals sent back to back can merge
+# into one, so each step waits for the host to show on stderr that it has reached a known point:
+# the "render:" progress line (the handler is installed), then "interrupted, finishing the current
+# tiles" (the first signal was handled), then a test pause (VBNL_TEST_PAUSE, README "Tests") that
+# holds the host there for 30 s: with "interrupt" the render is still running, with "write" the
+# EXR's temporary file is complete and not yet renamed. Only then is the second signal sent.
+# wait_for FILE PATTERN: 0 once PATTERN is in FILE, 1 after 120 s
+wait_for() {
+    local i
+    for ((i = 0; i < 2400; i++)); do
+        grep -qE -- "$2" "$1" 2>/dev/null && return 0
+        sleep 0.05
+    done
+    return 1
+}
+# second_interrupt NAME PAUSE: renders into $TMP/NAME/ (where NAME.exr already exists), sends the
+# two signals; sets rc, ms (from the second signal to the exit), steps (points reached), seen (the
+# directory at the pause)
+second_interrupt() {
+    local dir=$TMP/$1 log=$TMP/$1.log pid t0
+    mkdir -p "$dir"
+    echo "previous render" > "$dir/$1.exr"
+    VBNL_TEST_PAUSE=$2 "$VBNL" render "$SCENE" -o "$dir/$1.exr" --png "$dir/$1.png" --width 64 --height 64 --spp 1000000 2> "$log" &
+    pid=$!
+    steps=0 seen="" ms=-1
+    wait_for "$log" "^render: " && steps=1 && kill -INT $pid &&
+        wait_for "$log" "^vbnl: interrupted, finishing the current tiles" && steps=2 &&
+        wait_for "$log" "^vbnl: test pause \(VBNL_TEST_PAUSE=$2\)" && steps=3 && seen=$(ls "$dir") &&
+        t0=$(date +%s%N) && kill -INT $pid
+    [ $steps -eq 3 ] || kill -KILL $pid 2>/dev/null
+    wait $pid
+    rc=$?
+    [ $steps -eq 3 ] && ms=$((($(date +%s%N) - t0) / 1000000))
+}
+# nothing_written NAME: the old NAME.exr intact, no NAME.png, no temporary file
+nothing_written() {
+    [ "$(cat "$TMP/$1/$1.exr")" = "previous render" ] && [ ! -e "$TMP/$1/$1.png" ] && [ -z "$(ls "$TMP/$1" | grep tmp-)" ]
+}
+second_interrupt int2 interrupt
+if [ $steps -eq 3 ] && [ $rc -eq 130 ] && [ $ms -lt 5000 ] && nothing_written int2; then
+    ok "a second SIGINT while rendering exits 130 at once without writing"
+else
+    not_ok "a second SIGINT while rendering exits 130 at once without writing" "steps $steps/3, exit $rc, $ms ms" "$(ls "$TMP/int2")" "$(cat "$TMP/int2.log")"
+fi
+second_interrupt int3 write
+grep -q "tmp-" <<<"$seen" && ok "the write is under way when the second SIGINT comes" || not_ok "the write is under way when the second SIGINT comes" "$seen"
+if [ $steps -eq 3 ] && [ $rc -eq 130 ] && [ $ms -lt 5000 ] && nothing_written int3; then
+    ok "a second SIGINT while writing exits 130 at once, keeps the old file and leaves no temporary"
+else
+    not_ok "a second SIGINT while writing exits 130 at once, keeps the old file and leaves no temporary" "steps $steps/3, exit $rc, $ms ms" "$(ls "$TMP/int3")" "$(cat "$TMP/int3.log")"
 fi
 
 # The partial files are valid: the EXR header parsed above, the PNG decodes (CRCs, zlib stream, size).

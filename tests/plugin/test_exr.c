@@ -17,6 +17,7 @@
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <openexr.h>
@@ -685,6 +686,92 @@ static void test_bad_arguments(void **state)
     assert_int_equal(count_entries(f->dir), 1);
 }
 
+/* ---- abandoned writes: what a second Ctrl-C does before _exit ---- */
+
+/* vbnl_atomic_file_abandon_all cannot be undone in a process, so each case runs in a child (this
+ * test program has no other threads, fork is safe). The children report by exit status. */
+
+static void on_signal_abandon(int sig)
+{
+    (void)sig;
+    vbnl_atomic_file_abandon_all();
+    _exit(42);
+}
+
+/* Two writes under way (a new file, and one over an existing file) with data written, then a
+ * signal whose handler abandons them and leaves. */
+static int child_interrupted(const char *fresh, const char *existing)
+{
+    vbnl_atomic_file a, b;
+    if (vbnl_atomic_file_open(&a, fresh, NULL) != VBNL_OK || vbnl_atomic_file_open(&b, existing, NULL) != VBNL_OK)
+        return 1;
+    if (write(a.fd, "partial", 7) != 7 || write(b.fd, "partial", 7) != 7)
+        return 2;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal_abandon;
+    sigaction(SIGINT, &sa, NULL);
+    raise(SIGINT);
+    return 3; /* not reached */
+}
+
+/* Abandoned with one write open: its temporary is gone, its commit fails, and so does every write
+ * that would start afterwards. */
+static int child_after_abandon(const char *fresh, const char *existing)
+{
+    vbnl_atomic_file a, b;
+    vbnl_error err = {0};
+    if (vbnl_atomic_file_open(&a, existing, NULL) != VBNL_OK)
+        return 1;
+    vbnl_atomic_file_abandon_all();
+    if (access(a.tmp_path, F_OK) == 0)
+        return 2;
+    if (vbnl_atomic_file_commit(&a, &err) != VBNL_ERR_CANCELLED || !strstr(err.message, "abandoned"))
+        return 3;
+    if (vbnl_atomic_file_open(&b, fresh, &err) != VBNL_ERR_CANCELLED)
+        return 4;
+    float d[4] = {0};
+    const vbnl_image_layer l = {"", 4, NULL, d};
+    if (vbnl_exr_write(fresh, 1, 1, &l, 1, NULL, 0, 0, &err) != VBNL_ERR_CANCELLED)
+        return 5;
+    uint8_t px[3] = {0};
+    if (vbnl_png_write(fresh, 1, 1, 3, 8, px, &err) != VBNL_ERR_CANCELLED)
+        return 6;
+    return 0;
+}
+
+static int run_child(int (*fn)(const char *, const char *), const char *a, const char *b)
+{
+    fflush(stdout);
+    fflush(stderr);
+    pid_t pid = fork();
+    if (pid == 0)
+        _exit(fn(a, b));
+    int status;
+    if (pid < 0 || waitpid(pid, &status, 0) != pid || !WIFEXITED(status))
+        return -1;
+    return WEXITSTATUS(status);
+}
+
+static void test_abandoned_writes_leave_nothing(void **state)
+{
+    fixture *f = *state;
+    TMP_PATH(fresh, "fresh.exr");
+    TMP_PATH(old, "old.exr");
+    write_text(old, "previous render");
+    assert_int_equal(run_child(child_interrupted, fresh, old), 42);
+    assert_true(file_equals(old, "previous render"));
+    assert_int_equal(count_entries(f->dir), 1);
+    assert_int_equal(run_child(child_after_abandon, fresh, old), 0);
+    assert_true(file_equals(old, "previous render"));
+    assert_int_equal(count_entries(f->dir), 1);
+    /* this process abandoned nothing: its writes still work */
+    float d[4] = {1, 2, 3, 1};
+    const vbnl_image_layer l = {"", 4, NULL, d};
+    assert_int_equal(vbnl_exr_write(fresh, 1, 1, &l, 1, NULL, 0, 0, NULL), VBNL_OK);
+    assert_int_equal(count_entries(f->dir), 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -698,6 +785,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_write_into_readonly_directory, setup, teardown),
         cmocka_unit_test_setup_teardown(test_read_damaged_files, setup, teardown),
         cmocka_unit_test_setup_teardown(test_bad_arguments, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_abandoned_writes_leave_nothing, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

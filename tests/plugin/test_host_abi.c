@@ -73,6 +73,7 @@ static void test_handshake(void **state)
     assert_int_equal(api->abi_minor, VBNL_PLUGIN_ABI_MINOR);
     assert_int_equal(api->size, sizeof(vbnl_plugin_api));
     assert_true(VBNL_PLUGIN_HAS(api, run_command));
+    assert_true(VBNL_PLUGIN_HAS(api, abandon_writes));
     assert_string_equal(api->version(), "0.1.0");
     vbnl_plugin_entry_fn entry;
     *(void **)&entry = dlsym(g_so, VBNL_PLUGIN_ENTRY_NAME);
@@ -390,13 +391,46 @@ static void test_bad_arguments(void **state)
     api->renderer_destroy(r);
 }
 
+/* abandon_writes, as a host's signal handler calls it before _exit(). It cannot be undone in a
+ * process: this test runs last. Later writes fail and leave nothing; the old file stays. */
+static void test_abandon_writes(void **state)
+{
+    (void)state;
+    vbnl_plugin_renderer *r = make(1, 1, NULL);
+    char msg[1024], exr[128], png[128];
+    assert_int_equal(api->prepare(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->render(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    snprintf(exr, sizeof(exr), "%s/abandoned.exr", g_dir);
+    snprintf(png, sizeof(png), "%s/abandoned.png", g_dir);
+    FILE *old = fopen(exr, "w");
+    assert_non_null(old);
+    fputs("previous render", old);
+    fclose(old);
+    api->abandon_writes();
+    assert_int_equal(api->write_exr(r, exr, 0, msg, sizeof(msg)), VBNL_PLUGIN_ERR_CANCELLED);
+    assert_non_null(strstr(msg, "abandoned"));
+    assert_int_equal(api->write_png(r, png, NULL, msg, sizeof(msg)), VBNL_PLUGIN_ERR_CANCELLED);
+    assert_int_equal(api->check_writable(png, msg, sizeof(msg)), VBNL_PLUGIN_ERR_CANCELLED);
+    char text[32] = "";
+    old = fopen(exr, "r");
+    assert_non_null(old);
+    assert_non_null(fgets(text, sizeof(text), old));
+    fclose(old);
+    assert_string_equal(text, "previous render");
+    assert_int_equal(access(png, F_OK), -1);
+    char cmd[160];
+    snprintf(cmd, sizeof(cmd), "ls '%s' | grep -q tmp-", g_dir);
+    assert_int_not_equal(system(cmd), 0);
+    api->renderer_destroy(r);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_handshake),           cmocka_unit_test(test_fake_plugin_refused),
         cmocka_unit_test(test_integrators),         cmocka_unit_test(test_render_and_framebuffer),
         cmocka_unit_test(test_outputs_round_trip),  cmocka_unit_test(test_cancel_writes_partial),
-        cmocka_unit_test(test_bad_arguments),
+        cmocka_unit_test(test_bad_arguments),      cmocka_unit_test(test_abandon_writes),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }

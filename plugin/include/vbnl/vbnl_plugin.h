@@ -39,7 +39,9 @@
  *   be driven by one thread at a time; distinct renderers are independent. prepare and render
  *   spread their work over the renderer's own worker threads and return when done. The progress
  *   callback is called on the thread that called prepare or render, never on a worker thread.
- *   A host may cancel from a signal handler by setting a flag its progress callback returns.
+ *   A host may cancel from a signal handler by setting a flag its progress callback returns, and
+ *   may end the process from one: abandon_writes (ABI 1.1) is async-signal-safe and removes the
+ *   temporary files of writes under way before the host calls _exit().
  *
  * Colour
  *   The framebuffer and the EXR are scene-linear Rec.709 primaries, D65 white. apply_view and
@@ -57,7 +59,7 @@ extern "C" {
 #endif
 
 #define VBNL_PLUGIN_ABI_MAJOR 1u
-#define VBNL_PLUGIN_ABI_MINOR 0u
+#define VBNL_PLUGIN_ABI_MINOR 1u
 #define VBNL_PLUGIN_ENTRY_NAME "vbnl_plugin_entry"
 
 /* True when the table has `field` (it was built with at least that minor version's layout). */
@@ -271,6 +273,21 @@ typedef struct vbnl_plugin_api {
      * exit status (argv[0] is the command name). Called from the host's main thread. */
     const char *(*command_at)(uint32_t index, const char **summary);
     int (*run_command)(const char *name, int argc, char **argv);
+
+    /* ---- ABI 1.1 ---- */
+
+    /* For a host that ends the process from a signal handler (a second Ctrl-C): call it just
+     * before _exit(). It removes the temporary file of every write_exr, write_png and
+     * check_writable under way in this process, on any thread, so that the interrupted write
+     * leaves neither a temporary file nor a half-written target: the target keeps its previous
+     * content, or stays absent. Every write that starts or would finish afterwards fails with
+     * VBNL_PLUGIN_ERR_CANCELLED and leaves nothing; there is no way back, so call it only when
+     * the process is about to end.
+     * Async-signal-safe: lock-free atomics and unlink() only, no lock, no allocation, no stdio.
+     * It may wait while another thread is inside the open() or rename() of a temporary file (that
+     * thread blocks signals for those calls only). At most 16 writes at a time are tracked; more
+     * are written untracked. Hosts built for 1.0 modules check VBNL_PLUGIN_HAS(api, abandon_writes). */
+    void (*abandon_writes)(void);
 } vbnl_plugin_api;
 
 /* The one exported symbol. Returns the table when host_abi_major equals the module's ABI major,
