@@ -7,6 +7,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "atomic_file.h"
 #include "host.h"
 #include "image_io.h"
 #include "ocio_shim.h"
@@ -581,7 +582,8 @@ done:
     return res;
 }
 
-/* Async-signal-safe (see vbnl_plugin.h): the registry of temporaries lives in atomic_file.c. */
+/* Async-signal-safe (see vbnl_plugin.h): the registry of temporaries lives in the core
+ * (core/src/atomic_file.c) and lists every file the module writes, the save_lights file included. */
 static void p_abandon_writes(void) { vbnl_atomic_file_abandon_all(); }
 
 /* ---- developer commands that need the core beyond this ABI ------------------------------------ */

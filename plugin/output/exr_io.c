@@ -12,6 +12,7 @@
 
 #include <openexr.h>
 
+#include "atomic_file.h"
 #include "image_io.h"
 
 #define VBNL_EXR_MAX_CHANNELS_PER_LAYER 64u

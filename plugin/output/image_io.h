@@ -15,8 +15,9 @@
  * Pixel layout (everywhere in this header): row 0 is the top row; rows are tightly packed;
  * interleaved buffers hold `channels` values per pixel in channel order.
  *
- * Files are written atomically: the data goes to "<path>.tmp-XXXXXX" in the same directory, is
- * fsync'ed and then renamed over `path`. On any failure the temporary file is removed and an
+ * Files are written atomically through the core's atomic files (core/src/atomic_file.h, which the
+ * core's virtual-light files use too): the data goes to "<path>.tmp-XXXXXX" in the same directory,
+ * is fsync'ed and then renamed over `path`. On any failure the temporary file is removed and an
  * existing file at `path` is left untouched; a reader never sees a half-written image. A signal
  * handler can remove the temporaries of writes under way with vbnl_atomic_file_abandon_all before
  * it ends the process (the plugin's abandon_writes), so an interrupted write leaves nothing.
@@ -31,11 +32,12 @@
  *   VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_BACKEND (any other OpenEXR/libpng failure);
  *   VBNL_ERR_CANCELLED         writes were abandoned (vbnl_atomic_file_abandon_all).
  *
- * Thread-safety: the only shared mutable state is the lock-free table of temporaries in progress
- * (atomic_file.c), which a signal handler must be able to reach (no OpenEXR process-wide defaults;
- * OpenEXR error messages reach the call through a thread-local pointer valid during that call;
- * libpng errors go through a per-call setjmp). Different calls may run concurrently on different threads;
- * two calls writing the same `path` at once both succeed and the last rename wins. */
+ * Thread-safety: the only shared mutable state is the core's lock-free table of temporaries in
+ * progress (atomic_file.c), which a signal handler must be able to reach (no OpenEXR process-wide
+ * defaults; OpenEXR error messages reach the call through a thread-local pointer valid during that
+ * call; libpng errors go through a per-call setjmp). Different calls may run concurrently on
+ * different threads; two calls writing the same `path` at once both succeed and the last rename
+ * wins. */
 #ifndef VBNL_PLUGIN_OUTPUT_IMAGE_IO_H
 #define VBNL_PLUGIN_OUTPUT_IMAGE_IO_H
 
@@ -190,34 +192,6 @@ vbnl_result vbnl_linear_to_srgb8(const float *src, uint32_t width, uint32_t heig
 vbnl_result vbnl_display_quantise(const float *src, uint32_t width, uint32_t height, uint32_t src_channels,
                                   uint32_t bits, int dither, void *dst, uint32_t dst_channels,
                                   vbnl_error *err);
-
-/* ---------------------------------------------------------------------------------------------- */
-/* Internal helpers shared by exr_io.c and png_io.c (atomic_file.c)                               */
-
-/* A temporary file "<path>.tmp-XXXXXX" created next to `path` with mode 0666 & ~umask. While it
- * exists it is listed in a fixed table of at most 16 temporaries (more are written untracked), so
- * that vbnl_atomic_file_abandon_all can remove it from a signal handler. */
-typedef struct vbnl_atomic_file {
-    int fd;          /* -1 when not open */
-    char *tmp_path;  /* malloc'ed */
-    const char *path;
-    int slot;        /* its entry in the table of temporaries, -1 when untracked */
-} vbnl_atomic_file;
-
-/* Creates the temporary file. On failure returns VBNL_ERR_IO ("cannot write '<path>': <errno>"). */
-vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_error *err);
-/* fsyncs, closes and renames the temporary file over `path`; on failure behaves like discard. */
-vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err);
-/* Closes and removes the temporary file (if any). Safe to call twice. */
-void vbnl_atomic_file_discard(vbnl_atomic_file *f);
-
-/* For a signal handler just before _exit(): removes the temporary file of every atomic file of
- * this process that is open and not yet committed or discarded, on any thread. From then on every
- * open and commit fails with VBNL_ERR_CANCELLED and leaves no file (targets keep their previous
- * content, or stay absent); there is no way back. Async-signal-safe: lock-free atomics and
- * unlink() only, no lock, no allocation; it may wait while another thread is inside the open() or
- * rename() of a temporary (that thread blocks signals for those calls only). */
-void vbnl_atomic_file_abandon_all(void);
 
 #ifdef __cplusplus
 }

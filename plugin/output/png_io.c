@@ -11,6 +11,7 @@
 
 #include <png.h>
 
+#include "atomic_file.h"
 #include "image_io.h"
 
 /* libpng reports errors by calling this and expecting it not to return: keep the message, longjmp

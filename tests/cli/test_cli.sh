@@ -221,6 +221,41 @@ expect "truncated light file is refused" 1 "short.vls' is damaged" -- "$VBNL" re
 expect "light file of another scene is refused" 1 "prepared for another scene" -- "$VBNL" render "$SRC/examples/door-ajar.obj" $VL --png "$TMP/vl-bad.png" --load-lights "$TMP/lights.vls"
 expect "unwritable --save-lights fails first" 1 "cannot write" -- "$VBNL" render "$SCENE" $VL --png "$TMP/vl-bad.png" --save-lights "$TMP/no/such/dir/l.vls"
 
+# A second Ctrl-C while the --save-lights file is being written (VBNL_TEST_PAUSE=write holds it
+# complete and not yet renamed, during preparation): exit 130 at once, the old light file as it
+# was, no image and no temporary file. The host prints nothing between the two signals here (the
+# render has not started), so the second is sent once the first has left the process's shared
+# pending set (ShdPnd in /proc/PID/status): a signal sent while the first is still pending would
+# merge with it.
+# sigint_pending PID: 0 while a SIGINT sent to PID is not yet delivered
+sigint_pending() {
+    local m
+    m=$(awk '/^ShdPnd:/ {print $2}' "/proc/$1/status" 2>/dev/null)
+    [ -n "$m" ] && (( 0x$m & 2 ))
+}
+mkdir -p "$TMP/vl-int"
+echo "previous lights" > "$TMP/vl-int/l.vls"
+VBNL_TEST_PAUSE=write "$VBNL" render "$SCENE" $VL --png "$TMP/vl-int/l.png" --set virtual_lights=500 --set photon_paths=5000 --save-lights "$TMP/vl-int/l.vls" 2> "$TMP/vl-int.log" &
+pid=$!
+steps=0 seen="" ms=-1
+if wait_for "$TMP/vl-int.log" "^vbnl: test pause \(VBNL_TEST_PAUSE=write\): '[^']*/l\.vls\.tmp-" && steps=1 && seen=$(ls "$TMP/vl-int") && kill -INT $pid; then
+    for ((i = 0; i < 600 && steps == 1; i++)); do
+        if sigint_pending $pid; then sleep 0.05; else steps=2; fi
+    done
+    [ $steps -eq 2 ] && t0=$(date +%s%N) && kill -INT $pid && steps=3
+fi
+[ $steps -eq 3 ] || kill -KILL $pid 2>/dev/null
+wait $pid
+rc=$?
+[ $steps -eq 3 ] && ms=$((($(date +%s%N) - t0) / 1000000))
+grep -q "l.vls.tmp-" <<<"$seen" && ok "the light file is being written when the second SIGINT comes" || not_ok "the light file is being written when the second SIGINT comes" "$seen"
+if [ $steps -eq 3 ] && [ $rc -eq 130 ] && [ $ms -lt 5000 ] && [ "$(cat "$TMP/vl-int/l.vls")" = "previous lights" ] &&
+    [ ! -e "$TMP/vl-int/l.png" ] && [ -z "$(ls "$TMP/vl-int" | grep tmp-)" ]; then
+    ok "a second SIGINT while saving lights exits 130 at once, keeps the old file and leaves no temporary"
+else
+    not_ok "a second SIGINT while saving lights exits 130 at once, keeps the old file and leaves no temporary" "steps $steps/3, exit $rc, $ms ms" "$(ls "$TMP/vl-int")" "$(cat "$TMP/vl-int.log")"
+fi
+
 # `vbnl compare`: a table for same-sized images, a clear refusal for different sizes.
 "$VBNL" render "$SCENE" -o "$TMP/c-ref.exr" --width 16 --height 16 --spp 4 -q
 "$VBNL" render "$SCENE" -o "$TMP/c-vpl.exr" --integrator vpl --set virtual_lights=50 --width 16 --height 16 --spp 1 -q

@@ -22,6 +22,7 @@
 
 #include <openexr.h>
 
+#include "atomic_file.h" /* the core's atomic files, tested here with the writers that use them */
 #include "image_io.h"
 
 /* ---- fixtures: one fresh directory under /tmp per test ---- */

@@ -1,4 +1,8 @@
-/* Saved virtual-light sets (vl_file.h): round trips, damage, versions, scenes, photon ranges. */
+/* Saved virtual-light sets (vl_file.h): round trips, damage, versions, scenes, photon ranges,
+ * unwritable paths, saves abandoned from a signal handler. */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE
+#endif
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -6,12 +10,16 @@
 #include <cmocka.h>
 #include <dirent.h>
 #include <math.h>
+#include <poll.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include "atomic_file.h"
 #include "rng.h"
 #include "scenes.h"
 #include "vbnl/vbnl.h"
@@ -469,33 +477,50 @@ static int count_entries(const char *dir)
     return n;
 }
 
+/* A tiny set to save: three lights, empty profiles. */
+typedef struct tiny_set {
+    vbnl_vl_set vls;
+    vbnl_hemioct *map;
+    vbnl_profile_set *ps;
+    vbnl_vl_file_header h;
+} tiny_set;
+
+static void tiny_set_make(tiny_set *t)
+{
+    assert_int_equal(vbnl_vl_set_alloc(&t->vls, 3, NULL), VBNL_OK);
+    for (uint32_t j = 0; j < 3; ++j) {
+        t->vls.position[j] = v3((float)j, 0, 0);
+        t->vls.normal[j] = v3(0, 1, 0);
+        t->vls.material[j] = 0;
+        t->vls.tint[j] = v3s(1.0f);
+        t->vls.radius[j] = t->vls.density[j] = 1.0f;
+    }
+    assert_int_equal(vbnl_hemioct_create(8, &t->map), VBNL_OK);
+    assert_int_equal(vbnl_profile_set_create(t->map, 3, NULL, &t->ps), VBNL_OK);
+    memset(&t->h, 0, sizeof(t->h));
+    t->h.profile_resolution = 8;
+    t->h.photon_paths = t->h.photon_count = 1;
+    t->h.unit = VBNL_PROFILE_DEFAULT_UNIT;
+}
+
+static void tiny_set_free(tiny_set *t)
+{
+    vbnl_profile_set_destroy(t->ps);
+    vbnl_hemioct_destroy(t->map);
+    vbnl_vl_set_free(&t->vls);
+}
+
 /* An unwritable path fails with VBNL_ERR_IO and leaves no file (not even the temporary). */
 static void test_unwritable(void **state)
 {
     fixture *f = *state;
-    vbnl_vl_set vls;
-    assert_int_equal(vbnl_vl_set_alloc(&vls, 3, NULL), VBNL_OK);
-    for (uint32_t j = 0; j < 3; ++j) {
-        vls.position[j] = v3((float)j, 0, 0);
-        vls.normal[j] = v3(0, 1, 0);
-        vls.material[j] = 0;
-        vls.tint[j] = v3s(1.0f);
-        vls.radius[j] = vls.density[j] = 1.0f;
-    }
-    vbnl_hemioct *map;
-    assert_int_equal(vbnl_hemioct_create(8, &map), VBNL_OK);
-    vbnl_profile_set *ps;
-    assert_int_equal(vbnl_profile_set_create(map, 3, NULL, &ps), VBNL_OK);
-    vbnl_vl_file_header h;
-    memset(&h, 0, sizeof(h));
-    h.profile_resolution = 8;
-    h.photon_paths = h.photon_count = 1;
-    h.unit = VBNL_PROFILE_DEFAULT_UNIT;
+    tiny_set t;
+    tiny_set_make(&t);
     vbnl_error err = {0};
     char sub[400], path[500];
     /* a folder that does not exist */
     path_in(f, "no/such/folder/x.vls", path, sizeof(path));
-    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_ERR_IO);
+    assert_int_equal(vbnl_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_ERR_IO);
     assert_non_null(strstr(err.message, "cannot write"));
     /* the final rename fails (the path is a folder): the temporary is removed */
     path_in(f, "sub", sub, sizeof(sub));
@@ -503,13 +528,13 @@ static void test_unwritable(void **state)
     snprintf(path, sizeof(path), "%s/x.vls", sub);
     assert_int_equal(mkdir(path, 0755), 0);
     int before = count_entries(sub);
-    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_ERR_IO);
+    assert_int_equal(vbnl_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_ERR_IO);
     print_message("# %s\n", err.message);
     assert_int_equal(count_entries(sub), before);
     rmdir(path);
     assert_int_equal(count_entries(sub), 0);
     /* and it works when the path is writable, leaving exactly one file */
-    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_OK);
+    assert_int_equal(vbnl_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_OK);
     assert_int_equal(count_entries(sub), 1);
     unlink(path);
     rmdir(sub);
@@ -521,9 +546,162 @@ static void test_unwritable(void **state)
     vbnl_result res;
     assert_null(run(f, f->scene, 0, settings, &res, &err));
     assert_int_equal(res, VBNL_ERR_IO);
-    vbnl_profile_set_destroy(ps);
-    vbnl_hemioct_destroy(map);
-    vbnl_vl_set_free(&vls);
+    tiny_set_free(&t);
+}
+
+/* ---- abandoned saves: a second Ctrl-C during --save-lights -------------------------------------
+ *
+ * The save goes through the core's atomic files (atomic_file.h), so the table that the plugin's
+ * abandon_writes empties from the host's signal handler lists its temporary too. Abandoning cannot
+ * be undone in a process, so each case runs in a forked child (the fixture of these cases starts
+ * no thread: the context and scene stay NULL) that reports by its exit status. */
+
+static int setup_dir(void **state)
+{
+    fixture *f = calloc(1, sizeof(*f));
+    snprintf(f->dir, sizeof(f->dir), "/tmp/vbnl-vlfile-XXXXXX");
+    assert_non_null(mkdtemp(f->dir));
+    *state = f;
+    return 0;
+}
+
+static void on_signal_abandon(int sig)
+{
+    (void)sig;
+    vbnl_atomic_file_abandon_all();
+    _exit(42);
+}
+
+/* A save held by VBNL_TEST_PAUSE=write with its temporary complete and not yet renamed (the pause
+ * is announced on `err_fd`); the parent then sends SIGUSR1, whose handler abandons and leaves. */
+static int child_save_paused(const tiny_set *t, const char *path, int err_fd)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof(sa));
+    sa.sa_handler = on_signal_abandon;
+    if (sigaction(SIGUSR1, &sa, NULL) != 0 || dup2(err_fd, STDERR_FILENO) < 0 ||
+        setenv("VBNL_TEST_PAUSE", "write", 1) != 0)
+        return 1;
+    vbnl_vl_file_save(path, &t->h, &t->vls, t->ps, NULL);
+    return 2; /* the pause lasts 30 s: the signal comes long before */
+}
+
+/* Abandoned before the save: it fails with VBNL_ERR_CANCELLED, over an existing file or not. */
+static int child_save_after_abandon(const tiny_set *t, const char *fresh, const char *existing)
+{
+    vbnl_error err = {0};
+    vbnl_atomic_file_abandon_all();
+    if (vbnl_vl_file_save(existing, &t->h, &t->vls, t->ps, &err) != VBNL_ERR_CANCELLED)
+        return 1;
+    if (!strstr(err.message, "cannot write") || !strstr(err.message, existing) || !strstr(err.message, "abandoned"))
+        return 2;
+    if (vbnl_vl_file_save(fresh, &t->h, &t->vls, t->ps, &err) != VBNL_ERR_CANCELLED)
+        return 3;
+    return 0;
+}
+
+/* Reads the child's stderr until the pause line; 0 when it came within 60 s. */
+static int await_pause(int fd, char *buf, size_t cap)
+{
+    size_t len = 0;
+    buf[0] = '\0';
+    while (len + 1 < cap) {
+        struct pollfd p = {fd, POLLIN, 0};
+        if (poll(&p, 1, 60000) <= 0)
+            return -1;
+        ssize_t got = read(fd, buf + len, cap - 1 - len);
+        if (got <= 0)
+            return -1;
+        len += (size_t)got;
+        buf[len] = '\0';
+        const char *at = strstr(buf, "vbnl: test pause (VBNL_TEST_PAUSE=write)");
+        if (at && strchr(at, '\n'))
+            return 0;
+    }
+    return -1;
+}
+
+/* The name in `dir` that contains `part`, or "" */
+static void find_entry(const char *dir, const char *part, char *out, size_t n)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    out[0] = '\0';
+    while (d && (e = readdir(d)))
+        if (strstr(e->d_name, part))
+            snprintf(out, n, "%s", e->d_name);
+    if (d)
+        closedir(d);
+}
+
+static void test_abandoned_saves(void **state)
+{
+    fixture *f = *state;
+    tiny_set t;
+    tiny_set_make(&t);
+    char old[400], fresh[400];
+    path_in(f, "old.vls", old, sizeof(old));
+    path_in(f, "fresh.vls", fresh, sizeof(fresh));
+    static const char previous[] = "previous lights";
+    write_all(old, previous, sizeof(previous));
+
+    /* abandoned during the save, its temporary complete: the handler removes it */
+    int fds[2];
+    assert_int_equal(pipe(fds), 0);
+    fflush(stdout);
+    fflush(stderr);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        close(fds[0]);
+        _exit(child_save_paused(&t, old, fds[1]));
+    }
+    close(fds[1]);
+    char said[2048], tmp[256];
+    int paused = await_pause(fds[0], said, sizeof(said));
+    close(fds[0]);
+    find_entry(f->dir, "old.vls.tmp-", tmp, sizeof(tmp));
+    int status = 0;
+    if (paused == 0)
+        kill(pid, SIGUSR1);
+    else
+        kill(pid, SIGKILL);
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    said[strcspn(said, "\n")] = '\0';
+    print_message("# child said: %s\n", said);
+    assert_int_equal(paused, 0);
+    assert_true(tmp[0] != '\0');        /* the write was under way */
+    assert_non_null(strstr(said, tmp)); /* and paused on this temporary */
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 42);
+    assert_int_equal(count_entries(f->dir), 1); /* no temporary left */
+    size_t n;
+    unsigned char *b = read_all(old, &n);
+    assert_int_equal(n, sizeof(previous));
+    assert_memory_equal(b, previous, n);
+    free(b);
+
+    /* abandoned before: every save fails with CANCELLED and leaves nothing */
+    fflush(stdout);
+    fflush(stderr);
+    pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0)
+        _exit(child_save_after_abandon(&t, fresh, old));
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 0);
+    assert_int_equal(count_entries(f->dir), 1);
+    b = read_all(old, &n);
+    assert_int_equal(n, sizeof(previous));
+    assert_memory_equal(b, previous, n);
+    free(b);
+
+    /* this process abandoned nothing: its saves still work */
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_vl_file_save(fresh, &t.h, &t.vls, t.ps, &err), VBNL_OK);
+    assert_int_equal(count_entries(f->dir), 2);
+    tiny_set_free(&t);
 }
 
 int main(void)
@@ -536,6 +714,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_other_scene, setup, teardown),
         cmocka_unit_test_setup_teardown(test_photon_ranges_merge, setup, teardown),
         cmocka_unit_test_setup_teardown(test_unwritable, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_abandoned_saves, setup_dir, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,13 +5,13 @@
 #include "vl_file.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
+
+#include "atomic_file.h"
 
 #define BYTE_ORDER_MARK 0x01020304u
 #define BYTE_ORDER_SWAPPED 0x04030201u
@@ -105,43 +105,6 @@ static void w_bytes(writer *w, const void *data, size_t n)
         w->failed = errno ? errno : EIO;
 }
 
-static uint64_t mix64(uint64_t x)
-{
-    x += 0x9e3779b97f4a7c15ull;
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-    return x ^ (x >> 31);
-}
-
-/* A new temporary next to `path` (same folder, so rename is atomic): "<path>.tmp-XXXXXX",
- * O_EXCL so that concurrent writers never share one. The pattern of plugin/output/atomic_file.c,
- * repeated here because the core does not depend on plugins. */
-static int open_temporary(const char *path, char *tmp, size_t cap, int *e)
-{
-    static const char digits[] = "0123456789abcdefghijklmnopqrstuvwxyz";
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    uint64_t seed = mix64(((uint64_t)ts.tv_sec << 32) ^ (uint64_t)ts.tv_nsec ^ ((uint64_t)getpid() << 16) ^
-                          (uint64_t)(uintptr_t)tmp);
-    *e = EEXIST;
-    for (int attempt = 0; attempt < 100 && *e == EEXIST; ++attempt) {
-        uint64_t r = mix64(seed + (uint64_t)attempt);
-        char suffix[7];
-        for (int i = 0; i < 6; ++i, r /= 36)
-            suffix[i] = digits[r % 36];
-        suffix[6] = '\0';
-        if ((size_t)snprintf(tmp, cap, "%s.tmp-%s", path, suffix) >= cap) {
-            *e = ENAMETOOLONG;
-            return -1;
-        }
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd >= 0)
-            return fd;
-        *e = errno;
-    }
-    return -1;
-}
-
 vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, const vbnl_vl_set *vls,
                               const vbnl_profile_set *profiles, vbnl_error *err)
 {
@@ -167,25 +130,22 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     const uint32_t res = h->profile_resolution;
     const size_t texels = (size_t)res * res;
 
-    size_t cap = strlen(path) + 16;
-    char *tmp = malloc(cap);
-    if (!tmp) {
+    /* Through the atomic files (atomic_file.h): a temporary next to `path`, fsync, rename, and
+     * listed in the table that a signal handler empties before the process ends (the plugin's
+     * abandon_writes), so that an interrupted save leaves no temporary behind. */
+    vbnl_atomic_file af;
+    vbnl_result r = vbnl_atomic_file_open(&af, path, err);
+    if (r != VBNL_OK) {
         free(glossy);
-        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot write '%s': out of memory", path);
+        return r;
     }
-    int e = 0;
-    int fd = open_temporary(path, tmp, cap, &e);
-    if (fd < 0) {
-        free(tmp);
-        free(glossy);
-        return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
-    }
-    writer w = {fdopen(fd, "wb"), VBNL_VL_FILE_HASH_INIT, 0};
+    int fd = dup(af.fd); /* fclose closes this one; the atomic file keeps its own for fsync */
+    writer w = {fd >= 0 ? fdopen(fd, "wb") : NULL, VBNL_VL_FILE_HASH_INIT, 0};
     if (!w.f) {
-        e = errno;
-        close(fd);
-        unlink(tmp);
-        free(tmp);
+        int e = errno;
+        if (fd >= 0)
+            close(fd);
+        vbnl_atomic_file_discard(&af);
         free(glossy);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
     }
@@ -207,22 +167,15 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     uint64_t sum = w.hash;
     w_bytes(&w, &sum, sizeof(sum));
     free(glossy);
-    /* fsync before rename, or a crash could leave a renamed but empty file */
     if (!w.failed && fflush(w.f) != 0)
-        w.failed = errno ? errno : EIO;
-    if (!w.failed && fsync(fileno(w.f)) != 0)
         w.failed = errno ? errno : EIO;
     if (fclose(w.f) != 0 && !w.failed)
         w.failed = errno ? errno : EIO;
-    if (!w.failed && rename(tmp, path) != 0)
-        w.failed = errno ? errno : EIO;
     if (w.failed) {
-        unlink(tmp);
-        free(tmp);
+        vbnl_atomic_file_discard(&af);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(w.failed));
     }
-    free(tmp);
-    return VBNL_OK;
+    return vbnl_atomic_file_commit(&af, err); /* fsync, rename */
 }
 
 /* ---- reading ------------------------------------------------------------------------------ */

@@ -38,16 +38,22 @@
  * the trailing FNV-1a 64 checksum. So a loader verifies the checksum before it trusts anything
  * else, and a damaged version field is reported as damage, not as another version.
  *
- * Writing is atomic: a temporary file in the same folder, fsync, rename; on any failure the
- * temporary is removed and no file is left (an existing file at `path` stays as it was).
+ * Writing is atomic, through the atomic files of atomic_file.h: a temporary file in the same
+ * folder, fsync, rename; on any failure the temporary is removed and no file is left (an existing
+ * file at `path` stays as it was). The temporary is listed in the table that
+ * vbnl_atomic_file_abandon_all empties from a signal handler (the plugin's abandon_writes), so an
+ * interrupted save leaves nothing either; after that call every save fails with
+ * VBNL_ERR_CANCELLED.
  *
- * Errors (message in `err`): VBNL_ERR_IO (open/read/write/rename failed), VBNL_ERR_CORRUPT (not
- * a virtual-light file, checksum mismatch, truncation, another format version, inconsistent
- * contents), VBNL_ERR_UNSUPPORTED (other byte order), VBNL_ERR_INVALID_ARGUMENT (another scene;
- * files of a list that do not belong together or whose photon ranges overlap or leave gaps),
+ * Errors (message in `err`): VBNL_ERR_IO (open/read/write/rename failed), VBNL_ERR_CANCELLED
+ * (writes were abandoned: the process is ending), VBNL_ERR_CORRUPT (not a virtual-light file,
+ * checksum mismatch, truncation, another format version, inconsistent contents),
+ * VBNL_ERR_UNSUPPORTED (other byte order), VBNL_ERR_INVALID_ARGUMENT (another scene; files of a
+ * list that do not belong together or whose photon ranges overlap or leave gaps),
  * VBNL_ERR_OUT_OF_MEMORY.
  *
- * Threads: no shared state; the functions may run concurrently on different data. */
+ * Threads: no shared state but the table of atomic files (lock-free); the functions may run
+ * concurrently on different data. */
 #ifndef VBNL_VL_FILE_H
 #define VBNL_VL_FILE_H
 

@@ -278,11 +278,11 @@ typedef struct vbnl_plugin_api {
 
     /* For a host that ends the process from a signal handler (a second Ctrl-C): call it just
      * before _exit(). It removes the temporary file of every write_exr, write_png and
-     * check_writable under way in this process, on any thread, so that the interrupted write
-     * leaves neither a temporary file nor a half-written target: the target keeps its previous
-     * content, or stays absent. Every write that starts or would finish afterwards fails with
-     * VBNL_PLUGIN_ERR_CANCELLED and leaves nothing; there is no way back, so call it only when
-     * the process is about to end.
+     * check_writable under way in this process, on any thread, and of the save_lights file a
+     * prepare is writing, so that the interrupted write leaves neither a temporary file nor a
+     * half-written target: the target keeps its previous content, or stays absent. Every write
+     * that starts or would finish afterwards fails with VBNL_PLUGIN_ERR_CANCELLED and leaves
+     * nothing; there is no way back, so call it only when the process is about to end.
      * Async-signal-safe: lock-free atomics and unlink() only, no lock, no allocation, no stdio.
      * It may wait while another thread is inside the open() or rename() of a temporary file (that
      * thread blocks signals for those calls only). At most 16 writes at a time are tracked; more

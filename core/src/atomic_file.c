@@ -1,5 +1,7 @@
-/* Write-to-temporary-then-rename, shared by the EXR and PNG writers, and the registry of the
- * temporary files in progress that lets a signal handler remove them before the process ends. */
+/* Write-to-temporary-then-rename (atomic_file.h), shared by every file the project writes: the
+ * virtual-light files of the core (vl_file.c) and the plugin's EXR and PNG writers; and the
+ * registry of the temporary files in progress that lets a signal handler remove them before the
+ * process ends. */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
@@ -17,12 +19,13 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "image_io.h"
+#include "atomic_file.h"
 
 /* ---- the registry of temporary files in progress ------------------------------------------------
  *
- * A signal handler is given no context, so this table is the output code's one piece of
- * process-wide mutable state (the style rule is "no globals"; a handler cannot be passed one).
+ * A signal handler is given no context, so this table is the project's one piece of process-wide
+ * mutable state (the style rule is "no globals"; a handler cannot be passed one). Being in the
+ * core, it covers every file the core and the plugin write.
  * It has fixed-size slots and is walked by vbnl_atomic_file_abandon_all() with lock-free atomics
  * and unlink() only, both async-signal-safe.
  *
@@ -123,9 +126,10 @@ void vbnl_atomic_file_abandon_all(void)
 }
 
 /* ---- test hook ------------------------------------------------------------------------------------
- * VBNL_TEST_PAUSE=write (tests only; see the README's Tests section): every commit waits 30 s with
- * its temporary file complete and not yet renamed, after saying so on stderr, so that a test can
- * interrupt a write at a known point without depending on timing. */
+ * VBNL_TEST_PAUSE=write (tests only; see the README's Tests section): every commit (EXR, PNG,
+ * virtual-light file) waits 30 s with its temporary file complete and not yet renamed, after
+ * saying so on stderr, so that a test can interrupt a write at a known point without depending
+ * on timing. */
 static void vbnl_test_pause_in_write(const vbnl_atomic_file *f)
 {
     const char *p = getenv("VBNL_TEST_PAUSE");

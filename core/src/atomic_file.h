@@ -1,0 +1,59 @@
+/* Atomic files (private header; never installed): every file the project writes goes through here,
+ * the core's virtual-light files (vl_file.c) and the plugin's EXR and PNG images alike, so that one
+ * signal-safe table knows every temporary file in progress.
+ *
+ * A write creates "<path>.tmp-XXXXXX" next to `path` (same folder, so the rename is atomic) with
+ * O_EXCL (concurrent writers never share one) and mode 0666 & ~umask; the caller writes through
+ * `fd`; commit fsyncs, closes and renames it over `path`. On any failure the temporary is removed
+ * and an existing file at `path` stays as it was: a reader never sees a half-written file.
+ *
+ * While it exists, a temporary is listed in a fixed table of at most 16 (more are written
+ * untracked), so that vbnl_atomic_file_abandon_all can remove it from a signal handler (the
+ * plugin's abandon_writes, a second Ctrl-C in the `vbnl` host). That table is the only
+ * process-wide mutable state of the project: a signal handler cannot be handed a context.
+ *
+ * Errors: "cannot write '<path>': <reason>" in `err`; VBNL_ERR_IO (open, fsync, close or rename
+ * failed), VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_CANCELLED (writes were abandoned).
+ *
+ * Threads: any number of atomic files may be open at once on any threads; one vbnl_atomic_file is
+ * used by one thread at a time.
+ *
+ * Test hook: with VBNL_TEST_PAUSE=write in the environment, every commit first says so on stderr
+ * ("vbnl: test pause (VBNL_TEST_PAUSE=write): '<tmp>' written, not yet renamed to '<path>'") and
+ * waits 30 s (README, Tests). */
+#ifndef VBNL_ATOMIC_FILE_H
+#define VBNL_ATOMIC_FILE_H
+
+#include "vbnl/result.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vbnl_atomic_file {
+    int fd;           /* -1 when not open */
+    char *tmp_path;   /* malloc'ed */
+    const char *path; /* borrowed from the caller of open */
+    int slot;         /* its entry in the table of temporaries, -1 when untracked */
+} vbnl_atomic_file;
+
+/* Creates the temporary file. On failure nothing needs discarding: VBNL_ERR_IO ("cannot write
+ * '<path>': <errno text>"), VBNL_ERR_OUT_OF_MEMORY or VBNL_ERR_CANCELLED. */
+vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_error *err);
+/* fsyncs, closes and renames the temporary file over `path`; on failure behaves like discard. */
+vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err);
+/* Closes and removes the temporary file (if any). Safe to call twice. */
+void vbnl_atomic_file_discard(vbnl_atomic_file *f);
+
+/* For a signal handler just before _exit(): removes the temporary file of every atomic file of
+ * this process that is open and not yet committed or discarded, on any thread. From then on every
+ * open and commit fails with VBNL_ERR_CANCELLED and leaves no file (targets keep their previous
+ * content, or stay absent); there is no way back. Async-signal-safe: lock-free atomics and
+ * unlink() only, no lock, no allocation; it may wait while another thread is inside the open() or
+ * rename() of a temporary (that thread blocks signals for those calls only). */
+void vbnl_atomic_file_abandon_all(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
