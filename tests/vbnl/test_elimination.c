@@ -507,12 +507,100 @@ static void test_kdtree(void **state)
             assert_int_equal(c, expect);
             assert_int_equal(vbnl_kd_radius(&t, pts[i].p, r2, qi, qd, 5), 6); /* capped */
         }
+        /* Box gathers against brute force, around every leaf's box. */
+        float *pr2 = malloc(n * sizeof(float)), *nr2 = malloc(t.node_count * sizeof(float));
+        uint8_t *hit = malloc(n);
+        assert_true(pr2 && nr2 && hit);
+        for (uint32_t i = 0; i < n; ++i)
+            pr2[i] = (0.002f + 0.03f * (float)(i % 7) / 6.0f) * (0.002f + 0.03f * (float)(i % 7) / 6.0f);
+        for (uint32_t k = t.node_count; k-- > 0;) { /* children follow their parent */
+            const vbnl_kd_node *nd = &t.nodes[k];
+            float r2 = 0.0f;
+            if (nd->axis == VBNL_KD_LEAF_AXIS)
+                for (uint32_t i = nd->begin; i < nd->end; ++i)
+                    r2 = pr2[i] > r2 ? pr2[i] : r2;
+            else
+                r2 = nr2[k + 1] > nr2[nd->right] ? nr2[k + 1] : nr2[nd->right];
+            nr2[k] = r2;
+        }
+        for (uint32_t k = 0; k < t.node_count; k += 5) {
+            if (t.nodes[k].axis != VBNL_KD_LEAF_AXIS)
+                continue;
+            const float *lo = t.box + 6 * (size_t)k, *hi = lo + 3;
+            for (uint32_t i = t.nodes[k].begin; i < t.nodes[k].end; ++i)
+                for (int a = 0; a < 3; ++a)
+                    assert_true(pts[i].p[a] >= lo[a] && pts[i].p[a] <= hi[a]);
+            const float r2 = 0.0004f;
+            uint32_t c = vbnl_kd_gather_box(&t, lo, hi, r2, qi, n), expect = 0;
+            memset(hit, 0, n);
+            for (uint32_t j = 0; j < c; ++j) {
+                assert_true(qi[j] < n && !hit[qi[j]]);
+                hit[qi[j]] = 1;
+            }
+            for (uint32_t i = 0; i < n; ++i) {
+                int in = vbnl_kd_box_dist2(lo, hi, pts[i].p) <= r2;
+                expect += in;
+                assert_int_equal(hit[i], in);
+            }
+            assert_int_equal(c, expect);
+            if (expect > 2)
+                assert_int_equal(vbnl_kd_gather_box(&t, lo, hi, r2, qi, expect - 1), expect);
+            c = vbnl_kd_gather_reach(&t, lo, hi, nr2, pr2, qi, n);
+            memset(hit, 0, n);
+            for (uint32_t j = 0; j < c; ++j)
+                hit[qi[j]] = 1;
+            expect = 0;
+            for (uint32_t i = 0; i < n; ++i) {
+                int in = vbnl_kd_box_dist2(lo, hi, pts[i].p) < pr2[i];
+                expect += in;
+                assert_int_equal(hit[i], in);
+            }
+            assert_int_equal(c, expect);
+        }
+        free(hit);
+        free(nr2);
+        free(pr2);
         vbnl_kd_free(&t);
         free(all);
         free(qd);
         free(qi);
         free(pts);
     }
+    /* Splitting jobs level by level builds the tree vbnl_kd_build makes. */
+    vbnl_kd_pt *a = malloc(n * sizeof(vbnl_kd_pt)), *b = malloc(n * sizeof(vbnl_kd_pt));
+    assert_true(a && b);
+    for (uint32_t i = 0; i < n; ++i) {
+        a[i].p[0] = src[i].x;
+        a[i].p[1] = src[i].y;
+        a[i].p[2] = src[i].z;
+        a[i].id = i;
+    }
+    memcpy(b, a, n * sizeof(vbnl_kd_pt));
+    vbnl_kd_tree ta, tb;
+    assert_int_equal(vbnl_kd_build(&ta, a, n), 0);
+    vbnl_kd_subtree jobs[2][16];
+    uint32_t nj, nout[8];
+    assert_int_equal(vbnl_kd_build_top(&tb, b, n, 1, jobs[0], &nj), 0);
+    for (int lev = 0; lev < 3; ++lev) {
+        uint32_t k = 0;
+        for (uint32_t j = 0; j < nj; ++j)
+            vbnl_kd_build_split(&tb, &jobs[lev & 1][j], jobs[(lev + 1) & 1] + 2 * j, &nout[j]);
+        for (uint32_t j = 0; j < nj; ++j)
+            for (uint32_t c = 0; c < nout[j]; ++c)
+                jobs[(lev + 1) & 1][k++] = jobs[(lev + 1) & 1][2 * j + c];
+        nj = k;
+    }
+    assert_int_equal(nj, 16);
+    for (uint32_t j = nj; j-- > 0;)
+        vbnl_kd_build_subtree(&tb, &jobs[1][j]);
+    assert_int_equal(ta.node_count, tb.node_count);
+    assert_memory_equal(a, b, n * sizeof(vbnl_kd_pt));
+    assert_memory_equal(ta.nodes, tb.nodes, ta.node_count * sizeof(vbnl_kd_node));
+    assert_memory_equal(ta.box, tb.box, ta.node_count * 6 * sizeof(float));
+    vbnl_kd_free(&ta);
+    vbnl_kd_free(&tb);
+    free(a);
+    free(b);
     free(src);
 }
 

@@ -13,8 +13,8 @@
  *
  * The point with the largest weight is removed (ties: smallest index first), its contribution is
  * subtracted from every alive j whose own d_max,j covered it, until N remain. The adaptive weight
- * is asymmetric, so each point remembers the largest d_max of any point that counted it ("reach")
- * and a removal searches that far.
+ * is asymmetric (a point counts its neighbours within its own d_max), so the points a removal
+ * updates are those whose d_max covered it: its neighbour list below.
  *
  * Parallel variant (section 3.2): the candidates are split by a balanced k-d tree (median splits
  * along the axis of largest extent) into 64 leaf boxes (8 for M < 32768, none below 4096: the
@@ -25,13 +25,31 @@
  * proportional to the number of kept points its candidates are expected to carry,
  * sum_i A_i / (m 2 sqrt(3) r_i,max^2) (= M_box N / M for unclamped adaptive radii).
  *
- * Spatial index: a balanced k-d tree (elimination_kdtree.h) over all candidates serves the m-NN
- * search of Eq. 2 and, as its top levels, the parallel boxes; every box runs its radius queries
- * in its own tree (the leaf boxes reuse their subtree of the global one), rebuilt without the
- * removed points whenever half of them are gone. A uniform grid answered fixed-radius queries
- * ~1.5x faster on a uniform thin slab (430 vs 650 ns at 1.3M points, 30 neighbours), but one
- * cell size cannot suit adaptive radii that vary with the candidate density, a dense 3D grid
- * over a scene is mostly empty cells, and Eq. 2 needs m-NN queries anyway.
+ * Spatial index and neighbour lists: one balanced k-d tree (elimination_kdtree.h) over all
+ * candidates, with a bounding box per node; its top levels are the parallel boxes, so every box
+ * is a contiguous range of the tree's point order. The m-NN search of Eq. 2 runs a tree leaf at
+ * a time: the leaf's queries share one candidate set (the points within an estimated radius R of
+ * the leaf's box) and each query picks its m-th distance from it by brute force (vectorised),
+ * counting the candidates under a few thresholds to select among only the handful near the m-th;
+ * a query with fewer than m candidates within R is searched exactly in the tree. The result is
+ * the exact m-th distance whatever R. Then every candidate q gets its neighbour list once: the
+ * points j whose own d_max,j covers q, with q's term in w_j. A box's weights sum the terms of
+ * its alive points' lists (in increasing tree position: the same sums for any thread count), a
+ * removal subtracts the removed point's terms from the alive points of its list (decrease-key:
+ * the heap keeps each slot's weight and every point its slot). These are the pairs the weight
+ * sum needs, found once, instead of a radius query per point, per removal and per level; the
+ * elimination order is the one those queries gave, up to the summation order of the weights.
+ * Serially the lists of all candidates are built first (~8 bytes x 1.1 m per candidate: ~380 MB
+ * for 1.3M candidates and m = 32); in parallel each leaf box builds its own in its work item,
+ * eliminates while they are in cache, and keeps its survivors' lists, without its removed points
+ * (~10% of the entries), for the joined boxes.
+ * Measured alternatives: a lazy heap (stale keys refreshed when they reach the top; the same
+ * removal order) was ~30% slower than decrease-key; a quickselect over all candidates within R
+ * instead of the threshold windows took ~1.3x the m-NN instructions, a 64-bin histogram more;
+ * a gather starting at the leaf's lowest enclosing node instead of the root saved nothing. A
+ * uniform grid answered fixed-radius queries ~1.5x faster on a uniform thin slab (430 vs 650 ns
+ * at 1.3M points, 30 neighbours), but one cell size cannot suit adaptive radii that vary with the
+ * candidate density, and a dense 3D grid over a scene is mostly empty cells.
  *
  * Normals are not used: candidates on the two sides of a thin wall compete like any neighbours
  * (the paper's elimination uses positions only).
@@ -101,7 +119,9 @@ vbnl_elim_exec vbnl_elim_exec_pool(vbnl_pool *pool);
 typedef struct vbnl_elim_stats {
     double time_radius;      /* seconds: k-d tree + m-NN search + Eq. 1/2 */
     double time_tree;        /* seconds: of which building the k-d tree over all candidates */
-    double time_eliminate;   /* seconds: elimination proper (all levels) */
+    double time_eliminate;   /* seconds: elimination proper (all levels), lists included */
+    double time_lists;       /* seconds: of which building the neighbour lists (serial variant;
+                              * the parallel one builds them in its leaf boxes, time_level[0]) */
     double area;             /* A used by Eq. 1, or estimated (sum_i pi d_i^2 / m); 0 if unknown */
     uint32_t neighbours;     /* m actually used (after clamping), 0 if no m-NN search ran */
     uint32_t levels;         /* parallel levels run, root included (1 for serial) */

@@ -62,20 +62,15 @@ static uint32_t vbnl_kd_build_rec(vbnl_kd_tree *t, uint32_t *next, uint32_t b, u
     nd->end = e;
     nd->right = 0;
     nd->split = 0.0f;
-    if (e - b <= VBNL_KD_LEAF) {
-        nd->axis = VBNL_KD_LEAF_AXIS;
-        return ni;
-    }
-    if (depth == defer) {
+    if (e - b > VBNL_KD_LEAF && depth == defer) {
         jobs[*njobs].node = ni;
         jobs[*njobs].begin = b;
         jobs[*njobs].end = e;
         (*njobs)++;
         *next = ni + vbnl_kd_node_count(e - b);
-        return ni;
+        return ni; /* its box too is written by the job */
     }
-    /* Split at the median along the axis of largest extent (a balanced tree: section 3.2 uses
-     * the same rule for the parallel boxes, which are this tree's top levels). */
+    /* The bounding box: kept for box queries (vbnl_kd_gather_*), and it picks the split axis. */
     float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
     for (uint32_t i = b; i < e; ++i)
         for (int a = 0; a < 3; ++a) {
@@ -83,6 +78,17 @@ static uint32_t vbnl_kd_build_rec(vbnl_kd_tree *t, uint32_t *next, uint32_t b, u
             lo[a] = v < lo[a] ? v : lo[a];
             hi[a] = v > hi[a] ? v : hi[a];
         }
+    float *bx = t->box + 6 * (size_t)ni;
+    for (int a = 0; a < 3; ++a) {
+        bx[a] = lo[a];
+        bx[3 + a] = hi[a];
+    }
+    if (e - b <= VBNL_KD_LEAF) {
+        nd->axis = VBNL_KD_LEAF_AXIS;
+        return ni;
+    }
+    /* Split at the median along the axis of largest extent (a balanced tree: section 3.2 uses
+     * the same rule for the parallel boxes, which are this tree's top levels). */
     int ax = 0;
     for (int a = 1; a < 3; ++a)
         if (hi[a] - lo[a] > hi[ax] - lo[ax])
@@ -104,14 +110,25 @@ int vbnl_kd_build_top(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n, uint32_t lev
     t->n = n;
     t->node_count = n > 0 ? vbnl_kd_node_count(n) : 0;
     t->nodes = malloc(((size_t)t->node_count + 1) * sizeof(vbnl_kd_node));
+    t->box = malloc(((size_t)t->node_count + 1) * 6 * sizeof(float));
     if (njobs)
         *njobs = 0;
-    if (!t->nodes)
+    if (!t->nodes || !t->box) {
+        vbnl_kd_free(t);
         return -1;
+    }
     uint32_t next = 0;
     if (n > 0)
         vbnl_kd_build_rec(t, &next, 0, n, 0, levels, jobs, njobs);
     return 0;
+}
+
+void vbnl_kd_build_split(vbnl_kd_tree *t, const vbnl_kd_subtree *job, vbnl_kd_subtree *out,
+                         uint32_t *nout)
+{
+    uint32_t next = job->node;
+    *nout = 0;
+    vbnl_kd_build_rec(t, &next, job->begin, job->end, 0, 1, out, nout);
 }
 
 void vbnl_kd_build_subtree(vbnl_kd_tree *t, const vbnl_kd_subtree *job)
@@ -128,7 +145,9 @@ int vbnl_kd_build(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n)
 void vbnl_kd_free(vbnl_kd_tree *t)
 {
     free(t->nodes);
+    free(t->box);
     t->nodes = NULL;
+    t->box = NULL;
 }
 
 /* All points with squared distance <= r2 of q: local indices and squared distances, at most
@@ -264,3 +283,82 @@ float vbnl_kd_knn(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap,
     return d2;
 }
 
+/* Squared distance between two boxes (0 when they overlap). */
+static inline float vbnl_kd_box_box_dist2(const float *alo, const float *ahi, const float *b)
+{
+    float s = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+        float g = b[a] - ahi[a] > alo[a] - b[3 + a] ? b[a] - ahi[a] : alo[a] - b[3 + a];
+        s += g > 0.0f ? g * g : 0.0f;
+    }
+    return s;
+}
+
+uint32_t vbnl_kd_gather_box(const vbnl_kd_tree *t, const float *lo, const float *hi, float r2,
+                            uint32_t *out_i, uint32_t cap)
+{
+    uint32_t stack[VBNL_KD_STACK];
+    int sp = 0;
+    uint32_t cnt = 0;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        uint32_t ni = stack[--sp];
+        if (vbnl_kd_box_box_dist2(lo, hi, t->box + 6 * (size_t)ni) > r2)
+            continue;
+        const vbnl_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+            if (cnt + (nd->end - nd->begin) > cap) { /* close to the cap: test and stop exactly */
+                for (uint32_t i = nd->begin; i < nd->end; ++i)
+                    if (vbnl_kd_box_dist2(lo, hi, t->pts[i].p) <= r2) {
+                        if (cnt == cap)
+                            return cap + 1;
+                        out_i[cnt++] = i;
+                    }
+                continue;
+            }
+            for (uint32_t i = nd->begin; i < nd->end; ++i) { /* branchless: the test is unpredictable */
+                out_i[cnt] = i;
+                cnt += vbnl_kd_box_dist2(lo, hi, t->pts[i].p) <= r2;
+            }
+            continue;
+        }
+        stack[sp++] = nd->right; /* left first: depth-first order */
+        stack[sp++] = ni + 1;
+    }
+    return cnt;
+}
+
+uint32_t vbnl_kd_gather_reach(const vbnl_kd_tree *t, const float *lo, const float *hi,
+                              const float *node_r2, const float *pt_r2, uint32_t *out_i,
+                              uint32_t cap)
+{
+    uint32_t stack[VBNL_KD_STACK];
+    int sp = 0;
+    uint32_t cnt = 0;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        uint32_t ni = stack[--sp];
+        if (!(vbnl_kd_box_box_dist2(lo, hi, t->box + 6 * (size_t)ni) < node_r2[ni]))
+            continue;
+        const vbnl_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+            if (cnt + (nd->end - nd->begin) > cap) {
+                for (uint32_t i = nd->begin; i < nd->end; ++i)
+                    if (vbnl_kd_box_dist2(lo, hi, t->pts[i].p) < pt_r2[i]) {
+                        if (cnt == cap)
+                            return cap + 1;
+                        out_i[cnt++] = i;
+                    }
+                continue;
+            }
+            for (uint32_t i = nd->begin; i < nd->end; ++i) {
+                out_i[cnt] = i;
+                cnt += vbnl_kd_box_dist2(lo, hi, t->pts[i].p) < pt_r2[i];
+            }
+            continue;
+        }
+        stack[sp++] = nd->right;
+        stack[sp++] = ni + 1;
+    }
+    return cnt;
+}

@@ -3,8 +3,9 @@
  *
  * A balanced tree built by median splits along the axis of largest extent; the points are
  * permuted into tree order, so that spatial neighbours are close in memory, and carry their
- * global index. Radius and m-nearest queries; both are exact and their results do not depend
- * on anything but the points (queries only read the tree: thread-safe). */
+ * global index; every node keeps the bounding box of its points. Radius and m-nearest queries,
+ * and gathers of the points near a box; all are exact and their results do not depend on
+ * anything but the points (queries only read the tree: thread-safe). */
 #ifndef VBNL_ELIMINATION_KDTREE_H
 #define VBNL_ELIMINATION_KDTREE_H
 
@@ -31,6 +32,7 @@ typedef struct vbnl_kd_node {
 typedef struct vbnl_kd_tree {
     vbnl_kd_pt *pts; /* not owned */
     vbnl_kd_node *nodes;
+    float *box;      /* 6 floats per node: the bounding box of its points, lo xyz then hi xyz */
     uint32_t n, node_count;
 } vbnl_kd_tree;
 
@@ -54,7 +56,10 @@ int vbnl_kd_build(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n);
 int vbnl_kd_build_top(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n, uint32_t levels,
                       vbnl_kd_subtree *jobs, uint32_t *njobs);
 void vbnl_kd_build_subtree(vbnl_kd_tree *t, const vbnl_kd_subtree *job);
-/* Frees the nodes (not the points); t may be zeroed or already freed. */
+/* One level of a job: builds its node and leaves its (at most 2) children as jobs in out[]. */
+void vbnl_kd_build_split(vbnl_kd_tree *t, const vbnl_kd_subtree *job, vbnl_kd_subtree *out,
+                         uint32_t *nout);
+/* Frees the nodes and boxes (not the points); t may be zeroed or already freed. */
 void vbnl_kd_free(vbnl_kd_tree *t);
 
 /* All points with squared distance <= r2 of q: local indices (into t->pts) and squared
@@ -67,5 +72,28 @@ uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_
  * least m other points (INFINITY: none); a bound made too tight by rounding only costs a second
  * search. The result does not depend on the bound. */
 float vbnl_kd_knn(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap, float bound2);
+
+/* Squared distance from point q to the box lo..hi (0 inside). */
+static inline float vbnl_kd_box_dist2(const float *lo, const float *hi, const float *q)
+{
+    float s = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+        float g = lo[a] - q[a] > q[a] - hi[a] ? lo[a] - q[a] : q[a] - hi[a];
+        s += g > 0.0f ? g * g : 0.0f;
+    }
+    return s;
+}
+
+/* All points whose squared distance to the box lo..hi is <= r2: local indices in depth-first
+ * order, at most `cap`; returns the count, or cap + 1 when there were more. */
+uint32_t vbnl_kd_gather_box(const vbnl_kd_tree *t, const float *lo, const float *hi, float r2,
+                            uint32_t *out_i, uint32_t cap);
+
+/* All points j whose squared distance to the box lo..hi is < pt_r2[j] (a per-point reach, by
+ * local index): the points whose reach may cover a point of the box. node_r2[k] must bound
+ * pt_r2 over node k's points from above. Same output convention as vbnl_kd_gather_box. */
+uint32_t vbnl_kd_gather_reach(const vbnl_kd_tree *t, const float *lo, const float *hi,
+                              const float *node_r2, const float *pt_r2, uint32_t *out_i,
+                              uint32_t cap);
 
 #endif
