@@ -460,11 +460,6 @@ uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b)
     return 0;
 }
 
-int vbnl_bsdf_is_delta(const vbnl_bsdf *b)
-{
-    return b->type == VBNL_MATERIAL_MIRROR || b->type == VBNL_MATERIAL_DIELECTRIC;
-}
-
 vec3 vbnl_bsdf_albedo(const vbnl_bsdf *b)
 {
     if (b->type == VBNL_MATERIAL_CONDUCTOR)
@@ -472,4 +467,3 @@ vec3 vbnl_bsdf_albedo(const vbnl_bsdf *b)
     return b->color;
 }
 
-int vbnl_bsdf_is_transmissive(const vbnl_bsdf *b) { return b->type == VBNL_MATERIAL_DIELECTRIC; }

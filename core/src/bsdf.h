@@ -52,12 +52,16 @@ int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsd
 
 /* Union of the lobes this BSDF has. */
 uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b);
-/* True when every lobe is a delta (no point in next-event estimation). */
-int vbnl_bsdf_is_delta(const vbnl_bsdf *b);
+/* True when every lobe is a delta (no point in next-event estimation). Inline: asked at every
+ * path vertex. */
+static inline int vbnl_bsdf_is_delta(const vbnl_bsdf *b)
+{
+    return b->type == VBNL_MATERIAL_MIRROR || b->type == VBNL_MATERIAL_DIELECTRIC;
+}
 /* Colour for the albedo AOV (the diffuse or specular tint). */
 vec3 vbnl_bsdf_albedo(const vbnl_bsdf *b);
 /* True for the dielectric: the integrator must keep the geometric orientation. */
-int vbnl_bsdf_is_transmissive(const vbnl_bsdf *b);
+static inline int vbnl_bsdf_is_transmissive(const vbnl_bsdf *b) { return b->type == VBNL_MATERIAL_DIELECTRIC; }
 
 /* Fresnel reflectance of a dielectric interface for cos_i on the side given by its sign
  * (eta = n_inside / n_outside). */

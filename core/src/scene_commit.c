@@ -358,33 +358,6 @@ vbnl_result vbnl_scene_get_info(const vbnl_scene *s, vbnl_scene_info *out, vbnl_
 
 /* ---- queries ------------------------------------------------------------------------------ */
 
-static inline float int_as_float(int32_t i)
-{
-    float f;
-    memcpy(&f, &i, sizeof(f));
-    return f;
-}
-static inline int32_t float_as_int(float f)
-{
-    int32_t i;
-    memcpy(&i, &f, sizeof(i));
-    return i;
-}
-
-vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
-{
-    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    if (v3_dot(n, w) < 0.0f)
-        n = v3_neg(n);
-    float pc[3] = {p.x, p.y, p.z}, nc[3] = {n.x, n.y, n.z}, out[3];
-    for (int i = 0; i < 3; ++i) {
-        int32_t of = (int32_t)(int_scale * nc[i]);
-        float pi = int_as_float(float_as_int(pc[i]) + (pc[i] < 0.0f ? -of : of));
-        out[i] = fabsf(pc[i]) < origin ? pc[i] + float_scale * nc[i] : pi;
-    }
-    return v3(out[0], out[1], out[2]);
-}
-
 static void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned prim_id, unsigned inst_id,
                      float bu, float bv, float t, vec3 o, vec3 d, vbnl_hit *h)
 {

@@ -8,6 +8,7 @@
 
 #include <embree3/rtcore.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "bsdf.h"
 #include "lights.h"
@@ -128,9 +129,35 @@ static inline vec3 vbnl_surface_tint(const vbnl_scene *s, const vbnl_hit *hit)
     return m->texture ? vbnl_texture_eval(m->texture, hit->p, hit->uv) : v3s(1.0f);
 }
 
+static inline float vbnl_int_as_float(int32_t i)
+{
+    float f;
+    memcpy(&f, &i, sizeof(f));
+    return f;
+}
+static inline int32_t vbnl_float_as_int(float f)
+{
+    int32_t i;
+    memcpy(&i, &f, sizeof(i));
+    return i;
+}
+
 /* Offsets a ray origin off the surface along the geometric normal, on the side of `w`
- * (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a scene-scale epsilon. */
-vec3 vbnl_offset_ray_origin(vec3 p, vec3 ng, vec3 w);
+ * (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a scene-scale epsilon. Inline:
+ * once per path vertex. */
+static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
+{
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    if (v3_dot(n, w) < 0.0f)
+        n = v3_neg(n);
+    float pc[3] = {p.x, p.y, p.z}, nc[3] = {n.x, n.y, n.z}, out[3];
+    for (int i = 0; i < 3; ++i) {
+        int32_t of = (int32_t)(int_scale * nc[i]);
+        float pi = vbnl_int_as_float(vbnl_float_as_int(pc[i]) + (pc[i] < 0.0f ? -of : of));
+        out[i] = fabsf(pc[i]) < origin ? pc[i] + float_scale * nc[i] : pi;
+    }
+    return v3(out[0], out[1], out[2]);
+}
 
 /* Camera ray through image point (px, py) in pixels (continuous; row 0 at the top). */
 void vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py,

@@ -52,10 +52,16 @@ static inline vec3 v3_norm(vec3 a)
     float l = v3_len(a);
     return l > 0.0f ? v3_scale(a, 1.0f / l) : a;
 }
-static inline float v3_max_comp(vec3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
-static inline float v3_min_comp(vec3 a) { return fminf(a.x, fminf(a.y, a.z)); }
-static inline vec3 v3_min(vec3 a, vec3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
-static inline vec3 v3_max(vec3 a, vec3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+/* fmaxf / fminf, inline: without -ffinite-math-only GCC calls libm for them (a call per use on
+ * hot paths, with every live register spilled). Same results as glibc's x86-64 versions
+ * (maxss / minss, which return the second operand on ties such as -0 vs +0; a NaN operand is
+ * ignored), checked bit for bit on zeros, infinities and NaNs. */
+static inline float vbnl_fmaxf(float x, float y) { return (x > y || y != y) ? x : y; }
+static inline float vbnl_fminf(float x, float y) { return (x < y || y != y) ? x : y; }
+static inline float v3_max_comp(vec3 a) { return vbnl_fmaxf(a.x, vbnl_fmaxf(a.y, a.z)); }
+static inline float v3_min_comp(vec3 a) { return vbnl_fminf(a.x, vbnl_fminf(a.y, a.z)); }
+static inline vec3 v3_min(vec3 a, vec3 b) { return v3(vbnl_fminf(a.x, b.x), vbnl_fminf(a.y, b.y), vbnl_fminf(a.z, b.z)); }
+static inline vec3 v3_max(vec3 a, vec3 b) { return v3(vbnl_fmaxf(a.x, b.x), vbnl_fmaxf(a.y, b.y), vbnl_fmaxf(a.z, b.z)); }
 static inline float v3_avg(vec3 a) { return (a.x + a.y + a.z) * (1.0f / 3.0f); }
 /* Rec. 709 luminance of a linear RGB colour. */
 static inline float v3_luminance(vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
@@ -66,7 +72,7 @@ static inline float v3_comp(vec3 a, int i) { return i == 0 ? a.x : (i == 1 ? a.y
 
 static inline float clampf(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
 static inline float sqr(float v) { return v * v; }
-static inline float safe_sqrtf(float v) { return sqrtf(fmaxf(v, 0.0f)); }
+static inline float safe_sqrtf(float v) { return sqrtf(vbnl_fmaxf(v, 0.0f)); }
 
 /* Orthonormal frame with z as the given unit normal (Duff et al. 2017, branchless ONB). */
 typedef struct frame {

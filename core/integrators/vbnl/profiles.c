@@ -292,12 +292,8 @@ static inline void atomic_add_u64(uint64_t *p, uint64_t v)
         __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
 }
 
-void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
+void vbnl_profile_deposit_map_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
 {
-    uint64_t *phi = s->phi + 3 * (size_t)vl;
-    atomic_add_u64(phi + 0, q[0]);
-    atomic_add_u64(phi + 1, q[1]);
-    atomic_add_u64(phi + 2, q[2]);
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT || !s->incident)
         return;
@@ -314,6 +310,23 @@ void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const
         for (int k = 0; k < 4; ++k)
             atomic_add_u64(map + 3 * (size_t)idx[k] + c, part[k]);
     }
+}
+
+void vbnl_profile_add_power_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t q[3])
+{
+    uint64_t *phi = s->phi + 3 * (size_t)vl;
+    phi[0] += q[0];
+    phi[1] += q[1];
+    phi[2] += q[2];
+}
+
+void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
+{
+    uint64_t *phi = s->phi + 3 * (size_t)vl;
+    atomic_add_u64(phi + 0, q[0]);
+    atomic_add_u64(phi + 1, q[1]);
+    atomic_add_u64(phi + 2, q[2]);
+    vbnl_profile_deposit_map_fixed(s, vl, wi, q);
 }
 
 void vbnl_profile_deposit(vbnl_profile_set *s, uint32_t vl, vec3 wi, vec3 power)
