@@ -15,7 +15,9 @@
  * is the steadiest figure under load.
  *
  * Usage: bench_splitting [photon_paths (2e6)] [vl_count (1e5)] [threads (0 = all)] [variants (bit mask
- * of the rows below, 0 = all)] [runs (3)]; a reduced case for callgrind: 20000 100000 1 2 1. */
+ * of the rows below, 0 = all)] [runs (3)] [scene file in the Cornell box folder
+ * (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy VLs)]; a reduced case for
+ * callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -160,7 +162,8 @@ int main(int argc, char **argv)
         runs = 3;
     const char *shared = getenv("VBNL_SHARED_DIR");
     char path[1024];
-    snprintf(path, sizeof(path), "%s/scenes/cornell-box-mcguire/CornellBox-Original.obj", shared ? shared : "/work/shared");
+    const char *scene_file = argc > 6 ? argv[6] : "CornellBox-Original.obj";
+    snprintf(path, sizeof(path), "%s/scenes/cornell-box-mcguire/%s", shared ? shared : "/work/shared", scene_file);
 
     vbnl_context_desc cd = {threads};
     vbnl_context *ctx = NULL;
@@ -219,8 +222,11 @@ int main(int argc, char **argv)
         vbnl_scene_measure_ray_rate(ctx, s, 1000000, 512, 512, &raw, NULL);
         make_raw_rays(&rr, 1000000);
     }
-    printf("scene: %s, %llu triangles, area %.3f; %u VLs, r = %.4f; %llu photon paths; %u threads\n", path,
-           (unsigned long long)s->triangle_count, area, nvl, rad, (unsigned long long)paths, nthreads);
+    uint32_t nglossy = 0;
+    for (uint32_t j = 0; j < nvl; ++j)
+        nglossy += glossy[j];
+    printf("scene: %s, %llu triangles, area %.3f; %u VLs (%u glossy), r = %.4f; %llu photon paths; %u threads\n", path,
+           (unsigned long long)s->triangle_count, area, nvl, nglossy, rad, (unsigned long long)paths, nthreads);
     printf("raw Embree incoherent ray rate: %.2f Mrays/s\n", raw * 1e-6);
 
     vbnl_hemioct *map = NULL;
@@ -280,12 +286,12 @@ int main(int argc, char **argv)
         double t = times[runs / 2], ratio = ratios[runs / 2], cpu_ratio = cpu_ratios[runs / 2];
         printf("%-24s %.3f s (min %.3f max %.3f, %d runs) | %.3f Mpaths/s | %.2f Mrays/s (%.0f%% of raw; median per-run ratio %.0f%%, per CPU second %.0f%%) | %.2f Mdeposits/s | "
                "%.2f hits/path, %.1f%% covered, %.2f VLs/covered hit, %llu overflow | index %.2f MB (build %.3f s), "
-               "profiles %.2f MB\n",
+               "profiles %.2f MB, splitting scratch %.2f MB\n",
                variants[v].name, t, times[0], times[runs - 1], runs, st.paths / t * 1e-6, st.rays / t * 1e-6,
                raw > 0.0 ? 100.0 * st.rays / t / raw : 0.0, 100.0 * ratio, 100.0 * cpu_ratio, st.deposits / t * 1e-6, (double)st.hits / st.paths,
                100.0 * st.covered_hits / (st.hits ? st.hits : 1),
                (double)st.deposits / (st.covered_hits ? st.covered_hits : 1), (unsigned long long)st.overflow,
-               vbnl_vl_index_bytes(idx) / 1048576.0, tb, pbytes / 1048576.0);
+               vbnl_vl_index_bytes(idx) / 1048576.0, tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
         vbnl_vl_index_destroy(idx);
     }
     vbnl_hemioct_destroy(map);

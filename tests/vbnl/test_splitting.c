@@ -421,6 +421,8 @@ static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area
     }
 }
 
+static int g_atomic_deposits; /* run_split_chunk: vbnl_split_desc.atomic_deposits */
+
 static vbnl_profile_set *run_split_chunk(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
                                          const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
                                          uint64_t paths, uint64_t first, uint64_t count, uint32_t chunk,
@@ -439,6 +441,7 @@ static vbnl_profile_set *run_split_chunk(const vbnl_scene *s, const vbnl_vl_inde
     d.path_count = count;
     d.seed = seed;
     d.chunk = chunk;
+    d.atomic_deposits = g_atomic_deposits;
     assert_int_equal(vbnl_split_photons(&d, pool, NULL, st), VBNL_OK);
     return ps;
 }
@@ -492,12 +495,14 @@ static void test_determinism_and_merge(void **state)
     assert_memory_equal(s1.covered_power, s2.covered_power, sizeof(s1.covered_power));
     assert_int_equal(s1.deposits, s2.deposits);
     /* Work items of 7 paths (tiny batches) on 3 threads, and the default chunk (batches that fill
-     * up within an item): the same bits. */
+     * up within an item) with atomic deposits instead of per-thread sums: the same bits. */
     {
         vbnl_pool *p3 = vbnl_pool_create(3);
         vbnl_split_stats s3, s4;
         vbnl_profile_set *three = run_split_chunk(s, idx, &v, map, unit, p3, 5, P, 0, 0, 7, &s3);
+        g_atomic_deposits = 1; /* the fallback without per-thread sums */
         vbnl_profile_set *dflt = run_split_chunk(s, idx, &v, map, unit, p2, 5, P, 0, 0, 0, &s4);
+        g_atomic_deposits = 0;
         assert_true(sets_equal(one, three, texels));
         assert_true(sets_equal(one, dflt, texels));
         assert_memory_equal(s1.covered_power, s3.covered_power, sizeof(s1.covered_power));

@@ -163,7 +163,7 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
     if (job->glossy)
         for (uint32_t i = 0; i < m; ++i)
             glossy |= job->glossy[f[k[i]].rank];
-    if (!glossy) {
+    if (!glossy && t->acc) {
         /* split3 with the shares added straight into this thread's sums (by rank); the residue
          * goes to the largest weight (first on ties), as in vbnl_profile_split_fixed */
         uint64_t left0 = q[0], left1 = q[1], left2 = q[2];
@@ -196,15 +196,24 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
         for (uint32_t i = 0; i < m; ++i) {
             const vbnl_vl_found *e = &f[k[i]];
             /* Phi_in into this thread's sums (plain adds, merged at the end), the direction
-             * into the VL's map (atomic: maps are shared). */
-            uint64_t *a = t->acc + 3 * (size_t)e->rank;
-            a[0] += share[0][i];
-            a[1] += share[1][i];
-            a[2] += share[2][i];
-            if (job->glossy[e->rank]) {
-                uint64_t s3[3] = {share[0][i], share[1][i], share[2][i]};
+             * into the VL's map (atomic: maps are shared); without per-thread sums, both
+             * atomically into the set. */
+            uint64_t s3[3] = {share[0][i], share[1][i], share[2][i]};
+            int gl = job->glossy && job->glossy[e->rank];
+            vec3 wl = v3(0.0f, 0.0f, 1.0f); /* Lambertian VLs keep no direction */
+            if (gl) {
                 frame fr = frame_from_normal(d->vl_normals[e->id]);
-                vbnl_profile_deposit_map_fixed(d->profiles, e->id, frame_to_local(&fr, h->wi), s3);
+                wl = frame_to_local(&fr, h->wi);
+            }
+            if (t->acc) {
+                uint64_t *a = t->acc + 3 * (size_t)e->rank;
+                a[0] += s3[0];
+                a[1] += s3[1];
+                a[2] += s3[2];
+                if (gl)
+                    vbnl_profile_deposit_map_fixed(d->profiles, e->id, wl, s3);
+            } else {
+                vbnl_profile_deposit_fixed(d->profiles, e->id, wl, s3);
             }
         }
     }
@@ -248,7 +257,7 @@ static void flush_batch(const split_job *job, split_thread *t)
     b.normal_cos = job->d->normal_cos;
     b.facing = job->d->require_facing;
     b.max_out = VBNL_SPLIT_QUERY_MAX;
-    b.rank_data = t->acc;
+    b.rank_data = t->acc; /* NULL: nothing to prefetch */
     b.rank_stride = 3 * sizeof(uint64_t);
     vbnl_vl_index_query_batch(job->d->index, &b, split_hit, &cx);
     t->n = 0;
@@ -392,15 +401,18 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         goto done;
     }
     memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
+    /* Per-thread sums unless they would take more than VBNL_SPLIT_MAX_SUM_BYTES (many threads
+     * and millions of VLs): then atomic adds into the set, the same bits. */
+    int own_sums = !d->atomic_deposits && (double)nvl * 24.0 * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
     for (unsigned i = 0; i < job.thread_count; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;
-        t->acc = calloc(3 * (size_t)nvl + 1, sizeof(uint64_t));
+        t->acc = own_sums ? calloc(3 * (size_t)nvl + 1, sizeof(uint64_t)) : NULL;
         t->hits = malloc(t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
         t->start = malloc(((size_t)job.bins + 1) * sizeof(uint32_t));
-        if (!t->acc || !t->hits || !t->order || !t->bin || !t->start) {
+        if ((own_sums && !t->acc) || !t->hits || !t->order || !t->bin || !t->start) {
             res = VBNL_ERR_OUT_OF_MEMORY;
             goto done;
         }
@@ -416,7 +428,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     }
     /* Phi_in: the threads' sums, added in rank order (integer adds: the same bits for any
      * thread count and order). */
-    for (uint32_t r = 0; r < nvl; ++r) {
+    for (uint32_t r = 0; r < nvl && own_sums; ++r) {
         uint64_t q[3] = {0, 0, 0};
         for (unsigned i = 0; i < job.thread_count; ++i)
             for (int c = 0; c < 3; ++c)
@@ -438,6 +450,11 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
                 stats->covered_power[c] += s->covered_power[c];
         }
         stats->seconds = vbnl_now() - t0;
+        stats->scratch_bytes = (uint64_t)job.thread_count *
+                               ((own_sums ? 24ull * nvl : 0ull) +
+                                (uint64_t)VBNL_SPLIT_BATCH_HITS * (sizeof(split_rec) + 2 * sizeof(uint32_t)) +
+                                4ull * (job.bins + 1)) +
+                               (glossy ? nvl : 0u);
     }
 done:
     threads_free(&job);

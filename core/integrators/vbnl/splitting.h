@@ -58,8 +58,10 @@
  *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
  *   normalised weights may differ in the last bit from an id-ordered sum; either is a
  *   deterministic function of the hit).
- *   Memory beyond the profile set: per thread 24 bytes per VL (the sums) and 56 bytes per
- *   batch entry (3.7 MB); for 100K VLs and 2 threads, 12.2 MB in all.
+ *   Memory beyond the profile set (stats.scratch_bytes): per thread 24 bytes per VL (the sums)
+ *   and 56 bytes per batch entry (3.7 MB); for 100K VLs and 2 threads, 12.2 MB in all. When
+ *   the sums of all threads would exceed VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic
+ *   adds into the profile set instead (slower, same bits).
  * Measured on the Cornell box (tests/vbnl/bench_splitting.c, 100K VLs, 2 threads): about 2x
  * the photon paths per second of one deposit per hit in trace order with atomic adds, with an
  * index a third the size; photon tracing without deposits runs at about half the raw Embree
@@ -78,6 +80,7 @@
 #define VBNL_SPLIT_DEFAULT_CHUNK 16384u /* photon paths per work item (about 4 hits each here) */
 #define VBNL_SPLIT_BATCH_HITS 65536u    /* photon hits a thread buffers before depositing them */
 #define VBNL_SPLIT_BIN_BITS 12u         /* spatial bins of the batch sort: 2^12 (16 per axis) */
+#define VBNL_SPLIT_MAX_SUM_BYTES (256u << 20) /* per-thread sums of all threads, at most */
 #define VBNL_SPLIT_SAFETY_DEPTH 4096
 #define VBNL_SPLIT_QUERY_MAX 64u   /* candidates read from the index per hit */
 #define VBNL_SPLIT_MAX_VLS 64u     /* upper bound for max_vls */
@@ -99,6 +102,8 @@ typedef struct vbnl_split_desc {
     int max_depth;                  /* 0 = unlimited (up to VBNL_SPLIT_SAFETY_DEPTH) */
     uint32_t chunk;                 /* photon paths per work item, 0 = default (results do not
                                      * depend on it) */
+    int atomic_deposits;            /* 1: no per-thread sums, atomic adds into `profiles` (what
+                                     * happens beyond VBNL_SPLIT_MAX_SUM_BYTES; same bits) */
 } vbnl_split_desc;
 
 /* Defaults of the authors' code: normal_cos 0.7, facing on, 8 VLs, RR after bounce 5, unlimited
@@ -114,6 +119,7 @@ typedef struct vbnl_split_stats {
     uint64_t deposits;      /* VL deposits (<= max_vls per covered hit) */
     uint64_t overflow;      /* hits with more than VBNL_SPLIT_QUERY_MAX containing spheres */
     uint64_t covered_power[3]; /* sum of the quantised photon power of covered hits (fixed point) */
+    uint64_t scratch_bytes; /* memory of the run beyond index and profiles: per-thread sums, batches */
     double seconds;
 } vbnl_split_stats;
 
