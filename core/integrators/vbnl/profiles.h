@@ -184,6 +184,18 @@ void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const
  * other thread deposits into the same VL. Both together equal one deposit_fixed. */
 void vbnl_profile_deposit_map_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3]);
 void vbnl_profile_add_power_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t q[3]);
+/* deposit_map_fixed in two steps, so that a caller can prefetch the texels and apply the splat
+ * later (photon splitting keeps a few in flight: the maps are large and the texels random):
+ * prepare computes the texels and their exact integer shares (the same as deposit_map_fixed)
+ * and prefetches them; it returns 0 (nothing to apply) for a Lambertian VL. apply makes the
+ * atomic adds; the set must outlive the pending splats. */
+typedef struct vbnl_profile_splat {
+    uint64_t *texel[4];
+    uint64_t part[4][3];
+} vbnl_profile_splat;
+int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
+                               vbnl_profile_splat *sp);
+void vbnl_profile_splat_apply(const vbnl_profile_splat *sp);
 /* Exact integer partition of q by weights w[0..n-1] (sum <= 1 up to float rounding):
  * out[k] = floor(q w_k), the residue to the largest weight, so sum out == q. Deterministic. */
 void vbnl_profile_split_fixed(uint64_t q, uint32_t n, const float *w, uint64_t *out);

@@ -5,6 +5,11 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+#define SPLAT_RING 16u
 
 /* A photon hit waiting in a thread's batch (48 bytes): everything the deposit needs. */
 typedef struct split_rec {
@@ -17,12 +22,16 @@ typedef struct split_rec {
 /* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
     _Alignas(64) vbnl_split_stats s;
-    uint64_t *acc;       /* 3 x VL count: this thread's Phi_in sums, by index rank (fixed point) */
+    uint64_t *acc;       /* this thread's Phi_in sums by index rank (fixed point): RGB and a zero
+                          * lane, 32 bytes per VL, 32-byte aligned (one AVX2 vector) */
     split_rec *hits;     /* the batch, in trace order */
     uint32_t *order;     /* the batch by bin: indexes into hits */
     uint32_t *bin;       /* bin of hits[i] */
     uint32_t *start;     /* bins + 1 */
     uint32_t n, cap;
+    /* glossy splats in flight (prepared and prefetched, applied SPLAT_RING deposits later) */
+    vbnl_profile_splat ring[SPLAT_RING];
+    uint32_t ring_n, ring_at;
 } split_thread;
 
 typedef struct split_job {
@@ -166,29 +175,54 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
     if (!glossy && t->acc) {
         /* split3 with the shares added straight into this thread's sums (by rank); the residue
          * goes to the largest weight (first on ties), as in vbnl_profile_split_fixed */
-        uint64_t left0 = q[0], left1 = q[1], left2 = q[2];
-        double dq0 = (double)(int64_t)q[0], dq1 = (double)(int64_t)q[1], dq2 = (double)(int64_t)q[2];
         uint32_t big = 0;
-        for (uint32_t i = 0; i < m; ++i) {
-            double wk = (double)(w[i] > 0.0f ? w[i] : 0.0f);
-            uint64_t v0 = (uint64_t)(int64_t)(dq0 * wk), v1 = (uint64_t)(int64_t)(dq1 * wk),
-                     v2 = (uint64_t)(int64_t)(dq2 * wk);
-            v0 = v0 < left0 ? v0 : left0;
-            v1 = v1 < left1 ? v1 : left1;
-            v2 = v2 < left2 ? v2 : left2;
-            left0 -= v0;
-            left1 -= v1;
-            left2 -= v2;
-            uint64_t *a = t->acc + 3 * (size_t)f[k[i]].rank;
-            a[0] += v0;
-            a[1] += v1;
-            a[2] += v2;
+        for (uint32_t i = 1; i < m; ++i)
             big = w[i] > w[big] ? i : big;
+#if defined(__AVX2__)
+        if ((q[0] | q[1] | q[2]) < (1ull << 51)) {
+            /* The three channels in one vector: x = q w (double), v = min(trunc x, left) as in
+             * split3, with trunc x = floor x (x >= 0) turned into an integer by the 2^52 trick
+             * (exact below 2^51), the min and the subtraction in 64-bit integer lanes. */
+            const __m256d two52 = _mm256_set1_pd(0x1p52);
+            const __m256i two52i = _mm256_castpd_si256(two52);
+            __m256i left = _mm256_setr_epi64x((long long)q[0], (long long)q[1], (long long)q[2], 0);
+            __m256d dq = _mm256_setr_pd((double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2], 0.0);
+            for (uint32_t i = 0; i < m; ++i) {
+                __m256d x = _mm256_mul_pd(dq, _mm256_set1_pd((double)(w[i] > 0.0f ? w[i] : 0.0f)));
+                x = _mm256_round_pd(x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+                __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(x, two52)), two52i);
+                v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
+                left = _mm256_sub_epi64(left, v);
+                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[i]].rank);
+                _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
+            }
+            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[big]].rank);
+            _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), left));
+        } else
+#endif
+        {
+            uint64_t left0 = q[0], left1 = q[1], left2 = q[2];
+            double dq0 = (double)(int64_t)q[0], dq1 = (double)(int64_t)q[1], dq2 = (double)(int64_t)q[2];
+            for (uint32_t i = 0; i < m; ++i) {
+                double wk = (double)(w[i] > 0.0f ? w[i] : 0.0f);
+                uint64_t v0 = (uint64_t)(int64_t)(dq0 * wk), v1 = (uint64_t)(int64_t)(dq1 * wk),
+                         v2 = (uint64_t)(int64_t)(dq2 * wk);
+                v0 = v0 < left0 ? v0 : left0;
+                v1 = v1 < left1 ? v1 : left1;
+                v2 = v2 < left2 ? v2 : left2;
+                left0 -= v0;
+                left1 -= v1;
+                left2 -= v2;
+                uint64_t *a = t->acc + 4 * (size_t)f[k[i]].rank;
+                a[0] += v0;
+                a[1] += v1;
+                a[2] += v2;
+            }
+            uint64_t *a = t->acc + 4 * (size_t)f[k[big]].rank;
+            a[0] += left0;
+            a[1] += left1;
+            a[2] += left2;
         }
-        uint64_t *a = t->acc + 3 * (size_t)f[k[big]].rank;
-        a[0] += left0;
-        a[1] += left1;
-        a[2] += left2;
     } else {
         uint64_t share[3][VBNL_SPLIT_MAX_VLS];
         split3(q, m, w, share);
@@ -206,12 +240,21 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
                 wl = frame_to_local(&fr, h->wi);
             }
             if (t->acc) {
-                uint64_t *a = t->acc + 3 * (size_t)e->rank;
+                uint64_t *a = t->acc + 4 * (size_t)e->rank;
                 a[0] += s3[0];
                 a[1] += s3[1];
                 a[2] += s3[2];
-                if (gl)
-                    vbnl_profile_deposit_map_fixed(d->profiles, e->id, wl, s3);
+                if (gl) {
+                    vbnl_profile_splat *sp = &t->ring[t->ring_at];
+                    if (t->ring_n == SPLAT_RING)
+                        vbnl_profile_splat_apply(sp); /* the oldest, prefetched long ago */
+                    else
+                        t->ring_n++;
+                    if (!vbnl_profile_splat_prepare(d->profiles, e->id, wl, s3, sp))
+                        t->ring_n--;
+                    else
+                        t->ring_at = (t->ring_at + 1) % SPLAT_RING;
+                }
             } else {
                 vbnl_profile_deposit_fixed(d->profiles, e->id, wl, s3);
             }
@@ -258,8 +301,12 @@ static void flush_batch(const split_job *job, split_thread *t)
     b.facing = job->d->require_facing;
     b.max_out = VBNL_SPLIT_QUERY_MAX;
     b.rank_data = t->acc; /* NULL: nothing to prefetch */
-    b.rank_stride = 3 * sizeof(uint64_t);
+    b.rank_stride = 4 * sizeof(uint64_t);
     vbnl_vl_index_query_batch(job->d->index, &b, split_hit, &cx);
+    for (uint32_t i = 0; i < t->ring_n; ++i) /* the glossy splats still in flight */
+        vbnl_profile_splat_apply(&t->ring[(t->ring_at + SPLAT_RING - t->ring_n + i) % SPLAT_RING]);
+    t->ring_n = 0;
+    t->ring_at = 0;
     t->n = 0;
 }
 
@@ -403,11 +450,12 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
     /* Per-thread sums unless they would take more than VBNL_SPLIT_MAX_SUM_BYTES (many threads
      * and millions of VLs): then atomic adds into the set, the same bits. */
-    int own_sums = !d->atomic_deposits && (double)nvl * 24.0 * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
-    for (unsigned i = 0; i < job.thread_count; ++i) {
+    int own_sums = !d->atomic_deposits && (double)nvl * 32.0 * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
+    for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;
-        t->acc = own_sums ? calloc(3 * (size_t)nvl + 1, sizeof(uint64_t)) : NULL;
+        if (own_sums && (t->acc = aligned_alloc(32, 32 * ((size_t)nvl + 1))))
+            memset(t->acc, 0, 32 * ((size_t)nvl + 1));
         t->hits = malloc(t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
@@ -432,7 +480,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         uint64_t q[3] = {0, 0, 0};
         for (unsigned i = 0; i < job.thread_count; ++i)
             for (int c = 0; c < 3; ++c)
-                q[c] += job.threads[i].acc[3 * (size_t)r + c];
+                q[c] += job.threads[i].acc[4 * (size_t)r + c];
         if (q[0] | q[1] | q[2])
             vbnl_profile_add_power_fixed(d->profiles, vbnl_vl_index_id(d->index, r), q);
     }
@@ -450,8 +498,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
                 stats->covered_power[c] += s->covered_power[c];
         }
         stats->seconds = vbnl_now() - t0;
-        stats->scratch_bytes = (uint64_t)job.thread_count *
-                               ((own_sums ? 24ull * nvl : 0ull) +
+        stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
+                               ((own_sums ? 32ull * (nvl + 1) : 0ull) +
                                 (uint64_t)VBNL_SPLIT_BATCH_HITS * (sizeof(split_rec) + 2 * sizeof(uint32_t)) +
                                 4ull * (job.bins + 1)) +
                                (glossy ? nvl : 0u);

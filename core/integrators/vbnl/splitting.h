@@ -53,13 +53,16 @@
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
  *     spatial order (nearby VLs, nearby sums; prefetched with the records), added to the
  *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
- *     direction maps are shared and get atomic adds (vbnl_profile_deposit_map_fixed).
+ *     direction maps are shared and get atomic adds; each splat is prepared and its texels
+ *     prefetched (vbnl_profile_splat_prepare), then applied 16 splats later, since the maps
+ *     are large (6 KB per glossy VL at 16 x 16) and the texels random.
  *   The VLs that share a hit and their weights are exactly those of the rules above; only the
  *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
  *   normalised weights may differ in the last bit from an id-ordered sum; either is a
  *   deterministic function of the hit).
- *   Memory beyond the profile set (stats.scratch_bytes): per thread 24 bytes per VL (the sums)
- *   and 56 bytes per batch entry (3.7 MB); for 100K VLs and 2 threads, 12.2 MB in all. When
+ *   Memory beyond the profile set (stats.scratch_bytes): per thread 32 bytes per VL (the sums:
+ *   RGB and a zero lane, one AVX2 vector) and 56 bytes per batch entry (3.7 MB); for 100K VLs
+ *   and 2 threads, 13.8 MB in all. When
  *   the sums of all threads would exceed VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic
  *   adds into the profile set instead (slower, same bits).
  * Measured on the Cornell box (tests/vbnl/bench_splitting.c, 100K VLs, 2 threads): about 2x
