@@ -62,13 +62,19 @@
  *   deterministic function of the hit).
  *   Memory beyond the profile set (stats.scratch_bytes): per thread 32 bytes per VL (the sums:
  *   RGB and a zero lane, one AVX2 vector) and 56 bytes per batch entry (3.7 MB); for 100K VLs
- *   and 2 threads, 13.8 MB in all. When
- *   the sums of all threads would exceed VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic
- *   adds into the profile set instead (slower, same bits).
- * Measured on the Cornell box (tests/vbnl/bench_splitting.c, 100K VLs, 2 threads): about 2x
- * the photon paths per second of one deposit per hit in trace order with atomic adds, with an
- * index a third the size; photon tracing without deposits runs at about half the raw Embree
- * ray rate, so a photon path costs about four raw ray casts per ray, half of it in deposits. */
+ *   and 2 threads, 13.8 MB in all. When the sums of all threads would exceed
+ *   VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic adds into the profile set instead
+ *   (slower, same bits).
+ *   Embree packets and streams (rtcIntersect8, rtcIntersect1M with the incoherent flag) were
+ *   measured on these photon rays and are no faster than rtcIntersect1, so paths are traced one
+ *   ray at a time.
+ * Measured (tests/vbnl/bench_splitting.c: Cornell box, 100K VLs, 2M paths, 2 shared cores;
+ * ratios to the raw Embree incoherent rate measured in the same run): 25-29 % of the raw rate,
+ * 0.8-0.9 M paths/s, 13 M deposits/s (one atomic deposit per hit in trace order: 8-13 %,
+ * 0.26-0.40 M paths/s); with 33K glossy VLs (CornellBox-Glossy-Floor) 16-17 % (before: 6-7 %).
+ * Photon tracing alone, without deposits, reaches 51-56 % of the raw rate: the walk (hit
+ * setup, BSDF sampling, Russian roulette) costs about as much as Embree's traversal here, so
+ * half the raw rate is out of reach while the deposits cost about as much as the tracing. */
 #ifndef VBNL_SPLITTING_H
 #define VBNL_SPLITTING_H
 

@@ -24,7 +24,7 @@ static inline uint64_t spread3(uint64_t v)
 static inline uint64_t key_coord(float v, float lo, float scale)
 {
     float f = (v - lo) * scale;
-    const float top = (float)((1u << KEY_BITS) - 1u);
+    const float top = (float)((1u << VBNL_VLI_KEY_BITS) - 1u);
     return !(f > 0.0f) ? 0u : (f >= top ? (uint64_t)top : (uint64_t)f); /* NaN -> 0 */
 }
 
@@ -80,7 +80,7 @@ static vbnl_result order_build(vbnl_vl_index *x, const vbnl_vl_index_desc *desc,
     float ext = fmaxf(hi.x - lo.x, fmaxf(hi.y - lo.y, hi.z - lo.z));
     ext = ext > 0.0f ? ext * 1.0001f : 1.0f;
     x->key_lo = lo;
-    x->key_scale = (float)(1u << KEY_BITS) / ext;
+    x->key_scale = (float)(1u << VBNL_VLI_KEY_BITS) / ext;
     uint32_t *order = malloc(((size_t)n + 1) * sizeof(uint32_t));
     if (!order)
         return VBNL_ERR_OUT_OF_MEMORY;
@@ -138,7 +138,7 @@ static uint32_t level_of(float r, float r_min)
 {
     uint32_t L = 0;
     float lim = r_min;
-    while (r > lim && L + 1 < MAX_LEVELS) {
+    while (r > lim && L + 1 < VBNL_VLI_MAX_LEVELS) {
         lim *= 2.0f;
         ++L;
     }
@@ -314,7 +314,7 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale)
     x->r_min = r_min;
     if (!(r_min < INFINITY))
         return VBNL_OK; /* no usable sphere: every query answers 0 */
-    uint32_t counts[MAX_LEVELS] = {0};
+    uint32_t counts[VBNL_VLI_MAX_LEVELS] = {0};
     uint8_t *cls = malloc(x->count ? x->count : 1);
     uint32_t *members = malloc(((size_t)x->count + 1) * sizeof(uint32_t));
     vbnl_result res = VBNL_OK;
@@ -328,7 +328,7 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale)
         if (cls[k] != 0xFF)
             counts[cls[k]]++;
     }
-    for (uint32_t L = 0; L < MAX_LEVELS && res == VBNL_OK; ++L) {
+    for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS && res == VBNL_OK; ++L) {
         if (!counts[L])
             continue;
         uint32_t m = 0;
@@ -440,7 +440,7 @@ vbnl_result vbnl_vl_index_create(const vbnl_vl_index_desc *desc, vbnl_vl_index *
     vbnl_result r = order_build(x, desc, x->kind == VBNL_VL_INDEX_GRID);
     if (r == VBNL_OK)
         r = x->kind == VBNL_VL_INDEX_GRID
-                ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : DEFAULT_CELL_SCALE)
+                ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : VBNL_VLI_DEFAULT_CELL_SCALE)
                 : embree_build(x, desc->device);
     if (r != VBNL_OK) {
         vbnl_vl_index_destroy(x);

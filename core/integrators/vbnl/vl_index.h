@@ -14,9 +14,9 @@
  *                         cell_scale >= 2, <= 27 for 1). A query reads one cell per non-empty
  *                         class. Cells are a dense array when there are few enough, else an
  *                         open-addressing hash of the occupied cells. The default (faster; see
- *                         the benchmark tests/vbnl/bench_splitting.c: 2.5x the Embree variant
- *                         in photon splitting; cell_scale 1 was slower than 2 there, with 3x
- *                         the memory).
+ *                         the benchmark tests/vbnl/bench_splitting.c: 2.7x the Embree variant
+ *                         in photon splitting; cell_scale 1 was 11 % slower than 2 there, with
+ *                         3x the memory).
  *   VBNL_VL_INDEX_EMBREE  an Embree BVH over the spheres' bounding boxes (user geometry) walked
  *                         by rtcPointQuery with a zero-radius query.
  *

@@ -76,7 +76,7 @@ static inline __attribute__((always_inline)) void pipe_c(const vbnl_vl_index *x,
             continue;
         float q[3];
         cell_frame(g, p, s->c3[L], q);
-        PRETEST(g, s->s0[L], s->n[L], q, {
+        VBNL_VLI_PRETEST(g, s->s0[L], s->n[L], q, {
             if (nc < PIPE_CAND) {
                 __builtin_prefetch(x->rec + rank_);
                 if (rd)

@@ -12,10 +12,10 @@
 
 #include "vl_index.h"
 
-#define MAX_LEVELS 32u
-#define DEFAULT_CELL_SCALE 2.0f
-#define EMPTY_KEY UINT64_MAX
-#define KEY_BITS 21u /* spatial key: bits per axis (3 x 21 = 63-bit Morton code) */
+#define VBNL_VLI_MAX_LEVELS 32u
+#define VBNL_VLI_DEFAULT_CELL_SCALE 2.0f
+#define VBNL_VLI_EMPTY_KEY UINT64_MAX
+#define VBNL_VLI_KEY_BITS 21u /* spatial key: bits per axis (3 x 21 = 63-bit Morton code) */
 
 /* One sphere, 32 bytes (half a cache line), stored by rank: centre and radius first (the
  * containment test), the normal (the splitting filter) and the id after them. */
@@ -54,11 +54,11 @@ struct vbnl_vl_index {
      * the caller (vbnl_vl_index_rank) get the same locality. */
     vl_rec *rec;
     uint32_t *rank_of;        /* id -> rank; NULL: identity (Embree) */
-    /* spatial key (vbnl_vl_index_spatial_key): a cube over the centres, 2^KEY_BITS cells/axis */
+    /* spatial key (vbnl_vl_index_spatial_key): a cube over the centres, 2^VBNL_VLI_KEY_BITS cells/axis */
     vec3 key_lo;
     float key_scale;
     /* grid */
-    grid_level levels[MAX_LEVELS];
+    grid_level levels[VBNL_VLI_MAX_LEVELS];
     uint32_t level_count;
     float r_min;
     size_t bytes;
@@ -205,7 +205,7 @@ static inline uint32_t hash_find(grid_level *g, uint64_t key, int insert, uint32
     for (;;) {
         if (g->keys[h] == key)
             return g->slot[h];
-        if (g->keys[h] == EMPTY_KEY) {
+        if (g->keys[h] == VBNL_VLI_EMPTY_KEY) {
             if (!insert)
                 return UINT32_MAX;
             g->keys[h] = key;
@@ -224,12 +224,12 @@ static inline vec3 rec_center(const vl_rec *e) { return v3(e->cx, e->cy, e->cz);
  * the level) and which spans E = cell + 2 q_off = 255 h per axis, so every centre listed in the
  * cell fits in 8 bits. Centres are rounded (error <= sqrt(3)/2 h), radii rounded up. A query
  * point p at distance d_q from the quantised centre can lie inside the sphere only if
- * d_q < r_q + QSLACK (QSLACK: the centre error plus float rounding of both frames, which use
+ * d_q < r_q + VBNL_VLI_QSLACK (VBNL_VLI_QSLACK: the centre error plus float rounding of both frames, which use
  * the same float origin and therefore the same rounding); spheres failing that are certainly
  * outside and skipped, the others get the exact test (rec_contains). A listing whose sphere
  * does not quantise within these bounds gets r_q = 255 and is always tested. 8 listings are
  * pre-tested at once with AVX2. */
-#define QSLACK 0.8761f /* sqrt(3) / 2 + 0.01 */
+#define VBNL_VLI_QSLACK 0.8761f /* sqrt(3) / 2 + 0.01 */
 
 static inline float cell_origin(const grid_level *g, int32_t c, float lo) { return lo + (float)c * g->cell; }
 
@@ -243,16 +243,16 @@ static inline void cell_frame(const grid_level *g, vec3 p, const int32_t c3[3], 
 
 /* The quantised pre-test of the n listings from s0 for a point at q (cell frame): calls
  * keep(rank) for those that may contain it, in listing order. */
-#define PRETEST(g, s0, n, q, KEEP)                                                                             \
+#define VBNL_VLI_PRETEST(g, s0, n, q, KEEP)                                                                   \
     do {                                                                                                      \
         const uint32_t *qe_ = (g)->qent + (s0), *rk_ = (g)->items + (s0);                                     \
-        PRETEST_BODY(n, q, KEEP);                                                                             \
+        VBNL_VLI_PRETEST_BODY(n, q, KEEP);                                                                    \
     } while (0)
 #if defined(__AVX2__)
-#define PRETEST_BODY(n, q, KEEP)                                                                              \
-    const __m256 vx_ = _mm256_set1_ps((q)[0]), vy_ = _mm256_set1_ps((q)[1]), vz_ = _mm256_set1_ps((q)[2]);   \
-    const __m256 sl_ = _mm256_set1_ps(QSLACK);                                                                \
-    const __m256i lane_ = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), byte_ = _mm256_set1_epi32(0xff);        \
+#define VBNL_VLI_PRETEST_BODY(n, q, KEEP)                                                                     \
+    const __m256 vx_ = _mm256_set1_ps((q)[0]), vy_ = _mm256_set1_ps((q)[1]), vz_ = _mm256_set1_ps((q)[2]);    \
+    const __m256 sl_ = _mm256_set1_ps(VBNL_VLI_QSLACK);                                                       \
+    const __m256i lane_ = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), byte_ = _mm256_set1_epi32(0xff);         \
     for (uint32_t i_ = 0; i_ < (n); i_ += 8) {                                                                \
         __m256i v_ = _mm256_loadu_si256((const __m256i *)(qe_ + i_));                                         \
         __m256 dx_ = _mm256_sub_ps(vx_, _mm256_cvtepi32_ps(_mm256_and_si256(v_, byte_)));                     \
@@ -272,11 +272,11 @@ static inline void cell_frame(const grid_level *g, vec3 p, const int32_t c3[3], 
         }                                                                                                     \
     }
 #else
-#define PRETEST_BODY(n, q, KEEP)                                                                              \
+#define VBNL_VLI_PRETEST_BODY(n, q, KEEP)                                                                     \
     for (uint32_t i_ = 0; i_ < (n); ++i_) {                                                                   \
         uint32_t v_ = qe_[i_];                                                                                \
         float dx_ = (q)[0] - (float)(v_ & 255u), dy_ = (q)[1] - (float)((v_ >> 8) & 255u),                    \
-              dz_ = (q)[2] - (float)((v_ >> 16) & 255u), rr_ = (float)(v_ >> 24) + QSLACK;                    \
+              dz_ = (q)[2] - (float)((v_ >> 16) & 255u), rr_ = (float)(v_ >> 24) + VBNL_VLI_QSLACK;           \
         if (dx_ * dx_ + dy_ * dy_ + dz_ * dz_ < rr_ * rr_) {                                                  \
             uint32_t rank_ = rk_[i_];                                                                         \
             KEEP;                                                                                             \
@@ -314,7 +314,7 @@ static inline __attribute__((always_inline)) void grid_query(const vbnl_vl_index
             continue;
         float q[3];
         cell_frame(g, p, c3, q);
-        PRETEST(g, s0, n, q, test_rec_exact(x->rec + rank_, rank_, p, o));
+        VBNL_VLI_PRETEST(g, s0, n, q, test_rec_exact(x->rec + rank_, rank_, p, o));
     }
 }
 
