@@ -4,18 +4,28 @@
  * open side. VLs: the paper's placement without elimination (Section 3.1, Fig. 6a): a camera
  * ray, a cosine bounce at its hit, a VL at the secondary hit with its normal facing the
  * incoming ray; radius alpha_r r_max of Eq. 1 (alpha_r = 2, A = the total triangle area).
- * Reports, median of 3 runs per index variant: time, photon paths/s, rays/s, deposits/s, the
+ * Reports, median of the runs per index variant: time, photon paths/s, rays/s, deposits/s, the
  * memory of the index and the profile set, and the raw Embree incoherent ray rate
  * (vbnl_scene_measure_ray_rate) of the same scene. Also photon tracing with an empty VL set
  * (no splitting) to separate the cost of the splitting itself.
  *
- * Usage: bench_splitting [photon_paths (2e6)] [vl_count (1e5)] [threads (0 = all)] */
+ * Shared machines: the raw rate is measured again before every run (same rays) and the ratio
+ * splitting rays/s : raw rays/s is reported per run (median), once per wall second and once per
+ * CPU second of the process; the latter does not count time the threads spent descheduled and
+ * is the steadiest figure under load.
+ *
+ * Usage: bench_splitting [photon_paths (2e6)] [vl_count (1e5)] [threads (0 = all)] [variants (bit mask
+ * of the rows below, 0 = all)] [runs (3)] [scene file in the Cornell box folder
+ * (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy VLs)]; a reduced case for
+ * callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "context.h"
 #include "octahedral.h"
+#include "pool.h"
 #include "profiles.h"
 #include "rng.h"
 #include "sampling.h"
@@ -24,6 +34,98 @@
 #include "vbnl/mesh_import.h"
 #include "vbnl/vbnl.h"
 #include "vl_index.h"
+
+/* CPU seconds of the whole process (all threads): on a shared machine, rates per CPU second
+ * do not count the time the threads were descheduled. */
+static double cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The raw Embree incoherent ray rate as vbnl_scene_measure_ray_rate measures it (the same
+ * rays: a camera ray, a cosine bounce, the bounce ray traced), per wall second and per CPU
+ * second; the rays are made once. */
+typedef struct raw_rays {
+    const vbnl_scene *s;
+    vec3 *o, *d;
+    uint32_t n;
+} raw_rays;
+
+static void make_raw_rays(raw_rays *rr, uint32_t count)
+{
+    rr->o = malloc(sizeof(vec3) * count);
+    rr->d = malloc(sizeof(vec3) * count);
+    vbnl_rng rng = vbnl_rng_make(0x5eed, 7);
+    for (uint64_t attempt = 0; rr->n < count && attempt < (uint64_t)count * 16; ++attempt) {
+        vec3 o, d;
+        vbnl_camera_ray(&rr->s->camera, 512, 512, vbnl_rng_next(&rng) * 512, vbnl_rng_next(&rng) * 512, &o, &d);
+        vbnl_hit h;
+        if (!vbnl_scene_intersect(rr->s, o, d, INFINITY, &h))
+            continue;
+        vec3 nrm = v3_dot(h.ng, d) < 0.0f ? h.ng : v3_neg(h.ng);
+        frame f = frame_from_normal(nrm);
+        vec3 w = frame_to_world(&f, sample_cosine_hemisphere(vbnl_rng_next2(&rng)));
+        rr->o[rr->n] = vbnl_offset_ray_origin(h.p, nrm, w);
+        rr->d[rr->n] = w;
+        rr->n++;
+    }
+}
+
+static void raw_chunk(void *user, uint64_t item, unsigned thread)
+{
+    const raw_rays *rr = user;
+    (void)thread;
+    uint32_t b = (uint32_t)item * 4096u, e = b + 4096u < rr->n ? b + 4096u : rr->n;
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    for (uint32_t i = b; i < e; ++i) {
+        struct RTCRayHit rh;
+        rh.ray.org_x = rr->o[i].x;
+        rh.ray.org_y = rr->o[i].y;
+        rh.ray.org_z = rr->o[i].z;
+        rh.ray.dir_x = rr->d[i].x;
+        rh.ray.dir_y = rr->d[i].y;
+        rh.ray.dir_z = rr->d[i].z;
+        rh.ray.tnear = 0.0f;
+        rh.ray.tfar = INFINITY;
+        rh.ray.time = 0.0f;
+        rh.ray.mask = 0xffffffffu;
+        rh.ray.id = 0;
+        rh.ray.flags = 0;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(rr->s->world, &ictx, &rh);
+    }
+}
+
+static int no_poll(void *user, uint64_t finished, uint64_t count)
+{
+    (void)user;
+    (void)finished;
+    (void)count;
+    return 0;
+}
+
+/* Median of 3 runs, per wall second and per CPU second. */
+static void raw_rate(vbnl_context *ctx, const raw_rays *rr, double *wall, double *cpu)
+{
+    double w[3], c[3];
+    for (int k = 0; k < 3; ++k) {
+        double t0 = vbnl_now(), c0 = cpu_now();
+        vbnl_pool_run(ctx->pool, (rr->n + 4095u) / 4096u, raw_chunk, (void *)rr, no_poll, NULL, 1.0);
+        w[k] = rr->n / (vbnl_now() - t0);
+        c[k] = rr->n / (cpu_now() - c0);
+    }
+    for (int a = 0; a < 3; ++a)
+        for (int b = a + 1; b < 3; ++b) {
+            if (w[b] < w[a]) { double t = w[a]; w[a] = w[b]; w[b] = t; }
+            if (c[b] < c[a]) { double t = c[a]; c[a] = c[b]; c[b] = t; }
+        }
+    *wall = w[1];
+    *cpu = c[1];
+}
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -54,9 +156,14 @@ int main(int argc, char **argv)
     uint64_t paths = argc > 1 ? (uint64_t)atof(argv[1]) : 2000000;
     uint32_t nvl = argc > 2 ? (uint32_t)atof(argv[2]) : 100000;
     unsigned threads = argc > 3 ? (unsigned)atoi(argv[3]) : 0;
+    unsigned mask = argc > 4 ? (unsigned)strtoul(argv[4], NULL, 0) : 0;
+    int runs = argc > 5 ? atoi(argv[5]) : 3;
+    if (runs < 1 || runs > 15)
+        runs = 3;
     const char *shared = getenv("VBNL_SHARED_DIR");
     char path[1024];
-    snprintf(path, sizeof(path), "%s/scenes/cornell-box-mcguire/CornellBox-Original.obj", shared ? shared : "/work/shared");
+    const char *scene_file = argc > 6 ? argv[6] : "CornellBox-Original.obj";
+    snprintf(path, sizeof(path), "%s/scenes/cornell-box-mcguire/%s", shared ? shared : "/work/shared", scene_file);
 
     vbnl_context_desc cd = {threads};
     vbnl_context *ctx = NULL;
@@ -107,10 +214,19 @@ int main(int argc, char **argv)
         glossy[k] = s->materials[h2.material].bsdf.type != VBNL_MATERIAL_LAMBERT;
         ++k;
     }
+    /* VBNL_BENCH_NO_RAW=1 skips the ray-rate measurements (under callgrind). */
+    int want_raw = !getenv("VBNL_BENCH_NO_RAW");
     double raw = 0.0;
-    vbnl_scene_measure_ray_rate(ctx, s, 1000000, 512, 512, &raw, NULL);
-    printf("scene: %s, %llu triangles, area %.3f; %u VLs, r = %.4f; %llu photon paths; %u threads\n", path,
-           (unsigned long long)s->triangle_count, area, nvl, rad, (unsigned long long)paths, nthreads);
+    raw_rays rr = {s, NULL, NULL, 0};
+    if (want_raw) {
+        vbnl_scene_measure_ray_rate(ctx, s, 1000000, 512, 512, &raw, NULL);
+        make_raw_rays(&rr, 1000000);
+    }
+    uint32_t nglossy = 0;
+    for (uint32_t j = 0; j < nvl; ++j)
+        nglossy += glossy[j];
+    printf("scene: %s, %llu triangles, area %.3f; %u VLs (%u glossy), r = %.4f; %llu photon paths; %u threads\n", path,
+           (unsigned long long)s->triangle_count, area, nvl, nglossy, rad, (unsigned long long)paths, nthreads);
     printf("raw Embree incoherent ray rate: %.2f Mrays/s\n", raw * 1e-6);
 
     vbnl_hemioct *map = NULL;
@@ -128,16 +244,18 @@ int main(int argc, char **argv)
         {"embree point query", VBNL_VL_INDEX_EMBREE, 0.0f, nvl},
     };
     for (size_t v = 0; v < sizeof(variants) / sizeof(variants[0]); ++v) {
+        if (mask && !(mask >> v & 1u))
+            continue;
         vbnl_vl_index_desc xd = {c, r, n, variants[v].count, variants[v].kind, variants[v].cell_scale, ctx->device};
         vbnl_vl_index *idx = NULL;
         double tb = vbnl_now();
         if (vbnl_vl_index_create(&xd, &idx) != VBNL_OK)
             return 1;
         tb = vbnl_now() - tb;
-        double times[3];
+        double times[15], ratios[15], cpu_ratios[15];
         vbnl_split_stats st;
         size_t pbytes = 0;
-        for (int run = 0; run < 3; ++run) {
+        for (int run = 0; run < runs; ++run) {
             vbnl_profile_set *ps = NULL;
             vbnl_profile_set_create_fixed(map, variants[v].count, glossy, unit, &ps);
             vbnl_split_desc d;
@@ -148,21 +266,32 @@ int main(int argc, char **argv)
             d.profiles = ps;
             d.photon_paths = paths;
             d.seed = 1;
+            /* The raw rate again right before every run: on a shared machine the ratio of the two
+             * is much steadier than either figure. */
+            double raw_run = raw, raw_cpu = 0.0;
+            if (want_raw)
+                raw_rate(ctx, &rr, &raw_run, &raw_cpu);
+            double c0 = cpu_now();
             vbnl_split_photons(&d, ctx->pool, NULL, &st);
+            double split_cpu = cpu_now() - c0;
             times[run] = st.seconds;
+            ratios[run] = raw_run > 0.0 ? st.rays / st.seconds / raw_run : 0.0;
+            cpu_ratios[run] = raw_cpu > 0.0 ? st.rays / split_cpu / raw_cpu : 0.0;
             pbytes = vbnl_profile_set_bytes(ps);
             vbnl_profile_set_destroy(ps);
         }
-        qsort(times, 3, sizeof(double), cmp_double);
-        double t = times[1];
-        printf("%-24s %.3f s (runs %.3f %.3f %.3f) | %.3f Mpaths/s | %.2f Mrays/s (%.0f%% of raw) | %.2f Mdeposits/s | "
+        qsort(times, (size_t)runs, sizeof(double), cmp_double);
+        qsort(ratios, (size_t)runs, sizeof(double), cmp_double);
+        qsort(cpu_ratios, (size_t)runs, sizeof(double), cmp_double);
+        double t = times[runs / 2], ratio = ratios[runs / 2], cpu_ratio = cpu_ratios[runs / 2];
+        printf("%-24s %.3f s (min %.3f max %.3f, %d runs) | %.3f Mpaths/s | %.2f Mrays/s (%.0f%% of raw; median per-run ratio %.0f%%, per CPU second %.0f%%) | %.2f Mdeposits/s | "
                "%.2f hits/path, %.1f%% covered, %.2f VLs/covered hit, %llu overflow | index %.2f MB (build %.3f s), "
-               "profiles %.2f MB\n",
-               variants[v].name, t, times[0], times[1], times[2], st.paths / t * 1e-6, st.rays / t * 1e-6,
-               100.0 * st.rays / t / raw, st.deposits / t * 1e-6, (double)st.hits / st.paths,
+               "profiles %.2f MB, splitting scratch %.2f MB\n",
+               variants[v].name, t, times[0], times[runs - 1], runs, st.paths / t * 1e-6, st.rays / t * 1e-6,
+               raw > 0.0 ? 100.0 * st.rays / t / raw : 0.0, 100.0 * ratio, 100.0 * cpu_ratio, st.deposits / t * 1e-6, (double)st.hits / st.paths,
                100.0 * st.covered_hits / (st.hits ? st.hits : 1),
                (double)st.deposits / (st.covered_hits ? st.covered_hits : 1), (unsigned long long)st.overflow,
-               vbnl_vl_index_bytes(idx) / 1048576.0, tb, pbytes / 1048576.0);
+               vbnl_vl_index_bytes(idx) / 1048576.0, tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
         vbnl_vl_index_destroy(idx);
     }
     vbnl_hemioct_destroy(map);
@@ -170,6 +299,8 @@ int main(int argc, char **argv)
     free(n);
     free(r);
     free(glossy);
+    free(rr.o);
+    free(rr.d);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
     return 0;

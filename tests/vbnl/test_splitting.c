@@ -2,10 +2,11 @@
  * and the VL sphere index (vl_index.h).
  *
  *  - index: grid and Embree variants against brute force (identical id lists and distances);
+ *    the batched query against single queries (same sets, capped or not, filtered or not);
  *  - closed Lambertian sphere with uniform two-sided emission: analytic incident power of every
  *    VL and exact energy bookkeeping;
- *  - determinism: 1 vs 2 threads bit-identical; split path ranges merged == one run; merge adds
- *    integer-wise;
+ *  - determinism: 1, 2 and 3 threads and any chunk size bit-identical; split path ranges merged
+ *    == one run; merge adds integer-wise;
  *  - a glossy VL under a small area light: direction-binned power toward the light.
  * Seeds are fixed. */
 #include <stdarg.h>
@@ -48,6 +49,86 @@ static void set_camera(vbnl_scene *s, float z)
 }
 
 /* ---- index against brute force ------------------------------------------------------------ */
+
+/* vbnl_vl_index_query_batch against one vbnl_vl_index_query_found per point: same totals, same
+ * sets of records (the batch keeps rank order), ids and ranks consistent. */
+typedef struct batch_pt {
+    vec3 p, n, wi;
+} batch_pt;
+typedef struct batch_check {
+    const vbnl_vl_index *x;
+    const batch_pt *pts;
+    const uint32_t *order;
+    int filter;
+    uint32_t max_out, calls;
+} batch_check;
+
+static int cmp_found(const void *a, const void *b)
+{
+    const vbnl_vl_found *x = a, *y = b;
+    return (x->id > y->id) - (x->id < y->id);
+}
+
+static void batch_cb(void *user, uint32_t k, uint32_t total, const vbnl_vl_found *found, uint32_t n)
+{
+    batch_check *c = user;
+    assert_int_equal(k, c->calls);
+    c->calls++;
+    const batch_pt *q = &c->pts[c->order[k]];
+    vbnl_vl_filter f = {q->n, q->wi, 0.2f, 1};
+    vbnl_vl_found ref[64], got[64];
+    uint32_t rt = vbnl_vl_index_query_found(c->x, q->p, c->filter ? &f : NULL, c->max_out, ref);
+    assert_int_equal(total, rt);
+    uint32_t rn = rt < c->max_out ? rt : c->max_out;
+    assert_int_equal(n, rn);
+    memcpy(got, found, n * sizeof(*found));
+    qsort(got, n, sizeof(*got), cmp_found);
+    assert_memory_equal(got, ref, n * sizeof(*got)); /* ref is in id order */
+    for (uint32_t i = 0; i < n; ++i) {
+        assert_int_equal(vbnl_vl_index_rank(c->x, got[i].id), got[i].rank);
+        assert_int_equal(vbnl_vl_index_id(c->x, got[i].rank), got[i].id);
+    }
+}
+
+static void check_batch(const vbnl_vl_index *x, const vec3 *pts, uint32_t npts)
+{
+    batch_pt *bp = malloc(npts * sizeof(*bp));
+    uint32_t *order = malloc(npts * sizeof(uint32_t));
+    vbnl_rng rng = vbnl_rng_make(5, 9);
+    for (uint32_t k = 0; k < npts; ++k) {
+        bp[k].p = pts[k];
+        bp[k].n = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        bp[k].wi = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        order[k] = k;
+    }
+    for (uint32_t k = npts; k > 1; --k) { /* a random order */
+        uint32_t j = vbnl_rng_uniform_u32(&rng, k), t = order[k - 1];
+        order[k - 1] = order[j];
+        order[j] = t;
+    }
+    for (int variant = 0; variant < 4; ++variant) {
+        batch_check c = {x, bp, order, variant & 1, (variant & 2) ? 2u : 64u, 0};
+        vbnl_vl_batch b;
+        memset(&b, 0, sizeof(b));
+        b.count = npts;
+        b.order = order;
+        b.base = bp;
+        b.stride = sizeof(batch_pt);
+        b.p_off = offsetof(batch_pt, p);
+        b.n_off = offsetof(batch_pt, n);
+        b.wi_off = offsetof(batch_pt, wi);
+        b.filter = c.filter;
+        b.normal_cos = 0.2f;
+        b.facing = 1;
+        b.max_out = c.max_out;
+        vbnl_vl_index_query_batch(x, &b, batch_cb, &c);
+        assert_int_equal(c.calls, npts);
+    }
+    for (uint32_t r = 0; r < vbnl_vl_index_count(x); ++r)
+        assert_int_equal(vbnl_vl_index_rank(x, vbnl_vl_index_id(x, r)), r);
+    free(bp);
+    free(order);
+}
 
 static void check_index(vbnl_vl_index_kind kind, RTCDevice dev, const vec3 *c, const float *r, const vec3 *nrm,
                         uint32_t n, const vec3 *pts, uint32_t npts)
@@ -94,6 +175,7 @@ static void check_index(vbnl_vl_index_kind kind, RTCDevice dev, const vec3 *c, c
                   kind == VBNL_VL_INDEX_GRID ? "grid" : "embree", n, npts, (double)total / npts, most,
                   vbnl_vl_index_bytes(x));
     assert_true(total > npts / 4); /* the test points do hit spheres */
+    check_batch(x, pts, npts);
     vbnl_vl_index_destroy(x);
 }
 
@@ -125,6 +207,19 @@ static void test_index_brute_force(void **state)
     RTCDevice dev = rtcNewDevice(NULL);
     check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, N, pts, P);
     check_index(VBNL_VL_INDEX_EMBREE, dev, c, r, nrm, N, pts, P);
+    /* one radius class (the pipelined single-level query) and three classes (pipelined, <= 4
+     * levels; the set above has 5 and takes the plain path) */
+    {
+        float *r1 = malloc(N * sizeof(float)), *r3 = malloc(N * sizeof(float));
+        for (uint32_t j = 0; j < N; ++j) {
+            r1[j] = r[j] > 0.0f ? 0.12f : r[j];
+            r3[j] = r[j] > 0.0f ? 0.05f * exp2f(2.0f * (float)(j % 11) / 11.0f) : r[j];
+        }
+        check_index(VBNL_VL_INDEX_GRID, NULL, c, r1, nrm, N, pts, P);
+        check_index(VBNL_VL_INDEX_GRID, NULL, c, r3, nrm, N, pts, P);
+        free(r1);
+        free(r3);
+    }
     /* a spread-out set forces the hashed grid (few spheres, huge box) */
     for (uint32_t j = 0; j < 200; ++j) {
         c[j] = v3_scale(c[j], 1000.0f);
@@ -326,9 +421,12 @@ static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area
     }
 }
 
-static vbnl_profile_set *run_split(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
-                                   const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
-                                   uint64_t paths, uint64_t first, uint64_t count, vbnl_split_stats *st)
+static int g_atomic_deposits; /* run_split_chunk: vbnl_split_desc.atomic_deposits */
+
+static vbnl_profile_set *run_split_chunk(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
+                                         const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
+                                         uint64_t paths, uint64_t first, uint64_t count, uint32_t chunk,
+                                         vbnl_split_stats *st)
 {
     vbnl_profile_set *ps = NULL;
     assert_int_equal(vbnl_profile_set_create_fixed(map, v->n, v->glossy, unit, &ps), VBNL_OK);
@@ -342,9 +440,17 @@ static vbnl_profile_set *run_split(const vbnl_scene *s, const vbnl_vl_index *idx
     d.first_path = first;
     d.path_count = count;
     d.seed = seed;
-    d.chunk = 1000;
+    d.chunk = chunk;
+    d.atomic_deposits = g_atomic_deposits;
     assert_int_equal(vbnl_split_photons(&d, pool, NULL, st), VBNL_OK);
     return ps;
+}
+
+static vbnl_profile_set *run_split(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
+                                   const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
+                                   uint64_t paths, uint64_t first, uint64_t count, vbnl_split_stats *st)
+{
+    return run_split_chunk(s, idx, v, map, unit, pool, seed, paths, first, count, 1000, st);
 }
 
 static int sets_equal(const vbnl_profile_set *a, const vbnl_profile_set *b, uint32_t texels)
@@ -388,6 +494,25 @@ static void test_determinism_and_merge(void **state)
     assert_true(sets_equal(one, two, texels));
     assert_memory_equal(s1.covered_power, s2.covered_power, sizeof(s1.covered_power));
     assert_int_equal(s1.deposits, s2.deposits);
+    /* Work items of 7 paths (tiny batches) on 3 threads, and the default chunk (batches that fill
+     * up within an item) with atomic deposits instead of per-thread sums: the same bits. */
+    {
+        vbnl_pool *p3 = vbnl_pool_create(3);
+        vbnl_split_stats s3, s4;
+        vbnl_profile_set *three = run_split_chunk(s, idx, &v, map, unit, p3, 5, P, 0, 0, 7, &s3);
+        g_atomic_deposits = 1; /* the fallback without per-thread sums */
+        vbnl_profile_set *dflt = run_split_chunk(s, idx, &v, map, unit, p2, 5, P, 0, 0, 0, &s4);
+        g_atomic_deposits = 0;
+        assert_true(sets_equal(one, three, texels));
+        assert_true(sets_equal(one, dflt, texels));
+        assert_memory_equal(s1.covered_power, s3.covered_power, sizeof(s1.covered_power));
+        assert_memory_equal(s1.covered_power, s4.covered_power, sizeof(s1.covered_power));
+        assert_int_equal(s1.deposits, s3.deposits);
+        assert_int_equal(s1.overflow, s4.overflow);
+        vbnl_profile_set_destroy(three);
+        vbnl_profile_set_destroy(dflt);
+        vbnl_pool_destroy(p3);
+    }
     /* Exact bookkeeping: VL sums == covered photon power; each glossy map sums to its Phi_in. */
     uint64_t sum[3];
     sum_phi(one, sum);

@@ -292,28 +292,70 @@ static inline void atomic_add_u64(uint64_t *p, uint64_t v)
         __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
 }
 
+int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
+                               vbnl_profile_splat *sp)
+{
+    uint32_t slot = s->slot[vl];
+    if (slot == NO_SLOT || !s->incident)
+        return 0;
+    /* Bilinear splat (octahedral.h footprint) in integers: the four texels receive exactly q,
+     * vbnl_profile_split_fixed(q[c], 4, wgt) for the three channels at once (same bits: q is
+     * below 2^53, so the conversions through int64 equal the unsigned ones, and
+     * x < left ? trunc(x) : left is min(trunc(x), left)). */
+    uint32_t idx[4];
+    float wgt[4];
+    vbnl_hemioct_bilinear(s->map, wi, idx, wgt);
+    uint64_t *map = s->incident + 3 * (size_t)slot * s->texels;
+    uint64_t left[3] = {q[0], q[1], q[2]};
+    double dq[3] = {(double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2]};
+    uint32_t big = 0;
+    for (int k = 0; k < 4; ++k) {
+        double wk = (double)(wgt[k] > 0.0f ? wgt[k] : 0.0f);
+        sp->texel[k] = map + 3 * (size_t)idx[k];
+        __builtin_prefetch(sp->texel[k], 1);
+        for (int c = 0; c < 3; ++c) {
+            uint64_t v = (uint64_t)(int64_t)(dq[c] * wk);
+            v = v < left[c] ? v : left[c];
+            left[c] -= v;
+            sp->part[k][c] = v;
+        }
+        if (wgt[k] > wgt[big])
+            big = (uint32_t)k;
+    }
+    for (int c = 0; c < 3; ++c)
+        sp->part[big][c] += left[c];
+    return 1;
+}
+
+void vbnl_profile_splat_apply(const vbnl_profile_splat *sp)
+{
+    for (int k = 0; k < 4; ++k)
+        for (int c = 0; c < 3; ++c)
+            atomic_add_u64(sp->texel[k] + c, sp->part[k][c]);
+}
+
+void vbnl_profile_deposit_map_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
+{
+    vbnl_profile_splat sp;
+    if (vbnl_profile_splat_prepare(s, vl, wi, q, &sp))
+        vbnl_profile_splat_apply(&sp);
+}
+
+void vbnl_profile_add_power_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t q[3])
+{
+    uint64_t *phi = s->phi + 3 * (size_t)vl;
+    phi[0] += q[0];
+    phi[1] += q[1];
+    phi[2] += q[2];
+}
+
 void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
 {
     uint64_t *phi = s->phi + 3 * (size_t)vl;
     atomic_add_u64(phi + 0, q[0]);
     atomic_add_u64(phi + 1, q[1]);
     atomic_add_u64(phi + 2, q[2]);
-    uint32_t slot = s->slot[vl];
-    if (slot == NO_SLOT || !s->incident)
-        return;
-    /* Bilinear splat (octahedral.h footprint) in integers: the four texels receive exactly q. */
-    uint32_t idx[4];
-    float wgt[4];
-    vbnl_hemioct_bilinear(s->map, wi, idx, wgt);
-    uint64_t *map = s->incident + 3 * (size_t)slot * s->texels;
-    for (int c = 0; c < 3; ++c) {
-        if (!q[c])
-            continue;
-        uint64_t part[4];
-        vbnl_profile_split_fixed(q[c], 4, wgt, part);
-        for (int k = 0; k < 4; ++k)
-            atomic_add_u64(map + 3 * (size_t)idx[k] + c, part[k]);
-    }
+    vbnl_profile_deposit_map_fixed(s, vl, wi, q);
 }
 
 void vbnl_profile_deposit(vbnl_profile_set *s, uint32_t vl, vec3 wi, vec3 power)

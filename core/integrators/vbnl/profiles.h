@@ -99,13 +99,16 @@
  * ---- Threads ---------------------------------------------------------------------------------
  *
  * Phase 1 (photon splitting): vbnl_profile_deposit is lock-free (atomic 64-bit integer adds,
- * order-independent) and may be called concurrently for any VLs. Phase 2 (conversion / rendering) must start after every
- * deposit has returned (the caller's thread join or pool barrier orders them); from then on the
- * incident data are read-only. Lazy conversion is per texel and lock-free: a texel's code starts
- * as a sentinel; a reader that finds the sentinel computes the texel (a pure function of the
- * incident map and the kernel) and publishes it with an atomic release store. Two threads racing
- * on one texel compute and store the same bits, so results are deterministic and lazy and eager
- * conversion are bit-identical. The caller must pass the same kernel for a VL on every call. */
+ * order-independent) and may be called concurrently for any VLs. (Photon splitting itself
+ * keeps Phi_in in per-thread sums, added with vbnl_profile_add_power_fixed after its threads
+ * joined, and splats glossy maps with the atomic vbnl_profile_deposit_map_fixed.) Phase 2
+ * (conversion / rendering) must start after every deposit has returned (the caller's thread
+ * join or pool barrier orders them); from then on the incident data are read-only. Lazy
+ * conversion is per texel and lock-free: a texel's code starts as a sentinel; a reader that
+ * finds the sentinel computes the texel (a pure function of the incident map and the kernel)
+ * and publishes it with an atomic release store. Two threads racing on one texel compute and
+ * store the same bits, so results are deterministic and lazy and eager conversion are
+ * bit-identical. The caller must pass the same kernel for a VL on every call. */
 #ifndef VBNL_PROFILES_H
 #define VBNL_PROFILES_H
 
@@ -174,6 +177,25 @@ void vbnl_profile_quantize(const vbnl_profile_set *s, vec3 power, uint64_t q[3])
 /* Deposit of an already quantised power: Phi_in gets exactly q; a glossy VL's four bilinear
  * texels get an exact integer partition of q. Thread-safe. */
 void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3]);
+/* The two halves of vbnl_profile_deposit_fixed, for callers that keep their own Phi_in sums
+ * (photon splitting: per-thread sums by VL, added once at the end). deposit_map_fixed splats q
+ * into a glossy VL's incident map (no-op for a Lambertian VL; thread-safe, atomic) and leaves
+ * Phi_in alone; add_power_fixed adds q to Phi_in with plain (non-atomic) adds: call it when no
+ * other thread deposits into the same VL. Both together equal one deposit_fixed. */
+void vbnl_profile_deposit_map_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3]);
+void vbnl_profile_add_power_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t q[3]);
+/* deposit_map_fixed in two steps, so that a caller can prefetch the texels and apply the splat
+ * later (photon splitting keeps a few in flight: the maps are large and the texels random):
+ * prepare computes the texels and their exact integer shares (the same as deposit_map_fixed)
+ * and prefetches them; it returns 0 (nothing to apply) for a Lambertian VL. apply makes the
+ * atomic adds; the set must outlive the pending splats. */
+typedef struct vbnl_profile_splat {
+    uint64_t *texel[4];
+    uint64_t part[4][3];
+} vbnl_profile_splat;
+int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
+                               vbnl_profile_splat *sp);
+void vbnl_profile_splat_apply(const vbnl_profile_splat *sp);
 /* Exact integer partition of q by weights w[0..n-1] (sum <= 1 up to float rounding):
  * out[k] = floor(q w_k), the residue to the largest weight, so sum out == q. Deterministic. */
 void vbnl_profile_split_fixed(uint64_t q, uint32_t n, const float *w, uint64_t *out);

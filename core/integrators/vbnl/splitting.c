@@ -2,12 +2,36 @@
  * power shared among the virtual lights around it. Design and rules: splitting.h. */
 #include "splitting.h"
 
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
 
-/* Per-thread counters on their own cache lines. */
+#define SPLAT_RING 16u
+
+/* A photon hit waiting in a thread's batch (48 bytes): everything the deposit needs. */
+typedef struct split_rec {
+    vec3 p;     /* hit point */
+    vec3 n;     /* unit geometric normal facing the arriving photon */
+    vec3 wi;    /* unit, toward where the photon came from */
+    vec3 power; /* flux arriving */
+} split_rec;
+
+/* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
-    _Alignas(64) vbnl_split_stats s; /* sizeof is a multiple of 64 (aligned_alloc needs it) */
+    _Alignas(64) vbnl_split_stats s;
+    uint64_t *acc;       /* this thread's Phi_in sums by index rank (fixed point): RGB and a zero
+                          * lane, 32 bytes per VL, 32-byte aligned (one AVX2 vector) */
+    split_rec *hits;     /* the batch, in trace order */
+    uint32_t *order;     /* the batch by bin: indexes into hits */
+    uint32_t *bin;       /* bin of hits[i] */
+    uint32_t *start;     /* bins + 1 */
+    uint32_t n, cap;
+    /* glossy splats in flight (prepared and prefetched, applied SPLAT_RING deposits later) */
+    vbnl_profile_splat ring[SPLAT_RING];
+    uint32_t ring_n, ring_at;
 } split_thread;
 
 typedef struct split_job {
@@ -15,6 +39,11 @@ typedef struct split_job {
     uint64_t begin, end;     /* global path range */
     uint32_t chunk, max_vls;
     float inv_paths;
+    double inv_unit;         /* 1 / fixed-point unit of the profiles (exact: a power of two) */
+    const uint8_t *glossy;   /* by rank: the VL keeps a map; NULL when none does */
+    unsigned bin_shift;      /* bin = spatial key >> bin_shift */
+    uint32_t bins;
+    int empty;               /* the index holds no VL */
     split_thread *threads;
     unsigned thread_count;
 } split_job;
@@ -40,75 +69,245 @@ double vbnl_split_photon_unit(const vbnl_scene *scene, uint64_t photon_paths)
 
 /* ---- one hit: share the photon among the VLs around it ------------------------------------- */
 
-/* p: hit point; n: unit geometric normal facing the arriving photon; wi: unit direction toward
- * where the photon came from; power: the photon's flux. */
-static void split_hit(const split_job *job, vbnl_split_stats *st, vec3 p, vec3 n, vec3 wi, vec3 power)
+/* vbnl_profile_quantize (same bits), inlined: power -> steps of the unit, rounded to nearest,
+ * clamped to [0, VBNL_PROFILE_MAX_DEPOSIT]. Values stay below 2^53, so the conversions through
+ * int64 give the same results as the unsigned ones, without their slow paths. */
+static inline uint64_t quantize1(float v, double inv_unit)
 {
-    const vbnl_split_desc *d = job->d;
-    uint32_t ids[VBNL_SPLIT_QUERY_MAX];
-    float d2[VBNL_SPLIT_QUERY_MAX];
-    vbnl_vl_filter flt = {n, wi, d->normal_cos, d->require_facing};
-    uint32_t total = vbnl_vl_index_query_filtered(d->index, p, &flt, VBNL_SPLIT_QUERY_MAX, ids, d2);
-    if (!total)
+    double x = (double)v * inv_unit;
+    if (!(x > 0.0))
+        return 0;
+    return x < VBNL_PROFILE_MAX_DEPOSIT ? (uint64_t)(int64_t)(x + 0.5) : (uint64_t)VBNL_PROFILE_MAX_DEPOSIT;
+}
+
+/* vbnl_profile_split_fixed (same bits) for the three channels at once. There
+ * v = x < left ? trunc(x) : left, which is min(trunc(x), left) for 0 <= x < 2^53 (left is an
+ * integer below 2^53, exact in double). */
+static inline void split3(const uint64_t q[3], uint32_t n, const float *w, uint64_t out[][VBNL_SPLIT_MAX_VLS])
+{
+    uint64_t left0 = q[0], left1 = q[1], left2 = q[2];
+    double dq0 = (double)(int64_t)q[0], dq1 = (double)(int64_t)q[1], dq2 = (double)(int64_t)q[2];
+    uint32_t big = 0;
+    for (uint32_t k = 0; k < n; ++k) {
+        double wk = (double)(w[k] > 0.0f ? w[k] : 0.0f);
+        uint64_t v0 = (uint64_t)(int64_t)(dq0 * wk), v1 = (uint64_t)(int64_t)(dq1 * wk),
+                 v2 = (uint64_t)(int64_t)(dq2 * wk);
+        v0 = v0 < left0 ? v0 : left0;
+        v1 = v1 < left1 ? v1 : left1;
+        v2 = v2 < left2 ? v2 : left2;
+        out[0][k] = v0;
+        out[1][k] = v1;
+        out[2][k] = v2;
+        left0 -= v0;
+        left1 -= v1;
+        left2 -= v2;
+        if (w[k] > w[big])
+            big = k;
+    }
+    out[0][big] += left0;
+    out[1][big] += left1;
+    out[2][big] += left2;
+}
+
+typedef struct split_ctx {
+    const split_job *job;
+    split_thread *t;
+    const split_rec *recs;
+    const uint32_t *order;
+} split_ctx;
+
+/* The deposit of hit `hit` of the sorted batch: the VLs of `f` (the index's answer: containing
+ * spheres that passed the filters, in rank order) share it. */
+static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
+{
+    const split_ctx *cx = user;
+    const split_job *job = cx->job;
+    split_thread *t = cx->t;
+    const split_rec *h = &cx->recs[cx->order[hit]];
+    vbnl_split_stats *st = &t->s;
+    if (!nf)
         return;
-    uint32_t found = total < VBNL_SPLIT_QUERY_MAX ? total : VBNL_SPLIT_QUERY_MAX;
     st->overflow += total > VBNL_SPLIT_QUERY_MAX;
-    /* The weights 1 - (d/r)^2 (Section 3.3) of the VLs that passed the authors' filters. */
-    uint32_t keep_id[VBNL_SPLIT_QUERY_MAX];
-    float keep_w[VBNL_SPLIT_QUERY_MAX];
+    /* The weights 1 - (d/r)^2 (Section 3.3) of the VLs that passed the authors' filters; k[]
+     * indexes f. */
+    float w[VBNL_SPLIT_QUERY_MAX];
+    uint32_t k[VBNL_SPLIT_QUERY_MAX];
     uint32_t m = 0;
-    for (uint32_t k = 0; k < found; ++k) {
-        float r = vbnl_vl_index_radius(d->index, ids[k]);
-        float w = 1.0f - d2[k] / (r * r);
-        if (!(w > 0.0f)) /* d within rounding of r */
-            continue;
-        keep_id[m] = ids[k];
-        keep_w[m] = w;
-        ++m;
+    for (uint32_t i = 0; i < nf; ++i) {
+        float r = f[i].r;
+        float wi = 1.0f - f[i].d2 / (r * r);
+        w[m] = wi;
+        k[m] = i;
+        m += wi > 0.0f; /* d within rounding of r: dropped */
     }
     if (!m)
         return;
-    /* The max_vls largest weights (ids ascend, so a stable selection breaks ties by id). */
+    /* The max_vls largest weights (ties: smaller id); otherwise the order of f. */
     if (m > job->max_vls) {
         for (uint32_t a = 0; a < job->max_vls; ++a) {
             uint32_t best = a;
             for (uint32_t b = a + 1; b < m; ++b)
-                if (keep_w[b] > keep_w[best] || (keep_w[b] == keep_w[best] && keep_id[b] < keep_id[best]))
+                if (w[b] > w[best] || (w[b] == w[best] && f[k[b]].id < f[k[best]].id))
                     best = b;
-            uint32_t ti = keep_id[a];
-            float tw = keep_w[a];
-            keep_id[a] = keep_id[best];
-            keep_w[a] = keep_w[best];
-            keep_id[best] = ti;
-            keep_w[best] = tw;
+            float tw = w[a];
+            uint32_t tk = k[a];
+            w[a] = w[best];
+            k[a] = k[best];
+            w[best] = tw;
+            k[best] = tk;
         }
         m = job->max_vls;
     }
     float sum = 0.0f;
-    for (uint32_t k = 0; k < m; ++k)
-        sum += keep_w[k];
-    for (uint32_t k = 0; k < m; ++k)
-        keep_w[k] /= sum;
+    for (uint32_t i = 0; i < m; ++i)
+        sum += w[i];
+    for (uint32_t i = 0; i < m; ++i)
+        w[i] /= sum;
     /* Quantise once, then partition exactly (profiles.h, "Fixed point"). */
-    uint64_t q[3], share[3][VBNL_SPLIT_MAX_VLS];
-    vbnl_profile_quantize(d->profiles, power, q);
+    uint64_t q[3] = {quantize1(h->power.x, job->inv_unit), quantize1(h->power.y, job->inv_unit),
+                     quantize1(h->power.z, job->inv_unit)};
     if (!(q[0] | q[1] | q[2]))
         return;
-    for (int c = 0; c < 3; ++c)
-        vbnl_profile_split_fixed(q[c], m, keep_w, share[c]);
-    for (uint32_t k = 0; k < m; ++k) {
-        uint64_t s3[3] = {share[0][k], share[1][k], share[2][k]};
-        vec3 wl = v3(0.0f, 0.0f, 1.0f); /* Lambertian VLs keep no direction */
-        if (vbnl_profile_is_glossy(d->profiles, keep_id[k])) {
-            frame f = frame_from_normal(d->vl_normals[keep_id[k]]);
-            wl = frame_to_local(&f, wi);
+    int glossy = 0;
+    if (job->glossy)
+        for (uint32_t i = 0; i < m; ++i)
+            glossy |= job->glossy[f[k[i]].rank];
+    if (!glossy && t->acc) {
+        /* split3 with the shares added straight into this thread's sums (by rank); the residue
+         * goes to the largest weight (first on ties), as in vbnl_profile_split_fixed */
+        uint32_t big = 0;
+        for (uint32_t i = 1; i < m; ++i)
+            big = w[i] > w[big] ? i : big;
+#if defined(__AVX2__)
+        if ((q[0] | q[1] | q[2]) < (1ull << 51)) {
+            /* The three channels in one vector: x = q w (double), v = min(trunc x, left) as in
+             * split3, with trunc x = floor x (x >= 0) turned into an integer by the 2^52 trick
+             * (exact below 2^51), the min and the subtraction in 64-bit integer lanes. */
+            const __m256d two52 = _mm256_set1_pd(0x1p52);
+            const __m256i two52i = _mm256_castpd_si256(two52);
+            __m256i left = _mm256_setr_epi64x((long long)q[0], (long long)q[1], (long long)q[2], 0);
+            __m256d dq = _mm256_setr_pd((double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2], 0.0);
+            for (uint32_t i = 0; i < m; ++i) {
+                __m256d x = _mm256_mul_pd(dq, _mm256_set1_pd((double)(w[i] > 0.0f ? w[i] : 0.0f)));
+                x = _mm256_round_pd(x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+                __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(x, two52)), two52i);
+                v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
+                left = _mm256_sub_epi64(left, v);
+                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[i]].rank);
+                _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
+            }
+            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[big]].rank);
+            _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), left));
+        } else
+#endif
+        {
+            uint64_t left0 = q[0], left1 = q[1], left2 = q[2];
+            double dq0 = (double)(int64_t)q[0], dq1 = (double)(int64_t)q[1], dq2 = (double)(int64_t)q[2];
+            for (uint32_t i = 0; i < m; ++i) {
+                double wk = (double)(w[i] > 0.0f ? w[i] : 0.0f);
+                uint64_t v0 = (uint64_t)(int64_t)(dq0 * wk), v1 = (uint64_t)(int64_t)(dq1 * wk),
+                         v2 = (uint64_t)(int64_t)(dq2 * wk);
+                v0 = v0 < left0 ? v0 : left0;
+                v1 = v1 < left1 ? v1 : left1;
+                v2 = v2 < left2 ? v2 : left2;
+                left0 -= v0;
+                left1 -= v1;
+                left2 -= v2;
+                uint64_t *a = t->acc + 4 * (size_t)f[k[i]].rank;
+                a[0] += v0;
+                a[1] += v1;
+                a[2] += v2;
+            }
+            uint64_t *a = t->acc + 4 * (size_t)f[k[big]].rank;
+            a[0] += left0;
+            a[1] += left1;
+            a[2] += left2;
         }
-        vbnl_profile_deposit_fixed(d->profiles, keep_id[k], wl, s3);
+    } else {
+        uint64_t share[3][VBNL_SPLIT_MAX_VLS];
+        split3(q, m, w, share);
+        const vbnl_split_desc *d = job->d;
+        for (uint32_t i = 0; i < m; ++i) {
+            const vbnl_vl_found *e = &f[k[i]];
+            /* Phi_in into this thread's sums (plain adds, merged at the end), the direction
+             * into the VL's map (atomic: maps are shared); without per-thread sums, both
+             * atomically into the set. */
+            uint64_t s3[3] = {share[0][i], share[1][i], share[2][i]};
+            int gl = job->glossy && job->glossy[e->rank];
+            vec3 wl = v3(0.0f, 0.0f, 1.0f); /* Lambertian VLs keep no direction */
+            if (gl) {
+                frame fr = frame_from_normal(d->vl_normals[e->id]);
+                wl = frame_to_local(&fr, h->wi);
+            }
+            if (t->acc) {
+                uint64_t *a = t->acc + 4 * (size_t)e->rank;
+                a[0] += s3[0];
+                a[1] += s3[1];
+                a[2] += s3[2];
+                if (gl) {
+                    vbnl_profile_splat *sp = &t->ring[t->ring_at];
+                    if (t->ring_n == SPLAT_RING)
+                        vbnl_profile_splat_apply(sp); /* the oldest, prefetched long ago */
+                    else
+                        t->ring_n++;
+                    if (!vbnl_profile_splat_prepare(d->profiles, e->id, wl, s3, sp))
+                        t->ring_n--;
+                    else
+                        t->ring_at = (t->ring_at + 1) % SPLAT_RING;
+                }
+            } else {
+                vbnl_profile_deposit_fixed(d->profiles, e->id, wl, s3);
+            }
+        }
     }
     st->covered_hits++;
     st->deposits += m;
-    for (int c = 0; c < 3; ++c)
-        st->covered_power[c] += q[c];
+    st->covered_power[0] += q[0];
+    st->covered_power[1] += q[1];
+    st->covered_power[2] += q[2];
+}
+
+/* Deposits the thread's batch in spatial order: a counting sort by bin (a cube of the index's
+ * Morton key grid), so that consecutive queries read the same cells, sphere records and
+ * accumulators, which then stay in cache. The order cannot change the result: deposits are
+ * integer adds. */
+static void flush_batch(const split_job *job, split_thread *t)
+{
+    uint32_t n = t->n, bins = job->bins;
+    if (!n)
+        return;
+    uint32_t *start = t->start;
+    memset(start, 0, ((size_t)bins + 1) * sizeof(uint32_t));
+    for (uint32_t i = 0; i < n; ++i)
+        start[t->bin[i] + 1]++;
+    for (uint32_t b = 0; b < bins; ++b)
+        start[b + 1] += start[b];
+    for (uint32_t i = 0; i < n; ++i)
+        t->order[start[t->bin[i]]++] = i;
+    /* Queries in that order, pipelined by the index (vl_index.h), which also prefetches this
+     * thread's sums of the candidate VLs. */
+    split_ctx cx = {job, t, t->hits, t->order};
+    vbnl_vl_batch b;
+    memset(&b, 0, sizeof(b));
+    b.count = n;
+    b.order = t->order;
+    b.base = t->hits;
+    b.stride = sizeof(split_rec);
+    b.p_off = offsetof(split_rec, p);
+    b.n_off = offsetof(split_rec, n);
+    b.wi_off = offsetof(split_rec, wi);
+    b.filter = 1;
+    b.normal_cos = job->d->normal_cos;
+    b.facing = job->d->require_facing;
+    b.max_out = VBNL_SPLIT_QUERY_MAX;
+    b.rank_data = t->acc; /* NULL: nothing to prefetch */
+    b.rank_stride = 4 * sizeof(uint64_t);
+    vbnl_vl_index_query_batch(job->d->index, &b, split_hit, &cx);
+    for (uint32_t i = 0; i < t->ring_n; ++i) /* the glossy splats still in flight */
+        vbnl_profile_splat_apply(&t->ring[(t->ring_at + SPLAT_RING - t->ring_n + i) % SPLAT_RING]);
+    t->ring_n = 0;
+    t->ring_at = 0;
+    t->n = 0;
 }
 
 /* ---- one photon path ------------------------------------------------------------------------ */
@@ -116,108 +315,47 @@ static void split_hit(const split_job *job, vbnl_split_stats *st, vec3 p, vec3 n
 void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
                       vbnl_photon_walk_stats *st)
 {
-    const vbnl_scene *sc = w->scene;
-    float pmf;
-    uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
-    vec2 u_pos = vbnl_rng_next2(rng), u_dir = vbnl_rng_next2(rng);
-    vbnl_light_le_sample les;
-    if (!(pmf > 0.0f) || !vbnl_light_sample_le(&sc->lights[li], u_pos, u_dir, &les))
-        return;
-    float den = pmf * les.pdf_pos * les.pdf_dir;
-    if (!(den > 0.0f))
-        return;
-    /* Flux of the photon: Le |cos| / (p_j pdf_pos pdf_dir) / N (lights.h). */
-    vec3 beta = v3_scale(les.Le, les.cos_at_light / den * w->inv_paths);
-    if (!v3_is_finite(beta) || v3_is_black(beta))
-        return;
-    vec3 o = vbnl_offset_ray_origin(les.p, les.n, les.dir), dir = les.dir;
-    int max_depth = w->max_depth > 0 && w->max_depth < VBNL_SPLIT_SAFETY_DEPTH ? w->max_depth
-                                                                              : VBNL_SPLIT_SAFETY_DEPTH;
-    for (int depth = 0; depth < max_depth; ++depth) {
-        vbnl_hit hit;
-        st->rays++;
-        if (!vbnl_scene_intersect(sc, o, dir, INFINITY, &hit))
-            return;
-        st->hits++;
-        vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
-        vec3 wo_w = v3_neg(dir); /* toward where the photon came from */
-        vec3 ng = hit.ng, ns = hit.ns;
-        int transmissive = vbnl_bsdf_is_transmissive(bsdf);
-        if (!transmissive) { /* two-sided opaque surface: frame facing the photon (path.c) */
-            if (v3_dot(ng, wo_w) < 0.0f) {
-                ng = v3_neg(ng);
-                ns = v3_neg(ns);
-            }
-            if (v3_dot(ns, wo_w) <= 0.0f)
-                ns = ng;
-        }
-        if (vbnl_bsdf_is_delta(bsdf)) {
-            st->delta_hits++;
-        } else {
-            vbnl_photon_vertex v = {&hit, bsdf, ng, ns, wo_w, beta, depth};
-            visit(user, &v);
-        }
-
-        /* Bounce (importance transport, splitting.h). */
-        frame fr = frame_from_normal(ns);
-        vec3 wo = frame_to_local(&fr, wo_w);
-        vbnl_bsdf_sample_rec bs;
-        float ulobe = vbnl_rng_next(rng);
-        vec2 ub = vbnl_rng_next2(rng);
-        if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
-            return;
-        vec3 wi_w = frame_to_world(&fr, bs.wi);
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
-            return; /* a reflection must leave on the photon's side of the real surface */
-        vec3 wt = bs.weight;
-        if (bs.lobe & VBNL_LOBE_TRANSMISSION)
-            wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
-        /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); 1 when ns == ng. */
-        float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
-        if (den_c > 0.0f)
-            wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
-        vec3 nb = v3_mul(beta, wt);
-        if (depth + 1 >= w->rr_depth) {
-            /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
-             * (q = max(new) / max(old), the sampled albedo) otherwise; at most 1. */
-            float ratio = v3_max_comp(nb) / v3_max_comp(beta);
-            float q = fminf(1.0f, w->rr_sqrt ? sqrtf(ratio) : ratio);
-            if (!(q > 0.0f) || vbnl_rng_next(rng) >= q)
-                return;
-            nb = v3_scale(nb, 1.0f / q);
-        }
-        if (!v3_is_finite(nb) || v3_is_black(nb))
-            return;
-        beta = nb;
-        o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
-        dir = wi_w;
-    }
+    vbnl_photon_walk_inline(w, rng, visit, user, st);
 }
 
 typedef struct split_visit {
     const split_job *job;
-    vbnl_split_stats *st;
+    split_thread *t;
 } split_visit;
 
 static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
 {
     split_visit *sv = user;
-    split_hit(sv->job, sv->st, v->hit->p, v->ng, v->wo, v->beta);
+    split_thread *t = sv->t;
+    if (t->n == t->cap)
+        flush_batch(sv->job, t);
+    t->hits[t->n] = (split_rec){v->hit->p, v->ng, v->wo, v->beta};
+    t->bin[t->n] = (uint32_t)(vbnl_vl_index_spatial_key(sv->job->d->index, v->hit->p) >> sv->job->bin_shift);
+    t->n++;
 }
 
-static void trace_photon(const split_job *job, vbnl_split_stats *st, uint64_t k)
+/* No VL at all: no hit can deposit. */
+static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
+{
+    (void)user;
+    (void)v;
+}
+
+static void trace_photon(const split_job *job, split_thread *t, uint64_t k)
 {
     const vbnl_split_desc *d = job->d;
     vbnl_rng rng = vbnl_rng_for(d->seed, k, 0);
-    st->paths++;
+    t->s.paths++;
     vbnl_photon_walk_desc w = {d->scene, job->inv_paths, d->rr_depth, d->max_depth, 1};
     vbnl_photon_walk_stats ws = {0, 0, 0};
-    split_visit sv = {job, st};
-    vbnl_photon_walk(&w, &rng, split_visit_fn, &sv, &ws);
-    st->rays += ws.rays;
-    st->hits += ws.hits;
-    st->delta_hits += ws.delta_hits;
+    split_visit sv = {job, t};
+    if (job->empty)
+        vbnl_photon_walk_inline(&w, &rng, skip_visit_fn, &sv, &ws);
+    else
+        vbnl_photon_walk_inline(&w, &rng, split_visit_fn, &sv, &ws);
+    t->s.rays += ws.rays;
+    t->s.hits += ws.hits;
+    t->s.delta_hits += ws.delta_hits;
 }
 
 /* vbnl_pool_run with poll == NULL never moves its wake-up time forward once it has passed and
@@ -230,14 +368,35 @@ static int no_poll(void *user, uint64_t finished, uint64_t count)
     return 0;
 }
 
+/* A work item traces its paths into the thread's batch and deposits the batch before it
+ * returns (also whenever the batch fills up), so a finished item has made all its deposits. */
 static void run_chunk(void *user, uint64_t item, unsigned thread)
 {
     const split_job *job = user;
-    vbnl_split_stats *st = &job->threads[thread < job->thread_count ? thread : 0].s;
+    /* Workers are numbered 0 .. thread_count - 1 (pool.h; the caller never runs items), so
+     * each split_thread, whose sums are plain adds, has one writer. */
+    split_thread *t = &job->threads[thread];
     uint64_t b = job->begin + item * job->chunk;
     uint64_t e = b + job->chunk < job->end ? b + job->chunk : job->end;
     for (uint64_t k = b; k < e; ++k)
-        trace_photon(job, st, k);
+        trace_photon(job, t, k);
+    flush_batch(job, t);
+}
+
+static void threads_free(split_job *job)
+{
+    if (!job->threads)
+        return;
+    for (unsigned i = 0; i < job->thread_count; ++i) {
+        split_thread *t = &job->threads[i];
+        free(t->acc);
+        free(t->hits);
+        free(t->order);
+        free(t->bin);
+        free(t->start);
+    }
+    free(job->threads);
+    job->threads = NULL;
 }
 
 vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_stage_ctx *stage,
@@ -262,15 +421,51 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     job.chunk = d->chunk ? d->chunk : VBNL_SPLIT_DEFAULT_CHUNK;
     job.max_vls = d->max_vls;
     job.inv_paths = (float)(1.0 / (double)d->photon_paths);
+    job.inv_unit = 1.0 / vbnl_profile_set_unit(d->profiles);
+    job.bin_shift = 63u - VBNL_SPLIT_BIN_BITS;
+    job.bins = 1u << VBNL_SPLIT_BIN_BITS;
     job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbnl_pool_thread_count(pool);
     if (job.thread_count == 0)
         job.thread_count = 1;
-    job.threads = aligned_alloc(64, sizeof(split_thread) * job.thread_count);
-    if (!job.threads)
-        return VBNL_ERR_OUT_OF_MEMORY;
-    memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
-    uint64_t items = (job.end - job.begin + job.chunk - 1) / job.chunk;
+    uint32_t nvl = vbnl_vl_index_count(d->index);
+    job.empty = nvl == 0;
+    uint8_t *glossy = NULL;
     vbnl_result res = VBNL_OK;
+    for (uint32_t r = 0; r < nvl; ++r) {
+        uint32_t id = vbnl_vl_index_id(d->index, r);
+        if (!vbnl_profile_is_glossy(d->profiles, id))
+            continue;
+        if (!glossy && !(glossy = calloc(nvl, 1))) {
+            res = VBNL_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
+        glossy[r] = 1;
+    }
+    job.glossy = glossy;
+    job.threads = aligned_alloc(64, sizeof(split_thread) * job.thread_count);
+    if (!job.threads) {
+        res = VBNL_ERR_OUT_OF_MEMORY;
+        goto done;
+    }
+    memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
+    /* Per-thread sums unless they would take more than VBNL_SPLIT_MAX_SUM_BYTES (many threads
+     * and millions of VLs): then atomic adds into the set, the same bits. */
+    int own_sums = !d->atomic_deposits && (double)nvl * 32.0 * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
+    for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
+        split_thread *t = &job.threads[i];
+        t->cap = VBNL_SPLIT_BATCH_HITS;
+        if (own_sums && (t->acc = aligned_alloc(32, 32 * ((size_t)nvl + 1))))
+            memset(t->acc, 0, 32 * ((size_t)nvl + 1));
+        t->hits = malloc(t->cap * sizeof(split_rec));
+        t->order = malloc(t->cap * sizeof(uint32_t));
+        t->bin = malloc(t->cap * sizeof(uint32_t));
+        t->start = malloc(((size_t)job.bins + 1) * sizeof(uint32_t));
+        if ((own_sums && !t->acc) || !t->hits || !t->order || !t->bin || !t->start) {
+            res = VBNL_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
+    }
+    uint64_t items = (job.end - job.begin + job.chunk - 1) / job.chunk;
     if (items) {
         if (stage) {
             if (vbnl_stage_run(stage, items, run_chunk, &job) != 0)
@@ -279,9 +474,19 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             vbnl_pool_run(pool, items, run_chunk, &job, no_poll, NULL, 1.0);
         }
     }
+    /* Phi_in: the threads' sums, added in rank order (integer adds: the same bits for any
+     * thread count and order). */
+    for (uint32_t r = 0; r < nvl && own_sums; ++r) {
+        uint64_t q[3] = {0, 0, 0};
+        for (unsigned i = 0; i < job.thread_count; ++i)
+            for (int c = 0; c < 3; ++c)
+                q[c] += job.threads[i].acc[4 * (size_t)r + c];
+        if (q[0] | q[1] | q[2])
+            vbnl_profile_add_power_fixed(d->profiles, vbnl_vl_index_id(d->index, r), q);
+    }
     if (stats) {
-        for (unsigned t = 0; t < job.thread_count; ++t) {
-            const vbnl_split_stats *s = &job.threads[t].s;
+        for (unsigned i = 0; i < job.thread_count; ++i) {
+            const vbnl_split_stats *s = &job.threads[i].s;
             stats->paths += s->paths;
             stats->rays += s->rays;
             stats->hits += s->hits;
@@ -293,7 +498,14 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
                 stats->covered_power[c] += s->covered_power[c];
         }
         stats->seconds = vbnl_now() - t0;
+        stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
+                               ((own_sums ? 32ull * (nvl + 1) : 0ull) +
+                                (uint64_t)VBNL_SPLIT_BATCH_HITS * (sizeof(split_rec) + 2 * sizeof(uint32_t)) +
+                                4ull * (job.bins + 1)) +
+                               (glossy ? nvl : 0u);
     }
-    free(job.threads);
+done:
+    threads_free(&job);
+    free(glossy);
     return res;
 }

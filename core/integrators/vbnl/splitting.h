@@ -38,7 +38,43 @@
  * Energy bookkeeping (exact): the photon power at a hit is quantised once (Q, fixed point);
  * the VLs' shares are an exact integer partition of Q (vbnl_profile_split_fixed). The stats
  * count sum Q over the hits that deposited (covered_power), which therefore equals the sum of
- * all VLs' incident power sums exactly. */
+ * all VLs' incident power sums exactly.
+ *
+ * How it runs (the work per hit is a handful of scattered memory accesses, so the order of the
+ * work matters more than the arithmetic):
+ *   - A work item traces `chunk` photon paths and records every non-delta hit (position,
+ *     facing normal, wi, flux: 48 bytes) in its thread's batch (VBNL_SPLIT_BATCH_HITS hits),
+ *     which it deposits when full and before the item returns.
+ *   - Deposit: the batch is counting-sorted by the top 12 bits of the index's Morton key
+ *     (vl_index.h, vbnl_vl_index_spatial_key: 2^12 cubes of the VLs' bounding cube), then
+ *     queried in that order with vbnl_vl_index_query_batch, whose software pipeline prefetches
+ *     each query's cells, entries and sphere records a few queries ahead. Consecutive queries
+ *     then read the same cells and records, which stay in cache.
+ *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
+ *     spatial order (nearby VLs, nearby sums; prefetched with the records), added to the
+ *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
+ *     direction maps are shared and get atomic adds; each splat is prepared and its texels
+ *     prefetched (vbnl_profile_splat_prepare), then applied 16 splats later, since the maps
+ *     are large (6 KB per glossy VL at 16 x 16) and the texels random.
+ *   The VLs that share a hit and their weights are exactly those of the rules above; only the
+ *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
+ *   normalised weights may differ in the last bit from an id-ordered sum; either is a
+ *   deterministic function of the hit).
+ *   Memory beyond the profile set (stats.scratch_bytes): per thread 32 bytes per VL (the sums:
+ *   RGB and a zero lane, one AVX2 vector) and 56 bytes per batch entry (3.7 MB); for 100K VLs
+ *   and 2 threads, 13.8 MB in all. When the sums of all threads would exceed
+ *   VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic adds into the profile set instead
+ *   (slower, same bits).
+ *   Embree packets and streams (rtcIntersect8, rtcIntersect1M with the incoherent flag) were
+ *   measured on these photon rays and are no faster than rtcIntersect1, so paths are traced one
+ *   ray at a time.
+ * Measured (tests/vbnl/bench_splitting.c: Cornell box, 100K VLs, 2M paths, 2 shared cores;
+ * ratios to the raw Embree incoherent rate measured in the same run): 25-29 % of the raw rate,
+ * 0.8-0.9 M paths/s, 13 M deposits/s (one atomic deposit per hit in trace order: 8-13 %,
+ * 0.26-0.40 M paths/s); with 33K glossy VLs (CornellBox-Glossy-Floor) 16-17 % (before: 6-7 %).
+ * Photon tracing alone, without deposits, reaches 51-56 % of the raw rate: the walk (hit
+ * setup, BSDF sampling, Russian roulette) costs about as much as Embree's traversal here, so
+ * half the raw rate is out of reach while the deposits cost about as much as the tracing. */
 #ifndef VBNL_SPLITTING_H
 #define VBNL_SPLITTING_H
 
@@ -50,7 +86,10 @@
 #include "scene_internal.h"
 #include "vl_index.h"
 
-#define VBNL_SPLIT_DEFAULT_CHUNK 4096u
+#define VBNL_SPLIT_DEFAULT_CHUNK 16384u /* photon paths per work item (about 4 hits each here) */
+#define VBNL_SPLIT_BATCH_HITS 65536u    /* photon hits a thread buffers before depositing them */
+#define VBNL_SPLIT_BIN_BITS 12u         /* spatial bins of the batch sort: 2^12 (16 per axis) */
+#define VBNL_SPLIT_MAX_SUM_BYTES (256u << 20) /* per-thread sums of all threads, at most */
 #define VBNL_SPLIT_SAFETY_DEPTH 4096
 #define VBNL_SPLIT_QUERY_MAX 64u   /* candidates read from the index per hit */
 #define VBNL_SPLIT_MAX_VLS 64u     /* upper bound for max_vls */
@@ -70,11 +109,14 @@ typedef struct vbnl_split_desc {
     uint32_t max_vls;               /* VLs sharing one hit (1 .. VBNL_SPLIT_MAX_VLS) */
     int rr_depth;                   /* bounces before Russian roulette */
     int max_depth;                  /* 0 = unlimited (up to VBNL_SPLIT_SAFETY_DEPTH) */
-    uint32_t chunk;                 /* photon paths per work item, 0 = default */
+    uint32_t chunk;                 /* photon paths per work item, 0 = default (results do not
+                                     * depend on it) */
+    int atomic_deposits;            /* 1: no per-thread sums, atomic adds into `profiles` (what
+                                     * happens beyond VBNL_SPLIT_MAX_SUM_BYTES; same bits) */
 } vbnl_split_desc;
 
 /* Defaults of the authors' code: normal_cos 0.7, facing on, 8 VLs, RR after bounce 5, unlimited
- * depth, chunks of 4096 paths. Scene, index, normals, profiles, counts and seed to be filled. */
+ * depth, chunks of 16384 paths. Scene, index, normals, profiles, counts and seed to be filled. */
 void vbnl_split_desc_init(vbnl_split_desc *d);
 
 typedef struct vbnl_split_stats {
@@ -86,6 +128,7 @@ typedef struct vbnl_split_stats {
     uint64_t deposits;      /* VL deposits (<= max_vls per covered hit) */
     uint64_t overflow;      /* hits with more than VBNL_SPLIT_QUERY_MAX containing spheres */
     uint64_t covered_power[3]; /* sum of the quantised photon power of covered hits (fixed point) */
+    uint64_t scratch_bytes; /* memory of the run beyond index and profiles: per-thread sums, batches */
     double seconds;
 } vbnl_split_stats;
 
@@ -96,7 +139,9 @@ double vbnl_split_photon_unit(const vbnl_scene *scene, uint64_t photon_paths);
 /* One photon path (light random walk), shared with the many-light baselines (vpl, vsl): the
  * rules above (light by power, importance transport, Russian roulette, safety cap). `visit` is
  * called at every non-delta hit, before the bounce, with the flux arriving there. Draws from
- * `rng` only, in a fixed order, so a path is a function of its stream. */
+ * `rng` only, in a fixed order, so a path is a function of its stream. (Its floating-point
+ * results depend on the compiler's inlining at the last bit: GCC contracts a * b + c into FMAs
+ * across inlined statements; a given build is deterministic.) */
 typedef struct vbnl_photon_vertex {
     const vbnl_hit *hit;
     const vbnl_bsdf *bsdf;  /* vbnl_surface_bsdf at the hit */
@@ -118,8 +163,94 @@ typedef struct vbnl_photon_walk_stats {
 } vbnl_photon_walk_stats;
 void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
                       vbnl_photon_walk_stats *stats);
+/* The same walk, inline: called with a known `visit`, the compiler inlines the visit too (photon
+ * splitting's inner loop; vbnl_photon_walk is this function out of line). */
+static inline __attribute__((always_inline)) void
+vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
+                        vbnl_photon_walk_stats *st)
+{
+    const vbnl_scene *sc = w->scene;
+    float pmf;
+    uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
+    vec2 u_pos = vbnl_rng_next2(rng), u_dir = vbnl_rng_next2(rng);
+    vbnl_light_le_sample les;
+    if (!(pmf > 0.0f) || !vbnl_light_sample_le(&sc->lights[li], u_pos, u_dir, &les))
+        return;
+    float den = pmf * les.pdf_pos * les.pdf_dir;
+    if (!(den > 0.0f))
+        return;
+    /* Flux of the photon: Le |cos| / (p_j pdf_pos pdf_dir) / N (lights.h). */
+    vec3 beta = v3_scale(les.Le, les.cos_at_light / den * w->inv_paths);
+    if (!v3_is_finite(beta) || v3_is_black(beta))
+        return;
+    vec3 o = vbnl_offset_ray_origin(les.p, les.n, les.dir), dir = les.dir;
+    int max_depth = w->max_depth > 0 && w->max_depth < VBNL_SPLIT_SAFETY_DEPTH ? w->max_depth
+                                                                              : VBNL_SPLIT_SAFETY_DEPTH;
+    for (int depth = 0; depth < max_depth; ++depth) {
+        vbnl_hit hit;
+        st->rays++;
+        if (!vbnl_scene_intersect(sc, o, dir, INFINITY, &hit))
+            return;
+        st->hits++;
+        vbnl_bsdf bsdf_store;
+        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+        vec3 wo_w = v3_neg(dir); /* toward where the photon came from */
+        vec3 ng = hit.ng, ns = hit.ns;
+        int transmissive = vbnl_bsdf_is_transmissive(bsdf);
+        if (!transmissive) { /* two-sided opaque surface: frame facing the photon (path.c) */
+            if (v3_dot(ng, wo_w) < 0.0f) {
+                ng = v3_neg(ng);
+                ns = v3_neg(ns);
+            }
+            if (v3_dot(ns, wo_w) <= 0.0f)
+                ns = ng;
+        }
+        if (vbnl_bsdf_is_delta(bsdf)) {
+            st->delta_hits++;
+        } else {
+            vbnl_photon_vertex v = {&hit, bsdf, ng, ns, wo_w, beta, depth};
+            visit(user, &v);
+        }
 
-/* Traces the photon paths of `d` and deposits into d->profiles. Work items run on `stage`'s
+        /* Bounce (importance transport, splitting.h). */
+        frame fr = frame_from_normal(ns);
+        vec3 wo = frame_to_local(&fr, wo_w);
+        vbnl_bsdf_sample_rec bs;
+        float ulobe = vbnl_rng_next(rng);
+        vec2 ub = vbnl_rng_next2(rng);
+        if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+            return;
+        vec3 wi_w = frame_to_world(&fr, bs.wi);
+        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
+            return; /* a reflection must leave on the photon's side of the real surface */
+        vec3 wt = bs.weight;
+        if (bs.lobe & VBNL_LOBE_TRANSMISSION)
+            wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
+        /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); 1 when ns == ng. */
+        float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
+        if (den_c > 0.0f)
+            wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
+        vec3 nb = v3_mul(beta, wt);
+        if (depth + 1 >= w->rr_depth) {
+            /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
+             * (q = max(new) / max(old), the sampled albedo) otherwise; at most 1. */
+            float ratio = v3_max_comp(nb) / v3_max_comp(beta);
+            float q = minf(1.0f, w->rr_sqrt ? sqrtf(ratio) : ratio);
+            if (!(q > 0.0f) || vbnl_rng_next(rng) >= q)
+                return;
+            nb = v3_scale(nb, 1.0f / q);
+        }
+        if (!v3_is_finite(nb) || v3_is_black(nb))
+            return;
+        beta = nb;
+        o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
+        dir = wi_w;
+    }
+}
+
+
+/* Traces the photon paths of `d` and deposits into d->profiles (adds to what it holds). Work
+ * items run on `stage`'s
  * workers with progress in photon paths when stage is not NULL (cancellation:
  * VBNL_ERR_CANCELLED, deposits of finished items stay), else on `pool` (which must then be
  * given). With a stage, the caller brackets the call with vbnl_stage_begin(stage, name, path

@@ -1,102 +1,135 @@
 /* Spatial index over virtual-light spheres: multi-level grid and Embree point-query variants
  * (see vl_index.h). Used by photon splitting (Li et al. 2022, Section 3.3) and by rendering's
  * BSDF-sampling gather (Section 4.1). */
-#include "vl_index.h"
+#include "vl_index_internal.h"
 
-#include <stdlib.h>
-#include <string.h>
+/* ---- spatial order -------------------------------------------------------------------------- */
 
-#define MAX_LEVELS 32u
-#define DEFAULT_CELL_SCALE 2.0f
-#define EMPTY_KEY UINT64_MAX
-
-/* A sphere as listed in a cell: centre, radius and id side by side so a query touches one
- * contiguous run of memory per cell. */
-typedef struct cell_entry {
-    float cx, cy, cz, r;
-    float nx, ny, nz;
-    uint32_t id;
-} cell_entry;
-
-typedef struct grid_level {
-    float cell, inv_cell;     /* cell edge and its inverse */
-    vec3 lo;                  /* grid origin (the level's bounding box minimum) */
-    int32_t n[3];             /* cells per axis */
-    uint32_t sphere_count;
-    /* dense: start[c] .. start[c + 1] for linear cell c (n0 n1 n2 + 1 entries);
-     * hashed: keys/slot of 2^hash_bits entries, start indexed by slot (occupied + 1). */
-    int dense;
-    uint32_t *start;
-    uint64_t *keys;
-    uint32_t *slot;
-    uint32_t hash_mask;
-    cell_entry *entries;
-} grid_level;
-
-struct vbnl_vl_index {
-    vbnl_vl_index_kind kind;
-    uint32_t count;
-    vec3 *centers;
-    float *radii;
-    vec3 *normals;            /* NULL when not given */
-    /* grid */
-    grid_level levels[MAX_LEVELS];
-    uint32_t level_count;
-    float r_min;
-    size_t bytes;
-    /* Embree */
-    RTCScene rtc;
-};
-
-/* ---- sorted, capped output (shared by both variants) ---------------------------------------- */
-
-typedef struct query_out {
-    uint32_t *ids;
-    float *dist2;
-    uint32_t max_out, n, total;
-    const vbnl_vl_filter *f;  /* NULL: no filter */
-} query_out;
-
-static inline int passes(const vbnl_vl_filter *f, vec3 nj)
+/* The 21 low bits of v spread to every third bit. */
+static inline uint64_t spread3(uint64_t v)
 {
-    if (f->normal_cos > -1.0f && !(v3_dot(nj, f->n) > f->normal_cos))
-        return 0;
-    return !f->facing || v3_dot(nj, f->wi) > 0.0f;
+#if defined(__BMI2__)
+    return _pdep_u64(v & 0x1fffffull, 0x1249249249249249ull);
+#else
+    v &= 0x1fffffull;
+    v = (v | v << 32) & 0x1f00000000ffffull;
+    v = (v | v << 16) & 0x1f0000ff0000ffull;
+    v = (v | v << 8) & 0x100f00f00f00f00full;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+    v = (v | v << 2) & 0x1249249249249249ull;
+    return v;
+#endif
 }
 
-/* Keeps the max_out smallest ids in ascending order; ids arrive mostly ascending (cells are
- * filled in id order), so the insertion is O(1) in the common case. */
-static inline void out_add(query_out *o, uint32_t id, double d2)
+static inline uint64_t key_coord(float v, float lo, float scale)
 {
-    o->total++;
-    uint32_t n = o->n;
-    if (n == o->max_out) {
-        if (n == 0 || id > o->ids[n - 1])
-            return;
-        --n; /* drop the largest id */
+    float f = (v - lo) * scale;
+    const float top = (float)((1u << VBNL_VLI_KEY_BITS) - 1u);
+    return !(f > 0.0f) ? 0u : (f >= top ? (uint64_t)top : (uint64_t)f); /* NaN -> 0 */
+}
+
+static inline uint64_t spatial_key(const vbnl_vl_index *x, vec3 p)
+{
+    return spread3(key_coord(p.x, x->key_lo.x, x->key_scale)) |
+           spread3(key_coord(p.y, x->key_lo.y, x->key_scale)) << 1 |
+           spread3(key_coord(p.z, x->key_lo.z, x->key_scale)) << 2;
+}
+
+/* Stable LSD radix sort of (key, value) pairs by key, 11 bits per pass; passes in which every
+ * key has the same digit are skipped. tmp_* have room for n. */
+static void radix_sort_pairs(uint64_t *key, uint32_t *val, uint64_t *tmp_key, uint32_t *tmp_val, size_t n,
+                             size_t *count)
+{
+    enum { BITS = 11, BUCKETS = 1 << BITS, PASSES = (64 + BITS - 1) / BITS };
+    for (unsigned pass = 0; pass < PASSES; ++pass) {
+        unsigned shift = pass * BITS;
+        memset(count, 0, BUCKETS * sizeof(size_t));
+        for (size_t i = 0; i < n; ++i)
+            count[(key[i] >> shift) & (BUCKETS - 1)]++;
+        if (n == 0 || count[(key[0] >> shift) & (BUCKETS - 1)] == n)
+            continue;
+        size_t sum = 0;
+        for (unsigned b = 0; b < BUCKETS; ++b) {
+            size_t c = count[b];
+            count[b] = sum;
+            sum += c;
+        }
+        for (size_t i = 0; i < n; ++i) {
+            size_t at = count[(key[i] >> shift) & (BUCKETS - 1)]++;
+            tmp_key[at] = key[i];
+            tmp_val[at] = val[i];
+        }
+        memcpy(key, tmp_key, n * sizeof(uint64_t));
+        memcpy(val, tmp_val, n * sizeof(uint32_t));
     }
-    uint32_t k = n;
-    while (k > 0 && o->ids[k - 1] > id) {
-        o->ids[k] = o->ids[k - 1];
-        if (o->dist2)
-            o->dist2[k] = o->dist2[k - 1];
-        --k;
+}
+
+/* rec[] in Morton order of the centres (grid) or in id order (Embree), and the key cube. */
+static vbnl_result order_build(vbnl_vl_index *x, const vbnl_vl_index_desc *desc, int morton)
+{
+    uint32_t n = desc->count;
+    vec3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
+    for (uint32_t i = 0; i < n; ++i) {
+        lo = v3_min(lo, desc->centers[i]);
+        hi = v3_max(hi, desc->centers[i]);
     }
-    o->ids[k] = id;
-    if (o->dist2)
-        o->dist2[k] = (float)d2;
-    o->n = n + 1;
+    if (!(lo.x <= hi.x)) {
+        lo = v3s(0.0f);
+        hi = v3s(1.0f);
+    }
+    float ext = fmaxf(hi.x - lo.x, fmaxf(hi.y - lo.y, hi.z - lo.z));
+    ext = ext > 0.0f ? ext * 1.0001f : 1.0f;
+    x->key_lo = lo;
+    x->key_scale = (float)(1u << VBNL_VLI_KEY_BITS) / ext;
+    uint32_t *order = malloc(((size_t)n + 1) * sizeof(uint32_t));
+    if (!order)
+        return VBNL_ERR_OUT_OF_MEMORY;
+    for (uint32_t i = 0; i < n; ++i)
+        order[i] = i;
+    if (morton && n > 1) {
+        uint64_t *key = malloc((size_t)n * sizeof(uint64_t)), *tk = malloc((size_t)n * sizeof(uint64_t));
+        uint32_t *tv = malloc((size_t)n * sizeof(uint32_t));
+        size_t *count = malloc(2048 * sizeof(size_t));
+        if (!key || !tk || !tv || !count) {
+            free(key);
+            free(tk);
+            free(tv);
+            free(count);
+            free(order);
+            return VBNL_ERR_OUT_OF_MEMORY;
+        }
+        for (uint32_t i = 0; i < n; ++i)
+            key[i] = spatial_key(x, desc->centers[i]);
+        radix_sort_pairs(key, order, tk, tv, n, count); /* stable: equal keys keep id order */
+        free(key);
+        free(tk);
+        free(tv);
+        free(count);
+        x->rank_of = malloc(((size_t)n + 1) * sizeof(uint32_t));
+        if (!x->rank_of) {
+            free(order);
+            return VBNL_ERR_OUT_OF_MEMORY;
+        }
+        for (uint32_t k = 0; k < n; ++k)
+            x->rank_of[order[k]] = k;
+        x->bytes += (size_t)n * sizeof(uint32_t);
+    }
+    x->rec = aligned_alloc(64, (((size_t)n * sizeof(vl_rec) + 63) / 64 + 1) * 64);
+    if (!x->rec) {
+        free(order);
+        return VBNL_ERR_OUT_OF_MEMORY;
+    }
+    for (uint32_t k = 0; k < n; ++k) {
+        uint32_t id = order[k];
+        vec3 c = desc->centers[id], nn = desc->normals ? desc->normals[id] : v3s(0.0f);
+        x->rec[k] = (vl_rec){c.x, c.y, c.z, desc->radii[id], nn.x, nn.y, nn.z, id};
+    }
+    x->bytes += (size_t)n * sizeof(vl_rec);
+    free(order);
+    return VBNL_OK;
 }
 
 /* ---- grid ---------------------------------------------------------------------------------- */
-
-static uint64_t hash_key(uint64_t k)
-{
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdull;
-    k ^= k >> 33;
-    return k;
-}
 
 static int usable(float r) { return r > 0.0f && isfinite(r); }
 
@@ -105,7 +138,7 @@ static uint32_t level_of(float r, float r_min)
 {
     uint32_t L = 0;
     float lim = r_min;
-    while (r > lim && L + 1 < MAX_LEVELS) {
+    while (r > lim && L + 1 < VBNL_VLI_MAX_LEVELS) {
         lim *= 2.0f;
         ++L;
     }
@@ -121,12 +154,6 @@ static void sphere_box(vec3 c, float r, vec3 *lo, vec3 *hi)
     *hi = v3_add(v3_add(c, v3s(r)), pad);
 }
 
-static inline int32_t cell_coord(const grid_level *g, float v, float lo, int a)
-{
-    float f = floorf((v - lo) * g->inv_cell);
-    return f < 0.0f ? 0 : (f >= (float)g->n[a] ? g->n[a] - 1 : (int32_t)f);
-}
-
 static void cell_range(const grid_level *g, vec3 c, float r, int32_t lo[3], int32_t hi[3])
 {
     vec3 a, b;
@@ -139,44 +166,43 @@ static void cell_range(const grid_level *g, vec3 c, float r, int32_t lo[3], int3
     hi[2] = cell_coord(g, b.z, g->lo.z, 2);
 }
 
-static inline uint64_t linear_cell(const grid_level *g, int32_t x, int32_t y, int32_t z)
-{
-    return (uint64_t)x + (uint64_t)g->n[0] * ((uint64_t)y + (uint64_t)g->n[1] * (uint64_t)z);
-}
-
-/* Slot of cell key in the hash (inserting it when `insert`), or UINT32_MAX. */
-static uint32_t hash_find(grid_level *g, uint64_t key, int insert, uint32_t *next_slot)
-{
-    uint32_t h = (uint32_t)hash_key(key) & g->hash_mask;
-    for (;;) {
-        if (g->keys[h] == key)
-            return g->slot[h];
-        if (g->keys[h] == EMPTY_KEY) {
-            if (!insert)
-                return UINT32_MAX;
-            g->keys[h] = key;
-            g->slot[h] = (*next_slot)++;
-            return g->slot[h];
-        }
-        h = (h + 1) & g->hash_mask;
-    }
-}
-
 static void level_free(grid_level *g)
 {
     free(g->start);
     free(g->keys);
     free(g->slot);
-    free(g->entries);
+    free(g->items);
+    free(g->qent);
 }
 
-/* Builds level L from the spheres of class L (ids in `members`, ascending). */
+static uint32_t quantize_entry(const grid_level *g, vec3 c, float r, const int32_t c3[3])
+{
+    const float o[3] = {cell_origin(g, c3[0], g->lo.x), cell_origin(g, c3[1], g->lo.y), cell_origin(g, c3[2], g->lo.z)};
+    const float v[3] = {c.x, c.y, c.z};
+    uint32_t q[4];
+    int ok = 1;
+    for (int a = 0; a < 3; ++a) {
+        float f = (v[a] - o[a] + g->q_off) * g->q_scale;
+        float n = roundf(f);
+        ok &= f >= -0.5f && f <= 255.5f && fabsf(f - n) <= 0.5001f && n >= 0.0f && n <= 255.0f;
+        q[a] = ok ? (uint32_t)n : 0u;
+    }
+    float rq = ceilf(r * g->q_scale * 1.0001f);
+    ok &= rq <= 254.0f;
+    q[3] = ok ? (uint32_t)rq : 255u;
+    if (!ok) /* always tested */
+        q[0] = q[1] = q[2] = 0u;
+    return q[0] | q[1] << 8 | q[2] << 16 | q[3] << 24;
+}
+
+/* Builds level L from the spheres of class L (ranks in `members`, ascending). */
 static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
 {
     vec3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
     for (uint32_t k = 0; k < m; ++k) {
         vec3 a, b;
-        sphere_box(x->centers[members[k]], x->radii[members[k]], &a, &b);
+        const vl_rec *e = x->rec + members[k];
+        sphere_box(rec_center(e), e->r, &a, &b);
         lo = v3_min(lo, a);
         hi = v3_max(hi, b);
     }
@@ -197,7 +223,8 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
     uint64_t listings = 0;
     for (uint32_t k = 0; k < m; ++k) {
         int32_t a[3], b[3];
-        cell_range(g, x->centers[members[k]], x->radii[members[k]], a, b);
+        const vl_rec *e = x->rec + members[k];
+        cell_range(g, rec_center(e), e->r, a, b);
         listings += (uint64_t)(b[0] - a[0] + 1) * (uint64_t)(b[1] - a[1] + 1) * (uint64_t)(b[2] - a[2] + 1);
     }
     if (listings >= UINT32_MAX)
@@ -219,7 +246,8 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
         ncell = 0;
         for (uint32_t k = 0; k < m; ++k) {
             int32_t a[3], b[3];
-            cell_range(g, x->centers[members[k]], x->radii[members[k]], a, b);
+            const vl_rec *e = x->rec + members[k];
+            cell_range(g, rec_center(e), e->r, a, b);
             for (int32_t z = a[2]; z <= b[2]; ++z)
                 for (int32_t y = a[1]; y <= b[1]; ++y)
                     for (int32_t xx = a[0]; xx <= b[0]; ++xx)
@@ -227,15 +255,26 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
         }
     }
     g->start = calloc((size_t)ncell + 1, sizeof(uint32_t));
-    g->entries = malloc((size_t)(listings ? listings : 1) * sizeof(cell_entry));
-    if (!g->start || !g->entries)
+    /* 8 spare entries: the 8-wide pre-test may read past the last cell */
+    g->items = calloc((size_t)listings + 8, sizeof(uint32_t));
+    g->qent = calloc((size_t)listings + 8, sizeof(uint32_t));
+    if (!g->start || !g->items || !g->qent)
         return VBNL_ERR_OUT_OF_MEMORY;
-    /* Pass 2: counts, prefix sums, then fill in id order (entries of a cell ascend by id). */
+    float off = 0.0f;
+    for (uint32_t k = 0; k < m; ++k) {
+        const vl_rec *e = x->rec + members[k];
+        float pad = 1e-5f * (e->r + fmaxf(fabsf(e->cx), fmaxf(fabsf(e->cy), fabsf(e->cz))));
+        off = fmaxf(off, e->r + pad);
+    }
+    g->q_off = off * 1.001f;
+    g->q_scale = 255.0f / (cell + 2.0f * g->q_off);
+    /* Pass 2: counts, prefix sums, then fill in rank order (a cell's ranks ascend). */
     for (int pass = 0; pass < 2; ++pass) {
         for (uint32_t k = 0; k < m; ++k) {
-            uint32_t id = members[k];
+            uint32_t rank = members[k];
+            const vl_rec *e = x->rec + rank;
             int32_t a[3], b[3];
-            cell_range(g, x->centers[id], x->radii[id], a, b);
+            cell_range(g, rec_center(e), e->r, a, b);
             for (int32_t z = a[2]; z <= b[2]; ++z)
                 for (int32_t y = a[1]; y <= b[1]; ++y)
                     for (int32_t xx = a[0]; xx <= b[0]; ++xx) {
@@ -244,9 +283,9 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
                         if (pass == 0) {
                             g->start[c + 1]++;
                         } else {
-                            vec3 ce = x->centers[id], nn = x->normals ? x->normals[id] : v3s(0.0f);
-                            g->entries[g->start[c]++] =
-                                (cell_entry){ce.x, ce.y, ce.z, x->radii[id], nn.x, nn.y, nn.z, id};
+                            const int32_t c3[3] = {xx, y, z};
+                            g->qent[g->start[c]] = quantize_entry(g, rec_center(e), e->r, c3);
+                            g->items[g->start[c]++] = rank;
                         }
                     }
         }
@@ -260,7 +299,7 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
             g->start[0] = 0;
         }
     }
-    x->bytes += ((size_t)ncell + 1) * sizeof(uint32_t) + (size_t)listings * sizeof(cell_entry);
+    x->bytes += ((size_t)ncell + 1) * sizeof(uint32_t) + ((size_t)listings + 8) * 2 * sizeof(uint32_t);
     if (!g->dense)
         x->bytes += ((size_t)g->hash_mask + 1) * (sizeof(uint64_t) + sizeof(uint32_t));
     return VBNL_OK;
@@ -269,13 +308,13 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
 static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale)
 {
     float r_min = INFINITY;
-    for (uint32_t i = 0; i < x->count; ++i)
-        if (usable(x->radii[i]) && x->radii[i] < r_min)
-            r_min = x->radii[i];
+    for (uint32_t k = 0; k < x->count; ++k)
+        if (usable(x->rec[k].r) && x->rec[k].r < r_min)
+            r_min = x->rec[k].r;
     x->r_min = r_min;
     if (!(r_min < INFINITY))
         return VBNL_OK; /* no usable sphere: every query answers 0 */
-    uint32_t counts[MAX_LEVELS] = {0};
+    uint32_t counts[VBNL_VLI_MAX_LEVELS] = {0};
     uint8_t *cls = malloc(x->count ? x->count : 1);
     uint32_t *members = malloc(((size_t)x->count + 1) * sizeof(uint32_t));
     vbnl_result res = VBNL_OK;
@@ -283,20 +322,21 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale)
         res = VBNL_ERR_OUT_OF_MEMORY;
         goto done;
     }
-    for (uint32_t i = 0; i < x->count; ++i) {
-        cls[i] = usable(x->radii[i]) ? (uint8_t)level_of(x->radii[i], r_min) : 0xFF;
-        if (cls[i] != 0xFF)
-            counts[cls[i]]++;
+    for (uint32_t k = 0; k < x->count; ++k) {
+        float r = x->rec[k].r;
+        cls[k] = usable(r) ? (uint8_t)level_of(r, r_min) : 0xFF;
+        if (cls[k] != 0xFF)
+            counts[cls[k]]++;
     }
-    for (uint32_t L = 0; L < MAX_LEVELS && res == VBNL_OK; ++L) {
+    for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS && res == VBNL_OK; ++L) {
         if (!counts[L])
             continue;
         uint32_t m = 0;
         float r_max = 0.0f;
-        for (uint32_t i = 0; i < x->count; ++i)
-            if (cls[i] == L) {
-                members[m++] = i;
-                r_max = fmaxf(r_max, x->radii[i]);
+        for (uint32_t k = 0; k < x->count; ++k)
+            if (cls[k] == L) {
+                members[m++] = k;
+                r_max = fmaxf(r_max, x->rec[k].r);
             }
         res = level_build(x, &x->levels[x->level_count++], members, m, cell_scale * r_max);
     }
@@ -306,51 +346,19 @@ done:
     return res;
 }
 
-static void grid_query(const vbnl_vl_index *x, vec3 p, query_out *o)
-{
-    for (uint32_t L = 0; L < x->level_count; ++L) {
-        const grid_level *g = &x->levels[L];
-        float fx = (p.x - g->lo.x) * g->inv_cell, fy = (p.y - g->lo.y) * g->inv_cell,
-              fz = (p.z - g->lo.z) * g->inv_cell;
-        /* Far outside the level's box no sphere of it can contain p (the test also drops NaN);
-         * near it, the clamp below maps p like cell_range maps the spheres' boxes. */
-        if (!(fx > -1.0f && fy > -1.0f && fz > -1.0f && fx < (float)g->n[0] + 1.0f &&
-              fy < (float)g->n[1] + 1.0f && fz < (float)g->n[2] + 1.0f))
-            continue;
-        int32_t c3[3] = {cell_coord(g, p.x, g->lo.x, 0), cell_coord(g, p.y, g->lo.y, 1),
-                         cell_coord(g, p.z, g->lo.z, 2)};
-        uint64_t lc = linear_cell(g, c3[0], c3[1], c3[2]);
-        uint32_t c;
-        if (g->dense) {
-            c = (uint32_t)lc;
-        } else {
-            c = hash_find((grid_level *)g, lc, 0, NULL);
-            if (c == UINT32_MAX)
-                continue;
-        }
-        const cell_entry *e = g->entries + g->start[c], *end = g->entries + g->start[c + 1];
-        for (; e < end; ++e) {
-            double d2;
-            if (vbnl_vl_contains(v3(e->cx, e->cy, e->cz), e->r, p, &d2) &&
-                (!o->f || passes(o->f, v3(e->nx, e->ny, e->nz))))
-                out_add(o, e->id, d2);
-        }
-    }
-}
-
 /* ---- Embree -------------------------------------------------------------------------------- */
 
 static void sphere_bounds(const struct RTCBoundsFunctionArguments *args)
 {
     const vbnl_vl_index *x = args->geometryUserPtr;
-    vec3 c = x->centers[args->primID];
-    float r = usable(x->radii[args->primID]) ? x->radii[args->primID] : 0.0f;
-    args->bounds_o->lower_x = c.x - r;
-    args->bounds_o->lower_y = c.y - r;
-    args->bounds_o->lower_z = c.z - r;
-    args->bounds_o->upper_x = c.x + r;
-    args->bounds_o->upper_y = c.y + r;
-    args->bounds_o->upper_z = c.z + r;
+    const vl_rec *e = x->rec + args->primID;
+    float r = usable(e->r) ? e->r : 0.0f;
+    args->bounds_o->lower_x = e->cx - r;
+    args->bounds_o->lower_y = e->cy - r;
+    args->bounds_o->lower_z = e->cz - r;
+    args->bounds_o->upper_x = e->cx + r;
+    args->bounds_o->upper_y = e->cy + r;
+    args->bounds_o->upper_z = e->cz + r;
 }
 
 /* Never traced with rays; Embree wants the callbacks of a user geometry set. */
@@ -365,12 +373,8 @@ typedef struct embree_query {
 static bool sphere_point_query(struct RTCPointQueryFunctionArguments *args)
 {
     const embree_query *q = args->userPtr;
-    uint32_t id = args->primID;
-    vec3 p = v3(args->query->x, args->query->y, args->query->z);
-    double d2;
-    if (vbnl_vl_contains(q->x->centers[id], q->x->radii[id], p, &d2) &&
-        (!q->o->f || passes(q->o->f, q->x->normals[id])))
-        out_add(q->o, id, d2);
+    uint32_t id = args->primID; /* == rank: the Embree variant keeps id order */
+    test_rec(q->x->rec + id, id, v3(args->query->x, args->query->y, args->query->z), q->o);
     return false; /* the query radius is unchanged */
 }
 
@@ -431,29 +435,13 @@ vbnl_result vbnl_vl_index_create(const vbnl_vl_index_desc *desc, vbnl_vl_index *
         return VBNL_ERR_OUT_OF_MEMORY;
     x->kind = desc->kind;
     x->count = desc->count;
-    x->centers = malloc(((size_t)desc->count + 1) * sizeof(vec3));
-    x->radii = malloc(((size_t)desc->count + 1) * sizeof(float));
-    if (!x->centers || !x->radii) {
-        vbnl_vl_index_destroy(x);
-        return VBNL_ERR_OUT_OF_MEMORY;
-    }
-    if (desc->normals) {
-        x->normals = malloc(((size_t)desc->count + 1) * sizeof(vec3));
-        if (!x->normals) {
-            vbnl_vl_index_destroy(x);
-            return VBNL_ERR_OUT_OF_MEMORY;
-        }
-        if (desc->count)
-            memcpy(x->normals, desc->normals, desc->count * sizeof(vec3));
-    }
-    if (desc->count) {
-        memcpy(x->centers, desc->centers, desc->count * sizeof(vec3));
-        memcpy(x->radii, desc->radii, desc->count * sizeof(float));
-    }
-    x->bytes = sizeof(*x) + (size_t)desc->count * ((desc->normals ? 2 : 1) * sizeof(vec3) + sizeof(float));
-    vbnl_result r = x->kind == VBNL_VL_INDEX_GRID
-                        ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : DEFAULT_CELL_SCALE)
-                        : embree_build(x, desc->device);
+    x->has_normals = desc->normals != NULL;
+    x->bytes = sizeof(*x);
+    vbnl_result r = order_build(x, desc, x->kind == VBNL_VL_INDEX_GRID);
+    if (r == VBNL_OK)
+        r = x->kind == VBNL_VL_INDEX_GRID
+                ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : VBNL_VLI_DEFAULT_CELL_SCALE)
+                : embree_build(x, desc->device);
     if (r != VBNL_OK) {
         vbnl_vl_index_destroy(x);
         return r;
@@ -470,37 +458,54 @@ void vbnl_vl_index_destroy(vbnl_vl_index *x)
         level_free(&x->levels[L]);
     if (x->rtc)
         rtcReleaseScene(x->rtc);
-    free(x->centers);
-    free(x->radii);
-    free(x->normals);
+    free(x->rec);
+    free(x->rank_of);
     free(x);
+}
+
+/* One query. The grid path keeps its query_out local (its address never escapes), so that
+ * the compiler holds the counters and the filter in registers. */
+static inline __attribute__((always_inline)) uint32_t run_query(const vbnl_vl_index *x, vec3 p,
+                                                                const vbnl_vl_filter *f, uint32_t max_out,
+                                                                uint32_t *ids, float *dist2,
+                                                                vbnl_vl_found *found)
+{
+    vbnl_vl_filter fl;
+    if (f)
+        fl = *f;
+    query_out o = {ids, dist2, found, max_out, 0, 0, f ? &fl : NULL, 0};
+    if (x->kind == VBNL_VL_INDEX_GRID)
+        grid_query(x, p, &o);
+    else if (x->count)
+        embree_query_point(x, p, &o);
+    if (found && !o.sorted)
+        found_sort(found, o.n);
+    return o.total;
 }
 
 uint32_t vbnl_vl_index_query_filtered(const vbnl_vl_index *x, vec3 p, const vbnl_vl_filter *f, uint32_t max_out,
                                       uint32_t *ids, float *dist2)
 {
-    query_out o = {ids, dist2, max_out, 0, 0, x->normals ? f : NULL};
-    if (x->kind == VBNL_VL_INDEX_GRID)
-        grid_query(x, p, &o);
-    else if (x->count)
-        embree_query_point(x, p, &o);
-    return o.total;
+    return run_query(x, p, x->has_normals ? f : NULL, max_out, ids, dist2, NULL);
 }
-
-int vbnl_vl_index_has_normals(const vbnl_vl_index *x) { return x->normals != NULL; }
 
 uint32_t vbnl_vl_index_query(const vbnl_vl_index *x, vec3 p, uint32_t max_out, uint32_t *ids, float *dist2)
 {
-    query_out o = {ids, dist2, max_out, 0, 0, NULL};
-    if (x->kind == VBNL_VL_INDEX_GRID)
-        grid_query(x, p, &o);
-    else if (x->count)
-        embree_query_point(x, p, &o);
-    return o.total;
+    return run_query(x, p, NULL, max_out, ids, dist2, NULL);
 }
 
+uint32_t vbnl_vl_index_query_found(const vbnl_vl_index *x, vec3 p, const vbnl_vl_filter *f, uint32_t max_out,
+                                   vbnl_vl_found *found)
+{
+    return run_query(x, p, f && x->has_normals ? f : NULL, max_out, NULL, NULL, found);
+}
+
+int vbnl_vl_index_has_normals(const vbnl_vl_index *x) { return x->has_normals; }
 uint32_t vbnl_vl_index_count(const vbnl_vl_index *x) { return x->count; }
-vec3 vbnl_vl_index_center(const vbnl_vl_index *x, uint32_t id) { return x->centers[id]; }
-float vbnl_vl_index_radius(const vbnl_vl_index *x, uint32_t id) { return x->radii[id]; }
+uint32_t vbnl_vl_index_rank(const vbnl_vl_index *x, uint32_t id) { return x->rank_of ? x->rank_of[id] : id; }
+uint32_t vbnl_vl_index_id(const vbnl_vl_index *x, uint32_t rank) { return x->rec[rank].id; }
+uint64_t vbnl_vl_index_spatial_key(const vbnl_vl_index *x, vec3 p) { return spatial_key(x, p); }
+vec3 vbnl_vl_index_center(const vbnl_vl_index *x, uint32_t id) { return rec_center(x->rec + vbnl_vl_index_rank(x, id)); }
+float vbnl_vl_index_radius(const vbnl_vl_index *x, uint32_t id) { return x->rec[vbnl_vl_index_rank(x, id)].r; }
 vbnl_vl_index_kind vbnl_vl_index_get_kind(const vbnl_vl_index *x) { return x->kind; }
 size_t vbnl_vl_index_bytes(const vbnl_vl_index *x) { return x->bytes; }

@@ -14,14 +14,31 @@
  *                         cell_scale >= 2, <= 27 for 1). A query reads one cell per non-empty
  *                         class. Cells are a dense array when there are few enough, else an
  *                         open-addressing hash of the occupied cells. The default (faster; see
- *                         the benchmark tests/vbnl/bench_splitting.c).
+ *                         the benchmark tests/vbnl/bench_splitting.c: 2.7x the Embree variant
+ *                         in photon splitting; cell_scale 1 was 11 % slower than 2 there, with
+ *                         3x the memory).
  *   VBNL_VL_INDEX_EMBREE  an Embree BVH over the spheres' bounding boxes (user geometry) walked
  *                         by rtcPointQuery with a zero-radius query.
  *
  * Output order: ids ascending (never dependent on build or traversal details). When more than
  * max_out spheres contain p, the max_out smallest ids are written and the total is returned.
  *
- * Ownership and threads: the index copies centres and radii at creation; afterwards it is
+ * Layout and spatial order (grid): the spheres are kept in one array of 32-byte records
+ * (centre, radius, normal, id) sorted by the Morton code of their centres; the position of a
+ * sphere in that array is its *rank*. A cell lists, for every sphere its box overlaps, the
+ * 4-byte rank and a 4-byte copy of the sphere quantised to 8 bits per coordinate in the cell's
+ * frame (centre and radius in units of 1/255 of the cell's reach). A query pre-tests the
+ * quantised copies, 8 at a time with AVX2, with a bound that only rejects spheres certainly not
+ * containing p (quantisation error and float rounding included), and runs the exact test of
+ * vbnl_vl_contains on the few that remain, so answers are exact. A sphere costs
+ * 36 + 8 x (cells it overlaps) bytes (<= 100 at the default cell size; the earlier layout
+ * copied the 32-byte record into every cell: up to 284), and the spheres found by queries at
+ * nearby points lie next to each other in memory. Callers that keep per-sphere data (photon
+ * splitting's sums) can index it by rank for the same locality, and can sort query points by
+ * vbnl_vl_index_spatial_key, the Morton code the ranks come from. The Embree variant keeps id
+ * order (rank == id).
+ *
+ * Ownership and threads: the index copies centres, radii and normals at creation; afterwards it is
  * immutable and vbnl_vl_index_query may be called from any number of threads. */
 #ifndef VBNL_VL_INDEX_H
 #define VBNL_VL_INDEX_H
@@ -74,11 +91,56 @@ uint32_t vbnl_vl_index_query_filtered(const vbnl_vl_index *idx, vec3 p, const vb
                                       uint32_t *ids, float *dist2);
 int vbnl_vl_index_has_normals(const vbnl_vl_index *idx);
 
+/* What vbnl_vl_index_query_found returns per sphere: id, rank, d^2 (as dist2 above) and r. */
+typedef struct vbnl_vl_found {
+    uint32_t id, rank;
+    float d2, r;
+} vbnl_vl_found;
+/* vbnl_vl_index_query_filtered (f may be NULL: no filter) with one record per sphere, in the
+ * same order and with the same cap. Thread-safe. */
+uint32_t vbnl_vl_index_query_found(const vbnl_vl_index *idx, vec3 p, const vbnl_vl_filter *f, uint32_t max_out,
+                                   vbnl_vl_found *found);
+
+/* Spatial order (see above): the rank of sphere `id`, the id of rank `rank` (both bijections
+ * of [0, count)), and the 63-bit Morton code of p on the index's key grid (a cube over the
+ * centres, 2^21 cells per axis; points outside are clamped to it). Spheres are ranked by the
+ * key of their centres (ties: smaller id first). */
+uint32_t vbnl_vl_index_rank(const vbnl_vl_index *idx, uint32_t id);
+uint32_t vbnl_vl_index_id(const vbnl_vl_index *idx, uint32_t rank);
+uint64_t vbnl_vl_index_spatial_key(const vbnl_vl_index *idx, vec3 p);
+
+/* Batched filtered queries (photon splitting deposits sorted batches of hits): the answers of
+ * vbnl_vl_index_query_found for `count` points, handed to fn in point order, computed as a
+ * software pipeline that overlaps the memory accesses of consecutive queries (the gain grows
+ * with the index size). Same sets, total and records as one query per point, but in rank order
+ * (deterministic: a function of the index and the point) instead of id order, except when
+ * capped (total > max_out: then the max_out smallest ids, ascending, as the plain query).
+ * Point k's record is at base + order[k] * stride (order NULL: k) and is prefetched ahead. Point k's position is the
+ * vec3 at p_off in its record; with `filter`, its n and wi (vbnl_vl_filter) are at n_off and
+ * wi_off. rank_data (optional) is the caller's array of per-rank records (rank_stride
+ * bytes each): the records of each point's candidate spheres are prefetched before fn runs.
+ * max_out <= VBNL_VL_BATCH_MAX_OUT. `found` is valid during the call only. Thread-safe. */
+#define VBNL_VL_BATCH_MAX_OUT 64u
+typedef struct vbnl_vl_batch {
+    uint32_t count;
+    const uint32_t *order;
+    const void *base;
+    size_t stride, p_off, n_off, wi_off;
+    int filter;
+    float normal_cos;
+    int facing;
+    uint32_t max_out;
+    const void *rank_data;
+    size_t rank_stride;
+} vbnl_vl_batch;
+typedef void (*vbnl_vl_batch_fn)(void *user, uint32_t k, uint32_t total, const vbnl_vl_found *found, uint32_t n);
+void vbnl_vl_index_query_batch(const vbnl_vl_index *idx, const vbnl_vl_batch *b, vbnl_vl_batch_fn fn, void *user);
+
 uint32_t vbnl_vl_index_count(const vbnl_vl_index *idx);
 vec3 vbnl_vl_index_center(const vbnl_vl_index *idx, uint32_t id);
 float vbnl_vl_index_radius(const vbnl_vl_index *idx, uint32_t id);
 vbnl_vl_index_kind vbnl_vl_index_get_kind(const vbnl_vl_index *idx);
-/* Bytes held by the index (for Embree: our copies plus an estimate of the BVH, 2 x 32 B per
+/* Bytes held by the index (for Embree: the records plus an estimate of the BVH, 2 x 32 B per
  * sphere, since Embree does not report it per scene). */
 size_t vbnl_vl_index_bytes(const vbnl_vl_index *idx);
 
