@@ -47,6 +47,8 @@ static void bench_usage(FILE *f)
             "  --methods LIST     only these methods (labels as printed, comma-separated)\n"
             "  --size N           image side (default 512)\n"
             "  --ref-time S       seconds for each reference (default 1200; cached in --out)\n"
+            "  --ref-spp N        instead: references of N samples per pixel (cached by N; unlike\n"
+            "                     --ref-time, the same reference whatever else the machine runs)\n"
             "  --out DIR          images, references and plots (default bench-out)\n"
             "  --only NAME        one scene: cornell, glossy or door-ajar\n"
             "  --shared DIR       where scenes/cornell-box-mcguire is (default ../shared)\n");
@@ -63,9 +65,10 @@ int host_bench_main(int argc, char **argv)
         {"size", required_argument, 0, 'Z'}, {"ref-time", required_argument, 0, 'F'},
         {"out", required_argument, 0, 'O'}, {"only", required_argument, 0, 'Y'},
         {"shared", required_argument, 0, 'D'}, {"equal-count", required_argument, 0, 'C'},
-        {"count-spp", required_argument, 0, 'P'}, {"methods", required_argument, 0, 'M'}, {0, 0, 0, 0}};
+        {"count-spp", required_argument, 0, 'P'}, {"methods", required_argument, 0, 'M'},
+        {"ref-spp", required_argument, 0, 'S'}, {0, 0, 0, 0}};
     int equal_time = 0, nb = 0, no_budgets = 0;
-    long count = 0, count_spp = 16;
+    long count = 0, count_spp = 16, ref_spp = 0;
     const char *methods = NULL;
     double budgets[8];
     unsigned size = 512;
@@ -114,6 +117,7 @@ int host_bench_main(int argc, char **argv)
         }
         case 'Z': size = (unsigned)atoi(optarg); break;
         case 'F': ref_time = atof(optarg); break;
+        case 'S': ref_spp = strtol(optarg, NULL, 10); break;
         case 'O': out_dir = optarg; break;
         case 'Y': only = optarg; break;
         case 'D': shared = optarg; break;
@@ -127,16 +131,16 @@ int host_bench_main(int argc, char **argv)
             budgets[2] = 100;
             nb = 3;
         }
-        if (size == 0 || size > 8192 || !(ref_time > 0.0)) {
-            fprintf(stderr, "vbnl bench: --size takes 1..8192 and --ref-time seconds > 0\n");
+        if (size == 0 || size > 8192 || !(ref_time > 0.0) || ref_spp < 0 || ref_spp > 16777216) {
+            fprintf(stderr, "vbnl bench: --size takes 1..8192, --ref-time seconds > 0 and --ref-spp 1..2^24\n");
             return VBNL_EXIT_USAGE;
         }
         if (count < 0 || count > 50000000 || count_spp < 1 || count_spp > 1000000) {
             fprintf(stderr, "vbnl bench: --equal-count takes 0..5e7 lights and --count-spp a positive count\n");
             return VBNL_EXIT_USAGE;
         }
-        host_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, shared, only, methods,
-                                   (uint32_t)count, (uint32_t)count_spp};
+        host_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, shared, only,
+                                   methods, (uint32_t)count, (uint32_t)count_spp};
         return host_bench_equal_time(&o);
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||

@@ -325,9 +325,12 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
             rc = VBNL_EXIT_SCENE;
             continue;
         }
-        /* reference: cached by scene, size and time */
+        /* reference: cached by scene, size and time or sample count */
         char ref_path[1200];
-        snprintf(ref_path, sizeof(ref_path), "%s/%s-reference-%u-%gs.exr", out_dir, bs->name, size, o->ref_time);
+        if (o->ref_spp > 0)
+            snprintf(ref_path, sizeof(ref_path), "%s/%s-reference-%u-%uspp.exr", out_dir, bs->name, size, o->ref_spp);
+        else
+            snprintf(ref_path, sizeof(ref_path), "%s/%s-reference-%u-%gs.exr", out_dir, bs->name, size, o->ref_time);
         float *ref = NULL;
         uint32_t ref_spp = 0;
         vbnl_exr_image ex;
@@ -346,8 +349,8 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
             vbnl_render_settings s;
             vbnl_render_settings_init(&s);
             s.width = s.height = size;
-            s.spp = 0;
-            s.time_budget = o->ref_time;
+            s.spp = o->ref_spp;
+            s.time_budget = o->ref_spp > 0 ? 0.0 : o->ref_time;
             s.seed = 1000003;
             vbnl_renderer *r;
             if (vbnl_renderer_create(ctx, scene, &s, &r, &err) != VBNL_OK ||
@@ -361,6 +364,7 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
             vbnl_render_stats st;
             vbnl_renderer_get_stats(r, &st, NULL);
             ref_spp = st.spp;
+            printf("scene %s: reference rendered, %u spp in %.0f s\n", bs->name, st.spp, st.render_seconds);
             host_write_outputs(r, &s, ref_path, NULL, 0.0f, 0, 0, NULL);
             vbnl_renderer_destroy(r);
         }

@@ -50,6 +50,7 @@ typedef struct host_bench_equal_opts {
     const double *budgets;
     int nb;                 /* 0: no equal-time runs */
     double ref_time;
+    uint32_t ref_spp;       /* > 0: references by sample count instead of ref_time */
     const char *shared_dir;
     const char *only_scene; /* NULL: every scene */
     const char *methods;    /* comma-separated method labels, NULL: all */
