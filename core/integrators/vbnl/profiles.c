@@ -72,8 +72,16 @@ static vec3 rgbe_decode(uint32_t code)
     if (ex == 0)
         return v3s(0.0f);
     int sh = ex - 128 - 8;
-    return v3(ldexpf((float)(code & 255u), sh), ldexpf((float)((code >> 8) & 255u), sh),
-              ldexpf((float)((code >> 16) & 255u), sh));
+    if (sh < -126) /* a subnormal scale: rare, the library call */
+        return v3(ldexpf((float)(code & 255u), sh), ldexpf((float)((code >> 8) & 255u), sh),
+                  ldexpf((float)((code >> 16) & 255u), sh));
+    /* 2^sh built from its bits; an 8-bit integer times a power of two is exact, as ldexpf */
+    union {
+        uint32_t u;
+        float f;
+    } scale = {(uint32_t)(sh + 127) << 23};
+    return v3((float)(code & 255u) * scale.f, (float)((code >> 8) & 255u) * scale.f,
+              (float)((code >> 16) & 255u) * scale.f);
 }
 
 /* ---- kernel ------------------------------------------------------------------------------ */
@@ -436,42 +444,117 @@ vbnl_result vbnl_profile_set_import_fixed(vbnl_profile_set *s, uint32_t vl, cons
 
 /* ---- conversion -------------------------------------------------------------------------- */
 
-/* J_t = sum_i f(w_t, w_i) Phi_i (profiles.h). Both paths add the same products in the same
- * order, so cached and uncached kernels agree; zero incident texels are skipped (adding an exact
- * zero product would not change the sum). */
+/* J_t = sum_i f(w_t, w_i) Phi_i (profiles.h). The 3n products of a texel (RGB interleaved, as
+ * in the matrix rows and the incident maps) are summed in 24 fixed lanes, lane l holding channel
+ * l mod 3, so the compiler vectorises the loop; every conversion path (eager, lazy, cached or
+ * uncached kernel) goes through this sum, so they agree bit for bit. */
+#define DOT_LANES 24
+
+typedef float lanes8 __attribute__((vector_size(32))); /* GCC vectors: AVX, SSE or scalar */
+
+static inline lanes8 load8(const float *p)
+{
+    lanes8 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static vec3 dot_lanes(const float *row, const float *phi, uint32_t m3)
+{
+    lanes8 a0 = {0}, a1 = {0}, a2 = {0};
+    uint32_t i = 0;
+    for (; i + DOT_LANES <= m3; i += DOT_LANES) {
+        a0 += load8(row + i) * load8(phi + i);
+        a1 += load8(row + i + 8) * load8(phi + i + 8);
+        a2 += load8(row + i + 16) * load8(phi + i + 16);
+    }
+    float acc[DOT_LANES];
+    memcpy(acc, &a0, sizeof a0);
+    memcpy(acc + 8, &a1, sizeof a1);
+    memcpy(acc + 16, &a2, sizeof a2);
+    for (; i < m3; ++i) /* R^2 not a multiple of 8: 24 is a multiple of 3, channels stay apart */
+        acc[i % DOT_LANES] += row[i] * phi[i];
+    float c[3] = {0.0f, 0.0f, 0.0f};
+    for (uint32_t l = 0; l < DOT_LANES; ++l)
+        c[l % 3] += acc[l];
+    return v3(c[0], c[1], c[2]);
+}
+
+/* The incident map of a slot as floats (exactly fixed_to_float of each value). */
+static void incident_floats(const vbnl_profile_set *s, uint32_t slot, float *phi)
+{
+    const uint32_t m3 = 3 * s->texels;
+    const uint64_t *in = s->incident + (size_t)m3 * slot;
+    for (uint32_t i = 0; i < m3; ++i)
+        phi[i] = fixed_to_float(s, in[i]);
+}
+
+/* Scratch of 3 R^2 floats: on the stack up to 32 x 32 (the largest resolution the integrator
+ * offers), else on the heap; NULL when that fails. */
+#define STACK_TEXELS 1024u
+static float *scratch(uint32_t m3, float *stack_buf)
+{
+    return m3 <= 3 * STACK_TEXELS ? stack_buf : malloc(sizeof(float) * m3);
+}
+
+static void scratch_free(float *p, const float *stack_buf)
+{
+    if (p != stack_buf)
+        free(p);
+}
+
+/* One texel without a cached matrix: the row of f is evaluated (zero incident texels get a zero
+ * entry without an evaluation: the product would be an exact zero either way). */
 static vec3 compute_texel(const vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k, uint32_t t)
 {
-    const uint64_t *in = s->incident + 3 * (size_t)slot * s->texels;
-    uint32_t n = s->texels;
+    const uint32_t n = s->texels, m3 = 3 * n;
+    float buf_phi[3 * STACK_TEXELS], buf_row[3 * STACK_TEXELS];
+    float *phi = scratch(m3, buf_phi), *row = scratch(m3, buf_row);
     vec3 acc = v3s(0.0f);
-    if (k->matrix) {
-        const float *row = k->matrix + 3 * (size_t)t * n;
-        for (uint32_t i = 0; i < n; ++i) {
-            const uint64_t *q = in + 3 * (size_t)i;
-            if (!(q[0] | q[1] | q[2]))
-                continue;
-            const float *f = row + 3 * (size_t)i;
-            acc.x += f[0] * fixed_to_float(s, q[0]);
-            acc.y += f[1] * fixed_to_float(s, q[1]);
-            acc.z += f[2] * fixed_to_float(s, q[2]);
-        }
-    } else {
+    if (phi && row) {
+        incident_floats(s, slot, phi);
         const vec3 *dir = vbnl_hemioct_texel_dirs(s->map);
         vec3 wo = dir[t];
         for (uint32_t i = 0; i < n; ++i) {
-            const uint64_t *q = in + 3 * (size_t)i;
-            if (!(q[0] | q[1] | q[2]))
-                continue;
-            vec3 f = transfer(&k->bsdf, wo, dir[i]);
-            acc.x += f.x * fixed_to_float(s, q[0]);
-            acc.y += f.y * fixed_to_float(s, q[1]);
-            acc.z += f.z * fixed_to_float(s, q[2]);
+            float *f = row + 3 * (size_t)i;
+            if (phi[3 * i] == 0.0f && phi[3 * i + 1] == 0.0f && phi[3 * i + 2] == 0.0f)
+                f[0] = f[1] = f[2] = 0.0f;
+            else if (k->matrix)
+                memcpy(f, k->matrix + 3 * ((size_t)t * n + i), 3 * sizeof(float));
+            else
+                v3_store(f, transfer(&k->bsdf, wo, dir[i]));
         }
+        acc = dot_lanes(row, phi, m3);
     }
+    scratch_free(row, buf_row);
+    scratch_free(phi, buf_phi);
     return acc;
 }
 
-/* Lazy fill of one texel (profiles.h, Threads): idempotent, lock-free. */
+/* Every still unset texel of a slot with a cached matrix: the incident map is converted to floats
+ * once, then one matrix row per texel (this is what makes conversion cheap: R^2 products of
+ * 3 R^2 floats instead of 3 R^2 fixed-point conversions per texel). Idempotent and lock-free like
+ * texel_code: racing threads store the same bits. Returns 0 when the scratch cannot be had. */
+static int convert_slot(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k)
+{
+    const uint32_t n = s->texels, m3 = 3 * n;
+    float buf[3 * STACK_TEXELS];
+    float *phi = scratch(m3, buf);
+    if (!phi)
+        return 0;
+    incident_floats(s, slot, phi);
+    uint32_t *codes = s->code + (size_t)slot * n;
+    for (uint32_t t = 0; t < n; ++t)
+        if (__atomic_load_n(&codes[t], __ATOMIC_ACQUIRE) == TEXEL_UNSET)
+            __atomic_store_n(&codes[t], rgbe_encode(dot_lanes(k->matrix + (size_t)m3 * t, phi, m3)),
+                             __ATOMIC_RELEASE);
+    scratch_free(phi, buf);
+    return 1;
+}
+
+/* Lazy fill (profiles.h, Threads): idempotent, lock-free. With a cached matrix, the first read of
+ * any unset texel converts the whole light (its other texels are read soon after: bilinear
+ * lookups and nearby directions); without one, only the texel read. */
 static uint32_t texel_code(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k, uint32_t t)
 {
     uint32_t *cell = s->code + (size_t)slot * s->texels + t;
@@ -480,6 +563,8 @@ static uint32_t texel_code(vbnl_profile_set *s, uint32_t slot, const vbnl_profil
         return code;
     if (!s->incident) /* released before conversion: a caller error, emit nothing */
         return 0u;
+    if (k->matrix && convert_slot(s, slot, k))
+        return __atomic_load_n(cell, __ATOMIC_ACQUIRE);
     code = rgbe_encode(compute_texel(s, slot, k, t));
     __atomic_store_n(cell, code, __ATOMIC_RELEASE);
     return code;
@@ -495,7 +580,9 @@ static vec3 lambert_J(const vbnl_profile_set *s, uint32_t vl, const vbnl_profile
 void vbnl_profile_convert(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k)
 {
     uint32_t slot = s->slot[vl];
-    if (slot == NO_SLOT)
+    if (slot == NO_SLOT || !s->incident)
+        return;
+    if (k->matrix && convert_slot(s, slot, k))
         return;
     for (uint32_t t = 0; t < s->texels; ++t)
         texel_code(s, slot, k, t);

@@ -104,9 +104,9 @@
  * joined, and splats glossy maps with the atomic vbnl_profile_deposit_map_fixed.) Phase 2
  * (conversion / rendering) must start after every deposit has returned (the caller's thread
  * join or pool barrier orders them); from then on the incident data are read-only. Lazy
- * conversion is per texel and lock-free: a texel's code starts as a sentinel; a reader that
- * finds the sentinel computes the texel (a pure function of the incident map and the kernel)
- * and publishes it with an atomic release store. Two threads racing on one texel compute and
+ * conversion is lock-free: a texel's code starts as a sentinel; a reader that finds the sentinel
+ * computes the texel (a pure function of the incident map and the kernel; with a cached matrix,
+ * every unset texel of that light at once) and publishes it with an atomic release store. Two threads racing on one texel compute and
  * store the same bits, so results are deterministic and lazy and eager conversion are
  * bit-identical. The caller must pass the same kernel for a VL on every call. */
 #ifndef VBNL_PROFILES_H
