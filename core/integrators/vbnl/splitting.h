@@ -85,6 +85,7 @@
 #include "render_internal.h"
 #include "scene_internal.h"
 #include "vl_index.h"
+#include "photon_fast.h"
 
 #define VBNL_SPLIT_DEFAULT_CHUNK 16384u /* photon paths per work item (about 4 hits each here) */
 #define VBNL_SPLIT_BATCH_HITS 65536u    /* photon hits a thread buffers before depositing them */
@@ -189,7 +190,7 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
     for (int depth = 0; depth < max_depth; ++depth) {
         vbnl_hit hit;
         st->rays++;
-        if (!vbnl_scene_intersect(sc, o, dir, INFINITY, &hit))
+        if (!vbnl_photon_intersect(sc, o, dir, &hit)) /* photon_fast.h */
             return;
         st->hits++;
         vbnl_bsdf bsdf_store;
@@ -212,24 +213,36 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
             visit(user, &v);
         }
 
-        /* Bounce (importance transport, splitting.h). */
-        frame fr = frame_from_normal(ns);
-        vec3 wo = frame_to_local(&fr, wo_w);
-        vbnl_bsdf_sample_rec bs;
+        /* Bounce (importance transport, splitting.h). The same draws for every BSDF. */
         float ulobe = vbnl_rng_next(rng);
         vec2 ub = vbnl_rng_next2(rng);
-        if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
-            return;
-        vec3 wi_w = frame_to_world(&fr, bs.wi);
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
-            return; /* a reflection must leave on the photon's side of the real surface */
-        vec3 wt = bs.weight;
-        if (bs.lobe & VBNL_LOBE_TRANSMISSION)
-            wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
-        /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); 1 when ns == ng. */
-        float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
-        if (den_c > 0.0f)
-            wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
+        vec3 wi_w, wt;
+        if (bsdf->type == VBNL_MATERIAL_LAMBERT) {
+            /* lambert_sample without the general dispatch (photon_fast.h) */
+            if (!vbnl_photon_lambert_bounce(bsdf, ns, wo_w, ub, &wi_w) || v3_is_black(bsdf->color))
+                return;
+            if (v3_dot(wi_w, ng) <= 0.0f)
+                return; /* a reflection must leave on the photon's side of the real surface */
+            wt = bsdf->color;
+        } else {
+            frame fr = frame_from_normal(ns);
+            vec3 wo = frame_to_local(&fr, wo_w);
+            vbnl_bsdf_sample_rec bs;
+            if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+                return;
+            wi_w = frame_to_world(&fr, bs.wi);
+            if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
+                return; /* a reflection must leave on the photon's side of the real surface */
+            wt = bs.weight;
+            if (bs.lobe & VBNL_LOBE_TRANSMISSION)
+                wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
+        }
+        /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); exactly 1 when ns == ng. */
+        if (ns.x != ng.x || ns.y != ng.y || ns.z != ng.z) {
+            float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
+            if (den_c > 0.0f)
+                wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
+        }
         vec3 nb = v3_mul(beta, wt);
         if (depth + 1 >= w->rr_depth) {
             /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
