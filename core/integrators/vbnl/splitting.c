@@ -41,7 +41,7 @@ typedef struct split_job {
     float inv_paths;
     double inv_unit;         /* 1 / fixed-point unit of the profiles (exact: a power of two) */
     const uint8_t *glossy;   /* by rank: the VL keeps a map; NULL when none does */
-    unsigned bin_shift;      /* bin = spatial key >> bin_shift */
+    vbnl_vl_key_grid key_grid; /* bin = vbnl_vl_key_bin(key grid, p, VBNL_SPLIT_BIN_BITS / 3) */
     uint32_t bins;
     int empty;               /* the index holds no VL */
     split_thread *threads;
@@ -131,14 +131,18 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
     /* The weights 1 - (d/r)^2 (Section 3.3) of the VLs that passed the authors' filters; k[]
      * indexes f. */
     float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t k[VBNL_SPLIT_QUERY_MAX];
+    uint32_t k[VBNL_SPLIT_QUERY_MAX], rk[VBNL_SPLIT_QUERY_MAX]; /* rk[i] = f[k[i]].rank */
     uint32_t m = 0;
+    float sum = 0.0f; /* of the kept weights in order (adding 0 for the dropped changes no bit) */
     for (uint32_t i = 0; i < nf; ++i) {
         float r = f[i].r;
         float wi = 1.0f - f[i].d2 / (r * r);
         w[m] = wi;
         k[m] = i;
-        m += wi > 0.0f; /* d within rounding of r: dropped */
+        rk[m] = f[i].rank;
+        int keep = wi > 0.0f; /* d within rounding of r: dropped */
+        sum += keep ? wi : 0.0f;
+        m += (uint32_t)keep;
     }
     if (!m)
         return;
@@ -155,14 +159,20 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
             k[a] = k[best];
             w[best] = tw;
             k[best] = tk;
+            rk[a] = f[k[a]].rank;
         }
         m = job->max_vls;
+        sum = 0.0f;
+        for (uint32_t i = 0; i < m; ++i)
+            sum += w[i];
     }
-    float sum = 0.0f;
-    for (uint32_t i = 0; i < m; ++i)
-        sum += w[i];
-    for (uint32_t i = 0; i < m; ++i)
+    /* Normalised weights; the residue of the exact split goes to the largest (first on ties),
+     * as in vbnl_profile_split_fixed (split3 finds the same one). */
+    uint32_t big = 0;
+    for (uint32_t i = 0; i < m; ++i) {
         w[i] /= sum;
+        big = w[i] > w[big] ? i : big;
+    }
     /* Quantise once, then partition exactly (profiles.h, "Fixed point"). */
     uint64_t q[3] = {quantize1(h->power.x, job->inv_unit), quantize1(h->power.y, job->inv_unit),
                      quantize1(h->power.z, job->inv_unit)};
@@ -171,13 +181,9 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
     int glossy = 0;
     if (job->glossy)
         for (uint32_t i = 0; i < m; ++i)
-            glossy |= job->glossy[f[k[i]].rank];
+            glossy |= job->glossy[rk[i]];
     if (!glossy && t->acc) {
-        /* split3 with the shares added straight into this thread's sums (by rank); the residue
-         * goes to the largest weight (first on ties), as in vbnl_profile_split_fixed */
-        uint32_t big = 0;
-        for (uint32_t i = 1; i < m; ++i)
-            big = w[i] > w[big] ? i : big;
+        /* split3 with the shares added straight into this thread's sums (by rank) */
 #if defined(__AVX2__)
         if ((q[0] | q[1] | q[2]) < (1ull << 51)) {
             /* The three channels in one vector: x = q w (double), v = min(trunc x, left) as in
@@ -193,10 +199,10 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
                 __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(x, two52)), two52i);
                 v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
                 left = _mm256_sub_epi64(left, v);
-                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[i]].rank);
+                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
                 _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
             }
-            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[big]].rank);
+            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[big]);
             _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), left));
         } else
 #endif
@@ -213,12 +219,12 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
                 left0 -= v0;
                 left1 -= v1;
                 left2 -= v2;
-                uint64_t *a = t->acc + 4 * (size_t)f[k[i]].rank;
+                uint64_t *a = t->acc + 4 * (size_t)rk[i];
                 a[0] += v0;
                 a[1] += v1;
                 a[2] += v2;
             }
-            uint64_t *a = t->acc + 4 * (size_t)f[k[big]].rank;
+            uint64_t *a = t->acc + 4 * (size_t)rk[big];
             a[0] += left0;
             a[1] += left1;
             a[2] += left2;
@@ -330,7 +336,8 @@ static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
     if (t->n == t->cap)
         flush_batch(sv->job, t);
     t->hits[t->n] = (split_rec){v->hit->p, v->ng, v->wo, v->beta};
-    t->bin[t->n] = (uint32_t)(vbnl_vl_index_spatial_key(sv->job->d->index, v->hit->p) >> sv->job->bin_shift);
+    /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
+    t->bin[t->n] = vbnl_vl_key_bin(&sv->job->key_grid, v->hit->p, VBNL_SPLIT_BIN_BITS / 3u);
     t->n++;
 }
 
@@ -422,7 +429,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     job.max_vls = d->max_vls;
     job.inv_paths = (float)(1.0 / (double)d->photon_paths);
     job.inv_unit = 1.0 / vbnl_profile_set_unit(d->profiles);
-    job.bin_shift = 63u - VBNL_SPLIT_BIN_BITS;
+    _Static_assert(VBNL_SPLIT_BIN_BITS % 3u == 0 && VBNL_SPLIT_BIN_BITS <= 24u, "bins: whole Morton triples");
+    job.key_grid = vbnl_vl_index_key_grid(d->index);
     job.bins = 1u << VBNL_SPLIT_BIN_BITS;
     job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbnl_pool_thread_count(pool);
     if (job.thread_count == 0)

@@ -15,7 +15,7 @@
 #define VBNL_VLI_MAX_LEVELS 32u
 #define VBNL_VLI_DEFAULT_CELL_SCALE 2.0f
 #define VBNL_VLI_EMPTY_KEY UINT64_MAX
-#define VBNL_VLI_KEY_BITS 21u /* spatial key: bits per axis (3 x 21 = 63-bit Morton code) */
+#define VBNL_VLI_KEY_BITS VBNL_VL_KEY_BITS /* spatial key: bits per axis (3 x 21 = 63-bit Morton code) */
 
 /* One sphere, 32 bytes (half a cache line), stored by rank: centre and radius first (the
  * containment test), the normal (the splitting filter) and the id after them. */
