@@ -700,11 +700,31 @@ static void test_key_bin(void **state)
     vbnl_vl_index_destroy(idx);
 }
 
+/* photon_fast.h's local copies give the bits of the shared routines. */
+static void test_photon_fast(void **state)
+{
+    (void)state;
+    vbnl_rng rng = vbnl_rng_make(17, 1);
+    for (uint32_t k = 0; k < 200000; ++k) {
+        float sc = k % 3 == 0 ? 0.05f : (k % 3 == 1 ? 3.0f : 2000.0f);
+        vec3 p = v3((vbnl_rng_next(&rng) * 2 - 1) * sc, (vbnl_rng_next(&rng) * 2 - 1) * sc,
+                    (vbnl_rng_next(&rng) * 2 - 1) * sc);
+        if (k % 7 == 0)
+            p.y = 0.0f;
+        if (k % 11 == 0)
+            p.x = -0.0f;
+        vec3 n = sample_uniform_sphere(vbnl_rng_next2(&rng)), w = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        vec3 a = vbnl_offset_ray_origin(p, n, w), b = vbnl_photon_offset_origin(p, n, w);
+        assert_memory_equal(&a, &b, sizeof(a));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_index_brute_force),
         cmocka_unit_test(test_key_bin),
+        cmocka_unit_test(test_photon_fast),
         cmocka_unit_test(test_closed_sphere),
         cmocka_unit_test(test_determinism_and_merge),
         cmocka_unit_test(test_glossy_directions),

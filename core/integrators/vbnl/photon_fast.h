@@ -5,6 +5,8 @@
  *   - vbnl_photon_intersect: vbnl_scene_intersect + fill_hit (scene_commit.c) for a
  *     non-instanced triangle mesh, inline; anything else (spheres, area-light quads, instances)
  *     is handed to vbnl_scene_intersect, which traces the same ray again (same hit);
+ *   - vbnl_photon_offset_origin: vbnl_offset_ray_origin (scene_internal.h) in SSE, the same bits
+ *     (the scales are powers of two, so products and sums round alike with or without FMA);
  *   - vbnl_photon_lambert_bounce: lambert_sample (bsdf.c) in the world frame, without the
  *     general vbnl_bsdf_sample dispatch, the sample record and the world -> local turn of wo.
  * Why local copies: the shared shading code (scene_commit.c, bsdf.c) is being reworked in
@@ -14,6 +16,10 @@
  * mesh branch must fill the vbnl_hit exactly as fill_hit does. */
 #ifndef VBNL_PHOTON_FAST_H
 #define VBNL_PHOTON_FAST_H
+
+#if defined(__SSE4_1__)
+#include <immintrin.h>
+#endif
 
 #include "bsdf.h"
 #include "sampling.h"
@@ -79,6 +85,30 @@ static inline __attribute__((always_inline)) int vbnl_photon_intersect(const vbn
     h->ng = ng;
     h->ns = ns;
     return 1;
+}
+
+/* vbnl_offset_ray_origin, branch-free: per axis, p moved by 256 n in integer ulps (|p| >= 1/32)
+ * or by n / 65536 (near the origin), n turned to w's side. */
+static inline __attribute__((always_inline)) vec3 vbnl_photon_offset_origin(vec3 p, vec3 n, vec3 w)
+{
+#if defined(__SSE4_1__)
+    __m128 pv = _mm_setr_ps(p.x, p.y, p.z, 0.0f);
+    __m128 nv = _mm_setr_ps(n.x, n.y, n.z, 0.0f);
+    if (v3_dot(n, w) < 0.0f)
+        nv = _mm_xor_ps(nv, _mm_set1_ps(-0.0f));
+    __m128i of = _mm_cvttps_epi32(_mm_mul_ps(nv, _mm_set1_ps(256.0f)));
+    __m128i neg = _mm_castps_si128(_mm_cmplt_ps(pv, _mm_setzero_ps()));
+    of = _mm_sub_epi32(_mm_xor_si128(of, neg), neg); /* pc < 0 ? -of : of */
+    __m128 pi = _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(pv), of));
+    __m128 near = _mm_add_ps(pv, _mm_mul_ps(nv, _mm_set1_ps(1.0f / 65536.0f)));
+    __m128 small = _mm_cmplt_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), pv), _mm_set1_ps(1.0f / 32.0f));
+    __m128 r = _mm_blendv_ps(pi, near, small);
+    float out[4];
+    _mm_storeu_ps(out, r);
+    return v3(out[0], out[1], out[2]);
+#else
+    return vbnl_offset_ray_origin(p, n, w);
+#endif
 }
 
 /* lambert_sample (bsdf.c) for the shading normal ns facing the arriving photon (wo_w, world):
