@@ -47,9 +47,14 @@
  *     which it deposits when full and before the item returns.
  *   - Deposit: the batch is counting-sorted by the top 12 bits of the index's Morton key
  *     (vl_index.h, vbnl_vl_index_spatial_key: 2^12 cubes of the VLs' bounding cube), then
- *     queried in that order with vbnl_vl_index_query_batch, whose software pipeline prefetches
- *     each query's cells, entries and sphere records a few queries ahead. Consecutive queries
- *     then read the same cells and records, which stay in cache.
+ *     queried in that order through the index's software pipeline (vl_index_pipe.h), which
+ *     prefetches each query's cells, entries and sphere records a few queries ahead, with its
+ *     last stage (exact test, filters) fused with the weights and the deposit (splitting.c,
+ *     split_pipe_d). Consecutive queries then read the same cells and records, which stay in
+ *     cache. The bins are the top 12 bits of vbnl_vl_index_spatial_key, computed inline
+ *     (vbnl_vl_key_bin).
+ *   - The walk's hit set-up for triangle meshes, the Lambertian bounce and the ray-origin
+ *     offset are inline local copies of the shared routines (photon_fast.h, same values).
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
  *     spatial order (nearby VLs, nearby sums; prefetched with the records), added to the
  *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
@@ -72,9 +77,14 @@
  * ratios to the raw Embree incoherent rate measured in the same run): 25-29 % of the raw rate,
  * 0.8-0.9 M paths/s, 13 M deposits/s (one atomic deposit per hit in trace order: 8-13 %,
  * 0.26-0.40 M paths/s); with 33K glossy VLs (CornellBox-Glossy-Floor) 16-17 % (before: 6-7 %).
- * Photon tracing alone, without deposits, reaches 51-56 % of the raw rate: the walk (hit
- * setup, BSDF sampling, Russian roulette) costs about as much as Embree's traversal here, so
- * half the raw rate is out of reach while the deposits cost about as much as the tracing. */
+ * After the inline walk and the fused stage D (callgrind, 50K paths, 1 thread, per photon hit:
+ * 2793 -> 2407 instructions, of which Embree ~727; tracing alone 1462 -> ~1310): per CPU second
+ * 25-28 % -> 29-31 % of the raw rate, tracing alone 51-59 % -> 59-66 % (alternated runs on a
+ * loaded machine). Left per hit beside Embree: the walk ~560 instructions (vector maths of the
+ * hit and bounce, the RNG, the batch record), the deposit ~1000 (the quantised pre-test ~160,
+ * the exact test, filters and weights ~35 per candidate, the split ~25 per VL, the max_vls
+ * selection where more than 8 VLs contain the hit, the pipeline's bookkeeping). Half the raw
+ * rate would need both together below Embree's own cost. */
 #ifndef VBNL_SPLITTING_H
 #define VBNL_SPLITTING_H
 
