@@ -1,6 +1,7 @@
 /* Internals of the VL sphere index shared by vl_index.c (build, single queries, Embree) and
  * vl_index_batch.c (the pipelined batch query): the layout (vl_index.h, "Layout") and the
- * inline query helpers. Private to these two files. */
+ * inline query helpers. Private to these two files and to vl_index_pipe.h (the batch pipeline,
+ * which photon splitting runs with its own last stage). */
 #ifndef VBNL_VL_INDEX_INTERNAL_H
 #define VBNL_VL_INDEX_INTERNAL_H
 
