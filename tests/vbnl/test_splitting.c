@@ -672,10 +672,59 @@ static void test_glossy_directions(void **state)
     vbnl_context_destroy(ctx);
 }
 
+/* vbnl_vl_key_bin (photon splitting's inline bins) equals the top bits of the spatial key,
+ * also for points outside the key cube (clamped) and NaN. */
+static void test_key_bin(void **state)
+{
+    (void)state;
+    enum { N = 500 };
+    vec3 c[N];
+    float r[N];
+    vbnl_rng rng = vbnl_rng_make(5, 9);
+    for (uint32_t j = 0; j < N; ++j) {
+        c[j] = v3(vbnl_rng_next(&rng) * 3 - 1, vbnl_rng_next(&rng) * 2, vbnl_rng_next(&rng) - 4);
+        r[j] = 0.05f;
+    }
+    vbnl_vl_index_desc xd = {c, r, NULL, N, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    vbnl_vl_index *idx = NULL;
+    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
+    vbnl_vl_key_grid g = vbnl_vl_index_key_grid(idx);
+    for (uint32_t k = 0; k < 20000; ++k) {
+        vec3 p = v3(vbnl_rng_next(&rng) * 5 - 2, vbnl_rng_next(&rng) * 4 - 1, vbnl_rng_next(&rng) * 3 - 5);
+        if (k == 0)
+            p.x = NAN;
+        uint64_t key = vbnl_vl_index_spatial_key(idx, p);
+        for (unsigned b = 1; b <= 8; ++b)
+            assert_int_equal(vbnl_vl_key_bin(&g, p, b), key >> (63 - 3 * b));
+    }
+    vbnl_vl_index_destroy(idx);
+}
+
+/* photon_fast.h's local copies give the bits of the shared routines. */
+static void test_photon_fast(void **state)
+{
+    (void)state;
+    vbnl_rng rng = vbnl_rng_make(17, 1);
+    for (uint32_t k = 0; k < 200000; ++k) {
+        float sc = k % 3 == 0 ? 0.05f : (k % 3 == 1 ? 3.0f : 2000.0f);
+        vec3 p = v3((vbnl_rng_next(&rng) * 2 - 1) * sc, (vbnl_rng_next(&rng) * 2 - 1) * sc,
+                    (vbnl_rng_next(&rng) * 2 - 1) * sc);
+        if (k % 7 == 0)
+            p.y = 0.0f;
+        if (k % 11 == 0)
+            p.x = -0.0f;
+        vec3 n = sample_uniform_sphere(vbnl_rng_next2(&rng)), w = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        vec3 a = vbnl_offset_ray_origin(p, n, w), b = vbnl_photon_offset_origin(p, n, w);
+        assert_memory_equal(&a, &b, sizeof(a));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_index_brute_force),
+        cmocka_unit_test(test_key_bin),
+        cmocka_unit_test(test_photon_fast),
         cmocka_unit_test(test_closed_sphere),
         cmocka_unit_test(test_determinism_and_merge),
         cmocka_unit_test(test_glossy_directions),

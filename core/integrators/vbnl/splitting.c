@@ -1,6 +1,7 @@
 /* Photon splitting (Li et al. 2022, Section 3.3): photon paths from the lights, every hit's
  * power shared among the virtual lights around it. Design and rules: splitting.h. */
 #include "splitting.h"
+#include "vl_index_pipe.h"
 
 #include <stddef.h>
 #include <stdlib.h>
@@ -41,7 +42,7 @@ typedef struct split_job {
     float inv_paths;
     double inv_unit;         /* 1 / fixed-point unit of the profiles (exact: a power of two) */
     const uint8_t *glossy;   /* by rank: the VL keeps a map; NULL when none does */
-    unsigned bin_shift;      /* bin = spatial key >> bin_shift */
+    vbnl_vl_key_grid key_grid; /* bin = vbnl_vl_key_bin(key grid, p, VBNL_SPLIT_BIN_BITS / 3) */
     uint32_t bins;
     int empty;               /* the index holds no VL */
     split_thread *threads;
@@ -116,53 +117,43 @@ typedef struct split_ctx {
     const uint32_t *order;
 } split_ctx;
 
-/* The deposit of hit `hit` of the sorted batch: the VLs of `f` (the index's answer: containing
- * spheres that passed the filters, in rank order) share it. */
-static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
+/* The deposit of one hit h: the m VLs of rank rk[i], id id[i] and weight w[i] = 1 - (d/r)^2 > 0
+ * (Section 3.3; those that passed the authors' filters, in rank order) share it; sum is the
+ * sum of the w[i] in order. The arrays are scratch (reordered by the max_vls selection). */
+static inline __attribute__((always_inline)) void split_deposit(const split_ctx *cx, const split_rec *h, float *w,
+                                                                uint32_t *rk, uint32_t *id, uint32_t m, float sum)
 {
-    const split_ctx *cx = user;
     const split_job *job = cx->job;
     split_thread *t = cx->t;
-    const split_rec *h = &cx->recs[cx->order[hit]];
     vbnl_split_stats *st = &t->s;
-    if (!nf)
-        return;
-    st->overflow += total > VBNL_SPLIT_QUERY_MAX;
-    /* The weights 1 - (d/r)^2 (Section 3.3) of the VLs that passed the authors' filters; k[]
-     * indexes f. */
-    float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t k[VBNL_SPLIT_QUERY_MAX];
-    uint32_t m = 0;
-    for (uint32_t i = 0; i < nf; ++i) {
-        float r = f[i].r;
-        float wi = 1.0f - f[i].d2 / (r * r);
-        w[m] = wi;
-        k[m] = i;
-        m += wi > 0.0f; /* d within rounding of r: dropped */
-    }
-    if (!m)
-        return;
-    /* The max_vls largest weights (ties: smaller id); otherwise the order of f. */
+    /* The max_vls largest weights (ties: smaller id); otherwise rank order. */
     if (m > job->max_vls) {
         for (uint32_t a = 0; a < job->max_vls; ++a) {
             uint32_t best = a;
             for (uint32_t b = a + 1; b < m; ++b)
-                if (w[b] > w[best] || (w[b] == w[best] && f[k[b]].id < f[k[best]].id))
+                if (w[b] > w[best] || (w[b] == w[best] && id[b] < id[best]))
                     best = b;
             float tw = w[a];
-            uint32_t tk = k[a];
+            uint32_t tr = rk[a], ti = id[a];
             w[a] = w[best];
-            k[a] = k[best];
+            rk[a] = rk[best];
+            id[a] = id[best];
             w[best] = tw;
-            k[best] = tk;
+            rk[best] = tr;
+            id[best] = ti;
         }
         m = job->max_vls;
+        sum = 0.0f;
+        for (uint32_t i = 0; i < m; ++i)
+            sum += w[i];
     }
-    float sum = 0.0f;
-    for (uint32_t i = 0; i < m; ++i)
-        sum += w[i];
-    for (uint32_t i = 0; i < m; ++i)
+    /* Normalised weights; the residue of the exact split goes to the largest (first on ties),
+     * as in vbnl_profile_split_fixed (split3 finds the same one). */
+    uint32_t big = 0;
+    for (uint32_t i = 0; i < m; ++i) {
         w[i] /= sum;
+        big = w[i] > w[big] ? i : big;
+    }
     /* Quantise once, then partition exactly (profiles.h, "Fixed point"). */
     uint64_t q[3] = {quantize1(h->power.x, job->inv_unit), quantize1(h->power.y, job->inv_unit),
                      quantize1(h->power.z, job->inv_unit)};
@@ -171,13 +162,9 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
     int glossy = 0;
     if (job->glossy)
         for (uint32_t i = 0; i < m; ++i)
-            glossy |= job->glossy[f[k[i]].rank];
+            glossy |= job->glossy[rk[i]];
     if (!glossy && t->acc) {
-        /* split3 with the shares added straight into this thread's sums (by rank); the residue
-         * goes to the largest weight (first on ties), as in vbnl_profile_split_fixed */
-        uint32_t big = 0;
-        for (uint32_t i = 1; i < m; ++i)
-            big = w[i] > w[big] ? i : big;
+        /* split3 with the shares added straight into this thread's sums (by rank) */
 #if defined(__AVX2__)
         if ((q[0] | q[1] | q[2]) < (1ull << 51)) {
             /* The three channels in one vector: x = q w (double), v = min(trunc x, left) as in
@@ -193,10 +180,10 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
                 __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(x, two52)), two52i);
                 v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
                 left = _mm256_sub_epi64(left, v);
-                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[i]].rank);
+                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
                 _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
             }
-            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)f[k[big]].rank);
+            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[big]);
             _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), left));
         } else
 #endif
@@ -213,12 +200,12 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
                 left0 -= v0;
                 left1 -= v1;
                 left2 -= v2;
-                uint64_t *a = t->acc + 4 * (size_t)f[k[i]].rank;
+                uint64_t *a = t->acc + 4 * (size_t)rk[i];
                 a[0] += v0;
                 a[1] += v1;
                 a[2] += v2;
             }
-            uint64_t *a = t->acc + 4 * (size_t)f[k[big]].rank;
+            uint64_t *a = t->acc + 4 * (size_t)rk[big];
             a[0] += left0;
             a[1] += left1;
             a[2] += left2;
@@ -228,7 +215,7 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
         split3(q, m, w, share);
         const vbnl_split_desc *d = job->d;
         for (uint32_t i = 0; i < m; ++i) {
-            const vbnl_vl_found *e = &f[k[i]];
+            const vbnl_vl_found e_ = {id[i], rk[i], 0.0f, 0.0f}, *e = &e_;
             /* Phi_in into this thread's sums (plain adds, merged at the end), the direction
              * into the VL's map (atomic: maps are shared); without per-thread sums, both
              * atomically into the set. */
@@ -267,6 +254,82 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
     st->covered_power[2] += q[2];
 }
 
+/* The deposit of hit `hit` of the sorted batch from the index's answer `f` (containing spheres
+ * that passed the filters, in rank order): the plain-query path (vbnl_vl_batch_fn). */
+static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
+{
+    const split_ctx *cx = user;
+    const split_rec *h = &cx->recs[cx->order[hit]];
+    if (!nf)
+        return;
+    cx->t->s.overflow += total > VBNL_SPLIT_QUERY_MAX;
+    float w[VBNL_SPLIT_QUERY_MAX];
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX], id[VBNL_SPLIT_QUERY_MAX];
+    uint32_t m = 0;
+    float sum = 0.0f; /* of the kept weights in order (adding 0 for the dropped changes no bit) */
+    for (uint32_t i = 0; i < nf; ++i) {
+        float r = f[i].r;
+        float wi = 1.0f - f[i].d2 / (r * r);
+        w[m] = wi;
+        rk[m] = f[i].rank;
+        id[m] = f[i].id;
+        int keep = wi > 0.0f; /* d within rounding of r: dropped */
+        sum += keep ? wi : 0.0f;
+        m += (uint32_t)keep;
+    }
+    if (m)
+        split_deposit(cx, h, w, rk, id, m, sum);
+}
+
+/* Stage D of the index's batch pipeline (vl_index_pipe.h) fused with split_hit: the exact
+ * test and the filters of the index's pipe_d, the weights straight from them (the same
+ * decisions, values and order as split_hit on pipe_d's answer, without the answer records). */
+static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b,
+                                                               uint32_t k, const vbnl_vli_pipe_slot *s,
+                                                               vbnl_vl_found *found, void *user)
+{
+    const split_ctx *cx = user;
+    if (s->ncand > VBNL_VLI_PIPE_CAND) {
+        vbnl_vli_batch_plain(x, b, k, found, split_hit, user);
+        return;
+    }
+    const split_rec *h = &cx->recs[cx->order[k]];
+    const vec3 p = h->p, n = h->n, wi = h->wi;
+    const float ncos = b->normal_cos;
+    const int use_cos = ncos > -1.0f, use_facing = b->facing;
+    float w[VBNL_SPLIT_QUERY_MAX];
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX], id[VBNL_SPLIT_QUERY_MAX];
+    uint32_t nf = 0, m = 0;
+    float sum = 0.0f;
+    for (uint32_t i = 0; i < s->ncand; ++i) {
+        uint32_t rank = s->cand[i];
+        const vl_rec *e = x->rec + rank;
+        float dx = p.x - e->cx, dy = p.y - e->cy, dz = p.z - e->cz, r = e->r;
+        double d2 = (double)dx * dx + (double)dy * dy + (double)dz * dz; /* = vbnl_vl_dist2(p, centre) */
+        if (!(r > 0.0f && d2 < (double)r * r))
+            continue;
+        vec3 nj = v3(e->nx, e->ny, e->nz);
+        if (use_cos && !(v3_dot(nj, n) > ncos))
+            continue;
+        if (use_facing && !(v3_dot(nj, wi) > 0.0f))
+            continue;
+        if (nf == VBNL_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
+            vbnl_vli_batch_plain(x, b, k, found, split_hit, user);
+            return;
+        }
+        nf++;
+        float wk = 1.0f - (float)d2 / (r * r);
+        w[m] = wk;
+        rk[m] = rank;
+        id[m] = e->id;
+        int keep = wk > 0.0f; /* d within rounding of r: dropped */
+        sum += keep ? wk : 0.0f;
+        m += (uint32_t)keep;
+    }
+    if (m)
+        split_deposit(cx, h, w, rk, id, m, sum);
+}
+
 /* Deposits the thread's batch in spatial order: a counting sort by bin (a cube of the index's
  * Morton key grid), so that consecutive queries read the same cells, sphere records and
  * accumulators, which then stay in cache. The order cannot change the result: deposits are
@@ -302,7 +365,17 @@ static void flush_batch(const split_job *job, split_thread *t)
     b.max_out = VBNL_SPLIT_QUERY_MAX;
     b.rank_data = t->acc; /* NULL: nothing to prefetch */
     b.rank_stride = 4 * sizeof(uint64_t);
-    vbnl_vl_index_query_batch(job->d->index, &b, split_hit, &cx);
+    const vbnl_vl_index *x = job->d->index;
+    if (x->kind == VBNL_VL_INDEX_GRID && x->level_count <= VBNL_VLI_PIPE_LEVELS && b.max_out <= VBNL_SPLIT_QUERY_MAX) {
+        /* the index's pipeline with stage D fused with the deposit (split_pipe_d) */
+        vbnl_vl_found found[VBNL_VL_BATCH_MAX_OUT];
+        if (x->level_count == 1)
+            VBNL_VLI_RUN_PIPE(x, &b, found, split_pipe_d, &cx, 1u);
+        else
+            VBNL_VLI_RUN_PIPE(x, &b, found, split_pipe_d, &cx, x->level_count);
+    } else {
+        vbnl_vl_index_query_batch(x, &b, split_hit, &cx);
+    }
     for (uint32_t i = 0; i < t->ring_n; ++i) /* the glossy splats still in flight */
         vbnl_profile_splat_apply(&t->ring[(t->ring_at + SPLAT_RING - t->ring_n + i) % SPLAT_RING]);
     t->ring_n = 0;
@@ -330,7 +403,8 @@ static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
     if (t->n == t->cap)
         flush_batch(sv->job, t);
     t->hits[t->n] = (split_rec){v->hit->p, v->ng, v->wo, v->beta};
-    t->bin[t->n] = (uint32_t)(vbnl_vl_index_spatial_key(sv->job->d->index, v->hit->p) >> sv->job->bin_shift);
+    /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
+    t->bin[t->n] = vbnl_vl_key_bin(&sv->job->key_grid, v->hit->p, VBNL_SPLIT_BIN_BITS / 3u);
     t->n++;
 }
 
@@ -422,7 +496,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     job.max_vls = d->max_vls;
     job.inv_paths = (float)(1.0 / (double)d->photon_paths);
     job.inv_unit = 1.0 / vbnl_profile_set_unit(d->profiles);
-    job.bin_shift = 63u - VBNL_SPLIT_BIN_BITS;
+    _Static_assert(VBNL_SPLIT_BIN_BITS % 3u == 0 && VBNL_SPLIT_BIN_BITS <= 24u, "bins: whole Morton triples");
+    job.key_grid = vbnl_vl_index_key_grid(d->index);
     job.bins = 1u << VBNL_SPLIT_BIN_BITS;
     job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbnl_pool_thread_count(pool);
     if (job.thread_count == 0)

@@ -47,9 +47,14 @@
  *     which it deposits when full and before the item returns.
  *   - Deposit: the batch is counting-sorted by the top 12 bits of the index's Morton key
  *     (vl_index.h, vbnl_vl_index_spatial_key: 2^12 cubes of the VLs' bounding cube), then
- *     queried in that order with vbnl_vl_index_query_batch, whose software pipeline prefetches
- *     each query's cells, entries and sphere records a few queries ahead. Consecutive queries
- *     then read the same cells and records, which stay in cache.
+ *     queried in that order through the index's software pipeline (vl_index_pipe.h), which
+ *     prefetches each query's cells, entries and sphere records a few queries ahead, with its
+ *     last stage (exact test, filters) fused with the weights and the deposit (splitting.c,
+ *     split_pipe_d). Consecutive queries then read the same cells and records, which stay in
+ *     cache. The bins are the top 12 bits of vbnl_vl_index_spatial_key, computed inline
+ *     (vbnl_vl_key_bin).
+ *   - The walk's hit set-up for triangle meshes, the Lambertian bounce and the ray-origin
+ *     offset are inline local copies of the shared routines (photon_fast.h, same values).
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
  *     spatial order (nearby VLs, nearby sums; prefetched with the records), added to the
  *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
@@ -72,9 +77,14 @@
  * ratios to the raw Embree incoherent rate measured in the same run): 25-29 % of the raw rate,
  * 0.8-0.9 M paths/s, 13 M deposits/s (one atomic deposit per hit in trace order: 8-13 %,
  * 0.26-0.40 M paths/s); with 33K glossy VLs (CornellBox-Glossy-Floor) 16-17 % (before: 6-7 %).
- * Photon tracing alone, without deposits, reaches 51-56 % of the raw rate: the walk (hit
- * setup, BSDF sampling, Russian roulette) costs about as much as Embree's traversal here, so
- * half the raw rate is out of reach while the deposits cost about as much as the tracing. */
+ * After the inline walk and the fused stage D (callgrind, 50K paths, 1 thread, per photon hit:
+ * 2793 -> 2407 instructions, of which Embree ~727; tracing alone 1462 -> ~1310): per CPU second
+ * 25-28 % -> 29-31 % of the raw rate, tracing alone 51-59 % -> 59-66 % (alternated runs on a
+ * loaded machine). Left per hit beside Embree: the walk ~560 instructions (vector maths of the
+ * hit and bounce, the RNG, the batch record), the deposit ~1000 (the quantised pre-test ~160,
+ * the exact test, filters and weights ~35 per candidate, the split ~25 per VL, the max_vls
+ * selection where more than 8 VLs contain the hit, the pipeline's bookkeeping). Half the raw
+ * rate would need both together below Embree's own cost. */
 #ifndef VBNL_SPLITTING_H
 #define VBNL_SPLITTING_H
 
@@ -85,6 +95,7 @@
 #include "render_internal.h"
 #include "scene_internal.h"
 #include "vl_index.h"
+#include "photon_fast.h"
 
 #define VBNL_SPLIT_DEFAULT_CHUNK 16384u /* photon paths per work item (about 4 hits each here) */
 #define VBNL_SPLIT_BATCH_HITS 65536u    /* photon hits a thread buffers before depositing them */
@@ -189,7 +200,7 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
     for (int depth = 0; depth < max_depth; ++depth) {
         vbnl_hit hit;
         st->rays++;
-        if (!vbnl_scene_intersect(sc, o, dir, INFINITY, &hit))
+        if (!vbnl_photon_intersect(sc, o, dir, &hit)) /* photon_fast.h */
             return;
         st->hits++;
         vbnl_bsdf bsdf_store;
@@ -212,24 +223,36 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
             visit(user, &v);
         }
 
-        /* Bounce (importance transport, splitting.h). */
-        frame fr = frame_from_normal(ns);
-        vec3 wo = frame_to_local(&fr, wo_w);
-        vbnl_bsdf_sample_rec bs;
+        /* Bounce (importance transport, splitting.h). The same draws for every BSDF. */
         float ulobe = vbnl_rng_next(rng);
         vec2 ub = vbnl_rng_next2(rng);
-        if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
-            return;
-        vec3 wi_w = frame_to_world(&fr, bs.wi);
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
-            return; /* a reflection must leave on the photon's side of the real surface */
-        vec3 wt = bs.weight;
-        if (bs.lobe & VBNL_LOBE_TRANSMISSION)
-            wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
-        /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); 1 when ns == ng. */
-        float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
-        if (den_c > 0.0f)
-            wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
+        vec3 wi_w, wt;
+        if (bsdf->type == VBNL_MATERIAL_LAMBERT) {
+            /* lambert_sample without the general dispatch (photon_fast.h) */
+            if (!vbnl_photon_lambert_bounce(bsdf, ns, wo_w, ub, &wi_w) || v3_is_black(bsdf->color))
+                return;
+            if (v3_dot(wi_w, ng) <= 0.0f)
+                return; /* a reflection must leave on the photon's side of the real surface */
+            wt = bsdf->color;
+        } else {
+            frame fr = frame_from_normal(ns);
+            vec3 wo = frame_to_local(&fr, wo_w);
+            vbnl_bsdf_sample_rec bs;
+            if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+                return;
+            wi_w = frame_to_world(&fr, bs.wi);
+            if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
+                return; /* a reflection must leave on the photon's side of the real surface */
+            wt = bs.weight;
+            if (bs.lobe & VBNL_LOBE_TRANSMISSION)
+                wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
+        }
+        /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); exactly 1 when ns == ng. */
+        if (ns.x != ng.x || ns.y != ng.y || ns.z != ng.z) {
+            float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
+            if (den_c > 0.0f)
+                wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
+        }
         vec3 nb = v3_mul(beta, wt);
         if (depth + 1 >= w->rr_depth) {
             /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
@@ -243,7 +266,7 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
         if (!v3_is_finite(nb) || v3_is_black(nb))
             return;
         beta = nb;
-        o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
+        o = vbnl_photon_offset_origin(hit.p, hit.ng, wi_w); /* photon_fast.h */
         dir = wi_w;
     }
 }

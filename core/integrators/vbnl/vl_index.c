@@ -21,12 +21,7 @@ static inline uint64_t spread3(uint64_t v)
 #endif
 }
 
-static inline uint64_t key_coord(float v, float lo, float scale)
-{
-    float f = (v - lo) * scale;
-    const float top = (float)((1u << VBNL_VLI_KEY_BITS) - 1u);
-    return !(f > 0.0f) ? 0u : (f >= top ? (uint64_t)top : (uint64_t)f); /* NaN -> 0 */
-}
+static inline uint64_t key_coord(float v, float lo, float scale) { return vbnl_vl_key_coord(v, lo, scale); }
 
 static inline uint64_t spatial_key(const vbnl_vl_index *x, vec3 p)
 {
@@ -505,6 +500,7 @@ uint32_t vbnl_vl_index_count(const vbnl_vl_index *x) { return x->count; }
 uint32_t vbnl_vl_index_rank(const vbnl_vl_index *x, uint32_t id) { return x->rank_of ? x->rank_of[id] : id; }
 uint32_t vbnl_vl_index_id(const vbnl_vl_index *x, uint32_t rank) { return x->rec[rank].id; }
 uint64_t vbnl_vl_index_spatial_key(const vbnl_vl_index *x, vec3 p) { return spatial_key(x, p); }
+vbnl_vl_key_grid vbnl_vl_index_key_grid(const vbnl_vl_index *x) { return (vbnl_vl_key_grid){x->key_lo, x->key_scale}; }
 vec3 vbnl_vl_index_center(const vbnl_vl_index *x, uint32_t id) { return rec_center(x->rec + vbnl_vl_index_rank(x, id)); }
 float vbnl_vl_index_radius(const vbnl_vl_index *x, uint32_t id) { return x->rec[vbnl_vl_index_rank(x, id)].r; }
 vbnl_vl_index_kind vbnl_vl_index_get_kind(const vbnl_vl_index *x) { return x->kind; }

@@ -46,6 +46,9 @@
 #include <embree3/rtcore.h>
 #include <stddef.h>
 #include <stdint.h>
+#if defined(__BMI2__)
+#include <immintrin.h>
+#endif
 
 #include "vbnl/result.h"
 #include "vmath.h"
@@ -108,6 +111,40 @@ uint32_t vbnl_vl_index_query_found(const vbnl_vl_index *idx, vec3 p, const vbnl_
 uint32_t vbnl_vl_index_rank(const vbnl_vl_index *idx, uint32_t id);
 uint32_t vbnl_vl_index_id(const vbnl_vl_index *idx, uint32_t rank);
 uint64_t vbnl_vl_index_spatial_key(const vbnl_vl_index *idx, vec3 p);
+/* The key grid itself, for callers that need only the coarse bits of the key inline (photon
+ * splitting bins every hit): vbnl_vl_key_bin(g, p, b) == vbnl_vl_index_spatial_key(idx, p) >>
+ * (63 - 3 b) for g = vbnl_vl_index_key_grid(idx), 1 <= b <= 8. */
+typedef struct vbnl_vl_key_grid {
+    vec3 lo;
+    float scale;
+} vbnl_vl_key_grid;
+vbnl_vl_key_grid vbnl_vl_index_key_grid(const vbnl_vl_index *idx);
+#define VBNL_VL_KEY_BITS 21u /* bits per axis of the spatial key */
+/* Cell coordinate of v on one axis of the key grid (points outside clamped; NaN -> 0). */
+static inline uint32_t vbnl_vl_key_coord(float v, float lo, float scale)
+{
+    float f = (v - lo) * scale;
+    const float top = (float)((1u << VBNL_VL_KEY_BITS) - 1u);
+    return !(f > 0.0f) ? 0u : (f >= top ? (uint32_t)top : (uint32_t)f);
+}
+static inline uint32_t vbnl_vl_key_spread_bits(uint32_t v, unsigned b) /* bit i -> bit 3 i */
+{
+#if defined(__BMI2__)
+    return _pdep_u32(v, 01111111111u & ((1u << (3 * b)) - 1u));
+#else
+    uint32_t out = 0;
+    for (unsigned i = 0; i < b; ++i)
+        out |= (v >> i & 1u) << (3 * i);
+    return out;
+#endif
+}
+static inline uint32_t vbnl_vl_key_bin(const vbnl_vl_key_grid *g, vec3 p, unsigned b)
+{
+    unsigned sh = VBNL_VL_KEY_BITS - b;
+    return vbnl_vl_key_spread_bits(vbnl_vl_key_coord(p.x, g->lo.x, g->scale) >> sh, b) |
+           vbnl_vl_key_spread_bits(vbnl_vl_key_coord(p.y, g->lo.y, g->scale) >> sh, b) << 1 |
+           vbnl_vl_key_spread_bits(vbnl_vl_key_coord(p.z, g->lo.z, g->scale) >> sh, b) << 2;
+}
 
 /* Batched filtered queries (photon splitting deposits sorted batches of hits): the answers of
  * vbnl_vl_index_query_found for `count` points, handed to fn in point order, computed as a

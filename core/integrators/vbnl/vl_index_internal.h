@@ -1,6 +1,7 @@
 /* Internals of the VL sphere index shared by vl_index.c (build, single queries, Embree) and
  * vl_index_batch.c (the pipelined batch query): the layout (vl_index.h, "Layout") and the
- * inline query helpers. Private to these two files. */
+ * inline query helpers. Private to these two files and to vl_index_pipe.h (the batch pipeline,
+ * which photon splitting runs with its own last stage). */
 #ifndef VBNL_VL_INDEX_INTERNAL_H
 #define VBNL_VL_INDEX_INTERNAL_H
 
@@ -15,7 +16,7 @@
 #define VBNL_VLI_MAX_LEVELS 32u
 #define VBNL_VLI_DEFAULT_CELL_SCALE 2.0f
 #define VBNL_VLI_EMPTY_KEY UINT64_MAX
-#define VBNL_VLI_KEY_BITS 21u /* spatial key: bits per axis (3 x 21 = 63-bit Morton code) */
+#define VBNL_VLI_KEY_BITS VBNL_VL_KEY_BITS /* spatial key: bits per axis (3 x 21 = 63-bit Morton code) */
 
 /* One sphere, 32 bytes (half a cache line), stored by rank: centre and radius first (the
  * containment test), the normal (the splitting filter) and the id after them. */
