@@ -34,6 +34,7 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                 if (!active[i])
                     continue;
                 job->stats->rays++;
+                job->stats->camera_rays++;
                 memset(values[i], 0, sizeof(float) * stride);
                 fn(state, &rng[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
                 vbnl_film_add(job->film, px[i], py[i], values[i]);

@@ -62,6 +62,7 @@ static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *b
     vec3 org = vbnl_offset_ray_origin(x, sf->ng, ls.wi);
     float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
     stats->rays++;
+    stats->shadow_rays++;
     if (vbnl_scene_occluded(sc, org, ls.wi, tmax))
         return v3s(0.0f);
     float w = ls.is_delta ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf->wo, wi));
