@@ -148,27 +148,7 @@ void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m)
 
 /* ---- Lambert ------------------------------------------------------------------------------ */
 
-static vec3 lambert_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
-{
-    if (wo.z <= 0.0f || wi.z <= 0.0f)
-        return v3s(0.0f);
-    return v3_scale(b->color, VBNL_INV_PI * wi.z);
-}
-
-static int lambert_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
-{
-    if (wo.z <= 0.0f)
-        return 0;
-    vec3 wi = sample_cosine_hemisphere(u);
-    if (wi.z <= 0.0f)
-        return 0;
-    out->wi = wi;
-    out->pdf = pdf_cosine_hemisphere(wi);
-    out->weight = b->color; /* (color / pi) cos / (cos / pi) */
-    out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
-    out->eta = 1.0f;
-    return 1;
-}
+/* Inline in bsdf.h. */
 
 /* ---- GGX conductor ------------------------------------------------------------------------ */
 
@@ -398,11 +378,11 @@ static int dielectric_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vbnl_bsd
 
 /* ---- dispatch ----------------------------------------------------------------------------- */
 
-vec3 vbnl_bsdf_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+vec3 vbnl_bsdf_eval_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
-        return lambert_eval(b, wo, wi);
+        return vbnl_bsdf_eval(b, wo, wi);
     case VBNL_MATERIAL_CONDUCTOR:
         return conductor_eval(b, wo, wi);
     case VBNL_MATERIAL_PLASTIC:
@@ -412,11 +392,11 @@ vec3 vbnl_bsdf_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     }
 }
 
-float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
-        return wo.z > 0.0f ? pdf_cosine_hemisphere(wi) : 0.0f;
+        return vbnl_bsdf_pdf(b, wo, wi);
     case VBNL_MATERIAL_CONDUCTOR:
         return conductor_pdf(b, wo, wi);
     case VBNL_MATERIAL_PLASTIC:
@@ -426,11 +406,11 @@ float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     }
 }
 
-int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
+int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
-        return lambert_sample(b, wo, u, out);
+        return vbnl_bsdf_sample(b, wo, u_lobe, u, out);
     case VBNL_MATERIAL_CONDUCTOR:
         return conductor_sample(b, wo, u_lobe, u, out);
     case VBNL_MATERIAL_PLASTIC:

@@ -14,6 +14,7 @@
 
 #include <stdint.h>
 
+#include "sampling.h"
 #include "vbnl/scene.h"
 #include "vmath.h"
 
@@ -45,10 +46,46 @@ typedef struct vbnl_bsdf_sample_rec {
 
 void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m);
 
-vec3 vbnl_bsdf_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi);
-float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+/* The non-Lambertian cases of eval / pdf / sample (bsdf.c); call the inline functions below. */
+vec3 vbnl_bsdf_eval_other(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out);
+
+/* Lambert is inline: it is every surface of most test scenes, and inlined into next-event
+ * estimation the compiler keeps only the z of wi it needs (and shares it between eval and pdf). */
+static inline vec3 vbnl_bsdf_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+{
+    if (b->type != VBNL_MATERIAL_LAMBERT)
+        return vbnl_bsdf_eval_other(b, wo, wi);
+    if (wo.z <= 0.0f || wi.z <= 0.0f)
+        return v3s(0.0f);
+    return v3_scale(b->color, VBNL_INV_PI * wi.z);
+}
+
+static inline float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+{
+    if (b->type != VBNL_MATERIAL_LAMBERT)
+        return vbnl_bsdf_pdf_other(b, wo, wi);
+    return wo.z > 0.0f ? pdf_cosine_hemisphere(wi) : 0.0f;
+}
+
 /* u_lobe picks a lobe, u the direction. Returns 1 with *out filled, or 0 (absorbed). */
-int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out);
+static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
+{
+    if (b->type != VBNL_MATERIAL_LAMBERT)
+        return vbnl_bsdf_sample_other(b, wo, u_lobe, u, out);
+    if (wo.z <= 0.0f)
+        return 0;
+    vec3 wi = sample_cosine_hemisphere(u);
+    if (wi.z <= 0.0f)
+        return 0;
+    out->wi = wi;
+    out->pdf = pdf_cosine_hemisphere(wi);
+    out->weight = b->color; /* (color / pi) cos / (cos / pi) */
+    out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
+    out->eta = 1.0f;
+    return 1;
+}
 
 /* Union of the lobes this BSDF has. */
 uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b);

@@ -116,31 +116,6 @@ static int sample_li_positional(const vbnl_light *l, vec3 ref, float scale, vbnl
     return 1;
 }
 
-/* Area sampling of a planar light converted to solid angle: pdf = r^2 / (|cos| A). */
-static int sample_li_planar(const vbnl_light *l, vec3 ref, vec3 q, vbnl_light_li_sample *out)
-{
-    vec3 d = v3_sub(q, ref);
-    float dist2 = v3_len2(d);
-    if (!(dist2 > 0.0f) || !(l->area > 0.0f))
-        return 0;
-    float dist = sqrtf(dist2);
-    vec3 wi = v3_scale(d, 1.0f / dist);
-    float cos_l = -v3_dot(l->n, wi);
-    if (!l->two_sided && cos_l <= 0.0f)
-        return 0;
-    cos_l = fabsf(cos_l);
-    if (cos_l == 0.0f)
-        return 0;
-    out->wi = wi;
-    out->dist = dist;
-    out->p = q;
-    out->n = l->n;
-    out->Li = l->L;
-    out->pdf = dist2 / (cos_l * l->area);
-    out->is_delta = 0;
-    return isfinite(out->pdf);
-}
-
 /* Reference points on the surface (shading points of the sphere itself, whose positions carry
  * rounding) count as inside: from outside they see none of the sphere, from inside they see all
  * of it, and the cone construction degenerates there. sample_li and pdf_li must agree. */
@@ -229,21 +204,18 @@ static void fill_distant(const vbnl_light *l, vec3 ref, vec3 wi, vbnl_light_li_s
     out->Li = l->L;
 }
 
-int vbnl_light_sample_li(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out)
+int vbnl_light_sample_li_other(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out)
 {
     memset(out, 0, sizeof(*out));
     switch (l->type) {
+    case VBNL_LIGHT_RECT:
+    case VBNL_LIGHT_TRIANGLE:
+        return vbnl_light_sample_li(l, ref, u, out);
     case VBNL_LIGHT_POINT:
         return sample_li_positional(l, ref, 1.0f, out);
     case VBNL_LIGHT_SPOT: {
         vec3 w_out = v3_norm(v3_sub(ref, l->p)); /* direction the light leaves toward ref */
         return sample_li_positional(l, ref, spot_falloff(l, v3_dot(l->n, w_out)), out);
-    }
-    case VBNL_LIGHT_RECT:
-        return sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, u.x), v3_scale(l->e1, u.y))), out);
-    case VBNL_LIGHT_TRIANGLE: {
-        vec2 b = sample_uniform_triangle(u);
-        return sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, b.x), v3_scale(l->e1, b.y))), out);
     }
     case VBNL_LIGHT_SPHERE:
         return sample_li_sphere(l, ref, u, out);
@@ -261,7 +233,7 @@ int vbnl_light_sample_li(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sa
     return 0;
 }
 
-float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi)
+float vbnl_light_pdf_li_other(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi)
 {
     switch (l->type) {
     case VBNL_LIGHT_POINT:
@@ -269,14 +241,8 @@ float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_ligh
     case VBNL_LIGHT_DIRECTIONAL:
         return 0.0f;
     case VBNL_LIGHT_RECT:
-    case VBNL_LIGHT_TRIANGLE: {
-        /* The light's own normal: the plane is flat, and the caller's may be flipped. */
-        float cos_l = v3_absdot(l->n, wi);
-        float dist2 = v3_len2(v3_sub(p_light, ref));
-        if (cos_l == 0.0f || !(l->area > 0.0f))
-            return 0.0f;
-        return dist2 / (cos_l * l->area);
-    }
+    case VBNL_LIGHT_TRIANGLE:
+        return vbnl_light_pdf_li(l, ref, p_light, n_light, wi);
     case VBNL_LIGHT_SPHERE: {
         vec3 dc_vec = v3_sub(l->p, ref);
         float dc2 = v3_len2(dc_vec);
@@ -308,12 +274,12 @@ float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_ligh
     return 0.0f;
 }
 
-vec3 vbnl_light_Le(const vbnl_light *l, vec3 n_light, vec3 w)
+vec3 vbnl_light_Le_other(const vbnl_light *l, vec3 n_light, vec3 w)
 {
     switch (l->type) {
     case VBNL_LIGHT_RECT:
     case VBNL_LIGHT_TRIANGLE:
-        return (l->two_sided || v3_dot(l->n, w) > 0.0f) ? l->L : v3s(0.0f);
+        return vbnl_light_Le(l, n_light, w);
     case VBNL_LIGHT_SPHERE:
         return (l->two_sided || v3_dot(n_light, w) > 0.0f) ? l->L : v3s(0.0f);
     case VBNL_LIGHT_ENV:

@@ -12,6 +12,7 @@
 
 #include <stdint.h>
 
+#include "sampling.h"
 #include "vmath.h"
 
 typedef enum vbnl_light_type {
@@ -47,19 +48,79 @@ typedef struct vbnl_light_li_sample {
     int is_delta;
 } vbnl_light_li_sample;
 
+/* Every light type but rect and triangle (lights.c); call the inline functions below, which do
+ * the planar lights (the emissive meshes' triangles, the commonest lights) without a call. */
+int vbnl_light_sample_li_other(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out);
+float vbnl_light_pdf_li_other(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi);
+vec3 vbnl_light_Le_other(const vbnl_light *l, vec3 n_light, vec3 w);
+
+/* Area sampling of a planar light at q converted to solid angle: pdf = r^2 / (|cos| A). */
+static inline int vbnl_light_sample_li_planar(const vbnl_light *l, vec3 ref, vec3 q, vbnl_light_li_sample *out)
+{
+    vec3 d = v3_sub(q, ref);
+    float dist2 = v3_len2(d);
+    if (!(dist2 > 0.0f) || !(l->area > 0.0f))
+        goto none;
+    float dist = sqrtf(dist2);
+    vec3 wi = v3_scale(d, 1.0f / dist);
+    float cos_l = -v3_dot(l->n, wi);
+    if (!l->two_sided && cos_l <= 0.0f)
+        goto none;
+    cos_l = fabsf(cos_l);
+    if (cos_l == 0.0f)
+        goto none;
+    out->wi = wi;
+    out->dist = dist;
+    out->p = q;
+    out->n = l->n;
+    out->Li = l->L;
+    out->pdf = dist2 / (cos_l * l->area);
+    out->is_delta = 0;
+    return isfinite(out->pdf);
+none:
+    *out = (vbnl_light_li_sample){0};
+    return 0;
+}
+
 /* Samples incident light at ref. Returns 0 when there is none (for example the back of a
  * one-sided light, or a spot outside its cone). */
-int vbnl_light_sample_li(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out);
+static inline int vbnl_light_sample_li(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out)
+{
+    if (l->type == VBNL_LIGHT_TRIANGLE) {
+        vec2 b = sample_uniform_triangle(u);
+        return vbnl_light_sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, b.x), v3_scale(l->e1, b.y))),
+                                           out);
+    }
+    if (l->type == VBNL_LIGHT_RECT)
+        return vbnl_light_sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, u.x), v3_scale(l->e1, u.y))),
+                                           out);
+    return vbnl_light_sample_li_other(l, ref, u, out);
+}
 
 /* Solid-angle pdf that sample_li picks the point p_light (with normal n_light) seen from ref
  * along wi. 0 for delta lights. For env lights p_light/n_light are ignored. */
-float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi);
+static inline float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi)
+{
+    if (l->type != VBNL_LIGHT_TRIANGLE && l->type != VBNL_LIGHT_RECT)
+        return vbnl_light_pdf_li_other(l, ref, p_light, n_light, wi);
+    /* The light's own normal: the plane is flat, and the caller's may be flipped. */
+    float cos_l = v3_absdot(l->n, wi);
+    float dist2 = v3_len2(v3_sub(p_light, ref));
+    if (cos_l == 0.0f || !(l->area > 0.0f))
+        return 0.0f;
+    return dist2 / (cos_l * l->area);
+}
 
 /* Radiance leaving an area light at a point with normal n_light toward direction w (unit, pointing
  * away from the light); 0 from the back of a one-sided light. Env: radiance along any w.
  * Rect/triangle decide the side with the light's own n (n_light is ignored, so a hit normal of
  * either orientation works); spheres need the outward normal in n_light. */
-vec3 vbnl_light_Le(const vbnl_light *l, vec3 n_light, vec3 w);
+static inline vec3 vbnl_light_Le(const vbnl_light *l, vec3 n_light, vec3 w)
+{
+    if (l->type != VBNL_LIGHT_TRIANGLE && l->type != VBNL_LIGHT_RECT)
+        return vbnl_light_Le_other(l, n_light, w);
+    return (l->two_sided || v3_dot(l->n, w) > 0.0f) ? l->L : v3s(0.0f);
+}
 
 /* Total emitted power (W per channel) used for power-based selection. */
 vec3 vbnl_light_power(const vbnl_light *l);

@@ -402,6 +402,8 @@ vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *o
     for (unsigned i = 0; i < r->ctx->threads; ++i) {
         out->rays += r->tstats[i].rays;
         out->samples += r->tstats[i].samples;
+        out->camera_rays += r->tstats[i].camera_rays;
+        out->shadow_rays += r->tstats[i].shadow_rays;
     }
     out->prepare_seconds = r->prepare_seconds;
     out->render_seconds = r->render_seconds;

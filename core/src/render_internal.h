@@ -14,7 +14,8 @@
 typedef struct vbnl_thread_stats {
     uint64_t rays;
     uint64_t samples;
-    char pad[48];
+    uint64_t camera_rays, shadow_rays; /* among rays (vbnl_render_stats) */
+    char pad[32];
 } vbnl_thread_stats;
 
 struct vbnl_tile_job {

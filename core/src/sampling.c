@@ -71,15 +71,3 @@ void vbnl_alias_table_free(vbnl_alias_table *t)
     memset(t, 0, sizeof(*t));
 }
 
-uint32_t vbnl_alias_table_sample(const vbnl_alias_table *t, float u, float *pmf)
-{
-    float x = u * (float)t->n;
-    uint32_t slot = (uint32_t)x;
-    if (slot >= t->n)
-        slot = t->n - 1;
-    float frac = x - (float)slot;
-    uint32_t item = frac < t->prob[slot] ? slot : t->alias[slot];
-    if (pmf)
-        *pmf = t->pmf[item];
-    return item;
-}

@@ -117,7 +117,19 @@ typedef struct vbnl_alias_table {
  * or when every weight is zero (the table is then left empty). */
 int vbnl_alias_table_build(vbnl_alias_table *t, const float *weights, uint32_t n);
 void vbnl_alias_table_free(vbnl_alias_table *t);
-/* Samples an item with one uniform number u in [0,1); *pmf receives its probability. */
-uint32_t vbnl_alias_table_sample(const vbnl_alias_table *t, float u, float *pmf);
+/* Samples an item with one uniform number u in [0,1); *pmf receives its probability. Inline:
+ * next-event estimation picks a light with it at every vertex. */
+static inline uint32_t vbnl_alias_table_sample(const vbnl_alias_table *t, float u, float *pmf)
+{
+    float x = u * (float)t->n;
+    uint32_t slot = (uint32_t)x;
+    if (slot >= t->n)
+        slot = t->n - 1;
+    float frac = x - (float)slot;
+    uint32_t item = frac < t->prob[slot] ? slot : t->alias[slot];
+    if (pmf)
+        *pmf = t->pmf[item];
+    return item;
+}
 
 #endif

@@ -360,7 +360,14 @@ vbnl_result vbnl_scene_get_info(const vbnl_scene *s, vbnl_scene_info *out, vbnl_
 
 /* Embree's geometric normal (e_ng, unnormalised, object space) is (p1 - p0) x (p2 - p0) for
  * triangles: the same orientation the scene's winding gives, without reloading the vertices. */
-static void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned prim_id, unsigned inst_id,
+#if defined(__GNUC__)
+#define FILL_HIT_INLINE static inline __attribute__((always_inline))
+#else
+#define FILL_HIT_INLINE static inline
+#endif
+
+/* Inlined into each query: a call with eleven arguments cost a fifth of its body. */
+FILL_HIT_INLINE void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned prim_id, unsigned inst_id,
                      float bu, float bv, float t, vec3 o, vec3 d, vec3 e_ng, vbnl_hit *h)
 {
     h->t = t;

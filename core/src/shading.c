@@ -34,74 +34,11 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                 if (!active[i])
                     continue;
                 job->stats->rays++;
+                job->stats->camera_rays++;
                 memset(values[i], 0, sizeof(float) * stride);
                 fn(state, &rng[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
                 vbnl_film_add(job->film, px[i], py[i], values[i]);
             }
         }
     }
-}
-
-void vbnl_shading_frame_make(const vbnl_bsdf *bsdf, const vbnl_hit *hit, vec3 d, vbnl_shading_frame *sf)
-{
-    vec3 wo_w = v3_neg(d), ng = hit->ng, ns = hit->ns;
-    if (!vbnl_bsdf_is_transmissive(bsdf)) {
-        if (v3_dot(ng, wo_w) < 0.0f) {
-            ng = v3_neg(ng);
-            ns = v3_neg(ns);
-        }
-        if (v3_dot(ns, wo_w) <= 0.0f)
-            ns = ng;
-    }
-    sf->fr = frame_from_normal(ns);
-    sf->ng = ng;
-    sf->wo = frame_to_local(&sf->fr, wo_w);
-}
-
-vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
-                          vbnl_rng *rng, vbnl_thread_stats *stats)
-{
-    float pmf;
-    uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
-    vbnl_light_li_sample ls;
-    vec2 ul = vbnl_rng_next2(rng);
-    if (!vbnl_light_sample_li(&sc->lights[li], x, ul, &ls) || !(ls.pdf > 0.0f) || v3_is_black(ls.Li))
-        return v3s(0.0f);
-    vec3 wi = frame_to_local(&sf->fr, ls.wi);
-    vec3 f = vbnl_bsdf_eval(bsdf, sf->wo, wi);
-    /* no light through the geometric back of an opaque surface */
-    int side_ok = vbnl_bsdf_is_transmissive(bsdf) || v3_dot(ls.wi, sf->ng) > 0.0f;
-    if (!side_ok || v3_is_black(f))
-        return v3s(0.0f);
-    vec3 org = vbnl_offset_ray_origin(x, sf->ng, ls.wi);
-    float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-    stats->rays++;
-    if (vbnl_scene_occluded(sc, org, ls.wi, tmax))
-        return v3s(0.0f);
-    float w = ls.is_delta ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf->wo, wi));
-    return v3_scale(v3_mul(f, ls.Li), w / (pmf * ls.pdf));
-}
-
-float vbnl_arriving_light(const vbnl_scene *sc, int hit_ok, const vbnl_hit *y, vec3 x, vec3 w, float pdf_bsdf,
-                          int specular, vec3 *Le)
-{
-    const vbnl_light *l;
-    float pl;
-    *Le = v3s(0.0f);
-    if (!hit_ok) {
-        if (sc->env_light == VBNL_NO_LIGHT)
-            return 0.0f;
-        l = &sc->lights[sc->env_light];
-        *Le = vbnl_light_Le(l, v3s(0.0f), v3_neg(w));
-        pl = vbnl_scene_light_pmf(sc, sc->env_light) * vbnl_light_pdf_li(l, x, v3s(0.0f), v3s(0.0f), w);
-    } else {
-        if (y->light == VBNL_NO_LIGHT)
-            return 0.0f;
-        l = &sc->lights[y->light];
-        *Le = vbnl_light_Le(l, y->ng, v3_neg(w));
-        if (v3_is_black(*Le))
-            return 0.0f;
-        pl = vbnl_scene_light_pmf(sc, y->light) * vbnl_light_pdf_li(l, x, y->p, y->ng, w);
-    }
-    return specular ? 1.0f : power_heuristic(pdf_bsdf, pl);
 }

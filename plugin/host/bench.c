@@ -28,7 +28,9 @@ static void bench_usage(FILE *f)
             "usage: vbnl bench [options]\n"
             "\n"
             "Renders a scene with `path` and prints samples/s and rays/s next to the raw Embree\n"
-            "incoherent ray rate measured on the same scene by the same program (medians).\n"
+            "incoherent ray rate measured on the same scene by the same program (medians), and\n"
+            "next to the raw rate of path's own mixture of camera packets, closest-hit bounce\n"
+            "rays and shadow rays (each kind measured on its own: the fair ceiling).\n"
             "\n"
             "  --scene FILE       mesh file (default " DEFAULT_SCENE ")\n"
             "  --camera px,py,pz,tx,ty,tz,fov   (default " DEFAULT_CAMERA ")\n"
@@ -164,9 +166,10 @@ int host_bench_main(int argc, char **argv)
            info.light_count);
     printf("image       %ux%u, %u spp per run, %u runs, %u threads\n\n", width, height, spp, repeat,
            vbnl_context_thread_count(ctx));
-    double raw[99], sps[99], rps[99];
+    double raw[99], sps[99], rps[99], raw_cam[99], raw_shadow[99], raw_mix[99], mix_frac[3][99];
     for (unsigned i = 0; i < repeat; ++i) {
-        if (vbnl_scene_measure_ray_rate(ctx, scene, 1u << 20, width, height, &raw[i], &err) != VBNL_OK) {
+        vbnl_ray_rates rr;
+        if (vbnl_scene_measure_ray_rates(ctx, scene, 1u << 20, width, height, &rr, &err) != VBNL_OK) {
             fprintf(stderr, "vbnl bench: %s\n", err.message);
             goto done;
         }
@@ -186,14 +189,30 @@ int host_bench_main(int argc, char **argv)
         vbnl_renderer_get_stats(r, &st, NULL);
         sps[i] = (double)st.samples / st.render_seconds;
         rps[i] = (double)st.rays / st.render_seconds;
+        /* path's own mixture of ray kinds, each at its raw rate: the fair ceiling */
+        uint64_t closest = st.rays - st.camera_rays - st.shadow_rays;
+        raw[i] = rr.closest;
+        raw_cam[i] = rr.camera;
+        raw_shadow[i] = rr.shadow;
+        raw_mix[i] = vbnl_ray_rates_mix(&rr, st.camera_rays, closest, st.shadow_rays);
+        mix_frac[0][i] = st.rays ? (double)st.camera_rays / (double)st.rays : 0.0;
+        mix_frac[1][i] = st.rays ? (double)closest / (double)st.rays : 0.0;
+        mix_frac[2][i] = st.rays ? (double)st.shadow_rays / (double)st.rays : 0.0;
         vbnl_renderer_destroy(r);
     }
     double m_raw = median(raw, (int)repeat), m_sps = median(sps, (int)repeat), m_rps = median(rps, (int)repeat);
+    double m_mix = median(raw_mix, (int)repeat);
     printf("%-34s %14s\n", "figure (median)", "value");
     printf("%-34s %11.2f M/s\n", "raw Embree incoherent rays", m_raw / 1e6);
+    printf("%-34s %11.2f M/s\n", "raw Embree camera packets", median(raw_cam, (int)repeat) / 1e6);
+    printf("%-34s %11.2f M/s\n", "raw Embree shadow rays", median(raw_shadow, (int)repeat) / 1e6);
+    printf("%-34s %11.2f M/s\n", "raw Embree at path's ray mixture", m_mix / 1e6);
+    printf("%-34s %4.0f/%.0f/%.0f %%\n", "path: camera/bounce/shadow rays", 100.0 * median(mix_frac[0], (int)repeat),
+           100.0 * median(mix_frac[1], (int)repeat), 100.0 * median(mix_frac[2], (int)repeat));
     printf("%-34s %11.2f M/s\n", "path: rays (camera + bounce + shadow)", m_rps / 1e6);
     printf("%-34s %11.3f M/s\n", "path: samples", m_sps / 1e6);
     printf("%-34s %13.0f%%\n", "path rays / raw Embree rays", 100.0 * m_rps / m_raw);
+    printf("%-34s %13.0f%%\n", "path rays / raw at path's mixture", m_mix > 0.0 ? 100.0 * m_rps / m_mix : 0.0);
     rc = VBNL_EXIT_OK;
 done:
     vbnl_scene_destroy(scene);

@@ -492,6 +492,50 @@ static void test_crop(void **state)
 }
 
 /* Every public function refuses NULL handles and impossible values with an error. */
+/* Raw Embree rates per ray kind (raybench.c), the mixture rate, and the per-kind counts of
+ * the render statistics they are weighted with. */
+static void test_ray_rates(void **state)
+{
+    (void)state;
+    vbnl_context *ctx = make_ctx(0);
+    vbnl_scene *s = ts_box_scene(ctx, 1.0f);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    vbnl_ray_rates rr;
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_scene_measure_ray_rates(NULL, s, 1000, 16, 16, &rr, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbnl_scene_measure_ray_rates(ctx, s, 0, 16, 16, &rr, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbnl_scene_measure_ray_rates(ctx, s, 1000, 16, 16, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbnl_scene_measure_ray_rates(ctx, s, 20000, 16, 16, &rr, &err), VBNL_OK);
+    assert_true(rr.camera > 0.0 && rr.closest > 0.0 && rr.shadow > 0.0);
+    double one;
+    assert_int_equal(vbnl_scene_measure_ray_rate(ctx, s, 20000, 16, 16, &one, &err), VBNL_OK);
+    assert_true(one > 0.0);
+    /* the mixture rate is the total over the summed times */
+    vbnl_ray_rates fixed = {4.0, 1.0, 2.0};
+    assert_true(fabs(vbnl_ray_rates_mix(&fixed, 0, 10, 0) - 1.0) < 1e-12);
+    assert_true(fabs(vbnl_ray_rates_mix(&fixed, 4, 1, 2) - 7.0 / 3.0) < 1e-12);
+    fixed.shadow = 0.0;
+    assert_true(vbnl_ray_rates_mix(&fixed, 4, 1, 2) == 0.0);
+    assert_true(vbnl_ray_rates_mix(&fixed, 4, 1, 0) > 0.0);
+    assert_true(vbnl_ray_rates_mix(NULL, 1, 1, 1) == 0.0);
+    /* path: one camera ray per sample, a shadow ray per traced next-event estimate */
+    vbnl_render_settings rs;
+    vbnl_render_settings_init(&rs);
+    rs.width = rs.height = 16;
+    rs.spp = 2;
+    vbnl_renderer *r;
+    assert_int_equal(vbnl_renderer_create(ctx, s, &rs, &r, NULL), VBNL_OK);
+    assert_int_equal(vbnl_renderer_render(r, NULL, NULL, NULL), VBNL_OK);
+    vbnl_render_stats st;
+    vbnl_renderer_get_stats(r, &st, NULL);
+    assert_true(st.camera_rays == st.samples);
+    assert_true(st.shadow_rays > 0);
+    assert_true(st.camera_rays + st.shadow_rays < st.rays);
+    vbnl_renderer_destroy(r);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
 static void test_bad_arguments(void **state)
 {
     (void)state;
@@ -677,6 +721,7 @@ int main(void)
         cmocka_unit_test(test_params),        cmocka_unit_test(test_pool),
         cmocka_unit_test(test_cancel),        cmocka_unit_test(test_time_budget),
         cmocka_unit_test(test_crop),          cmocka_unit_test(test_bad_arguments),
+        cmocka_unit_test(test_ray_rates),
         cmocka_unit_test(test_registry),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

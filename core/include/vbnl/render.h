@@ -98,14 +98,36 @@ typedef struct vbnl_render_stats {
     int cancelled;
     uint64_t storage_bytes;      /* memory held by the integrator's prepared data (virtual lights,
                                   * emission profiles, indices); 0 when it keeps none (`path`) */
+    /* Among `rays`: the camera rays (8-wide coherent packets) and the shadow rays of the shared
+     * next-event estimation (`path`, and wherever an integrator calls it); the rest are
+     * counted as closest-hit rays by vbnl_ray_rates_mix, though an integrator's own occlusion
+     * rays (virtual lights) are among them. */
+    uint64_t camera_rays, shadow_rays;
 } vbnl_render_stats;
 vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *out, vbnl_error *err);
 
-/* Diagnostics: the raw Embree closest-hit rate of this scene in rays per second. The rays are
- * incoherent secondary rays: from points the camera sees (image of width x height), directions
- * cosine-distributed about the surface normal. They are generated first, then traced by every
- * worker with rtcIntersect1 and no shading; the median of three timed runs is returned. This is
- * the ceiling the integrators' ray rates are compared with. */
+/* Diagnostics: raw Embree ray rates of this scene in rays per second, for each kind of ray a
+ * path tracer traces, since their costs differ by up to three times:
+ *   camera   primary rays through jittered pixel positions, pixel after pixel, as 8-wide
+ *            coherent packets (rtcIntersect8), as the integrators trace them;
+ *   closest  incoherent secondary rays (rtcIntersect1): from points the camera sees (image of
+ *            width x height), directions cosine-distributed about the surface normal;
+ *   shadow   occlusion rays (rtcOccluded1) from the same points to points on the lights, picked
+ *            and sampled as next-event estimation does, ending just short of the light (0 when
+ *            the scene has no lights).
+ * Each set of ray_count rays at most is generated first, then traced by every worker with no
+ * shading; each rate is the median of three timed runs. These are the ceiling the integrators'
+ * ray rates are compared with (vbnl_ray_rates_mix). */
+typedef struct vbnl_ray_rates {
+    double camera, closest, shadow;
+} vbnl_ray_rates;
+vbnl_result vbnl_scene_measure_ray_rates(vbnl_context *ctx, const vbnl_scene *scene, uint32_t ray_count,
+                                         uint32_t width, uint32_t height, vbnl_ray_rates *out, vbnl_error *err);
+/* The rate Embree alone would trace a given mixture of rays at: the total count over the sum of
+ * each kind's count divided by its rate. 0 when a kind with rays has no measured rate. */
+double vbnl_ray_rates_mix(const vbnl_ray_rates *r, uint64_t camera_rays, uint64_t closest_rays,
+                          uint64_t shadow_rays);
+/* The closest-hit rate of vbnl_scene_measure_ray_rates alone (measures every kind). */
 vbnl_result vbnl_scene_measure_ray_rate(vbnl_context *ctx, const vbnl_scene *scene, uint32_t ray_count,
                                         uint32_t width, uint32_t height, double *rays_per_second,
                                         vbnl_error *err);
