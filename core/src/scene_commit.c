@@ -386,34 +386,11 @@ FILL_HIT_INLINE void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned pr
     }
     vec3 ng, ns;
     switch (g->kind) {
-    case SCENE_GEOM_MESH: {
-        const scene_mesh *m = &g->u.mesh;
-        const uint32_t *tri = m->indices + 3 * (size_t)prim_id;
-        ng = v3_norm(e_ng);
-        float b0 = 1.0f - bu - bv;
-        if (m->normals) {
-            ns = v3_add(v3_add(v3_scale(v3_load(m->normals + 3 * tri[0]), b0),
-                               v3_scale(v3_load(m->normals + 3 * tri[1]), bu)),
-                        v3_scale(v3_load(m->normals + 3 * tri[2]), bv));
-            ns = v3_norm(ns);
-            if (!(v3_len2(ns) > 0.5f))
-                ns = ng;
-            /* pbrt: with shading normals, the geometric normal follows their side */
-            if (v3_dot(ng, ns) < 0.0f)
-                ng = v3_neg(ng);
-        } else {
-            ns = ng;
-        }
-        if (m->uvs) {
-            const float *uv = m->uvs;
-            h->uv = (vec2){b0 * uv[2 * tri[0]] + bu * uv[2 * tri[1]] + bv * uv[2 * tri[2]],
-                           b0 * uv[2 * tri[0] + 1] + bu * uv[2 * tri[1] + 1] + bv * uv[2 * tri[2] + 1]};
-        }
-        h->material = m->face_materials ? m->face_materials[prim_id] : m->material;
-        if (m->face_lights)
-            h->light = m->face_lights[prim_id];
+    case SCENE_GEOM_MESH:
+        vbnl_fill_mesh_hit(&g->u.mesh, prim_id, bu, bv, e_ng, h);
+        ng = h->ng;
+        ns = h->ns;
         break;
-    }
     case SCENE_GEOM_SPHERE: {
         vec3 n = v3_scale(v3_sub(po, g->u.sphere.center), 1.0f / g->u.sphere.radius);
         ng = ns = v3_norm(n);

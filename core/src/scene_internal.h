@@ -101,6 +101,38 @@ typedef struct vbnl_hit {
     uint32_t geom, prim;
 } vbnl_hit;
 
+/* The mesh part of a hit's set-up (scene_commit.c's fill_hit; inline also in the photon walk,
+ * photon_fast.h): normals, uv, material and light of triangle `prim` at barycentrics (bu, bv),
+ * from Embree's unnormalised geometric normal e_ng ((p1 - p0) x (p2 - p0), the scene's winding),
+ * in the mesh's own space. t, p, geom and prim are the caller's. */
+static inline __attribute__((always_inline)) void vbnl_fill_mesh_hit(const scene_mesh *m, uint32_t prim, float bu,
+                                                                     float bv, vec3 e_ng, vbnl_hit *h)
+{
+    const uint32_t *tri = m->indices + 3 * (size_t)prim;
+    vec3 ng = v3_norm(e_ng), ns = ng;
+    float b0 = 1.0f - bu - bv;
+    if (m->normals) {
+        ns = v3_add(v3_add(v3_scale(v3_load(m->normals + 3 * tri[0]), b0), v3_scale(v3_load(m->normals + 3 * tri[1]), bu)),
+                    v3_scale(v3_load(m->normals + 3 * tri[2]), bv));
+        ns = v3_norm(ns);
+        if (!(v3_len2(ns) > 0.5f))
+            ns = ng;
+        /* pbrt: with shading normals, the geometric normal follows their side */
+        if (v3_dot(ng, ns) < 0.0f)
+            ng = v3_neg(ng);
+    }
+    h->uv = (vec2){bu, bv};
+    if (m->uvs) {
+        const float *uv = m->uvs;
+        h->uv = (vec2){b0 * uv[2 * tri[0]] + bu * uv[2 * tri[1]] + bv * uv[2 * tri[2]],
+                       b0 * uv[2 * tri[0] + 1] + bu * uv[2 * tri[1] + 1] + bv * uv[2 * tri[2] + 1]};
+    }
+    h->material = m->face_materials ? m->face_materials[prim] : m->material;
+    h->light = m->face_lights ? m->face_lights[prim] : VBNL_NO_LIGHT;
+    h->ng = ng;
+    h->ns = ns;
+}
+
 /* Closest hit along o + t d for t in (0, tfar). Returns 1 and fills *hit, or 0 for a miss. */
 int vbnl_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbnl_hit *hit);
 /* 1 when something blocks o + t d for t in (0, tfar). */

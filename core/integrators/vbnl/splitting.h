@@ -266,7 +266,7 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
         if (!v3_is_finite(nb) || v3_is_black(nb))
             return;
         beta = nb;
-        o = vbnl_photon_offset_origin(hit.p, hit.ng, wi_w); /* photon_fast.h */
+        o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
         dir = wi_w;
     }
 }
