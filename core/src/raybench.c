@@ -67,20 +67,7 @@ static void trace_chunk(void *user, uint64_t item, unsigned thread)
     } else if (rs->kind == KIND_CLOSEST) {
         for (uint32_t i = begin; i < end; ++i) {
             struct RTCRayHit rh;
-            rh.ray.org_x = rs->o[i].x;
-            rh.ray.org_y = rs->o[i].y;
-            rh.ray.org_z = rs->o[i].z;
-            rh.ray.dir_x = rs->d[i].x;
-            rh.ray.dir_y = rs->d[i].y;
-            rh.ray.dir_z = rs->d[i].z;
-            rh.ray.tnear = 0.0f;
-            rh.ray.tfar = INFINITY;
-            rh.ray.time = 0.0f;
-            rh.ray.mask = 0xffffffffu;
-            rh.ray.id = 0;
-            rh.ray.flags = 0;
-            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            vbnl_rayhit_init(&rh, rs->o[i], rs->d[i], INFINITY);
             rtcIntersect1(rs->scene->world, &ictx, &rh);
             hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
         }

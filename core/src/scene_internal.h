@@ -101,6 +101,26 @@ typedef struct vbnl_hit {
     uint32_t geom, prim;
 } vbnl_hit;
 
+/* A single ray from o along d over (0, tfar), no hit yet: every query and the raw-rate
+ * measurement start from this. */
+static inline void vbnl_rayhit_init(struct RTCRayHit *rh, vec3 o, vec3 d, float tfar)
+{
+    rh->ray.org_x = o.x;
+    rh->ray.org_y = o.y;
+    rh->ray.org_z = o.z;
+    rh->ray.dir_x = d.x;
+    rh->ray.dir_y = d.y;
+    rh->ray.dir_z = d.z;
+    rh->ray.tnear = 0.0f;
+    rh->ray.tfar = tfar;
+    rh->ray.time = 0.0f;
+    rh->ray.mask = 0xffffffffu;
+    rh->ray.id = 0;
+    rh->ray.flags = 0;
+    rh->hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+
 /* The mesh part of a hit's set-up (scene_commit.c's fill_hit; inline also in the photon walk,
  * photon_fast.h): normals, uv, material and light of triangle `prim` at barycentrics (bu, bv),
  * from Embree's unnormalised geometric normal e_ng ((p1 - p0) x (p2 - p0), the scene's winding),

@@ -82,20 +82,7 @@ static void raw_chunk(void *user, uint64_t item, unsigned thread)
     rtcInitIntersectContext(&ictx);
     for (uint32_t i = b; i < e; ++i) {
         struct RTCRayHit rh;
-        rh.ray.org_x = rr->o[i].x;
-        rh.ray.org_y = rr->o[i].y;
-        rh.ray.org_z = rr->o[i].z;
-        rh.ray.dir_x = rr->d[i].x;
-        rh.ray.dir_y = rr->d[i].y;
-        rh.ray.dir_z = rr->d[i].z;
-        rh.ray.tnear = 0.0f;
-        rh.ray.tfar = INFINITY;
-        rh.ray.time = 0.0f;
-        rh.ray.mask = 0xffffffffu;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        vbnl_rayhit_init(&rh, rr->o[i], rr->d[i], INFINITY);
         rtcIntersect1(rr->s->world, &ictx, &rh);
     }
 }

@@ -33,15 +33,10 @@ static void pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b, uint32_t k, c
     for (uint32_t i = 0; i < s->ncand; ++i) {
         uint32_t rank = s->cand[i];
         const vl_rec *e = x->rec + rank;
-        float dx = p.x - e->cx, dy = p.y - e->cy, dz = p.z - e->cz, r = e->r;
-        double d2 = (double)dx * dx + (double)dy * dy + (double)dz * dz; /* = vbnl_vl_dist2(p, centre) */
-        if (!(r > 0.0f && d2 < (double)r * r))
+        double d2;
+        if (!vbnl_vli_accept(e, p, use_cos, n, ncos, use_facing, wi, &d2))
             continue;
-        vec3 nj = v3(e->nx, e->ny, e->nz);
-        if (use_cos && !(v3_dot(nj, n) > ncos))
-            continue;
-        if (use_facing && !(v3_dot(nj, wi) > 0.0f))
-            continue;
+        const float r = e->r;
         if (m == max_out) { /* capped: the plain query keeps the max_out smallest ids */
             vbnl_vli_batch_plain(x, b, k, found, fn, user);
             return;

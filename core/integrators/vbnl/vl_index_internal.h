@@ -26,6 +26,26 @@ typedef struct vl_rec {
     uint32_t id;
 } vl_rec;
 
+/* The exact test of a query against one record: the point lies strictly inside the sphere
+ * (d^2 < r^2 in double, = vbnl_vl_dist2) and the light passes the normal-cone and facing filters
+ * that are on. Returns 1 and d^2. Shared by every batched query (vl_index_batch.c) and the fused
+ * deposit of splitting, so both keep the same lights. */
+static inline int vbnl_vli_accept(const vl_rec *e, vec3 p, int use_cos, vec3 n, float ncos, int use_facing, vec3 wi,
+                                  double *d2_out)
+{
+    float dx = p.x - e->cx, dy = p.y - e->cy, dz = p.z - e->cz, r = e->r;
+    double d2 = (double)dx * dx + (double)dy * dy + (double)dz * dz;
+    if (!(r > 0.0f && d2 < (double)r * r))
+        return 0;
+    vec3 nj = v3(e->nx, e->ny, e->nz);
+    if (use_cos && !(v3_dot(nj, n) > ncos))
+        return 0;
+    if (use_facing && !(v3_dot(nj, wi) > 0.0f))
+        return 0;
+    *d2_out = d2;
+    return 1;
+}
+
 typedef struct grid_level {
     float cell, inv_cell;     /* cell edge and its inverse */
     vec3 lo;                  /* grid origin (the level's bounding box minimum) */
