@@ -58,7 +58,7 @@ static const vbnl_param_spec vbnl_params_spec[] = {
     {"profile_resolution", VBNL_PARAM_INT, 16, NULL, 8, 32, NULL,
      "hemi-octahedral emission map side for glossy lights: 8, 16 or 32"},
     {"lazy_profiles", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL,
-     "convert emission texels when rendering first reads them instead of all at once"},
+     "convert a light's emission map when rendering first reads it instead of every map before rendering"},
     {"sampling", VBNL_PARAM_ENUM, 0, "mis", 0, 0, sampling_modes,
      "virtual-light sampling: mis (power + BSDF, Eq. 5), power or bsdf only"},
     {"path_extension", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL, "adaptive camera-path extension (§4.2)"},
