@@ -53,8 +53,8 @@
  *     split_pipe_d). Consecutive queries then read the same cells and records, which stay in
  *     cache. The bins are the top 12 bits of vbnl_vl_index_spatial_key, computed inline
  *     (vbnl_vl_key_bin).
- *   - The walk's hit set-up for triangle meshes, the Lambertian bounce and the ray-origin
- *     offset are inline local copies of the shared routines (photon_fast.h, same values).
+ *   - The walk's hit set-up for triangle meshes (the shared vbnl_fill_mesh_hit) and its
+ *     Lambertian bounce in the world frame are inline (photon_fast.h, same values).
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
  *     spatial order (nearby VLs, nearby sums; prefetched with the records), added to the
  *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
