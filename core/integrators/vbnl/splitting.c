@@ -188,27 +188,14 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
         } else
 #endif
         {
-            uint64_t left0 = q[0], left1 = q[1], left2 = q[2];
-            double dq0 = (double)(int64_t)q[0], dq1 = (double)(int64_t)q[1], dq2 = (double)(int64_t)q[2];
+            uint64_t share[3][VBNL_SPLIT_MAX_VLS]; /* split3 leaves the remainder with the same `big` */
+            split3(q, m, w, share);
             for (uint32_t i = 0; i < m; ++i) {
-                double wk = (double)(w[i] > 0.0f ? w[i] : 0.0f);
-                uint64_t v0 = (uint64_t)(int64_t)(dq0 * wk), v1 = (uint64_t)(int64_t)(dq1 * wk),
-                         v2 = (uint64_t)(int64_t)(dq2 * wk);
-                v0 = v0 < left0 ? v0 : left0;
-                v1 = v1 < left1 ? v1 : left1;
-                v2 = v2 < left2 ? v2 : left2;
-                left0 -= v0;
-                left1 -= v1;
-                left2 -= v2;
-                uint64_t *a = t->acc + 4 * (size_t)rk[i];
-                a[0] += v0;
-                a[1] += v1;
-                a[2] += v2;
+                uint64_t *acc = t->acc + 4 * (size_t)rk[i];
+                acc[0] += share[0][i];
+                acc[1] += share[1][i];
+                acc[2] += share[2][i];
             }
-            uint64_t *a = t->acc + 4 * (size_t)rk[big];
-            a[0] += left0;
-            a[1] += left1;
-            a[2] += left2;
         }
     } else {
         uint64_t share[3][VBNL_SPLIT_MAX_VLS];
