@@ -119,7 +119,15 @@ int host_bench_main(int argc, char **argv)
         }
         case 'Z': size = (unsigned)atoi(optarg); break;
         case 'F': ref_time = atof(optarg); break;
-        case 'S': ref_spp = strtol(optarg, NULL, 10); break;
+        case 'S': {
+            char *end;
+            ref_spp = strtol(optarg, &end, 10);
+            if (end == optarg || *end || ref_spp < 1) {
+                fprintf(stderr, "vbnl bench: --ref-spp takes a positive sample count, got '%s'\n", optarg);
+                return VBNL_EXIT_USAGE;
+            }
+            break;
+        }
         case 'O': out_dir = optarg; break;
         case 'Y': only = optarg; break;
         case 'D': shared = optarg; break;

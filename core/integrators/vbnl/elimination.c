@@ -600,6 +600,18 @@ static int vbnl_elim_exec_run(const vbnl_elim_exec *exec, uint64_t count, vbnl_p
     return 0;
 }
 
+/* vbnl_elim_exec_run for a job whose items report allocation failures in *failed: a cancelled
+ * run or a failure becomes the error of `what` (the stage, for the message). */
+static vbnl_result vbnl_elim_exec_checked(const vbnl_elim_exec *exec, uint64_t count, vbnl_pool_fn fn, void *user,
+                                          atomic_int *failed, const char *what, vbnl_error *err)
+{
+    if (vbnl_elim_exec_run(exec, count, fn, user) != 0)
+        return vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbnl_eliminate: cancelled");
+    if (atomic_load(failed))
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory (%s)", what);
+    return VBNL_OK;
+}
+
 /* ---- per-point radii (Eq. 1, 2) ------------------------------------------------------------- */
 
 typedef struct vbnl_kd_build_job {
@@ -1014,14 +1026,9 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
         kj.m = m;
         kj.area = area;
         atomic_init(&kj.failed, 0);
-        if (vbnl_elim_exec_run(exec, items.count, vbnl_knn_item, &kj) != 0) {
-            res = vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbnl_eliminate: cancelled");
+        res = vbnl_elim_exec_checked(exec, items.count, vbnl_knn_item, &kj, &kj.failed, "m-NN search", err);
+        if (res != VBNL_OK)
             goto done;
-        }
-        if (atomic_load(&kj.failed)) {
-            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory (m-NN search)");
-            goto done;
-        }
         st.neighbours = m;
     }
     /* Radii. Eq. 2 with n/m = N/M; Eq. 1 with A given or estimated. Each candidate's share of
@@ -1157,14 +1164,9 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
             nj.buf = nb_buf;
             nj.nb = nb;
             atomic_init(&nj.failed, 0);
-            if (vbnl_elim_exec_run(exec, items.count, vbnl_nb_item, &nj) != 0) {
-                res = vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbnl_eliminate: cancelled");
+            res = vbnl_elim_exec_checked(exec, items.count, vbnl_nb_item, &nj, &nj.failed, "neighbour lists", err);
+            if (res != VBNL_OK)
                 goto done;
-            }
-            if (atomic_load(&nj.failed)) {
-                res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory (neighbour lists)");
-                goto done;
-            }
             st.time_lists = vbnl_now() - tn;
         }
 
