@@ -137,9 +137,9 @@ typedef struct vbnl_chi2_grid {
     double zmin;
 } vbnl_chi2_grid;
 
-static int vbnl_chi2_grid_bins(const vbnl_chi2_grid *g) { return g->nz * g->nphi + 1; }
+static inline int vbnl_chi2_grid_bins(const vbnl_chi2_grid *g) { return g->nz * g->nphi + 1; }
 
-static int vbnl_chi2_grid_bin(const vbnl_chi2_grid *g, double z, double phi)
+static inline int vbnl_chi2_grid_bin(const vbnl_chi2_grid *g, double z, double phi)
 {
     if (z < g->zmin)
         return g->nz * g->nphi;
@@ -158,7 +158,7 @@ static int vbnl_chi2_grid_bin(const vbnl_chi2_grid *g, double z, double phi)
  * each bin, by the midpoint rule on sub x sub points per bin. Midpoints keep the error small
  * for pdfs with discontinuities (light outlines); the extra bin uses a grid of the same density
  * in phi and 4 * sub rows in z. Returns the integral of the pdf over the whole sphere. */
-static double vbnl_chi2_grid_integrate(const vbnl_chi2_grid *g, double (*pdf)(void *, double, double),
+static inline double vbnl_chi2_grid_integrate(const vbnl_chi2_grid *g, double (*pdf)(void *, double, double),
                                        void *ctx, int sub, double count, double *expected)
 {
     const double two_pi = 6.283185307179586;

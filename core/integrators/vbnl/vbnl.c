@@ -34,6 +34,7 @@
 #include "splitting.h"
 #include "vl_file.h"
 #include "vl_index.h"
+#include "vl_shade.h"
 
 static const char *const elim_modes[] = {"adaptive", "uniform", "none", NULL};
 static const char *const sampling_modes[] = {"mis", "power", "bsdf", NULL};
@@ -115,8 +116,7 @@ typedef struct vbnl_state {
     vbnl_hemioct *map;
     vbnl_profile_set *profiles;
     vbnl_profile_kernel **kernels;   /* per scene material (NULL where no light sits) */
-    vbnl_alias_table power_table;
-    float *inv_area;                 /* 1 / (pi r_j^2) */
+    vbnl_vl_shade shade;             /* what rendering reads per light, by rank (vl_shade.h) */
     int prepared;
 } vbnl_state;
 
@@ -245,9 +245,8 @@ static void vbnl_destroy(void *state)
     vbnl_profile_set_destroy(s->profiles);
     vbnl_hemioct_destroy(s->map);
     vbnl_vl_index_destroy(s->index);
-    vbnl_alias_table_free(&s->power_table);
+    vbnl_vl_shade_free(&s->shade);
     vbnl_vl_set_free(&s->vls);
-    free(s->inv_area);
     free(s->save_path);
     free(s->load_path);
     free(s);
@@ -276,8 +275,8 @@ static void convert_chunk(void *user, uint64_t item, unsigned thread)
     }
 }
 
-/* The index over the set, 1 / (pi r_j^2) and one conversion kernel per material carrying lights;
- * s->vls and s->profiles exist. */
+/* The index over the set and one conversion kernel per material carrying lights; s->vls and
+ * s->profiles exist. */
 static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
 {
     const vbnl_scene *sc = s->scene;
@@ -292,14 +291,12 @@ static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
     vbnl_result r = vbnl_vl_index_create(&id, &s->index);
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the virtual-light index (%s)", vbnl_result_name(r));
-    s->inv_area = malloc(sizeof(float) * n);
     s->kernels = calloc(sc->material_count, sizeof(*s->kernels));
-    if (!s->inv_area || !s->kernels)
+    if (!s->kernels)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
     s->log_rmin = INFINITY;
     s->log_rmax = -INFINITY;
     for (uint32_t j = 0; j < n; ++j) {
-        s->inv_area[j] = 1.0f / (VBNL_PI * s->vls.radius[j] * s->vls.radius[j]);
         s->log_rmin = fminf(s->log_rmin, logf(s->vls.radius[j]));
         s->log_rmax = fmaxf(s->log_rmax, logf(s->vls.radius[j]));
     }
@@ -425,44 +422,34 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     int rc = vbnl_run_items(stage, NULL, (n + CONVERT_CHUNK - 1) / CONVERT_CHUNK, convert_chunk, &cj);
     if (stage)
         vbnl_stage_end(stage);
-    if (rc == 0 && vbnl_alias_table_build(&s->power_table, cj.power, n) != 0)
-        s->power_table.n = 0; /* no light received any photon: only path extension remains */
+    /* the render records with the power alias table; when no light received any photon, only
+     * path extension remains (shade.n = 0) */
+    r = rc == 0 ? vbnl_vl_shade_build(&s->shade, &s->vls, s->index, s->profiles, s->kernels, cj.power) : VBNL_OK;
     free(cj.power);
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "profile conversion was cancelled");
-    /* the set, profiles, index, 1/(pi r^2) and the power alias table (prob, alias, pmf) */
+    if (r != VBNL_OK)
+        return vbnl_error_set(err, r, "out of memory for the render records of %u virtual lights", n);
+    /* the set, profiles, index and render records */
     vbnl_stage_set_storage(stage, vbnl_vl_set_bytes(&s->vls) + vbnl_profile_set_bytes(s->profiles) +
-                                      vbnl_vl_index_bytes(s->index) + (uint64_t)n * (sizeof(float) + 12));
+                                      vbnl_vl_index_bytes(s->index) + vbnl_vl_shade_bytes(&s->shade));
     s->prepared = 1;
     return VBNL_OK;
 }
 
 /* ---- rendering ------------------------------------------------------------------------------ */
 
-/* Radiance leaving y (inside the sphere of light j) toward the direction -w: J_j / (pi r_j^2). */
-static inline vec3 vl_radiance(vbnl_state *s, uint32_t j, vec3 w_toward_y)
+/* Radiance leaving y (inside the sphere of the light of rank j) toward -w: J_j / (pi r_j^2). */
+static inline vec3 vl_radiance(const vbnl_state *s, uint32_t j, vec3 w)
 {
-    frame f = frame_from_normal(s->vls.normal[j]);
-    vec3 wo = frame_to_local(&f, v3_neg(w_toward_y));
-    if (wo.z <= 0.0f)
-        return v3s(0.0f);
-    const vbnl_profile_kernel *k = s->kernels[s->vls.material[j]];
-    return v3_scale(v3_mul(vbnl_profile_eval(s->profiles, j, k, wo), s->vls.tint[j]), s->inv_area[j]);
-}
-
-/* Cone of directions from x containing the sphere of light j: cos of its half-angle (-1 when x
- * is inside the sphere: every direction). */
-static inline float vl_cone_cos(const vbnl_state *s, uint32_t j, vec3 x)
-{
-    float d2 = v3_len2(v3_sub(s->vls.position[j], x));
-    float r2 = s->vls.radius[j] * s->vls.radius[j];
-    return d2 <= r2 ? -1.0f : sqrtf(1.0f - r2 / d2);
+    return vbnl_vl_shade_radiance(&s->shade.rec[j], s->profiles, s->kernels, w);
 }
 
 /* Eq. 4: solid-angle pdf of power-based sampling reaching light j along a direction in its cone. */
 static inline float vl_pdf(const vbnl_state *s, uint32_t j, vec3 x)
 {
-    return s->power_table.pmf[j] * pdf_uniform_cone(vl_cone_cos(s, j, x));
+    const vbnl_vl_shade_rec *e = &s->shade.rec[j];
+    return e->pmf * pdf_uniform_cone(vbnl_vl_shade_cone_cos(e, x));
 }
 
 /* Eq. 9 with the footprint of Eq. 7. */
@@ -479,25 +466,25 @@ static inline float blend_weight(const vbnl_state *s, vec3 x, const vbnl_hit *y,
 }
 
 /* Lights containing y that may shine toward x (the filter of splitting, so both see the same
- * set). Returns their count. */
-static uint32_t gather(const vbnl_state *s, const vbnl_hit *y, vec3 w, uint32_t *ids)
+ * set), in id order with their ranks. Returns their count. */
+static uint32_t gather(const vbnl_state *s, const vbnl_hit *y, vec3 w, vbnl_vl_found *found)
 {
     vbnl_vl_filter f;
     f.n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng); /* facing x */
     f.wi = v3_neg(w);
     f.normal_cos = VL_NORMAL_COS;
     f.facing = 1;
-    uint32_t n = vbnl_vl_index_query_filtered(s->index, y->p, &f, VL_GATHER_MAX, ids, NULL);
+    uint32_t n = vbnl_vl_index_query_found(s->index, y->p, &f, VL_GATHER_MAX, found);
     return n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
 }
 
-/* True when light j may shine at y toward x (same filter as gather). */
-static int accepts(const vbnl_state *s, uint32_t j, const vbnl_hit *y, vec3 w)
+/* True when light e may shine at y toward x (same filter as gather). */
+static int accepts(const vbnl_vl_shade_rec *e, const vbnl_hit *y, vec3 w)
 {
-    if (v3_len2(v3_sub(y->p, s->vls.position[j])) >= s->vls.radius[j] * s->vls.radius[j])
+    if (v3_len2(v3_sub(y->p, e->position)) >= e->r2)
         return 0;
     vec3 n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng);
-    return v3_dot(s->vls.normal[j], n) > VL_NORMAL_COS && v3_dot(s->vls.normal[j], w) < 0.0f;
+    return v3_dot(e->normal, n) > VL_NORMAL_COS && v3_dot(e->normal, w) < 0.0f;
 }
 
 static inline void add_vl(float *out, const vbnl_state *s, vec3 c)
@@ -523,9 +510,9 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     vbnl_state *s = state;
     const vbnl_scene *sc = s->scene;
     vbnl_hit hit = *first;
-    const int have_vls = s->prepared && s->power_table.n > 0;
+    const int have_vls = s->prepared && s->shade.n > 0;
     vec3 beta = v3s(1.0f);
-    uint32_t ids[VL_GATHER_MAX];
+    vbnl_vl_found found[VL_GATHER_MAX];
     int vertices = 0;
     out[3] = 1.0f;
     /* what the camera sees directly */
@@ -561,33 +548,41 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         if (!delta)
             direct_phase = 0;
 
+        /* The power-based pick below is drawn first, so that its record (a cache miss: lights
+         * are picked at random) loads while next-event estimation runs. */
+        const int power_sample = !delta && have_vls && s->sampling != SAMPLE_BSDF;
+        float u_pick = 0.0f;
+        if (power_sample) {
+            u_pick = vbnl_rng_next(rng);
+            vbnl_vl_shade_prefetch(&s->shade, u_pick);
+        }
+
         /* Direct light from the real lights: next-event estimation with MIS. */
         if (!delta && !drop_direct)
             add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)));
 
         /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
          * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
-        if (!delta && have_vls && s->sampling != SAMPLE_BSDF) {
-            float pmf;
-            uint32_t j = vbnl_alias_table_sample(&s->power_table, vbnl_rng_next(rng), &pmf);
+        if (power_sample) {
+            const vbnl_vl_shade_rec *e = &s->shade.rec[vbnl_vl_shade_pick(&s->shade, u_pick)];
             vec2 uc = vbnl_rng_next2(rng);
-            vec3 to = v3_sub(s->vls.position[j], x);
+            vec3 to = v3_sub(e->position, x);
             float dist = v3_len(to);
-            float cos_max = vl_cone_cos(s, j, x);
+            float cos_max = vbnl_vl_shade_cone_cos(e, x);
             frame cf = frame_from_normal(dist > 0.0f ? v3_scale(to, 1.0f / dist) : sf.fr.n);
             vec3 w = frame_to_world(&cf, sample_uniform_cone(uc, cos_max));
-            float p_j = pmf * pdf_uniform_cone(cos_max);
+            float p_j = e->pmf * pdf_uniform_cone(cos_max);
             int hits_disk = 1;
             if (s->disk_test) {
                 /* §5: a ray that misses the light's disk is taken as occluded, untraced */
-                vec3 n = s->vls.normal[j];
+                vec3 n = e->normal;
                 float denom = v3_dot(w, n);
                 hits_disk = 0;
                 if (fabsf(denom) > 1e-6f) {
-                    float t = v3_dot(v3_sub(s->vls.position[j], x), n) / denom;
+                    float t = v3_dot(v3_sub(e->position, x), n) / denom;
                     if (t > 0.0f) {
                         vec3 q = v3_fma(x, w, t);
-                        hits_disk = v3_len2(v3_sub(q, s->vls.position[j])) < s->vls.radius[j] * s->vls.radius[j];
+                        hits_disk = v3_len2(v3_sub(q, e->position)) < e->r2;
                     }
                 }
             }
@@ -598,12 +593,14 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
                 vbnl_hit y;
                 stats->rays++;
                 if (vbnl_scene_intersect(sc, vbnl_offset_ray_origin(x, sf.ng, w), w, INFINITY, &y) &&
-                    accepts(s, j, &y, w)) {
+                    accepts(e, &y, w)) {
                     float p_b = vbnl_bsdf_pdf(bsdf, sf.wo, wl);
                     float mis = s->sampling == SAMPLE_MIS ? power_heuristic(p_j, p_b) : 1.0f;
-                    float wv = blend_weight(s, x, &y, w, p_b, s->vls.density[j]);
+                    float wv = blend_weight(s, x, &y, w, p_b, e->density);
                     if (wv > 0.0f)
-                        add_vl(out, s, v3_scale(v3_mul(v3_mul(beta, f), vl_radiance(s, j, w)), mis * wv / p_j));
+                        add_vl(out, s,
+                               v3_scale(v3_mul(v3_mul(beta, f), vbnl_vl_shade_radiance(e, s->profiles, s->kernels, w)),
+                                        mis * wv / p_j));
                 }
             }
         }
@@ -637,16 +634,16 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         float wv = 0.0f;
         int near_specular = vbnl_lobe_is_near_specular(bsdf, bs.lobe, s->pp.specular_roughness);
         if (!near_specular && have_vls) {
-            uint32_t n = gather(s, &hit, w, ids);
+            uint32_t n = gather(s, &hit, w, found);
             if (n > 0) {
                 float density = 0.0f;
                 for (uint32_t k = 0; k < n; ++k)
-                    density += s->vls.density[ids[k]];
+                    density += s->shade.rec[found[k].rank].density;
                 wv = blend_weight(s, x, &hit, w, bs.pdf, density / (float)n); /* Eqs. 7-9 */
                 if (wv > 0.0f && s->sampling != SAMPLE_POWER) {
                     vec3 sum = v3s(0.0f);
                     for (uint32_t k = 0; k < n; ++k) {
-                        uint32_t j = ids[k];
+                        uint32_t j = found[k].rank;
                         float mis = s->sampling == SAMPLE_MIS ? power_heuristic(bs.pdf, vl_pdf(s, j, x)) : 1.0f;
                         sum = v3_add(sum, v3_scale(vl_radiance(s, j, w), mis));
                     }

@@ -1,0 +1,70 @@
+#include "vl_shade.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "sampling.h"
+
+vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, const vbnl_vl_index *index,
+                                vbnl_profile_set *profiles, vbnl_profile_kernel *const *kernels,
+                                const float *power)
+{
+    memset(out, 0, sizeof(*out));
+    uint32_t n = set->count;
+    if (n == 0)
+        return VBNL_OK;
+    float *weight = malloc(sizeof(float) * n);
+    if (!weight)
+        return VBNL_ERR_OUT_OF_MEMORY;
+    int any = 0;
+    for (uint32_t r = 0; r < n; ++r) {
+        weight[r] = power[vbnl_vl_index_id(index, r)];
+        any |= weight[r] > 0.0f;
+    }
+    vbnl_alias_table table;
+    int built = any ? vbnl_alias_table_build(&table, weight, n) : -1;
+    free(weight);
+    if (built != 0)
+        return any ? VBNL_ERR_OUT_OF_MEMORY : VBNL_OK; /* no light emits: nothing to sample */
+    out->rec = aligned_alloc(64, sizeof(vbnl_vl_shade_rec) * (size_t)n);
+    if (!out->rec) {
+        vbnl_alias_table_free(&table);
+        return VBNL_ERR_OUT_OF_MEMORY;
+    }
+    for (uint32_t r = 0; r < n; ++r) {
+        uint32_t id = vbnl_vl_index_id(index, r);
+        vbnl_vl_shade_rec *e = &out->rec[r];
+        float radius = set->radius[id];
+        float inv_area = 1.0f / (VBNL_PI * radius * radius);
+        const vbnl_profile_kernel *k = kernels[set->material[id]];
+        e->position = set->position[id];
+        e->r2 = radius * radius;
+        e->normal = set->normal[id];
+        e->density = set->density[id];
+        e->id = id;
+        if (vbnl_profile_is_glossy(profiles, id)) {
+            e->material = set->material[id];
+            e->radiance = v3_scale(set->tint[id], inv_area);
+        } else {
+            e->material = VBNL_VL_SHADE_LAMBERT;
+            vec3 J = vbnl_profile_eval(profiles, id, k, v3(0.0f, 0.0f, 1.0f)); /* any wo above */
+            e->radiance = v3_scale(v3_mul(J, set->tint[id]), inv_area);
+        }
+        e->pmf = table.pmf[r];
+        e->prob = table.prob[r];
+        e->alias = table.alias[r];
+    }
+    vbnl_alias_table_free(&table);
+    out->n = n;
+    return VBNL_OK;
+}
+
+void vbnl_vl_shade_free(vbnl_vl_shade *t)
+{
+    if (!t)
+        return;
+    free(t->rec);
+    memset(t, 0, sizeof(*t));
+}
+
+size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t) { return (size_t)t->n * sizeof(vbnl_vl_shade_rec); }

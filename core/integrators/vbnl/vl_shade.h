@@ -1,0 +1,98 @@
+/* What rendering reads of each virtual light, packed (private header).
+ *
+ * Shading a vertex touches lights chosen at random (power-based selection, Eq. 4) or found by the
+ * gather query (BSDF sampling, Section 4.1): with 40K-130K lights each one is a cache miss. Kept as
+ * separate arrays (position, radius, normal, density, tint, 1 / (pi r^2), pmf, alias slot, profile)
+ * one light cost up to eight misses; profiled on the glossy Cornell box at 512 x 512 with 40K
+ * lights, those loads were most of vbnl's rendering time. Here every light is one 64-byte record
+ * (one cache line), in the spatial order of the index (its *rank*, vl_index.h), so the lights a
+ * query finds, and those of neighbouring pixels, also share pages.
+ *
+ * A record holds the alias-table slot of its rank as well (acceptance probability and alias):
+ * picking a light by power reads the record of the slot drawn, which is the light itself with
+ * the acceptance probability, so most picks cost one line.
+ *
+ * Radiance (vbnl.c, Eq. 3): L_j(y, w) = J_j(w) tint_j / (pi r_j^2). For a Lambertian light J does
+ * not depend on the direction (profiles.h), so the record stores the finished radiance; a glossy
+ * light stores tint_j / (pi r_j^2) and evaluates its profile (lazily converted or not) by id. */
+#ifndef VBNL_VL_SHADE_H
+#define VBNL_VL_SHADE_H
+
+#include <stdint.h>
+
+#include "profiles.h"
+#include "vbnl/result.h"
+#include "vl_index.h"
+#include "vl_set.h"
+#include "vmath.h"
+
+#define VBNL_VL_SHADE_LAMBERT UINT32_MAX /* material field of a Lambertian light */
+
+typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
+    vec3 position;
+    float r2;          /* r_j^2 (float product, as the filters compute it) */
+    vec3 normal;
+    float density;     /* rho_j, Eq. 8 */
+    vec3 radiance;     /* Lambertian: J tint / (pi r^2); glossy: tint / (pi r^2) */
+    float pmf;         /* probability of power-based selection */
+    float prob;        /* alias slot of this rank: acceptance probability ... */
+    uint32_t alias;    /* ... and the other rank */
+    uint32_t id;       /* the light's id in the set (profiles are kept by id) */
+    uint32_t material; /* glossy: the material (its conversion kernel); VBNL_VL_SHADE_LAMBERT */
+} vbnl_vl_shade_rec;
+
+typedef struct vbnl_vl_shade {
+    uint32_t n;               /* 0: no light emits (no photon landed): lights are not sampled */
+    vbnl_vl_shade_rec *rec;   /* by rank */
+} vbnl_vl_shade;
+
+/* Builds the records of the n = set->count lights: power[id] is each light's emitted power
+ * (selection weight), kernels[material] its conversion kernel. Lambertian radiance is read from
+ * the profiles now (no conversion needed); glossy profiles are left as they are. When every power
+ * is zero, out->n = 0 and VBNL_OK. Errors: VBNL_ERR_OUT_OF_MEMORY. */
+vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, const vbnl_vl_index *index,
+                                vbnl_profile_set *profiles, vbnl_profile_kernel *const *kernels,
+                                const float *power);
+void vbnl_vl_shade_free(vbnl_vl_shade *t);
+size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t);
+
+/* Power-based selection with one uniform number (the alias table's rule): a rank. */
+static inline uint32_t vbnl_vl_shade_pick(const vbnl_vl_shade *t, float u)
+{
+    float x = u * (float)t->n;
+    uint32_t slot = (uint32_t)x;
+    if (slot >= t->n)
+        slot = t->n - 1;
+    const vbnl_vl_shade_rec *e = &t->rec[slot];
+    return x - (float)slot < e->prob ? slot : e->alias;
+}
+
+/* Starts loading the record of the slot u draws (the light itself, unless it goes to its alias). */
+static inline void vbnl_vl_shade_prefetch(const vbnl_vl_shade *t, float u)
+{
+    uint32_t slot = (uint32_t)(u * (float)t->n);
+    __builtin_prefetch(&t->rec[slot < t->n ? slot : t->n - 1]);
+}
+
+/* Radiance leaving a point inside the light's sphere toward -w (w: the direction from the
+ * shading point to it): zero behind the light. */
+static inline vec3 vbnl_vl_shade_radiance(const vbnl_vl_shade_rec *e, vbnl_profile_set *profiles,
+                                          vbnl_profile_kernel *const *kernels, vec3 w)
+{
+    if (e->material == VBNL_VL_SHADE_LAMBERT)
+        return v3_dot(v3_neg(w), e->normal) > 0.0f ? e->radiance : v3s(0.0f);
+    frame f = frame_from_normal(e->normal);
+    vec3 wo = frame_to_local(&f, v3_neg(w));
+    if (wo.z <= 0.0f)
+        return v3s(0.0f);
+    return v3_mul(vbnl_profile_eval(profiles, e->id, kernels[e->material], wo), e->radiance);
+}
+
+/* Cos of the half-angle of the cone from x containing the light's sphere (-1 inside it). */
+static inline float vbnl_vl_shade_cone_cos(const vbnl_vl_shade_rec *e, vec3 x)
+{
+    float d2 = v3_len2(v3_sub(e->position, x));
+    return d2 <= e->r2 ? -1.0f : sqrtf(1.0f - e->r2 / d2);
+}
+
+#endif

@@ -1,0 +1,229 @@
+/* Tests for the packed render records of VBNL virtual lights (core/integrators/vbnl/vl_shade.h).
+ *
+ * A random set of Lambertian and glossy lights with random photon deposits: every record must
+ * hold its light's data in the index's rank order, radiance must equal the unpacked formula
+ * J(wo) tint / (pi r^2) of profiles.h, the pmf must be power / total power, and the pick must
+ * draw ranks with that pmf (chi-square; a test against the wrong pmf must fail). Seeds are
+ * fixed. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bsdf.h"
+#include "chi2.h"
+#include "octahedral.h"
+#include "profiles.h"
+#include "rng.h"
+#include "sampling.h"
+#include "vl_index.h"
+#include "vl_set.h"
+#include "vl_shade.h"
+
+#define N_LIGHTS 400u
+
+typedef struct fixture {
+    vbnl_hemioct *map;
+    vbnl_profile_kernel *kernels[2]; /* 0: Lambertian, 1: GGX conductor */
+    vbnl_profile_set *profiles;
+    vbnl_vl_set set;
+    vbnl_vl_index *index;
+    float power[N_LIGHTS];
+} fixture;
+
+static vbnl_bsdf make_bsdf(vbnl_material_type type, vec3 color, float alpha)
+{
+    vbnl_material_desc d;
+    memset(&d, 0, sizeof(d));
+    d.type = type;
+    d.base_color[0] = color.x;
+    d.base_color[1] = color.y;
+    d.base_color[2] = color.z;
+    d.alpha = alpha;
+    d.ior = 1.5f;
+    vbnl_bsdf b;
+    vbnl_bsdf_from_material(&b, &d);
+    return b;
+}
+
+static vec3 random_unit(vbnl_rng *r) { return sample_uniform_sphere(vbnl_rng_next2(r)); }
+
+/* Every third light glossy; light 5 receives no photon (power 0). */
+static void fixture_make(fixture *f)
+{
+    memset(f, 0, sizeof(*f));
+    assert_int_equal(vbnl_hemioct_create(16, &f->map), VBNL_OK);
+    vbnl_bsdf lam = make_bsdf(VBNL_MATERIAL_LAMBERT, v3(0.7f, 0.5f, 0.3f), 1.0f);
+    vbnl_bsdf ggx = make_bsdf(VBNL_MATERIAL_CONDUCTOR, v3(0.9f, 0.8f, 0.6f), 0.3f);
+    assert_int_equal(vbnl_profile_kernel_create(f->map, &lam, 1, &f->kernels[0]), VBNL_OK);
+    assert_int_equal(vbnl_profile_kernel_create(f->map, &ggx, 1, &f->kernels[1]), VBNL_OK);
+    assert_int_equal(vbnl_vl_set_alloc(&f->set, N_LIGHTS, NULL), VBNL_OK);
+    uint8_t glossy[N_LIGHTS];
+    vbnl_rng rng = vbnl_rng_make(11, 3);
+    for (uint32_t j = 0; j < N_LIGHTS; ++j) {
+        glossy[j] = j % 3 == 0;
+        f->set.position[j] = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+        f->set.normal[j] = random_unit(&rng);
+        f->set.material[j] = glossy[j];
+        f->set.tint[j] = v3(0.5f + 0.5f * vbnl_rng_next(&rng), 1.0f, 0.25f + vbnl_rng_next(&rng));
+        f->set.radius[j] = 0.01f + 0.05f * vbnl_rng_next(&rng);
+        f->set.density[j] = 100.0f * vbnl_rng_next(&rng);
+    }
+    assert_int_equal(vbnl_profile_set_create(f->map, N_LIGHTS, glossy, &f->profiles), VBNL_OK);
+    for (uint32_t j = 0; j < N_LIGHTS; ++j) {
+        if (j == 5)
+            continue;
+        int photons = 1 + (int)(20.0f * vbnl_rng_next(&rng));
+        for (int p = 0; p < photons; ++p) {
+            vec3 wi = sample_uniform_hemisphere(vbnl_rng_next2(&rng));
+            vec3 pw = v3s(0.1f + vbnl_rng_next(&rng));
+            vbnl_profile_deposit(f->profiles, j, wi, pw);
+        }
+    }
+    for (uint32_t j = 0; j < N_LIGHTS; ++j) {
+        const vbnl_profile_kernel *k = f->kernels[f->set.material[j]];
+        f->power[j] = v3_max_comp(v3_mul(vbnl_profile_power(f->profiles, j, k), f->set.tint[j]));
+    }
+    vbnl_vl_index_desc d = {f->set.position, f->set.radius, f->set.normal, N_LIGHTS, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    assert_int_equal(vbnl_vl_index_create(&d, &f->index), VBNL_OK);
+}
+
+static void fixture_free(fixture *f)
+{
+    vbnl_vl_index_destroy(f->index);
+    vbnl_profile_set_destroy(f->profiles);
+    vbnl_vl_set_free(&f->set);
+    vbnl_profile_kernel_destroy(f->kernels[0]);
+    vbnl_profile_kernel_destroy(f->kernels[1]);
+    vbnl_hemioct_destroy(f->map);
+}
+
+/* Records in rank order with their light's data; radiance as the unpacked formula. */
+static void test_records(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f);
+    vbnl_vl_shade t;
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    assert_int_equal(t.n, N_LIGHTS);
+    assert_int_equal(vbnl_vl_shade_bytes(&t), N_LIGHTS * 64u);
+    assert_int_equal(sizeof(vbnl_vl_shade_rec), 64);
+    assert_int_equal((uintptr_t)t.rec % 64u, 0);
+    double total = 0.0, pmf_sum = 0.0;
+    for (uint32_t j = 0; j < N_LIGHTS; ++j)
+        total += f.power[j];
+    vbnl_rng rng = vbnl_rng_make(4, 9);
+    int glossy_seen = 0, lambert_seen = 0;
+    for (uint32_t r = 0; r < N_LIGHTS; ++r) {
+        const vbnl_vl_shade_rec *e = &t.rec[r];
+        uint32_t id = vbnl_vl_index_id(f.index, r);
+        assert_int_equal(e->id, id);
+        assert_memory_equal(&e->position, &f.set.position[id], sizeof(vec3));
+        assert_memory_equal(&e->normal, &f.set.normal[id], sizeof(vec3));
+        assert_true(e->r2 == f.set.radius[id] * f.set.radius[id]);
+        assert_true(e->density == f.set.density[id]);
+        assert_true(fabs(e->pmf - f.power[id] / total) <= 1e-6 * (f.power[id] / total) + 1e-12);
+        assert_true(e->prob >= 0.0f && e->alias < N_LIGHTS);
+        pmf_sum += e->pmf;
+        int glossy = vbnl_profile_is_glossy(f.profiles, id);
+        assert_int_equal(e->material, glossy ? f.set.material[id] : VBNL_VL_SHADE_LAMBERT);
+        glossy_seen += glossy;
+        lambert_seen += !glossy;
+        float inv_area = 1.0f / (VBNL_PI * f.set.radius[id] * f.set.radius[id]);
+        frame fr = frame_from_normal(f.set.normal[id]);
+        for (int k = 0; k < 40; ++k) {
+            vec3 w = random_unit(&rng); /* from the shading point toward the light */
+            vec3 wo = frame_to_local(&fr, v3_neg(w));
+            vec3 want = wo.z <= 0.0f ? v3s(0.0f)
+                                     : v3_scale(v3_mul(vbnl_profile_eval(f.profiles, id, f.kernels[f.set.material[id]], wo),
+                                                       f.set.tint[id]),
+                                                inv_area);
+            vec3 got = vbnl_vl_shade_radiance(e, f.profiles, f.kernels, w);
+            /* glossy: the local direction may differ in its last bits (contraction of the frame
+             * arithmetic), which moves the bilinear weights on a steep lobe */
+            float tol = glossy ? 2e-5f : 1e-6f;
+            for (int c = 0; c < 3; ++c)
+                if (!(fabsf(v3_comp(got, c) - v3_comp(want, c)) <= tol * fabsf(v3_comp(want, c))))
+                    fail_msg("light %u (glossy %d) wo.z %g channel %d: %a, want %a", id, glossy, wo.z, c,
+                             v3_comp(got, c), v3_comp(want, c));
+        }
+    }
+    assert_true(glossy_seen > 100 && lambert_seen > 200);
+    assert_true(fabs(pmf_sum - 1.0) < 1e-5);
+    vbnl_vl_shade_free(&t);
+    assert_null(t.rec);
+    assert_int_equal(t.n, 0);
+    fixture_free(&f);
+}
+
+/* The pick draws ranks with the pmf; the same counts against a wrong pmf (uniform) fail. */
+static void test_pick_frequencies(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f);
+    vbnl_vl_shade t;
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    const int draws = 2000000;
+    double *obs = calloc(N_LIGHTS, sizeof(double)), *exp_pmf = malloc(sizeof(double) * N_LIGHTS),
+           *exp_uniform = malloc(sizeof(double) * N_LIGHTS);
+    vbnl_rng rng = vbnl_rng_make(21, 1);
+    for (int i = 0; i < draws; ++i) {
+        float u = vbnl_rng_next(&rng);
+        vbnl_vl_shade_prefetch(&t, u);
+        uint32_t r = vbnl_vl_shade_pick(&t, u);
+        assert_true(r < N_LIGHTS);
+        obs[r] += 1.0;
+    }
+    for (uint32_t r = 0; r < N_LIGHTS; ++r) {
+        exp_pmf[r] = t.rec[r].pmf * (double)draws;
+        exp_uniform[r] = (double)draws / N_LIGHTS;
+    }
+    uint32_t zero_rank = vbnl_vl_index_rank(f.index, 5);
+    assert_true(t.rec[zero_rank].pmf == 0.0f);
+    assert_true(obs[zero_rank] == 0.0); /* a light without photons is never picked */
+    vbnl_chi2_result res;
+    int ok = vbnl_chi2_test(obs, exp_pmf, N_LIGHTS, 5.0, 0.01, &res);
+    print_message("pick vs pmf: %s\n", res.msg);
+    assert_true(ok);
+    int wrong = vbnl_chi2_test(obs, exp_uniform, N_LIGHTS, 5.0, 0.01, &res);
+    print_message("pick vs uniform (must fail): %s\n", res.msg);
+    assert_false(wrong);
+    free(obs);
+    free(exp_pmf);
+    free(exp_uniform);
+    vbnl_vl_shade_free(&t);
+    fixture_free(&f);
+}
+
+/* No light received a photon: nothing to sample, and no error. */
+static void test_no_power(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f);
+    memset(f.power, 0, sizeof(f.power));
+    vbnl_vl_shade t;
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    assert_int_equal(t.n, 0);
+    assert_null(t.rec);
+    assert_int_equal(vbnl_vl_shade_bytes(&t), 0);
+    vbnl_vl_shade_free(&t);
+    fixture_free(&f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_records),
+        cmocka_unit_test(test_pick_frequencies),
+        cmocka_unit_test(test_no_power),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
