@@ -30,6 +30,8 @@ typedef struct split_thread {
     uint32_t *bin;       /* bin of hits[i] */
     uint32_t *start;     /* bins + 1 */
     uint32_t n, cap;
+    _Alignas(32) uint64_t cov[4]; /* covered power (fixed point, RGB and a zero lane), added to
+                                   * s.covered_power when the run ends */
     /* glossy splats in flight (prepared and prefetched, applied SPLAT_RING deposits later) */
     vbnl_profile_splat ring[SPLAT_RING];
     uint32_t ring_n, ring_at;
@@ -117,128 +119,157 @@ typedef struct split_ctx {
     const uint32_t *order;
 } split_ctx;
 
-/* The deposit of one hit h: the m VLs of rank rk[i], id id[i] and weight w[i] = 1 - (d/r)^2 > 0
+/* Keeps the max_vls of the m VLs with the largest weights (ties: smaller id) in their order:
+ * drops the smallest (ties: larger id) m - max_vls times, or, when more than half go, moves the
+ * largest to the front max_vls times (then in weight order). Either keeps the same set. Returns
+ * the sum of the kept weights in their new order. */
+static inline float select_max_vls(const vbnl_vl_index *x, float *w, uint32_t *rk, uint32_t m, uint32_t max_vls)
+{
+    if (m - max_vls <= max_vls) {
+        for (; m > max_vls; --m) {
+            uint32_t worst = 0;
+            for (uint32_t b = 1; b < m; ++b)
+                if (w[b] < w[worst] || (w[b] == w[worst] && x->rec[rk[b]].id > x->rec[rk[worst]].id))
+                    worst = b;
+            for (uint32_t b = worst + 1; b < m; ++b) {
+                w[b - 1] = w[b];
+                rk[b - 1] = rk[b];
+            }
+        }
+    } else {
+        for (uint32_t a = 0; a < max_vls; ++a) {
+            uint32_t best = a;
+            for (uint32_t b = a + 1; b < m; ++b)
+                if (w[b] > w[best] || (w[b] == w[best] && x->rec[rk[b]].id < x->rec[rk[best]].id))
+                    best = b;
+            float tw = w[a];
+            uint32_t tr = rk[a];
+            w[a] = w[best];
+            rk[a] = rk[best];
+            w[best] = tw;
+            rk[best] = tr;
+        }
+        m = max_vls;
+    }
+    float sum = 0.0f;
+    for (uint32_t i = 0; i < m; ++i)
+        sum += w[i];
+    return sum;
+}
+
+/* The deposit of one hit h: the m VLs of rank rk[i] and weight w[i] = 1 - (d/r)^2 > 0
  * (Section 3.3; those that passed the authors' filters, in rank order) share it; sum is the
  * sum of the w[i] in order. The arrays are scratch (reordered by the max_vls selection). */
 static inline __attribute__((always_inline)) void split_deposit(const split_ctx *cx, const split_rec *h, float *w,
-                                                                uint32_t *rk, uint32_t *id, uint32_t m, float sum)
+                                                                uint32_t *rk, uint32_t m, float sum)
 {
     const split_job *job = cx->job;
     split_thread *t = cx->t;
     vbnl_split_stats *st = &t->s;
+    const vbnl_vl_index *x = job->d->index;
     /* The max_vls largest weights (ties: smaller id); otherwise rank order. */
     if (m > job->max_vls) {
-        for (uint32_t a = 0; a < job->max_vls; ++a) {
-            uint32_t best = a;
-            for (uint32_t b = a + 1; b < m; ++b)
-                if (w[b] > w[best] || (w[b] == w[best] && id[b] < id[best]))
-                    best = b;
-            float tw = w[a];
-            uint32_t tr = rk[a], ti = id[a];
-            w[a] = w[best];
-            rk[a] = rk[best];
-            id[a] = id[best];
-            w[best] = tw;
-            rk[best] = tr;
-            id[best] = ti;
-        }
+        sum = select_max_vls(x, w, rk, m, job->max_vls);
         m = job->max_vls;
-        sum = 0.0f;
-        for (uint32_t i = 0; i < m; ++i)
-            sum += w[i];
     }
+    int glossy = 0;
+    if (job->glossy)
+        for (uint32_t i = 0; i < m; ++i)
+            glossy |= job->glossy[rk[i]];
+#if defined(__AVX2__)
+    if (!glossy && t->acc) {
+        /* quantize1 for the three channels in one vector (same bits): x = power / unit, 0 unless
+         * x > 0 (also NaN), trunc(x + 0.5) turned into an integer by the 2^52 trick, exact below
+         * 2^51; larger photons take the scalar path below. */
+        const __m256d two52 = _mm256_set1_pd(0x1p52);
+        const __m256i two52i = _mm256_castpd_si256(two52);
+        __m256d xq = _mm256_mul_pd(_mm256_cvtps_pd(_mm_setr_ps(h->power.x, h->power.y, h->power.z, 0.0f)),
+                                   _mm256_set1_pd(job->inv_unit));
+        __m256d pos = _mm256_cmp_pd(xq, _mm256_setzero_pd(), _CMP_GT_OQ);
+        if (!_mm256_movemask_pd(_mm256_cmp_pd(xq, _mm256_set1_pd(0x1p51), _CMP_GE_OQ))) {
+            __m256d dq = _mm256_and_pd(pos, _mm256_round_pd(_mm256_add_pd(xq, _mm256_set1_pd(0.5)),
+                                                            _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC));
+            __m256i left = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(dq, two52)), two52i);
+            if (_mm256_testz_si256(left, left))
+                return;
+            /* The covered power before the split consumes `left`. */
+            _mm256_store_si256((__m256i *)t->cov, _mm256_add_epi64(_mm256_load_si256((const __m256i *)t->cov), left));
+            /* vbnl_profile_split_fixed (same bits) with the normalisation w[i] / sum fused and the
+             * shares added straight into this thread's sums (by rank): v = min(trunc(q w), left)
+             * per channel, trunc by floor (x >= 0) and the 2^52 trick, min and subtraction in
+             * 64-bit lanes; the residue goes to the largest normalised weight (first on ties). */
+            __m256i *a_big = NULL;
+            float w_big = -1.0f;
+            for (uint32_t i = 0; i < m; ++i) {
+                float wk = w[i] / sum;
+                __m256d xv = _mm256_mul_pd(dq, _mm256_set1_pd((double)wk));
+                xv = _mm256_round_pd(xv, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+                __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), two52i);
+                v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
+                left = _mm256_sub_epi64(left, v);
+                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
+                _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
+                if (wk > w_big) {
+                    w_big = wk;
+                    a_big = a;
+                }
+            }
+            _mm256_store_si256(a_big, _mm256_add_epi64(_mm256_load_si256(a_big), left));
+            st->covered_hits++;
+            st->deposits += m;
+            return;
+        }
+    }
+#endif
     /* Normalised weights; the residue of the exact split goes to the largest (first on ties),
      * as in vbnl_profile_split_fixed (split3 finds the same one). */
-    uint32_t big = 0;
-    for (uint32_t i = 0; i < m; ++i) {
+    for (uint32_t i = 0; i < m; ++i)
         w[i] /= sum;
-        big = w[i] > w[big] ? i : big;
-    }
     /* Quantise once, then partition exactly (profiles.h, "Fixed point"). */
     uint64_t q[3] = {quantize1(h->power.x, job->inv_unit), quantize1(h->power.y, job->inv_unit),
                      quantize1(h->power.z, job->inv_unit)};
     if (!(q[0] | q[1] | q[2]))
         return;
-    int glossy = 0;
-    if (job->glossy)
-        for (uint32_t i = 0; i < m; ++i)
-            glossy |= job->glossy[rk[i]];
-    if (!glossy && t->acc) {
-        /* split3 with the shares added straight into this thread's sums (by rank) */
-#if defined(__AVX2__)
-        if ((q[0] | q[1] | q[2]) < (1ull << 51)) {
-            /* The three channels in one vector: x = q w (double), v = min(trunc x, left) as in
-             * split3, with trunc x = floor x (x >= 0) turned into an integer by the 2^52 trick
-             * (exact below 2^51), the min and the subtraction in 64-bit integer lanes. */
-            const __m256d two52 = _mm256_set1_pd(0x1p52);
-            const __m256i two52i = _mm256_castpd_si256(two52);
-            __m256i left = _mm256_setr_epi64x((long long)q[0], (long long)q[1], (long long)q[2], 0);
-            __m256d dq = _mm256_setr_pd((double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2], 0.0);
-            for (uint32_t i = 0; i < m; ++i) {
-                __m256d x = _mm256_mul_pd(dq, _mm256_set1_pd((double)(w[i] > 0.0f ? w[i] : 0.0f)));
-                x = _mm256_round_pd(x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-                __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(x, two52)), two52i);
-                v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
-                left = _mm256_sub_epi64(left, v);
-                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
-                _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
-            }
-            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[big]);
-            _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), left));
-        } else
-#endif
-        {
-            uint64_t share[3][VBNL_SPLIT_MAX_VLS]; /* split3 leaves the remainder with the same `big` */
-            split3(q, m, w, share);
-            for (uint32_t i = 0; i < m; ++i) {
-                uint64_t *acc = t->acc + 4 * (size_t)rk[i];
-                acc[0] += share[0][i];
-                acc[1] += share[1][i];
-                acc[2] += share[2][i];
-            }
+    uint64_t share[3][VBNL_SPLIT_MAX_VLS];
+    split3(q, m, w, share);
+    const vbnl_split_desc *d = job->d;
+    for (uint32_t i = 0; i < m; ++i) {
+        uint32_t id = x->rec[rk[i]].id;
+        /* Phi_in into this thread's sums (plain adds, merged at the end), the direction into
+         * the VL's map (atomic: maps are shared); without per-thread sums, both atomically
+         * into the set. */
+        uint64_t s3[3] = {share[0][i], share[1][i], share[2][i]};
+        int gl = job->glossy && job->glossy[rk[i]];
+        vec3 wl = v3(0.0f, 0.0f, 1.0f); /* Lambertian VLs keep no direction */
+        if (gl) {
+            frame fr = frame_from_normal(d->vl_normals[id]);
+            wl = frame_to_local(&fr, h->wi);
         }
-    } else {
-        uint64_t share[3][VBNL_SPLIT_MAX_VLS];
-        split3(q, m, w, share);
-        const vbnl_split_desc *d = job->d;
-        for (uint32_t i = 0; i < m; ++i) {
-            const vbnl_vl_found e_ = {id[i], rk[i], 0.0f, 0.0f}, *e = &e_;
-            /* Phi_in into this thread's sums (plain adds, merged at the end), the direction
-             * into the VL's map (atomic: maps are shared); without per-thread sums, both
-             * atomically into the set. */
-            uint64_t s3[3] = {share[0][i], share[1][i], share[2][i]};
-            int gl = job->glossy && job->glossy[e->rank];
-            vec3 wl = v3(0.0f, 0.0f, 1.0f); /* Lambertian VLs keep no direction */
+        if (t->acc) {
+            uint64_t *a = t->acc + 4 * (size_t)rk[i];
+            a[0] += s3[0];
+            a[1] += s3[1];
+            a[2] += s3[2];
             if (gl) {
-                frame fr = frame_from_normal(d->vl_normals[e->id]);
-                wl = frame_to_local(&fr, h->wi);
+                vbnl_profile_splat *sp = &t->ring[t->ring_at];
+                if (t->ring_n == SPLAT_RING)
+                    vbnl_profile_splat_apply(sp); /* the oldest, prefetched long ago */
+                else
+                    t->ring_n++;
+                if (!vbnl_profile_splat_prepare(d->profiles, id, wl, s3, sp))
+                    t->ring_n--;
+                else
+                    t->ring_at = (t->ring_at + 1) % SPLAT_RING;
             }
-            if (t->acc) {
-                uint64_t *a = t->acc + 4 * (size_t)e->rank;
-                a[0] += s3[0];
-                a[1] += s3[1];
-                a[2] += s3[2];
-                if (gl) {
-                    vbnl_profile_splat *sp = &t->ring[t->ring_at];
-                    if (t->ring_n == SPLAT_RING)
-                        vbnl_profile_splat_apply(sp); /* the oldest, prefetched long ago */
-                    else
-                        t->ring_n++;
-                    if (!vbnl_profile_splat_prepare(d->profiles, e->id, wl, s3, sp))
-                        t->ring_n--;
-                    else
-                        t->ring_at = (t->ring_at + 1) % SPLAT_RING;
-                }
-            } else {
-                vbnl_profile_deposit_fixed(d->profiles, e->id, wl, s3);
-            }
+        } else {
+            vbnl_profile_deposit_fixed(d->profiles, id, wl, s3);
         }
     }
     st->covered_hits++;
     st->deposits += m;
-    st->covered_power[0] += q[0];
-    st->covered_power[1] += q[1];
-    st->covered_power[2] += q[2];
+    t->cov[0] += q[0];
+    t->cov[1] += q[1];
+    t->cov[2] += q[2];
 }
 
 /* The deposit of hit `hit` of the sorted batch from the index's answer `f` (containing spheres
@@ -251,7 +282,7 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
         return;
     cx->t->s.overflow += total > VBNL_SPLIT_QUERY_MAX;
     float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX], id[VBNL_SPLIT_QUERY_MAX];
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX];
     uint32_t m = 0;
     float sum = 0.0f; /* of the kept weights in order (adding 0 for the dropped changes no bit) */
     for (uint32_t i = 0; i < nf; ++i) {
@@ -259,13 +290,12 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
         float wi = 1.0f - f[i].d2 / (r * r);
         w[m] = wi;
         rk[m] = f[i].rank;
-        id[m] = f[i].id;
         int keep = wi > 0.0f; /* d within rounding of r: dropped */
         sum += keep ? wi : 0.0f;
         m += (uint32_t)keep;
     }
     if (m)
-        split_deposit(cx, h, w, rk, id, m, sum);
+        split_deposit(cx, h, w, rk, m, sum);
 }
 
 /* Stage D of the index's batch pipeline (vl_index_pipe.h) fused with split_hit: the exact
@@ -285,7 +315,7 @@ static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_ind
     const float ncos = b->normal_cos;
     const int use_cos = ncos > -1.0f, use_facing = b->facing;
     float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX], id[VBNL_SPLIT_QUERY_MAX];
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX];
     uint32_t nf = 0, m = 0;
     float sum = 0.0f;
     for (uint32_t i = 0; i < s->ncand; ++i) {
@@ -303,13 +333,12 @@ static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_ind
         float wk = 1.0f - (float)d2 / (r * r);
         w[m] = wk;
         rk[m] = rank;
-        id[m] = e->id;
         int keep = wk > 0.0f; /* d within rounding of r: dropped */
         sum += keep ? wk : 0.0f;
         m += (uint32_t)keep;
     }
     if (m)
-        split_deposit(cx, h, w, rk, id, m, sum);
+        split_deposit(cx, h, w, rk, m, sum);
 }
 
 /* Deposits the thread's batch in spatial order: a counting sort by bin (a cube of the index's
@@ -552,7 +581,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             stats->deposits += s->deposits;
             stats->overflow += s->overflow;
             for (int c = 0; c < 3; ++c)
-                stats->covered_power[c] += s->covered_power[c];
+                stats->covered_power[c] += job.threads[i].cov[c];
         }
         stats->seconds = vbnl_now() - t0;
         stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
