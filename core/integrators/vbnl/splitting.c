@@ -12,13 +12,18 @@
 
 #define SPLAT_RING 16u
 
-/* A photon hit waiting in a thread's batch (48 bytes): everything the deposit needs. */
+/* A photon hit waiting in a thread's batch (64 bytes, one cache line): everything the deposit
+ * needs. With a single-level dense grid (job->cell_fast) the hit's cell is located when the
+ * hit is recorded, so the deposit starts from the cell's listings. */
 typedef struct split_rec {
     vec3 p;     /* hit point */
     vec3 n;     /* unit geometric normal facing the arriving photon */
     vec3 wi;    /* unit, toward where the photon came from */
     vec3 power; /* flux arriving */
+    float q[3]; /* cell_fast: p in the cell's quantisation frame (cell_frame) */
+    uint32_t cell; /* cell_fast: the cell of p in level 0 (level_cell, never UINT32_MAX) */
 } split_rec;
+_Static_assert(sizeof(split_rec) == 64, "split_rec: one cache line");
 
 /* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
@@ -46,6 +51,11 @@ typedef struct split_job {
     const uint8_t *glossy;   /* by rank: the VL keeps a map; NULL when none does */
     vbnl_vl_key_grid key_grid; /* bin = vbnl_vl_key_bin(key grid, p, VBNL_SPLIT_BIN_BITS / 3) */
     uint32_t bins;
+    /* The index is one dense grid level (uniform radii): hits carry their cell (split_rec), and
+     * the bin is the Morton code of the cell coordinates >> cell_shift (VBNL_SPLIT_BIN_BITS / 3
+     * bits each), so the key grid is not needed. */
+    int cell_fast;
+    uint32_t cell_shift;
     int empty;               /* the index holds no VL */
     split_thread *threads;
     unsigned thread_count;
@@ -274,10 +284,9 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
 
 /* The deposit of hit `hit` of the sorted batch from the index's answer `f` (containing spheres
  * that passed the filters, in rank order): the plain-query path (vbnl_vl_batch_fn). */
-static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
+static void split_found(const split_ctx *cx, const split_rec *h, uint32_t total, const vbnl_vl_found *f,
+                        uint32_t nf)
 {
-    const split_ctx *cx = user;
-    const split_rec *h = &cx->recs[cx->order[hit]];
     if (!nf)
         return;
     cx->t->s.overflow += total > VBNL_SPLIT_QUERY_MAX;
@@ -298,35 +307,50 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
         split_deposit(cx, h, w, rk, m, sum);
 }
 
-/* Stage D of the index's batch pipeline (vl_index_pipe.h) fused with split_hit: the exact
- * test and the filters of the index's pipe_d, the weights straight from them (the same
- * decisions, values and order as split_hit on pipe_d's answer, without the answer records). */
-static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b,
-                                                               uint32_t k, const vbnl_vli_pipe_slot *s,
-                                                               vbnl_vl_found *found, void *user)
+static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
 {
     const split_ctx *cx = user;
-    if (s->ncand > VBNL_VLI_PIPE_CAND) {
-        vbnl_vli_batch_plain(x, b, k, found, split_hit, user);
+    split_found(cx, &cx->recs[cx->order[hit]], total, f, nf);
+}
+
+/* The plain query of hit h (vbnl_vli_batch_plain) and its deposit. */
+static void split_plain(const split_ctx *cx, const split_rec *h)
+{
+    const vbnl_split_desc *d = cx->job->d;
+    vbnl_vl_filter fl = {h->n, h->wi, d->normal_cos, d->require_facing};
+    vbnl_vl_found found[VBNL_SPLIT_QUERY_MAX];
+    uint32_t total = vbnl_vl_index_query_found(d->index, h->p, &fl, VBNL_SPLIT_QUERY_MAX, found);
+    split_found(cx, h, total, found, total < VBNL_SPLIT_QUERY_MAX ? total : VBNL_SPLIT_QUERY_MAX);
+}
+
+/* Stage D of the index's batch pipeline (vl_index_pipe.h) fused with split_hit: the exact
+ * test and the filters of the index's pipe_d on the ncand candidates (ranks) of hit h, the
+ * weights straight from them (the same decisions, values and order as split_hit on pipe_d's
+ * answer, without the answer records). */
+static inline __attribute__((always_inline)) void split_cands(const split_ctx *cx, const vbnl_vl_index *x,
+                                                              const split_rec *h, uint32_t ncand,
+                                                              const uint32_t *cand)
+{
+    if (ncand > VBNL_VLI_PIPE_CAND) {
+        split_plain(cx, h);
         return;
     }
-    const split_rec *h = &cx->recs[cx->order[k]];
     const vec3 p = h->p, n = h->n, wi = h->wi;
-    const float ncos = b->normal_cos;
-    const int use_cos = ncos > -1.0f, use_facing = b->facing;
+    const float ncos = cx->job->d->normal_cos;
+    const int use_cos = ncos > -1.0f, use_facing = cx->job->d->require_facing;
     float w[VBNL_SPLIT_QUERY_MAX];
     uint32_t rk[VBNL_SPLIT_QUERY_MAX];
     uint32_t nf = 0, m = 0;
     float sum = 0.0f;
-    for (uint32_t i = 0; i < s->ncand; ++i) {
-        uint32_t rank = s->cand[i];
+    for (uint32_t i = 0; i < ncand; ++i) {
+        uint32_t rank = cand[i];
         const vl_rec *e = x->rec + rank;
         double d2;
         if (!vbnl_vli_accept(e, p, use_cos, n, ncos, use_facing, wi, &d2))
             continue;
         const float r = e->r;
         if (nf == VBNL_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
-            vbnl_vli_batch_plain(x, b, k, found, split_hit, user);
+            split_plain(cx, h);
             return;
         }
         nf++;
@@ -339,6 +363,75 @@ static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_ind
     }
     if (m)
         split_deposit(cx, h, w, rk, m, sum);
+}
+
+static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b,
+                                                               uint32_t k, const vbnl_vli_pipe_slot *s,
+                                                               vbnl_vl_found *found, void *user)
+{
+    (void)b;
+    (void)found;
+    const split_ctx *cx = user;
+    split_cands(cx, x, &cx->recs[cx->order[k]], s->ncand, s->cand);
+}
+
+/* The batch pipeline for hits that carry their cell (job->cell_fast): hit k (sorted order) is
+ * prefetched at step k - 3 S, its cell header at k - 2 S, the cell's listings at k - S, its
+ * candidates are picked by the quantised pre-test and their records and sums prefetched at k,
+ * and it is deposited at k + S (split_cands). */
+typedef struct fast_slot {
+    const split_rec *h;
+    uint32_t s0, n, ncand;
+    uint32_t cand[VBNL_VLI_PIPE_CAND];
+} fast_slot;
+
+static void run_fast_pipe(const split_ctx *cx, uint32_t count)
+{
+    const vbnl_vl_index *x = cx->job->d->index;
+    const grid_level *g = &x->levels[0];
+    const split_rec *recs = cx->recs;
+    const uint32_t *order = cx->order;
+    const uint64_t *acc = cx->t->acc;
+    enum { S = VBNL_VLI_PIPE_STEP, SLOTS = VBNL_VLI_PIPE_SLOTS };
+    _Static_assert(SLOTS >= 2 * S + 1 && (SLOTS & (SLOTS - 1)) == 0, "fast pipe slots");
+    fast_slot ring[SLOTS];
+    for (uint32_t k = 0; k < count + 5 * S; ++k) {
+        if (k < count)
+            __builtin_prefetch(recs + order[k]);
+        if (k >= S && k - S < count)
+            __builtin_prefetch(g->start + recs[order[k - S]].cell);
+        if (k >= 2 * S && k - 2 * S < count) {
+            fast_slot *sl = &ring[(k - 2 * S) & (SLOTS - 1)];
+            const split_rec *h = recs + order[k - 2 * S];
+            uint32_t c = h->cell;
+            sl->h = h;
+            sl->s0 = g->start[c];
+            sl->n = g->start[c + 1] - sl->s0;
+            for (uint32_t i = 0; i < sl->n; i += 16) {
+                __builtin_prefetch(g->qent + sl->s0 + i);
+                __builtin_prefetch(g->items + sl->s0 + i);
+            }
+        }
+        if (k >= 3 * S && k - 3 * S < count) {
+            fast_slot *sl = &ring[(k - 3 * S) & (SLOTS - 1)];
+            uint32_t nc = 0;
+            const float *q = sl->h->q;
+            VBNL_VLI_PRETEST(g, sl->s0, sl->n, q, {
+                if (nc < VBNL_VLI_PIPE_CAND) {
+                    __builtin_prefetch(x->rec + rank_);
+                    if (acc)
+                        __builtin_prefetch(acc + 4 * (size_t)rank_);
+                    sl->cand[nc] = rank_;
+                }
+                ++nc;
+            });
+            sl->ncand = nc;
+        }
+        if (k >= 4 * S && k - 4 * S < count) {
+            const fast_slot *sl = &ring[(k - 4 * S) & (SLOTS - 1)];
+            split_cands(cx, x, sl->h, sl->ncand, sl->cand);
+        }
+    }
 }
 
 /* Deposits the thread's batch in spatial order: a counting sort by bin (a cube of the index's
@@ -377,7 +470,9 @@ static void flush_batch(const split_job *job, split_thread *t)
     b.rank_data = t->acc; /* NULL: nothing to prefetch */
     b.rank_stride = 4 * sizeof(uint64_t);
     const vbnl_vl_index *x = job->d->index;
-    if (x->kind == VBNL_VL_INDEX_GRID && x->level_count <= VBNL_VLI_PIPE_LEVELS && b.max_out <= VBNL_SPLIT_QUERY_MAX) {
+    if (job->cell_fast) {
+        run_fast_pipe(&cx, n);
+    } else if (x->kind == VBNL_VL_INDEX_GRID && x->level_count <= VBNL_VLI_PIPE_LEVELS && b.max_out <= VBNL_SPLIT_QUERY_MAX) {
         /* the index's pipeline with stage D fused with the deposit (split_pipe_d) */
         vbnl_vl_found found[VBNL_VL_BATCH_MAX_OUT];
         if (x->level_count == 1)
@@ -402,6 +497,29 @@ void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon
     vbnl_photon_walk_inline(w, rng, visit, user, st);
 }
 
+/* level_cell of a dense level (same cells): the far-outside test, then floor((p - lo) / cell)
+ * clamped to the grid, for the three axes at once. */
+static inline __attribute__((always_inline)) uint32_t fast_cell(const grid_level *g, vec3 p, int32_t c3[3])
+{
+#if defined(__SSE4_1__)
+    const __m128 lo = _mm_setr_ps(g->lo.x, g->lo.y, g->lo.z, 0.0f);
+    const __m128 nf = _mm_cvtepi32_ps(_mm_setr_epi32(g->n[0], g->n[1], g->n[2], 1));
+    __m128 f = _mm_mul_ps(_mm_sub_ps(_mm_setr_ps(p.x, p.y, p.z, 0.0f), lo), _mm_set1_ps(g->inv_cell));
+    __m128 in = _mm_and_ps(_mm_cmpgt_ps(f, _mm_set1_ps(-1.0f)), _mm_cmplt_ps(f, _mm_add_ps(nf, _mm_set1_ps(1.0f))));
+    if (_mm_movemask_ps(in) != 15) /* also NaN */
+        return UINT32_MAX;
+    /* f is an integer after the floor: min(max(f, 0), n - 1) is cell_coord's clamp */
+    __m128 fl = _mm_min_ps(_mm_max_ps(_mm_floor_ps(f), _mm_setzero_ps()), _mm_sub_ps(nf, _mm_set1_ps(1.0f)));
+    __m128i ci = _mm_cvttps_epi32(fl);
+    c3[0] = _mm_cvtsi128_si32(ci);
+    c3[1] = _mm_extract_epi32(ci, 1);
+    c3[2] = _mm_extract_epi32(ci, 2);
+    return (uint32_t)c3[0] + (uint32_t)g->n[0] * ((uint32_t)c3[1] + (uint32_t)g->n[1] * (uint32_t)c3[2]);
+#else
+    return level_cell(g, p, c3);
+#endif
+}
+
 typedef struct split_visit {
     const split_job *job;
     split_thread *t;
@@ -413,9 +531,28 @@ static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
     split_thread *t = sv->t;
     if (t->n == t->cap)
         flush_batch(sv->job, t);
-    t->hits[t->n] = (split_rec){v->hit->p, v->ng, v->wo, v->beta};
-    /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
-    t->bin[t->n] = vbnl_vl_key_bin(&sv->job->key_grid, v->hit->p, VBNL_SPLIT_BIN_BITS / 3u);
+    const split_job *job = sv->job;
+    split_rec *h = &t->hits[t->n];
+    const vec3 p = v->hit->p;
+    if (job->cell_fast) {
+        /* level_cell and cell_frame of the deposit, done here; no sphere can contain a point
+         * outside the level (the hit is not recorded) */
+        const grid_level *g = &job->d->index->levels[0];
+        int32_t c3[3];
+        uint32_t c = fast_cell(g, p, c3);
+        if (c == UINT32_MAX)
+            return;
+        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, c};
+        cell_frame(g, p, c3, h->q);
+        const uint32_t sh = job->cell_shift, b = VBNL_SPLIT_BIN_BITS / 3u;
+        t->bin[t->n] = vbnl_vl_key_spread_bits((uint32_t)c3[0] >> sh, b) |
+                       vbnl_vl_key_spread_bits((uint32_t)c3[1] >> sh, b) << 1 |
+                       vbnl_vl_key_spread_bits((uint32_t)c3[2] >> sh, b) << 2;
+    } else {
+        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, 0};
+        /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
+        t->bin[t->n] = vbnl_vl_key_bin(&job->key_grid, p, VBNL_SPLIT_BIN_BITS / 3u);
+    }
     t->n++;
 }
 
@@ -510,6 +647,17 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     _Static_assert(VBNL_SPLIT_BIN_BITS % 3u == 0 && VBNL_SPLIT_BIN_BITS <= 24u, "bins: whole Morton triples");
     job.key_grid = vbnl_vl_index_key_grid(d->index);
     job.bins = 1u << VBNL_SPLIT_BIN_BITS;
+    {
+        const vbnl_vl_index *x = d->index;
+        job.cell_fast = x->kind == VBNL_VL_INDEX_GRID && x->level_count == 1 && x->levels[0].dense;
+        if (job.cell_fast) {
+            const grid_level *g = &x->levels[0];
+            int32_t nmax = g->n[0] > g->n[1] ? g->n[0] : g->n[1];
+            nmax = nmax > g->n[2] ? nmax : g->n[2];
+            while (((uint32_t)(nmax - 1) >> job.cell_shift) >= (1u << (VBNL_SPLIT_BIN_BITS / 3u)))
+                job.cell_shift++;
+        }
+    }
     job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbnl_pool_thread_count(pool);
     if (job.thread_count == 0)
         job.thread_count = 1;
@@ -542,7 +690,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         t->cap = VBNL_SPLIT_BATCH_HITS;
         if (own_sums && (t->acc = aligned_alloc(32, 32 * ((size_t)nvl + 1))))
             memset(t->acc, 0, 32 * ((size_t)nvl + 1));
-        t->hits = malloc(t->cap * sizeof(split_rec));
+        t->hits = aligned_alloc(64, t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
         t->start = malloc(((size_t)job.bins + 1) * sizeof(uint32_t));
