@@ -342,6 +342,86 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
     uint32_t rk[VBNL_SPLIT_QUERY_MAX];
     uint32_t nf = 0, m = 0;
     float sum = 0.0f;
+#if defined(__AVX2__)
+    /* Eight candidates at a time: the records transposed into lanes, then the decisions of
+     * vbnl_vli_accept (r > 0, d^2 < r^2 in double with exact products, the normal-cone and facing
+     * filters) and the weights 1 - (float)d^2 / (r r) as in the scalar loop below; the kept
+     * ones are appended and summed in candidate order. Missing lanes repeat candidate 0 and
+     * are masked off. */
+    const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
+    const __m256 nx_ = _mm256_set1_ps(n.x), ny_ = _mm256_set1_ps(n.y), nz_ = _mm256_set1_ps(n.z);
+    const __m256 wx = _mm256_set1_ps(wi.x), wy = _mm256_set1_ps(wi.y), wz = _mm256_set1_ps(wi.z);
+    const __m256 vcos = _mm256_set1_ps(ncos);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const float *base = &x->rec[0].cx;
+    for (uint32_t i0 = 0; i0 < ncand; i0 += 8) {
+        uint32_t left = ncand - i0, cnt = left < 8 ? left : 8;
+        /* float offsets of the records (8 floats each); cand[] has room for 8 past i0 */
+        __m256i ci = _mm256_loadu_si256((const __m256i *)(cand + i0));
+        ci = _mm256_blendv_epi8(_mm256_set1_epi32((int)cand[i0]), ci,
+                                _mm256_cmpgt_epi32(_mm256_set1_epi32((int)cnt), lanes));
+        uint32_t off[8];
+        _mm256_storeu_si256((__m256i *)off, _mm256_slli_epi32(ci, 3));
+        __m256 r0 = _mm256_loadu_ps(base + off[0]), r1 = _mm256_loadu_ps(base + off[1]),
+               r2 = _mm256_loadu_ps(base + off[2]), r3 = _mm256_loadu_ps(base + off[3]),
+               r4 = _mm256_loadu_ps(base + off[4]), r5 = _mm256_loadu_ps(base + off[5]),
+               r6 = _mm256_loadu_ps(base + off[6]), r7 = _mm256_loadu_ps(base + off[7]);
+        __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+        __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
+        __m256 t4 = _mm256_unpacklo_ps(r4, r5), t5 = _mm256_unpackhi_ps(r4, r5);
+        __m256 t6 = _mm256_unpacklo_ps(r6, r7), t7 = _mm256_unpackhi_ps(r6, r7);
+        __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+        __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+        __m256 u4 = _mm256_shuffle_ps(t4, t6, 0x44), u5 = _mm256_shuffle_ps(t4, t6, 0xEE);
+        __m256 u6 = _mm256_shuffle_ps(t5, t7, 0x44), u7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+        /* lanes = candidates: centre, radius, normal */
+        __m256 cxv = _mm256_permute2f128_ps(u0, u4, 0x20), nxv = _mm256_permute2f128_ps(u0, u4, 0x31);
+        __m256 cyv = _mm256_permute2f128_ps(u1, u5, 0x20), nyv = _mm256_permute2f128_ps(u1, u5, 0x31);
+        __m256 czv = _mm256_permute2f128_ps(u2, u6, 0x20), nzv = _mm256_permute2f128_ps(u2, u6, 0x31);
+        __m256 rv = _mm256_permute2f128_ps(u3, u7, 0x20);
+        __m256 dx = _mm256_sub_ps(px, cxv), dy = _mm256_sub_ps(py, cyv), dz = _mm256_sub_ps(pz, czv);
+        /* d^2 in double: the products of floats are exact, summed in the scalar order */
+        __m256d dxl = _mm256_cvtps_pd(_mm256_castps256_ps128(dx)), dxh = _mm256_cvtps_pd(_mm256_extractf128_ps(dx, 1));
+        __m256d dyl = _mm256_cvtps_pd(_mm256_castps256_ps128(dy)), dyh = _mm256_cvtps_pd(_mm256_extractf128_ps(dy, 1));
+        __m256d dzl = _mm256_cvtps_pd(_mm256_castps256_ps128(dz)), dzh = _mm256_cvtps_pd(_mm256_extractf128_ps(dz, 1));
+        __m256d d2l = _mm256_fmadd_pd(dzl, dzl, _mm256_fmadd_pd(dyl, dyl, _mm256_mul_pd(dxl, dxl)));
+        __m256d d2h = _mm256_fmadd_pd(dzh, dzh, _mm256_fmadd_pd(dyh, dyh, _mm256_mul_pd(dxh, dxh)));
+        __m256d rl = _mm256_cvtps_pd(_mm256_castps256_ps128(rv)), rh = _mm256_cvtps_pd(_mm256_extractf128_ps(rv, 1));
+        unsigned in = (unsigned)_mm256_movemask_pd(_mm256_cmp_pd(d2l, _mm256_mul_pd(rl, rl), _CMP_LT_OQ)) |
+                      (unsigned)_mm256_movemask_pd(_mm256_cmp_pd(d2h, _mm256_mul_pd(rh, rh), _CMP_LT_OQ)) << 4;
+        __m256 ok = _mm256_cmp_ps(rv, _mm256_setzero_ps(), _CMP_GT_OQ);
+        if (use_cos) {
+            __m256 c = _mm256_fmadd_ps(nzv, nz_, _mm256_fmadd_ps(nyv, ny_, _mm256_mul_ps(nxv, nx_)));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps(c, vcos, _CMP_GT_OQ));
+        }
+        if (use_facing) {
+            __m256 f = _mm256_fmadd_ps(nzv, wz, _mm256_fmadd_ps(nyv, wy, _mm256_mul_ps(nxv, wx)));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps(f, _mm256_setzero_ps(), _CMP_GT_OQ));
+        }
+        unsigned acc_bits = in & (unsigned)_mm256_movemask_ps(ok) & ((1u << cnt) - 1u);
+        if (!acc_bits)
+            continue;
+        nf += (uint32_t)__builtin_popcount(acc_bits);
+        if (nf > VBNL_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
+            split_plain(cx, h);
+            return;
+        }
+        __m256 d2f = _mm256_set_m128(_mm256_cvtpd_ps(d2h), _mm256_cvtpd_ps(d2l));
+        __m256 wv = _mm256_sub_ps(_mm256_set1_ps(1.0f), _mm256_div_ps(d2f, _mm256_mul_ps(rv, rv)));
+        unsigned keep = acc_bits & (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(wv, _mm256_setzero_ps(), _CMP_GT_OQ));
+        float wl[8];
+        _mm256_storeu_ps(wl, wv);
+        while (keep) { /* d within rounding of r: dropped */
+            unsigned j = (unsigned)__builtin_ctz(keep);
+            keep &= keep - 1;
+            w[m] = wl[j];
+            rk[m] = cand[i0 + j];
+            sum += wl[j];
+            m++;
+        }
+    }
+    if (0)
+#endif
     for (uint32_t i = 0; i < ncand; ++i) {
         uint32_t rank = cand[i];
         const vl_rec *e = x->rec + rank;
