@@ -465,6 +465,67 @@ typedef struct fast_slot {
     uint32_t cand[VBNL_VLI_PIPE_CAND];
 } fast_slot;
 
+/* The quantised pre-test of the n listings from s0 (VBNL_VLI_PRETEST, the same candidates in
+ * listing order) for a point at q (cell frame): the candidates' ranks go to cand (their count
+ * is returned; beyond VBNL_VLI_PIPE_CAND only counted), their records and sums are prefetched.
+ * The capacity is checked once per eight listings. */
+static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_level *g, const vl_rec *rec,
+                                                                   const uint64_t *acc, uint32_t s0, uint32_t n,
+                                                                   const float q[3], uint32_t *cand)
+{
+    uint32_t nc = 0;
+#if defined(__AVX2__)
+    const uint32_t *qe = g->qent + s0, *items = g->items + s0;
+    const __m256 vx = _mm256_set1_ps(q[0]), vy = _mm256_set1_ps(q[1]), vz = _mm256_set1_ps(q[2]);
+    const __m256 sl = _mm256_set1_ps(VBNL_VLI_QSLACK);
+    const __m256i byte = _mm256_set1_epi32(0xff);
+    for (uint32_t i = 0; i < n; i += 8) {
+        __m256i v = _mm256_loadu_si256((const __m256i *)(qe + i));
+        __m256 dx = _mm256_sub_ps(vx, _mm256_cvtepi32_ps(_mm256_and_si256(v, byte)));
+        __m256 dy = _mm256_sub_ps(vy, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v, 8), byte)));
+        __m256 dz = _mm256_sub_ps(vz, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v, 16), byte)));
+        __m256 rr = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v, 24)), sl);
+        __m256 d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
+        unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ));
+        uint32_t rest = n - i;
+        if (rest < 8)
+            bits &= (1u << rest) - 1u;
+        if (!bits)
+            continue;
+        if (nc + 8 > VBNL_VLI_PIPE_CAND) { /* near the capacity: count the rest */
+            while (bits) {
+                unsigned j = (unsigned)__builtin_ctz(bits);
+                bits &= bits - 1;
+                if (nc < VBNL_VLI_PIPE_CAND)
+                    cand[nc] = items[i + j];
+                ++nc;
+            }
+            continue;
+        }
+        do {
+            unsigned j = (unsigned)__builtin_ctz(bits);
+            bits &= bits - 1;
+            uint32_t r = items[i + j];
+            __builtin_prefetch(rec + r);
+            if (acc)
+                __builtin_prefetch(acc + 4 * (size_t)r);
+            cand[nc++] = r;
+        } while (bits);
+    }
+#else
+    VBNL_VLI_PRETEST(g, s0, n, q, {
+        if (nc < VBNL_VLI_PIPE_CAND) {
+            __builtin_prefetch(rec + rank_);
+            if (acc)
+                __builtin_prefetch(acc + 4 * (size_t)rank_);
+            cand[nc] = rank_;
+        }
+        ++nc;
+    });
+#endif
+    return nc;
+}
+
 static void run_fast_pipe(const split_ctx *cx, uint32_t count)
 {
     const vbnl_vl_index *x = cx->job->d->index;
@@ -494,18 +555,7 @@ static void run_fast_pipe(const split_ctx *cx, uint32_t count)
         }
         if (k >= 3 * S && k - 3 * S < count) {
             fast_slot *sl = &ring[(k - 3 * S) & (SLOTS - 1)];
-            uint32_t nc = 0;
-            const float *q = sl->h->q;
-            VBNL_VLI_PRETEST(g, sl->s0, sl->n, q, {
-                if (nc < VBNL_VLI_PIPE_CAND) {
-                    __builtin_prefetch(x->rec + rank_);
-                    if (acc)
-                        __builtin_prefetch(acc + 4 * (size_t)rank_);
-                    sl->cand[nc] = rank_;
-                }
-                ++nc;
-            });
-            sl->ncand = nc;
+            sl->ncand = fast_pretest(g, x->rec, acc, sl->s0, sl->n, sl->h->q, sl->cand);
         }
         if (k >= 4 * S && k - 4 * S < count) {
             const fast_slot *sl = &ring[(k - 4 * S) & (SLOTS - 1)];
