@@ -568,7 +568,7 @@ static void run_fast_pipe(const split_ctx *cx, uint32_t count)
  * Morton key grid), so that consecutive queries read the same cells, sphere records and
  * accumulators, which then stay in cache. The order cannot change the result: deposits are
  * integer adds. */
-static void flush_batch(const split_job *job, split_thread *t)
+static __attribute__((noinline)) void flush_batch(const split_job *job, split_thread *t)
 {
     uint32_t n = t->n, bins = job->bins;
     if (!n)
@@ -693,7 +693,7 @@ static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
     (void)v;
 }
 
-static void trace_photon(const split_job *job, split_thread *t, uint64_t k)
+static __attribute__((flatten)) void trace_photon(const split_job *job, split_thread *t, uint64_t k)
 {
     const vbnl_split_desc *d = job->d;
     vbnl_rng rng = vbnl_rng_for(d->seed, k, 0);
