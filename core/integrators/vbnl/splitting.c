@@ -21,7 +21,7 @@ typedef struct split_rec {
     vec3 wi;    /* unit, toward where the photon came from */
     vec3 power; /* flux arriving */
     float q[3]; /* cell_fast: p in the cell's quantisation frame (cell_frame) */
-    uint32_t cell; /* cell_fast: the cell of p in level 0 (level_cell, never UINT32_MAX) */
+    uint32_t pad;
 } split_rec;
 _Static_assert(sizeof(split_rec) == 64, "split_rec: one cache line");
 
@@ -33,6 +33,8 @@ typedef struct split_thread {
     split_rec *hits;     /* the batch, in trace order */
     uint32_t *order;     /* the batch by bin: indexes into hits */
     uint32_t *bin;       /* bin of hits[i] */
+    uint32_t *cell;      /* cell_fast: the cell of hits[i] in level 0 (level_cell, never UINT32_MAX) */
+    uint32_t *scell;     /* cell_fast: the cells in sorted order (scell[k] = cell[order[k]]) */
     uint32_t *start;     /* bins + 1 */
     uint32_t n, cap;
     _Alignas(32) uint64_t cov[4]; /* covered power (fixed point, RGB and a zero lane), added to
@@ -455,16 +457,6 @@ static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_ind
     split_cands(cx, x, &cx->recs[cx->order[k]], s->ncand, s->cand);
 }
 
-/* The batch pipeline for hits that carry their cell (job->cell_fast): hit k (sorted order) is
- * prefetched at step k - 3 S, its cell header at k - 2 S, the cell's listings at k - S, its
- * candidates are picked by the quantised pre-test and their records and sums prefetched at k,
- * and it is deposited at k + S (split_cands). */
-typedef struct fast_slot {
-    const split_rec *h;
-    uint32_t s0, n, ncand;
-    uint32_t cand[VBNL_VLI_PIPE_CAND];
-} fast_slot;
-
 /* The quantised pre-test of the n listings from s0 (VBNL_VLI_PRETEST, the same candidates in
  * listing order) for a point at q (cell frame): the candidates' ranks go to cand (their count
  * is returned; beyond VBNL_VLI_PIPE_CAND only counted), their records and sums are prefetched.
@@ -526,42 +518,101 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
     return nc;
 }
 
-static void run_fast_pipe(const split_ctx *cx, uint32_t count)
+/* The batch pipeline for hits that carry their cell (job->cell_fast), four stages S hits apart:
+ * (A) the cell header of hit k (sorted order, scell) is prefetched; (B) the cell's listings and
+ * the hit record are prefetched; (C) the quantised pre-test picks the candidates and prefetches
+ * their records and sums; (D) the deposit (split_cands). A steady-state loop runs all four
+ * without tests. */
+typedef struct fast_slot {
+    const split_rec *h;
+    uint32_t s0, n, ncand;
+    uint32_t cand[VBNL_VLI_PIPE_CAND];
+} fast_slot;
+
+#define FAST_S VBNL_VLI_PIPE_STEP
+#define FAST_SLOTS VBNL_VLI_PIPE_SLOTS
+_Static_assert(FAST_SLOTS >= 3 * FAST_S + 1 && (FAST_SLOTS & (FAST_SLOTS - 1)) == 0, "fast pipe slots");
+
+typedef struct fast_pipe {
+    const split_ctx *cx;
+    const vbnl_vl_index *x;
+    const grid_level *g;
+    const split_rec *recs;
+    const uint32_t *order, *scell;
+    const uint64_t *acc;
+    fast_slot ring[FAST_SLOTS];
+} fast_pipe;
+
+static inline __attribute__((always_inline)) void fast_a(fast_pipe *fp, uint32_t k)
 {
-    const vbnl_vl_index *x = cx->job->d->index;
-    const grid_level *g = &x->levels[0];
-    const split_rec *recs = cx->recs;
-    const uint32_t *order = cx->order;
-    const uint64_t *acc = cx->t->acc;
-    enum { S = VBNL_VLI_PIPE_STEP, SLOTS = VBNL_VLI_PIPE_SLOTS };
-    _Static_assert(SLOTS >= 2 * S + 1 && (SLOTS & (SLOTS - 1)) == 0, "fast pipe slots");
-    fast_slot ring[SLOTS];
-    for (uint32_t k = 0; k < count + 5 * S; ++k) {
-        if (k < count)
-            __builtin_prefetch(recs + order[k]);
-        if (k >= S && k - S < count)
-            __builtin_prefetch(g->start + recs[order[k - S]].cell);
-        if (k >= 2 * S && k - 2 * S < count) {
-            fast_slot *sl = &ring[(k - 2 * S) & (SLOTS - 1)];
-            const split_rec *h = recs + order[k - 2 * S];
-            uint32_t c = h->cell;
-            sl->h = h;
-            sl->s0 = g->start[c];
-            sl->n = g->start[c + 1] - sl->s0;
-            for (uint32_t i = 0; i < sl->n; i += 16) {
-                __builtin_prefetch(g->qent + sl->s0 + i);
-                __builtin_prefetch(g->items + sl->s0 + i);
-            }
-        }
-        if (k >= 3 * S && k - 3 * S < count) {
-            fast_slot *sl = &ring[(k - 3 * S) & (SLOTS - 1)];
-            sl->ncand = fast_pretest(g, x->rec, acc, sl->s0, sl->n, sl->h->q, sl->cand);
-        }
-        if (k >= 4 * S && k - 4 * S < count) {
-            const fast_slot *sl = &ring[(k - 4 * S) & (SLOTS - 1)];
-            split_cands(cx, x, sl->h, sl->ncand, sl->cand);
-        }
+    __builtin_prefetch(fp->g->start + fp->scell[k]);
+}
+
+static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t k)
+{
+    fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
+    const grid_level *g = fp->g;
+    uint32_t c = fp->scell[k];
+    sl->h = fp->recs + fp->order[k];
+    __builtin_prefetch(sl->h);
+    uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
+    sl->s0 = s0;
+    sl->n = n;
+    for (uint32_t i = 0; i < n; i += 16) {
+        __builtin_prefetch(g->qent + s0 + i);
+        __builtin_prefetch(g->items + s0 + i);
     }
+}
+
+static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)
+{
+    fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
+    sl->ncand = fast_pretest(fp->g, fp->x->rec, fp->acc, sl->s0, sl->n, sl->h->q, sl->cand);
+}
+
+static inline __attribute__((always_inline)) void fast_d(fast_pipe *fp, uint32_t k)
+{
+    const fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
+    split_cands(fp->cx, fp->x, sl->h, sl->ncand, sl->cand);
+}
+
+/* Step k of the pipeline: stage A of hit k, B of k - S, C of k - 2 S, D of k - 3 S (those that
+ * exist). */
+static inline __attribute__((always_inline)) void fast_step(fast_pipe *fp, uint32_t k, uint32_t count)
+{
+    const uint32_t S = FAST_S;
+    if (k < count)
+        fast_a(fp, k);
+    if (k >= S && k - S < count)
+        fast_b(fp, k - S);
+    if (k >= 2 * S && k - 2 * S < count)
+        fast_c(fp, k - 2 * S);
+    if (k >= 3 * S && k - 3 * S < count)
+        fast_d(fp, k - 3 * S);
+}
+
+static void run_fast_pipe(const split_ctx *cx, const uint32_t *scell, uint32_t count)
+{
+    fast_pipe fp;
+    fp.cx = cx;
+    fp.x = cx->job->d->index;
+    fp.g = &fp.x->levels[0];
+    fp.recs = cx->recs;
+    fp.order = cx->order;
+    fp.scell = scell;
+    fp.acc = cx->t->acc;
+    const uint32_t S = FAST_S, end = count + 3 * S;
+    uint32_t k = 0;
+    for (; k < 3 * S && k < end; ++k)
+        fast_step(&fp, k, count);
+    for (; k < count; ++k) { /* all four stages */
+        fast_a(&fp, k);
+        fast_b(&fp, k - S);
+        fast_c(&fp, k - 2 * S);
+        fast_d(&fp, k - 3 * S);
+    }
+    for (; k < end; ++k)
+        fast_step(&fp, k, count);
 }
 
 /* Deposits the thread's batch in spatial order: a counting sort by bin (a cube of the index's
@@ -579,8 +630,16 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
         start[t->bin[i] + 1]++;
     for (uint32_t b = 0; b < bins; ++b)
         start[b + 1] += start[b];
-    for (uint32_t i = 0; i < n; ++i)
-        t->order[start[t->bin[i]]++] = i;
+    if (job->cell_fast) {
+        for (uint32_t i = 0; i < n; ++i) {
+            uint32_t k = start[t->bin[i]]++;
+            t->order[k] = i;
+            t->scell[k] = t->cell[i];
+        }
+    } else {
+        for (uint32_t i = 0; i < n; ++i)
+            t->order[start[t->bin[i]]++] = i;
+    }
     /* Queries in that order, pipelined by the index (vl_index.h), which also prefetches this
      * thread's sums of the candidate VLs. */
     split_ctx cx = {job, t, t->hits, t->order};
@@ -601,7 +660,7 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
     b.rank_stride = 4 * sizeof(uint64_t);
     const vbnl_vl_index *x = job->d->index;
     if (job->cell_fast) {
-        run_fast_pipe(&cx, n);
+        run_fast_pipe(&cx, t->scell, n);
     } else if (x->kind == VBNL_VL_INDEX_GRID && x->level_count <= VBNL_VLI_PIPE_LEVELS && b.max_out <= VBNL_SPLIT_QUERY_MAX) {
         /* the index's pipeline with stage D fused with the deposit (split_pipe_d) */
         vbnl_vl_found found[VBNL_VL_BATCH_MAX_OUT];
@@ -672,8 +731,9 @@ static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
         uint32_t c = fast_cell(g, p, c3);
         if (c == UINT32_MAX)
             return;
-        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, c};
+        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, 0};
         cell_frame(g, p, c3, h->q);
+        t->cell[t->n] = c;
         const uint32_t sh = job->cell_shift, b = VBNL_SPLIT_BIN_BITS / 3u;
         t->bin[t->n] = vbnl_vl_key_spread_bits((uint32_t)c3[0] >> sh, b) |
                        vbnl_vl_key_spread_bits((uint32_t)c3[1] >> sh, b) << 1 |
@@ -745,6 +805,8 @@ static void threads_free(split_job *job)
         free(t->hits);
         free(t->order);
         free(t->bin);
+        free(t->cell);
+        free(t->scell);
         free(t->start);
     }
     free(job->threads);
@@ -823,6 +885,11 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         t->hits = aligned_alloc(64, t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
+        if (job.cell_fast && (!(t->cell = malloc(t->cap * sizeof(uint32_t))) ||
+                              !(t->scell = malloc(t->cap * sizeof(uint32_t))))) {
+            res = VBNL_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
         t->start = malloc(((size_t)job.bins + 1) * sizeof(uint32_t));
         if ((own_sums && !t->acc) || !t->hits || !t->order || !t->bin || !t->start) {
             res = VBNL_ERR_OUT_OF_MEMORY;
@@ -864,7 +931,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         stats->seconds = vbnl_now() - t0;
         stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
                                ((own_sums ? 32ull * (nvl + 1) : 0ull) +
-                                (uint64_t)VBNL_SPLIT_BATCH_HITS * (sizeof(split_rec) + 2 * sizeof(uint32_t)) +
+                                (uint64_t)VBNL_SPLIT_BATCH_HITS *
+                                    (sizeof(split_rec) + (job.cell_fast ? 4 : 2) * sizeof(uint32_t)) +
                                 4ull * (job.bins + 1)) +
                                (glossy ? nvl : 0u);
     }
