@@ -12,13 +12,18 @@
 
 #define SPLAT_RING 16u
 
-/* A photon hit waiting in a thread's batch (48 bytes): everything the deposit needs. */
+/* A photon hit waiting in a thread's batch (64 bytes, one cache line): everything the deposit
+ * needs. With a single-level dense grid (job->cell_fast) the hit's cell is located when the
+ * hit is recorded, so the deposit starts from the cell's listings. */
 typedef struct split_rec {
     vec3 p;     /* hit point */
     vec3 n;     /* unit geometric normal facing the arriving photon */
     vec3 wi;    /* unit, toward where the photon came from */
     vec3 power; /* flux arriving */
+    float q[3]; /* cell_fast: p in the cell's quantisation frame (cell_frame) */
+    uint32_t pad;
 } split_rec;
+_Static_assert(sizeof(split_rec) == 64, "split_rec: one cache line");
 
 /* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
@@ -28,8 +33,12 @@ typedef struct split_thread {
     split_rec *hits;     /* the batch, in trace order */
     uint32_t *order;     /* the batch by bin: indexes into hits */
     uint32_t *bin;       /* bin of hits[i] */
+    uint32_t *cell;      /* cell_fast: the cell of hits[i] in level 0 (level_cell, never UINT32_MAX) */
+    uint32_t *scell;     /* cell_fast: the cells in sorted order (scell[k] = cell[order[k]]) */
     uint32_t *start;     /* bins + 1 */
     uint32_t n, cap;
+    _Alignas(32) uint64_t cov[4]; /* covered power (fixed point, RGB and a zero lane), added to
+                                   * s.covered_power when the run ends */
     /* glossy splats in flight (prepared and prefetched, applied SPLAT_RING deposits later) */
     vbnl_profile_splat ring[SPLAT_RING];
     uint32_t ring_n, ring_at;
@@ -44,6 +53,11 @@ typedef struct split_job {
     const uint8_t *glossy;   /* by rank: the VL keeps a map; NULL when none does */
     vbnl_vl_key_grid key_grid; /* bin = vbnl_vl_key_bin(key grid, p, VBNL_SPLIT_BIN_BITS / 3) */
     uint32_t bins;
+    /* The index is one dense grid level (uniform radii): hits carry their cell (split_rec), and
+     * the bin is the Morton code of the cell coordinates >> cell_shift (VBNL_SPLIT_BIN_BITS / 3
+     * bits each), so the key grid is not needed. */
+    int cell_fast;
+    uint32_t cell_shift;
     int empty;               /* the index holds no VL */
     split_thread *threads;
     unsigned thread_count;
@@ -117,141 +131,169 @@ typedef struct split_ctx {
     const uint32_t *order;
 } split_ctx;
 
-/* The deposit of one hit h: the m VLs of rank rk[i], id id[i] and weight w[i] = 1 - (d/r)^2 > 0
+/* Keeps the max_vls of the m VLs with the largest weights (ties: smaller id) in their order:
+ * drops the smallest (ties: larger id) m - max_vls times, or, when more than half go, moves the
+ * largest to the front max_vls times (then in weight order). Either keeps the same set. Returns
+ * the sum of the kept weights in their new order. */
+static inline float select_max_vls(const vbnl_vl_index *x, float *w, uint32_t *rk, uint32_t m, uint32_t max_vls)
+{
+    if (m - max_vls <= max_vls) {
+        for (; m > max_vls; --m) {
+            uint32_t worst = 0;
+            for (uint32_t b = 1; b < m; ++b)
+                if (w[b] < w[worst] || (w[b] == w[worst] && x->rec[rk[b]].id > x->rec[rk[worst]].id))
+                    worst = b;
+            for (uint32_t b = worst + 1; b < m; ++b) {
+                w[b - 1] = w[b];
+                rk[b - 1] = rk[b];
+            }
+        }
+    } else {
+        for (uint32_t a = 0; a < max_vls; ++a) {
+            uint32_t best = a;
+            for (uint32_t b = a + 1; b < m; ++b)
+                if (w[b] > w[best] || (w[b] == w[best] && x->rec[rk[b]].id < x->rec[rk[best]].id))
+                    best = b;
+            float tw = w[a];
+            uint32_t tr = rk[a];
+            w[a] = w[best];
+            rk[a] = rk[best];
+            w[best] = tw;
+            rk[best] = tr;
+        }
+        m = max_vls;
+    }
+    float sum = 0.0f;
+    for (uint32_t i = 0; i < m; ++i)
+        sum += w[i];
+    return sum;
+}
+
+/* The deposit of one hit h: the m VLs of rank rk[i] and weight w[i] = 1 - (d/r)^2 > 0
  * (Section 3.3; those that passed the authors' filters, in rank order) share it; sum is the
  * sum of the w[i] in order. The arrays are scratch (reordered by the max_vls selection). */
 static inline __attribute__((always_inline)) void split_deposit(const split_ctx *cx, const split_rec *h, float *w,
-                                                                uint32_t *rk, uint32_t *id, uint32_t m, float sum)
+                                                                uint32_t *rk, uint32_t m, float sum)
 {
     const split_job *job = cx->job;
     split_thread *t = cx->t;
     vbnl_split_stats *st = &t->s;
+    const vbnl_vl_index *x = job->d->index;
     /* The max_vls largest weights (ties: smaller id); otherwise rank order. */
     if (m > job->max_vls) {
-        for (uint32_t a = 0; a < job->max_vls; ++a) {
-            uint32_t best = a;
-            for (uint32_t b = a + 1; b < m; ++b)
-                if (w[b] > w[best] || (w[b] == w[best] && id[b] < id[best]))
-                    best = b;
-            float tw = w[a];
-            uint32_t tr = rk[a], ti = id[a];
-            w[a] = w[best];
-            rk[a] = rk[best];
-            id[a] = id[best];
-            w[best] = tw;
-            rk[best] = tr;
-            id[best] = ti;
-        }
+        sum = select_max_vls(x, w, rk, m, job->max_vls);
         m = job->max_vls;
-        sum = 0.0f;
-        for (uint32_t i = 0; i < m; ++i)
-            sum += w[i];
     }
+    int glossy = 0;
+    if (job->glossy)
+        for (uint32_t i = 0; i < m; ++i)
+            glossy |= job->glossy[rk[i]];
+#if defined(__AVX2__)
+    if (!glossy && t->acc) {
+        /* quantize1 for the three channels in one vector (same bits): x = power / unit, 0 unless
+         * x > 0 (also NaN), trunc(x + 0.5) turned into an integer by the 2^52 trick, exact below
+         * 2^51; larger photons take the scalar path below. */
+        const __m256d two52 = _mm256_set1_pd(0x1p52);
+        const __m256i two52i = _mm256_castpd_si256(two52);
+        __m256d xq = _mm256_mul_pd(_mm256_cvtps_pd(_mm_setr_ps(h->power.x, h->power.y, h->power.z, 0.0f)),
+                                   _mm256_set1_pd(job->inv_unit));
+        __m256d pos = _mm256_cmp_pd(xq, _mm256_setzero_pd(), _CMP_GT_OQ);
+        if (!_mm256_movemask_pd(_mm256_cmp_pd(xq, _mm256_set1_pd(0x1p51), _CMP_GE_OQ))) {
+            __m256d dq = _mm256_and_pd(pos, _mm256_round_pd(_mm256_add_pd(xq, _mm256_set1_pd(0.5)),
+                                                            _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC));
+            __m256i left = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(dq, two52)), two52i);
+            if (_mm256_testz_si256(left, left))
+                return;
+            /* The covered power before the split consumes `left`. */
+            _mm256_store_si256((__m256i *)t->cov, _mm256_add_epi64(_mm256_load_si256((const __m256i *)t->cov), left));
+            /* vbnl_profile_split_fixed (same bits) with the normalisation w[i] / sum fused and the
+             * shares added straight into this thread's sums (by rank): v = min(trunc(q w), left)
+             * per channel, trunc by floor (x >= 0) and the 2^52 trick, min and subtraction in
+             * 64-bit lanes; the residue goes to the largest normalised weight (first on ties). */
+            __m256i *a_big = NULL;
+            float w_big = -1.0f;
+            for (uint32_t i = 0; i < m; ++i) {
+                float wk = w[i] / sum;
+                __m256d xv = _mm256_mul_pd(dq, _mm256_set1_pd((double)wk));
+                xv = _mm256_round_pd(xv, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+                __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), two52i);
+                v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
+                left = _mm256_sub_epi64(left, v);
+                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
+                _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
+                if (wk > w_big) {
+                    w_big = wk;
+                    a_big = a;
+                }
+            }
+            _mm256_store_si256(a_big, _mm256_add_epi64(_mm256_load_si256(a_big), left));
+            st->covered_hits++;
+            st->deposits += m;
+            return;
+        }
+    }
+#endif
     /* Normalised weights; the residue of the exact split goes to the largest (first on ties),
      * as in vbnl_profile_split_fixed (split3 finds the same one). */
-    uint32_t big = 0;
-    for (uint32_t i = 0; i < m; ++i) {
+    for (uint32_t i = 0; i < m; ++i)
         w[i] /= sum;
-        big = w[i] > w[big] ? i : big;
-    }
     /* Quantise once, then partition exactly (profiles.h, "Fixed point"). */
     uint64_t q[3] = {quantize1(h->power.x, job->inv_unit), quantize1(h->power.y, job->inv_unit),
                      quantize1(h->power.z, job->inv_unit)};
     if (!(q[0] | q[1] | q[2]))
         return;
-    int glossy = 0;
-    if (job->glossy)
-        for (uint32_t i = 0; i < m; ++i)
-            glossy |= job->glossy[rk[i]];
-    if (!glossy && t->acc) {
-        /* split3 with the shares added straight into this thread's sums (by rank) */
-#if defined(__AVX2__)
-        if ((q[0] | q[1] | q[2]) < (1ull << 51)) {
-            /* The three channels in one vector: x = q w (double), v = min(trunc x, left) as in
-             * split3, with trunc x = floor x (x >= 0) turned into an integer by the 2^52 trick
-             * (exact below 2^51), the min and the subtraction in 64-bit integer lanes. */
-            const __m256d two52 = _mm256_set1_pd(0x1p52);
-            const __m256i two52i = _mm256_castpd_si256(two52);
-            __m256i left = _mm256_setr_epi64x((long long)q[0], (long long)q[1], (long long)q[2], 0);
-            __m256d dq = _mm256_setr_pd((double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2], 0.0);
-            for (uint32_t i = 0; i < m; ++i) {
-                __m256d x = _mm256_mul_pd(dq, _mm256_set1_pd((double)(w[i] > 0.0f ? w[i] : 0.0f)));
-                x = _mm256_round_pd(x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-                __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(x, two52)), two52i);
-                v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
-                left = _mm256_sub_epi64(left, v);
-                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
-                _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
-            }
-            __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[big]);
-            _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), left));
-        } else
-#endif
-        {
-            uint64_t share[3][VBNL_SPLIT_MAX_VLS]; /* split3 leaves the remainder with the same `big` */
-            split3(q, m, w, share);
-            for (uint32_t i = 0; i < m; ++i) {
-                uint64_t *acc = t->acc + 4 * (size_t)rk[i];
-                acc[0] += share[0][i];
-                acc[1] += share[1][i];
-                acc[2] += share[2][i];
-            }
+    uint64_t share[3][VBNL_SPLIT_MAX_VLS];
+    split3(q, m, w, share);
+    const vbnl_split_desc *d = job->d;
+    for (uint32_t i = 0; i < m; ++i) {
+        uint32_t id = x->rec[rk[i]].id;
+        /* Phi_in into this thread's sums (plain adds, merged at the end), the direction into
+         * the VL's map (atomic: maps are shared); without per-thread sums, both atomically
+         * into the set. */
+        uint64_t s3[3] = {share[0][i], share[1][i], share[2][i]};
+        int gl = job->glossy && job->glossy[rk[i]];
+        vec3 wl = v3(0.0f, 0.0f, 1.0f); /* Lambertian VLs keep no direction */
+        if (gl) {
+            frame fr = frame_from_normal(d->vl_normals[id]);
+            wl = frame_to_local(&fr, h->wi);
         }
-    } else {
-        uint64_t share[3][VBNL_SPLIT_MAX_VLS];
-        split3(q, m, w, share);
-        const vbnl_split_desc *d = job->d;
-        for (uint32_t i = 0; i < m; ++i) {
-            const vbnl_vl_found e_ = {id[i], rk[i], 0.0f, 0.0f}, *e = &e_;
-            /* Phi_in into this thread's sums (plain adds, merged at the end), the direction
-             * into the VL's map (atomic: maps are shared); without per-thread sums, both
-             * atomically into the set. */
-            uint64_t s3[3] = {share[0][i], share[1][i], share[2][i]};
-            int gl = job->glossy && job->glossy[e->rank];
-            vec3 wl = v3(0.0f, 0.0f, 1.0f); /* Lambertian VLs keep no direction */
+        if (t->acc) {
+            uint64_t *a = t->acc + 4 * (size_t)rk[i];
+            a[0] += s3[0];
+            a[1] += s3[1];
+            a[2] += s3[2];
             if (gl) {
-                frame fr = frame_from_normal(d->vl_normals[e->id]);
-                wl = frame_to_local(&fr, h->wi);
+                vbnl_profile_splat *sp = &t->ring[t->ring_at];
+                if (t->ring_n == SPLAT_RING)
+                    vbnl_profile_splat_apply(sp); /* the oldest, prefetched long ago */
+                else
+                    t->ring_n++;
+                if (!vbnl_profile_splat_prepare(d->profiles, id, wl, s3, sp))
+                    t->ring_n--;
+                else
+                    t->ring_at = (t->ring_at + 1) % SPLAT_RING;
             }
-            if (t->acc) {
-                uint64_t *a = t->acc + 4 * (size_t)e->rank;
-                a[0] += s3[0];
-                a[1] += s3[1];
-                a[2] += s3[2];
-                if (gl) {
-                    vbnl_profile_splat *sp = &t->ring[t->ring_at];
-                    if (t->ring_n == SPLAT_RING)
-                        vbnl_profile_splat_apply(sp); /* the oldest, prefetched long ago */
-                    else
-                        t->ring_n++;
-                    if (!vbnl_profile_splat_prepare(d->profiles, e->id, wl, s3, sp))
-                        t->ring_n--;
-                    else
-                        t->ring_at = (t->ring_at + 1) % SPLAT_RING;
-                }
-            } else {
-                vbnl_profile_deposit_fixed(d->profiles, e->id, wl, s3);
-            }
+        } else {
+            vbnl_profile_deposit_fixed(d->profiles, id, wl, s3);
         }
     }
     st->covered_hits++;
     st->deposits += m;
-    st->covered_power[0] += q[0];
-    st->covered_power[1] += q[1];
-    st->covered_power[2] += q[2];
+    t->cov[0] += q[0];
+    t->cov[1] += q[1];
+    t->cov[2] += q[2];
 }
 
 /* The deposit of hit `hit` of the sorted batch from the index's answer `f` (containing spheres
  * that passed the filters, in rank order): the plain-query path (vbnl_vl_batch_fn). */
-static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
+static void split_found(const split_ctx *cx, const split_rec *h, uint32_t total, const vbnl_vl_found *f,
+                        uint32_t nf)
 {
-    const split_ctx *cx = user;
-    const split_rec *h = &cx->recs[cx->order[hit]];
     if (!nf)
         return;
     cx->t->s.overflow += total > VBNL_SPLIT_QUERY_MAX;
     float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX], id[VBNL_SPLIT_QUERY_MAX];
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX];
     uint32_t m = 0;
     float sum = 0.0f; /* of the kept weights in order (adding 0 for the dropped changes no bit) */
     for (uint32_t i = 0; i < nf; ++i) {
@@ -259,64 +301,325 @@ static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_fo
         float wi = 1.0f - f[i].d2 / (r * r);
         w[m] = wi;
         rk[m] = f[i].rank;
-        id[m] = f[i].id;
         int keep = wi > 0.0f; /* d within rounding of r: dropped */
         sum += keep ? wi : 0.0f;
         m += (uint32_t)keep;
     }
     if (m)
-        split_deposit(cx, h, w, rk, id, m, sum);
+        split_deposit(cx, h, w, rk, m, sum);
+}
+
+static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
+{
+    const split_ctx *cx = user;
+    split_found(cx, &cx->recs[cx->order[hit]], total, f, nf);
+}
+
+/* The plain query of hit h (vbnl_vli_batch_plain) and its deposit. */
+static void split_plain(const split_ctx *cx, const split_rec *h)
+{
+    const vbnl_split_desc *d = cx->job->d;
+    vbnl_vl_filter fl = {h->n, h->wi, d->normal_cos, d->require_facing};
+    vbnl_vl_found found[VBNL_SPLIT_QUERY_MAX];
+    uint32_t total = vbnl_vl_index_query_found(d->index, h->p, &fl, VBNL_SPLIT_QUERY_MAX, found);
+    split_found(cx, h, total, found, total < VBNL_SPLIT_QUERY_MAX ? total : VBNL_SPLIT_QUERY_MAX);
 }
 
 /* Stage D of the index's batch pipeline (vl_index_pipe.h) fused with split_hit: the exact
- * test and the filters of the index's pipe_d, the weights straight from them (the same
- * decisions, values and order as split_hit on pipe_d's answer, without the answer records). */
-static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b,
-                                                               uint32_t k, const vbnl_vli_pipe_slot *s,
-                                                               vbnl_vl_found *found, void *user)
+ * test and the filters of the index's pipe_d on the ncand candidates (ranks) of hit h, the
+ * weights straight from them (the same decisions, values and order as split_hit on pipe_d's
+ * answer, without the answer records). */
+static inline __attribute__((always_inline)) void split_cands(const split_ctx *cx, const vbnl_vl_index *x,
+                                                              const split_rec *h, uint32_t ncand,
+                                                              const uint32_t *cand)
 {
-    const split_ctx *cx = user;
-    if (s->ncand > VBNL_VLI_PIPE_CAND) {
-        vbnl_vli_batch_plain(x, b, k, found, split_hit, user);
+    if (ncand > VBNL_VLI_PIPE_CAND) {
+        split_plain(cx, h);
         return;
     }
-    const split_rec *h = &cx->recs[cx->order[k]];
     const vec3 p = h->p, n = h->n, wi = h->wi;
-    const float ncos = b->normal_cos;
-    const int use_cos = ncos > -1.0f, use_facing = b->facing;
+    const float ncos = cx->job->d->normal_cos;
+    const int use_cos = ncos > -1.0f, use_facing = cx->job->d->require_facing;
     float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX], id[VBNL_SPLIT_QUERY_MAX];
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX];
     uint32_t nf = 0, m = 0;
     float sum = 0.0f;
-    for (uint32_t i = 0; i < s->ncand; ++i) {
-        uint32_t rank = s->cand[i];
+#if defined(__AVX2__)
+    /* Eight candidates at a time: the records transposed into lanes, then the decisions of
+     * vbnl_vli_accept (r > 0, d^2 < r^2 in double with exact products, the normal-cone and facing
+     * filters) and the weights 1 - (float)d^2 / (r r) as in the scalar loop below; the kept
+     * ones are appended and summed in candidate order. Missing lanes repeat candidate 0 and
+     * are masked off. */
+    const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
+    const __m256 nx_ = _mm256_set1_ps(n.x), ny_ = _mm256_set1_ps(n.y), nz_ = _mm256_set1_ps(n.z);
+    const __m256 wx = _mm256_set1_ps(wi.x), wy = _mm256_set1_ps(wi.y), wz = _mm256_set1_ps(wi.z);
+    const __m256 vcos = _mm256_set1_ps(ncos);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const float *base = &x->rec[0].cx;
+    for (uint32_t i0 = 0; i0 < ncand; i0 += 8) {
+        uint32_t left = ncand - i0, cnt = left < 8 ? left : 8;
+        /* float offsets of the records (8 floats each); cand[] has room for 8 past i0 */
+        __m256i ci = _mm256_loadu_si256((const __m256i *)(cand + i0));
+        ci = _mm256_blendv_epi8(_mm256_set1_epi32((int)cand[i0]), ci,
+                                _mm256_cmpgt_epi32(_mm256_set1_epi32((int)cnt), lanes));
+        uint32_t off[8];
+        _mm256_storeu_si256((__m256i *)off, _mm256_slli_epi32(ci, 3));
+        __m256 r0 = _mm256_loadu_ps(base + off[0]), r1 = _mm256_loadu_ps(base + off[1]),
+               r2 = _mm256_loadu_ps(base + off[2]), r3 = _mm256_loadu_ps(base + off[3]),
+               r4 = _mm256_loadu_ps(base + off[4]), r5 = _mm256_loadu_ps(base + off[5]),
+               r6 = _mm256_loadu_ps(base + off[6]), r7 = _mm256_loadu_ps(base + off[7]);
+        __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+        __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
+        __m256 t4 = _mm256_unpacklo_ps(r4, r5), t5 = _mm256_unpackhi_ps(r4, r5);
+        __m256 t6 = _mm256_unpacklo_ps(r6, r7), t7 = _mm256_unpackhi_ps(r6, r7);
+        __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+        __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+        __m256 u4 = _mm256_shuffle_ps(t4, t6, 0x44), u5 = _mm256_shuffle_ps(t4, t6, 0xEE);
+        __m256 u6 = _mm256_shuffle_ps(t5, t7, 0x44), u7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+        /* lanes = candidates: centre, radius, normal */
+        __m256 cxv = _mm256_permute2f128_ps(u0, u4, 0x20), nxv = _mm256_permute2f128_ps(u0, u4, 0x31);
+        __m256 cyv = _mm256_permute2f128_ps(u1, u5, 0x20), nyv = _mm256_permute2f128_ps(u1, u5, 0x31);
+        __m256 czv = _mm256_permute2f128_ps(u2, u6, 0x20), nzv = _mm256_permute2f128_ps(u2, u6, 0x31);
+        __m256 rv = _mm256_permute2f128_ps(u3, u7, 0x20);
+        __m256 dx = _mm256_sub_ps(px, cxv), dy = _mm256_sub_ps(py, cyv), dz = _mm256_sub_ps(pz, czv);
+        /* d^2 in double: the products of floats are exact, summed in the scalar order */
+        __m256d dxl = _mm256_cvtps_pd(_mm256_castps256_ps128(dx)), dxh = _mm256_cvtps_pd(_mm256_extractf128_ps(dx, 1));
+        __m256d dyl = _mm256_cvtps_pd(_mm256_castps256_ps128(dy)), dyh = _mm256_cvtps_pd(_mm256_extractf128_ps(dy, 1));
+        __m256d dzl = _mm256_cvtps_pd(_mm256_castps256_ps128(dz)), dzh = _mm256_cvtps_pd(_mm256_extractf128_ps(dz, 1));
+        __m256d d2l = _mm256_fmadd_pd(dzl, dzl, _mm256_fmadd_pd(dyl, dyl, _mm256_mul_pd(dxl, dxl)));
+        __m256d d2h = _mm256_fmadd_pd(dzh, dzh, _mm256_fmadd_pd(dyh, dyh, _mm256_mul_pd(dxh, dxh)));
+        __m256d rl = _mm256_cvtps_pd(_mm256_castps256_ps128(rv)), rh = _mm256_cvtps_pd(_mm256_extractf128_ps(rv, 1));
+        unsigned in = (unsigned)_mm256_movemask_pd(_mm256_cmp_pd(d2l, _mm256_mul_pd(rl, rl), _CMP_LT_OQ)) |
+                      (unsigned)_mm256_movemask_pd(_mm256_cmp_pd(d2h, _mm256_mul_pd(rh, rh), _CMP_LT_OQ)) << 4;
+        __m256 ok = _mm256_cmp_ps(rv, _mm256_setzero_ps(), _CMP_GT_OQ);
+        if (use_cos) {
+            __m256 c = _mm256_fmadd_ps(nzv, nz_, _mm256_fmadd_ps(nyv, ny_, _mm256_mul_ps(nxv, nx_)));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps(c, vcos, _CMP_GT_OQ));
+        }
+        if (use_facing) {
+            __m256 f = _mm256_fmadd_ps(nzv, wz, _mm256_fmadd_ps(nyv, wy, _mm256_mul_ps(nxv, wx)));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps(f, _mm256_setzero_ps(), _CMP_GT_OQ));
+        }
+        unsigned acc_bits = in & (unsigned)_mm256_movemask_ps(ok) & ((1u << cnt) - 1u);
+        if (!acc_bits)
+            continue;
+        nf += (uint32_t)__builtin_popcount(acc_bits);
+        if (nf > VBNL_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
+            split_plain(cx, h);
+            return;
+        }
+        __m256 d2f = _mm256_set_m128(_mm256_cvtpd_ps(d2h), _mm256_cvtpd_ps(d2l));
+        __m256 wv = _mm256_sub_ps(_mm256_set1_ps(1.0f), _mm256_div_ps(d2f, _mm256_mul_ps(rv, rv)));
+        unsigned keep = acc_bits & (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(wv, _mm256_setzero_ps(), _CMP_GT_OQ));
+        float wl[8];
+        _mm256_storeu_ps(wl, wv);
+        while (keep) { /* d within rounding of r: dropped */
+            unsigned j = (unsigned)__builtin_ctz(keep);
+            keep &= keep - 1;
+            w[m] = wl[j];
+            rk[m] = cand[i0 + j];
+            sum += wl[j];
+            m++;
+        }
+    }
+    if (0)
+#endif
+    for (uint32_t i = 0; i < ncand; ++i) {
+        uint32_t rank = cand[i];
         const vl_rec *e = x->rec + rank;
         double d2;
         if (!vbnl_vli_accept(e, p, use_cos, n, ncos, use_facing, wi, &d2))
             continue;
         const float r = e->r;
         if (nf == VBNL_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
-            vbnl_vli_batch_plain(x, b, k, found, split_hit, user);
+            split_plain(cx, h);
             return;
         }
         nf++;
         float wk = 1.0f - (float)d2 / (r * r);
         w[m] = wk;
         rk[m] = rank;
-        id[m] = e->id;
         int keep = wk > 0.0f; /* d within rounding of r: dropped */
         sum += keep ? wk : 0.0f;
         m += (uint32_t)keep;
     }
     if (m)
-        split_deposit(cx, h, w, rk, id, m, sum);
+        split_deposit(cx, h, w, rk, m, sum);
+}
+
+static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b,
+                                                               uint32_t k, const vbnl_vli_pipe_slot *s,
+                                                               vbnl_vl_found *found, void *user)
+{
+    (void)b;
+    (void)found;
+    const split_ctx *cx = user;
+    split_cands(cx, x, &cx->recs[cx->order[k]], s->ncand, s->cand);
+}
+
+/* The quantised pre-test of the n listings from s0 (VBNL_VLI_PRETEST, the same candidates in
+ * listing order) for a point at q (cell frame): the candidates' ranks go to cand (their count
+ * is returned; beyond VBNL_VLI_PIPE_CAND only counted), their records and sums are prefetched.
+ * The capacity is checked once per eight listings. */
+static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_level *g, const vl_rec *rec,
+                                                                   const uint64_t *acc, uint32_t s0, uint32_t n,
+                                                                   const float q[3], uint32_t *cand)
+{
+    uint32_t nc = 0;
+#if defined(__AVX2__)
+    const uint32_t *qe = g->qent + s0, *items = g->items + s0;
+    const __m256 vx = _mm256_set1_ps(q[0]), vy = _mm256_set1_ps(q[1]), vz = _mm256_set1_ps(q[2]);
+    const __m256 sl = _mm256_set1_ps(VBNL_VLI_QSLACK);
+    const __m256i byte = _mm256_set1_epi32(0xff);
+    for (uint32_t i = 0; i < n; i += 8) {
+        __m256i v = _mm256_loadu_si256((const __m256i *)(qe + i));
+        __m256 dx = _mm256_sub_ps(vx, _mm256_cvtepi32_ps(_mm256_and_si256(v, byte)));
+        __m256 dy = _mm256_sub_ps(vy, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v, 8), byte)));
+        __m256 dz = _mm256_sub_ps(vz, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v, 16), byte)));
+        __m256 rr = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v, 24)), sl);
+        __m256 d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
+        unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ));
+        uint32_t rest = n - i;
+        if (rest < 8)
+            bits &= (1u << rest) - 1u;
+        if (!bits)
+            continue;
+        if (nc + 8 > VBNL_VLI_PIPE_CAND) { /* near the capacity: count the rest */
+            while (bits) {
+                unsigned j = (unsigned)__builtin_ctz(bits);
+                bits &= bits - 1;
+                if (nc < VBNL_VLI_PIPE_CAND)
+                    cand[nc] = items[i + j];
+                ++nc;
+            }
+            continue;
+        }
+        do {
+            unsigned j = (unsigned)__builtin_ctz(bits);
+            bits &= bits - 1;
+            uint32_t r = items[i + j];
+            __builtin_prefetch(rec + r);
+            if (acc)
+                __builtin_prefetch(acc + 4 * (size_t)r);
+            cand[nc++] = r;
+        } while (bits);
+    }
+#else
+    VBNL_VLI_PRETEST(g, s0, n, q, {
+        if (nc < VBNL_VLI_PIPE_CAND) {
+            __builtin_prefetch(rec + rank_);
+            if (acc)
+                __builtin_prefetch(acc + 4 * (size_t)rank_);
+            cand[nc] = rank_;
+        }
+        ++nc;
+    });
+#endif
+    return nc;
+}
+
+/* The batch pipeline for hits that carry their cell (job->cell_fast), four stages S hits apart:
+ * (A) the cell header of hit k (sorted order, scell) is prefetched; (B) the cell's listings and
+ * the hit record are prefetched; (C) the quantised pre-test picks the candidates and prefetches
+ * their records and sums; (D) the deposit (split_cands). A steady-state loop runs all four
+ * without tests. */
+typedef struct fast_slot {
+    const split_rec *h;
+    uint32_t s0, n, ncand;
+    uint32_t cand[VBNL_VLI_PIPE_CAND];
+} fast_slot;
+
+#define FAST_S VBNL_VLI_PIPE_STEP
+#define FAST_SLOTS VBNL_VLI_PIPE_SLOTS
+_Static_assert(FAST_SLOTS >= 3 * FAST_S + 1 && (FAST_SLOTS & (FAST_SLOTS - 1)) == 0, "fast pipe slots");
+
+typedef struct fast_pipe {
+    const split_ctx *cx;
+    const vbnl_vl_index *x;
+    const grid_level *g;
+    const split_rec *recs;
+    const uint32_t *order, *scell;
+    const uint64_t *acc;
+    fast_slot ring[FAST_SLOTS];
+} fast_pipe;
+
+static inline __attribute__((always_inline)) void fast_a(fast_pipe *fp, uint32_t k)
+{
+    __builtin_prefetch(fp->g->start + fp->scell[k]);
+}
+
+static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t k)
+{
+    fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
+    const grid_level *g = fp->g;
+    uint32_t c = fp->scell[k];
+    sl->h = fp->recs + fp->order[k];
+    __builtin_prefetch(sl->h);
+    uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
+    sl->s0 = s0;
+    sl->n = n;
+    for (uint32_t i = 0; i < n; i += 16) {
+        __builtin_prefetch(g->qent + s0 + i);
+        __builtin_prefetch(g->items + s0 + i);
+    }
+}
+
+static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)
+{
+    fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
+    sl->ncand = fast_pretest(fp->g, fp->x->rec, fp->acc, sl->s0, sl->n, sl->h->q, sl->cand);
+}
+
+static inline __attribute__((always_inline)) void fast_d(fast_pipe *fp, uint32_t k)
+{
+    const fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
+    split_cands(fp->cx, fp->x, sl->h, sl->ncand, sl->cand);
+}
+
+/* Step k of the pipeline: stage A of hit k, B of k - S, C of k - 2 S, D of k - 3 S (those that
+ * exist). */
+static inline __attribute__((always_inline)) void fast_step(fast_pipe *fp, uint32_t k, uint32_t count)
+{
+    const uint32_t S = FAST_S;
+    if (k < count)
+        fast_a(fp, k);
+    if (k >= S && k - S < count)
+        fast_b(fp, k - S);
+    if (k >= 2 * S && k - 2 * S < count)
+        fast_c(fp, k - 2 * S);
+    if (k >= 3 * S && k - 3 * S < count)
+        fast_d(fp, k - 3 * S);
+}
+
+static void run_fast_pipe(const split_ctx *cx, const uint32_t *scell, uint32_t count)
+{
+    fast_pipe fp;
+    fp.cx = cx;
+    fp.x = cx->job->d->index;
+    fp.g = &fp.x->levels[0];
+    fp.recs = cx->recs;
+    fp.order = cx->order;
+    fp.scell = scell;
+    fp.acc = cx->t->acc;
+    const uint32_t S = FAST_S, end = count + 3 * S;
+    uint32_t k = 0;
+    for (; k < 3 * S && k < end; ++k)
+        fast_step(&fp, k, count);
+    for (; k < count; ++k) { /* all four stages */
+        fast_a(&fp, k);
+        fast_b(&fp, k - S);
+        fast_c(&fp, k - 2 * S);
+        fast_d(&fp, k - 3 * S);
+    }
+    for (; k < end; ++k)
+        fast_step(&fp, k, count);
 }
 
 /* Deposits the thread's batch in spatial order: a counting sort by bin (a cube of the index's
  * Morton key grid), so that consecutive queries read the same cells, sphere records and
  * accumulators, which then stay in cache. The order cannot change the result: deposits are
  * integer adds. */
-static void flush_batch(const split_job *job, split_thread *t)
+static __attribute__((noinline)) void flush_batch(const split_job *job, split_thread *t)
 {
     uint32_t n = t->n, bins = job->bins;
     if (!n)
@@ -327,8 +630,16 @@ static void flush_batch(const split_job *job, split_thread *t)
         start[t->bin[i] + 1]++;
     for (uint32_t b = 0; b < bins; ++b)
         start[b + 1] += start[b];
-    for (uint32_t i = 0; i < n; ++i)
-        t->order[start[t->bin[i]]++] = i;
+    if (job->cell_fast) {
+        for (uint32_t i = 0; i < n; ++i) {
+            uint32_t k = start[t->bin[i]]++;
+            t->order[k] = i;
+            t->scell[k] = t->cell[i];
+        }
+    } else {
+        for (uint32_t i = 0; i < n; ++i)
+            t->order[start[t->bin[i]]++] = i;
+    }
     /* Queries in that order, pipelined by the index (vl_index.h), which also prefetches this
      * thread's sums of the candidate VLs. */
     split_ctx cx = {job, t, t->hits, t->order};
@@ -348,7 +659,9 @@ static void flush_batch(const split_job *job, split_thread *t)
     b.rank_data = t->acc; /* NULL: nothing to prefetch */
     b.rank_stride = 4 * sizeof(uint64_t);
     const vbnl_vl_index *x = job->d->index;
-    if (x->kind == VBNL_VL_INDEX_GRID && x->level_count <= VBNL_VLI_PIPE_LEVELS && b.max_out <= VBNL_SPLIT_QUERY_MAX) {
+    if (job->cell_fast) {
+        run_fast_pipe(&cx, t->scell, n);
+    } else if (x->kind == VBNL_VL_INDEX_GRID && x->level_count <= VBNL_VLI_PIPE_LEVELS && b.max_out <= VBNL_SPLIT_QUERY_MAX) {
         /* the index's pipeline with stage D fused with the deposit (split_pipe_d) */
         vbnl_vl_found found[VBNL_VL_BATCH_MAX_OUT];
         if (x->level_count == 1)
@@ -373,6 +686,29 @@ void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon
     vbnl_photon_walk_inline(w, rng, visit, user, st);
 }
 
+/* level_cell of a dense level (same cells): the far-outside test, then floor((p - lo) / cell)
+ * clamped to the grid, for the three axes at once. */
+static inline __attribute__((always_inline)) uint32_t fast_cell(const grid_level *g, vec3 p, int32_t c3[3])
+{
+#if defined(__SSE4_1__)
+    const __m128 lo = _mm_setr_ps(g->lo.x, g->lo.y, g->lo.z, 0.0f);
+    const __m128 nf = _mm_cvtepi32_ps(_mm_setr_epi32(g->n[0], g->n[1], g->n[2], 1));
+    __m128 f = _mm_mul_ps(_mm_sub_ps(_mm_setr_ps(p.x, p.y, p.z, 0.0f), lo), _mm_set1_ps(g->inv_cell));
+    __m128 in = _mm_and_ps(_mm_cmpgt_ps(f, _mm_set1_ps(-1.0f)), _mm_cmplt_ps(f, _mm_add_ps(nf, _mm_set1_ps(1.0f))));
+    if (_mm_movemask_ps(in) != 15) /* also NaN */
+        return UINT32_MAX;
+    /* f is an integer after the floor: min(max(f, 0), n - 1) is cell_coord's clamp */
+    __m128 fl = _mm_min_ps(_mm_max_ps(_mm_floor_ps(f), _mm_setzero_ps()), _mm_sub_ps(nf, _mm_set1_ps(1.0f)));
+    __m128i ci = _mm_cvttps_epi32(fl);
+    c3[0] = _mm_cvtsi128_si32(ci);
+    c3[1] = _mm_extract_epi32(ci, 1);
+    c3[2] = _mm_extract_epi32(ci, 2);
+    return (uint32_t)c3[0] + (uint32_t)g->n[0] * ((uint32_t)c3[1] + (uint32_t)g->n[1] * (uint32_t)c3[2]);
+#else
+    return level_cell(g, p, c3);
+#endif
+}
+
 typedef struct split_visit {
     const split_job *job;
     split_thread *t;
@@ -384,9 +720,29 @@ static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
     split_thread *t = sv->t;
     if (t->n == t->cap)
         flush_batch(sv->job, t);
-    t->hits[t->n] = (split_rec){v->hit->p, v->ng, v->wo, v->beta};
-    /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
-    t->bin[t->n] = vbnl_vl_key_bin(&sv->job->key_grid, v->hit->p, VBNL_SPLIT_BIN_BITS / 3u);
+    const split_job *job = sv->job;
+    split_rec *h = &t->hits[t->n];
+    const vec3 p = v->hit->p;
+    if (job->cell_fast) {
+        /* level_cell and cell_frame of the deposit, done here; no sphere can contain a point
+         * outside the level (the hit is not recorded) */
+        const grid_level *g = &job->d->index->levels[0];
+        int32_t c3[3];
+        uint32_t c = fast_cell(g, p, c3);
+        if (c == UINT32_MAX)
+            return;
+        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, 0};
+        cell_frame(g, p, c3, h->q);
+        t->cell[t->n] = c;
+        const uint32_t sh = job->cell_shift, b = VBNL_SPLIT_BIN_BITS / 3u;
+        t->bin[t->n] = vbnl_vl_key_spread_bits((uint32_t)c3[0] >> sh, b) |
+                       vbnl_vl_key_spread_bits((uint32_t)c3[1] >> sh, b) << 1 |
+                       vbnl_vl_key_spread_bits((uint32_t)c3[2] >> sh, b) << 2;
+    } else {
+        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, 0};
+        /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
+        t->bin[t->n] = vbnl_vl_key_bin(&job->key_grid, p, VBNL_SPLIT_BIN_BITS / 3u);
+    }
     t->n++;
 }
 
@@ -397,7 +753,7 @@ static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
     (void)v;
 }
 
-static void trace_photon(const split_job *job, split_thread *t, uint64_t k)
+static __attribute__((flatten)) void trace_photon(const split_job *job, split_thread *t, uint64_t k)
 {
     const vbnl_split_desc *d = job->d;
     vbnl_rng rng = vbnl_rng_for(d->seed, k, 0);
@@ -449,6 +805,8 @@ static void threads_free(split_job *job)
         free(t->hits);
         free(t->order);
         free(t->bin);
+        free(t->cell);
+        free(t->scell);
         free(t->start);
     }
     free(job->threads);
@@ -481,6 +839,17 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     _Static_assert(VBNL_SPLIT_BIN_BITS % 3u == 0 && VBNL_SPLIT_BIN_BITS <= 24u, "bins: whole Morton triples");
     job.key_grid = vbnl_vl_index_key_grid(d->index);
     job.bins = 1u << VBNL_SPLIT_BIN_BITS;
+    {
+        const vbnl_vl_index *x = d->index;
+        job.cell_fast = x->kind == VBNL_VL_INDEX_GRID && x->level_count == 1 && x->levels[0].dense;
+        if (job.cell_fast) {
+            const grid_level *g = &x->levels[0];
+            int32_t nmax = g->n[0] > g->n[1] ? g->n[0] : g->n[1];
+            nmax = nmax > g->n[2] ? nmax : g->n[2];
+            while (((uint32_t)(nmax - 1) >> job.cell_shift) >= (1u << (VBNL_SPLIT_BIN_BITS / 3u)))
+                job.cell_shift++;
+        }
+    }
     job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbnl_pool_thread_count(pool);
     if (job.thread_count == 0)
         job.thread_count = 1;
@@ -513,9 +882,14 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         t->cap = VBNL_SPLIT_BATCH_HITS;
         if (own_sums && (t->acc = aligned_alloc(32, 32 * ((size_t)nvl + 1))))
             memset(t->acc, 0, 32 * ((size_t)nvl + 1));
-        t->hits = malloc(t->cap * sizeof(split_rec));
+        t->hits = aligned_alloc(64, t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
+        if (job.cell_fast && (!(t->cell = malloc(t->cap * sizeof(uint32_t))) ||
+                              !(t->scell = malloc(t->cap * sizeof(uint32_t))))) {
+            res = VBNL_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
         t->start = malloc(((size_t)job.bins + 1) * sizeof(uint32_t));
         if ((own_sums && !t->acc) || !t->hits || !t->order || !t->bin || !t->start) {
             res = VBNL_ERR_OUT_OF_MEMORY;
@@ -552,12 +926,13 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             stats->deposits += s->deposits;
             stats->overflow += s->overflow;
             for (int c = 0; c < 3; ++c)
-                stats->covered_power[c] += s->covered_power[c];
+                stats->covered_power[c] += job.threads[i].cov[c];
         }
         stats->seconds = vbnl_now() - t0;
         stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
                                ((own_sums ? 32ull * (nvl + 1) : 0ull) +
-                                (uint64_t)VBNL_SPLIT_BATCH_HITS * (sizeof(split_rec) + 2 * sizeof(uint32_t)) +
+                                (uint64_t)VBNL_SPLIT_BATCH_HITS *
+                                    (sizeof(split_rec) + (job.cell_fast ? 4 : 2) * sizeof(uint32_t)) +
                                 4ull * (job.bins + 1)) +
                                (glossy ? nvl : 0u);
     }

@@ -43,16 +43,24 @@
  * How it runs (the work per hit is a handful of scattered memory accesses, so the order of the
  * work matters more than the arithmetic):
  *   - A work item traces `chunk` photon paths and records every non-delta hit (position,
- *     facing normal, wi, flux: 48 bytes) in its thread's batch (VBNL_SPLIT_BATCH_HITS hits),
- *     which it deposits when full and before the item returns.
- *   - Deposit: the batch is counting-sorted by the top 12 bits of the index's Morton key
- *     (vl_index.h, vbnl_vl_index_spatial_key: 2^12 cubes of the VLs' bounding cube), then
- *     queried in that order through the index's software pipeline (vl_index_pipe.h), which
- *     prefetches each query's cells, entries and sphere records a few queries ahead, with its
- *     last stage (exact test, filters) fused with the weights and the deposit (splitting.c,
- *     split_pipe_d). Consecutive queries then read the same cells and records, which stay in
- *     cache. The bins are the top 12 bits of vbnl_vl_index_spatial_key, computed inline
- *     (vbnl_vl_key_bin).
+ *     facing normal, wi, flux; 64 bytes, one cache line) in its thread's batch
+ *     (VBNL_SPLIT_BATCH_HITS hits), which it deposits when full and before the item returns.
+ *   - Bins: when the index is one dense grid level (uniform radii, the common case) the hit's
+ *     cell and its point in the cell's quantisation frame are computed when the hit is recorded
+ *     (hits outside the grid, which no sphere contains, are not recorded), and the bin is the
+ *     Morton code of the cell coordinates' top 4 bits per axis; otherwise the bin is the top 12
+ *     bits of the index's Morton key (vl_index.h, vbnl_vl_key_bin: 2^12 cubes of the VLs'
+ *     bounding cube).
+ *   - Deposit: the batch is counting-sorted by bin, then queried in that order through a
+ *     software pipeline that prefetches each query's cell header, listings, hit record and
+ *     candidate records a few queries ahead (splitting.c, run_fast_pipe, for hits that carry
+ *     their cell; the index's own pipeline, vl_index_pipe.h, otherwise), with the last stage
+ *     (exact test, filters, weights of eight candidates at a time in AVX2) fused with the
+ *     deposit. Consecutive queries then read the same cells and records, which stay in cache.
+ *   - The split: the photon power is quantised, the weights normalised and the exact partition
+ *     added into the sums for the three channels at once (AVX2, same bits as
+ *     vbnl_profile_split_fixed); the max_vls cap drops the smallest weights (or picks the
+ *     largest, whichever takes fewer passes).
  *   - The walk's hit set-up for triangle meshes (the shared vbnl_fill_mesh_hit) and its
  *     Lambertian bounce in the world frame are inline (photon_fast.h, same values).
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
@@ -66,25 +74,19 @@
  *   normalised weights may differ in the last bit from an id-ordered sum; either is a
  *   deterministic function of the hit).
  *   Memory beyond the profile set (stats.scratch_bytes): per thread 32 bytes per VL (the sums:
- *   RGB and a zero lane, one AVX2 vector) and 56 bytes per batch entry (3.7 MB); for 100K VLs
- *   and 2 threads, 13.8 MB in all. When the sums of all threads would exceed
- *   VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic adds into the profile set instead
- *   (slower, same bits).
+ *   RGB and a zero lane, one AVX2 vector) and 80 bytes per batch entry (the record, its order,
+ *   bin, cell and sorted cell: 5.2 MB); for 100K VLs and 2 threads, 17 MB in all. When the sums
+ *   of all threads would exceed VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic adds into the
+ *   profile set instead (slower, same bits).
  *   Embree packets and streams (rtcIntersect8, rtcIntersect1M with the incoherent flag) were
  *   measured on these photon rays and are no faster than rtcIntersect1, so paths are traced one
  *   ray at a time.
- * Measured (tests/vbnl/bench_splitting.c: Cornell box, 100K VLs, 2M paths, 2 shared cores;
- * ratios to the raw Embree incoherent rate measured in the same run): 25-29 % of the raw rate,
- * 0.8-0.9 M paths/s, 13 M deposits/s (one atomic deposit per hit in trace order: 8-13 %,
- * 0.26-0.40 M paths/s); with 33K glossy VLs (CornellBox-Glossy-Floor) 16-17 % (before: 6-7 %).
- * After the inline walk and the fused stage D (callgrind, 50K paths, 1 thread, per photon hit:
- * 2793 -> 2407 instructions, of which Embree ~727; tracing alone 1462 -> ~1310): per CPU second
- * 25-28 % -> 29-31 % of the raw rate, tracing alone 51-59 % -> 59-66 % (alternated runs on a
- * loaded machine). Left per hit beside Embree: the walk ~560 instructions (vector maths of the
- * hit and bounce, the RNG, the batch record), the deposit ~1000 (the quantised pre-test ~160,
- * the exact test, filters and weights ~35 per candidate, the split ~25 per VL, the max_vls
- * selection where more than 8 VLs contain the hit, the pipeline's bookkeeping). Half the raw
- * rate would need both together below Embree's own cost. */
+ * Measured (tests/vbnl/bench_splitting.c: Cornell box, 100K VLs, uniform radii; callgrind,
+ * 20K paths, 1 thread, per photon hit): ~2100 instructions, of which Embree ~730, the walk
+ * ~700 (vector maths of the hit and bounce, the RNG, the batch record with its cell and bin)
+ * and the deposit ~680 (the quantised pre-test of ~21 listings ~170, the exact test, filters
+ * and weights ~100, the split and sums ~100, the pipeline and the sort). Half the raw Embree
+ * rate would need the walk and the deposit together below Embree's own cost. */
 #ifndef VBNL_SPLITTING_H
 #define VBNL_SPLITTING_H
 
