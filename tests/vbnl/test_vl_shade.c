@@ -3,7 +3,8 @@
  * A random set of Lambertian and glossy lights with random photon deposits: every record must
  * hold its light's data in the index's rank order, radiance must equal the unpacked formula
  * J(wo) tint / (pi r^2) of profiles.h, the pmf must be power / total power, and the pick must
- * draw ranks with that pmf (chi-square; a test against the wrong pmf must fail). Seeds are
+ * draw ranks with that pmf (chi-square; a test against the wrong pmf must fail); the index's
+ * candidate ranks tested on the records must give the index's own query answer. Seeds are
  * fixed. */
 #include <stdarg.h>
 #include <stddef.h>
@@ -126,7 +127,7 @@ static void test_records(void **state)
         assert_int_equal(e->id, id);
         assert_memory_equal(&e->position, &f.set.position[id], sizeof(vec3));
         assert_memory_equal(&e->normal, &f.set.normal[id], sizeof(vec3));
-        assert_true(e->r2 == f.set.radius[id] * f.set.radius[id]);
+        assert_true(e->radius == f.set.radius[id]);
         assert_true(e->density == f.set.density[id]);
         assert_true(fabs(e->pmf - f.power[id] / total) <= 1e-6 * (f.power[id] / total) + 1e-12);
         assert_true(e->prob >= 0.0f && e->alias < N_LIGHTS);
@@ -202,6 +203,71 @@ static void test_pick_frequencies(void **state)
     fixture_free(&f);
 }
 
+/* The index's candidate ranks, tested on the records, give the index's own answer: the same
+ * set as vbnl_vl_index_query_found with and without the filter, each rank once. */
+static int cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+static void test_candidates(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f);
+    vbnl_vl_shade t;
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    vbnl_rng rng = vbnl_rng_make(8, 8);
+    uint32_t nonempty = 0, rejected = 0;
+    for (int q = 0; q < 20000; ++q) {
+        vec3 p = v3(1.2f * vbnl_rng_next(&rng) - 0.1f, 1.2f * vbnl_rng_next(&rng) - 0.1f, 1.2f * vbnl_rng_next(&rng) - 0.1f);
+        vbnl_vl_filter fl = {random_unit(&rng), random_unit(&rng), 0.0f, 1};
+        for (int filtered = 0; filtered < 2; ++filtered) {
+            uint32_t cand[256], mine[256], theirs[64];
+            uint32_t nc = vbnl_vl_index_candidates(f.index, p, 256, cand);
+            assert_true(nc <= 256);
+            uint32_t m = 0;
+            for (uint32_t k = 0; k < nc; ++k) {
+                const vbnl_vl_shade_rec *e = &t.rec[cand[k]];
+                double d2;
+                if (vbnl_vl_contains(e->position, e->radius, p, &d2) &&
+                    (!filtered || vbnl_vl_filter_passes(&fl, e->normal)))
+                    mine[m++] = cand[k];
+                else
+                    rejected++;
+            }
+            vbnl_vl_found found[64];
+            uint32_t n = vbnl_vl_index_query_found(f.index, p, filtered ? &fl : NULL, 64, found);
+            assert_true(n <= 64);
+            assert_int_equal(m, n);
+            for (uint32_t k = 0; k < n; ++k)
+                theirs[k] = found[k].rank;
+            qsort(mine, m, sizeof(uint32_t), cmp_u32);
+            qsort(theirs, n, sizeof(uint32_t), cmp_u32);
+            assert_memory_equal(mine, theirs, sizeof(uint32_t) * n);
+            qsort(cand, nc, sizeof(uint32_t), cmp_u32);
+            for (uint32_t k = 1; k < nc; ++k)
+                assert_true(cand[k] != cand[k - 1]);
+            nonempty += n > 0;
+        }
+    }
+    print_message("candidates: %u non-empty answers, %u candidates rejected by the exact test\n", nonempty,
+                  rejected);
+    assert_true(nonempty > 1000 && rejected > 0);
+    /* too small a buffer: reported, not overrun */
+    uint32_t small[1] = {UINT32_MAX};
+    uint32_t big = 0;
+    for (int q = 0; q < 20000 && !big; ++q) {
+        vec3 p = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+        uint32_t nc = vbnl_vl_index_candidates(f.index, p, 1, small);
+        big = nc > 1 ? nc : 0;
+    }
+    assert_true(big > 1 && small[0] < N_LIGHTS);
+    vbnl_vl_shade_free(&t);
+    fixture_free(&f);
+}
+
 /* No light received a photon: nothing to sample, and no error. */
 static void test_no_power(void **state)
 {
@@ -223,6 +289,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_records),
         cmocka_unit_test(test_pick_frequencies),
+        cmocka_unit_test(test_candidates),
         cmocka_unit_test(test_no_power),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -94,6 +94,7 @@ enum { VIEW_SHADED = 0, VIEW_LIGHTS = 1 };
 /* Filter of §3.3 (authors' code), used for splitting and for gathering alike. */
 #define VL_NORMAL_COS 0.7f
 #define VL_GATHER_MAX 64u
+#define VL_CAND_MAX 128u /* candidates of one gather before it falls back to the index's query */
 
 typedef struct vbnl_state {
     const vbnl_scene *scene;
@@ -465,23 +466,47 @@ static inline float blend_weight(const vbnl_state *s, vec3 x, const vbnl_hit *y,
     return clampf((a * density - s->n_min) / (s->n_max - s->n_min), 0.0f, 1.0f);
 }
 
-/* Lights containing y that may shine toward x (the filter of splitting, so both see the same
- * set), in id order with their ranks. Returns their count. */
-static uint32_t gather(const vbnl_state *s, const vbnl_hit *y, vec3 w, vbnl_vl_found *found)
+/* Ranks of the lights containing y that may shine toward x (the filter of splitting, so both
+ * see the same set). The index lists candidates; containment and the filter are tested on the
+ * render records, which the shading reads next anyway. More than VL_GATHER_MAX lights (rare):
+ * the VL_GATHER_MAX smallest ids, as the index's own query keeps. Returns their count. */
+static uint32_t gather(const vbnl_state *s, const vbnl_hit *y, vec3 w, uint32_t *ranks)
 {
     vbnl_vl_filter f;
     f.n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng); /* facing x */
     f.wi = v3_neg(w);
     f.normal_cos = VL_NORMAL_COS;
     f.facing = 1;
+    uint32_t cand[VL_CAND_MAX];
+    uint32_t nc = vbnl_vl_index_candidates(s->index, y->p, VL_CAND_MAX, cand);
+    if (nc <= VL_CAND_MAX) {
+        for (uint32_t k = 0; k < nc; ++k)
+            __builtin_prefetch(&s->shade.rec[cand[k]]);
+        uint32_t m = 0;
+        for (uint32_t k = 0; k < nc; ++k) {
+            const vbnl_vl_shade_rec *e = &s->shade.rec[cand[k]];
+            double d2;
+            if (vbnl_vl_contains(e->position, e->radius, y->p, &d2) && vbnl_vl_filter_passes(&f, e->normal)) {
+                if (m == VL_GATHER_MAX)
+                    goto capped;
+                ranks[m++] = cand[k];
+            }
+        }
+        return m;
+    }
+capped:;
+    vbnl_vl_found found[VL_GATHER_MAX];
     uint32_t n = vbnl_vl_index_query_found(s->index, y->p, &f, VL_GATHER_MAX, found);
-    return n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
+    n = n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
+    for (uint32_t k = 0; k < n; ++k)
+        ranks[k] = found[k].rank;
+    return n;
 }
 
 /* True when light e may shine at y toward x (same filter as gather). */
 static int accepts(const vbnl_vl_shade_rec *e, const vbnl_hit *y, vec3 w)
 {
-    if (v3_len2(v3_sub(y->p, e->position)) >= e->r2)
+    if (v3_len2(v3_sub(y->p, e->position)) >= e->radius * e->radius)
         return 0;
     vec3 n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng);
     return v3_dot(e->normal, n) > VL_NORMAL_COS && v3_dot(e->normal, w) < 0.0f;
@@ -512,7 +537,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     vbnl_hit hit = *first;
     const int have_vls = s->prepared && s->shade.n > 0;
     vec3 beta = v3s(1.0f);
-    vbnl_vl_found found[VL_GATHER_MAX];
+    uint32_t ranks[VL_GATHER_MAX];
     int vertices = 0;
     out[3] = 1.0f;
     /* what the camera sees directly */
@@ -582,7 +607,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
                     float t = v3_dot(v3_sub(e->position, x), n) / denom;
                     if (t > 0.0f) {
                         vec3 q = v3_fma(x, w, t);
-                        hits_disk = v3_len2(v3_sub(q, e->position)) < e->r2;
+                        hits_disk = v3_len2(v3_sub(q, e->position)) < e->radius * e->radius;
                     }
                 }
             }
@@ -634,16 +659,16 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         float wv = 0.0f;
         int near_specular = vbnl_lobe_is_near_specular(bsdf, bs.lobe, s->pp.specular_roughness);
         if (!near_specular && have_vls) {
-            uint32_t n = gather(s, &hit, w, found);
+            uint32_t n = gather(s, &hit, w, ranks);
             if (n > 0) {
                 float density = 0.0f;
                 for (uint32_t k = 0; k < n; ++k)
-                    density += s->shade.rec[found[k].rank].density;
+                    density += s->shade.rec[ranks[k]].density;
                 wv = blend_weight(s, x, &hit, w, bs.pdf, density / (float)n); /* Eqs. 7-9 */
                 if (wv > 0.0f && s->sampling != SAMPLE_POWER) {
                     vec3 sum = v3s(0.0f);
                     for (uint32_t k = 0; k < n; ++k) {
-                        uint32_t j = found[k].rank;
+                        uint32_t j = ranks[k];
                         float mis = s->sampling == SAMPLE_MIS ? power_heuristic(bs.pdf, vl_pdf(s, j, x)) : 1.0f;
                         sum = v3_add(sum, v3_scale(vl_radiance(s, j, w), mis));
                     }

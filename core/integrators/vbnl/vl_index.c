@@ -495,6 +495,38 @@ uint32_t vbnl_vl_index_query_found(const vbnl_vl_index *x, vec3 p, const vbnl_vl
     return run_query(x, p, f && x->has_normals ? f : NULL, max_out, NULL, NULL, found);
 }
 
+uint32_t vbnl_vl_index_candidates(const vbnl_vl_index *x, vec3 p, uint32_t max_out, uint32_t *ranks)
+{
+    if (x->kind != VBNL_VL_INDEX_GRID) {
+        vbnl_vl_found f[VBNL_VL_BATCH_MAX_OUT];
+        uint32_t total = run_query(x, p, NULL, VBNL_VL_BATCH_MAX_OUT, NULL, NULL, f);
+        if (total > max_out || total > VBNL_VL_BATCH_MAX_OUT)
+            return max_out + 1;
+        for (uint32_t k = 0; k < total; ++k)
+            ranks[k] = f[k].rank;
+        return total;
+    }
+    uint32_t n_out = 0;
+    for (uint32_t L = 0; L < x->level_count; ++L) {
+        const grid_level *g = &x->levels[L];
+        int32_t c3[3];
+        uint32_t c = level_cell(g, p, c3);
+        if (c == UINT32_MAX)
+            continue;
+        uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
+        if (!n)
+            continue;
+        float q[3];
+        cell_frame(g, p, c3, q);
+        VBNL_VLI_PRETEST(g, s0, n, q, {
+            if (n_out < max_out)
+                ranks[n_out] = rank_;
+            n_out++;
+        });
+    }
+    return n_out;
+}
+
 int vbnl_vl_index_has_normals(const vbnl_vl_index *x) { return x->has_normals; }
 uint32_t vbnl_vl_index_count(const vbnl_vl_index *x) { return x->count; }
 uint32_t vbnl_vl_index_rank(const vbnl_vl_index *x, uint32_t id) { return x->rank_of ? x->rank_of[id] : id; }

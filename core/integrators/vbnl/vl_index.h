@@ -93,6 +93,23 @@ typedef struct vbnl_vl_filter {
 uint32_t vbnl_vl_index_query_filtered(const vbnl_vl_index *idx, vec3 p, const vbnl_vl_filter *f, uint32_t max_out,
                                       uint32_t *ids, float *dist2);
 int vbnl_vl_index_has_normals(const vbnl_vl_index *idx);
+/* The filter's test of a light with unit normal nj (the one every query applies). */
+static inline int vbnl_vl_filter_passes(const vbnl_vl_filter *f, vec3 nj)
+{
+    if (f->normal_cos > -1.0f && !(v3_dot(nj, f->n) > f->normal_cos))
+        return 0;
+    return !f->facing || v3_dot(nj, f->wi) > 0.0f;
+}
+
+/* The ranks of the spheres that may contain p, for callers that keep their own per-rank copy of
+ * centre, radius and normal and test containment (vbnl_vl_contains) and the filter themselves,
+ * so that a query reads only the cells and the caller's records: every sphere containing p is
+ * listed, once, with others that passed the grid's quantised pre-test (in level and listing
+ * order: deterministic, a function of the index and p). Writes at most max_out ranks and returns
+ * how many there are; more than max_out means they did not fit (the Embree variant lists the
+ * spheres containing p, and reports max_out + 1 when more than VBNL_VL_BATCH_MAX_OUT do).
+ * Thread-safe. */
+uint32_t vbnl_vl_index_candidates(const vbnl_vl_index *idx, vec3 p, uint32_t max_out, uint32_t *ranks);
 
 /* What vbnl_vl_index_query_found returns per sphere: id, rank, d^2 (as dist2 above) and r. */
 typedef struct vbnl_vl_found {

@@ -112,12 +112,7 @@ static inline void found_sort(vbnl_vl_found *a, uint32_t n)
     }
 }
 
-static inline int passes(const vbnl_vl_filter *f, vec3 nj)
-{
-    if (f->normal_cos > -1.0f && !(v3_dot(nj, f->n) > f->normal_cos))
-        return 0;
-    return !f->facing || v3_dot(nj, f->wi) > 0.0f;
-}
+static inline int passes(const vbnl_vl_filter *f, vec3 nj) { return vbnl_vl_filter_passes(f, nj); }
 
 /* Keeps the max_out smallest ids in ascending order (insertion: a query finds a handful). */
 static inline void out_add(query_out *o, const vl_rec *e, uint32_t rank, double d2)

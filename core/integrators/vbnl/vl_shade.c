@@ -38,7 +38,7 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
         float inv_area = 1.0f / (VBNL_PI * radius * radius);
         const vbnl_profile_kernel *k = kernels[set->material[id]];
         e->position = set->position[id];
-        e->r2 = radius * radius;
+        e->radius = radius;
         e->normal = set->normal[id];
         e->density = set->density[id];
         e->id = id;

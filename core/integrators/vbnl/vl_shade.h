@@ -12,6 +12,9 @@
  * picking a light by power reads the record of the slot drawn, which is the light itself with
  * the acceptance probability, so most picks cost one line.
  *
+ * The record also serves the gather's exact containment and filter tests (the index lists only
+ * candidate ranks, vbnl_vl_index_candidates), so a gathered light costs one line, not two.
+ *
  * Radiance (vbnl.c, Eq. 3): L_j(y, w) = J_j(w) tint_j / (pi r_j^2). For a Lambertian light J does
  * not depend on the direction (profiles.h), so the record stores the finished radiance; a glossy
  * light stores tint_j / (pi r_j^2) and evaluates its profile (lazily converted or not) by id. */
@@ -30,7 +33,7 @@
 
 typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
     vec3 position;
-    float r2;          /* r_j^2 (float product, as the filters compute it) */
+    float radius;      /* r_j */
     vec3 normal;
     float density;     /* rho_j, Eq. 8 */
     vec3 radiance;     /* Lambertian: J tint / (pi r^2); glossy: tint / (pi r^2) */
@@ -91,8 +94,8 @@ static inline vec3 vbnl_vl_shade_radiance(const vbnl_vl_shade_rec *e, vbnl_profi
 /* Cos of the half-angle of the cone from x containing the light's sphere (-1 inside it). */
 static inline float vbnl_vl_shade_cone_cos(const vbnl_vl_shade_rec *e, vec3 x)
 {
-    float d2 = v3_len2(v3_sub(e->position, x));
-    return d2 <= e->r2 ? -1.0f : sqrtf(1.0f - e->r2 / d2);
+    float d2 = v3_len2(v3_sub(e->position, x)), r2 = e->radius * e->radius;
+    return d2 <= r2 ? -1.0f : sqrtf(1.0f - r2 / d2);
 }
 
 #endif
