@@ -63,7 +63,7 @@ static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *b
     float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
     stats->rays++;
     stats->shadow_rays++;
-    if (vbnl_scene_occluded(sc, org, ls.wi, tmax))
+    if (vbnl_scene_occluded_inline(sc, org, ls.wi, tmax))
         return v3s(0.0f);
     float w = ls.is_delta ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf->wo, wi));
     return v3_scale(v3_mul(f, ls.Li), w / (pmf * ls.pdf));
