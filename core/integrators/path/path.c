@@ -76,11 +76,13 @@ static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct
     }
 }
 
-/* Traces one camera path whose first hit (if any) is given; writes its sample into out. */
-static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
-                  vbnl_thread_stats *stats)
+/* Traces one camera path whose first hit (if any) is given; writes its sample into out. Works
+ * on a copy of the random stream (written back at the end): through a pointer its state would be
+ * stored and reloaded around every Embree call. */
+static inline __attribute__((always_inline)) void trace_path(const path_state *ps, vbnl_rng *rng, vec3 o, vec3 d,
+                                                             int hit_ok, const vbnl_hit *first, float *out,
+                                                             vbnl_thread_stats *stats)
 {
-    const path_state *ps = state;
     const vbnl_scene *sc = ps->scene;
     vbnl_hit hit = *first;
     vec3 beta = v3s(1.0f);
@@ -91,10 +93,10 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
             add_L(ps, out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)), 1);
         return;
     }
-    {
-        vbnl_bsdf tmp;
-        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
-    }
+    /* the BSDF of the vertex being scattered at; the first one also gives the albedo AOV */
+    vbnl_bsdf bsdf_store;
+    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+    v3_store(out + VBNL_FILM_ALBEDO, bsdf->type == VBNL_MATERIAL_CONDUCTOR ? vbnl_bsdf_albedo(bsdf) : bsdf->color);
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), ps->cam_forward);
     if (hit.light != VBNL_NO_LIGHT)
@@ -103,8 +105,6 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     for (int depth = 0;; ++depth) {
         if (ps->max_depth >= 0 && depth >= ps->max_depth)
             break;
-        vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
         const int vertex_direct = direct;
         if (!vbnl_bsdf_is_delta(bsdf))
             direct = 0;
@@ -128,7 +128,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         o = vbnl_offset_ray_origin(x, hit.ng, w);
         d = w;
         stats->rays++;
-        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
+        hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
         /* light arriving along the sample, MIS-weighted against the NEE above */
         vec3 Le;
         float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
@@ -144,7 +144,16 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         }
         if (!v3_is_finite(beta))
             break;
+        bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
     }
+}
+
+static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+                  vbnl_thread_stats *stats)
+{
+    vbnl_rng r = *rng;
+    trace_path(state, &r, o, d, hit_ok, first, out, stats);
+    *rng = r;
 }
 
 static void path_render_tile(void *state, vbnl_tile_job *job)
