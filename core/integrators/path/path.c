@@ -63,7 +63,7 @@ static void path_destroy(void *state) { free(state); }
  * and the MIS-weighted light its BSDF sample finds). */
 static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct)
 {
-    if (is_direct && ps->indirect_only)
+    if (ps->indirect_only && is_direct) /* the setting first: it is the predictable test */
         return;
     out[0] += c.x;
     out[1] += c.y;
@@ -76,9 +76,7 @@ static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct
     }
 }
 
-/* Traces one camera path whose first hit (if any) is given; writes its sample into out. Works
- * on a copy of the random stream (written back at the end): through a pointer its state would be
- * stored and reloaded around every Embree call. */
+/* Traces one camera path whose first hit (if any) is given; writes its sample into out. */
 static inline __attribute__((always_inline)) void trace_path(const path_state *ps, vbnl_rng *rng, vec3 o, vec3 d,
                                                              int hit_ok, const vbnl_hit *first, float *out,
                                                              vbnl_thread_stats *stats)
@@ -118,7 +116,7 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
         vbnl_bsdf_sample_rec bs;
         float ulobe = vbnl_rng_next(rng);
         vec2 ub = vbnl_rng_next2(rng);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || vbnl_is_black(bs.weight))
             break;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
         /* a reflection must leave on the viewer's side of the real surface */
@@ -142,17 +140,20 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
                 break;
             beta = v3_scale(beta, 1.0f / (1.0f - q));
         }
-        if (!v3_is_finite(beta))
+        if (!vbnl_is_finite(beta))
             break;
         bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
     }
 }
 
+/* Works on a copy of the random stream (written back at the end): through the pointer its state
+ * would be stored and reloaded around every Embree call. */
 static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
+    const path_state *ps = state;
     vbnl_rng r = *rng;
-    trace_path(state, &r, o, d, hit_ok, first, out, stats);
+    trace_path(ps, &r, o, d, hit_ok, first, out, stats);
     *rng = r;
 }
 
