@@ -293,15 +293,14 @@ static inline int32_t vbnl_float_as_int(float f)
     return i;
 }
 
-/* Offsets a ray origin off the surface along the geometric normal, on the side of `w`
- * (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a scene-scale epsilon. Inline:
- * every bounce and shadow ray calls it; with SSE2 the three components go at once (the same
- * operations lane by lane: truncating conversion, integer step, select). */
-static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
+/* Offsets a ray origin off the surface along the geometric normal n, which must already point
+ * to the side the ray leaves on (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a
+ * scene-scale epsilon. Inline: every bounce and shadow ray calls it; with SSE2 the three
+ * components go at once (the same operations lane by lane: truncating conversion, integer
+ * step, select). */
+static inline vec3 vbnl_offset_ray_origin_along(vec3 p, vec3 n)
 {
     const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    if (v3_dot(n, w) < 0.0f)
-        n = v3_neg(n);
 #ifdef __SSE2__
     const __m128 P = _mm_setr_ps(p.x, p.y, p.z, 0.0f), N = _mm_setr_ps(n.x, n.y, n.z, 0.0f);
     __m128i of = _mm_cvttps_epi32(_mm_mul_ps(_mm_set1_ps(int_scale), N));
@@ -324,6 +323,14 @@ static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
     }
     return v3(out[0], out[1], out[2]);
 #endif
+}
+
+/* The same for a ray leaving along w, whichever side n points to. */
+static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
+{
+    if (v3_dot(n, w) < 0.0f)
+        n = v3_neg(n);
+    return vbnl_offset_ray_origin_along(p, n);
 }
 
 /* Camera ray through image point (px, py) in pixels (continuous; row 0 at the top). */

@@ -75,7 +75,9 @@ static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *b
     int side_ok = vbnl_bsdf_is_transmissive(bsdf) || v3_dot(ls.wi, sf->ng) > 0.0f;
     if (!side_ok || vbnl_is_black(f))
         return v3s(0.0f);
-    vec3 org = vbnl_offset_ray_origin(x, sf->ng, ls.wi);
+    /* opaque: side_ok has just found ng on the side of wi */
+    vec3 org = vbnl_bsdf_is_transmissive(bsdf) ? vbnl_offset_ray_origin(x, sf->ng, ls.wi)
+                                               : vbnl_offset_ray_origin_along(x, sf->ng);
     float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
     stats->rays++;
     stats->shadow_rays++;

@@ -123,7 +123,9 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
         if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
             break;
         beta = v3_mul(beta, bs.weight);
-        o = vbnl_offset_ray_origin(x, hit.ng, w);
+        /* a reflection leaves on the side of sf.ng (just tested), which is hit.ng or its negation */
+        o = (bs.lobe & VBNL_LOBE_TRANSMISSION) ? vbnl_offset_ray_origin(x, hit.ng, w)
+                                               : vbnl_offset_ray_origin_along(x, sf.ng);
         d = w;
         stats->rays++;
         hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
