@@ -72,8 +72,15 @@ static inline float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
 /* u_lobe picks a lobe, u the direction. Returns 1 with *out filled, or 0 (absorbed). */
 static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
 {
-    if (b->type != VBNL_MATERIAL_LAMBERT)
-        return vbnl_bsdf_sample_other(b, wo, u_lobe, u, out);
+    if (b->type != VBNL_MATERIAL_LAMBERT) {
+        /* through a copy, so that the caller's record need not live in memory (see
+         * vbnl_light_sample_li) */
+        vbnl_bsdf_sample_rec other;
+        int ok = vbnl_bsdf_sample_other(b, wo, u_lobe, u, &other);
+        if (ok)
+            *out = other;
+        return ok;
+    }
     if (wo.z <= 0.0f)
         return 0;
     vec3 wi = sample_cosine_hemisphere(u);

@@ -94,7 +94,13 @@ static inline int vbnl_light_sample_li(const vbnl_light *l, vec3 ref, vec2 u, vb
     if (l->type == VBNL_LIGHT_RECT)
         return vbnl_light_sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, u.x), v3_scale(l->e1, u.y))),
                                            out);
-    return vbnl_light_sample_li_other(l, ref, u, out);
+    /* Through a copy: were the caller's record handed to the call, it would have to live in
+     * memory, and the planar cases above would store every field (p and n too, which next-event
+     * estimation never reads). */
+    vbnl_light_li_sample other;
+    int ok = vbnl_light_sample_li_other(l, ref, u, &other);
+    *out = other;
+    return ok;
 }
 
 /* Solid-angle pdf that sample_li picks the point p_light (with normal n_light) seen from ref

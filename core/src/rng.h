@@ -56,11 +56,11 @@ static inline vbnl_rng vbnl_rng_for(uint64_t seed, uint64_t index, uint64_t samp
     return vbnl_rng_make(vbnl_hash3(seed, index, sample), vbnl_hash64(index ^ (sample << 32) ^ 0x5bd1e995u));
 }
 
-/* Uniform float in [0, 1). */
+/* Uniform float in [0, 1): the top 24 bits scaled exactly, so the largest value is
+ * VBNL_ONE_MINUS_EPS (1 - 2^-24) without a clamp. */
 static inline float vbnl_rng_next(vbnl_rng *r)
 {
-    float f = (float)(vbnl_rng_next_u32(r) >> 8) * 0x1p-24f;
-    return f < VBNL_ONE_MINUS_EPS ? f : VBNL_ONE_MINUS_EPS;
+    return (float)(vbnl_rng_next_u32(r) >> 8) * 0x1p-24f;
 }
 
 static inline vec2 vbnl_rng_next2(vbnl_rng *r)

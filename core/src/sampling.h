@@ -25,20 +25,18 @@ static inline vec2 sample_concentric_disk(vec2 u)
     float ox = 2.0f * u.x - 1.0f, oy = 2.0f * u.y - 1.0f;
     if (ox == 0.0f && oy == 0.0f)
         return (vec2){0.0f, 0.0f};
-    /* theta = phi in the first case, pi/2 - phi in the second, with |phi| <= pi/4: both need
-     * only sin and cos of phi, whose Taylor series to x^9 / x^10 are exact in float there
-     * (next terms below 2e-9), without a libm call in every Lambertian bounce. */
-    float r, phi, s, c;
-    if (fabsf(ox) > fabsf(oy)) {
-        r = ox;
-        phi = (VBNL_PI / 4.0f) * (oy / ox);
-        sincos_quarter(phi, &s, &c);
-        return (vec2){r * c, r * s};
-    }
-    r = oy;
-    phi = (VBNL_PI / 4.0f) * (ox / oy);
+    /* theta = phi in the first case (|ox| > |oy|), pi/2 - phi in the second, with |phi| <= pi/4:
+     * both need only sin and cos of phi, whose Taylor series to x^9 / x^10 are exact in float
+     * there (next terms below 2e-9), without a libm call in every Lambertian bounce. The two
+     * cases differ only in which of ox, oy is r and which of sin, cos goes to x, so they are
+     * selected rather than branched on: the case is a coin flip for the branch predictor. */
+    int first = fabsf(ox) > fabsf(oy);
+    float r = first ? ox : oy, other = first ? oy : ox;
+    float phi = (VBNL_PI / 4.0f) * (other / r);
+    float s, c;
     sincos_quarter(phi, &s, &c);
-    return (vec2){r * s, r * c};
+    float rs = r * s, rc = r * c;
+    return first ? (vec2){rc, rs} : (vec2){rs, rc};
 }
 
 /* Cosine-weighted hemisphere around +z; pdf = cos(theta) / pi. */

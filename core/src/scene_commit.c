@@ -358,98 +358,16 @@ vbnl_result vbnl_scene_get_info(const vbnl_scene *s, vbnl_scene_info *out, vbnl_
 
 /* ---- queries ------------------------------------------------------------------------------ */
 
-/* Embree's geometric normal (e_ng, unnormalised, object space) is (p1 - p0) x (p2 - p0) for
- * triangles: the same orientation the scene's winding gives, without reloading the vertices. */
-#if defined(__GNUC__)
-#define FILL_HIT_INLINE static inline __attribute__((always_inline))
-#else
-#define FILL_HIT_INLINE static inline
-#endif
-
-/* Inlined into each query: a call with eleven arguments cost a fifth of its body. */
-FILL_HIT_INLINE void fill_hit(const vbnl_scene *s, unsigned geom_id, unsigned prim_id, unsigned inst_id,
-                     float bu, float bv, float t, vec3 o, vec3 d, vec3 e_ng, vbnl_hit *h)
-{
-    h->t = t;
-    h->p = v3_fma(o, d, t);
-    h->geom = geom_id;
-    h->prim = prim_id;
-    h->light = VBNL_NO_LIGHT;
-    h->uv = (vec2){bu, bv};
-    const scene_geom *g = &s->geoms[geom_id];
-    const mat4 *xf = NULL;
-    vec3 po = h->p;
-    if (inst_id != RTC_INVALID_GEOMETRY_ID) {
-        const scene_geom *ig = &s->geoms[inst_id];
-        xf = &ig->u.inst.xf;
-        po = mat4_point(&ig->u.inst.inv, h->p);
-    }
-    vec3 ng, ns;
-    switch (g->kind) {
-    case SCENE_GEOM_MESH:
-        vbnl_fill_mesh_hit(&g->u.mesh, prim_id, bu, bv, e_ng, h);
-        ng = h->ng;
-        ns = h->ns;
-        break;
-    case SCENE_GEOM_SPHERE: {
-        vec3 n = v3_scale(v3_sub(po, g->u.sphere.center), 1.0f / g->u.sphere.radius);
-        ng = ns = v3_norm(n);
-        h->uv = (vec2){(atan2f(ng.y, ng.x) + VBNL_PI) * VBNL_INV_2PI, acosf(clampf(ng.z, -1.0f, 1.0f)) * VBNL_INV_PI};
-        h->material = g->u.sphere.material;
-        h->light = g->u.sphere.light;
-        /* re-project onto the surface: removes the error of o + t d far from the origin */
-        if (!xf)
-            h->p = v3_fma(g->u.sphere.center, ng, g->u.sphere.radius);
-        break;
-    }
-    case SCENE_GEOM_AREA_LIGHT:
-    default:
-        ng = ns = g->u.area.normal;
-        h->material = g->u.area.material;
-        h->light = g->u.area.light;
-        break;
-    }
-    if (xf) {
-        ng = v3_norm(mat4_normal(xf, ng));
-        ns = v3_norm(mat4_normal(xf, ns));
-    }
-    h->ng = ng;
-    h->ns = ns;
-}
-
+/* The queries are vbnl_scene_intersect_inline and vbnl_scene_occluded_inline (scene_internal.h),
+ * which the path tracer inlines into its bounce loop. */
 int vbnl_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbnl_hit *hit)
 {
-    struct RTCIntersectContext ictx;
-    rtcInitIntersectContext(&ictx);
-    struct RTCRayHit rh;
-    vbnl_rayhit_init(&rh, o, d, tfar);
-    rtcIntersect1(s->world, &ictx, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
-        return 0;
-    fill_hit(s, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar, o, d,
-             v3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), hit);
-    return 1;
+    return vbnl_scene_intersect_inline(s, o, d, tfar, hit);
 }
 
 int vbnl_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar)
 {
-    struct RTCIntersectContext ictx;
-    rtcInitIntersectContext(&ictx);
-    struct RTCRay ray;
-    ray.org_x = o.x;
-    ray.org_y = o.y;
-    ray.org_z = o.z;
-    ray.dir_x = d.x;
-    ray.dir_y = d.y;
-    ray.dir_z = d.z;
-    ray.tnear = 0.0f;
-    ray.tfar = tfar;
-    ray.time = 0.0f;
-    ray.mask = 0xffffffffu;
-    ray.id = 0;
-    ray.flags = 0;
-    rtcOccluded1(s->world, &ictx, &ray);
-    return ray.tfar == -INFINITY;
+    return vbnl_scene_occluded_inline(s, o, d, tfar);
 }
 
 void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
@@ -481,8 +399,8 @@ void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 
     for (int i = 0; i < 8; ++i) {
         hit_mask[i] = active[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
         if (hit_mask[i])
-            fill_hit(s, rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i], rh.hit.u[i], rh.hit.v[i],
-                     rh.ray.tfar[i], o[i], d[i], v3(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]);
+            vbnl_fill_hit(s, rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i], rh.hit.u[i], rh.hit.v[i],
+                          rh.ray.tfar[i], o[i], d[i], v3(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]);
     }
 }
 

@@ -121,7 +121,7 @@ static inline void vbnl_rayhit_init(struct RTCRayHit *rh, vec3 o, vec3 d, float 
     rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
 }
 
-/* The mesh part of a hit's set-up (scene_commit.c's fill_hit; inline also in the photon walk,
+/* The mesh part of a hit's set-up (vbnl_fill_hit below; inline also in the photon walk,
  * photon_fast.h): normals, uv, material and light of triangle `prim` at barycentrics (bu, bv),
  * from Embree's unnormalised geometric normal e_ng ((p1 - p0) x (p2 - p0), the scene's winding),
  * in the mesh's own space. t, p, geom and prim are the caller's. */
@@ -151,6 +151,102 @@ static inline __attribute__((always_inline)) void vbnl_fill_mesh_hit(const scene
     h->light = m->face_lights ? m->face_lights[prim] : VBNL_NO_LIGHT;
     h->ng = ng;
     h->ns = ns;
+}
+
+/* The whole set-up of a hit from Embree's answer (geometry, primitive, instance, barycentrics,
+ * distance, the ray, and Embree's geometric normal e_ng, unnormalised, object space: for
+ * triangles (p1 - p0) x (p2 - p0), the orientation the scene's winding gives, without reloading
+ * the vertices). Inlined into each query: a call with eleven arguments cost a fifth of its body. */
+static inline __attribute__((always_inline)) void vbnl_fill_hit(const vbnl_scene *s, unsigned geom_id,
+                                                                unsigned prim_id, unsigned inst_id, float bu,
+                                                                float bv, float t, vec3 o, vec3 d, vec3 e_ng,
+                                                                vbnl_hit *h)
+{
+    h->t = t;
+    h->p = v3_fma(o, d, t);
+    h->geom = geom_id;
+    h->prim = prim_id;
+    h->light = VBNL_NO_LIGHT;
+    h->uv = (vec2){bu, bv};
+    const scene_geom *g = &s->geoms[geom_id];
+    const mat4 *xf = NULL;
+    vec3 po = h->p;
+    if (inst_id != RTC_INVALID_GEOMETRY_ID) {
+        const scene_geom *ig = &s->geoms[inst_id];
+        xf = &ig->u.inst.xf;
+        po = mat4_point(&ig->u.inst.inv, h->p);
+    }
+    vec3 ng, ns;
+    switch (g->kind) {
+    case SCENE_GEOM_MESH:
+        vbnl_fill_mesh_hit(&g->u.mesh, prim_id, bu, bv, e_ng, h);
+        ng = h->ng;
+        ns = h->ns;
+        break;
+    case SCENE_GEOM_SPHERE: {
+        vec3 n = v3_scale(v3_sub(po, g->u.sphere.center), 1.0f / g->u.sphere.radius);
+        ng = ns = v3_norm(n);
+        h->uv = (vec2){(atan2f(ng.y, ng.x) + VBNL_PI) * VBNL_INV_2PI, acosf(clampf(ng.z, -1.0f, 1.0f)) * VBNL_INV_PI};
+        h->material = g->u.sphere.material;
+        h->light = g->u.sphere.light;
+        /* re-project onto the surface: removes the error of o + t d far from the origin */
+        if (!xf)
+            h->p = v3_fma(g->u.sphere.center, ng, g->u.sphere.radius);
+        break;
+    }
+    case SCENE_GEOM_AREA_LIGHT:
+    default:
+        ng = ns = g->u.area.normal;
+        h->material = g->u.area.material;
+        h->light = g->u.area.light;
+        break;
+    }
+    if (xf) {
+        ng = v3_norm(mat4_normal(xf, ng));
+        ns = v3_norm(mat4_normal(xf, ns));
+    }
+    h->ng = ng;
+    h->ns = ns;
+}
+
+/* vbnl_scene_intersect and vbnl_scene_occluded inline, for loops that trace a ray per bounce
+ * (the path tracer): without the call, the hit is filled in the caller's frame and the caller's
+ * live floats need not be saved around a second call level. */
+static inline __attribute__((always_inline)) int vbnl_scene_intersect_inline(const vbnl_scene *s, vec3 o, vec3 d,
+                                                                             float tfar, vbnl_hit *hit)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRayHit rh;
+    vbnl_rayhit_init(&rh, o, d, tfar);
+    rtcIntersect1(s->world, &ictx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+    vbnl_fill_hit(s, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar, o, d,
+                  v3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), hit);
+    return 1;
+}
+
+static inline __attribute__((always_inline)) int vbnl_scene_occluded_inline(const vbnl_scene *s, vec3 o, vec3 d,
+                                                                            float tfar)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRay ray;
+    ray.org_x = o.x;
+    ray.org_y = o.y;
+    ray.org_z = o.z;
+    ray.dir_x = d.x;
+    ray.dir_y = d.y;
+    ray.dir_z = d.z;
+    ray.tnear = 0.0f;
+    ray.tfar = tfar;
+    ray.time = 0.0f;
+    ray.mask = 0xffffffffu;
+    ray.id = 0;
+    ray.flags = 0;
+    rtcOccluded1(s->world, &ictx, &ray);
+    return ray.tfar == -INFINITY;
 }
 
 /* Closest hit along o + t d for t in (0, tfar). Returns 1 and fills *hit, or 0 for a miss. */
@@ -197,15 +293,14 @@ static inline int32_t vbnl_float_as_int(float f)
     return i;
 }
 
-/* Offsets a ray origin off the surface along the geometric normal, on the side of `w`
- * (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a scene-scale epsilon. Inline:
- * every bounce and shadow ray calls it; with SSE2 the three components go at once (the same
- * operations lane by lane: truncating conversion, integer step, select). */
-static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
+/* Offsets a ray origin off the surface along the geometric normal n, which must already point
+ * to the side the ray leaves on (Waechter & Binder, Ray Tracing Gems ch. 6): robust without a
+ * scene-scale epsilon. Inline: every bounce and shadow ray calls it; with SSE2 the three
+ * components go at once (the same operations lane by lane: truncating conversion, integer
+ * step, select). */
+static inline vec3 vbnl_offset_ray_origin_along(vec3 p, vec3 n)
 {
     const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    if (v3_dot(n, w) < 0.0f)
-        n = v3_neg(n);
 #ifdef __SSE2__
     const __m128 P = _mm_setr_ps(p.x, p.y, p.z, 0.0f), N = _mm_setr_ps(n.x, n.y, n.z, 0.0f);
     __m128i of = _mm_cvttps_epi32(_mm_mul_ps(_mm_set1_ps(int_scale), N));
@@ -228,6 +323,14 @@ static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
     }
     return v3(out[0], out[1], out[2]);
 #endif
+}
+
+/* The same for a ray leaving along w, whichever side n points to. */
+static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
+{
+    if (v3_dot(n, w) < 0.0f)
+        n = v3_neg(n);
+    return vbnl_offset_ray_origin_along(p, n);
 }
 
 /* Camera ray through image point (px, py) in pixels (continuous; row 0 at the top). */

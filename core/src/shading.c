@@ -5,39 +5,44 @@
 void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_path_fn fn, void *state)
 {
     const vbnl_scene *sc = job->scene;
+    vbnl_film *film = job->film;
     const uint32_t tw = job->x1 - job->x0;
     const uint32_t npix = tw * (job->y1 - job->y0);
     float values[8][VBNL_FILM_MAX_CHANNELS];
     for (uint32_t smp = job->sample_begin; smp < job->sample_end; ++smp) {
+        /* pixel of the packet's first lane, stepped along the tile's rows (no divisions) */
+        uint32_t x = job->x0, y = job->y0;
         for (uint32_t base = 0; base < npix; base += 8) {
             int active[8], hit_mask[8];
             vec3 o[8], d[8];
             vbnl_hit hits[8];
             vbnl_rng rng[8];
             uint32_t px[8], py[8];
-            for (int i = 0; i < 8; ++i) {
-                uint32_t k = base + (uint32_t)i;
-                active[i] = k < npix;
+            const uint32_t lanes = npix - base < 8 ? npix - base : 8;
+            for (uint32_t i = 0; i < 8; ++i) {
+                active[i] = i < lanes;
                 if (!active[i]) {
                     o[i] = d[i] = v3s(0.0f);
                     continue;
                 }
-                px[i] = job->x0 + k % tw;
-                py[i] = job->y0 + k / tw;
+                px[i] = x;
+                py[i] = y;
+                if (++x == job->x1) {
+                    x = job->x0;
+                    ++y;
+                }
                 rng[i] = vbnl_pixel_rng(job, px[i], py[i], smp);
                 vec2 u = vbnl_rng_next2(&rng[i]);
                 vbnl_camera_ray(&sc->camera, job->width, job->height, (float)px[i] + u.x, (float)py[i] + u.y,
                                 &o[i], &d[i]);
             }
             vbnl_scene_intersect8(sc, active, o, d, hits, hit_mask);
-            for (int i = 0; i < 8; ++i) {
-                if (!active[i])
-                    continue;
-                job->stats->rays++;
-                job->stats->camera_rays++;
+            job->stats->rays += lanes;
+            job->stats->camera_rays += lanes;
+            for (uint32_t i = 0; i < lanes; ++i) {
                 memset(values[i], 0, sizeof(float) * stride);
                 fn(state, &rng[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
-                vbnl_film_add(job->film, px[i], py[i], values[i]);
+                vbnl_film_add(film, px[i], py[i], values[i]);
             }
         }
     }

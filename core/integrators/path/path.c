@@ -63,7 +63,7 @@ static void path_destroy(void *state) { free(state); }
  * and the MIS-weighted light its BSDF sample finds). */
 static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct)
 {
-    if (is_direct && ps->indirect_only)
+    if (ps->indirect_only && is_direct) /* the setting first: it is the predictable test */
         return;
     out[0] += c.x;
     out[1] += c.y;
@@ -77,10 +77,10 @@ static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct
 }
 
 /* Traces one camera path whose first hit (if any) is given; writes its sample into out. */
-static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
-                  vbnl_thread_stats *stats)
+static inline __attribute__((always_inline)) void trace_path(const path_state *ps, vbnl_rng *rng, vec3 o, vec3 d,
+                                                             int hit_ok, const vbnl_hit *first, float *out,
+                                                             vbnl_thread_stats *stats)
 {
-    const path_state *ps = state;
     const vbnl_scene *sc = ps->scene;
     vbnl_hit hit = *first;
     vec3 beta = v3s(1.0f);
@@ -91,10 +91,10 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
             add_L(ps, out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)), 1);
         return;
     }
-    {
-        vbnl_bsdf tmp;
-        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
-    }
+    /* the BSDF of the vertex being scattered at; the first one also gives the albedo AOV */
+    vbnl_bsdf bsdf_store;
+    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+    v3_store(out + VBNL_FILM_ALBEDO, bsdf->type == VBNL_MATERIAL_CONDUCTOR ? vbnl_bsdf_albedo(bsdf) : bsdf->color);
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), ps->cam_forward);
     if (hit.light != VBNL_NO_LIGHT)
@@ -103,8 +103,6 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     for (int depth = 0;; ++depth) {
         if (ps->max_depth >= 0 && depth >= ps->max_depth)
             break;
-        vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
         const int vertex_direct = direct;
         if (!vbnl_bsdf_is_delta(bsdf))
             direct = 0;
@@ -118,17 +116,19 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         vbnl_bsdf_sample_rec bs;
         float ulobe = vbnl_rng_next(rng);
         vec2 ub = vbnl_rng_next2(rng);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || vbnl_is_black(bs.weight))
             break;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
         /* a reflection must leave on the viewer's side of the real surface */
         if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
             break;
         beta = v3_mul(beta, bs.weight);
-        o = vbnl_offset_ray_origin(x, hit.ng, w);
+        /* a reflection leaves on the side of sf.ng (just tested), which is hit.ng or its negation */
+        o = (bs.lobe & VBNL_LOBE_TRANSMISSION) ? vbnl_offset_ray_origin(x, hit.ng, w)
+                                               : vbnl_offset_ray_origin_along(x, sf.ng);
         d = w;
         stats->rays++;
-        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
+        hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
         /* light arriving along the sample, MIS-weighted against the NEE above */
         vec3 Le;
         float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
@@ -142,9 +142,21 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
                 break;
             beta = v3_scale(beta, 1.0f / (1.0f - q));
         }
-        if (!v3_is_finite(beta))
+        if (!vbnl_is_finite(beta))
             break;
+        bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
     }
+}
+
+/* Works on a copy of the random stream (written back at the end): through the pointer its state
+ * would be stored and reloaded around every Embree call. */
+static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+                  vbnl_thread_stats *stats)
+{
+    const path_state *ps = state;
+    vbnl_rng r = *rng;
+    trace_path(ps, &r, o, d, hit_ok, first, out, stats);
+    *rng = r;
 }
 
 static void path_render_tile(void *state, vbnl_tile_job *job)
