@@ -617,7 +617,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
             if (hits_disk && side_ok && !v3_is_black(f) && p_j > 0.0f) {
                 vbnl_hit y;
                 stats->rays++;
-                if (vbnl_scene_intersect(sc, vbnl_offset_ray_origin(x, sf.ng, w), w, INFINITY, &y) &&
+                if (vbnl_scene_intersect_inline(sc, vbnl_offset_ray_origin(x, sf.ng, w), w, INFINITY, &y) &&
                     accepts(e, &y, w)) {
                     float p_b = vbnl_bsdf_pdf(bsdf, sf.wo, wl);
                     float mis = s->sampling == SAMPLE_MIS ? power_heuristic(p_j, p_b) : 1.0f;
@@ -645,7 +645,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         o = vbnl_offset_ray_origin(x, hit.ng, w);
         d = w;
         stats->rays++;
-        hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
+        hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
         /* light arriving directly (emitter or environment) belongs to x's direct estimate: it is
          * counted with the throughput before the split between lights and extension */
         vec3 Le;
