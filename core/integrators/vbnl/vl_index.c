@@ -507,23 +507,11 @@ uint32_t vbnl_vl_index_candidates(const vbnl_vl_index *x, vec3 p, uint32_t max_o
         return total;
     }
     uint32_t n_out = 0;
-    for (uint32_t L = 0; L < x->level_count; ++L) {
-        const grid_level *g = &x->levels[L];
-        int32_t c3[3];
-        uint32_t c = level_cell(g, p, c3);
-        if (c == UINT32_MAX)
-            continue;
-        uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
-        if (!n)
-            continue;
-        float q[3];
-        cell_frame(g, p, c3, q);
-        VBNL_VLI_PRETEST(g, s0, n, q, {
-            if (n_out < max_out)
-                ranks[n_out] = rank_;
-            n_out++;
-        });
-    }
+    VBNL_VLI_GRID_CANDIDATES(x, p, {
+        if (n_out < max_out)
+            ranks[n_out] = rank_;
+        n_out++;
+    });
     return n_out;
 }
 

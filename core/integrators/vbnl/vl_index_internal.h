@@ -317,21 +317,28 @@ static inline uint32_t level_cell(const grid_level *g, vec3 p, int32_t c3[3])
     return g->dense ? (uint32_t)lc : hash_find((grid_level *)g, lc, 0, NULL);
 }
 
+/* Runs KEEP (rank_ in scope) for every sphere listed in p's cell of each level that passes the
+ * quantised pre-test, level by level in listing order. */
+#define VBNL_VLI_GRID_CANDIDATES(x, p, KEEP)                                                                  \
+    do {                                                                                                      \
+        for (uint32_t L_ = 0; L_ < (x)->level_count; ++L_) {                                                  \
+            const grid_level *g_ = &(x)->levels[L_];                                                          \
+            int32_t c3_[3];                                                                                   \
+            uint32_t c_ = level_cell(g_, (p), c3_);                                                           \
+            if (c_ == UINT32_MAX)                                                                             \
+                continue;                                                                                     \
+            uint32_t s0_ = g_->start[c_], n_ = g_->start[c_ + 1] - s0_;                                       \
+            if (!n_)                                                                                          \
+                continue;                                                                                     \
+            float q_[3];                                                                                      \
+            cell_frame(g_, (p), c3_, q_);                                                                     \
+            VBNL_VLI_PRETEST(g_, s0_, n_, q_, KEEP);                                                          \
+        }                                                                                                     \
+    } while (0)
+
 static inline __attribute__((always_inline)) void grid_query(const vbnl_vl_index *x, vec3 p, query_out *o)
 {
-    for (uint32_t L = 0; L < x->level_count; ++L) {
-        const grid_level *g = &x->levels[L];
-        int32_t c3[3];
-        uint32_t c = level_cell(g, p, c3);
-        if (c == UINT32_MAX)
-            continue;
-        uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
-        if (!n)
-            continue;
-        float q[3];
-        cell_frame(g, p, c3, q);
-        VBNL_VLI_PRETEST(g, s0, n, q, test_rec_exact(x->rec + rank_, rank_, p, o));
-    }
+    VBNL_VLI_GRID_CANDIDATES(x, p, test_rec_exact(x->rec + rank_, rank_, p, o));
 }
 
 #endif
