@@ -117,13 +117,23 @@ int vbnl_alias_table_build(vbnl_alias_table *t, const float *weights, uint32_t n
 void vbnl_alias_table_free(vbnl_alias_table *t);
 /* Samples an item with one uniform number u in [0,1); *pmf receives its probability. Inline:
  * next-event estimation picks a light with it at every vertex. */
+/* The slot a uniform number u in [0,1) draws among n >= 1 and its fraction within the slot (the
+ * number compared with the slot's acceptance probability); shared with tables stored in other
+ * layouts (the render records of VBNL's virtual lights). */
+static inline uint32_t vbnl_alias_slot(uint32_t n, float u, float *frac)
+{
+    float x = u * (float)n;
+    uint32_t slot = (uint32_t)x;
+    if (slot >= n)
+        slot = n - 1;
+    *frac = x - (float)slot;
+    return slot;
+}
+
 static inline uint32_t vbnl_alias_table_sample(const vbnl_alias_table *t, float u, float *pmf)
 {
-    float x = u * (float)t->n;
-    uint32_t slot = (uint32_t)x;
-    if (slot >= t->n)
-        slot = t->n - 1;
-    float frac = x - (float)slot;
+    float frac;
+    uint32_t slot = vbnl_alias_slot(t->n, u, &frac);
     uint32_t item = frac < t->prob[slot] ? slot : t->alias[slot];
     if (pmf)
         *pmf = t->pmf[item];

@@ -3,7 +3,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "sampling.h"
 
 vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, const vbnl_vl_index *index,
                                 vbnl_profile_set *profiles, vbnl_profile_kernel *const *kernels,

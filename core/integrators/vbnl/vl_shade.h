@@ -24,6 +24,7 @@
 #include <stdint.h>
 
 #include "profiles.h"
+#include "sampling.h"
 #include "vbnl/result.h"
 #include "vl_index.h"
 #include "vl_set.h"
@@ -62,19 +63,17 @@ size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t);
 /* Power-based selection with one uniform number (the alias table's rule): a rank. */
 static inline uint32_t vbnl_vl_shade_pick(const vbnl_vl_shade *t, float u)
 {
-    float x = u * (float)t->n;
-    uint32_t slot = (uint32_t)x;
-    if (slot >= t->n)
-        slot = t->n - 1;
+    float frac;
+    uint32_t slot = vbnl_alias_slot(t->n, u, &frac);
     const vbnl_vl_shade_rec *e = &t->rec[slot];
-    return x - (float)slot < e->prob ? slot : e->alias;
+    return frac < e->prob ? slot : e->alias;
 }
 
 /* Starts loading the record of the slot u draws (the light itself, unless it goes to its alias). */
 static inline void vbnl_vl_shade_prefetch(const vbnl_vl_shade *t, float u)
 {
-    uint32_t slot = (uint32_t)(u * (float)t->n);
-    __builtin_prefetch(&t->rec[slot < t->n ? slot : t->n - 1]);
+    float frac;
+    __builtin_prefetch(&t->rec[vbnl_alias_slot(t->n, u, &frac)]);
 }
 
 /* Radiance leaving a point inside the light's sphere toward -w (w: the direction from the
