@@ -13,26 +13,12 @@
 #include <string.h>
 
 #include "bsdf.h"
+#include "bsdfs.h"
 #include "microfacet.h"
 #include "rng.h"
 #include "sampling.h"
 
 /* ---- helpers ------------------------------------------------------------------------------ */
-
-static vbnl_bsdf make_bsdf(vbnl_material_type type, float r, float g, float b, float alpha, float ior)
-{
-    vbnl_material_desc m;
-    memset(&m, 0, sizeof(m));
-    m.type = type;
-    m.base_color[0] = r;
-    m.base_color[1] = g;
-    m.base_color[2] = b;
-    m.alpha = alpha;
-    m.ior = ior;
-    vbnl_bsdf bsdf;
-    vbnl_bsdf_from_material(&bsdf, &m);
-    return bsdf;
-}
 
 /* Gold, approximate RGB complex IOR (pbrt's Au spectrum at ~650/550/450 nm). */
 static vbnl_bsdf make_gold(float alpha)
@@ -234,7 +220,7 @@ static void check_chi2(const vbnl_bsdf *b, const char *what, uint64_t seed)
 static void test_chi2_lambert(void **state)
 {
     (void)state;
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_LAMBERT, 0.5f, 0.6f, 0.7f, 0.1f, 1.5f);
+    vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_LAMBERT, 0.5f, 0.6f, 0.7f, 0.1f, 1.5f);
     check_chi2(&b, "lambert", 100);
 }
 
@@ -244,7 +230,7 @@ static void test_chi2_conductor(void **state)
     const float alphas[3] = {0.05f, 0.3f, 0.8f};
     for (int i = 0; i < 3; ++i) {
         /* Coloured F0 so that both mixture lobes carry weight and p_cos differs from 1 - E. */
-        vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
+        vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
         char name[64];
         snprintf(name, sizeof(name), "conductor alpha=%g", (double)alphas[i]);
         check_chi2(&b, name, 200 + 10 * (uint64_t)i);
@@ -256,7 +242,7 @@ static void test_chi2_plastic(void **state)
     (void)state;
     const float alphas[2] = {0.1f, 0.5f};
     for (int i = 0; i < 2; ++i) {
-        vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 1.5f);
+        vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 1.5f);
         char name[64];
         snprintf(name, sizeof(name), "plastic alpha=%g", (double)alphas[i]);
         check_chi2(&b, name, 300 + 10 * (uint64_t)i);
@@ -298,15 +284,15 @@ static void check_consistency(const vbnl_bsdf *b, const char *name, uint64_t see
 static void test_sample_consistency(void **state)
 {
     (void)state;
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_LAMBERT, 0.5f, 0.6f, 0.7f, 0.1f, 1.5f);
+    vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_LAMBERT, 0.5f, 0.6f, 0.7f, 0.1f, 1.5f);
     check_consistency(&b, "lambert", 1);
     const float alphas[4] = {0.002f, 0.05f, 0.3f, 0.8f};
     for (int i = 0; i < 4; ++i) {
-        b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
+        b = tb_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
         check_consistency(&b, "conductor", 2 + (uint64_t)i);
         b = make_gold(alphas[i]);
         check_consistency(&b, "gold", 12 + (uint64_t)i);
-        b = make_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 1.5f);
+        b = tb_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 1.5f);
         check_consistency(&b, "plastic", 22 + (uint64_t)i);
     }
 }
@@ -353,28 +339,28 @@ static void check_furnace(const vbnl_bsdf *b, const char *name, int lossless, fl
 static void test_furnace_opaque(void **state)
 {
     (void)state;
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_LAMBERT, 1.0f, 1.0f, 1.0f, 0.1f, 1.5f);
+    vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_LAMBERT, 1.0f, 1.0f, 1.0f, 0.1f, 1.5f);
     check_furnace(&b, "lambert white", 1, 0.01f, 1000);
-    b = make_bsdf(VBNL_MATERIAL_MIRROR, 1.0f, 1.0f, 1.0f, 0.1f, 1.5f);
+    b = tb_bsdf(VBNL_MATERIAL_MIRROR, 1.0f, 1.0f, 1.0f, 0.1f, 1.5f);
     check_furnace(&b, "mirror white", 1, 1e-6f, 1100);
     const float alphas[6] = {0.001f, 0.05f, 0.1f, 0.3f, 0.6f, 1.0f};
     for (int i = 0; i < 6; ++i) {
         char name[64];
         /* F0 = 1: F = 1 at every angle, so single + multiple scattering must be exactly lossless. */
-        b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, 1.0f, 1.0f, 1.0f, alphas[i], 1.5f);
+        b = tb_bsdf(VBNL_MATERIAL_CONDUCTOR, 1.0f, 1.0f, 1.0f, alphas[i], 1.5f);
         snprintf(name, sizeof(name), "conductor white alpha=%g", (double)alphas[i]);
         check_furnace(&b, name, 1, 0.01f, 1200 + 10 * (uint64_t)i);
         b = make_gold(alphas[i]);
         snprintf(name, sizeof(name), "gold alpha=%g", (double)alphas[i]);
         check_furnace(&b, name, 0, 0.01f, 1300 + 10 * (uint64_t)i);
-        b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
+        b = tb_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
         snprintf(name, sizeof(name), "conductor copper-F0 alpha=%g", (double)alphas[i]);
         check_furnace(&b, name, 0, 0.01f, 1400 + 10 * (uint64_t)i);
         /* Plastic with a white base: E_s + (1 - E_s) = 1 by construction; a tinted base is lossy. */
-        b = make_bsdf(VBNL_MATERIAL_PLASTIC, 1.0f, 1.0f, 1.0f, alphas[i], 1.5f);
+        b = tb_bsdf(VBNL_MATERIAL_PLASTIC, 1.0f, 1.0f, 1.0f, alphas[i], 1.5f);
         snprintf(name, sizeof(name), "plastic white alpha=%g", (double)alphas[i]);
         check_furnace(&b, name, 0, 0.01f, 1500 + 10 * (uint64_t)i);
-        b = make_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 2.5f);
+        b = tb_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 2.5f);
         snprintf(name, sizeof(name), "plastic ior 2.5 alpha=%g", (double)alphas[i]);
         check_furnace(&b, name, 0, 0.01f, 1600 + 10 * (uint64_t)i);
     }
@@ -390,7 +376,7 @@ static void test_furnace_conductor_compensation(void **state)
     const float alphas[3] = {0.3f, 0.6f, 1.0f};
     const float thetas[3] = {10.0f, 45.0f, 75.0f};
     for (int i = 0; i < 3; ++i) {
-        vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, 1.0f, 1.0f, 1.0f, alphas[i], 1.5f);
+        vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_CONDUCTOR, 1.0f, 1.0f, 1.0f, alphas[i], 1.5f);
         for (int t = 0; t < 3; ++t) {
             vec3 wo = dir_from_theta(thetas[t], 0.0f);
             vbnl_rng rng = vbnl_rng_make(5 + (uint64_t)(3 * i + t), 5);
@@ -428,7 +414,7 @@ static void test_furnace_dielectric(void **state)
 {
     (void)state;
     const float ior = 1.5f;
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_DIELECTRIC, 1.0f, 1.0f, 1.0f, 0.1f, ior);
+    vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_DIELECTRIC, 1.0f, 1.0f, 1.0f, 0.1f, ior);
     for (int side = 0; side < 2; ++side) {
         for (int t = 0; t < 5; ++t) {
             vec3 wo = dir_from_theta(furnace_thetas[t], 0.3f);
@@ -500,15 +486,15 @@ static void check_reciprocity(const vbnl_bsdf *b, const char *name, uint64_t see
 static void test_reciprocity(void **state)
 {
     (void)state;
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_LAMBERT, 0.5f, 0.6f, 0.7f, 0.1f, 1.5f);
+    vbnl_bsdf b = tb_bsdf(VBNL_MATERIAL_LAMBERT, 0.5f, 0.6f, 0.7f, 0.1f, 1.5f);
     check_reciprocity(&b, "lambert", 1);
     const float alphas[4] = {0.01f, 0.1f, 0.4f, 1.0f};
     for (int i = 0; i < 4; ++i) {
-        b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
+        b = tb_bsdf(VBNL_MATERIAL_CONDUCTOR, 0.95f, 0.64f, 0.54f, alphas[i], 1.5f);
         check_reciprocity(&b, "conductor", 10 + (uint64_t)i);
         b = make_gold(alphas[i]);
         check_reciprocity(&b, "gold", 20 + (uint64_t)i);
-        b = make_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 1.5f);
+        b = tb_bsdf(VBNL_MATERIAL_PLASTIC, 0.2f, 0.5f, 0.8f, alphas[i], 1.5f);
         check_reciprocity(&b, "plastic", 30 + (uint64_t)i);
     }
 }

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "bsdf.h"
+#include "bsdfs.h"
 #include "octahedral.h"
 #include "profiles.h"
 #include "rng.h"
@@ -29,19 +30,9 @@ static vbnl_hemioct *make_map(uint32_t res)
     return m;
 }
 
-static vbnl_bsdf make_bsdf(vbnl_material_type type, vec3 color, float alpha, float ior)
+static vbnl_bsdf make_bsdf(vbnl_material_type type, vec3 c, float alpha, float ior)
 {
-    vbnl_material_desc d;
-    memset(&d, 0, sizeof(d));
-    d.type = type;
-    d.base_color[0] = color.x;
-    d.base_color[1] = color.y;
-    d.base_color[2] = color.z;
-    d.alpha = alpha;
-    d.ior = ior;
-    vbnl_bsdf b;
-    vbnl_bsdf_from_material(&b, &d);
-    return b;
+    return tb_bsdf(type, c.x, c.y, c.z, alpha, ior);
 }
 
 static vec3 uniform_dir(vbnl_rng *r) { return sample_uniform_hemisphere(vbnl_rng_next2(r)); }
