@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "bsdf.h"
+#include "bsdfs.h"
 #include "chi2.h"
 #include "octahedral.h"
 #include "profiles.h"
@@ -37,19 +38,9 @@ typedef struct fixture {
     float power[N_LIGHTS];
 } fixture;
 
-static vbnl_bsdf make_bsdf(vbnl_material_type type, vec3 color, float alpha)
+static vbnl_bsdf make_bsdf(vbnl_material_type type, vec3 c, float alpha)
 {
-    vbnl_material_desc d;
-    memset(&d, 0, sizeof(d));
-    d.type = type;
-    d.base_color[0] = color.x;
-    d.base_color[1] = color.y;
-    d.base_color[2] = color.z;
-    d.alpha = alpha;
-    d.ior = 1.5f;
-    vbnl_bsdf b;
-    vbnl_bsdf_from_material(&b, &d);
-    return b;
+    return tb_bsdf(type, c.x, c.y, c.z, alpha, 1.5f);
 }
 
 static vec3 random_unit(vbnl_rng *r) { return sample_uniform_sphere(vbnl_rng_next2(r)); }
@@ -124,7 +115,8 @@ static void test_records(void **state)
     for (uint32_t r = 0; r < N_LIGHTS; ++r) {
         const vbnl_vl_shade_rec *e = &t.rec[r];
         uint32_t id = vbnl_vl_index_id(f.index, r);
-        assert_int_equal(e->id, id);
+        assert_int_equal(e->slot, vbnl_profile_slot(f.profiles, id));
+        assert_int_equal(e->slot != VBNL_PROFILE_NO_SLOT, vbnl_profile_is_glossy(f.profiles, id));
         assert_memory_equal(&e->position, &f.set.position[id], sizeof(vec3));
         assert_memory_equal(&e->normal, &f.set.normal[id], sizeof(vec3));
         assert_true(e->radius == f.set.radius[id]);

@@ -4,10 +4,12 @@
  * Quantities and thread rules: profiles.h. */
 #include "profiles.h"
 
+#include "memory.h"
+
 #include <stdlib.h>
 #include <string.h>
 
-#define NO_SLOT UINT32_MAX
+#define NO_SLOT VBNL_PROFILE_NO_SLOT
 /* Code of a texel that has not been converted yet: exponent byte 255, never produced by the
  * encoder (which saturates at 254). */
 #define TEXEL_UNSET 0xFFFFFFFFu
@@ -48,10 +50,27 @@ static uint32_t rgbe_encode(vec3 c)
     if (!(m >= 0x1p-128f)) /* below the smallest exponent: stored as zero */
         return 0u;
     int e;
-    frexpf(m, &e); /* m = f 2^e, f in [0.5, 1): the largest mantissa lies in [128, 256) */
-    uint32_t mr = (uint32_t)(ldexpf(r, 8 - e) + 0.5f);
-    uint32_t mg = (uint32_t)(ldexpf(g, 8 - e) + 0.5f);
-    uint32_t mb = (uint32_t)(ldexpf(b, 8 - e) + 0.5f);
+    uint32_t mr, mg, mb;
+    if (m >= 0x1p-100f) {
+        /* m normal: e from its exponent bits, and 2^(8-e) (a normal float for these e) built
+         * from its bits; a product with a power of two is rounded as ldexpf rounds, so the
+         * codes are those of the library path below, at a fraction of its cost (conversion
+         * encodes every texel) */
+        union {
+            float f;
+            uint32_t u;
+        } bits = {m}, scale;
+        e = (int)((bits.u >> 23) & 255u) - 126; /* m = f 2^e, f in [0.5, 1) */
+        scale.u = (uint32_t)(127 + 8 - e) << 23;
+        mr = (uint32_t)(r * scale.f + 0.5f);
+        mg = (uint32_t)(g * scale.f + 0.5f);
+        mb = (uint32_t)(b * scale.f + 0.5f);
+    } else {
+        frexpf(m, &e); /* m = f 2^e, f in [0.5, 1): the largest mantissa lies in [128, 256) */
+        mr = (uint32_t)(ldexpf(r, 8 - e) + 0.5f);
+        mg = (uint32_t)(ldexpf(g, 8 - e) + 0.5f);
+        mb = (uint32_t)(ldexpf(b, 8 - e) + 0.5f);
+    }
     if (mr > 255u || mg > 255u || mb > 255u) { /* rounding carried into the next exponent */
         if (e < 126) {
             ++e;
@@ -228,8 +247,9 @@ vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t coun
         s->slot[v] = glossy && glossy[v] ? s->n_glossy++ : NO_SLOT;
     if (s->n_glossy) {
         size_t cells = (size_t)s->n_glossy * s->texels;
-        s->incident = calloc(3 * cells, sizeof(uint64_t));
-        s->code = malloc(cells * sizeof(uint32_t));
+        s->incident = vbnl_calloc_large(3 * cells * sizeof(uint64_t));
+        /* at least 64-byte aligned: a light's map then starts a line, a texel row of 16 is one */
+        s->code = vbnl_alloc_large(cells * sizeof(uint32_t));
         if (!s->incident || !s->code) {
             vbnl_profile_set_destroy(s);
             return VBNL_ERR_OUT_OF_MEMORY;
@@ -609,6 +629,27 @@ vec3 vbnl_profile_texel(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_ker
     return rgbe_decode(texel_code(s, slot, k, t));
 }
 
+uint32_t vbnl_profile_slot(const vbnl_profile_set *s, uint32_t vl) { return s->slot[vl]; }
+
+void vbnl_profile_lookup_begin(const vbnl_profile_set *s, uint32_t slot, vec3 wo, vbnl_profile_lookup *l)
+{
+    vbnl_hemioct_bilinear(s->map, wo, l->idx, l->wgt);
+    const uint32_t *codes = s->code + (size_t)slot * s->texels;
+    /* rows y0 and y1 of the footprint: at most two lines at R = 16 (a row is 64 bytes) */
+    __builtin_prefetch(codes + l->idx[0]);
+    __builtin_prefetch(codes + l->idx[3]);
+}
+
+vec3 vbnl_profile_lookup_end(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k,
+                             const vbnl_profile_lookup *l)
+{
+    vec3 r = v3s(0.0f);
+    for (int c = 0; c < 4; ++c)
+        if (l->wgt[c] > 0.0f)
+            r = v3_fma(r, rgbe_decode(texel_code(s, slot, k, l->idx[c])), l->wgt[c]);
+    return r;
+}
+
 vec3 vbnl_profile_eval(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, vec3 wo)
 {
     if (!(wo.z > 0.0f))
@@ -616,14 +657,9 @@ vec3 vbnl_profile_eval(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kern
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT)
         return lambert_J(s, vl, k);
-    uint32_t idx[4];
-    float wgt[4];
-    vbnl_hemioct_bilinear(s->map, wo, idx, wgt);
-    vec3 r = v3s(0.0f);
-    for (int c = 0; c < 4; ++c)
-        if (wgt[c] > 0.0f)
-            r = v3_fma(r, rgbe_decode(texel_code(s, slot, k, idx[c])), wgt[c]);
-    return r;
+    vbnl_profile_lookup l;
+    vbnl_profile_lookup_begin(s, slot, wo, &l);
+    return vbnl_profile_lookup_end(s, slot, k, &l);
 }
 
 vec3 vbnl_profile_intensity(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, vec3 wo)

@@ -235,6 +235,20 @@ vbnl_result vbnl_profile_set_release_incident(vbnl_profile_set *s);
 vec3 vbnl_profile_texel(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, uint32_t t);
 /* Bilinearly interpolated J(wo); 0 for wo.z <= 0. Converts the (up to four) texels it reads. */
 vec3 vbnl_profile_eval(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, vec3 wo);
+/* The same lookup in two steps, by map slot (vbnl_profile_slot), so that a caller can start the
+ * texel loads of several lights before reading any (the maps are large and the lights random):
+ * begin computes the bilinear footprint of wo (wo.z > 0) and prefetches its texels; end reads
+ * them (converting if needed) and returns what vbnl_profile_eval returns, bit for bit. */
+#define VBNL_PROFILE_NO_SLOT UINT32_MAX
+typedef struct vbnl_profile_lookup {
+    uint32_t idx[4];
+    float wgt[4];
+} vbnl_profile_lookup;
+/* Index of a glossy VL's map, VBNL_PROFILE_NO_SLOT for a Lambertian VL. */
+uint32_t vbnl_profile_slot(const vbnl_profile_set *s, uint32_t vl);
+void vbnl_profile_lookup_begin(const vbnl_profile_set *s, uint32_t slot, vec3 wo, vbnl_profile_lookup *l);
+vec3 vbnl_profile_lookup_end(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k,
+                             const vbnl_profile_lookup *l);
 /* I(wo) = J(wo) cos theta_o (0 below the horizon). */
 vec3 vbnl_profile_intensity(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, vec3 wo);
 /* P_j = integral of I over the hemisphere (see above); needs no conversion. Feed its luminance

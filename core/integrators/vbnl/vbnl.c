@@ -440,12 +440,6 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
 
 /* ---- rendering ------------------------------------------------------------------------------ */
 
-/* Radiance leaving y (inside the sphere of the light of rank j) toward -w: J_j / (pi r_j^2). */
-static inline vec3 vl_radiance(const vbnl_state *s, uint32_t j, vec3 w)
-{
-    return vbnl_vl_shade_radiance(&s->shade.rec[j], s->profiles, s->kernels, w);
-}
-
 /* Eq. 4: solid-angle pdf of power-based sampling reaching light j along a direction in its cone. */
 static inline float vl_pdf(const vbnl_state *s, uint32_t j, vec3 x)
 {
@@ -538,6 +532,8 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     const int have_vls = s->prepared && s->shade.n > 0;
     vec3 beta = v3s(1.0f);
     uint32_t ranks[VL_GATHER_MAX];
+    vbnl_profile_lookup looks[VL_GATHER_MAX];
+    uint8_t lit[VL_GATHER_MAX];
     int vertices = 0;
     out[3] = 1.0f;
     /* what the camera sees directly */
@@ -558,6 +554,18 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     if (hit.light != VBNL_NO_LIGHT && !skip_direct)
         add_L(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
 
+    /* The power-based pick of each vertex is drawn ahead, so that its record (a cache miss:
+     * lights are picked at random) loads while other work runs: at the camera's vertex during
+     * next-event estimation; at later ones the slot's record loads while the ray to the vertex is
+     * traced, and the light it resolves to (itself or its alias) during the gather there and the
+     * vertex's next-event estimation. A vertex that turns out delta leaves its number unused. */
+    const int power_on = have_vls && s->sampling != SAMPLE_BSDF;
+    float u_pick = 0.0f;
+    uint32_t pick = UINT32_MAX; /* the rank u_pick resolved to, once resolved */
+    if (power_on) {
+        u_pick = vbnl_rng_next(rng);
+        vbnl_vl_shade_prefetch(&s->shade, u_pick);
+    }
     int direct_phase = 1; /* no non-delta vertex yet */
     for (int depth = 0;; ++depth) {
         vertices++;
@@ -573,14 +581,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         if (!delta)
             direct_phase = 0;
 
-        /* The power-based pick below is drawn first, so that its record (a cache miss: lights
-         * are picked at random) loads while next-event estimation runs. */
-        const int power_sample = !delta && have_vls && s->sampling != SAMPLE_BSDF;
-        float u_pick = 0.0f;
-        if (power_sample) {
-            u_pick = vbnl_rng_next(rng);
-            vbnl_vl_shade_prefetch(&s->shade, u_pick);
-        }
+        const int power_sample = !delta && power_on;
 
         /* Direct light from the real lights: next-event estimation with MIS. */
         if (!delta && !drop_direct)
@@ -589,7 +590,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
          * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
         if (power_sample) {
-            const vbnl_vl_shade_rec *e = &s->shade.rec[vbnl_vl_shade_pick(&s->shade, u_pick)];
+            const vbnl_vl_shade_rec *e = &s->shade.rec[pick != UINT32_MAX ? pick : vbnl_vl_shade_pick(&s->shade, u_pick)];
             vec2 uc = vbnl_rng_next2(rng);
             vec3 to = v3_sub(e->position, x);
             float dist = v3_len(to);
@@ -644,8 +645,16 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         const int specular = (bs.lobe & VBNL_LOBE_SPECULAR) != 0;
         o = vbnl_offset_ray_origin(x, hit.ng, w);
         d = w;
+        if (power_on) { /* the next vertex's pick (see above) */
+            u_pick = vbnl_rng_next(rng);
+            vbnl_vl_shade_prefetch(&s->shade, u_pick);
+        }
         stats->rays++;
         hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
+        if (power_on && hit_ok) {
+            pick = vbnl_vl_shade_pick(&s->shade, u_pick);
+            __builtin_prefetch(&s->shade.rec[pick]);
+        }
         /* light arriving directly (emitter or environment) belongs to x's direct estimate: it is
          * counted with the throughput before the split between lights and extension */
         vec3 Le;
@@ -666,11 +675,18 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
                     density += s->shade.rec[ranks[k]].density;
                 wv = blend_weight(s, x, &hit, w, bs.pdf, density / (float)n); /* Eqs. 7-9 */
                 if (wv > 0.0f && s->sampling != SAMPLE_POWER) {
+                    /* every glossy light's texel loads start before the first is read */
+                    for (uint32_t k = 0; k < n; ++k)
+                        lit[k] = (uint8_t)vbnl_vl_shade_radiance_begin(&s->shade.rec[ranks[k]], s->profiles, w,
+                                                                       &looks[k]);
                     vec3 sum = v3s(0.0f);
                     for (uint32_t k = 0; k < n; ++k) {
+                        if (!lit[k])
+                            continue;
                         uint32_t j = ranks[k];
                         float mis = s->sampling == SAMPLE_MIS ? power_heuristic(bs.pdf, vl_pdf(s, j, x)) : 1.0f;
-                        sum = v3_add(sum, v3_scale(vl_radiance(s, j, w), mis));
+                        vec3 L = vbnl_vl_shade_radiance_end(&s->shade.rec[j], s->profiles, s->kernels, &looks[k]);
+                        sum = v3_add(sum, v3_scale(L, mis));
                     }
                     add_vl(out, s, v3_scale(v3_mul(beta_in, sum), wv));
                 }

@@ -1,5 +1,7 @@
 #include "vl_shade.h"
 
+#include "memory.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -25,7 +27,7 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
     free(weight);
     if (built != 0)
         return any ? VBNL_ERR_OUT_OF_MEMORY : VBNL_OK; /* no light emits: nothing to sample */
-    out->rec = aligned_alloc(64, sizeof(vbnl_vl_shade_rec) * (size_t)n);
+    out->rec = vbnl_alloc_large(sizeof(vbnl_vl_shade_rec) * (size_t)n);
     if (!out->rec) {
         vbnl_alias_table_free(&table);
         return VBNL_ERR_OUT_OF_MEMORY;
@@ -40,8 +42,8 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
         e->radius = radius;
         e->normal = set->normal[id];
         e->density = set->density[id];
-        e->id = id;
-        if (vbnl_profile_is_glossy(profiles, id)) {
+        e->slot = vbnl_profile_slot(profiles, id);
+        if (e->slot != VBNL_PROFILE_NO_SLOT) {
             e->material = set->material[id];
             e->radiance = v3_scale(set->tint[id], inv_area);
         } else {

@@ -17,7 +17,8 @@
  *
  * Radiance (vbnl.c, Eq. 3): L_j(y, w) = J_j(w) tint_j / (pi r_j^2). For a Lambertian light J does
  * not depend on the direction (profiles.h), so the record stores the finished radiance; a glossy
- * light stores tint_j / (pi r_j^2) and evaluates its profile (lazily converted or not) by id. */
+ * light stores tint_j / (pi r_j^2) and evaluates its profile (lazily converted or not) by map slot,
+ * so shading reads no per-id array. */
 #ifndef VBNL_VL_SHADE_H
 #define VBNL_VL_SHADE_H
 
@@ -41,7 +42,7 @@ typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
     float pmf;         /* probability of power-based selection */
     float prob;        /* alias slot of this rank: acceptance probability ... */
     uint32_t alias;    /* ... and the other rank */
-    uint32_t id;       /* the light's id in the set (profiles are kept by id) */
+    uint32_t slot;     /* glossy: its emission map (vbnl_profile_slot); VBNL_PROFILE_NO_SLOT */
     uint32_t material; /* glossy: the material (its conversion kernel); VBNL_VL_SHADE_LAMBERT */
 } vbnl_vl_shade_rec;
 
@@ -77,17 +78,36 @@ static inline void vbnl_vl_shade_prefetch(const vbnl_vl_shade *t, float u)
 }
 
 /* Radiance leaving a point inside the light's sphere toward -w (w: the direction from the
- * shading point to it): zero behind the light. */
+ * shading point to it), in two steps so that a caller shading several lights can start every
+ * glossy light's texel loads first: begin returns 0 when the radiance is zero (behind the light),
+ * else 1, having started a glossy light's lookup in *l; end returns the radiance. */
+static inline int vbnl_vl_shade_radiance_begin(const vbnl_vl_shade_rec *e, const vbnl_profile_set *profiles, vec3 w,
+                                               vbnl_profile_lookup *l)
+{
+    if (e->material == VBNL_VL_SHADE_LAMBERT)
+        return v3_dot(v3_neg(w), e->normal) > 0.0f;
+    frame f = frame_from_normal(e->normal);
+    vec3 wo = frame_to_local(&f, v3_neg(w));
+    if (!(wo.z > 0.0f))
+        return 0;
+    vbnl_profile_lookup_begin(profiles, e->slot, wo, l);
+    return 1;
+}
+
+static inline vec3 vbnl_vl_shade_radiance_end(const vbnl_vl_shade_rec *e, vbnl_profile_set *profiles,
+                                              vbnl_profile_kernel *const *kernels, const vbnl_profile_lookup *l)
+{
+    if (e->material == VBNL_VL_SHADE_LAMBERT)
+        return e->radiance;
+    return v3_mul(vbnl_profile_lookup_end(profiles, e->slot, kernels[e->material], l), e->radiance);
+}
+
 static inline vec3 vbnl_vl_shade_radiance(const vbnl_vl_shade_rec *e, vbnl_profile_set *profiles,
                                           vbnl_profile_kernel *const *kernels, vec3 w)
 {
-    if (e->material == VBNL_VL_SHADE_LAMBERT)
-        return v3_dot(v3_neg(w), e->normal) > 0.0f ? e->radiance : v3s(0.0f);
-    frame f = frame_from_normal(e->normal);
-    vec3 wo = frame_to_local(&f, v3_neg(w));
-    if (wo.z <= 0.0f)
-        return v3s(0.0f);
-    return v3_mul(vbnl_profile_eval(profiles, e->id, kernels[e->material], wo), e->radiance);
+    vbnl_profile_lookup l;
+    return vbnl_vl_shade_radiance_begin(e, profiles, w, &l) ? vbnl_vl_shade_radiance_end(e, profiles, kernels, &l)
+                                                            : v3s(0.0f);
 }
 
 /* Cos of the half-angle of the cone from x containing the light's sphere (-1 inside it). */
