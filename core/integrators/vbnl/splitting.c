@@ -12,6 +12,53 @@
 
 #define SPLAT_RING 16u
 
+#if defined(__AVX2__)
+/* Left-packing of 8 lanes by a mask (AVX2 has no compress): entry m holds, 4 bits per lane, the
+ * indexes of the set bits of m in ascending order (then zeros). compress_idx turns it into the
+ * vpermd index vector, so 8 lanes are packed with one permute and one store instead of a loop
+ * over the set bits (its exits were mispredicted: the counts vary from hit to hit). */
+static const uint32_t compress_lut[256] = {
+    0x00000000, 0x00000000, 0x00000001, 0x00000010, 0x00000002, 0x00000020, 0x00000021, 0x00000210,
+    0x00000003, 0x00000030, 0x00000031, 0x00000310, 0x00000032, 0x00000320, 0x00000321, 0x00003210,
+    0x00000004, 0x00000040, 0x00000041, 0x00000410, 0x00000042, 0x00000420, 0x00000421, 0x00004210,
+    0x00000043, 0x00000430, 0x00000431, 0x00004310, 0x00000432, 0x00004320, 0x00004321, 0x00043210,
+    0x00000005, 0x00000050, 0x00000051, 0x00000510, 0x00000052, 0x00000520, 0x00000521, 0x00005210,
+    0x00000053, 0x00000530, 0x00000531, 0x00005310, 0x00000532, 0x00005320, 0x00005321, 0x00053210,
+    0x00000054, 0x00000540, 0x00000541, 0x00005410, 0x00000542, 0x00005420, 0x00005421, 0x00054210,
+    0x00000543, 0x00005430, 0x00005431, 0x00054310, 0x00005432, 0x00054320, 0x00054321, 0x00543210,
+    0x00000006, 0x00000060, 0x00000061, 0x00000610, 0x00000062, 0x00000620, 0x00000621, 0x00006210,
+    0x00000063, 0x00000630, 0x00000631, 0x00006310, 0x00000632, 0x00006320, 0x00006321, 0x00063210,
+    0x00000064, 0x00000640, 0x00000641, 0x00006410, 0x00000642, 0x00006420, 0x00006421, 0x00064210,
+    0x00000643, 0x00006430, 0x00006431, 0x00064310, 0x00006432, 0x00064320, 0x00064321, 0x00643210,
+    0x00000065, 0x00000650, 0x00000651, 0x00006510, 0x00000652, 0x00006520, 0x00006521, 0x00065210,
+    0x00000653, 0x00006530, 0x00006531, 0x00065310, 0x00006532, 0x00065320, 0x00065321, 0x00653210,
+    0x00000654, 0x00006540, 0x00006541, 0x00065410, 0x00006542, 0x00065420, 0x00065421, 0x00654210,
+    0x00006543, 0x00065430, 0x00065431, 0x00654310, 0x00065432, 0x00654320, 0x00654321, 0x06543210,
+    0x00000007, 0x00000070, 0x00000071, 0x00000710, 0x00000072, 0x00000720, 0x00000721, 0x00007210,
+    0x00000073, 0x00000730, 0x00000731, 0x00007310, 0x00000732, 0x00007320, 0x00007321, 0x00073210,
+    0x00000074, 0x00000740, 0x00000741, 0x00007410, 0x00000742, 0x00007420, 0x00007421, 0x00074210,
+    0x00000743, 0x00007430, 0x00007431, 0x00074310, 0x00007432, 0x00074320, 0x00074321, 0x00743210,
+    0x00000075, 0x00000750, 0x00000751, 0x00007510, 0x00000752, 0x00007520, 0x00007521, 0x00075210,
+    0x00000753, 0x00007530, 0x00007531, 0x00075310, 0x00007532, 0x00075320, 0x00075321, 0x00753210,
+    0x00000754, 0x00007540, 0x00007541, 0x00075410, 0x00007542, 0x00075420, 0x00075421, 0x00754210,
+    0x00007543, 0x00075430, 0x00075431, 0x00754310, 0x00075432, 0x00754320, 0x00754321, 0x07543210,
+    0x00000076, 0x00000760, 0x00000761, 0x00007610, 0x00000762, 0x00007620, 0x00007621, 0x00076210,
+    0x00000763, 0x00007630, 0x00007631, 0x00076310, 0x00007632, 0x00076320, 0x00076321, 0x00763210,
+    0x00000764, 0x00007640, 0x00007641, 0x00076410, 0x00007642, 0x00076420, 0x00076421, 0x00764210,
+    0x00007643, 0x00076430, 0x00076431, 0x00764310, 0x00076432, 0x00764320, 0x00764321, 0x07643210,
+    0x00000765, 0x00007650, 0x00007651, 0x00076510, 0x00007652, 0x00076520, 0x00076521, 0x00765210,
+    0x00007653, 0x00076530, 0x00076531, 0x00765310, 0x00076532, 0x00765320, 0x00765321, 0x07653210,
+    0x00007654, 0x00076540, 0x00076541, 0x00765410, 0x00076542, 0x00765420, 0x00765421, 0x07654210,
+    0x00076543, 0x00765430, 0x00765431, 0x07654310, 0x00765432, 0x07654320, 0x07654321, 0x76543210,
+};
+
+static inline __m256i compress_idx(unsigned mask)
+{
+    const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+    return _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compress_lut[mask]), shifts), _mm256_set1_epi32(7));
+}
+#endif
+
 /* A photon hit waiting in a thread's batch (64 bytes, one cache line): everything the deposit
  * needs. With a single-level dense grid (job->cell_fast) the hit's cell is located when the
  * hit is recorded, so the deposit starts from the cell's listings. */
@@ -340,8 +387,8 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
     const vec3 p = h->p, n = h->n, wi = h->wi;
     const float ncos = cx->job->d->normal_cos;
     const int use_cos = ncos > -1.0f, use_facing = cx->job->d->require_facing;
-    float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX];
+    float w[VBNL_SPLIT_QUERY_MAX + 8]; /* + 8: the packed stores of the AVX2 path */
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX + 8];
     uint32_t nf = 0, m = 0;
     float sum = 0.0f;
 #if defined(__AVX2__)
@@ -411,16 +458,17 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         __m256 d2f = _mm256_set_m128(_mm256_cvtpd_ps(d2h), _mm256_cvtpd_ps(d2l));
         __m256 wv = _mm256_sub_ps(_mm256_set1_ps(1.0f), _mm256_div_ps(d2f, _mm256_mul_ps(rv, rv)));
         unsigned keep = acc_bits & (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(wv, _mm256_setzero_ps(), _CMP_GT_OQ));
-        float wl[8];
-        _mm256_storeu_ps(wl, wv);
-        while (keep) { /* d within rounding of r: dropped */
-            unsigned j = (unsigned)__builtin_ctz(keep);
-            keep &= keep - 1;
-            w[m] = wl[j];
-            rk[m] = cand[i0 + j];
-            sum += wl[j];
-            m++;
-        }
+        /* The kept weights and ranks packed onto the ends of w and rk (d within rounding of r:
+         * dropped); the lanes past them are zero weights, whose adds to the sum change no bit
+         * (sum >= 0), so the sum takes the kept weights in order without a loop over them. */
+        __m256i pi = compress_idx(keep);
+        __m256 wc = _mm256_and_ps(_mm256_permutevar8x32_ps(wv, pi),
+                                  _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+                                      _mm256_set1_epi32(__builtin_popcount(keep)), lanes)));
+        _mm256_storeu_ps(w + m, wc);
+        _mm256_storeu_si256((__m256i *)(rk + m), _mm256_permutevar8x32_epi32(ci, pi));
+        sum = (((((((sum + w[m]) + w[m + 1]) + w[m + 2]) + w[m + 3]) + w[m + 4]) + w[m + 5]) + w[m + 6]) + w[m + 7];
+        m += (uint32_t)__builtin_popcount(keep);
     }
     if (0)
 #endif
@@ -494,15 +542,17 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
             }
             continue;
         }
-        do {
-            unsigned j = (unsigned)__builtin_ctz(bits);
-            bits &= bits - 1;
-            uint32_t r = items[i + j];
-            __builtin_prefetch(rec + r);
-            if (acc)
-                __builtin_prefetch(acc + 4 * (size_t)r);
-            cand[nc++] = r;
-        } while (bits);
+        /* the ranks of the set lanes, packed (items has 8 spare entries past the last cell) */
+        __m256i rk = _mm256_loadu_si256((const __m256i *)(items + i));
+        _mm256_storeu_si256((__m256i *)(cand + nc), _mm256_permutevar8x32_epi32(rk, compress_idx(bits)));
+        nc += (uint32_t)__builtin_popcount(bits);
+    }
+    /* the candidates' records and sums, for stage D */
+    uint32_t np = nc < VBNL_VLI_PIPE_CAND ? nc : VBNL_VLI_PIPE_CAND;
+    for (uint32_t j = 0; j < np; ++j) {
+        __builtin_prefetch(rec + cand[j]);
+        if (acc)
+            __builtin_prefetch(acc + 4 * (size_t)cand[j]);
     }
 #else
     VBNL_VLI_PRETEST(g, s0, n, q, {
