@@ -608,7 +608,18 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
     uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
     sl->s0 = s0;
     sl->n = n;
-    for (uint32_t i = 0; i < n; i += 16) {
+    /* Every line the pre-test's 8-wide loads read (s0 .. s0 + np - 1, np = n rounded up to 8):
+     * the first, middle and last entries cover spans of up to 3 lines (np <= 24, a cell of the
+     * default grid); longer cells add a line per 16 entries. Strides of 16 from s0 alone missed
+     * the third line of a misaligned 21-listing cell. */
+    const uint32_t np = (n + 7u) & ~7u, last = np ? np - 1u : 0u;
+    __builtin_prefetch(g->qent + s0);
+    __builtin_prefetch(g->items + s0);
+    __builtin_prefetch(g->qent + s0 + last / 2u);
+    __builtin_prefetch(g->items + s0 + last / 2u);
+    __builtin_prefetch(g->qent + s0 + last);
+    __builtin_prefetch(g->items + s0 + last);
+    for (uint32_t i = 16; i + 8 < np; i += 16) {
         __builtin_prefetch(g->qent + s0 + i);
         __builtin_prefetch(g->items + s0 + i);
     }
