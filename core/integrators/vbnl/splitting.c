@@ -72,11 +72,23 @@ typedef struct split_rec {
 } split_rec;
 _Static_assert(sizeof(split_rec) == 64, "split_rec: one cache line");
 
+/* One VL as a thread's deposit reads it, by rank (64 bytes, one cache line): a copy of its
+ * index record (the exact test and the filters) and this thread's Phi_in sums. A candidate
+ * then costs one line fetch instead of two (record and sums apart): the deposit is bound by
+ * the number of lines in flight (perf: stalls on the prefetches, not on arithmetic). */
+typedef struct split_vl {
+    vl_rec rec;
+    uint64_t acc[4]; /* RGB and a zero lane (fixed point), one AVX2 vector */
+} split_vl;
+_Static_assert(sizeof(split_vl) == 64 && offsetof(split_vl, acc) == 32, "split_vl: one cache line");
+#define ACC_STRIDE (sizeof(split_vl) / sizeof(uint64_t)) /* uint64_t from one VL's sums to the next */
+
 /* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
     _Alignas(64) vbnl_split_stats s;
-    uint64_t *acc;       /* this thread's Phi_in sums by index rank (fixed point): RGB and a zero
-                          * lane, 32 bytes per VL, 32-byte aligned (one AVX2 vector) */
+    split_vl *vl;        /* by index rank: record copies and this thread's sums (NULL: atomic
+                          * deposits into the set) */
+    uint64_t *acc;       /* vl[0].acc: rank r's sums at acc + ACC_STRIDE r, 32-byte aligned */
     split_rec *hits;     /* the batch, in trace order */
     uint32_t *order;     /* the batch by bin: indexes into hits */
     uint32_t *bin;       /* bin of hits[i] */
@@ -266,7 +278,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), two52i);
                 v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
                 left = _mm256_sub_epi64(left, v);
-                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
+                __m256i *a = (__m256i *)(t->acc + ACC_STRIDE * (size_t)rk[i]);
                 _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
                 if (wk > w_big) {
                     w_big = wk;
@@ -305,7 +317,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
             wl = frame_to_local(&fr, h->wi);
         }
         if (t->acc) {
-            uint64_t *a = t->acc + 4 * (size_t)rk[i];
+            uint64_t *a = t->acc + ACC_STRIDE * (size_t)rk[i];
             a[0] += s3[0];
             a[1] += s3[1];
             a[2] += s3[2];
@@ -402,15 +414,17 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
     const __m256 wx = _mm256_set1_ps(wi.x), wy = _mm256_set1_ps(wi.y), wz = _mm256_set1_ps(wi.z);
     const __m256 vcos = _mm256_set1_ps(ncos);
     const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    const float *base = &x->rec[0].cx;
+    /* the records: this thread's copies beside its sums (split_vl), else the index's */
+    const float *base = cx->t->vl ? &cx->t->vl[0].rec.cx : &x->rec[0].cx;
+    const __m128i rshift = _mm_cvtsi32_si128(cx->t->vl ? 4 : 3); /* floats per record: 16 or 8 */
     for (uint32_t i0 = 0; i0 < ncand; i0 += 8) {
         uint32_t left = ncand - i0, cnt = left < 8 ? left : 8;
-        /* float offsets of the records (8 floats each); cand[] has room for 8 past i0 */
+        /* float offsets of the records (8 floats each, 16 apart in split_vl); cand[] has room for 8 past i0 */
         __m256i ci = _mm256_loadu_si256((const __m256i *)(cand + i0));
         ci = _mm256_blendv_epi8(_mm256_set1_epi32((int)cand[i0]), ci,
                                 _mm256_cmpgt_epi32(_mm256_set1_epi32((int)cnt), lanes));
         uint32_t off[8];
-        _mm256_storeu_si256((__m256i *)off, _mm256_slli_epi32(ci, 3));
+        _mm256_storeu_si256((__m256i *)off, _mm256_sll_epi32(ci, rshift));
         __m256 r0 = _mm256_loadu_ps(base + off[0]), r1 = _mm256_loadu_ps(base + off[1]),
                r2 = _mm256_loadu_ps(base + off[2]), r3 = _mm256_loadu_ps(base + off[3]),
                r4 = _mm256_loadu_ps(base + off[4]), r5 = _mm256_loadu_ps(base + off[5]),
@@ -510,7 +524,7 @@ static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_ind
  * is returned; beyond VBNL_VLI_PIPE_CAND only counted), their records and sums are prefetched.
  * The capacity is checked once per eight listings. */
 static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_level *g, const vl_rec *rec,
-                                                                   const uint64_t *acc, uint32_t s0, uint32_t n,
+                                                                   const split_vl *vl, uint32_t s0, uint32_t n,
                                                                    const float q[3], uint32_t *cand)
 {
     uint32_t nc = 0;
@@ -549,17 +563,19 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
     }
     /* the candidates' records and sums, for stage D */
     uint32_t np = nc < VBNL_VLI_PIPE_CAND ? nc : VBNL_VLI_PIPE_CAND;
-    for (uint32_t j = 0; j < np; ++j) {
-        __builtin_prefetch(rec + cand[j]);
-        if (acc)
-            __builtin_prefetch(acc + 4 * (size_t)cand[j]);
-    }
+    if (vl)
+        for (uint32_t j = 0; j < np; ++j)
+            __builtin_prefetch(vl + cand[j]);
+    else
+        for (uint32_t j = 0; j < np; ++j)
+            __builtin_prefetch(rec + cand[j]);
 #else
     VBNL_VLI_PRETEST(g, s0, n, q, {
         if (nc < VBNL_VLI_PIPE_CAND) {
-            __builtin_prefetch(rec + rank_);
-            if (acc)
-                __builtin_prefetch(acc + 4 * (size_t)rank_);
+            if (vl)
+                __builtin_prefetch(vl + rank_);
+            else
+                __builtin_prefetch(rec + rank_);
             cand[nc] = rank_;
         }
         ++nc;
@@ -589,7 +605,7 @@ typedef struct fast_pipe {
     const grid_level *g;
     const split_rec *recs;
     const uint32_t *order, *scell;
-    const uint64_t *acc;
+    const split_vl *vl;
     fast_slot ring[FAST_SLOTS];
 } fast_pipe;
 
@@ -628,7 +644,7 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
 static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)
 {
     fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
-    sl->ncand = fast_pretest(fp->g, fp->x->rec, fp->acc, sl->s0, sl->n, sl->h->q, sl->cand);
+    sl->ncand = fast_pretest(fp->g, fp->x->rec, fp->vl, sl->s0, sl->n, sl->h->q, sl->cand);
 }
 
 static inline __attribute__((always_inline)) void fast_d(fast_pipe *fp, uint32_t k)
@@ -661,7 +677,7 @@ static void run_fast_pipe(const split_ctx *cx, const uint32_t *scell, uint32_t c
     fp.recs = cx->recs;
     fp.order = cx->order;
     fp.scell = scell;
-    fp.acc = cx->t->acc;
+    fp.vl = cx->t->vl;
     const uint32_t S = FAST_S, end = count + 3 * S;
     uint32_t k = 0;
     for (; k < 3 * S && k < end; ++k)
@@ -717,8 +733,8 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
     b.normal_cos = job->d->normal_cos;
     b.facing = job->d->require_facing;
     b.max_out = VBNL_SPLIT_QUERY_MAX;
-    b.rank_data = t->acc; /* NULL: nothing to prefetch */
-    b.rank_stride = 4 * sizeof(uint64_t);
+    b.rank_data = t->vl; /* NULL: nothing to prefetch */
+    b.rank_stride = sizeof(split_vl);
     const vbnl_vl_index *x = job->d->index;
     if (job->cell_fast) {
         run_fast_pipe(&cx, t->scell, n);
@@ -862,7 +878,7 @@ static void threads_free(split_job *job)
         return;
     for (unsigned i = 0; i < job->thread_count; ++i) {
         split_thread *t = &job->threads[i];
-        free(t->acc);
+        free(t->vl);
         free(t->hits);
         free(t->order);
         free(t->bin);
@@ -937,12 +953,16 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
     /* Per-thread sums unless they would take more than VBNL_SPLIT_MAX_SUM_BYTES (many threads
      * and millions of VLs): then atomic adds into the set, the same bits. */
-    int own_sums = !d->atomic_deposits && (double)nvl * 32.0 * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
+    int own_sums = !d->atomic_deposits && (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;
-        if (own_sums && (t->acc = aligned_alloc(32, 32 * ((size_t)nvl + 1))))
-            memset(t->acc, 0, 32 * ((size_t)nvl + 1));
+        if (own_sums && (t->vl = aligned_alloc(64, sizeof(split_vl) * ((size_t)nvl + 1)))) {
+            memset(t->vl, 0, sizeof(split_vl) * ((size_t)nvl + 1));
+            for (uint32_t r = 0; r < nvl; ++r)
+                t->vl[r].rec = d->index->rec[r];
+            t->acc = t->vl[0].acc;
+        }
         t->hits = aligned_alloc(64, t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
@@ -952,7 +972,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             goto done;
         }
         t->start = malloc(((size_t)job.bins + 1) * sizeof(uint32_t));
-        if ((own_sums && !t->acc) || !t->hits || !t->order || !t->bin || !t->start) {
+        if ((own_sums && !t->vl) || !t->hits || !t->order || !t->bin || !t->start) {
             res = VBNL_ERR_OUT_OF_MEMORY;
             goto done;
         }
@@ -972,7 +992,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         uint64_t q[3] = {0, 0, 0};
         for (unsigned i = 0; i < job.thread_count; ++i)
             for (int c = 0; c < 3; ++c)
-                q[c] += job.threads[i].acc[4 * (size_t)r + c];
+                q[c] += job.threads[i].acc[ACC_STRIDE * (size_t)r + c];
         if (q[0] | q[1] | q[2])
             vbnl_profile_add_power_fixed(d->profiles, vbnl_vl_index_id(d->index, r), q);
     }
@@ -991,7 +1011,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         }
         stats->seconds = vbnl_now() - t0;
         stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
-                               ((own_sums ? 32ull * (nvl + 1) : 0ull) +
+                               ((own_sums ? (uint64_t)sizeof(split_vl) * (nvl + 1) : 0ull) +
                                 (uint64_t)VBNL_SPLIT_BATCH_HITS *
                                     (sizeof(split_rec) + (job.cell_fast ? 4 : 2) * sizeof(uint32_t)) +
                                 4ull * (job.bins + 1)) +
