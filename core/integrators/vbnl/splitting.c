@@ -12,6 +12,53 @@
 
 #define SPLAT_RING 16u
 
+#if defined(__AVX2__)
+/* Left-packing of 8 lanes by a mask (AVX2 has no compress): entry m holds, 4 bits per lane, the
+ * indexes of the set bits of m in ascending order (then zeros). compress_idx turns it into the
+ * vpermd index vector, so 8 lanes are packed with one permute and one store instead of a loop
+ * over the set bits (its exits were mispredicted: the counts vary from hit to hit). */
+static const uint32_t compress_lut[256] = {
+    0x00000000, 0x00000000, 0x00000001, 0x00000010, 0x00000002, 0x00000020, 0x00000021, 0x00000210,
+    0x00000003, 0x00000030, 0x00000031, 0x00000310, 0x00000032, 0x00000320, 0x00000321, 0x00003210,
+    0x00000004, 0x00000040, 0x00000041, 0x00000410, 0x00000042, 0x00000420, 0x00000421, 0x00004210,
+    0x00000043, 0x00000430, 0x00000431, 0x00004310, 0x00000432, 0x00004320, 0x00004321, 0x00043210,
+    0x00000005, 0x00000050, 0x00000051, 0x00000510, 0x00000052, 0x00000520, 0x00000521, 0x00005210,
+    0x00000053, 0x00000530, 0x00000531, 0x00005310, 0x00000532, 0x00005320, 0x00005321, 0x00053210,
+    0x00000054, 0x00000540, 0x00000541, 0x00005410, 0x00000542, 0x00005420, 0x00005421, 0x00054210,
+    0x00000543, 0x00005430, 0x00005431, 0x00054310, 0x00005432, 0x00054320, 0x00054321, 0x00543210,
+    0x00000006, 0x00000060, 0x00000061, 0x00000610, 0x00000062, 0x00000620, 0x00000621, 0x00006210,
+    0x00000063, 0x00000630, 0x00000631, 0x00006310, 0x00000632, 0x00006320, 0x00006321, 0x00063210,
+    0x00000064, 0x00000640, 0x00000641, 0x00006410, 0x00000642, 0x00006420, 0x00006421, 0x00064210,
+    0x00000643, 0x00006430, 0x00006431, 0x00064310, 0x00006432, 0x00064320, 0x00064321, 0x00643210,
+    0x00000065, 0x00000650, 0x00000651, 0x00006510, 0x00000652, 0x00006520, 0x00006521, 0x00065210,
+    0x00000653, 0x00006530, 0x00006531, 0x00065310, 0x00006532, 0x00065320, 0x00065321, 0x00653210,
+    0x00000654, 0x00006540, 0x00006541, 0x00065410, 0x00006542, 0x00065420, 0x00065421, 0x00654210,
+    0x00006543, 0x00065430, 0x00065431, 0x00654310, 0x00065432, 0x00654320, 0x00654321, 0x06543210,
+    0x00000007, 0x00000070, 0x00000071, 0x00000710, 0x00000072, 0x00000720, 0x00000721, 0x00007210,
+    0x00000073, 0x00000730, 0x00000731, 0x00007310, 0x00000732, 0x00007320, 0x00007321, 0x00073210,
+    0x00000074, 0x00000740, 0x00000741, 0x00007410, 0x00000742, 0x00007420, 0x00007421, 0x00074210,
+    0x00000743, 0x00007430, 0x00007431, 0x00074310, 0x00007432, 0x00074320, 0x00074321, 0x00743210,
+    0x00000075, 0x00000750, 0x00000751, 0x00007510, 0x00000752, 0x00007520, 0x00007521, 0x00075210,
+    0x00000753, 0x00007530, 0x00007531, 0x00075310, 0x00007532, 0x00075320, 0x00075321, 0x00753210,
+    0x00000754, 0x00007540, 0x00007541, 0x00075410, 0x00007542, 0x00075420, 0x00075421, 0x00754210,
+    0x00007543, 0x00075430, 0x00075431, 0x00754310, 0x00075432, 0x00754320, 0x00754321, 0x07543210,
+    0x00000076, 0x00000760, 0x00000761, 0x00007610, 0x00000762, 0x00007620, 0x00007621, 0x00076210,
+    0x00000763, 0x00007630, 0x00007631, 0x00076310, 0x00007632, 0x00076320, 0x00076321, 0x00763210,
+    0x00000764, 0x00007640, 0x00007641, 0x00076410, 0x00007642, 0x00076420, 0x00076421, 0x00764210,
+    0x00007643, 0x00076430, 0x00076431, 0x00764310, 0x00076432, 0x00764320, 0x00764321, 0x07643210,
+    0x00000765, 0x00007650, 0x00007651, 0x00076510, 0x00007652, 0x00076520, 0x00076521, 0x00765210,
+    0x00007653, 0x00076530, 0x00076531, 0x00765310, 0x00076532, 0x00765320, 0x00765321, 0x07653210,
+    0x00007654, 0x00076540, 0x00076541, 0x00765410, 0x00076542, 0x00765420, 0x00765421, 0x07654210,
+    0x00076543, 0x00765430, 0x00765431, 0x07654310, 0x00765432, 0x07654320, 0x07654321, 0x76543210,
+};
+
+static inline __m256i compress_idx(unsigned mask)
+{
+    const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+    return _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compress_lut[mask]), shifts), _mm256_set1_epi32(7));
+}
+#endif
+
 /* A photon hit waiting in a thread's batch (64 bytes, one cache line): everything the deposit
  * needs. With a single-level dense grid (job->cell_fast) the hit's cell is located when the
  * hit is recorded, so the deposit starts from the cell's listings. */
@@ -25,11 +72,23 @@ typedef struct split_rec {
 } split_rec;
 _Static_assert(sizeof(split_rec) == 64, "split_rec: one cache line");
 
+/* One VL as a thread's deposit reads it, by rank (64 bytes, one cache line): a copy of its
+ * index record (the exact test and the filters) and this thread's Phi_in sums. A candidate
+ * then costs one line fetch instead of two (record and sums apart): the deposit is bound by
+ * the number of lines in flight (perf: stalls on the prefetches, not on arithmetic). */
+typedef struct split_vl {
+    vl_rec rec;
+    uint64_t acc[4]; /* RGB and a zero lane (fixed point), one AVX2 vector */
+} split_vl;
+_Static_assert(sizeof(split_vl) == 64 && offsetof(split_vl, acc) == 32, "split_vl: one cache line");
+#define ACC_STRIDE (sizeof(split_vl) / sizeof(uint64_t)) /* uint64_t from one VL's sums to the next */
+
 /* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
     _Alignas(64) vbnl_split_stats s;
-    uint64_t *acc;       /* this thread's Phi_in sums by index rank (fixed point): RGB and a zero
-                          * lane, 32 bytes per VL, 32-byte aligned (one AVX2 vector) */
+    split_vl *vl;        /* by index rank: record copies and this thread's sums (NULL: atomic
+                          * deposits into the set) */
+    uint64_t *acc;       /* vl[0].acc: rank r's sums at acc + ACC_STRIDE r, 32-byte aligned */
     split_rec *hits;     /* the batch, in trace order */
     uint32_t *order;     /* the batch by bin: indexes into hits */
     uint32_t *bin;       /* bin of hits[i] */
@@ -219,7 +278,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), two52i);
                 v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
                 left = _mm256_sub_epi64(left, v);
-                __m256i *a = (__m256i *)(t->acc + 4 * (size_t)rk[i]);
+                __m256i *a = (__m256i *)(t->acc + ACC_STRIDE * (size_t)rk[i]);
                 _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
                 if (wk > w_big) {
                     w_big = wk;
@@ -258,7 +317,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
             wl = frame_to_local(&fr, h->wi);
         }
         if (t->acc) {
-            uint64_t *a = t->acc + 4 * (size_t)rk[i];
+            uint64_t *a = t->acc + ACC_STRIDE * (size_t)rk[i];
             a[0] += s3[0];
             a[1] += s3[1];
             a[2] += s3[2];
@@ -340,8 +399,8 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
     const vec3 p = h->p, n = h->n, wi = h->wi;
     const float ncos = cx->job->d->normal_cos;
     const int use_cos = ncos > -1.0f, use_facing = cx->job->d->require_facing;
-    float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX];
+    float w[VBNL_SPLIT_QUERY_MAX + 8]; /* + 8: the packed stores of the AVX2 path */
+    uint32_t rk[VBNL_SPLIT_QUERY_MAX + 8];
     uint32_t nf = 0, m = 0;
     float sum = 0.0f;
 #if defined(__AVX2__)
@@ -355,15 +414,17 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
     const __m256 wx = _mm256_set1_ps(wi.x), wy = _mm256_set1_ps(wi.y), wz = _mm256_set1_ps(wi.z);
     const __m256 vcos = _mm256_set1_ps(ncos);
     const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    const float *base = &x->rec[0].cx;
+    /* the records: this thread's copies beside its sums (split_vl), else the index's */
+    const float *base = cx->t->vl ? &cx->t->vl[0].rec.cx : &x->rec[0].cx;
+    const __m128i rshift = _mm_cvtsi32_si128(cx->t->vl ? 4 : 3); /* floats per record: 16 or 8 */
     for (uint32_t i0 = 0; i0 < ncand; i0 += 8) {
         uint32_t left = ncand - i0, cnt = left < 8 ? left : 8;
-        /* float offsets of the records (8 floats each); cand[] has room for 8 past i0 */
+        /* float offsets of the records (8 floats each, 16 apart in split_vl); cand[] has room for 8 past i0 */
         __m256i ci = _mm256_loadu_si256((const __m256i *)(cand + i0));
         ci = _mm256_blendv_epi8(_mm256_set1_epi32((int)cand[i0]), ci,
                                 _mm256_cmpgt_epi32(_mm256_set1_epi32((int)cnt), lanes));
         uint32_t off[8];
-        _mm256_storeu_si256((__m256i *)off, _mm256_slli_epi32(ci, 3));
+        _mm256_storeu_si256((__m256i *)off, _mm256_sll_epi32(ci, rshift));
         __m256 r0 = _mm256_loadu_ps(base + off[0]), r1 = _mm256_loadu_ps(base + off[1]),
                r2 = _mm256_loadu_ps(base + off[2]), r3 = _mm256_loadu_ps(base + off[3]),
                r4 = _mm256_loadu_ps(base + off[4]), r5 = _mm256_loadu_ps(base + off[5]),
@@ -411,16 +472,17 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         __m256 d2f = _mm256_set_m128(_mm256_cvtpd_ps(d2h), _mm256_cvtpd_ps(d2l));
         __m256 wv = _mm256_sub_ps(_mm256_set1_ps(1.0f), _mm256_div_ps(d2f, _mm256_mul_ps(rv, rv)));
         unsigned keep = acc_bits & (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(wv, _mm256_setzero_ps(), _CMP_GT_OQ));
-        float wl[8];
-        _mm256_storeu_ps(wl, wv);
-        while (keep) { /* d within rounding of r: dropped */
-            unsigned j = (unsigned)__builtin_ctz(keep);
-            keep &= keep - 1;
-            w[m] = wl[j];
-            rk[m] = cand[i0 + j];
-            sum += wl[j];
-            m++;
-        }
+        /* The kept weights and ranks packed onto the ends of w and rk (d within rounding of r:
+         * dropped); the lanes past them are zero weights, whose adds to the sum change no bit
+         * (sum >= 0), so the sum takes the kept weights in order without a loop over them. */
+        __m256i pi = compress_idx(keep);
+        __m256 wc = _mm256_and_ps(_mm256_permutevar8x32_ps(wv, pi),
+                                  _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+                                      _mm256_set1_epi32(__builtin_popcount(keep)), lanes)));
+        _mm256_storeu_ps(w + m, wc);
+        _mm256_storeu_si256((__m256i *)(rk + m), _mm256_permutevar8x32_epi32(ci, pi));
+        sum = (((((((sum + w[m]) + w[m + 1]) + w[m + 2]) + w[m + 3]) + w[m + 4]) + w[m + 5]) + w[m + 6]) + w[m + 7];
+        m += (uint32_t)__builtin_popcount(keep);
     }
     if (0)
 #endif
@@ -462,7 +524,7 @@ static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_ind
  * is returned; beyond VBNL_VLI_PIPE_CAND only counted), their records and sums are prefetched.
  * The capacity is checked once per eight listings. */
 static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_level *g, const vl_rec *rec,
-                                                                   const uint64_t *acc, uint32_t s0, uint32_t n,
+                                                                   const split_vl *vl, uint32_t s0, uint32_t n,
                                                                    const float q[3], uint32_t *cand)
 {
     uint32_t nc = 0;
@@ -494,22 +556,26 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
             }
             continue;
         }
-        do {
-            unsigned j = (unsigned)__builtin_ctz(bits);
-            bits &= bits - 1;
-            uint32_t r = items[i + j];
-            __builtin_prefetch(rec + r);
-            if (acc)
-                __builtin_prefetch(acc + 4 * (size_t)r);
-            cand[nc++] = r;
-        } while (bits);
+        /* the ranks of the set lanes, packed (items has 8 spare entries past the last cell) */
+        __m256i rk = _mm256_loadu_si256((const __m256i *)(items + i));
+        _mm256_storeu_si256((__m256i *)(cand + nc), _mm256_permutevar8x32_epi32(rk, compress_idx(bits)));
+        nc += (uint32_t)__builtin_popcount(bits);
     }
+    /* the candidates' records and sums, for stage D */
+    uint32_t np = nc < VBNL_VLI_PIPE_CAND ? nc : VBNL_VLI_PIPE_CAND;
+    if (vl)
+        for (uint32_t j = 0; j < np; ++j)
+            __builtin_prefetch(vl + cand[j]);
+    else
+        for (uint32_t j = 0; j < np; ++j)
+            __builtin_prefetch(rec + cand[j]);
 #else
     VBNL_VLI_PRETEST(g, s0, n, q, {
         if (nc < VBNL_VLI_PIPE_CAND) {
-            __builtin_prefetch(rec + rank_);
-            if (acc)
-                __builtin_prefetch(acc + 4 * (size_t)rank_);
+            if (vl)
+                __builtin_prefetch(vl + rank_);
+            else
+                __builtin_prefetch(rec + rank_);
             cand[nc] = rank_;
         }
         ++nc;
@@ -539,7 +605,7 @@ typedef struct fast_pipe {
     const grid_level *g;
     const split_rec *recs;
     const uint32_t *order, *scell;
-    const uint64_t *acc;
+    const split_vl *vl;
     fast_slot ring[FAST_SLOTS];
 } fast_pipe;
 
@@ -558,7 +624,18 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
     uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
     sl->s0 = s0;
     sl->n = n;
-    for (uint32_t i = 0; i < n; i += 16) {
+    /* Every line the pre-test's 8-wide loads read (s0 .. s0 + np - 1, np = n rounded up to 8):
+     * the first, middle and last entries cover spans of up to 3 lines (np <= 24, a cell of the
+     * default grid); longer cells add a line per 16 entries. Strides of 16 from s0 alone missed
+     * the third line of a misaligned 21-listing cell. */
+    const uint32_t np = (n + 7u) & ~7u, last = np ? np - 1u : 0u;
+    __builtin_prefetch(g->qent + s0);
+    __builtin_prefetch(g->items + s0);
+    __builtin_prefetch(g->qent + s0 + last / 2u);
+    __builtin_prefetch(g->items + s0 + last / 2u);
+    __builtin_prefetch(g->qent + s0 + last);
+    __builtin_prefetch(g->items + s0 + last);
+    for (uint32_t i = 16; i + 8 < np; i += 16) {
         __builtin_prefetch(g->qent + s0 + i);
         __builtin_prefetch(g->items + s0 + i);
     }
@@ -567,7 +644,7 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
 static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)
 {
     fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
-    sl->ncand = fast_pretest(fp->g, fp->x->rec, fp->acc, sl->s0, sl->n, sl->h->q, sl->cand);
+    sl->ncand = fast_pretest(fp->g, fp->x->rec, fp->vl, sl->s0, sl->n, sl->h->q, sl->cand);
 }
 
 static inline __attribute__((always_inline)) void fast_d(fast_pipe *fp, uint32_t k)
@@ -600,7 +677,7 @@ static void run_fast_pipe(const split_ctx *cx, const uint32_t *scell, uint32_t c
     fp.recs = cx->recs;
     fp.order = cx->order;
     fp.scell = scell;
-    fp.acc = cx->t->acc;
+    fp.vl = cx->t->vl;
     const uint32_t S = FAST_S, end = count + 3 * S;
     uint32_t k = 0;
     for (; k < 3 * S && k < end; ++k)
@@ -656,8 +733,8 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
     b.normal_cos = job->d->normal_cos;
     b.facing = job->d->require_facing;
     b.max_out = VBNL_SPLIT_QUERY_MAX;
-    b.rank_data = t->acc; /* NULL: nothing to prefetch */
-    b.rank_stride = 4 * sizeof(uint64_t);
+    b.rank_data = t->vl; /* NULL: nothing to prefetch */
+    b.rank_stride = sizeof(split_vl);
     const vbnl_vl_index *x = job->d->index;
     if (job->cell_fast) {
         run_fast_pipe(&cx, t->scell, n);
@@ -801,7 +878,7 @@ static void threads_free(split_job *job)
         return;
     for (unsigned i = 0; i < job->thread_count; ++i) {
         split_thread *t = &job->threads[i];
-        free(t->acc);
+        free(t->vl);
         free(t->hits);
         free(t->order);
         free(t->bin);
@@ -876,12 +953,16 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
     /* Per-thread sums unless they would take more than VBNL_SPLIT_MAX_SUM_BYTES (many threads
      * and millions of VLs): then atomic adds into the set, the same bits. */
-    int own_sums = !d->atomic_deposits && (double)nvl * 32.0 * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
+    int own_sums = !d->atomic_deposits && (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;
-        if (own_sums && (t->acc = aligned_alloc(32, 32 * ((size_t)nvl + 1))))
-            memset(t->acc, 0, 32 * ((size_t)nvl + 1));
+        if (own_sums && (t->vl = aligned_alloc(64, sizeof(split_vl) * ((size_t)nvl + 1)))) {
+            memset(t->vl, 0, sizeof(split_vl) * ((size_t)nvl + 1));
+            for (uint32_t r = 0; r < nvl; ++r)
+                t->vl[r].rec = d->index->rec[r];
+            t->acc = t->vl[0].acc;
+        }
         t->hits = aligned_alloc(64, t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
@@ -891,7 +972,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             goto done;
         }
         t->start = malloc(((size_t)job.bins + 1) * sizeof(uint32_t));
-        if ((own_sums && !t->acc) || !t->hits || !t->order || !t->bin || !t->start) {
+        if ((own_sums && !t->vl) || !t->hits || !t->order || !t->bin || !t->start) {
             res = VBNL_ERR_OUT_OF_MEMORY;
             goto done;
         }
@@ -911,7 +992,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         uint64_t q[3] = {0, 0, 0};
         for (unsigned i = 0; i < job.thread_count; ++i)
             for (int c = 0; c < 3; ++c)
-                q[c] += job.threads[i].acc[4 * (size_t)r + c];
+                q[c] += job.threads[i].acc[ACC_STRIDE * (size_t)r + c];
         if (q[0] | q[1] | q[2])
             vbnl_profile_add_power_fixed(d->profiles, vbnl_vl_index_id(d->index, r), q);
     }
@@ -930,7 +1011,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         }
         stats->seconds = vbnl_now() - t0;
         stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
-                               ((own_sums ? 32ull * (nvl + 1) : 0ull) +
+                               ((own_sums ? (uint64_t)sizeof(split_vl) * (nvl + 1) : 0ull) +
                                 (uint64_t)VBNL_SPLIT_BATCH_HITS *
                                     (sizeof(split_rec) + (job.cell_fast ? 4 : 2) * sizeof(uint32_t)) +
                                 4ull * (job.bins + 1)) +
