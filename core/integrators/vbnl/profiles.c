@@ -4,8 +4,6 @@
  * Quantities and thread rules: profiles.h. */
 #include "profiles.h"
 
-#include "memory.h"
-
 #include <stdlib.h>
 #include <string.h>
 
@@ -247,9 +245,9 @@ vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t coun
         s->slot[v] = glossy && glossy[v] ? s->n_glossy++ : NO_SLOT;
     if (s->n_glossy) {
         size_t cells = (size_t)s->n_glossy * s->texels;
-        s->incident = vbnl_calloc_large(3 * cells * sizeof(uint64_t));
-        /* at least 64-byte aligned: a light's map then starts a line, a texel row of 16 is one */
-        s->code = vbnl_alloc_large(cells * sizeof(uint32_t));
+        s->incident = calloc(3 * cells, sizeof(uint64_t));
+        /* 64-byte aligned: a light's map then starts a line and a texel row of 16 is one line */
+        s->code = aligned_alloc(64, (cells * sizeof(uint32_t) + 63) & ~(size_t)63);
         if (!s->incident || !s->code) {
             vbnl_profile_set_destroy(s);
             return VBNL_ERR_OUT_OF_MEMORY;

@@ -1,7 +1,5 @@
 #include "vl_shade.h"
 
-#include "memory.h"
-
 #include <stdlib.h>
 #include <string.h>
 
@@ -27,7 +25,7 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
     free(weight);
     if (built != 0)
         return any ? VBNL_ERR_OUT_OF_MEMORY : VBNL_OK; /* no light emits: nothing to sample */
-    out->rec = vbnl_alloc_large(sizeof(vbnl_vl_shade_rec) * (size_t)n);
+    out->rec = aligned_alloc(64, sizeof(vbnl_vl_shade_rec) * (size_t)n);
     if (!out->rec) {
         vbnl_alias_table_free(&table);
         return VBNL_ERR_OUT_OF_MEMORY;
