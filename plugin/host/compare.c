@@ -1,5 +1,9 @@
-/* `vbnl compare REFERENCE.exr CANDIDATE.exr ... [--labels a,b,...] [--out DIR]`: error metrics of
- * renders against a reference, false-colour error maps and a labelled montage.
+/* `vbnl compare REFERENCE.exr CANDIDATE.exr ... [--labels a,b,...] [--out DIR] [--layer NAME]
+ * [--ref-layer NAME]`: error metrics of renders against a reference, false-colour error maps and
+ * a labelled montage. --layer compares the candidates' layer NAME (channels NAME.R, NAME.G,
+ * NAME.B, e.g. `path`'s split_direct layers "direct" and "indirect") instead of their beauty
+ * image; --ref-layer does the same for the reference (default: its beauty image), so a layer can
+ * be measured against a render of that part alone (e.g. indirect_only).
  *
  * Metrics (over every pixel and the R, G, B channels; eps = 0.01 mean(I_ref), the VBNL paper's
  * rMAE offset):
@@ -207,7 +211,8 @@ static void draw_colour_bar(canvas *cv, int x0, int y0, int len, int scale)
 /* ---- files ----------------------------------------------------------------------------------- */
 
 /* Reads R, G, B (or Y) of an EXR as RGBA floats. */
-static float *read_rgb(const char *path, uint32_t *w, uint32_t *h)
+/* The beauty image (layer NULL) or layer `layer` of an EXR file as RGBA floats. */
+static float *read_rgb(const char *path, const char *layer, uint32_t *w, uint32_t *h)
 {
     vbnl_exr_image ex;
     vbnl_error err = {0};
@@ -215,8 +220,21 @@ static float *read_rgb(const char *path, uint32_t *w, uint32_t *h)
         fprintf(stderr, "vbnl compare: %s\n", err.message);
         return NULL;
     }
-    const vbnl_exr_channel *ch[3] = {vbnl_exr_image_channel(&ex, "R"), vbnl_exr_image_channel(&ex, "G"),
-                                     vbnl_exr_image_channel(&ex, "B")};
+    const vbnl_exr_channel *ch[3];
+    for (int c = 0; c < 3; ++c) {
+        char name[160];
+        snprintf(name, sizeof(name), "%s%s%c", layer ? layer : "", layer ? "." : "", "RGB"[c]);
+        ch[c] = vbnl_exr_image_channel(&ex, name);
+    }
+    if (layer && (!ch[0] || !ch[1] || !ch[2])) {
+        fprintf(stderr, "vbnl compare: '%s' has no layer '%s' (channels %s.R, %s.G, %s.B); its channels:", path,
+                layer, layer, layer, layer);
+        for (uint32_t i = 0; i < ex.channel_count; ++i)
+            fprintf(stderr, " %s", ex.channels[i].name);
+        fprintf(stderr, "\n");
+        vbnl_exr_image_free(&ex);
+        return NULL;
+    }
     if (!ch[0] || !ch[1] || !ch[2]) {
         const vbnl_exr_channel *y = vbnl_exr_image_channel(&ex, "Y");
         if (!y) {
@@ -244,12 +262,16 @@ static float *read_rgb(const char *path, uint32_t *w, uint32_t *h)
 
 static void compare_usage(FILE *f)
 {
-    fprintf(f, "usage: vbnl compare REFERENCE.exr CANDIDATE.exr ... [--labels a,b,...] [--out DIR]\n\n"
+    fprintf(f, "usage: vbnl compare REFERENCE.exr CANDIDATE.exr ... [--labels a,b,...] [--out DIR]\n"
+               "                    [--layer NAME] [--ref-layer NAME]\n\n"
                "  Prints rMAE, MSE, relative MSE and the fraction of outlier pixels of every candidate\n"
                "  against the reference (all images of the same size). With --out, writes\n"
                "  DIR/error-LABEL.png (false-colour relative error with a colour bar) and\n"
                "  DIR/montage.png (reference, candidates and error maps side by side, labelled).\n"
-               "  --labels names the candidates (default: their file names).\n");
+               "  --labels names the candidates (default: their file names).\n"
+               "  --layer compares the candidates' EXR layer NAME (NAME.R, NAME.G, NAME.B, e.g. path's\n"
+               "  split_direct layers direct and indirect) instead of their beauty image; --ref-layer\n"
+               "  picks the reference's layer the same way (default: its beauty image).\n");
 }
 
 static int write_png(const char *path, const canvas *cv)
@@ -280,20 +302,25 @@ int host_compare_main(int argc, char **argv)
 {
     const char *files[MAX_CANDIDATES + 1];
     int nfiles = 0;
-    const char *labels_arg = NULL, *out_dir = NULL;
+    const char *labels_arg = NULL, *out_dir = NULL, *layer = NULL, *ref_layer = NULL;
     for (int i = 1; i < argc; ++i) {
         if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
             compare_usage(stdout);
             return VBNL_EXIT_OK;
-        } else if (!strcmp(argv[i], "--labels") || !strcmp(argv[i], "--out")) {
-            if (i + 1 >= argc) {
+        } else if (!strcmp(argv[i], "--labels") || !strcmp(argv[i], "--out") || !strcmp(argv[i], "--layer") ||
+                   !strcmp(argv[i], "--ref-layer")) {
+            if (i + 1 >= argc || !argv[i + 1][0]) {
                 fprintf(stderr, "vbnl compare: %s needs a value\n", argv[i]);
                 return VBNL_EXIT_USAGE;
             }
             if (!strcmp(argv[i], "--labels"))
                 labels_arg = argv[++i];
-            else
+            else if (!strcmp(argv[i], "--out"))
                 out_dir = argv[++i];
+            else if (!strcmp(argv[i], "--layer"))
+                layer = argv[++i];
+            else
+                ref_layer = argv[++i];
         } else if (argv[i][0] == '-' && argv[i][1]) {
             fprintf(stderr, "vbnl compare: unknown option '%s'\n", argv[i]);
             compare_usage(stderr);
@@ -351,7 +378,7 @@ int host_compare_main(int argc, char **argv)
     int rc = VBNL_EXIT_OK;
     for (int i = 0; i < nfiles && rc == VBNL_EXIT_OK; ++i) {
         uint32_t iw, ih;
-        img[i] = read_rgb(files[i], &iw, &ih);
+        img[i] = read_rgb(files[i], i == 0 ? ref_layer : layer, &iw, &ih);
         if (!img[i]) {
             rc = VBNL_EXIT_FAILURE;
         } else if (i == 0) {
@@ -372,6 +399,9 @@ int host_compare_main(int argc, char **argv)
         const size_t n = (size_t)w * h;
         printf("reference %s (%ux%u); eps = 0.01 mean(reference) = %.4g; outlier: relative error > 1\n", files[0],
                w, h, host_rmae_eps(img[0], n));
+        if (layer || ref_layer)
+            printf("layers: reference %s, candidates %s\n", ref_layer ? ref_layer : "beauty",
+                   layer ? layer : "beauty");
         printf("%-24s %12s %12s %12s %10s %9s\n", "candidate", "rMAE", "MSE", "relMSE", "outliers", "mean/ref");
         for (int i = 0; i < nc; ++i) {
             host_metrics m;

@@ -132,11 +132,92 @@ static void test_files_and_refusal(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
+/* Runs `vbnl compare` with stdout to `out_path` (stderr to /dev/null). */
+static int run_compare_to(int argc, char **argv, const char *out_path)
+{
+    fflush(stdout);
+    fflush(stderr);
+    int so = dup(1), se = dup(2);
+    FILE *out = fopen(out_path, "w"), *null = fopen("/dev/null", "w");
+    dup2(fileno(out), 1);
+    dup2(fileno(null), 2);
+    int rc = host_compare_main(argc, argv);
+    fflush(stdout);
+    fflush(stderr);
+    dup2(so, 1);
+    dup2(se, 2);
+    close(so);
+    close(se);
+    fclose(out);
+    fclose(null);
+    return rc;
+}
+
+/* rMAE of the table's first candidate row in `path` (the row after the column headers). */
+static double table_rmae(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    char line[512], label[128];
+    double v = -1.0;
+    while (fgets(line, sizeof(line), f))
+        if (!strncmp(line, "candidate", 9) && fgets(line, sizeof(line), f) && sscanf(line, "%127s %lf", label, &v) == 2)
+            break;
+    fclose(f);
+    return v;
+}
+
+/* --layer / --ref-layer: a candidate whose beauty image is off but whose "indirect" layer equals
+ * the reference measures 0 with --layer indirect, and not without; a reference layer is read as
+ * well; a missing layer is an error naming it. */
+static void test_layers(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/vbnl-compare-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char ref[256], cand[256], table[256];
+    snprintf(ref, sizeof(ref), "%s/ref.exr", dir);
+    snprintf(cand, sizeof(cand), "%s/cand.exr", dir);
+    snprintf(table, sizeof(table), "%s/table.txt", dir);
+    enum { W = 16, H = 8 };
+    float good[4 * W * H], off[4 * W * H], rgb[3 * W * H];
+    for (int i = 0; i < W * H; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            good[4 * i + c] = 0.25f + (float)((i * 7 + c) % 11) / 11.0f;
+            off[4 * i + c] = 2.0f * good[4 * i + c];
+            rgb[3 * i + c] = good[4 * i + c];
+        }
+        good[4 * i + 3] = off[4 * i + 3] = 1.0f;
+    }
+    const char *names[3] = {"R", "G", "B"};
+    vbnl_image_layer ref_layers[2] = {{"", 4, NULL, good}, {"direct", 3, names, rgb}};
+    vbnl_image_layer cand_layers[2] = {{"", 4, NULL, off}, {"indirect", 3, names, rgb}};
+    assert_int_equal(vbnl_exr_write(ref, W, H, ref_layers, 2, NULL, 0, 0, NULL), VBNL_OK);
+    assert_int_equal(vbnl_exr_write(cand, W, H, cand_layers, 2, NULL, 0, 0, NULL), VBNL_OK);
+    char *beauty[] = {"compare", ref, cand, NULL};
+    assert_int_equal(run_compare_to(3, beauty, table), VBNL_EXIT_OK);
+    assert_true(table_rmae(table) > 0.5);
+    char *layered[] = {"compare", ref, cand, "--layer", "indirect", NULL};
+    assert_int_equal(run_compare_to(5, layered, table), VBNL_EXIT_OK);
+    assert_true(table_rmae(table) == 0.0);
+    char *both[] = {"compare", ref, cand, "--layer", "indirect", "--ref-layer", "direct", NULL};
+    assert_int_equal(run_compare_to(7, both, table), VBNL_EXIT_OK);
+    assert_true(table_rmae(table) == 0.0);
+    char *missing[] = {"compare", ref, cand, "--layer", "direct", NULL};
+    assert_int_equal(run_compare_to(5, missing, table), VBNL_EXIT_FAILURE);
+    char *empty[] = {"compare", ref, cand, "--layer", "", NULL};
+    assert_int_equal(run_compare_to(5, empty, table), VBNL_EXIT_USAGE);
+    char cmd[512];
+    snprintf(cmd, sizeof(cmd), "rm -rf '%s'", dir);
+    assert_int_equal(system(cmd), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_known_values),
         cmocka_unit_test(test_files_and_refusal),
+        cmocka_unit_test(test_layers),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
