@@ -63,15 +63,14 @@ static void write_exr(const char *path, uint32_t w, uint32_t h, float value)
     free(px);
 }
 
-/* Runs `vbnl compare` with its stdout (the table) and stderr sent to /dev/null: the test's own
- * stdout is TAP. */
-static int run_compare(int argc, char **argv)
+/* Runs `vbnl compare` with stdout to `out_path` (stderr to /dev/null). */
+static int run_compare_to(int argc, char **argv, const char *out_path)
 {
     fflush(stdout);
     fflush(stderr);
     int so = dup(1), se = dup(2);
-    FILE *null = fopen("/dev/null", "w");
-    dup2(fileno(null), 1);
+    FILE *out = fopen(out_path, "w"), *null = fopen("/dev/null", "w");
+    dup2(fileno(out), 1);
     dup2(fileno(null), 2);
     int rc = host_compare_main(argc, argv);
     fflush(stdout);
@@ -80,9 +79,13 @@ static int run_compare(int argc, char **argv)
     dup2(se, 2);
     close(so);
     close(se);
+    fclose(out);
     fclose(null);
     return rc;
 }
+
+/* The same with the table discarded (the test's own stdout is TAP). */
+static int run_compare(int argc, char **argv) { return run_compare_to(argc, argv, "/dev/null"); }
 
 static void test_files_and_refusal(void **state)
 {
@@ -130,27 +133,6 @@ static void test_files_and_refusal(void **state)
     char cmd[512];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", dir);
     assert_int_equal(system(cmd), 0);
-}
-
-/* Runs `vbnl compare` with stdout to `out_path` (stderr to /dev/null). */
-static int run_compare_to(int argc, char **argv, const char *out_path)
-{
-    fflush(stdout);
-    fflush(stderr);
-    int so = dup(1), se = dup(2);
-    FILE *out = fopen(out_path, "w"), *null = fopen("/dev/null", "w");
-    dup2(fileno(out), 1);
-    dup2(fileno(null), 2);
-    int rc = host_compare_main(argc, argv);
-    fflush(stdout);
-    fflush(stderr);
-    dup2(so, 1);
-    dup2(se, 2);
-    close(so);
-    close(se);
-    fclose(out);
-    fclose(null);
-    return rc;
 }
 
 /* rMAE of the table's first candidate row in `path` (the row after the column headers). */

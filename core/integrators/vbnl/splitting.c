@@ -55,7 +55,8 @@ static const uint32_t compress_lut[256] = {
 static inline __m256i compress_idx(unsigned mask)
 {
     const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
-    return _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compress_lut[mask]), shifts), _mm256_set1_epi32(7));
+    return _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)compress_lut[mask]), shifts),
+                            _mm256_set1_epi32(7));
 }
 #endif
 
@@ -953,7 +954,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
     /* Per-thread sums unless they would take more than VBNL_SPLIT_MAX_SUM_BYTES (many threads
      * and millions of VLs): then atomic adds into the set, the same bits. */
-    int own_sums = !d->atomic_deposits && (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
+    int own_sums = !d->atomic_deposits &&
+                   (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;

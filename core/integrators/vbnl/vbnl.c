@@ -590,7 +590,9 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
          * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
         if (power_sample) {
-            const vbnl_vl_shade_rec *e = &s->shade.rec[pick != UINT32_MAX ? pick : vbnl_vl_shade_pick(&s->shade, u_pick)];
+            if (pick == UINT32_MAX) /* the camera's vertex: resolved only now, after NEE */
+                pick = vbnl_vl_shade_pick(&s->shade, u_pick);
+            const vbnl_vl_shade_rec *e = &s->shade.rec[pick];
             vec2 uc = vbnl_rng_next2(rng);
             vec3 to = v3_sub(e->position, x);
             float dist = v3_len(to);

@@ -3,7 +3,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-
 vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, const vbnl_vl_index *index,
                                 vbnl_profile_set *profiles, vbnl_profile_kernel *const *kernels,
                                 const float *power)
@@ -41,11 +40,10 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
         e->normal = set->normal[id];
         e->density = set->density[id];
         e->slot = vbnl_profile_slot(profiles, id);
+        e->material = set->material[id];
         if (e->slot != VBNL_PROFILE_NO_SLOT) {
-            e->material = set->material[id];
             e->radiance = v3_scale(set->tint[id], inv_area);
         } else {
-            e->material = VBNL_VL_SHADE_LAMBERT;
             vec3 J = vbnl_profile_eval(profiles, id, k, v3(0.0f, 0.0f, 1.0f)); /* any wo above */
             e->radiance = v3_scale(v3_mul(J, set->tint[id]), inv_area);
         }

@@ -31,8 +31,6 @@
 #include "vl_set.h"
 #include "vmath.h"
 
-#define VBNL_VL_SHADE_LAMBERT UINT32_MAX /* material field of a Lambertian light */
-
 typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
     vec3 position;
     float radius;      /* r_j */
@@ -42,8 +40,8 @@ typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
     float pmf;         /* probability of power-based selection */
     float prob;        /* alias slot of this rank: acceptance probability ... */
     uint32_t alias;    /* ... and the other rank */
-    uint32_t slot;     /* glossy: its emission map (vbnl_profile_slot); VBNL_PROFILE_NO_SLOT */
-    uint32_t material; /* glossy: the material (its conversion kernel); VBNL_VL_SHADE_LAMBERT */
+    uint32_t slot;     /* glossy: its emission map (vbnl_profile_slot); Lambertian: VBNL_PROFILE_NO_SLOT */
+    uint32_t material; /* its material (a glossy light's conversion kernel) */
 } vbnl_vl_shade_rec;
 
 typedef struct vbnl_vl_shade {
@@ -84,7 +82,7 @@ static inline void vbnl_vl_shade_prefetch(const vbnl_vl_shade *t, float u)
 static inline int vbnl_vl_shade_radiance_begin(const vbnl_vl_shade_rec *e, const vbnl_profile_set *profiles, vec3 w,
                                                vbnl_profile_lookup *l)
 {
-    if (e->material == VBNL_VL_SHADE_LAMBERT)
+    if (e->slot == VBNL_PROFILE_NO_SLOT)
         return v3_dot(v3_neg(w), e->normal) > 0.0f;
     frame f = frame_from_normal(e->normal);
     vec3 wo = frame_to_local(&f, v3_neg(w));
@@ -97,7 +95,7 @@ static inline int vbnl_vl_shade_radiance_begin(const vbnl_vl_shade_rec *e, const
 static inline vec3 vbnl_vl_shade_radiance_end(const vbnl_vl_shade_rec *e, vbnl_profile_set *profiles,
                                               vbnl_profile_kernel *const *kernels, const vbnl_profile_lookup *l)
 {
-    if (e->material == VBNL_VL_SHADE_LAMBERT)
+    if (e->slot == VBNL_PROFILE_NO_SLOT)
         return e->radiance;
     return v3_mul(vbnl_profile_lookup_end(profiles, e->slot, kernels[e->material], l), e->radiance);
 }
