@@ -40,6 +40,25 @@ void vbnl_render_settings_init(vbnl_render_settings *s)
     s->seed = 1;
 }
 
+static const char *const sampler_names[] = {"sobol", "random"};
+
+const char *vbnl_sampler_name(vbnl_sampler_kind kind)
+{
+    return (unsigned)kind < sizeof(sampler_names) / sizeof(sampler_names[0]) ? sampler_names[kind] : NULL;
+}
+
+vbnl_result vbnl_sampler_find(const char *name, vbnl_sampler_kind *out, vbnl_error *err)
+{
+    if (!name || !out)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_sampler_find: NULL argument");
+    for (unsigned k = 0; k < sizeof(sampler_names) / sizeof(sampler_names[0]); ++k)
+        if (!strcmp(name, sampler_names[k])) {
+            *out = (vbnl_sampler_kind)k;
+            return VBNL_OK;
+        }
+    return vbnl_error_set(err, VBNL_ERR_UNKNOWN_NAME, "unknown sampler '%s' (valid: sobol, random)", name);
+}
+
 static void list_integrators(char *buf, size_t size)
 {
     buf[0] = '\0';
@@ -63,6 +82,9 @@ vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
                               "give a sample count (spp > 0) or a time budget (> 0 seconds)");
     if (!(settings->time_budget >= 0.0) || !isfinite(settings->time_budget))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "the time budget must be >= 0 seconds");
+    if (!vbnl_sampler_name(settings->sampler))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown sampler %d (valid: sobol, random)",
+                              (int)settings->sampler);
     const char *name = settings->integrator ? settings->integrator : "path";
     const vbnl_integrator_class *cls = vbnl_integrator_find(name);
     if (!cls) {
@@ -285,6 +307,7 @@ static void run_tile(void *user, uint64_t item, unsigned thread)
     job.width = f->width;
     job.height = f->height;
     job.seed = r->settings.seed;
+    job.sampler = r->settings.sampler;
     job.thread = thread;
     job.stats = &r->tstats[thread];
     r->cls->render_tile(r->state, &job);

@@ -7,6 +7,7 @@
 #include "film.h"
 #include "pool.h"
 #include "rng.h"
+#include "sampler.h"
 #include "scene_internal.h"
 #include "vbnl/integrator.h"
 
@@ -25,16 +26,17 @@ struct vbnl_tile_job {
     uint32_t sample_begin, sample_end; /* sample indices of this pass for every pixel */
     uint32_t width, height;            /* full image size */
     uint64_t seed;
+    vbnl_sampler_kind sampler;
     unsigned thread;
     vbnl_thread_stats *stats;          /* this thread's counters */
 };
 
 static inline unsigned vbnl_tile_job_thread(const vbnl_tile_job *job) { return job->thread; }
 
-/* The random stream of sample `s` of pixel (x, y): independent of tiles and threads. */
-static inline vbnl_rng vbnl_pixel_rng(const vbnl_tile_job *job, uint32_t x, uint32_t y, uint32_t s)
+/* The sampler of sample `s` of pixel (x, y): independent of tiles and threads. */
+static inline vbnl_sampler vbnl_pixel_sampler(const vbnl_tile_job *job, uint32_t x, uint32_t y, uint32_t s)
 {
-    return vbnl_rng_for(job->seed, (uint64_t)y * job->width + x, s);
+    return vbnl_sampler_make(job->sampler, job->seed, (uint64_t)y * job->width + x, s);
 }
 
 /* ---- stages of prepare -------------------------------------------------------------------- */

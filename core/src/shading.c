@@ -16,7 +16,7 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
             int active[8], hit_mask[8];
             vec3 o[8], d[8];
             vbnl_hit hits[8];
-            vbnl_rng rng[8];
+            vbnl_sampler sp[8];
             uint32_t px[8], py[8];
             const uint32_t lanes = npix - base < 8 ? npix - base : 8;
             for (uint32_t i = 0; i < 8; ++i) {
@@ -31,8 +31,8 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                     x = job->x0;
                     ++y;
                 }
-                rng[i] = vbnl_pixel_rng(job, px[i], py[i], smp);
-                vec2 u = vbnl_rng_next2(&rng[i]);
+                sp[i] = vbnl_pixel_sampler(job, px[i], py[i], smp);
+                vec2 u = vbnl_sampler_next2(&sp[i]);
                 vbnl_camera_ray(&sc->camera, job->width, job->height, (float)px[i] + u.x, (float)py[i] + u.y,
                                 &o[i], &d[i]);
             }
@@ -41,7 +41,7 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
             job->stats->camera_rays += lanes;
             for (uint32_t i = 0; i < lanes; ++i) {
                 memset(values[i], 0, sizeof(float) * stride);
-                fn(state, &rng[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
+                fn(state, &sp[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
                 vbnl_film_add(film, px[i], py[i], values[i]);
             }
         }

@@ -9,12 +9,12 @@
 
 /* Traces the camera path whose first hit (when hit_ok) is given and writes one sample's film
  * record into `out` (zeroed, film stride floats). */
-typedef void (*vbnl_camera_path_fn)(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok,
+typedef void (*vbnl_camera_path_fn)(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok,
                                     const vbnl_hit *hit, float *out, vbnl_thread_stats *stats);
 
-/* Renders every sample of a tile job: a camera ray per sample through a uniformly jittered
- * position in the pixel (box filter), primary hits as 8-wide Embree packets, then fn. The
- * first two random numbers of each sample's stream place it in the pixel. */
+/* Renders every sample of a tile job: a camera ray per sample through a position in the pixel
+ * (box filter), primary hits as 8-wide Embree packets, then fn. The first draw of each sample's
+ * sampler (sampler.h) places it in the pixel. */
 void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_path_fn fn, void *state);
 
 /* v3_is_black and v3_is_finite as the bounce loop wants them: the same answers bit for bit, with
@@ -61,12 +61,12 @@ static inline void vbnl_shading_frame_make(const vbnl_bsdf *bsdf, const vbnl_hit
  * multiplied by the path throughput). Inline, like the two functions around it: they run at
  * every path vertex, and inlined the Lambertian case needs only the z of wi in the local frame. */
 static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
-                          vbnl_rng *rng, vbnl_thread_stats *stats)
+                          vbnl_sampler *sp, vbnl_thread_stats *stats)
 {
     float pmf;
-    uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
+    uint32_t li = vbnl_scene_pick_light(sc, vbnl_sampler_next(sp), &pmf);
     vbnl_light_li_sample ls;
-    vec2 ul = vbnl_rng_next2(rng);
+    vec2 ul = vbnl_sampler_next2(sp);
     if (!vbnl_light_sample_li(&sc->lights[li], x, ul, &ls) || !(ls.pdf > 0.0f) || vbnl_is_black(ls.Li))
         return v3s(0.0f);
     vec3 wi = frame_to_local(&sf->fr, ls.wi);

@@ -375,28 +375,35 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
         }
         printf("scene %s (%s): reference `path` %u spp (%s)\n", bs->name, bs->file, ref_spp, ref_path);
         if (nb > 0) {
-            printf("  %-26s", "method \\ budget");
-            for (int b = 0; b < nb; ++b)
-                printf(" %8gs rMAE   spp", budgets[b]);
-            printf("\n");
+            /* Budgets outside, methods inside: the methods of a budget run one after another,
+             * so that a machine whose speed drifts (a shared VM) treats them alike. */
             run_result res[N_METHODS][8];
             memset(res, 0, sizeof(res));
-            for (unsigned m = 0; m < N_METHODS; ++m) {
-                if (!method_available(&methods[m], o->methods))
-                    continue;
-                printf("  %-26s", methods[m].label);
-                fflush(stdout);
-                for (int b = 0; b < nb; ++b) {
+            for (int b = 0; b < nb; ++b)
+                for (unsigned m = 0; m < N_METHODS; ++m) {
+                    if (!method_available(&methods[m], o->methods))
+                        continue;
                     char png[1400], what[32];
                     snprintf(what, sizeof(what), "%gs", budgets[b]);
                     png_name(png, sizeof(png), out_dir, bs->name, methods[m].label, what);
                     if (run_one(ctx, scene, &methods[m], budgets[b], 0, 0, size, ref, png, &res[m][b]) != 0)
                         res[m][b].rmae = NAN;
-                    printf(" %14.4f %5u", res[m][b].rmae, res[m][b].spp);
-                    fflush(stdout);
+                    fprintf(stderr, "  %gs %-26s rMAE %.4f, %u spp\n", budgets[b], methods[m].label, res[m][b].rmae,
+                            res[m][b].spp);
                 }
+            printf("  %-26s", "method \\ budget");
+            for (int b = 0; b < nb; ++b)
+                printf(" %8gs rMAE   spp", budgets[b]);
+            printf("\n");
+            for (unsigned m = 0; m < N_METHODS; ++m) {
+                if (!method_available(&methods[m], o->methods))
+                    continue;
+                printf("  %-26s", methods[m].label);
+                for (int b = 0; b < nb; ++b)
+                    printf(" %14.4f %5u", res[m][b].rmae, res[m][b].spp);
                 printf("\n");
             }
+            fflush(stdout);
             if (method_available(&methods[1], o->methods)) {
                 printf("  stage times of `vbnl` (paper Table 1):\n");
                 for (int b = 0; b < nb; ++b)

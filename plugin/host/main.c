@@ -274,6 +274,8 @@ static void render_usage(FILE *f)
             "      --width W, --height H  image size (default 512x512)\n"
             "      --crop X0,Y0,X1,Y1   render only this window (pixels, X1 and Y1 exclusive)\n"
             "      --seed S             random seed (default 1); same seed, same image, any thread count\n"
+            "      --sampler NAME       sobol (default: stratified low-discrepancy points for each sample's\n"
+            "                           first draws) or random (independent numbers)\n"
             "      --threads N          worker threads (default 0 = one per core)\n"
             "      --camera px,py,pz,tx,ty,tz,fov   mesh files: camera position, target, vertical fov (degrees)\n"
             "      --display NAME       OpenColorIO display (default sRGB)\n"
@@ -324,6 +326,7 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
         {"spp", required_argument, 0, 'n'}, {"time", required_argument, 0, 't'},
         {"width", required_argument, 0, 'W'}, {"height", required_argument, 0, 'H'},
         {"seed", required_argument, 0, 'S'}, {"threads", required_argument, 0, 'T'},
+        {"sampler", required_argument, 0, 'm'},
         {"camera", required_argument, 0, 'c'}, {"exposure", required_argument, 0, 'e'},
         {"half", no_argument, 0, 'f'}, {"quiet", no_argument, 0, 'q'},
         {"save-lights", required_argument, 0, 'L'}, {"load-lights", required_argument, 0, 'l'},
@@ -347,6 +350,7 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
         case 'o': exr = optarg; break;
         case 'p': png = optarg; break;
         case 'i': o.integrator = optarg; break;
+        case 'm': o.sampler = optarg; break;
         case 's':
         case 'L':
         case 'l':

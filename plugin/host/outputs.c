@@ -71,6 +71,7 @@ vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_setting
                                         {.s = s->integrator ? s->integrator : "path"}};
         attrs[na++] = (vbnl_image_attr){"vbnl/parameters", VBNL_IMAGE_ATTR_STRING, {.s = params}};
         attrs[na++] = (vbnl_image_attr){"vbnl/seed", VBNL_IMAGE_ATTR_STRING, {.s = seed}};
+        attrs[na++] = (vbnl_image_attr){"vbnl/sampler", VBNL_IMAGE_ATTR_STRING, {.s = vbnl_sampler_name(s->sampler)}};
         attrs[na++] = (vbnl_image_attr){"vbnl/spp", VBNL_IMAGE_ATTR_INT, {.i = (int32_t)st.spp}};
         attrs[na++] = (vbnl_image_attr){"vbnl/passes", VBNL_IMAGE_ATTR_INT, {.i = (int32_t)st.passes}};
         attrs[na++] = (vbnl_image_attr){"vbnl/rays", VBNL_IMAGE_ATTR_DOUBLE, {.d = (double)st.rays}};

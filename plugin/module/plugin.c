@@ -17,8 +17,8 @@
 
 #define VBNL_PLUGIN_EXPORT __attribute__((visibility("default")))
 /* VBNL_PLUGIN_ABI_MAJOR.MINOR as text, for messages */
-#define VBNL_PLUGIN_ABI_STR "1.1"
-_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 1u, "update VBNL_PLUGIN_ABI_STR");
+#define VBNL_PLUGIN_ABI_STR "1.2"
+_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 2u, "update VBNL_PLUGIN_ABI_STR");
 
 /* The plugin's result codes are the core's. */
 _Static_assert(VBNL_PLUGIN_ERR_CORRUPT == (int)VBNL_ERR_CORRUPT, "result codes must match");
@@ -30,6 +30,7 @@ _Static_assert(VBNL_PLUGIN_ERROR == (int)VBNL_SDL_ERROR && VBNL_PLUGIN_NOTE == (
 struct vbnl_plugin_renderer {
     vbnl_plugin_options opt;
     char integrator[64];          /* opt.integrator points here when set */
+    vbnl_sampler_kind sampler;    /* opt.sampler resolved */
     vbnl_params *host_params;     /* set_param, in order */
     vbnl_context *ctx;            /* created with the first scene (fixes the thread count) */
     vbnl_scene *scene;
@@ -205,10 +206,19 @@ static vbnl_plugin_result p_set_options(vbnl_plugin_renderer *r, const vbnl_plug
         if (!(o.camera_fov_y > 0.0f && o.camera_fov_y < 180.0f))
             return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "camera field of view must lie in (0, 180) degrees");
     }
+    vbnl_sampler_kind sampler = VBNL_SAMPLER_SOBOL;
+    if (o.sampler) {
+        vbnl_error e = {0};
+        vbnl_result res = vbnl_sampler_find(o.sampler, &sampler, &e);
+        if (res != VBNL_OK)
+            return to_msg(res, &e, msg, n);
+    }
     if (r->ctx && o.threads != r->opt.threads)
         return fail(msg, n, VBNL_ERR_STATE, "the thread count cannot change once a scene is loaded");
     drop_configuration(r);
     r->opt = o;
+    r->sampler = sampler;
+    r->opt.sampler = vbnl_sampler_name(sampler);
     if (o.integrator) {
         snprintf(r->integrator, sizeof(r->integrator), "%s", o.integrator);
         r->opt.integrator = r->integrator;
@@ -382,6 +392,7 @@ static vbnl_plugin_result p_configure(vbnl_plugin_renderer *r, char *msg, size_t
     s->spp = r->opt.spp;
     s->time_budget = r->opt.time_budget;
     s->seed = r->opt.seed;
+    s->sampler = r->sampler;
     s->integrator = r->resolved;
     s->params = r->merged;
     memcpy(s->crop, r->opt.crop, sizeof(s->crop));

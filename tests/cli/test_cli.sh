@@ -28,7 +28,7 @@ expect() {
 
 expect "help" 0 "usage: vbnl" -- "$VBNL" --help
 expect "help lists the plugin commands" 0 "bench +path tracer speed" -- "$VBNL" --help
-expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.1\)" -- "$VBNL" --version
+expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.2\)" -- "$VBNL" --version
 expect "no command" 2 "usage: vbnl" -- "$VBNL"
 expect "unknown command" 2 "unknown command 'frobnicate'" -- "$VBNL" frobnicate
 expect "render help" 0 "--spp N" -- "$VBNL" render --help
@@ -41,6 +41,7 @@ expect "bad camera" 2 "--camera takes" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr
 expect "unknown integrator" 2 "unknown integrator 'pathh'" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --integrator pathh
 expect "unknown parameter suggests" 2 "did you mean 'max_depth'" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --set max_dpth=3
 expect "parameter out of range" 2 "must lie in" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --set max_depth=-7
+expect "unknown sampler lists the valid ones" 2 "unknown sampler 'halton' \(valid: sobol, random\)" -- "$VBNL" render "$SCENE" -o "$TMP/a.exr" --sampler halton
 expect "missing scene file" 3 "cannot import" -- "$VBNL" render "$TMP/none.obj" -o "$TMP/a.exr"
 expect "missing .pov scene" 3 "cannot open scene file" -- "$VBNL" render "$TMP/x.pov" -o "$TMP/a.exr"
 
@@ -78,7 +79,7 @@ else
     not_ok "EXR and PNG written"
 fi
 hdr=$($HDR "$TMP/out.exr" 2>&1)
-for want in "vbnl/integrator=path" "vbnl/seed=9" "vbnl/spp=4" "vbnl/parameters=max_depth=5" "vbnl/partial=0" "vbnl/time/render=" "albedo.R" "normal.X" "depth.Z"; do
+for want in "vbnl/integrator=path" "vbnl/seed=9" "vbnl/sampler=sobol" "vbnl/spp=4" "vbnl/parameters=max_depth=5" "vbnl/partial=0" "vbnl/time/render=" "albedo.R" "normal.X" "depth.Z"; do
     grep -qF -- "$want" <<<"$hdr" && ok "EXR header has $want" || not_ok "EXR header has $want" "$hdr"
 done
 [ -z "$(ls "$TMP" | grep tmp-)" ] && ok "no temporary files left" || not_ok "no temporary files left" "$(ls "$TMP")"
@@ -88,6 +89,11 @@ done
 "$VBNL" render "$SCENE" --png "$TMP/t1.png" --width 33 --height 17 --spp 3 --threads 1 -q
 "$VBNL" render "$SCENE" --png "$TMP/t2.png" --width 33 --height 17 --spp 3 --threads 2 -q
 cmp -s "$TMP/t1.png" "$TMP/t2.png" && ok "1 and 2 threads give identical images" || not_ok "1 and 2 threads give identical images"
+"$VBNL" render "$SCENE" -o "$TMP/r1.exr" --png "$TMP/r1.png" --width 33 --height 17 --spp 3 --threads 1 --sampler random -q
+"$VBNL" render "$SCENE" --png "$TMP/r2.png" --width 33 --height 17 --spp 3 --threads 2 --sampler random -q
+cmp -s "$TMP/r1.png" "$TMP/r2.png" && ok "random sampler: 1 and 2 threads give identical images" || not_ok "random sampler: 1 and 2 threads give identical images"
+cmp -s "$TMP/t1.png" "$TMP/r1.png" && not_ok "the sampler changes the image" || ok "the sampler changes the image"
+$HDR "$TMP/r1.exr" | grep -qF "vbnl/sampler=random" && ok "EXR header has vbnl/sampler=random" || not_ok "EXR header has vbnl/sampler=random"
 
 # Ctrl-C: stops, writes what it has with vbnl/partial=1, exits 130.
 "$VBNL" render "$SCENE" -o "$TMP/int.exr" --png "$TMP/int.png" --width 64 --height 64 --spp 1000000 -q &

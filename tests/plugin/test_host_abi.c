@@ -225,6 +225,50 @@ static void test_render_and_framebuffer(void **state)
     free(b);
 }
 
+/* options.sampler (ABI 1.2): "random" and "sobol" give different images, each deterministic; a
+ * host built for ABI 1.1 passes the shorter struct and gets the default, "sobol". */
+static float *render_with(const char *sampler, uint32_t options_size)
+{
+    vbnl_plugin_renderer *r = NULL;
+    char msg[1024] = "";
+    assert_int_equal(api->renderer_create(&r, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    vbnl_plugin_options o;
+    api->options_init(&o);
+    o.size = options_size;
+    o.width = W;
+    o.height = H;
+    o.spp = 2;
+    o.seed = 3;
+    o.integrator = "path";
+    o.sampler = sampler;
+    assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->load_scene_file(r, g_scene, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->prepare(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->render(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    float *px = malloc(sizeof(float) * 4 * W * H);
+    assert_int_equal(api->read_layer(r, "", px, 4 * W * H, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    api->renderer_destroy(r);
+    return px;
+}
+
+static void test_sampler_option(void **state)
+{
+    (void)state;
+    const uint32_t full = sizeof(vbnl_plugin_options), v11 = offsetof(vbnl_plugin_options, sampler);
+    float *sobol = render_with("sobol", full), *deflt = render_with(NULL, full), *old = render_with("random", v11);
+    float *random = render_with("random", full), *random2 = render_with("random", full);
+    const size_t bytes = sizeof(float) * 4 * W * H;
+    assert_memory_equal(sobol, deflt, bytes);
+    assert_memory_equal(sobol, old, bytes); /* the 1.1 struct ends before `sampler` */
+    assert_memory_equal(random, random2, bytes);
+    assert_memory_not_equal(sobol, random, bytes);
+    free(sobol);
+    free(deflt);
+    free(old);
+    free(random);
+    free(random2);
+}
+
 static float oetf(float v)
 {
     v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
@@ -364,6 +408,10 @@ static void test_bad_arguments(void **state)
     o.integrator = "pathh";
     assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_ERR_UNKNOWN_NAME);
     assert_non_null(strstr(msg, "unknown integrator 'pathh' (available: path"));
+    api->options_init(&o);
+    o.sampler = "halton";
+    assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_ERR_UNKNOWN_NAME);
+    assert_non_null(strstr(msg, "unknown sampler 'halton' (valid: sobol, random)"));
     /* the message is truncated to the caller's buffer and NUL-terminated */
     assert_int_equal(api->set_options(r, &o, tiny, sizeof(tiny)), VBNL_PLUGIN_ERR_UNKNOWN_NAME);
     assert_int_equal(strlen(tiny), sizeof(tiny) - 1);
@@ -430,7 +478,8 @@ int main(void)
         cmocka_unit_test(test_handshake),           cmocka_unit_test(test_fake_plugin_refused),
         cmocka_unit_test(test_integrators),         cmocka_unit_test(test_render_and_framebuffer),
         cmocka_unit_test(test_outputs_round_trip),  cmocka_unit_test(test_cancel_writes_partial),
-        cmocka_unit_test(test_bad_arguments),      cmocka_unit_test(test_abandon_writes),
+        cmocka_unit_test(test_sampler_option),      cmocka_unit_test(test_bad_arguments),
+        cmocka_unit_test(test_abandon_writes),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }

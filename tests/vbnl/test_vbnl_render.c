@@ -20,8 +20,9 @@ typedef struct render_result {
     double prepare_s, render_s;
 } render_result;
 
-static render_result render(vbnl_context *ctx, const vbnl_scene *s, const char *integrator, uint32_t w,
-                            uint32_t h, uint32_t spp, uint64_t seed, const char *const *settings)
+static render_result render_sampled(vbnl_context *ctx, const vbnl_scene *s, const char *integrator, uint32_t w,
+                                    uint32_t h, uint32_t spp, uint64_t seed, const char *const *settings,
+                                    vbnl_sampler_kind sampler)
 {
     vbnl_params *p;
     vbnl_params_create(&p, NULL);
@@ -33,6 +34,7 @@ static render_result render(vbnl_context *ctx, const vbnl_scene *s, const char *
     rs.height = h;
     rs.spp = spp;
     rs.seed = seed;
+    rs.sampler = sampler;
     rs.integrator = integrator;
     rs.params = p;
     vbnl_renderer *r;
@@ -49,6 +51,12 @@ static render_result render(vbnl_context *ctx, const vbnl_scene *s, const char *
     vbnl_renderer_destroy(r);
     vbnl_params_destroy(p);
     return out;
+}
+
+static render_result render(vbnl_context *ctx, const vbnl_scene *s, const char *integrator, uint32_t w,
+                            uint32_t h, uint32_t spp, uint64_t seed, const char *const *settings)
+{
+    return render_sampled(ctx, s, integrator, w, h, spp, seed, settings, VBNL_SAMPLER_SOBOL);
 }
 
 /* rMAE as the paper defines it: mean |I - I_ref| / (I_ref + eps), eps = 0.01 mean(I_ref), over
@@ -166,6 +174,27 @@ static void test_cornell_against_path(void **state)
     assert_true(eb < 0.03);
     assert_true(eb < ea);
     assert_true(ec < 0.03); /* statistically the path tracer */
+    /* The sobol sampler against independent numbers at equal samples, per pixel (measured: path
+     * 0.1135 against 0.1444, vbnl 0.0705 against 0.1059): the stratified first bounce lowers the
+     * error of both methods, vbnl's most (its estimate after the first bounce is smooth). Image
+     * means within 3% (vbnl with 2K lights is ~1.5% dark: its bias, checked above). */
+    double e_smp[2][2], m_smp[2][2];
+    for (int k = 0; k < 2; ++k)
+        for (int sm = 0; sm < 2; ++sm) {
+            render_result r = render_sampled(ctx, s, k ? "vbnl" : "path", W, H, 32, 5, k ? small : NULL,
+                                             sm ? VBNL_SAMPLER_RANDOM : VBNL_SAMPLER_SOBOL);
+            e_smp[k][sm] = rmae(r.rgba, ref.rgba, W * H);
+            m_smp[k][sm] = mean_of(r.rgba, W * H) / mean_of(ref.rgba, W * H);
+            free(r.rgba);
+        }
+    print_message("# 32 spp, rMAE per pixel, sobol / random: path %.4f / %.4f, vbnl %.4f / %.4f; means / ref: "
+                  "%.4f %.4f, %.4f %.4f\n", e_smp[0][0], e_smp[0][1], e_smp[1][0], e_smp[1][1], m_smp[0][0],
+                  m_smp[0][1], m_smp[1][0], m_smp[1][1]);
+    for (int k = 0; k < 2; ++k)
+        for (int sm = 0; sm < 2; ++sm)
+            assert_true(fabs(m_smp[k][sm] - 1.0) < 0.03);
+    assert_true(e_smp[0][0] < 0.9 * e_smp[0][1]);
+    assert_true(e_smp[1][0] < 0.8 * e_smp[1][1]);
     free(ref.rgba);
     free(ref_ds);
     free(a.rgba);

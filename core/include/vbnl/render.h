@@ -39,6 +39,21 @@ vbnl_result vbnl_context_create(const vbnl_context_desc *desc, vbnl_context **ou
 void vbnl_context_destroy(vbnl_context *ctx);
 unsigned vbnl_context_thread_count(const vbnl_context *ctx);
 
+/* Where the random numbers of a camera sample come from (core/src/sampler.h). Chosen by name
+ * with vbnl_sampler_find; every integrator renders with either. */
+typedef enum vbnl_sampler_kind {
+    VBNL_SAMPLER_SOBOL = 0,  /* "sobol" (default): the first draws of a sample (pixel position,
+                                next-event estimation, the first bounces) from Owen-scrambled
+                                Sobol' points, stratified per pixel; the rest as "random" */
+    VBNL_SAMPLER_RANDOM = 1  /* "random": independent uniform numbers (PCG) for every draw */
+} vbnl_sampler_kind;
+
+/* The sampler's name ("sobol", "random"), or NULL for a value that is none. */
+const char *vbnl_sampler_name(vbnl_sampler_kind kind);
+/* Looks a sampler up by name; unknown names are refused with the list of valid ones
+ * (VBNL_ERR_UNKNOWN_NAME). */
+vbnl_result vbnl_sampler_find(const char *name, vbnl_sampler_kind *out, vbnl_error *err);
+
 typedef struct vbnl_render_settings {
     uint32_t width, height;     /* image size in pixels, 1 .. 65536 */
     uint32_t spp;               /* samples per pixel to reach; 0 = until the time budget ends */
@@ -48,6 +63,7 @@ typedef struct vbnl_render_settings {
     const vbnl_params *params;  /* integrator parameters, or NULL for every default */
     uint32_t crop[4];           /* x0, y0, x1, y1 (exclusive); all zero = whole image */
     float progress_interval;    /* seconds between progress calls; 0 = 0.25 */
+    vbnl_sampler_kind sampler;  /* VBNL_SAMPLER_SOBOL unless changed */
 } vbnl_render_settings;
 
 void vbnl_render_settings_init(vbnl_render_settings *s);

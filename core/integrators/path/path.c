@@ -77,7 +77,7 @@ static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct
 }
 
 /* Traces one camera path whose first hit (if any) is given; writes its sample into out. */
-static inline __attribute__((always_inline)) void trace_path(const path_state *ps, vbnl_rng *rng, vec3 o, vec3 d,
+static inline __attribute__((always_inline)) void trace_path(const path_state *ps, vbnl_sampler *sp, vec3 o, vec3 d,
                                                              int hit_ok, const vbnl_hit *first, float *out,
                                                              vbnl_thread_stats *stats)
 {
@@ -111,11 +111,11 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
         const vec3 x = hit.p;
         /* next-event estimation (MIS with the BSDF sample below) */
         if (!vbnl_bsdf_is_delta(bsdf))
-            add_L(ps, out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)), vertex_direct);
+            add_L(ps, out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)), vertex_direct);
         /* continue by BSDF sampling */
         vbnl_bsdf_sample_rec bs;
-        float ulobe = vbnl_rng_next(rng);
-        vec2 ub = vbnl_rng_next2(rng);
+        float ulobe = vbnl_sampler_next(sp);
+        vec2 ub = vbnl_sampler_next2(sp);
         if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || vbnl_is_black(bs.weight))
             break;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
@@ -138,7 +138,7 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
             break;
         if (depth >= ps->rr_depth) {
             float q = maxf(0.05f, 1.0f - v3_max_comp(beta));
-            if (vbnl_rng_next(rng) < q)
+            if (vbnl_sampler_next(sp) < q)
                 break;
             beta = v3_scale(beta, 1.0f / (1.0f - q));
         }
@@ -148,15 +148,15 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
     }
 }
 
-/* Works on a copy of the random stream (written back at the end): through the pointer its state
- * would be stored and reloaded around every Embree call. */
-static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+/* Works on a copy of the sampler (written back at the end): through the pointer its state would
+ * be stored and reloaded around every Embree call. */
+static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
     const path_state *ps = state;
-    vbnl_rng r = *rng;
+    vbnl_sampler r = *sp;
     trace_path(ps, &r, o, d, hit_ok, first, out, stats);
-    *rng = r;
+    *sp = r;
 }
 
 static void path_render_tile(void *state, vbnl_tile_job *job)

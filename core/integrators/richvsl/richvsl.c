@@ -358,7 +358,7 @@ static vec3 integrand(const rv_state *s, uint32_t i, const vbnl_bsdf *bsdf, cons
 static inline float sq(float x) { return x * x; }
 
 /* Light reflected at x toward the viewer from every Rich-VSL. */
-static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_rng *rng,
+static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_sampler *sp,
                    vbnl_thread_stats *stats)
 {
     const vbnl_scene *sc = s->scene;
@@ -366,9 +366,9 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
     const vec3 org_base = x;
     for (uint32_t i = 0; i < s->l.count; ++i) {
         /* fixed use of the stream per light, whether or not it contributes */
-        vec2 uc = vbnl_rng_next2(rng);
-        float ul = vbnl_rng_next(rng);
-        vec2 ub = vbnl_rng_next2(rng);
+        vec2 uc = vbnl_sampler_next2(sp);
+        float ul = vbnl_sampler_next(sp);
+        vec2 ub = vbnl_sampler_next2(sp);
         vec3 to = v3_sub(s->l.p[i], x);
         float d2 = v3_len2(to);
         if (!(d2 > 0.0f))
@@ -429,19 +429,19 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
 
 /* The virtual lights' share at a camera path's first non-delta vertex (nothing before preparing). */
 static vec3 gather_cb(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
-                      vbnl_rng *rng, vbnl_thread_stats *stats)
+                      vbnl_sampler *sp, vbnl_thread_stats *stats)
 {
     const rv_state *s = state;
-    return s->prepared ? gather(s, bsdf, x, sf, rng, stats) : v3s(0.0f);
+    return s->prepared ? gather(s, bsdf, x, sf, sp, stats) : v3s(0.0f);
 }
 
 /* The camera path, direct light and film layers exactly as `vpl` and `vsl` (the same estimator for
  * every many-light method). */
-static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
     const rv_state *s = state;
-    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather_cb, s, rng, o, d, hit_ok, first, out, stats);
+    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather_cb, s, sp, o, d, hit_ok, first, out, stats);
 }
 
 static void rv_render_tile(void *state, vbnl_tile_job *job)

@@ -523,7 +523,7 @@ static inline void add_L(float *out, vec3 c)
     out[2] += c.z;
 }
 
-static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
     vbnl_state *s = state;
@@ -563,7 +563,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
     float u_pick = 0.0f;
     uint32_t pick = UINT32_MAX; /* the rank u_pick resolved to, once resolved */
     if (power_on) {
-        u_pick = vbnl_rng_next(rng);
+        u_pick = vbnl_sampler_next(sp);
         vbnl_vl_shade_prefetch(&s->shade, u_pick);
     }
     int direct_phase = 1; /* no non-delta vertex yet */
@@ -585,7 +585,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
 
         /* Direct light from the real lights: next-event estimation with MIS. */
         if (!delta && !drop_direct)
-            add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)));
+            add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
 
         /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
          * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
@@ -593,35 +593,47 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
             if (pick == UINT32_MAX) /* the camera's vertex: resolved only now, after NEE */
                 pick = vbnl_vl_shade_pick(&s->shade, u_pick);
             const vbnl_vl_shade_rec *e = &s->shade.rec[pick];
-            vec2 uc = vbnl_rng_next2(rng);
+            vec2 uc = vbnl_sampler_next2(sp);
             vec3 to = v3_sub(e->position, x);
             float dist = v3_len(to);
             float cos_max = vbnl_vl_shade_cone_cos(e, x);
             frame cf = frame_from_normal(dist > 0.0f ? v3_scale(to, 1.0f / dist) : sf.fr.n);
             vec3 w = frame_to_world(&cf, sample_uniform_cone(uc, cos_max));
             float p_j = e->pmf * pdf_uniform_cone(cos_max);
-            int hits_disk = 1;
-            if (s->disk_test) {
-                /* §5: a ray that misses the light's disk is taken as occluded, untraced */
+            /* the cheap tests first: the BSDF is evaluated, and the ray traced, only for a
+             * direction that leaves on the right side and, with the §5 disk pre-test, meets the
+             * light's disk (a ray that misses it is taken as occluded, untraced) */
+            int usable = p_j > 0.0f && (vbnl_bsdf_is_transmissive(bsdf) || v3_dot(w, sf.ng) > 0.0f);
+            if (usable && s->disk_test) {
                 vec3 n = e->normal;
                 float denom = v3_dot(w, n);
-                hits_disk = 0;
+                usable = 0;
                 if (fabsf(denom) > 1e-6f) {
                     float t = v3_dot(v3_sub(e->position, x), n) / denom;
                     if (t > 0.0f) {
                         vec3 q = v3_fma(x, w, t);
-                        hits_disk = v3_len2(v3_sub(q, e->position)) < e->radius * e->radius;
+                        usable = v3_len2(v3_sub(q, e->position)) < e->radius * e->radius;
                     }
                 }
             }
-            vec3 wl = frame_to_local(&sf.fr, w);
-            vec3 f = vbnl_bsdf_eval(bsdf, sf.wo, wl);
-            int side_ok = vbnl_bsdf_is_transmissive(bsdf) || v3_dot(w, sf.ng) > 0.0f;
-            if (hits_disk && side_ok && !v3_is_black(f) && p_j > 0.0f) {
+            vec3 wl, f;
+            if (usable) {
+                wl = frame_to_local(&sf.fr, w);
+                f = vbnl_bsdf_eval(bsdf, sf.wo, wl);
+                usable = !v3_is_black(f);
+            }
+            if (usable) {
+                /* Only a first hit inside the light's sphere counts, so the ray ends where it
+                 * leaves the sphere (with a margin for rounding; accepts() decides): the same
+                 * answer as an unbounded ray, for less traversal. */
+                vec3 org = vbnl_offset_ray_origin(x, sf.ng, w);
+                vec3 oc = v3_sub(e->position, org);
+                float b = v3_dot(oc, w), c = v3_len2(oc) - e->radius * e->radius;
+                float disc = b * b - c;
+                float t_exit = disc > 0.0f ? (b + sqrtf(disc)) * 1.001f + 1e-4f * e->radius : INFINITY;
                 vbnl_hit y;
                 stats->rays++;
-                if (vbnl_scene_intersect_inline(sc, vbnl_offset_ray_origin(x, sf.ng, w), w, INFINITY, &y) &&
-                    accepts(e, &y, w)) {
+                if (vbnl_scene_intersect_inline(sc, org, w, t_exit, &y) && accepts(e, &y, w)) {
                     float p_b = vbnl_bsdf_pdf(bsdf, sf.wo, wl);
                     float mis = s->sampling == SAMPLE_MIS ? power_heuristic(p_j, p_b) : 1.0f;
                     float wv = blend_weight(s, x, &y, w, p_b, e->density);
@@ -636,8 +648,8 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         /* BSDF sampling: at its hit y it gathers the virtual lights (strategy 2) with weight
          * w_v, and the camera path carries on from y with weight 1 - w_v (Eq. 6). */
         vbnl_bsdf_sample_rec bs;
-        float ulobe = vbnl_rng_next(rng);
-        vec2 ub = vbnl_rng_next2(rng);
+        float ulobe = vbnl_sampler_next(sp);
+        vec2 ub = vbnl_sampler_next2(sp);
         if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
             break;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
@@ -648,7 +660,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         o = vbnl_offset_ray_origin(x, hit.ng, w);
         d = w;
         if (power_on) { /* the next vertex's pick (see above) */
-            u_pick = vbnl_rng_next(rng);
+            u_pick = vbnl_sampler_next(sp);
             vbnl_vl_shade_prefetch(&s->shade, u_pick);
         }
         stats->rays++;
@@ -701,7 +713,7 @@ static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const 
         beta = v3_scale(beta_in, 1.0f - wv);
         if (depth >= s->rr_depth) {
             float q = fmaxf(0.05f, 1.0f - v3_max_comp(beta));
-            if (vbnl_rng_next(rng) < q)
+            if (vbnl_sampler_next(sp) < q)
                 break;
             beta = v3_scale(beta, 1.0f / (1.0f - q));
         }
@@ -768,10 +780,10 @@ static void lights_view(const vbnl_state *s, vec3 d, int hit_ok, const vbnl_hit 
     add_L(out, c);
 }
 
-static void trace_lights_view(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *hit,
+static void trace_lights_view(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *hit,
                               float *out, vbnl_thread_stats *stats)
 {
-    (void)rng;
+    (void)sp;
     (void)o;
     (void)stats;
     lights_view(state, d, hit_ok, hit, out);

@@ -93,10 +93,10 @@ static vbnl_result vpl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *e
     return r;
 }
 
-static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_rng *rng,
+static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_sampler *sp,
                    vbnl_thread_stats *stats)
 {
-    (void)rng;
+    (void)sp;
     const vpl_state *s = state;
     vec3 sum = v3s(0.0f);
     for (uint32_t i = 0; i < s->set.count; ++i) {
@@ -113,11 +113,11 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
     return sum;
 }
 
-static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
     const vpl_state *s = state;
-    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, rng, o, d, hit_ok, first, out, stats);
+    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, sp, o, d, hit_ok, first, out, stats);
 }
 
 static void vpl_render_tile(void *state, vbnl_tile_job *job)

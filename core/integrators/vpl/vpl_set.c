@@ -56,7 +56,7 @@ int vbnl_vpl_visible(const vbnl_scene *sc, vec3 x, vec3 ng, const vbnl_vpl *v, v
     return !vbnl_scene_occluded(sc, o, v3_scale(to, 1.0f / len), len * (1.0f - 1e-4f));
 }
 
-int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_rng *rng, int hit_ok, vbnl_hit *hit, vec3 *d, vec3 *beta,
+int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_sampler *sp, int hit_ok, vbnl_hit *hit, vec3 *d, vec3 *beta,
                            vec3 *direct, vbnl_thread_stats *stats)
 {
     *beta = v3s(1.0f);
@@ -73,8 +73,8 @@ int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_rng *rng, int hit_ok, vbnl
         vbnl_shading_frame sf;
         vbnl_shading_frame_make(bsdf, hit, *d, &sf);
         vbnl_bsdf_sample_rec bs;
-        float ul = vbnl_rng_next(rng);
-        vec2 ub = vbnl_rng_next2(rng);
+        float ul = vbnl_sampler_next(sp);
+        vec2 ub = vbnl_sampler_next2(sp);
         if (!vbnl_bsdf_sample(bsdf, sf.wo, ul, ub, &bs) || v3_is_black(bs.weight))
             return 0;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
@@ -101,7 +101,7 @@ static inline void add_rgb(float *out, vec3 c)
 }
 
 void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, vbnl_vpl_gather_fn gather,
-                    const void *gstate, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first,
+                    const void *gstate, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first,
                     float *out, vbnl_thread_stats *stats)
 {
     out[3] = 1.0f;
@@ -120,7 +120,7 @@ void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, v
     if (hit.light != VBNL_NO_LIGHT && !indirect_only)
         add_rgb(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
     vec3 beta, direct;
-    int ok = vbnl_vpl_camera_vertex(sc, rng, 1, &hit, &d, &beta, &direct, stats);
+    int ok = vbnl_vpl_camera_vertex(sc, sp, 1, &hit, &d, &beta, &direct, stats);
     if (!indirect_only)
         add_rgb(out, direct);
     if (!ok)
@@ -131,11 +131,11 @@ void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, v
     vbnl_shading_frame_make(bsdf, &hit, d, &sf);
     const vec3 x = hit.p;
     if (!indirect_only) {
-        add_rgb(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, rng, stats)));
+        add_rgb(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
         /* the BSDF half of the direct estimator's MIS */
         vbnl_bsdf_sample_rec bs;
-        float ul = vbnl_rng_next(rng);
-        vec2 ub = vbnl_rng_next2(rng);
+        float ul = vbnl_sampler_next(sp);
+        vec2 ub = vbnl_sampler_next2(sp);
         if (vbnl_bsdf_sample(bsdf, sf.wo, ul, ub, &bs) && !v3_is_black(bs.weight)) {
             vec3 w = frame_to_world(&sf.fr, bs.wi);
             if ((bs.lobe & VBNL_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f) {
@@ -149,7 +149,7 @@ void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, v
             }
         }
     }
-    add_rgb(out, v3_mul(beta, gather(gstate, bsdf, x, &sf, rng, stats)));
+    add_rgb(out, v3_mul(beta, gather(gstate, bsdf, x, &sf, sp, stats)));
 }
 
 /* ---- camera points of the acceptance test ---------------------------------------------------- */
@@ -175,7 +175,8 @@ static void make_camera_points(const vbnl_scene *sc, const vbnl_vpl_params *p, u
         vbnl_hit hit;
         int hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
         vec3 beta, direct;
-        if (!vbnl_vpl_camera_vertex(sc, &rng, hit_ok, &hit, &d, &beta, &direct, &st))
+        vbnl_sampler sp = vbnl_sampler_from_rng(rng);
+        if (!vbnl_vpl_camera_vertex(sc, &sp, hit_ok, &hit, &d, &beta, &direct, &st))
             continue;
         vbnl_bsdf store;
         cp->bsdf = *vbnl_surface_bsdf(sc, &hit, &store);

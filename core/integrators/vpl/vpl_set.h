@@ -93,7 +93,7 @@ int vbnl_vpl_visible(const vbnl_scene *sc, vec3 x, vec3 ng, const vbnl_vpl *v, v
  * the way (an emitter hit directly or through delta bounces: part of the direct image), `beta`
  * the throughput to the returned vertex. Returns 0 when the path ends first. */
 #define VBNL_VPL_MAX_SPECULAR 16
-int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_rng *rng, int hit_ok, vbnl_hit *hit, vec3 *d, vec3 *beta,
+int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_sampler *sp, int hit_ok, vbnl_hit *hit, vec3 *d, vec3 *beta,
                            vec3 *direct, vbnl_thread_stats *stats);
 
 /* The camera side of `vpl` and `vsl`: emission seen directly, the delta chain to the first
@@ -102,9 +102,9 @@ int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_rng *rng, int hit_ok, vbnl
  * of the virtual lights at x. The direct parts are left out when indirect_only. Writes one film
  * sample like vbnl_camera_path_fn. */
 typedef vec3 (*vbnl_vpl_gather_fn)(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
-                                   vbnl_rng *rng, vbnl_thread_stats *stats);
+                                   vbnl_sampler *sp, vbnl_thread_stats *stats);
 void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, vbnl_vpl_gather_fn gather,
-                    const void *gstate, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first,
+                    const void *gstate, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first,
                     float *out, vbnl_thread_stats *stats);
 
 static inline float vbnl_luminance(vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }

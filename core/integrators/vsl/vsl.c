@@ -181,7 +181,7 @@ static vec3 integrand(const vbnl_vpl *v, const vbnl_bsdf *bsdf, const vbnl_shadi
     return v3_mul(fx, vbnl_bsdf_eval(&v->bsdf, v->wi, wy));
 }
 
-static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_rng *rng,
+static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_sampler *sp,
                    vbnl_thread_stats *stats)
 {
     const vsl_state *s = state;
@@ -189,9 +189,9 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
     for (uint32_t i = 0; i < s->set.count; ++i) {
         const vbnl_vpl *v = &s->set.vpls[i];
         /* the draws of every light are taken whether or not it contributes: fixed stream use */
-        vec2 uc = vbnl_rng_next2(rng);
-        float ula = vbnl_rng_next(rng), ulb = vbnl_rng_next(rng);
-        vec2 ua = vbnl_rng_next2(rng), ub = vbnl_rng_next2(rng);
+        vec2 uc = vbnl_sampler_next2(sp);
+        float ula = vbnl_sampler_next(sp), ulb = vbnl_sampler_next(sp);
+        vec2 ua = vbnl_sampler_next2(sp), ub = vbnl_sampler_next2(sp);
         float r = s->radius[i];
         vec3 to = v3_sub(v->p, x);
         float d2 = v3_len2(to);
@@ -246,11 +246,11 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
     return sum;
 }
 
-static void trace(void *state, vbnl_rng *rng, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
+static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
     const vsl_state *s = state;
-    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, rng, o, d, hit_ok, first, out, stats);
+    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, sp, o, d, hit_ok, first, out, stats);
 }
 
 static void vsl_render_tile(void *state, vbnl_tile_job *job)

@@ -59,7 +59,7 @@ extern "C" {
 #endif
 
 #define VBNL_PLUGIN_ABI_MAJOR 1u
-#define VBNL_PLUGIN_ABI_MINOR 1u
+#define VBNL_PLUGIN_ABI_MINOR 2u
 #define VBNL_PLUGIN_ENTRY_NAME "vbnl_plugin_entry"
 
 /* True when the table has `field` (it was built with at least that minor version's layout). */
@@ -125,6 +125,9 @@ typedef struct vbnl_plugin_options {
     int camera_given;            /* mesh files only: camera from the three fields below */
     float camera_position[3], camera_target[3];
     float camera_fov_y;          /* degrees; up is +y */
+    /* ---- ABI 1.2 (a 1.1 host's shorter struct leaves these at their defaults) ---- */
+    const char *sampler;         /* "sobol" (NULL: the default) or "random"; checked by set_options
+                                    (VBNL_PLUGIN_ERR_UNKNOWN_NAME); copied */
 } vbnl_plugin_options;
 
 /* ---- progress -------------------------------------------------------------------------------- */
