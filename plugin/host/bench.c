@@ -38,6 +38,8 @@ static void bench_usage(FILE *f)
             "  --spp N            samples per pixel per run (default 16)\n"
             "  --repeat N         runs per figure (default 3)\n"
             "  --threads N        worker threads (default 0 = one per core)\n"
+            "  --sampler NAME     sobol (default) or random: the renders' sampler (also of the\n"
+            "                     equal-time methods; references always use the default)\n"
             "\n"
             "  --equal-time       instead: path, vbnl, its ablations and the many-light baselines (vpl,\n"
             "                     vpl acceptance, vsl, richvsl) at equal time on the cornell, glossy and\n"
@@ -68,7 +70,7 @@ int host_bench_main(int argc, char **argv)
         {"out", required_argument, 0, 'O'}, {"only", required_argument, 0, 'Y'},
         {"shared", required_argument, 0, 'D'}, {"equal-count", required_argument, 0, 'C'},
         {"count-spp", required_argument, 0, 'P'}, {"methods", required_argument, 0, 'M'},
-        {"ref-spp", required_argument, 0, 'S'}, {0, 0, 0, 0}};
+        {"ref-spp", required_argument, 0, 'S'}, {"sampler", required_argument, 0, 'm'}, {0, 0, 0, 0}};
     int equal_time = 0, nb = 0, no_budgets = 0;
     long count = 0, count_spp = 16, ref_spp = 0;
     const char *methods = NULL;
@@ -80,6 +82,7 @@ int host_bench_main(int argc, char **argv)
     host_camera cam = {0};
     host_parse_camera(DEFAULT_CAMERA, &cam);
     unsigned width = 256, height = 256, spp = 16, repeat = 3, threads = 0;
+    vbnl_sampler_kind sampler = VBNL_SAMPLER_SOBOL;
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "h", opts, NULL)) != -1) {
@@ -96,6 +99,14 @@ int host_bench_main(int argc, char **argv)
         case 'n': spp = (unsigned)atoi(optarg); break;
         case 'r': repeat = (unsigned)atoi(optarg); break;
         case 'T': threads = (unsigned)atoi(optarg); break;
+        case 'm': {
+            vbnl_error e = {0};
+            if (vbnl_sampler_find(optarg, &sampler, &e) != VBNL_OK) {
+                fprintf(stderr, "vbnl bench: %s\n", e.message);
+                return VBNL_EXIT_USAGE;
+            }
+            break;
+        }
         case 'h': bench_usage(stdout); return VBNL_EXIT_OK;
         case 'E': equal_time = 1; break;
         case 'C': count = strtol(optarg, NULL, 10); break;
@@ -150,7 +161,7 @@ int host_bench_main(int argc, char **argv)
             return VBNL_EXIT_USAGE;
         }
         host_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, shared, only,
-                                   methods, (uint32_t)count, (uint32_t)count_spp};
+                                   methods, (uint32_t)count, (uint32_t)count_spp, sampler};
         return host_bench_equal_time(&o);
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||
@@ -172,8 +183,8 @@ int host_bench_main(int argc, char **argv)
     vbnl_scene_get_info(scene, &info, NULL);
     printf("scene       %s (%llu triangles, %u lights)\n", scene_path, (unsigned long long)info.triangle_count,
            info.light_count);
-    printf("image       %ux%u, %u spp per run, %u runs, %u threads\n\n", width, height, spp, repeat,
-           vbnl_context_thread_count(ctx));
+    printf("image       %ux%u, %u spp per run, %u runs, %u threads, sampler %s\n\n", width, height, spp, repeat,
+           vbnl_context_thread_count(ctx), vbnl_sampler_name(sampler));
     double raw[99], sps[99], rps[99], raw_cam[99], raw_shadow[99], raw_mix[99], mix_frac[3][99];
     for (unsigned i = 0; i < repeat; ++i) {
         vbnl_ray_rates rr;
@@ -187,6 +198,7 @@ int host_bench_main(int argc, char **argv)
         s.height = height;
         s.spp = spp;
         s.seed = i + 1;
+        s.sampler = sampler;
         vbnl_renderer *r;
         if (vbnl_renderer_create(ctx, scene, &s, &r, &err) != VBNL_OK ||
             vbnl_renderer_render(r, NULL, NULL, &err) != VBNL_OK) {

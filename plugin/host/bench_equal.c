@@ -131,7 +131,8 @@ static float *read_rgba(const vbnl_renderer *r, uint32_t w, uint32_t h)
 /* One render: under a time budget (budget > 0) or, for the equal-count run, with `count` virtual
  * lights and `spp` samples. */
 static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_method *m, double budget,
-                   uint32_t count, uint32_t spp, uint32_t size, const float *ref, const char *png, run_result *out)
+                   uint32_t count, uint32_t spp, uint32_t size, vbnl_sampler_kind sampler, const float *ref,
+                   const char *png, run_result *out)
 {
     vbnl_params *p;
     vbnl_params_create(&p, NULL);
@@ -152,6 +153,7 @@ static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_metho
     s.spp = budget > 0.0 ? 0 : spp;
     s.time_budget = budget > 0.0 ? budget : 0.0;
     s.seed = 7;
+    s.sampler = sampler;
     s.integrator = m->integrator;
     s.params = p;
     vbnl_renderer *r = NULL;
@@ -278,7 +280,7 @@ static void equal_count(vbnl_context *ctx, const vbnl_scene *scene, const char *
         png_name(png, sizeof(png), o->out_dir, scene_name, bm->label, what);
         run_result r;
         memset(&r, 0, sizeof(r));
-        if (run_one(ctx, scene, bm, 0.0, o->count, o->count_spp, o->size, ref, png, &r) != 0)
+        if (run_one(ctx, scene, bm, 0.0, o->count, o->count_spp, o->size, o->sampler, ref, png, &r) != 0)
             continue;
         printf("  %-16s %10.2f %10.2f %12.1f %10.4f  %s\n", bm->label, r.stats.prepare_seconds, r.stats.render_seconds,
                (double)r.stats.storage_bytes / 1024.0, r.rmae, r.prep_stages);
@@ -315,8 +317,8 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
         fprintf(stderr, "vbnl bench: %s\n", err.message);
         return VBNL_EXIT_FAILURE;
     }
-    printf("equal-time benchmark, %ux%u, %u threads, budgets include preparation\n\n", size, size,
-           vbnl_context_thread_count(ctx));
+    printf("equal-time benchmark, %ux%u, %u threads, sampler %s, budgets include preparation\n\n", size, size,
+           vbnl_context_thread_count(ctx), vbnl_sampler_name(o->sampler));
     int rc = VBNL_EXIT_OK;
     for (unsigned si = 0; si < sizeof(scenes) / sizeof(scenes[0]); ++si) {
         const bench_scene *bs = &scenes[si];
@@ -386,7 +388,7 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
                     char png[1400], what[32];
                     snprintf(what, sizeof(what), "%gs", budgets[b]);
                     png_name(png, sizeof(png), out_dir, bs->name, methods[m].label, what);
-                    if (run_one(ctx, scene, &methods[m], budgets[b], 0, 0, size, ref, png, &res[m][b]) != 0)
+                    if (run_one(ctx, scene, &methods[m], budgets[b], 0, 0, size, o->sampler, ref, png, &res[m][b]) != 0)
                         res[m][b].rmae = NAN;
                     fprintf(stderr, "  %gs %-26s rMAE %.4f, %u spp\n", budgets[b], methods[m].label, res[m][b].rmae,
                             res[m][b].spp);

@@ -56,6 +56,7 @@ typedef struct host_bench_equal_opts {
     const char *methods;    /* comma-separated method labels, NULL: all */
     uint32_t count;         /* equal-count run with this many virtual lights, 0: none */
     uint32_t count_spp;
+    vbnl_sampler_kind sampler; /* of the methods' renders (references: the default) */
 } host_bench_equal_opts;
 int host_bench_equal_time(const host_bench_equal_opts *o);
 

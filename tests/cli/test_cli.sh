@@ -271,7 +271,8 @@ expect "compare prints the metrics" 0 "vpl +[0-9.]+ +[0-9.e-]+ +[0-9.e-]+ +[0-9.
 expect "compare refuses different sizes" 1 "is 8x16 but the reference .* is 16x16" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-small.exr"
 
 # The equal-time and equal-count benchmark in a tiny configuration (every method runs).
-expect "bench equal-time and equal-count run every method" 0 "vsl +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+  light paths" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --equal-count 12 --count-spp 1 --out '$TMP/bench'"
+expect "bench refuses an unknown sampler" 2 "unknown sampler 'halton'" -- "$VBNL" bench --sampler halton
+expect "bench equal-time and equal-count run every method" 0 "vsl +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+  light paths" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --equal-count 12 --count-spp 1 --sampler random --out '$TMP/bench'"
 
 echo "1..$n"
 [ $failed -eq 0 ]
