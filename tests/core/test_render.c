@@ -487,6 +487,11 @@ static void test_crop(void **state)
     vbnl_error err = {0};
     assert_int_equal(vbnl_renderer_create(ctx, s, &rs, &r, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "crop window"));
+    /* a sampler value that names none is refused too */
+    memset(rs.crop, 0, sizeof(rs.crop));
+    rs.sampler = (vbnl_sampler_kind)9;
+    assert_int_equal(vbnl_renderer_create(ctx, s, &rs, &r, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "unknown sampler 9 (valid: sobol, random)"));
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }
