@@ -137,14 +137,18 @@ static void test_integrators(void **state)
                      VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
 }
 
-/* Creates a renderer for the Cornell box at W x H. */
-static vbnl_plugin_renderer *make(uint32_t threads, uint32_t spp, const char *integrator)
+/* Creates a renderer for the Cornell box at W x H, with options.size = options_size (a host of an
+ * older minor passes a shorter struct) and options.sampler = sampler. */
+static vbnl_plugin_renderer *make_with(uint32_t threads, uint32_t spp, const char *integrator, const char *sampler,
+                                       uint32_t options_size)
 {
     vbnl_plugin_renderer *r = NULL;
     char msg[1024] = "";
     assert_int_equal(api->renderer_create(&r, msg, sizeof(msg)), VBNL_PLUGIN_OK);
     vbnl_plugin_options o;
     api->options_init(&o);
+    o.size = options_size;
+    o.sampler = sampler;
     o.width = W;
     o.height = H;
     o.spp = spp;
@@ -156,6 +160,11 @@ static vbnl_plugin_renderer *make(uint32_t threads, uint32_t spp, const char *in
     if (api->load_scene_file(r, g_scene, msg, sizeof(msg)) != VBNL_PLUGIN_OK)
         fail_msg("load %s: %s", g_scene, msg);
     return r;
+}
+
+static vbnl_plugin_renderer *make(uint32_t threads, uint32_t spp, const char *integrator)
+{
+    return make_with(threads, spp, integrator, NULL, sizeof(vbnl_plugin_options));
 }
 
 typedef struct progress_log {
@@ -229,20 +238,8 @@ static void test_render_and_framebuffer(void **state)
  * host built for ABI 1.1 passes the shorter struct and gets the default, "sobol". */
 static float *render_with(const char *sampler, uint32_t options_size)
 {
-    vbnl_plugin_renderer *r = NULL;
+    vbnl_plugin_renderer *r = make_with(2, 2, "path", sampler, options_size);
     char msg[1024] = "";
-    assert_int_equal(api->renderer_create(&r, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    vbnl_plugin_options o;
-    api->options_init(&o);
-    o.size = options_size;
-    o.width = W;
-    o.height = H;
-    o.spp = 2;
-    o.seed = 3;
-    o.integrator = "path";
-    o.sampler = sampler;
-    assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    assert_int_equal(api->load_scene_file(r, g_scene, msg, sizeof(msg)), VBNL_PLUGIN_OK);
     assert_int_equal(api->prepare(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
     assert_int_equal(api->render(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
     float *px = malloc(sizeof(float) * 4 * W * H);
