@@ -41,6 +41,7 @@ void vbnl_render_settings_init(vbnl_render_settings *s)
 }
 
 static const char *const sampler_names[] = {"sobol", "random"};
+#define SAMPLER_LIST "sobol, random" /* sampler_names, for messages */
 
 const char *vbnl_sampler_name(vbnl_sampler_kind kind)
 {
@@ -56,7 +57,7 @@ vbnl_result vbnl_sampler_find(const char *name, vbnl_sampler_kind *out, vbnl_err
             *out = (vbnl_sampler_kind)k;
             return VBNL_OK;
         }
-    return vbnl_error_set(err, VBNL_ERR_UNKNOWN_NAME, "unknown sampler '%s' (valid: sobol, random)", name);
+    return vbnl_error_set(err, VBNL_ERR_UNKNOWN_NAME, "unknown sampler '%s' (valid: " SAMPLER_LIST ")", name);
 }
 
 static void list_integrators(char *buf, size_t size)
@@ -83,7 +84,7 @@ vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
     if (!(settings->time_budget >= 0.0) || !isfinite(settings->time_budget))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "the time budget must be >= 0 seconds");
     if (!vbnl_sampler_name(settings->sampler))
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown sampler %d (valid: sobol, random)",
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown sampler %d (valid: " SAMPLER_LIST ")",
                               (int)settings->sampler);
     const char *name = settings->integrator ? settings->integrator : "path";
     const vbnl_integrator_class *cls = vbnl_integrator_find(name);

@@ -98,10 +98,16 @@ static inline vbnl_sampler vbnl_sampler_make(vbnl_sampler_kind kind, uint64_t se
     s.render_seed = seed;
     s.pixel = pixel;
     s.sample = sample;
-    s.seed = vbnl_hash64(seed ^ vbnl_hash64(pixel ^ 0x50b01u));
-    s.rev_index = vbnl_reverse_bits32(sample);
     s.slot = 0;
-    s.slots = kind == VBNL_SAMPLER_SOBOL ? VBNL_SOBOL_SLOTS : 0u;
+    if (kind == VBNL_SAMPLER_SOBOL) {
+        s.seed = vbnl_hash64(seed ^ vbnl_hash64(pixel ^ 0x50b01u));
+        s.rev_index = vbnl_reverse_bits32(sample);
+        s.slots = VBNL_SOBOL_SLOTS;
+    } else { /* every draw from the PCG stream: no scramble seed needed */
+        s.seed = 0;
+        s.rev_index = 0;
+        s.slots = 0;
+    }
     return s;
 }
 
