@@ -530,21 +530,20 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
 {
     uint32_t nc = 0;
 #if defined(__AVX2__)
-    const uint32_t *qe = g->qent + s0, *items = g->items + s0;
     const __m256 vx = _mm256_set1_ps(q[0]), vy = _mm256_set1_ps(q[1]), vz = _mm256_set1_ps(q[2]);
     const __m256 sl = _mm256_set1_ps(VBNL_VLI_QSLACK);
     const __m256i byte = _mm256_set1_epi32(0xff);
-    for (uint32_t i = 0; i < n; i += 8) {
-        __m256i v = _mm256_loadu_si256((const __m256i *)(qe + i));
+    const uint32_t end = s0 + n;
+    for (uint32_t b = s0 >> 3; b * 8u < end; ++b) { /* whole blocks, lanes outside masked */
+        const uint32_t *blk = g->lst + (size_t)b * 16u;
+        __m256i v = _mm256_load_si256((const __m256i *)blk);
         __m256 dx = _mm256_sub_ps(vx, _mm256_cvtepi32_ps(_mm256_and_si256(v, byte)));
         __m256 dy = _mm256_sub_ps(vy, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v, 8), byte)));
         __m256 dz = _mm256_sub_ps(vz, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v, 16), byte)));
         __m256 rr = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v, 24)), sl);
         __m256 d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
-        unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ));
-        uint32_t rest = n - i;
-        if (rest < 8)
-            bits &= (1u << rest) - 1u;
+        unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ)) &
+                        vbnl_vli_lane_mask(b, s0, end);
         if (!bits)
             continue;
         if (nc + 8 > VBNL_VLI_PIPE_CAND) { /* near the capacity: count the rest */
@@ -552,13 +551,13 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
                 unsigned j = (unsigned)__builtin_ctz(bits);
                 bits &= bits - 1;
                 if (nc < VBNL_VLI_PIPE_CAND)
-                    cand[nc] = items[i + j];
+                    cand[nc] = blk[8u + j];
                 ++nc;
             }
             continue;
         }
-        /* the ranks of the set lanes, packed (items has 8 spare entries past the last cell) */
-        __m256i rk = _mm256_loadu_si256((const __m256i *)(items + i));
+        /* the ranks of the set lanes (the block's second half), packed */
+        __m256i rk = _mm256_load_si256((const __m256i *)(blk + 8));
         _mm256_storeu_si256((__m256i *)(cand + nc), _mm256_permutevar8x32_epi32(rk, compress_idx(bits)));
         nc += (uint32_t)__builtin_popcount(bits);
     }
@@ -625,21 +624,10 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
     uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
     sl->s0 = s0;
     sl->n = n;
-    /* Every line the pre-test's 8-wide loads read (s0 .. s0 + np - 1, np = n rounded up to 8):
-     * the first, middle and last entries cover spans of up to 3 lines (np <= 24, a cell of the
-     * default grid); longer cells add a line per 16 entries. Strides of 16 from s0 alone missed
-     * the third line of a misaligned 21-listing cell. */
-    const uint32_t np = (n + 7u) & ~7u, last = np ? np - 1u : 0u;
-    __builtin_prefetch(g->qent + s0);
-    __builtin_prefetch(g->items + s0);
-    __builtin_prefetch(g->qent + s0 + last / 2u);
-    __builtin_prefetch(g->items + s0 + last / 2u);
-    __builtin_prefetch(g->qent + s0 + last);
-    __builtin_prefetch(g->items + s0 + last);
-    for (uint32_t i = 16; i + 8 < np; i += 16) {
-        __builtin_prefetch(g->qent + s0 + i);
-        __builtin_prefetch(g->items + s0 + i);
-    }
+    /* every line the pre-test reads: the blocks of the cell's listings */
+    if (n)
+        for (uint32_t b = s0 >> 3; b <= (s0 + n - 1u) >> 3; ++b)
+            __builtin_prefetch(g->lst + (size_t)b * 16u);
 }
 
 static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)

@@ -166,8 +166,7 @@ static void level_free(grid_level *g)
     free(g->start);
     free(g->keys);
     free(g->slot);
-    free(g->items);
-    free(g->qent);
+    free(g->lst);
 }
 
 static uint32_t quantize_entry(const grid_level *g, vec3 c, float r, const int32_t c3[3])
@@ -250,11 +249,11 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
         }
     }
     g->start = calloc((size_t)ncell + 1, sizeof(uint32_t));
-    /* 8 spare entries: the 8-wide pre-test may read past the last cell */
-    g->items = calloc((size_t)listings + 8, sizeof(uint32_t));
-    g->qent = calloc((size_t)listings + 8, sizeof(uint32_t));
-    if (!g->start || !g->items || !g->qent)
+    const size_t lst_bytes = ((size_t)listings + 7u) / 8u * 64u + 64u; /* whole blocks, + 1 */
+    g->lst = aligned_alloc(64, lst_bytes);
+    if (!g->start || !g->lst)
         return VBNL_ERR_OUT_OF_MEMORY;
+    memset(g->lst, 0, lst_bytes);
     float off = 0.0f;
     for (uint32_t k = 0; k < m; ++k) {
         const vl_rec *e = x->rec + members[k];
@@ -279,8 +278,9 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
                             g->start[c + 1]++;
                         } else {
                             const int32_t c3[3] = {xx, y, z};
-                            g->qent[g->start[c]] = quantize_entry(g, rec_center(e), e->r, c3);
-                            g->items[g->start[c]++] = rank;
+                            VBNL_VLI_QENT(g, g->start[c]) = quantize_entry(g, rec_center(e), e->r, c3);
+                            VBNL_VLI_RANK(g, g->start[c]) = rank;
+                            g->start[c]++;
                         }
                     }
         }
@@ -294,7 +294,7 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
             g->start[0] = 0;
         }
     }
-    x->bytes += ((size_t)ncell + 1) * sizeof(uint32_t) + ((size_t)listings + 8) * 2 * sizeof(uint32_t);
+    x->bytes += ((size_t)ncell + 1) * sizeof(uint32_t) + lst_bytes;
     if (!g->dense)
         x->bytes += ((size_t)g->hash_mask + 1) * (sizeof(uint64_t) + sizeof(uint32_t));
     return VBNL_OK;

@@ -27,7 +27,9 @@
  * (centre, radius, normal, id) sorted by the Morton code of their centres; the position of a
  * sphere in that array is its *rank*. A cell lists, for every sphere its box overlaps, the
  * 4-byte rank and a 4-byte copy of the sphere quantised to 8 bits per coordinate in the cell's
- * frame (centre and radius in units of 1/255 of the cell's reach). A query pre-tests the
+ * frame (centre and radius in units of 1/255 of the cell's reach), in blocks of 8 listings per
+ * 64-byte line (8 quantised spheres, then their 8 ranks: a candidate's rank arrives with the
+ * line its pre-test read). A query pre-tests the
  * quantised copies, 8 at a time with AVX2, with a bound that only rejects spheres certainly not
  * containing p (quantisation error and float rounding included), and runs the exact test of
  * vbnl_vl_contains on the few that remain, so answers are exact. A sphere costs

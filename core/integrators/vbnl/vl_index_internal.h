@@ -58,9 +58,12 @@ typedef struct grid_level {
     uint64_t *keys;
     uint32_t *slot;
     uint32_t hash_mask;
-    uint32_t *items;          /* the ranks of the spheres listed in each cell, ascending */
-    uint32_t *qent;           /* per listing: centre and radius quantised to 8 bits in the
-                               * cell's frame (x | y << 8 | z << 16 | r << 24), see qframe */
+    /* The listings of all cells, in blocks of 8 (VBNL_VLI_QENT, VBNL_VLI_RANK): a 64-byte line
+     * holds the quantised spheres of 8 consecutive listings (centre and radius in 8 bits each in
+     * the cell's frame, x | y << 8 | z << 16 | r << 24, see quantize_entry), then their ranks,
+     * ascending within a cell. A candidate's rank thus sits in the line its pre-test read (two
+     * arrays cost a second dependent miss per query). One spare block past the last listing. */
+    uint32_t *lst;
     float q_off, q_scale;     /* cell frame: q = (v - cell origin + q_off) * q_scale */
 } grid_level;
 
@@ -257,47 +260,64 @@ static inline void cell_frame(const grid_level *g, vec3 p, const int32_t c3[3], 
     q[2] = (p.z - cell_origin(g, c3[2], g->lo.z) + g->q_off) * g->q_scale;
 }
 
+/* Lanes of block b (listings 8b .. 8b + 7) inside [lo, hi), as a bit mask. */
+static inline unsigned vbnl_vli_lane_mask(uint32_t b, uint32_t lo, uint32_t hi)
+{
+    uint32_t first = b * 8u;
+    unsigned m = 0xffu;
+    if (lo > first)
+        m &= 0xffu << (lo - first);
+    if (hi < first + 8u)
+        m &= (1u << (hi - first)) - 1u;
+    return m;
+}
+
+/* Listing i of a level: its quantised sphere and its rank (see grid_level.lst). */
+#define VBNL_VLI_BLOCK(g, i) ((g)->lst + (size_t)((i) >> 3) * 16u)
+#define VBNL_VLI_QENT(g, i) (VBNL_VLI_BLOCK(g, i)[(i) & 7u])
+#define VBNL_VLI_RANK(g, i) (VBNL_VLI_BLOCK(g, i)[8u + ((i) & 7u)])
+
 /* The quantised pre-test of the n listings from s0 for a point at q (cell frame): calls
- * keep(rank) for those that may contain it, in listing order. */
+ * keep(rank) for those that may contain it, in listing order. The 8-wide version reads whole
+ * blocks, masking the lanes outside [s0, s0 + n). */
+#if defined(__AVX2__)
 #define VBNL_VLI_PRETEST(g, s0, n, q, KEEP)                                                                   \
     do {                                                                                                      \
-        const uint32_t *qe_ = (g)->qent + (s0), *rk_ = (g)->items + (s0);                                     \
-        VBNL_VLI_PRETEST_BODY(n, q, KEEP);                                                                    \
-    } while (0)
-#if defined(__AVX2__)
-#define VBNL_VLI_PRETEST_BODY(n, q, KEEP)                                                                     \
     const __m256 vx_ = _mm256_set1_ps((q)[0]), vy_ = _mm256_set1_ps((q)[1]), vz_ = _mm256_set1_ps((q)[2]);    \
     const __m256 sl_ = _mm256_set1_ps(VBNL_VLI_QSLACK);                                                       \
-    const __m256i lane_ = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), byte_ = _mm256_set1_epi32(0xff);         \
-    for (uint32_t i_ = 0; i_ < (n); i_ += 8) {                                                                \
-        __m256i v_ = _mm256_loadu_si256((const __m256i *)(qe_ + i_));                                         \
+    const __m256i byte_ = _mm256_set1_epi32(0xff);                                                            \
+    const uint32_t b0_ = (s0) >> 3, end_ = (s0) + (n);                                                        \
+    for (uint32_t b_ = b0_; b_ * 8u < end_; ++b_) {                                                           \
+        const uint32_t *blk_ = (g)->lst + (size_t)b_ * 16u;                                                  \
+        __m256i v_ = _mm256_load_si256((const __m256i *)blk_);                                                \
         __m256 dx_ = _mm256_sub_ps(vx_, _mm256_cvtepi32_ps(_mm256_and_si256(v_, byte_)));                     \
         __m256 dy_ = _mm256_sub_ps(vy_, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v_, 8), byte_))); \
         __m256 dz_ = _mm256_sub_ps(vz_, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v_, 16), byte_))); \
         __m256 rr_ = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v_, 24)), sl_);                       \
         __m256 d2_ = _mm256_fmadd_ps(dz_, dz_, _mm256_fmadd_ps(dy_, dy_, _mm256_mul_ps(dx_, dx_)));           \
-        __m256 in_ = _mm256_and_ps(_mm256_cmp_ps(d2_, _mm256_mul_ps(rr_, rr_), _CMP_LT_OQ),                   \
-                                   _mm256_castsi256_ps(                                                       \
-                                       _mm256_cmpgt_epi32(_mm256_set1_epi32((int)((n) - i_)), lane_)));       \
-        unsigned bits_ = (unsigned)_mm256_movemask_ps(in_);                                                   \
+        unsigned bits_ = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2_, _mm256_mul_ps(rr_, rr_), _CMP_LT_OQ)) \
+                         & vbnl_vli_lane_mask(b_, (s0), end_);                                               \
         while (bits_) {                                                                                       \
             unsigned j_ = (unsigned)__builtin_ctz(bits_);                                                     \
             bits_ &= bits_ - 1;                                                                               \
-            uint32_t rank_ = rk_[i_ + j_];                                                                    \
+            uint32_t rank_ = blk_[8u + j_];                                                                   \
             KEEP;                                                                                             \
         }                                                                                                     \
-    }
+    }                                                                                                         \
+    } while (0)
 #else
-#define VBNL_VLI_PRETEST_BODY(n, q, KEEP)                                                                     \
-    for (uint32_t i_ = 0; i_ < (n); ++i_) {                                                                   \
-        uint32_t v_ = qe_[i_];                                                                                \
+#define VBNL_VLI_PRETEST(g, s0, n, q, KEEP)                                                                   \
+    do {                                                                                                      \
+    for (uint32_t i_ = (s0); i_ < (s0) + (n); ++i_) {                                                         \
+        uint32_t v_ = VBNL_VLI_QENT(g, i_);                                                                   \
         float dx_ = (q)[0] - (float)(v_ & 255u), dy_ = (q)[1] - (float)((v_ >> 8) & 255u),                    \
               dz_ = (q)[2] - (float)((v_ >> 16) & 255u), rr_ = (float)(v_ >> 24) + VBNL_VLI_QSLACK;           \
         if (dx_ * dx_ + dy_ * dy_ + dz_ * dz_ < rr_ * rr_) {                                                  \
-            uint32_t rank_ = rk_[i_];                                                                         \
+            uint32_t rank_ = VBNL_VLI_RANK(g, i_);                                                            \
             KEEP;                                                                                             \
         }                                                                                                     \
-    }
+    }                                                                                                         \
+    } while (0)
 #endif
 
 /* Cell of p in level g: its index in start[], or UINT32_MAX when p is far outside the level or

@@ -62,10 +62,9 @@ static inline __attribute__((always_inline)) void vbnl_vli_pipe_b(const vbnl_vl_
             continue;
         s->s0[L] = g->start[c];
         s->n[L] = g->start[c + 1] - s->s0[L];
-        for (uint32_t i = 0; i < s->n[L]; i += 16) {
-            __builtin_prefetch(g->qent + s->s0[L] + i);
-            __builtin_prefetch(g->items + s->s0[L] + i);
-        }
+        if (s->n[L]) /* every block (cache line) of the cell's listings */
+            for (uint32_t b = s->s0[L] >> 3; b <= (s->s0[L] + s->n[L] - 1u) >> 3; ++b)
+                __builtin_prefetch(g->lst + (size_t)b * 16u);
     }
 }
 
