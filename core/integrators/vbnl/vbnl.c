@@ -556,16 +556,13 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
 
     /* The power-based pick of each vertex is drawn ahead, so that its record (a cache miss:
      * lights are picked at random) loads while other work runs: at the camera's vertex during
-     * next-event estimation; at later ones the slot's record loads while the ray to the vertex is
-     * traced, and the light it resolves to (itself or its alias) during the gather there and the
-     * vertex's next-event estimation. A vertex that turns out delta leaves its number unused. */
+     * next-event estimation, at later ones while the ray to the vertex is traced. The alias
+     * table is small and stays in cache, so the pick is resolved at once. A vertex that turns out
+     * delta leaves its pick unused. */
     const int power_on = have_vls && s->sampling != SAMPLE_BSDF;
-    float u_pick = 0.0f;
-    uint32_t pick = UINT32_MAX; /* the rank u_pick resolved to, once resolved */
-    if (power_on) {
-        u_pick = vbnl_sampler_next(sp);
-        vbnl_vl_shade_prefetch(&s->shade, u_pick);
-    }
+    uint32_t pick = 0;
+    if (power_on)
+        pick = vbnl_vl_shade_pick_prefetch(&s->shade, vbnl_sampler_next(sp));
     int direct_phase = 1; /* no non-delta vertex yet */
     for (int depth = 0;; ++depth) {
         vertices++;
@@ -590,11 +587,17 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
          * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
         if (power_sample) {
-            if (pick == UINT32_MAX) /* the camera's vertex: resolved only now, after NEE */
-                pick = vbnl_vl_shade_pick(&s->shade, u_pick);
             const vbnl_vl_shade_rec *e = &s->shade.rec[pick];
             vec2 uc = vbnl_sampler_next2(sp);
             vec3 to = v3_sub(e->position, x);
+            /* Picks that cannot contribute, rejected before the cone is sampled (a quarter of
+             * them on the glossy Cornell box): with the disk pre-test, x behind the light's
+             * plane (any ray meeting the disk then arrives at its back, which emits nothing);
+             * at an opaque surface, a sphere wholly below x's tangent plane (every direction of
+             * the cone fails the side test below). */
+            if ((s->disk_test && v3_dot(to, e->normal) >= 0.0f) ||
+                (!vbnl_bsdf_is_transmissive(bsdf) && v3_dot(to, sf.ng) <= -e->radius))
+                goto power_done;
             float dist = v3_len(to);
             float cos_max = vbnl_vl_shade_cone_cos(e, x);
             frame cf = frame_from_normal(dist > 0.0f ? v3_scale(to, 1.0f / dist) : sf.fr.n);
@@ -644,6 +647,7 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
                 }
             }
         }
+    power_done:;
 
         /* BSDF sampling: at its hit y it gathers the virtual lights (strategy 2) with weight
          * w_v, and the camera path carries on from y with weight 1 - w_v (Eq. 6). */
@@ -659,16 +663,10 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         const int specular = (bs.lobe & VBNL_LOBE_SPECULAR) != 0;
         o = vbnl_offset_ray_origin(x, hit.ng, w);
         d = w;
-        if (power_on) { /* the next vertex's pick (see above) */
-            u_pick = vbnl_sampler_next(sp);
-            vbnl_vl_shade_prefetch(&s->shade, u_pick);
-        }
+        if (power_on) /* the next vertex's pick (see above) */
+            pick = vbnl_vl_shade_pick_prefetch(&s->shade, vbnl_sampler_next(sp));
         stats->rays++;
         hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
-        if (power_on && hit_ok) {
-            pick = vbnl_vl_shade_pick(&s->shade, u_pick);
-            __builtin_prefetch(&s->shade.rec[pick]);
-        }
         /* light arriving directly (emitter or environment) belongs to x's direct estimate: it is
          * counted with the throughput before the split between lights and extension */
         vec3 Le;

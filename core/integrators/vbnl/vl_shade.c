@@ -25,8 +25,10 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
     if (built != 0)
         return any ? VBNL_ERR_OUT_OF_MEMORY : VBNL_OK; /* no light emits: nothing to sample */
     out->rec = aligned_alloc(64, sizeof(vbnl_vl_shade_rec) * (size_t)n);
-    if (!out->rec) {
+    out->alias = malloc(sizeof(vbnl_vl_alias) * (size_t)n);
+    if (!out->rec || !out->alias) {
         vbnl_alias_table_free(&table);
+        vbnl_vl_shade_free(out);
         return VBNL_ERR_OUT_OF_MEMORY;
     }
     for (uint32_t r = 0; r < n; ++r) {
@@ -48,8 +50,7 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
             e->radiance = v3_scale(v3_mul(J, set->tint[id]), inv_area);
         }
         e->pmf = table.pmf[r];
-        e->prob = table.prob[r];
-        e->alias = table.alias[r];
+        out->alias[r] = (vbnl_vl_alias){table.prob[r], table.alias[r]};
     }
     vbnl_alias_table_free(&table);
     out->n = n;
@@ -61,7 +62,11 @@ void vbnl_vl_shade_free(vbnl_vl_shade *t)
     if (!t)
         return;
     free(t->rec);
+    free(t->alias);
     memset(t, 0, sizeof(*t));
 }
 
-size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t) { return (size_t)t->n * sizeof(vbnl_vl_shade_rec); }
+size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t)
+{
+    return (size_t)t->n * (sizeof(vbnl_vl_shade_rec) + sizeof(vbnl_vl_alias));
+}

@@ -38,15 +38,23 @@ typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
     float density;     /* rho_j, Eq. 8 */
     vec3 radiance;     /* Lambertian: J tint / (pi r^2); glossy: tint / (pi r^2) */
     float pmf;         /* probability of power-based selection */
-    float prob;        /* alias slot of this rank: acceptance probability ... */
-    uint32_t alias;    /* ... and the other rank */
     uint32_t slot;     /* glossy: its emission map (vbnl_profile_slot); Lambertian: VBNL_PROFILE_NO_SLOT */
     uint32_t material; /* its material (a glossy light's conversion kernel) */
 } vbnl_vl_shade_rec;
 
+/* One slot of the power-selection alias table: its acceptance probability and the other rank. */
+typedef struct vbnl_vl_alias {
+    float prob;
+    uint32_t alias;
+} vbnl_vl_alias;
+
 typedef struct vbnl_vl_shade {
     uint32_t n;               /* 0: no light emits (no photon landed): lights are not sampled */
     vbnl_vl_shade_rec *rec;   /* by rank */
+    /* by slot (= rank): 8 bytes a light, apart from the records, so that a pick reads a small
+     * table that stays in cache and only the picked light's record is fetched (with the table in
+     * the records a pick sent to the alias waited for two records, one after the other) */
+    vbnl_vl_alias *alias;
 } vbnl_vl_shade;
 
 /* Builds the records of the n = set->count lights: power[id] is each light's emitted power
@@ -59,20 +67,22 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
 void vbnl_vl_shade_free(vbnl_vl_shade *t);
 size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t);
 
-/* Power-based selection with one uniform number (the alias table's rule): a rank. */
+/* Power-based selection with one uniform number (the alias table's rule): a rank. Its record is
+ * not read: callers prefetch it (vbnl_vl_shade_pick_prefetch) and read it later. */
 static inline uint32_t vbnl_vl_shade_pick(const vbnl_vl_shade *t, float u)
 {
     float frac;
     uint32_t slot = vbnl_alias_slot(t->n, u, &frac);
-    const vbnl_vl_shade_rec *e = &t->rec[slot];
-    return frac < e->prob ? slot : e->alias;
+    const vbnl_vl_alias *a = &t->alias[slot];
+    return frac < a->prob ? slot : a->alias;
 }
 
-/* Starts loading the record of the slot u draws (the light itself, unless it goes to its alias). */
-static inline void vbnl_vl_shade_prefetch(const vbnl_vl_shade *t, float u)
+/* vbnl_vl_shade_pick, starting the load of the picked light's record. */
+static inline uint32_t vbnl_vl_shade_pick_prefetch(const vbnl_vl_shade *t, float u)
 {
-    float frac;
-    __builtin_prefetch(&t->rec[vbnl_alias_slot(t->n, u, &frac)]);
+    uint32_t r = vbnl_vl_shade_pick(t, u);
+    __builtin_prefetch(&t->rec[r]);
+    return r;
 }
 
 /* Radiance leaving a point inside the light's sphere toward -w (w: the direction from the
