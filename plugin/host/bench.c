@@ -36,7 +36,9 @@ static void bench_usage(FILE *f)
             "  --camera px,py,pz,tx,ty,tz,fov   (default " DEFAULT_CAMERA ")\n"
             "  --width W --height H   image size (default 256x256)\n"
             "  --spp N            samples per pixel per run (default 16)\n"
-            "  --repeat N         runs per figure (default 3)\n"
+            "  --repeat N         runs per figure (default 3; with --equal-time: rounds of every\n"
+            "                     method and budget with seeds 7, 8, ..., each cell the run of\n"
+            "                     median rMAE, default 1)\n"
             "  --threads N        worker threads (default 0 = one per core)\n"
             "  --sampler NAME     sobol (default) or random: the renders' sampler (also of the\n"
             "                     equal-time methods; references always use the default)\n"
@@ -71,7 +73,7 @@ int host_bench_main(int argc, char **argv)
         {"shared", required_argument, 0, 'D'}, {"equal-count", required_argument, 0, 'C'},
         {"count-spp", required_argument, 0, 'P'}, {"methods", required_argument, 0, 'M'},
         {"ref-spp", required_argument, 0, 'S'}, {"sampler", required_argument, 0, 'm'}, {0, 0, 0, 0}};
-    int equal_time = 0, nb = 0, no_budgets = 0;
+    int equal_time = 0, nb = 0, no_budgets = 0, repeat_set = 0;
     long count = 0, count_spp = 16, ref_spp = 0;
     const char *methods = NULL;
     double budgets[8];
@@ -97,7 +99,10 @@ int host_bench_main(int argc, char **argv)
         case 'W': width = (unsigned)atoi(optarg); break;
         case 'H': height = (unsigned)atoi(optarg); break;
         case 'n': spp = (unsigned)atoi(optarg); break;
-        case 'r': repeat = (unsigned)atoi(optarg); break;
+        case 'r':
+            repeat = (unsigned)atoi(optarg);
+            repeat_set = 1;
+            break;
         case 'T': threads = (unsigned)atoi(optarg); break;
         case 'm': {
             vbnl_error e = {0};
@@ -160,8 +165,13 @@ int host_bench_main(int argc, char **argv)
             fprintf(stderr, "vbnl bench: --equal-count takes 0..5e7 lights and --count-spp a positive count\n");
             return VBNL_EXIT_USAGE;
         }
+        if (repeat_set && (repeat == 0 || repeat > 99)) {
+            fprintf(stderr, "vbnl bench: --repeat takes 1..99\n");
+            return VBNL_EXIT_USAGE;
+        }
         host_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, shared, only,
-                                   methods, (uint32_t)count, (uint32_t)count_spp, sampler};
+                                   methods, (uint32_t)count, (uint32_t)count_spp, sampler,
+                                   repeat_set ? repeat : 1u};
         return host_bench_equal_time(&o);
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||

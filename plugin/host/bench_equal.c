@@ -33,6 +33,7 @@ typedef struct bench_method {
     int count;         /* part of the equal-count run */
 } bench_method;
 
+#define BENCH_SEED 7u /* of the first run; run k of an equal-time cell uses BENCH_SEED + k */
 #define BENCH_CLAMP "clamp=2"
 static const bench_method methods[] = {
     {"path", "path", NULL, 0, 0},
@@ -128,11 +129,31 @@ static float *read_rgba(const vbnl_renderer *r, uint32_t w, uint32_t h)
     return px;
 }
 
+/* Index of the run of median rMAE among n (the lower median for even n; failed runs, NaN, count
+ * as the largest). */
+static uint32_t median_run(const run_result *r, uint32_t n)
+{
+    uint32_t idx[128];
+    n = n < 128 ? n : 128;
+    for (uint32_t i = 0; i < n; ++i)
+        idx[i] = i;
+    for (uint32_t i = 1; i < n; ++i) /* insertion sort by rMAE, NaN last */
+        for (uint32_t j = i; j > 0; --j) {
+            double a = r[idx[j - 1]].rmae, b = r[idx[j]].rmae;
+            if (!(isnan(a) ? !isnan(b) : (!isnan(b) && b < a)))
+                break;
+            uint32_t t = idx[j];
+            idx[j] = idx[j - 1];
+            idx[j - 1] = t;
+        }
+    return idx[(n - 1) / 2];
+}
+
 /* One render: under a time budget (budget > 0) or, for the equal-count run, with `count` virtual
  * lights and `spp` samples. */
 static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_method *m, double budget,
-                   uint32_t count, uint32_t spp, uint32_t size, vbnl_sampler_kind sampler, const float *ref,
-                   const char *png, run_result *out)
+                   uint32_t count, uint32_t spp, uint32_t size, vbnl_sampler_kind sampler, uint64_t seed,
+                   const float *ref, const char *png, run_result *out)
 {
     vbnl_params *p;
     vbnl_params_create(&p, NULL);
@@ -152,7 +173,7 @@ static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_metho
     s.width = s.height = size;
     s.spp = budget > 0.0 ? 0 : spp;
     s.time_budget = budget > 0.0 ? budget : 0.0;
-    s.seed = 7;
+    s.seed = seed;
     s.sampler = sampler;
     s.integrator = m->integrator;
     s.params = p;
@@ -280,7 +301,7 @@ static void equal_count(vbnl_context *ctx, const vbnl_scene *scene, const char *
         png_name(png, sizeof(png), o->out_dir, scene_name, bm->label, what);
         run_result r;
         memset(&r, 0, sizeof(r));
-        if (run_one(ctx, scene, bm, 0.0, o->count, o->count_spp, o->size, o->sampler, ref, png, &r) != 0)
+        if (run_one(ctx, scene, bm, 0.0, o->count, o->count_spp, o->size, o->sampler, BENCH_SEED, ref, png, &r) != 0)
             continue;
         printf("  %-16s %10.2f %10.2f %12.1f %10.4f  %s\n", bm->label, r.stats.prepare_seconds, r.stats.render_seconds,
                (double)r.stats.storage_bytes / 1024.0, r.rmae, r.prep_stages);
@@ -377,22 +398,43 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
         }
         printf("scene %s (%s): reference `path` %u spp (%s)\n", bs->name, bs->file, ref_spp, ref_path);
         if (nb > 0) {
-            /* Budgets outside, methods inside: the methods of a budget run one after another,
-             * so that a machine whose speed drifts (a shared VM) treats them alike. */
+            /* Rounds outside, then budgets, methods inside: the methods of a budget run one
+             * after another, and every round visits every cell, so that a machine whose speed
+             * drifts (a shared VM) treats the methods alike. Run k uses seed BENCH_SEED + k. */
+            const uint32_t runs = o->runs ? o->runs : 1;
+            run_result *all = calloc((size_t)N_METHODS * 8 * runs, sizeof(run_result));
             run_result res[N_METHODS][8];
             memset(res, 0, sizeof(res));
-            for (int b = 0; b < nb; ++b)
-                for (unsigned m = 0; m < N_METHODS; ++m) {
-                    if (!method_available(&methods[m], o->methods))
-                        continue;
-                    char png[1400], what[32];
-                    snprintf(what, sizeof(what), "%gs", budgets[b]);
-                    png_name(png, sizeof(png), out_dir, bs->name, methods[m].label, what);
-                    if (run_one(ctx, scene, &methods[m], budgets[b], 0, 0, size, o->sampler, ref, png, &res[m][b]) != 0)
-                        res[m][b].rmae = NAN;
-                    fprintf(stderr, "  %gs %-26s rMAE %.4f, %u spp\n", budgets[b], methods[m].label, res[m][b].rmae,
-                            res[m][b].spp);
-                }
+            if (!all) {
+                fprintf(stderr, "vbnl bench: out of memory\n");
+                free(ref);
+                vbnl_scene_destroy(scene);
+                rc = VBNL_EXIT_FAILURE;
+                continue;
+            }
+#define CELL(m, b, k) all[((size_t)(m) * 8 + (size_t)(b)) * runs + (k)]
+            for (uint32_t k = 0; k < runs; ++k)
+                for (int b = 0; b < nb; ++b)
+                    for (unsigned m = 0; m < N_METHODS; ++m) {
+                        if (!method_available(&methods[m], o->methods))
+                            continue;
+                        char png[1400], what[32];
+                        snprintf(what, sizeof(what), "%gs", budgets[b]);
+                        png_name(png, sizeof(png), out_dir, bs->name, methods[m].label, what);
+                        run_result *rr = &CELL(m, b, k);
+                        if (run_one(ctx, scene, &methods[m], budgets[b], 0, 0, size, o->sampler, BENCH_SEED + k, ref,
+                                    png, rr) != 0)
+                            rr->rmae = NAN;
+                        fprintf(stderr, "  run %u/%u %gs %-26s rMAE %.4f, %u spp\n", k + 1, runs, budgets[b],
+                                methods[m].label, rr->rmae, rr->spp);
+                    }
+            /* each cell: the run of median rMAE (the lower one of an even count) */
+            for (unsigned m = 0; m < N_METHODS; ++m)
+                for (int b = 0; b < nb; ++b)
+                    res[m][b] = CELL(m, b, median_run(&CELL(m, b, 0), runs));
+            if (runs > 1)
+                printf("  every cell: the run of median rMAE of %u (seeds %u..%u; images: the last run)\n", runs,
+                       BENCH_SEED, BENCH_SEED + runs - 1);
             printf("  %-26s", "method \\ budget");
             for (int b = 0; b < nb; ++b)
                 printf(" %8gs rMAE   spp", budgets[b]);
@@ -411,9 +453,19 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
                 for (int b = 0; b < nb; ++b)
                     printf("    %gs budget: %s\n", budgets[b], res[1][b].stages);
                 for (int b = 0; b < nb; ++b)
-                    if (res[1][b].rmae > 0 && res[0][b].rmae > 0)
-                        printf("  path/vbnl rMAE ratio at %gs: %.2f\n", budgets[b], res[0][b].rmae / res[1][b].rmae);
+                    if (res[1][b].rmae > 0 && res[0][b].rmae > 0) {
+                        printf("  path/vbnl rMAE ratio at %gs: %.2f", budgets[b], res[0][b].rmae / res[1][b].rmae);
+                        if (runs > 1) { /* the ratio of each round, to show the spread */
+                            printf(" (rounds:");
+                            for (uint32_t k = 0; k < runs; ++k)
+                                printf(" %.2f", CELL(0, b, k).rmae / CELL(1, b, k).rmae);
+                            printf(")");
+                        }
+                        printf("\n");
+                    }
             }
+#undef CELL
+            free(all);
             char svg[1200];
             snprintf(svg, sizeof(svg), "%s/%s-equal-time.svg", out_dir, bs->name);
             write_svg(svg, bs->name, budgets, nb, res);

@@ -57,6 +57,7 @@ typedef struct host_bench_equal_opts {
     uint32_t count;         /* equal-count run with this many virtual lights, 0: none */
     uint32_t count_spp;
     vbnl_sampler_kind sampler; /* of the methods' renders (references: the default) */
+    uint32_t runs;          /* equal-time runs per cell (seeds 7, 8, ...): the median is reported */
 } host_bench_equal_opts;
 int host_bench_equal_time(const host_bench_equal_opts *o);
 

@@ -273,6 +273,9 @@ expect "compare refuses different sizes" 1 "is 8x16 but the reference .* is 16x1
 # The equal-time and equal-count benchmark in a tiny configuration (every method runs).
 expect "bench refuses an unknown sampler" 2 "unknown sampler 'halton'" -- "$VBNL" bench --sampler halton
 expect "bench equal-time and equal-count run every method" 0 "vsl +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+  light paths" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --equal-count 12 --count-spp 1 --sampler random --out '$TMP/bench'"
+expect "bench equal-time --repeat refuses 0" 2 "--repeat takes 1..99" -- "$VBNL" bench --equal-time --repeat 0
+# Three rounds: each cell is the median run, and the ratio line lists the three rounds' ratios.
+expect "bench equal-time --repeat reports the median of the rounds" 0 "run of median rMAE of 3 \(seeds 7..9.*path/vbnl rMAE ratio at 0.2s: [0-9.]+ \(rounds: [0-9.]+ [0-9.]+ [0-9.]+\)" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --methods path,vbnl --repeat 3 --out '$TMP/bench' 2>/dev/null | tr '\n' ' '"
 
 echo "1..$n"
 [ $failed -eq 0 ]
