@@ -169,7 +169,7 @@ static void test_pick_frequencies(void **state)
     vbnl_rng rng = vbnl_rng_make(21, 1);
     for (int i = 0; i < draws; ++i) {
         float u = vbnl_rng_next(&rng);
-        uint32_t r = vbnl_vl_shade_pick_prefetch(&t, u);
+        uint32_t r = vbnl_vl_shade_pick_finish(&t, vbnl_vl_shade_pick_start(&t, u));
         assert_int_equal(r, vbnl_vl_shade_pick(&t, u));
         assert_true(r < N_LIGHTS);
         obs[r] += 1.0;
@@ -203,6 +203,45 @@ static int cmp_u32(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Radii over more levels than a staged lookup holds, and the Embree variant: the whole query
+ * runs in the last stage, with the one-shot answer. */
+static void test_lookup_unstaged(void **state)
+{
+    (void)state;
+    enum { N = 3000 };
+    vec3 *c = malloc(sizeof(vec3) * N);
+    float *r = malloc(sizeof(float) * N);
+    vbnl_rng rng = vbnl_rng_make(31, 2);
+    for (uint32_t j = 0; j < N; ++j) {
+        c[j] = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+        r[j] = 1e-4f * (float)(1u << (j % 12)); /* 12 radius classes */
+    }
+    RTCDevice dev = rtcNewDevice(NULL);
+    for (int kind = 0; kind < 2; ++kind) {
+        vbnl_vl_index_desc d = {c, r, NULL, N, kind ? VBNL_VL_INDEX_EMBREE : VBNL_VL_INDEX_GRID, 0.0f, dev};
+        vbnl_vl_index *x;
+        assert_int_equal(vbnl_vl_index_create(&d, &x), VBNL_OK);
+        uint32_t nonempty = 0;
+        for (int q = 0; q < 4000; ++q) {
+            vec3 p = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+            uint32_t a[64], b[64];
+            vbnl_vl_lookup lk;
+            vbnl_vl_index_lookup_begin(x, p, &lk);
+            vbnl_vl_index_lookup_fetch(x, &lk);
+            assert_int_equal(lk.levels, 0);
+            uint32_t na = vbnl_vl_index_candidates(x, p, 64, a), nb = vbnl_vl_index_lookup_candidates(x, &lk, 64, b);
+            assert_int_equal(na, nb);
+            assert_memory_equal(a, b, sizeof(uint32_t) * (na < 64 ? na : 64));
+            nonempty += na > 0;
+        }
+        assert_true(nonempty > 100);
+        vbnl_vl_index_destroy(x);
+    }
+    rtcReleaseDevice(dev);
+    free(c);
+    free(r);
+}
+
 static void test_candidates(void **state)
 {
     (void)state;
@@ -219,6 +258,14 @@ static void test_candidates(void **state)
             uint32_t cand[256], mine[256], theirs[64];
             uint32_t nc = vbnl_vl_index_candidates(f.index, p, 256, cand);
             assert_true(nc <= 256);
+            /* the staged lookup lists the same ranks in the same order */
+            uint32_t staged[256];
+            vbnl_vl_lookup lk;
+            vbnl_vl_index_lookup_begin(f.index, p, &lk);
+            vbnl_vl_index_lookup_fetch(f.index, &lk);
+            assert_true(lk.levels > 1); /* radii of several classes: several levels, staged */
+            assert_int_equal(vbnl_vl_index_lookup_candidates(f.index, &lk, 256, staged), nc);
+            assert_memory_equal(staged, cand, sizeof(uint32_t) * nc);
             uint32_t m = 0;
             for (uint32_t k = 0; k < nc; ++k) {
                 const vbnl_vl_shade_rec *e = &t.rec[cand[k]];
@@ -282,6 +329,7 @@ int main(void)
         cmocka_unit_test(test_records),
         cmocka_unit_test(test_pick_frequencies),
         cmocka_unit_test(test_candidates),
+        cmocka_unit_test(test_lookup_unstaged),
         cmocka_unit_test(test_no_power),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -460,22 +460,30 @@ static inline float blend_weight(const vbnl_state *s, vec3 x, const vbnl_hit *y,
     return clampf((a * density - s->n_min) / (s->n_max - s->n_min), 0.0f, 1.0f);
 }
 
-/* Ranks of the lights containing y that may shine toward x (the filter of splitting, so both
- * see the same set). The index lists candidates; containment and the filter are tested on the
- * render records, which the shading reads next anyway. More than VL_GATHER_MAX lights (rare):
- * the VL_GATHER_MAX smallest ids, as the index's own query keeps. Returns their count. */
-static uint32_t gather(const vbnl_state *s, const vbnl_hit *y, vec3 w, uint32_t *ranks)
+/* The lights containing y that may shine toward x (the filter of splitting, so both see the
+ * same set), in two steps: gather_candidates lists the index's candidates for y (its lookup begun
+ * and fetched) and starts loading their render records; gather_filter tests containment and the
+ * filter on these records (which the shading reads next anyway) and writes the ranks of the
+ * lights that pass. More than VL_GATHER_MAX lights (rare): the VL_GATHER_MAX smallest ids, as the
+ * index's own query keeps. */
+static uint32_t gather_candidates(const vbnl_state *s, const vbnl_vl_lookup *lk, uint32_t *cand)
+{
+    uint32_t nc = vbnl_vl_index_lookup_candidates(s->index, lk, VL_CAND_MAX, cand);
+    if (nc <= VL_CAND_MAX)
+        for (uint32_t k = 0; k < nc; ++k)
+            __builtin_prefetch(&s->shade.rec[cand[k]]);
+    return nc;
+}
+
+static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, const uint32_t *cand, uint32_t nc,
+                              uint32_t *ranks)
 {
     vbnl_vl_filter f;
     f.n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng); /* facing x */
     f.wi = v3_neg(w);
     f.normal_cos = VL_NORMAL_COS;
     f.facing = 1;
-    uint32_t cand[VL_CAND_MAX];
-    uint32_t nc = vbnl_vl_index_candidates(s->index, y->p, VL_CAND_MAX, cand);
     if (nc <= VL_CAND_MAX) {
-        for (uint32_t k = 0; k < nc; ++k)
-            __builtin_prefetch(&s->shade.rec[cand[k]]);
         uint32_t m = 0;
         for (uint32_t k = 0; k < nc; ++k) {
             const vbnl_vl_shade_rec *e = &s->shade.rec[cand[k]];
@@ -523,6 +531,91 @@ static inline void add_L(float *out, vec3 c)
     out[2] += c.z;
 }
 
+/* Virtual lights, strategy 1, at x: power-based selection (light `pick`), a uniform direction in
+ * the cone of the light's sphere (Eq. 4); counts only if the ray's hit lies in the sphere (Eq. 3).
+ * In two halves, so that the caller can start loads between the direction and the ray:
+ * power_draw samples the direction and runs the cheap tests, power_trace traces the ray and adds
+ * the contribution when the draw is usable. */
+typedef struct power_sample {
+    const vbnl_vl_shade_rec *e;
+    vec3 w, wl, f;
+    float p_j;
+    int usable;
+} power_sample;
+
+static void power_draw(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 x,
+                       uint32_t pick, vbnl_sampler *sp, power_sample *ps)
+{
+    const vbnl_vl_shade_rec *e = &s->shade.rec[pick];
+    vec2 uc = vbnl_sampler_next2(sp);
+    vec3 to = v3_sub(e->position, x);
+    ps->e = e;
+    ps->usable = 0;
+    /* Picks that cannot contribute, rejected before the cone is sampled (17% and 11% of them on
+     * the glossy Cornell box): with the disk pre-test, x behind the light's plane (any ray
+     * meeting the disk then arrives at its back, which emits nothing); at an opaque surface, a
+     * sphere wholly below x's tangent plane (every direction of the cone fails the side test). */
+    if ((s->disk_test && v3_dot(to, e->normal) >= 0.0f) ||
+        (!vbnl_bsdf_is_transmissive(bsdf) && v3_dot(to, sf->ng) <= -e->radius))
+        return;
+    float dist = v3_len(to);
+    float cos_max = vbnl_vl_shade_cone_cos(e, x);
+    frame cf = frame_from_normal(dist > 0.0f ? v3_scale(to, 1.0f / dist) : sf->fr.n);
+    vec3 w = frame_to_world(&cf, sample_uniform_cone(uc, cos_max));
+    float p_j = e->pmf * pdf_uniform_cone(cos_max);
+    /* the cheap tests first: the BSDF is evaluated, and the ray traced, only for a direction
+     * that leaves on the right side and, with the §5 disk pre-test, meets the light's disk (a
+     * ray that misses it is taken as occluded, untraced) */
+    int usable = p_j > 0.0f && (vbnl_bsdf_is_transmissive(bsdf) || v3_dot(w, sf->ng) > 0.0f);
+    if (usable && s->disk_test) {
+        vec3 n = e->normal;
+        float denom = v3_dot(w, n);
+        usable = 0;
+        if (fabsf(denom) > 1e-6f) {
+            float t = v3_dot(v3_sub(e->position, x), n) / denom;
+            if (t > 0.0f) {
+                vec3 q = v3_fma(x, w, t);
+                usable = v3_len2(v3_sub(q, e->position)) < e->radius * e->radius;
+            }
+        }
+    }
+    if (!usable)
+        return;
+    ps->wl = frame_to_local(&sf->fr, w);
+    ps->f = vbnl_bsdf_eval(bsdf, sf->wo, ps->wl);
+    ps->w = w;
+    ps->p_j = p_j;
+    ps->usable = !v3_is_black(ps->f);
+}
+
+static void power_trace(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 x,
+                        const power_sample *ps, vec3 beta, float *out, vbnl_thread_stats *stats)
+{
+    if (!ps->usable)
+        return;
+    const vbnl_vl_shade_rec *e = ps->e;
+    const vec3 w = ps->w;
+    /* Only a first hit inside the light's sphere counts, so the ray ends where it leaves the
+     * sphere (with a margin for rounding; accepts() decides): the same answer as an unbounded
+     * ray, for less traversal. */
+    vec3 org = vbnl_offset_ray_origin(x, sf->ng, w);
+    vec3 oc = v3_sub(e->position, org);
+    float b = v3_dot(oc, w), c = v3_len2(oc) - e->radius * e->radius;
+    float disc = b * b - c;
+    float t_exit = disc > 0.0f ? (b + sqrtf(disc)) * 1.001f + 1e-4f * e->radius : INFINITY;
+    vbnl_hit y;
+    stats->rays++;
+    if (vbnl_scene_intersect_inline(s->scene, org, w, t_exit, &y) && accepts(e, &y, w)) {
+        float p_b = vbnl_bsdf_pdf(bsdf, sf->wo, ps->wl);
+        float mis = s->sampling == SAMPLE_MIS ? power_heuristic(ps->p_j, p_b) : 1.0f;
+        float wv = blend_weight(s, x, &y, w, p_b, e->density);
+        if (wv > 0.0f)
+            add_vl(out, s,
+                   v3_scale(v3_mul(v3_mul(beta, ps->f), vbnl_vl_shade_radiance(e, s->profiles, s->kernels, w)),
+                            mis * wv / ps->p_j));
+    }
+}
+
 static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
@@ -555,14 +648,14 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         add_L(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
 
     /* The power-based pick of each vertex is drawn ahead, so that its record (a cache miss:
-     * lights are picked at random) loads while other work runs: at the camera's vertex during
-     * next-event estimation, at later ones while the ray to the vertex is traced. The alias
-     * table is small and stays in cache, so the pick is resolved at once. A vertex that turns out
-     * delta leaves its pick unused. */
+     * lights are picked at random) loads while other work runs: at the camera's vertex during its
+     * BSDF ray and next-event estimation, at later ones from before the ray to the vertex is
+     * traced. The alias table is small and stays in cache, so the pick is resolved at once. A
+     * vertex that turns out delta leaves its pick unused. */
     const int power_on = have_vls && s->sampling != SAMPLE_BSDF;
-    uint32_t pick = 0;
+    vbnl_vl_pick pick = {0, 0.0f};
     if (power_on)
-        pick = vbnl_vl_shade_pick_prefetch(&s->shade, vbnl_sampler_next(sp));
+        pick = vbnl_vl_shade_pick_start(&s->shade, vbnl_sampler_next(sp));
     int direct_phase = 1; /* no non-delta vertex yet */
     for (int depth = 0;; ++depth) {
         vertices++;
@@ -578,109 +671,74 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         if (!delta)
             direct_phase = 0;
 
-        const int power_sample = !delta && power_on;
+        const vbnl_vl_pick pick_x = pick;
 
+        /* BSDF sampling comes first: the ray to its hit y is traced and the index lookup of y's
+         * gather started before x's next-event estimation and power sample, whose work then
+         * covers the lookup's dependent loads (cell header, then the cell's listings). At y the
+         * virtual lights are gathered (strategy 2) with weight w_v, and the camera path carries
+         * on from y with weight 1 - w_v (Eq. 6). */
+        vbnl_bsdf_sample_rec bs = {0}; /* read only when go: {0} for the compiler's sake */
+        float ulobe = vbnl_sampler_next(sp);
+        vec2 ub = vbnl_sampler_next2(sp);
+        int go = vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) && !v3_is_black(bs.weight);
+        vec3 w = v3s(0.0f);
+        if (go) {
+            w = frame_to_world(&sf.fr, bs.wi);
+            go = (bs.lobe & VBNL_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f;
+        }
+        vbnl_hit y;
+        int y_ok = 0, gather_y = 0;
+        vbnl_vl_lookup lk;
+        if (go) {
+            o = vbnl_offset_ray_origin(x, hit.ng, w);
+            d = w;
+            if (power_on) /* the next vertex's pick (see above) */
+                pick = vbnl_vl_shade_pick_start(&s->shade, vbnl_sampler_next(sp));
+            stats->rays++;
+            y_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &y);
+            /* The camera path goes on through near-specular lobes, as placement did (§3.1):
+             * w_v = 0, no gather. */
+            gather_y = y_ok && have_vls && !vbnl_lobe_is_near_specular(bsdf, bs.lobe, s->pp.specular_roughness);
+            if (gather_y)
+                vbnl_vl_index_lookup_begin(s->index, y.p, &lk);
+        }
+
+        const int power_x = !delta && power_on;
+        uint32_t rank_x = power_x ? vbnl_vl_shade_pick_finish(&s->shade, pick_x) : 0;
         /* Direct light from the real lights: next-event estimation with MIS. */
         if (!delta && !drop_direct)
             add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
-
-        /* Virtual lights, strategy 1: power-based selection, uniform direction in the cone of
-         * the light's sphere (Eq. 4). Counts only if the ray's hit lies in the sphere (Eq. 3). */
-        if (power_sample) {
-            const vbnl_vl_shade_rec *e = &s->shade.rec[pick];
-            vec2 uc = vbnl_sampler_next2(sp);
-            vec3 to = v3_sub(e->position, x);
-            /* Picks that cannot contribute, rejected before the cone is sampled (a quarter of
-             * them on the glossy Cornell box): with the disk pre-test, x behind the light's
-             * plane (any ray meeting the disk then arrives at its back, which emits nothing);
-             * at an opaque surface, a sphere wholly below x's tangent plane (every direction of
-             * the cone fails the side test below). */
-            if ((s->disk_test && v3_dot(to, e->normal) >= 0.0f) ||
-                (!vbnl_bsdf_is_transmissive(bsdf) && v3_dot(to, sf.ng) <= -e->radius))
-                goto power_done;
-            float dist = v3_len(to);
-            float cos_max = vbnl_vl_shade_cone_cos(e, x);
-            frame cf = frame_from_normal(dist > 0.0f ? v3_scale(to, 1.0f / dist) : sf.fr.n);
-            vec3 w = frame_to_world(&cf, sample_uniform_cone(uc, cos_max));
-            float p_j = e->pmf * pdf_uniform_cone(cos_max);
-            /* the cheap tests first: the BSDF is evaluated, and the ray traced, only for a
-             * direction that leaves on the right side and, with the §5 disk pre-test, meets the
-             * light's disk (a ray that misses it is taken as occluded, untraced) */
-            int usable = p_j > 0.0f && (vbnl_bsdf_is_transmissive(bsdf) || v3_dot(w, sf.ng) > 0.0f);
-            if (usable && s->disk_test) {
-                vec3 n = e->normal;
-                float denom = v3_dot(w, n);
-                usable = 0;
-                if (fabsf(denom) > 1e-6f) {
-                    float t = v3_dot(v3_sub(e->position, x), n) / denom;
-                    if (t > 0.0f) {
-                        vec3 q = v3_fma(x, w, t);
-                        usable = v3_len2(v3_sub(q, e->position)) < e->radius * e->radius;
-                    }
-                }
-            }
-            vec3 wl, f;
-            if (usable) {
-                wl = frame_to_local(&sf.fr, w);
-                f = vbnl_bsdf_eval(bsdf, sf.wo, wl);
-                usable = !v3_is_black(f);
-            }
-            if (usable) {
-                /* Only a first hit inside the light's sphere counts, so the ray ends where it
-                 * leaves the sphere (with a margin for rounding; accepts() decides): the same
-                 * answer as an unbounded ray, for less traversal. */
-                vec3 org = vbnl_offset_ray_origin(x, sf.ng, w);
-                vec3 oc = v3_sub(e->position, org);
-                float b = v3_dot(oc, w), c = v3_len2(oc) - e->radius * e->radius;
-                float disc = b * b - c;
-                float t_exit = disc > 0.0f ? (b + sqrtf(disc)) * 1.001f + 1e-4f * e->radius : INFINITY;
-                vbnl_hit y;
-                stats->rays++;
-                if (vbnl_scene_intersect_inline(sc, org, w, t_exit, &y) && accepts(e, &y, w)) {
-                    float p_b = vbnl_bsdf_pdf(bsdf, sf.wo, wl);
-                    float mis = s->sampling == SAMPLE_MIS ? power_heuristic(p_j, p_b) : 1.0f;
-                    float wv = blend_weight(s, x, &y, w, p_b, e->density);
-                    if (wv > 0.0f)
-                        add_vl(out, s,
-                               v3_scale(v3_mul(v3_mul(beta, f), vbnl_vl_shade_radiance(e, s->profiles, s->kernels, w)),
-                                        mis * wv / p_j));
-                }
-            }
-        }
-    power_done:;
-
-        /* BSDF sampling: at its hit y it gathers the virtual lights (strategy 2) with weight
-         * w_v, and the camera path carries on from y with weight 1 - w_v (Eq. 6). */
-        vbnl_bsdf_sample_rec bs;
-        float ulobe = vbnl_sampler_next(sp);
-        vec2 ub = vbnl_sampler_next2(sp);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+        if (gather_y)
+            vbnl_vl_index_lookup_fetch(s->index, &lk);
+        /* Virtual lights, strategy 1 (power-based selection), with y's candidates listed between
+         * its direction and its ray. */
+        power_sample ps = {0};
+        if (power_x)
+            power_draw(s, bsdf, &sf, x, rank_x, sp, &ps);
+        uint32_t cand[VL_CAND_MAX], nc = 0;
+        if (gather_y)
+            nc = gather_candidates(s, &lk, cand);
+        if (power_x)
+            power_trace(s, bsdf, &sf, x, &ps, beta, out, stats);
+        if (!go)
             break;
-        vec3 w = frame_to_world(&sf.fr, bs.wi);
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
-            break;
+
         const vec3 beta_in = v3_mul(beta, bs.weight);
         const int specular = (bs.lobe & VBNL_LOBE_SPECULAR) != 0;
-        o = vbnl_offset_ray_origin(x, hit.ng, w);
-        d = w;
-        if (power_on) /* the next vertex's pick (see above) */
-            pick = vbnl_vl_shade_pick_prefetch(&s->shade, vbnl_sampler_next(sp));
-        stats->rays++;
-        hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
         /* light arriving directly (emitter or environment) belongs to x's direct estimate: it is
          * counted with the throughput before the split between lights and extension */
         vec3 Le;
-        float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, specular, &Le);
+        float mw = vbnl_arriving_light(sc, y_ok, &y, x, w, bs.pdf, specular, &Le);
         if (mw > 0.0f && !drop_direct)
             add_L(out, v3_scale(v3_mul(beta_in, Le), mw));
-        if (!hit_ok)
+        if (!y_ok)
             break;
-        /* The camera path goes on through near-specular lobes, as placement did (§3.1): w_v = 0.
-         * No light containing y also means w_v = 0 (§4.2). */
+        hit = y;
+        /* No light containing y means w_v = 0 (§4.2). */
         float wv = 0.0f;
-        int near_specular = vbnl_lobe_is_near_specular(bsdf, bs.lobe, s->pp.specular_roughness);
-        if (!near_specular && have_vls) {
-            uint32_t n = gather(s, &hit, w, ranks);
+        if (gather_y) {
+            uint32_t n = gather_filter(s, &hit, w, cand, nc, ranks);
             if (n > 0) {
                 float density = 0.0f;
                 for (uint32_t k = 0; k < n; ++k)

@@ -515,6 +515,59 @@ uint32_t vbnl_vl_index_candidates(const vbnl_vl_index *x, vec3 p, uint32_t max_o
     return n_out;
 }
 
+void vbnl_vl_index_lookup_begin(const vbnl_vl_index *x, vec3 p, vbnl_vl_lookup *l)
+{
+    l->p = p;
+    l->levels = 0;
+    if (x->kind != VBNL_VL_INDEX_GRID || x->level_count > VBNL_VL_LOOKUP_LEVELS)
+        return;
+    l->levels = x->level_count;
+    for (uint32_t L = 0; L < l->levels; ++L) {
+        const grid_level *g = &x->levels[L];
+        l->cell[L] = level_cell(g, p, l->c3[L]);
+        if (l->cell[L] != UINT32_MAX)
+            __builtin_prefetch(g->start + l->cell[L]);
+    }
+}
+
+void vbnl_vl_index_lookup_fetch(const vbnl_vl_index *x, vbnl_vl_lookup *l)
+{
+    for (uint32_t L = 0; L < l->levels; ++L) {
+        const grid_level *g = &x->levels[L];
+        uint32_t c = l->cell[L];
+        l->n[L] = 0;
+        if (c == UINT32_MAX)
+            continue;
+        uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
+        l->s0[L] = s0;
+        l->n[L] = n;
+        if (n) /* every block (cache line) of the cell's listings */
+            for (uint32_t b = s0 >> 3; b <= (s0 + n - 1u) >> 3; ++b)
+                __builtin_prefetch(g->lst + (size_t)b * 16u);
+    }
+}
+
+uint32_t vbnl_vl_index_lookup_candidates(const vbnl_vl_index *x, const vbnl_vl_lookup *l, uint32_t max_out,
+                                         uint32_t *ranks)
+{
+    if (!l->levels) /* not staged (or no level: nothing is listed either way) */
+        return vbnl_vl_index_candidates(x, l->p, max_out, ranks);
+    uint32_t n_out = 0;
+    for (uint32_t L = 0; L < l->levels; ++L) {
+        if (!l->n[L])
+            continue;
+        const grid_level *g = &x->levels[L];
+        float q[3];
+        cell_frame(g, l->p, l->c3[L], q);
+        VBNL_VLI_PRETEST(g, l->s0[L], l->n[L], q, {
+            if (n_out < max_out)
+                ranks[n_out] = rank_;
+            n_out++;
+        });
+    }
+    return n_out;
+}
+
 int vbnl_vl_index_has_normals(const vbnl_vl_index *x) { return x->has_normals; }
 uint32_t vbnl_vl_index_count(const vbnl_vl_index *x) { return x->count; }
 uint32_t vbnl_vl_index_rank(const vbnl_vl_index *x, uint32_t id) { return x->rank_of ? x->rank_of[id] : id; }

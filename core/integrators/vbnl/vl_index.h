@@ -113,6 +113,25 @@ static inline int vbnl_vl_filter_passes(const vbnl_vl_filter *f, vec3 nj)
  * Thread-safe. */
 uint32_t vbnl_vl_index_candidates(const vbnl_vl_index *idx, vec3 p, uint32_t max_out, uint32_t *ranks);
 
+/* vbnl_vl_index_candidates in three stages, so that its dependent loads overlap the caller's
+ * other work: begin locates p's cells and starts loading their headers; fetch reads the headers
+ * and starts loading the cells' listings; candidates pre-tests the listings and returns what
+ * vbnl_vl_index_candidates(idx, p, ...) returns (the same ranks in the same order). The Embree
+ * variant, and grids of more than VBNL_VL_LOOKUP_LEVELS levels, run the whole query in
+ * candidates. The record is the caller's (no allocation); the stages run in this order. */
+#define VBNL_VL_LOOKUP_LEVELS 8u
+typedef struct vbnl_vl_lookup {
+    vec3 p;
+    uint32_t levels; /* levels located (0: the whole query runs in candidates) */
+    uint32_t cell[VBNL_VL_LOOKUP_LEVELS];
+    int32_t c3[VBNL_VL_LOOKUP_LEVELS][3];
+    uint32_t s0[VBNL_VL_LOOKUP_LEVELS], n[VBNL_VL_LOOKUP_LEVELS];
+} vbnl_vl_lookup;
+void vbnl_vl_index_lookup_begin(const vbnl_vl_index *idx, vec3 p, vbnl_vl_lookup *l);
+void vbnl_vl_index_lookup_fetch(const vbnl_vl_index *idx, vbnl_vl_lookup *l);
+uint32_t vbnl_vl_index_lookup_candidates(const vbnl_vl_index *idx, const vbnl_vl_lookup *l, uint32_t max_out,
+                                         uint32_t *ranks);
+
 /* What vbnl_vl_index_query_found returns per sphere: id, rank, d^2 (as dist2 above) and r. */
 typedef struct vbnl_vl_found {
     uint32_t id, rank;

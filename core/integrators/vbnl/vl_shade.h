@@ -68,7 +68,7 @@ void vbnl_vl_shade_free(vbnl_vl_shade *t);
 size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t);
 
 /* Power-based selection with one uniform number (the alias table's rule): a rank. Its record is
- * not read: callers prefetch it (vbnl_vl_shade_pick_prefetch) and read it later. */
+ * not read. */
 static inline uint32_t vbnl_vl_shade_pick(const vbnl_vl_shade *t, float u)
 {
     float frac;
@@ -77,12 +77,30 @@ static inline uint32_t vbnl_vl_shade_pick(const vbnl_vl_shade *t, float u)
     return frac < a->prob ? slot : a->alias;
 }
 
-/* vbnl_vl_shade_pick, starting the load of the picked light's record. */
-static inline uint32_t vbnl_vl_shade_pick_prefetch(const vbnl_vl_shade *t, float u)
+/* vbnl_vl_shade_pick in two steps, so that its loads overlap other work: start draws the slot
+ * and starts loading its alias entry and its light's record; finish resolves the rank (the
+ * slot's light or its alias) and starts loading that record if it is the alias. */
+typedef struct vbnl_vl_pick {
+    uint32_t slot;
+    float frac;
+} vbnl_vl_pick;
+
+static inline vbnl_vl_pick vbnl_vl_shade_pick_start(const vbnl_vl_shade *t, float u)
 {
-    uint32_t r = vbnl_vl_shade_pick(t, u);
-    __builtin_prefetch(&t->rec[r]);
-    return r;
+    vbnl_vl_pick p;
+    p.slot = vbnl_alias_slot(t->n, u, &p.frac);
+    __builtin_prefetch(&t->alias[p.slot]);
+    __builtin_prefetch(&t->rec[p.slot]);
+    return p;
+}
+
+static inline uint32_t vbnl_vl_shade_pick_finish(const vbnl_vl_shade *t, vbnl_vl_pick p)
+{
+    const vbnl_vl_alias *a = &t->alias[p.slot];
+    if (p.frac < a->prob)
+        return p.slot;
+    __builtin_prefetch(&t->rec[a->alias]);
+    return a->alias;
 }
 
 /* Radiance leaving a point inside the light's sphere toward -w (w: the direction from the
