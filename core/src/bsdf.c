@@ -219,13 +219,27 @@ static float conductor_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return conductor_pdf_ctx(b, &c, wo, wi);
 }
 
-static int conductor_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
+/* The lobe choice of a two-lobe BSDF from the first coordinate of the direction's 2D number:
+ * returns 1 (first lobe) when *u < p, else 0, and rescales *u to [0,1) within the chosen share,
+ * so the direction reuses it. A stratified 2D number then stays stratified within each lobe
+ * (with a separate number for the choice, each lobe would get a random subset of the points). */
+static inline int choose_lobe(float *u, float p)
+{
+    if (*u < p) {
+        *u = fminf(*u / p, VBNL_ONE_MINUS_EPS);
+        return 1;
+    }
+    *u = fminf((*u - p) / (1.0f - p), VBNL_ONE_MINUS_EPS);
+    return 0;
+}
+
+static int conductor_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
 {
     if (wo.z <= 0.0f)
         return 0;
     conductor_ctx c = conductor_setup(b, wo);
     vec3 wi;
-    if (u_lobe < c.p_cos)
+    if (choose_lobe(&u.x, c.p_cos))
         wi = sample_cosine_hemisphere(u);
     else
         wi = reflect_about(wo, ggx_sample_vndf(wo, b->alpha, u));
@@ -303,14 +317,14 @@ static float plastic_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return plastic_pdf_ctx(b, &c, wo, wi);
 }
 
-static int plastic_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
+static int plastic_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
 {
     if (wo.z <= 0.0f)
         return 0;
     plastic_ctx c = plastic_setup(b, wo);
     vec3 wi;
     uint32_t lobe;
-    if (u_lobe < c.p_spec) {
+    if (choose_lobe(&u.x, c.p_spec)) {
         wi = reflect_about(wo, ggx_sample_vndf(wo, b->alpha, u));
         lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_GLOSSY;
     } else {
@@ -406,19 +420,19 @@ float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     }
 }
 
-int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
+int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
-        return vbnl_bsdf_sample(b, wo, u_lobe, u, out);
+        return vbnl_bsdf_sample(b, wo, u, out);
     case VBNL_MATERIAL_CONDUCTOR:
-        return conductor_sample(b, wo, u_lobe, u, out);
+        return conductor_sample(b, wo, u, out);
     case VBNL_MATERIAL_PLASTIC:
-        return plastic_sample(b, wo, u_lobe, u, out);
+        return plastic_sample(b, wo, u, out);
     case VBNL_MATERIAL_MIRROR:
         return mirror_sample(b, wo, out);
     case VBNL_MATERIAL_DIELECTRIC:
-        return dielectric_sample(b, wo, u_lobe, out);
+        return dielectric_sample(b, wo, u.x, out);
     }
     return 0;
 }

@@ -49,7 +49,7 @@ void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m);
 /* The non-Lambertian cases of eval / pdf / sample (bsdf.c); call the inline functions below. */
 vec3 vbnl_bsdf_eval_other(const vbnl_bsdf *b, vec3 wo, vec3 wi);
 float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi);
-int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out);
+int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out);
 
 /* Lambert is inline: it is every surface of most test scenes, and inlined into next-event
  * estimation the compiler keeps only the z of wi it needs (and shares it between eval and pdf). */
@@ -69,14 +69,17 @@ static inline float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return wo.z > 0.0f ? pdf_cosine_hemisphere(wi) : 0.0f;
 }
 
-/* u_lobe picks a lobe, u the direction. Returns 1 with *out filled, or 0 (absorbed). */
-static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vec2 u, vbnl_bsdf_sample_rec *out)
+/* One uniform 2D number u in [0,1)^2 picks the lobe and the direction: the lobe from u.x, which
+ * is then rescaled within the lobe's share and reused for the direction (so a stratified u stays
+ * stratified within each lobe); a smooth dielectric chooses reflection or refraction with u.x.
+ * Returns 1 with *out filled, or 0 (absorbed). */
+static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
 {
     if (b->type != VBNL_MATERIAL_LAMBERT) {
         /* through a copy, so that the caller's record need not live in memory (see
          * vbnl_light_sample_li) */
         vbnl_bsdf_sample_rec other;
-        int ok = vbnl_bsdf_sample_other(b, wo, u_lobe, u, &other);
+        int ok = vbnl_bsdf_sample_other(b, wo, u, &other);
         if (ok)
             *out = other;
         return ok;

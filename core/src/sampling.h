@@ -130,6 +130,30 @@ static inline uint32_t vbnl_alias_slot(uint32_t n, float u, float *frac)
     return slot;
 }
 
+/* vbnl_alias_table_sample that also returns, in *rest, u's position within the part of [0,1)
+ * that drew the item, rescaled to [0,1): uniform and independent of the item, so the caller can
+ * reuse it as the first coordinate of the item's own sample. A stratified u then stays
+ * stratified within each item (a light picked and its point drawn with one 2D number). */
+static inline uint32_t vbnl_alias_table_sample_reuse(const vbnl_alias_table *t, float u, float *pmf, float *rest)
+{
+    float frac;
+    uint32_t slot = vbnl_alias_slot(t->n, u, &frac);
+    float p = t->prob[slot];
+    uint32_t item;
+    float r;
+    if (frac < p) {
+        item = slot;
+        r = frac / p;
+    } else {
+        item = t->alias[slot];
+        r = (frac - p) / (1.0f - p);
+    }
+    *rest = r < VBNL_ONE_MINUS_EPS ? r : VBNL_ONE_MINUS_EPS;
+    if (pmf)
+        *pmf = t->pmf[item];
+    return item;
+}
+
 static inline uint32_t vbnl_alias_table_sample(const vbnl_alias_table *t, float u, float *pmf)
 {
     float frac;

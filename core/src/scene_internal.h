@@ -353,6 +353,12 @@ static inline uint32_t vbnl_scene_pick_light(const vbnl_scene *s, float u, float
 {
     return vbnl_alias_table_sample(&s->light_table, u, pmf);
 }
+/* vbnl_scene_pick_light returning in *rest u rescaled within the picked light's share of [0,1)
+ * (vbnl_alias_table_sample_reuse). */
+static inline uint32_t vbnl_scene_pick_light_reuse(const vbnl_scene *s, float u, float *pmf, float *rest)
+{
+    return vbnl_alias_table_sample_reuse(&s->light_table, u, pmf, rest);
+}
 static inline float vbnl_scene_light_pmf(const vbnl_scene *s, uint32_t light)
 {
     return s->light_table.pmf[light];

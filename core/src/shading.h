@@ -64,9 +64,12 @@ static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *b
                           vbnl_sampler *sp, vbnl_thread_stats *stats)
 {
     float pmf;
-    uint32_t li = vbnl_scene_pick_light(sc, vbnl_sampler_next(sp), &pmf);
-    vbnl_light_li_sample ls;
+    /* one 2D number picks the light (its first coordinate, reused within the light's share of
+     * [0,1)) and the point on it: with a stratified sampler the points stay stratified on each
+     * light (a quad made of two triangles samples like one quad) */
     vec2 ul = vbnl_sampler_next2(sp);
+    uint32_t li = vbnl_scene_pick_light_reuse(sc, ul.x, &pmf, &ul.x);
+    vbnl_light_li_sample ls;
     if (!vbnl_light_sample_li(&sc->lights[li], x, ul, &ls) || !(ls.pdf > 0.0f) || vbnl_is_black(ls.Li))
         return v3s(0.0f);
     vec3 wi = frame_to_local(&sf->fr, ls.wi);

@@ -258,6 +258,42 @@ static void test_alias_table_frequencies(void **state)
     vbnl_alias_table_free(&t);
 }
 
+/* sample_reuse: the same item as sample for the same u, and the rescaled rest uniform within each
+ * item (chi-square over items x 10 bins of rest), independent of the item; a rest left
+ * unrescaled (the slot's raw fraction) fails the same test. */
+static void test_alias_table_reuse(void **state)
+{
+    (void)state;
+    enum { N_ITEMS = 12, BINS = 10, N = 600000 };
+    float w[N_ITEMS];
+    vbnl_rng rng = vbnl_rng_make(37, 3);
+    for (int i = 0; i < N_ITEMS; ++i)
+        w[i] = 0.2f + 3.0f * vbnl_rng_next(&rng);
+    vbnl_alias_table t;
+    assert_int_equal(vbnl_alias_table_build(&t, w, N_ITEMS), 0);
+    static double obs[N_ITEMS * BINS], raw[N_ITEMS * BINS], expd[N_ITEMS * BINS];
+    for (int k = 0; k < N; ++k) {
+        float u = vbnl_rng_next(&rng), pmf, rest, frac;
+        uint32_t i = vbnl_alias_table_sample_reuse(&t, u, &pmf, &rest);
+        assert_int_equal(i, vbnl_alias_table_sample(&t, u, NULL));
+        assert_true(rest >= 0.0f && rest < 1.0f && pmf == t.pmf[i]);
+        obs[i * BINS + (int)(rest * BINS)] += 1.0;
+        vbnl_alias_slot(t.n, u, &frac);
+        raw[i * BINS + (int)(frac * BINS)] += 1.0;
+    }
+    for (int i = 0; i < N_ITEMS; ++i)
+        for (int b = 0; b < BINS; ++b)
+            expd[i * BINS + b] = N * (double)t.pmf[i] / BINS;
+    vbnl_chi2_result res, bad;
+    int ok = vbnl_chi2_test(obs, expd, N_ITEMS * BINS, MIN_EXPECTED, SIGNIFICANCE, &res);
+    int raw_ok = vbnl_chi2_test(raw, expd, N_ITEMS * BINS, MIN_EXPECTED, SIGNIFICANCE, &bad);
+    printf("#   alias reuse (item x rest)    %s\n", res.msg);
+    printf("#   raw slot fraction (must fail) %s\n", bad.msg);
+    assert_true(ok);
+    assert_false(raw_ok);
+    vbnl_alias_table_free(&t);
+}
+
 static void test_alias_table_edge_cases(void **state)
 {
     (void)state;
@@ -298,6 +334,7 @@ int main(void)
         cmocka_unit_test(test_concentric_disk),
         cmocka_unit_test(test_uniform_triangle),
         cmocka_unit_test(test_alias_table_frequencies),
+        cmocka_unit_test(test_alias_table_reuse),
         cmocka_unit_test(test_alias_table_edge_cases),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

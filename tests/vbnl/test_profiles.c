@@ -238,7 +238,7 @@ static void run_glossy(const glossy_case *gc)
             for (int y = 0; y < ga; ++y) {
                 vbnl_bsdf_sample_rec rec;
                 vec2 u = {(x + vbnl_rng_next(&rng)) / ga, (y + vbnl_rng_next(&rng)) / ga};
-                if (vbnl_bsdf_sample(&b, wi, vbnl_rng_next(&rng), u, &rec)) {
+                if (vbnl_bsdf_sample(&b, wi, u, &rec)) {
                     a[0] += rec.weight.x;
                     a[1] += rec.weight.y;
                     a[2] += rec.weight.z;

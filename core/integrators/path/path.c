@@ -114,9 +114,8 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
             add_L(ps, out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)), vertex_direct);
         /* continue by BSDF sampling */
         vbnl_bsdf_sample_rec bs;
-        float ulobe = vbnl_sampler_next(sp);
         vec2 ub = vbnl_sampler_next2(sp);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) || vbnl_is_black(bs.weight))
+        if (!vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) || vbnl_is_black(bs.weight))
             break;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
         /* a reflection must leave on the viewer's side of the real surface */

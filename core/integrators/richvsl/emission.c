@@ -88,10 +88,9 @@ void rv_emission_table_sampled(const vbnl_hemioct *map, const vbnl_bsdf *bsdf, v
         int below = wi.z <= 1e-4f;
         for (uint32_t k = 0; k < samples; ++k) {
             /* fixed use of the stream per sample */
-            float ul = vbnl_rng_next(rng);
             vec2 u = vbnl_rng_next2(rng);
             vbnl_bsdf_sample_rec bs;
-            if (below || !vbnl_bsdf_sample(bsdf, wi, ul, u, &bs) || bs.wi.z <= 0.0f || v3_is_black(bs.weight))
+            if (below || !vbnl_bsdf_sample(bsdf, wi, u, &bs) || bs.wi.z <= 0.0f || v3_is_black(bs.weight))
                 continue;
             vbnl_hemioct_splat(map, rgb, bs.wi, v3_scale(v3_mul(g[j].flux, bs.weight), inv_s));
         }

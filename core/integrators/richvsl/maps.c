@@ -137,9 +137,8 @@ static void imp_chunk(void *user, uint64_t item, unsigned thread)
             vbnl_shading_frame sf;
             vbnl_shading_frame_make(bsdf, &hit, d, &sf);
             vbnl_bsdf_sample_rec bs;
-            float ul = vbnl_rng_next(&rng);
             vec2 ub = vbnl_rng_next2(&rng);
-            if (!vbnl_bsdf_sample(bsdf, sf.wo, ul, ub, &bs) || v3_is_black(bs.weight))
+            if (!vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) || v3_is_black(bs.weight))
                 break;
             vec3 w = frame_to_world(&sf.fr, bs.wi);
             if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)

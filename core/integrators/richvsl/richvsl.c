@@ -367,7 +367,6 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
     for (uint32_t i = 0; i < s->l.count; ++i) {
         /* fixed use of the stream per light, whether or not it contributes */
         vec2 uc = vbnl_sampler_next2(sp);
-        float ul = vbnl_sampler_next(sp);
         vec2 ub = vbnl_sampler_next2(sp);
         vec3 to = v3_sub(s->l.p[i], x);
         float d2 = v3_len2(to);
@@ -403,7 +402,7 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
                 est = v3_add(est, v3_scale(h, pc / (sq(pc) + sq(pdf))));
             /* 2: the BSDF at x */
             vbnl_bsdf_sample_rec bs;
-            if (vbnl_bsdf_sample(bsdf, sf->wo, ul, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
+            if (vbnl_bsdf_sample(bsdf, sf->wo, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
                 w = frame_to_world(&sf->fr, bs.wi);
                 h = integrand(s, i, bsdf, sf, w, axis, cos_max, g_scale, &pdf);
                 if (!v3_is_black(h) && pdf > 0.0f)

@@ -28,9 +28,8 @@ static int scatter(const vbnl_scene *sc, const vbnl_hit *hit, vec3 d, vbnl_rng *
     vbnl_shading_frame sf;
     vbnl_shading_frame_make(bsdf, hit, d, &sf);
     vbnl_bsdf_sample_rec bs;
-    float ul = vbnl_rng_next(rng);
     vec2 u = vbnl_rng_next2(rng);
-    if (!vbnl_bsdf_sample(bsdf, sf.wo, ul, u, &bs) || v3_is_black(bs.weight))
+    if (!vbnl_bsdf_sample(bsdf, sf.wo, u, &bs) || v3_is_black(bs.weight))
         return 0;
     *wi_world = frame_to_world(&sf.fr, bs.wi);
     if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(*wi_world, sf.ng) <= 0.0f)

@@ -226,7 +226,6 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
         }
 
         /* Bounce (importance transport, splitting.h). The same draws for every BSDF. */
-        float ulobe = vbnl_rng_next(rng);
         vec2 ub = vbnl_rng_next2(rng);
         vec3 wi_w, wt;
         if (bsdf->type == VBNL_MATERIAL_LAMBERT) {
@@ -240,7 +239,7 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
             frame fr = frame_from_normal(ns);
             vec3 wo = frame_to_local(&fr, wo_w);
             vbnl_bsdf_sample_rec bs;
-            if (!vbnl_bsdf_sample(bsdf, wo, ulobe, ub, &bs) || v3_is_black(bs.weight))
+            if (!vbnl_bsdf_sample(bsdf, wo, ub, &bs) || v3_is_black(bs.weight))
                 return;
             wi_w = frame_to_world(&fr, bs.wi);
             if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)

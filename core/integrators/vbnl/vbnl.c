@@ -679,9 +679,8 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
          * virtual lights are gathered (strategy 2) with weight w_v, and the camera path carries
          * on from y with weight 1 - w_v (Eq. 6). */
         vbnl_bsdf_sample_rec bs = {0}; /* read only when go: {0} for the compiler's sake */
-        float ulobe = vbnl_sampler_next(sp);
         vec2 ub = vbnl_sampler_next2(sp);
-        int go = vbnl_bsdf_sample(bsdf, sf.wo, ulobe, ub, &bs) && !v3_is_black(bs.weight);
+        int go = vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) && !v3_is_black(bs.weight);
         vec3 w = v3s(0.0f);
         if (go) {
             w = frame_to_world(&sf.fr, bs.wi);

@@ -73,9 +73,8 @@ int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_sampler *sp, int hit_ok, v
         vbnl_shading_frame sf;
         vbnl_shading_frame_make(bsdf, hit, *d, &sf);
         vbnl_bsdf_sample_rec bs;
-        float ul = vbnl_sampler_next(sp);
         vec2 ub = vbnl_sampler_next2(sp);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ul, ub, &bs) || v3_is_black(bs.weight))
+        if (!vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) || v3_is_black(bs.weight))
             return 0;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
         if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
@@ -134,9 +133,8 @@ void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, v
         add_rgb(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
         /* the BSDF half of the direct estimator's MIS */
         vbnl_bsdf_sample_rec bs;
-        float ul = vbnl_sampler_next(sp);
         vec2 ub = vbnl_sampler_next2(sp);
-        if (vbnl_bsdf_sample(bsdf, sf.wo, ul, ub, &bs) && !v3_is_black(bs.weight)) {
+        if (vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) && !v3_is_black(bs.weight)) {
             vec3 w = frame_to_world(&sf.fr, bs.wi);
             if ((bs.lobe & VBNL_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f) {
                 vbnl_hit y;

@@ -190,7 +190,6 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
         const vbnl_vpl *v = &s->set.vpls[i];
         /* the draws of every light are taken whether or not it contributes: fixed stream use */
         vec2 uc = vbnl_sampler_next2(sp);
-        float ula = vbnl_sampler_next(sp), ulb = vbnl_sampler_next(sp);
         vec2 ua = vbnl_sampler_next2(sp), ub = vbnl_sampler_next2(sp);
         float r = s->radius[i];
         vec3 to = v3_sub(v->p, x);
@@ -222,14 +221,14 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
                 est = v3_add(est, v3_scale(h, pc / (sq(pc) + sq(px) + sq(py))));
             /* 2: the BSDF at x */
             vbnl_bsdf_sample_rec bs;
-            if (vbnl_bsdf_sample(bsdf, sf->wo, ula, ua, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
+            if (vbnl_bsdf_sample(bsdf, sf->wo, ua, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
                 w = frame_to_world(&sf->fr, bs.wi);
                 h = integrand(v, bsdf, sf, w, axis, cos_max, &px, &py);
                 if (!v3_is_black(h) && px > 0.0f)
                     est = v3_add(est, v3_scale(h, px / (sq(pc) + sq(px) + sq(py))));
             }
             /* 3: the BSDF at the light (reciprocity: a direction leaving it toward x) */
-            if (vbnl_bsdf_sample(&v->bsdf, v->wi, ulb, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
+            if (vbnl_bsdf_sample(&v->bsdf, v->wi, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
                 w = v3_neg(frame_to_world(&v->fr, bs.wi));
                 h = integrand(v, bsdf, sf, w, axis, cos_max, &px, &py);
                 if (!v3_is_black(h) && py > 0.0f)
