@@ -219,27 +219,16 @@ static float conductor_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return conductor_pdf_ctx(b, &c, wo, wi);
 }
 
-/* The lobe choice of a two-lobe BSDF from the first coordinate of the direction's 2D number:
- * returns 1 (first lobe) when *u < p, else 0, and rescales *u to [0,1) within the chosen share,
- * so the direction reuses it. A stratified 2D number then stays stratified within each lobe
- * (with a separate number for the choice, each lobe would get a random subset of the points). */
-static inline int choose_lobe(float *u, float p)
-{
-    if (*u < p) {
-        *u = fminf(*u / p, VBNL_ONE_MINUS_EPS);
-        return 1;
-    }
-    *u = fminf((*u - p) / (1.0f - p), VBNL_ONE_MINUS_EPS);
-    return 0;
-}
-
+/* Two-lobe BSDFs choose the lobe with the first coordinate of the direction's 2D number and
+ * reuse it for the direction (vbnl_choose_reuse), so a stratified number stays stratified within
+ * each lobe. */
 static int conductor_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
 {
     if (wo.z <= 0.0f)
         return 0;
     conductor_ctx c = conductor_setup(b, wo);
     vec3 wi;
-    if (choose_lobe(&u.x, c.p_cos))
+    if (vbnl_choose_reuse(&u.x, c.p_cos))
         wi = sample_cosine_hemisphere(u);
     else
         wi = reflect_about(wo, ggx_sample_vndf(wo, b->alpha, u));
@@ -324,7 +313,7 @@ static int plastic_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_
     plastic_ctx c = plastic_setup(b, wo);
     vec3 wi;
     uint32_t lobe;
-    if (choose_lobe(&u.x, c.p_spec)) {
+    if (vbnl_choose_reuse(&u.x, c.p_spec)) {
         wi = reflect_about(wo, ggx_sample_vndf(wo, b->alpha, u));
         lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_GLOSSY;
     } else {

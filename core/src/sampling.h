@@ -130,25 +130,29 @@ static inline uint32_t vbnl_alias_slot(uint32_t n, float u, float *frac)
     return slot;
 }
 
-/* vbnl_alias_table_sample that also returns, in *rest, u's position within the part of [0,1)
- * that drew the item, rescaled to [0,1): uniform and independent of the item, so the caller can
- * reuse it as the first coordinate of the item's own sample. A stratified u then stays
- * stratified within each item (a light picked and its point drawn with one 2D number). */
+/* A choice made with a uniform number that is then reused: returns 1 when *u < p, else 0, and
+ * rescales *u to [0,1) within the chosen share ([0,p) or [p,1)), uniform and independent of the
+ * choice, so that the caller can use it again for what the choice leads to. A stratified u then
+ * stays stratified within each choice (with a separate number for the choice, each would get a
+ * random subset of the points). */
+static inline int vbnl_choose_reuse(float *u, float p)
+{
+    float r;
+    int first = *u < p;
+    r = first ? *u / p : (*u - p) / (1.0f - p);
+    *u = r < VBNL_ONE_MINUS_EPS ? r : VBNL_ONE_MINUS_EPS;
+    return first;
+}
+
+/* vbnl_alias_table_sample that also returns, in *rest, u rescaled to [0,1) within the part of
+ * [0,1) that drew the item (vbnl_choose_reuse on the slot's fraction): a light picked and its
+ * point drawn with one 2D number. */
 static inline uint32_t vbnl_alias_table_sample_reuse(const vbnl_alias_table *t, float u, float *pmf, float *rest)
 {
     float frac;
     uint32_t slot = vbnl_alias_slot(t->n, u, &frac);
-    float p = t->prob[slot];
-    uint32_t item;
-    float r;
-    if (frac < p) {
-        item = slot;
-        r = frac / p;
-    } else {
-        item = t->alias[slot];
-        r = (frac - p) / (1.0f - p);
-    }
-    *rest = r < VBNL_ONE_MINUS_EPS ? r : VBNL_ONE_MINUS_EPS;
+    uint32_t item = vbnl_choose_reuse(&frac, t->prob[slot]) ? slot : t->alias[slot];
+    *rest = frac;
     if (pmf)
         *pmf = t->pmf[item];
     return item;

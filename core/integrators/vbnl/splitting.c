@@ -624,10 +624,7 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
     uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
     sl->s0 = s0;
     sl->n = n;
-    /* every line the pre-test reads: the blocks of the cell's listings */
-    if (n)
-        for (uint32_t b = s0 >> 3; b <= (s0 + n - 1u) >> 3; ++b)
-            __builtin_prefetch(g->lst + (size_t)b * 16u);
+    vbnl_vli_prefetch_listings(g, s0, n); /* every line the pre-test reads */
 }
 
 static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)

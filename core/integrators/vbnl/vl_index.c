@@ -522,29 +522,14 @@ void vbnl_vl_index_lookup_begin(const vbnl_vl_index *x, vec3 p, vbnl_vl_lookup *
     if (x->kind != VBNL_VL_INDEX_GRID || x->level_count > VBNL_VL_LOOKUP_LEVELS)
         return;
     l->levels = x->level_count;
-    for (uint32_t L = 0; L < l->levels; ++L) {
-        const grid_level *g = &x->levels[L];
-        l->cell[L] = level_cell(g, p, l->c3[L]);
-        if (l->cell[L] != UINT32_MAX)
-            __builtin_prefetch(g->start + l->cell[L]);
-    }
+    for (uint32_t L = 0; L < l->levels; ++L)
+        l->cell[L] = vbnl_vli_locate(&x->levels[L], p, l->c3[L]);
 }
 
 void vbnl_vl_index_lookup_fetch(const vbnl_vl_index *x, vbnl_vl_lookup *l)
 {
-    for (uint32_t L = 0; L < l->levels; ++L) {
-        const grid_level *g = &x->levels[L];
-        uint32_t c = l->cell[L];
-        l->n[L] = 0;
-        if (c == UINT32_MAX)
-            continue;
-        uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
-        l->s0[L] = s0;
-        l->n[L] = n;
-        if (n) /* every block (cache line) of the cell's listings */
-            for (uint32_t b = s0 >> 3; b <= (s0 + n - 1u) >> 3; ++b)
-                __builtin_prefetch(g->lst + (size_t)b * 16u);
-    }
+    for (uint32_t L = 0; L < l->levels; ++L)
+        vbnl_vli_fetch(&x->levels[L], l->cell[L], &l->s0[L], &l->n[L]);
 }
 
 uint32_t vbnl_vl_index_lookup_candidates(const vbnl_vl_index *x, const vbnl_vl_lookup *l, uint32_t max_out,

@@ -337,6 +337,36 @@ static inline uint32_t level_cell(const grid_level *g, vec3 p, int32_t c3[3])
     return g->dense ? (uint32_t)lc : hash_find((grid_level *)g, lc, 0, NULL);
 }
 
+/* The two loading stages of a lookup in level g, shared by the batch pipeline (vl_index_pipe.h),
+ * the staged single lookup (vbnl_vl_index_lookup_*) and photon splitting's fast path: locate
+ * returns p's cell (UINT32_MAX: none) and starts loading its header; prefetch_listings starts
+ * loading every block (cache line) of the listings s0 .. s0 + n - 1; fetch reads cell c's header
+ * (n = 0 for UINT32_MAX) and starts loading its listings. */
+static inline uint32_t vbnl_vli_locate(const grid_level *g, vec3 p, int32_t c3[3])
+{
+    uint32_t c = level_cell(g, p, c3);
+    if (c != UINT32_MAX)
+        __builtin_prefetch(g->start + c);
+    return c;
+}
+
+static inline void vbnl_vli_prefetch_listings(const grid_level *g, uint32_t s0, uint32_t n)
+{
+    if (n)
+        for (uint32_t b = s0 >> 3; b <= (s0 + n - 1u) >> 3; ++b)
+            __builtin_prefetch(g->lst + (size_t)b * 16u);
+}
+
+static inline void vbnl_vli_fetch(const grid_level *g, uint32_t c, uint32_t *s0, uint32_t *n)
+{
+    *n = 0;
+    if (c == UINT32_MAX)
+        return;
+    *s0 = g->start[c];
+    *n = g->start[c + 1] - *s0;
+    vbnl_vli_prefetch_listings(g, *s0, *n);
+}
+
 /* Runs KEEP (rank_ in scope) for every sphere listed in p's cell of each level that passes the
  * quantised pre-test, level by level in listing order. */
 #define VBNL_VLI_GRID_CANDIDATES(x, p, KEEP)                                                                  \

@@ -44,28 +44,14 @@ static inline vec3 vbnl_vli_batch_vec(const vbnl_vl_batch *b, uint32_t k, size_t
  * radii, the common one) is compiled without the loops over levels. */
 static inline __attribute__((always_inline)) void vbnl_vli_pipe_a(const vbnl_vl_index *x, vec3 p, vbnl_vli_pipe_slot *s, uint32_t nl)
 {
-    for (uint32_t L = 0; L < nl; ++L) {
-        const grid_level *g = &x->levels[L];
-        s->cell[L] = level_cell(g, p, s->c3[L]);
-        if (s->cell[L] != UINT32_MAX)
-            __builtin_prefetch(g->start + s->cell[L]);
-    }
+    for (uint32_t L = 0; L < nl; ++L)
+        s->cell[L] = vbnl_vli_locate(&x->levels[L], p, s->c3[L]);
 }
 
 static inline __attribute__((always_inline)) void vbnl_vli_pipe_b(const vbnl_vl_index *x, vbnl_vli_pipe_slot *s, uint32_t nl)
 {
-    for (uint32_t L = 0; L < nl; ++L) {
-        const grid_level *g = &x->levels[L];
-        uint32_t c = s->cell[L];
-        s->n[L] = 0;
-        if (c == UINT32_MAX)
-            continue;
-        s->s0[L] = g->start[c];
-        s->n[L] = g->start[c + 1] - s->s0[L];
-        if (s->n[L]) /* every block (cache line) of the cell's listings */
-            for (uint32_t b = s->s0[L] >> 3; b <= (s->s0[L] + s->n[L] - 1u) >> 3; ++b)
-                __builtin_prefetch(g->lst + (size_t)b * 16u);
-    }
+    for (uint32_t L = 0; L < nl; ++L)
+        vbnl_vli_fetch(&x->levels[L], s->cell[L], &s->s0[L], &s->n[L]);
 }
 
 static inline __attribute__((always_inline)) void vbnl_vli_pipe_c(const vbnl_vl_index *x, const vbnl_vl_batch *b, vec3 p,
