@@ -233,7 +233,8 @@ int main(int argc, char **argv)
     for (size_t v = 0; v < sizeof(variants) / sizeof(variants[0]); ++v) {
         if (mask && !(mask >> v & 1u))
             continue;
-        vbnl_vl_index_desc xd = {c, r, n, variants[v].count, variants[v].kind, variants[v].cell_scale, ctx->device};
+        vbnl_vl_index_desc xd = {c, r, n, variants[v].count, variants[v].kind, variants[v].cell_scale, ctx->device,
+                                 VBNL_VL_INDEX_LEVELS_AUTO};
         vbnl_vl_index *idx = NULL;
         double tb = vbnl_now();
         if (vbnl_vl_index_create(&xd, &idx) != VBNL_OK)

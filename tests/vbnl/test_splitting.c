@@ -130,10 +130,10 @@ static void check_batch(const vbnl_vl_index *x, const vec3 *pts, uint32_t npts)
     free(order);
 }
 
-static void check_index(vbnl_vl_index_kind kind, RTCDevice dev, const vec3 *c, const float *r, const vec3 *nrm,
-                        uint32_t n, const vec3 *pts, uint32_t npts)
+static uint32_t check_index_levels(vbnl_vl_index_kind kind, vbnl_vl_index_levels levels, RTCDevice dev, const vec3 *c,
+                               const float *r, const vec3 *nrm, uint32_t n, const vec3 *pts, uint32_t npts)
 {
-    vbnl_vl_index_desc d = {c, r, nrm, n, kind, 0.0f, dev};
+    vbnl_vl_index_desc d = {c, r, nrm, n, kind, 0.0f, dev, levels};
     vbnl_vl_index *x = NULL;
     assert_int_equal(vbnl_vl_index_create(&d, &x), VBNL_OK);
     uint32_t ids[256], ref[256];
@@ -171,12 +171,28 @@ static void check_index(vbnl_vl_index_kind kind, RTCDevice dev, const vec3 *c, c
         assert_int_equal(vbnl_vl_index_query_filtered(x, pts[k], &f, 256, ids, NULL), mf);
         assert_memory_equal(ids, ref, mf * sizeof(uint32_t));
     }
-    print_message("# %s: %u spheres, %u points, %.2f spheres per point (max %u), %zu bytes\n",
-                  kind == VBNL_VL_INDEX_GRID ? "grid" : "embree", n, npts, (double)total / npts, most,
-                  vbnl_vl_index_bytes(x));
+    print_message("# %s (%u levels): %u spheres, %u points, %.2f spheres per point (max %u), %zu bytes\n",
+                  kind == VBNL_VL_INDEX_GRID ? "grid" : "embree", vbnl_vl_index_level_count(x), n, npts,
+                  (double)total / npts, most, vbnl_vl_index_bytes(x));
     assert_true(total > npts / 4); /* the test points do hit spheres */
     check_batch(x, pts, npts);
+    uint32_t levels_built = vbnl_vl_index_level_count(x);
     vbnl_vl_index_destroy(x);
+    return levels_built;
+}
+
+/* The grid with each level policy (vl_index.h, "Levels"), or the Embree variant; returns the
+ * levels AUTO built. */
+static uint32_t check_index(vbnl_vl_index_kind kind, RTCDevice dev, const vec3 *c, const float *r, const vec3 *nrm,
+                            uint32_t n, const vec3 *pts, uint32_t npts)
+{
+    if (kind != VBNL_VL_INDEX_GRID)
+        return check_index_levels(kind, VBNL_VL_INDEX_LEVELS_AUTO, dev, c, r, nrm, n, pts, npts);
+    uint32_t aut = check_index_levels(kind, VBNL_VL_INDEX_LEVELS_AUTO, dev, c, r, nrm, n, pts, npts);
+    uint32_t classes = check_index_levels(kind, VBNL_VL_INDEX_LEVELS_CLASSES, dev, c, r, nrm, n, pts, npts);
+    assert_int_equal(check_index_levels(kind, VBNL_VL_INDEX_LEVELS_ONE, dev, c, r, nrm, n, pts, npts), 1);
+    assert_true(aut == 1 || aut == classes);
+    return aut;
 }
 
 static void test_index_brute_force(void **state)
@@ -205,7 +221,8 @@ static void test_index_brute_force(void **state)
         }
     }
     RTCDevice dev = rtcNewDevice(NULL);
-    check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, N, pts, P);
+    /* radii over a factor 16: one level costs less than twice the classes' listings */
+    assert_int_equal(check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, N, pts, P), 1);
     check_index(VBNL_VL_INDEX_EMBREE, dev, c, r, nrm, N, pts, P);
     /* one radius class (the pipelined single-level query) and three classes (pipelined, <= 4
      * levels; the set above has 5 and takes the plain path) */
@@ -226,11 +243,15 @@ static void test_index_brute_force(void **state)
         r[j] = 0.5f + (float)(j % 3);
         pts[2 * j + 1] = v3_fma(c[j], v3(0.3f, -0.2f, 0.1f), r[j]);
     }
-    check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, 200, pts, 400);
+    /* radii 0.5 to 2.5: one level with the cells of the most populated class would hold more
+     * than twice the classes' listings, so AUTO keeps the classes */
+    assert_true(check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, 200, pts, 400) > 1);
     /* bad arguments */
     vbnl_vl_index *x = (vbnl_vl_index *)1;
-    vbnl_vl_index_desc bad = {c, r, NULL, N, VBNL_VL_INDEX_EMBREE, 0.0f, NULL};
+    vbnl_vl_index_desc bad = {c, r, NULL, N, VBNL_VL_INDEX_EMBREE, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
     assert_int_equal(vbnl_vl_index_create(&bad, &x), VBNL_ERR_INVALID_ARGUMENT);
+    vbnl_vl_index_desc bad_levels = {c, r, NULL, N, VBNL_VL_INDEX_GRID, 0.0f, NULL, (vbnl_vl_index_levels)3};
+    assert_int_equal(vbnl_vl_index_create(&bad_levels, &x), VBNL_ERR_INVALID_ARGUMENT);
     assert_null(x);
     vbnl_vl_index_destroy(NULL);
     rtcReleaseDevice(dev);
@@ -307,7 +328,7 @@ static void test_closed_sphere(void **state)
         n[j] = v3_neg(u);
         r[j] = r_vl;
     }
-    vbnl_vl_index_desc xd = {c, r, n, N, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    vbnl_vl_index_desc xd = {c, r, n, N, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
     vbnl_vl_index *idx = NULL;
     assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
     vbnl_hemioct *map = NULL;
@@ -473,7 +494,7 @@ static void test_determinism_and_merge(void **state)
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;
     place_vls(s, &v, 3000, 24.0f);
-    vbnl_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    vbnl_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
     vbnl_vl_index *idx = NULL;
     assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
     vbnl_hemioct *map = NULL;
@@ -608,7 +629,7 @@ static void test_glossy_directions(void **state)
     vec3 c = v3(0, 0, 0), nrm = v3(0, 1, 0);
     float r = 0.2f;
     uint8_t glossy = 1;
-    vbnl_vl_index_desc xd = {&c, &r, &nrm, 1, VBNL_VL_INDEX_EMBREE, 0.0f, ctx->device};
+    vbnl_vl_index_desc xd = {&c, &r, &nrm, 1, VBNL_VL_INDEX_EMBREE, 0.0f, ctx->device, VBNL_VL_INDEX_LEVELS_AUTO};
     vbnl_vl_index *idx = NULL;
     assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
     vbnl_hemioct *map = NULL;
@@ -685,7 +706,7 @@ static void test_key_bin(void **state)
         c[j] = v3(vbnl_rng_next(&rng) * 3 - 1, vbnl_rng_next(&rng) * 2, vbnl_rng_next(&rng) - 4);
         r[j] = 0.05f;
     }
-    vbnl_vl_index_desc xd = {c, r, NULL, N, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    vbnl_vl_index_desc xd = {c, r, NULL, N, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
     vbnl_vl_index *idx = NULL;
     assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
     vbnl_vl_key_grid g = vbnl_vl_index_key_grid(idx);

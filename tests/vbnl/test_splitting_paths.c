@@ -64,11 +64,17 @@ static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area
 }
 
 static vbnl_profile_set *run(const vbnl_context *ctx, const vbnl_scene *s, const vl_list *v, vbnl_vl_index_kind kind,
-                             const vbnl_hemioct *map, vbnl_pool *pool, uint64_t paths, vbnl_split_stats *st)
+                             vbnl_vl_index_levels levels, uint32_t expect_levels, const vbnl_hemioct *map,
+                             vbnl_pool *pool, uint64_t paths, vbnl_split_stats *st)
 {
-    vbnl_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, kind, 0.0f, ctx->device};
+    vbnl_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, kind, 0.0f, ctx->device, levels};
     vbnl_vl_index *idx = NULL;
     assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
+    if (kind == VBNL_VL_INDEX_GRID) { /* the path this test means to take */
+        uint32_t nl = vbnl_vl_index_level_count(idx);
+        print_message("# grid levels: %u\n", nl);
+        assert_true(expect_levels == 1 ? nl == 1 : nl > 1);
+    }
     vbnl_profile_set *ps = NULL;
     assert_int_equal(vbnl_profile_set_create_fixed(map, v->n, v->glossy, vbnl_split_photon_unit(s, paths), &ps),
                      VBNL_OK);
@@ -102,7 +108,7 @@ static uint64_t map_sum(const vbnl_profile_set *ps, uint32_t j, uint32_t texels,
     return s;
 }
 
-static void compare_paths(float spread)
+static void compare_paths(float spread, vbnl_vl_index_levels levels, uint32_t expect_levels)
 {
     vbnl_context *ctx = NULL;
     vbnl_context_desc cd = {2};
@@ -117,8 +123,8 @@ static void compare_paths(float spread)
     vbnl_pool *pool = vbnl_pool_create(2);
     const uint64_t P = 150000;
     vbnl_split_stats sg, se;
-    vbnl_profile_set *g = run(ctx, s, &v, VBNL_VL_INDEX_GRID, map, pool, P, &sg);
-    vbnl_profile_set *e = run(ctx, s, &v, VBNL_VL_INDEX_EMBREE, map, pool, P, &se);
+    vbnl_profile_set *g = run(ctx, s, &v, VBNL_VL_INDEX_GRID, levels, expect_levels, map, pool, P, &sg);
+    vbnl_profile_set *e = run(ctx, s, &v, VBNL_VL_INDEX_EMBREE, levels, 0, map, pool, P, &se);
     print_message("# spread %.1f: %llu hits, %llu covered, %llu deposits (grid) / %llu (embree)\n", (double)spread,
                   (unsigned long long)sg.hits, (unsigned long long)sg.covered_hits,
                   (unsigned long long)sg.deposits, (unsigned long long)se.deposits);
@@ -162,20 +168,29 @@ static void compare_paths(float spread)
 static void test_cell_path_vs_plain(void **state)
 {
     (void)state;
-    compare_paths(1.0f);
+    compare_paths(1.0f, VBNL_VL_INDEX_LEVELS_AUTO, 1);
 }
 
-/* Radii over a factor 6 (several grid levels): the index pipeline vs plain queries. */
+/* Radii over a factor 6 in one level (the default for such a spread, vl_index.h "Levels"):
+ * hits carry their cell, spheres of several sizes share the cells, vs plain queries. */
+static void test_cell_path_mixed_radii_vs_plain(void **state)
+{
+    (void)state;
+    compare_paths(6.0f, VBNL_VL_INDEX_LEVELS_AUTO, 1);
+}
+
+/* Radii over a factor 6 in one level per radius class: the index pipeline vs plain queries. */
 static void test_level_path_vs_plain(void **state)
 {
     (void)state;
-    compare_paths(6.0f);
+    compare_paths(6.0f, VBNL_VL_INDEX_LEVELS_CLASSES, 2);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cell_path_vs_plain),
+        cmocka_unit_test(test_cell_path_mixed_radii_vs_plain),
         cmocka_unit_test(test_level_path_vs_plain),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -81,7 +81,9 @@ static void fixture_make(fixture *f)
         const vbnl_profile_kernel *k = f->kernels[f->set.material[j]];
         f->power[j] = v3_max_comp(v3_mul(vbnl_profile_power(f->profiles, j, k), f->set.tint[j]));
     }
-    vbnl_vl_index_desc d = {f->set.position, f->set.radius, f->set.normal, N_LIGHTS, VBNL_VL_INDEX_GRID, 0.0f, NULL};
+    /* one level per radius class: test_candidates checks the staged lookup over several levels */
+    vbnl_vl_index_desc d = {f->set.position, f->set.radius, f->set.normal, N_LIGHTS, VBNL_VL_INDEX_GRID, 0.0f, NULL,
+                            VBNL_VL_INDEX_LEVELS_CLASSES};
     assert_int_equal(vbnl_vl_index_create(&d, &f->index), VBNL_OK);
 }
 
@@ -218,7 +220,8 @@ static void test_lookup_unstaged(void **state)
     }
     RTCDevice dev = rtcNewDevice(NULL);
     for (int kind = 0; kind < 2; ++kind) {
-        vbnl_vl_index_desc d = {c, r, NULL, N, kind ? VBNL_VL_INDEX_EMBREE : VBNL_VL_INDEX_GRID, 0.0f, dev};
+        vbnl_vl_index_desc d = {c, r, NULL, N, kind ? VBNL_VL_INDEX_EMBREE : VBNL_VL_INDEX_GRID, 0.0f, dev,
+                                VBNL_VL_INDEX_LEVELS_CLASSES};
         vbnl_vl_index *x;
         assert_int_equal(vbnl_vl_index_create(&d, &x), VBNL_OK);
         uint32_t nonempty = 0;

@@ -2,6 +2,7 @@
  * Li et al. 2022, Section 3.3), conversion to the cosine-free intensity J with the VL's BSDF,
  * eager or lazy (Section 5.3), and emitted power for the power-based selection of Eq. 4.
  * Quantities and thread rules: profiles.h. */
+#include "bigalloc.h"
 #include "profiles.h"
 
 #include <stdlib.h>
@@ -245,7 +246,7 @@ vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t coun
         s->slot[v] = glossy && glossy[v] ? s->n_glossy++ : NO_SLOT;
     if (s->n_glossy) {
         size_t cells = (size_t)s->n_glossy * s->texels;
-        s->incident = calloc(3 * cells, sizeof(uint64_t));
+        s->incident = vbnl_big_calloc(3 * cells, sizeof(uint64_t));
         /* 64-byte aligned: a light's map then starts a line and a texel row of 16 is one line */
         s->code = aligned_alloc(64, (cells * sizeof(uint32_t) + 63) & ~(size_t)63);
         if (!s->incident || !s->code) {

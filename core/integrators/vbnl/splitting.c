@@ -1,5 +1,6 @@
 /* Photon splitting (Li et al. 2022, Section 3.3): photon paths from the lights, every hit's
  * power shared among the virtual lights around it. Design and rules: splitting.h. */
+#include "bigalloc.h"
 #include "splitting.h"
 #include "vl_index_pipe.h"
 
@@ -944,13 +945,13 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;
-        if (own_sums && (t->vl = aligned_alloc(64, sizeof(split_vl) * ((size_t)nvl + 1)))) {
+        if (own_sums && (t->vl = vbnl_big_alloc(sizeof(split_vl) * ((size_t)nvl + 1)))) {
             memset(t->vl, 0, sizeof(split_vl) * ((size_t)nvl + 1));
             for (uint32_t r = 0; r < nvl; ++r)
                 t->vl[r].rec = d->index->rec[r];
             t->acc = t->vl[0].acc;
         }
-        t->hits = aligned_alloc(64, t->cap * sizeof(split_rec));
+        t->hits = vbnl_big_alloc(t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
         if (job.cell_fast && (!(t->cell = malloc(t->cap * sizeof(uint32_t))) ||

@@ -1,6 +1,7 @@
 /* Spatial index over virtual-light spheres: multi-level grid and Embree point-query variants
  * (see vl_index.h). Used by photon splitting (Li et al. 2022, Section 3.3) and by rendering's
  * BSDF-sampling gather (Section 4.1). */
+#include "bigalloc.h"
 #include "vl_index_internal.h"
 
 /* ---- spatial order -------------------------------------------------------------------------- */
@@ -109,7 +110,7 @@ static vbnl_result order_build(vbnl_vl_index *x, const vbnl_vl_index_desc *desc,
             x->rank_of[order[k]] = k;
         x->bytes += (size_t)n * sizeof(uint32_t);
     }
-    x->rec = aligned_alloc(64, (((size_t)n * sizeof(vl_rec) + 63) / 64 + 1) * 64);
+    x->rec = vbnl_big_alloc((((size_t)n * sizeof(vl_rec) + 63) / 64 + 1) * 64);
     if (!x->rec) {
         free(order);
         return VBNL_ERR_OUT_OF_MEMORY;
@@ -189,8 +190,10 @@ static uint32_t quantize_entry(const grid_level *g, vec3 c, float r, const int32
     return q[0] | q[1] << 8 | q[2] << 16 | q[3] << 24;
 }
 
-/* Builds level L from the spheres of class L (ranks in `members`, ascending). */
-static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
+/* The frame of a level over the spheres `members` (ranks, ascending) with cells of edge `cell`
+ * (origin, cells per axis); returns the number of listings it would hold (cells overlapped by
+ * the spheres' boxes, summed). */
+static uint64_t level_frame(const vbnl_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
 {
     vec3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
     for (uint32_t k = 0; k < m; ++k) {
@@ -205,15 +208,12 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
     g->lo = lo;
     g->sphere_count = m;
     const float ext[3] = {hi.x - lo.x, hi.y - lo.y, hi.z - lo.z};
-    double cells = 1.0;
     for (int a = 0; a < 3; ++a) {
         double n = floor((double)ext[a] / cell) + 1.0;
         if (n > 1 << 30) /* absurd spread: cap (cells then merely hold more spheres) */
             n = 1 << 30;
         g->n[a] = (int32_t)n;
-        cells *= n;
     }
-    /* Pass 1: cells touched. Dense when the grid is small next to the number of listings. */
     uint64_t listings = 0;
     for (uint32_t k = 0; k < m; ++k) {
         int32_t a[3], b[3];
@@ -221,8 +221,17 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
         cell_range(g, rec_center(e), e->r, a, b);
         listings += (uint64_t)(b[0] - a[0] + 1) * (uint64_t)(b[1] - a[1] + 1) * (uint64_t)(b[2] - a[2] + 1);
     }
+    return listings;
+}
+
+/* Builds a level from the spheres `members` (ranks, ascending) with cells of edge `cell`. */
+static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
+{
+    uint64_t listings = level_frame(x, g, members, m, cell);
+    double cells = (double)g->n[0] * (double)g->n[1] * (double)g->n[2];
     if (listings >= UINT32_MAX)
         return VBNL_ERR_OUT_OF_MEMORY;
+    /* Dense when the grid is small next to the number of listings. */
     g->dense = cells <= 4.0 * (double)listings + 4096.0;
     uint32_t ncell;
     if (g->dense) {
@@ -248,9 +257,9 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
                         hash_find(g, linear_cell(g, xx, y, z), 1, &ncell);
         }
     }
-    g->start = calloc((size_t)ncell + 1, sizeof(uint32_t));
+    g->start = vbnl_big_calloc((size_t)ncell + 1, sizeof(uint32_t));
     const size_t lst_bytes = ((size_t)listings + 7u) / 8u * 64u + 64u; /* whole blocks, + 1 */
-    g->lst = aligned_alloc(64, lst_bytes);
+    g->lst = vbnl_big_alloc(lst_bytes);
     if (!g->start || !g->lst)
         return VBNL_ERR_OUT_OF_MEMORY;
     memset(g->lst, 0, lst_bytes);
@@ -300,7 +309,11 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
     return VBNL_OK;
 }
 
-static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale)
+/* Levels (vl_index.h, "Levels"): the radius classes, or one level for all spheres with the
+ * cells of the most populated class when that level would hold at most
+ * VBNL_VLI_ONE_LEVEL_LISTINGS times the listings of the classes (levels == AUTO), or always
+ * (ONE). */
+static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale, vbnl_vl_index_levels levels)
 {
     float r_min = INFINITY;
     for (uint32_t k = 0; k < x->count; ++k)
@@ -322,6 +335,51 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale)
         cls[k] = usable(r) ? (uint8_t)level_of(r, r_min) : 0xFF;
         if (cls[k] != 0xFF)
             counts[cls[k]]++;
+    }
+    uint32_t classes = 0, main_class = 0;
+    for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS; ++L) {
+        classes += counts[L] > 0;
+        if (counts[L] > counts[main_class])
+            main_class = L;
+    }
+    if (levels != VBNL_VL_INDEX_LEVELS_CLASSES && classes > 1) {
+        float r_main = 0.0f;
+        uint32_t m = 0;
+        for (uint32_t k = 0; k < x->count; ++k)
+            if (cls[k] != 0xFF) {
+                members[m++] = k;
+                if (cls[k] == main_class)
+                    r_main = fmaxf(r_main, x->rec[k].r);
+            }
+        int one = levels == VBNL_VL_INDEX_LEVELS_ONE;
+        if (!one) {
+            grid_level probe;
+            memset(&probe, 0, sizeof(probe));
+            double single = (double)level_frame(x, &probe, members, m, cell_scale * r_main), split = 0.0;
+            for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS; ++L) {
+                if (!counts[L])
+                    continue;
+                uint32_t mc = 0;
+                float r_max = 0.0f;
+                for (uint32_t k = 0; k < x->count; ++k)
+                    if (cls[k] == L) {
+                        members[mc++] = k;
+                        r_max = fmaxf(r_max, x->rec[k].r);
+                    }
+                split += (double)level_frame(x, &probe, members, mc, cell_scale * r_max);
+            }
+            one = single <= VBNL_VLI_ONE_LEVEL_LISTINGS * split;
+            if (one) { /* members again: all usable spheres */
+                m = 0;
+                for (uint32_t k = 0; k < x->count; ++k)
+                    if (cls[k] != 0xFF)
+                        members[m++] = k;
+            }
+        }
+        if (one) {
+            res = level_build(x, &x->levels[x->level_count++], members, m, cell_scale * r_main);
+            goto done;
+        }
     }
     for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS && res == VBNL_OK; ++L) {
         if (!counts[L])
@@ -420,7 +478,8 @@ vbnl_result vbnl_vl_index_create(const vbnl_vl_index_desc *desc, vbnl_vl_index *
     *out = NULL;
     if (!desc || (desc->count && (!desc->centers || !desc->radii)) ||
         (desc->kind != VBNL_VL_INDEX_GRID && desc->kind != VBNL_VL_INDEX_EMBREE) ||
-        (desc->kind == VBNL_VL_INDEX_EMBREE && !desc->device) || desc->cell_scale < 0.0f)
+        (desc->kind == VBNL_VL_INDEX_EMBREE && !desc->device) || desc->cell_scale < 0.0f ||
+        (unsigned)desc->levels > VBNL_VL_INDEX_LEVELS_ONE)
         return VBNL_ERR_INVALID_ARGUMENT;
     for (uint32_t i = 0; i < desc->count; ++i)
         if (!v3_is_finite(desc->centers[i]))
@@ -435,7 +494,7 @@ vbnl_result vbnl_vl_index_create(const vbnl_vl_index_desc *desc, vbnl_vl_index *
     vbnl_result r = order_build(x, desc, x->kind == VBNL_VL_INDEX_GRID);
     if (r == VBNL_OK)
         r = x->kind == VBNL_VL_INDEX_GRID
-                ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : VBNL_VLI_DEFAULT_CELL_SCALE)
+                ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : VBNL_VLI_DEFAULT_CELL_SCALE, desc->levels)
                 : embree_build(x, desc->device);
     if (r != VBNL_OK) {
         vbnl_vl_index_destroy(x);
@@ -562,4 +621,5 @@ vbnl_vl_key_grid vbnl_vl_index_key_grid(const vbnl_vl_index *x) { return (vbnl_v
 vec3 vbnl_vl_index_center(const vbnl_vl_index *x, uint32_t id) { return rec_center(x->rec + vbnl_vl_index_rank(x, id)); }
 float vbnl_vl_index_radius(const vbnl_vl_index *x, uint32_t id) { return x->rec[vbnl_vl_index_rank(x, id)].r; }
 vbnl_vl_index_kind vbnl_vl_index_get_kind(const vbnl_vl_index *x) { return x->kind; }
+uint32_t vbnl_vl_index_level_count(const vbnl_vl_index *x) { return x->kind == VBNL_VL_INDEX_GRID ? x->level_count : 0u; }
 size_t vbnl_vl_index_bytes(const vbnl_vl_index *x) { return x->bytes; }

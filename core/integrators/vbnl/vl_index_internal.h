@@ -15,6 +15,7 @@
 
 #define VBNL_VLI_MAX_LEVELS 32u
 #define VBNL_VLI_DEFAULT_CELL_SCALE 2.0f
+#define VBNL_VLI_ONE_LEVEL_LISTINGS 2.0 /* AUTO levels: one level up to this many times the listings of the classes */
 #define VBNL_VLI_EMPTY_KEY UINT64_MAX
 #define VBNL_VLI_KEY_BITS VBNL_VL_KEY_BITS /* spatial key: bits per axis (3 x 21 = 63-bit Morton code) */
 
