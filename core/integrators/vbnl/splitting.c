@@ -545,8 +545,6 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
         __m256 d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
         unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ)) &
                         vbnl_vli_lane_mask(b, s0, end);
-        if (!bits)
-            continue;
         if (nc + 8 > VBNL_VLI_PIPE_CAND) { /* near the capacity: count the rest */
             while (bits) {
                 unsigned j = (unsigned)__builtin_ctz(bits);
@@ -564,9 +562,14 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
     }
     /* the candidates' records and sums, for stage D */
     uint32_t np = nc < VBNL_VLI_PIPE_CAND ? nc : VBNL_VLI_PIPE_CAND;
-    if (vl)
-        for (uint32_t j = 0; j < np; ++j)
+    if (vl) {
+        /* eight at once (a loop of 4 to 10 left its exit to the branch predictor); the entries
+         * past nc are ranks too (the packed stores write 8, the slots start zeroed) */
+        for (uint32_t j = 0; j < 8; ++j)
             __builtin_prefetch(vl + cand[j]);
+        for (uint32_t j = 8; j < np; ++j)
+            __builtin_prefetch(vl + cand[j]);
+    }
     else
         for (uint32_t j = 0; j < np; ++j)
             __builtin_prefetch(rec + cand[j]);
@@ -625,7 +628,15 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
     uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
     sl->s0 = s0;
     sl->n = n;
-    vbnl_vli_prefetch_listings(g, s0, n); /* every line the pre-test reads */
+    /* every line the pre-test reads: four blocks at once (the spare block and the lines past
+     * the array's end are harmless to prefetch), a loop for more */
+    const uint32_t *l0 = g->lst + (size_t)(s0 >> 3) * 16u;
+    __builtin_prefetch(l0);
+    __builtin_prefetch(l0 + 16);
+    __builtin_prefetch(l0 + 32);
+    __builtin_prefetch(l0 + 48);
+    for (uint32_t b = (s0 >> 3) + 4u; n && b <= (s0 + n - 1u) >> 3; ++b)
+        __builtin_prefetch(g->lst + (size_t)b * 16u);
 }
 
 static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)
@@ -665,6 +676,7 @@ static void run_fast_pipe(const split_ctx *cx, const uint32_t *scell, uint32_t c
     fp.order = cx->order;
     fp.scell = scell;
     fp.vl = cx->t->vl;
+    memset(fp.ring, 0, sizeof(fp.ring)); /* fast_pretest prefetches cand[0..7] */
     const uint32_t S = FAST_S, end = count + 3 * S;
     uint32_t k = 0;
     for (; k < 3 * S && k < end; ++k)
