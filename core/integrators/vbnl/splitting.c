@@ -483,7 +483,16 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
                                       _mm256_set1_epi32(__builtin_popcount(keep)), lanes)));
         _mm256_storeu_ps(w + m, wc);
         _mm256_storeu_si256((__m256i *)(rk + m), _mm256_permutevar8x32_epi32(ci, pi));
-        sum = (((((((sum + w[m]) + w[m + 1]) + w[m + 2]) + w[m + 3]) + w[m + 4]) + w[m + 5]) + w[m + 6]) + w[m + 7];
+        { /* from the register (loads of the lanes just stored waited for the store) */
+            const __m128 lo = _mm256_castps256_ps128(wc), hi = _mm256_extractf128_ps(wc, 1);
+            sum = (((((((sum + _mm_cvtss_f32(lo)) + _mm_cvtss_f32(_mm_movehdup_ps(lo))) +
+                       _mm_cvtss_f32(_mm_movehl_ps(lo, lo))) +
+                      _mm_cvtss_f32(_mm_shuffle_ps(lo, lo, 3))) +
+                     _mm_cvtss_f32(hi)) +
+                    _mm_cvtss_f32(_mm_movehdup_ps(hi))) +
+                   _mm_cvtss_f32(_mm_movehl_ps(hi, hi))) +
+                  _mm_cvtss_f32(_mm_shuffle_ps(hi, hi, 3));
+        }
         m += (uint32_t)__builtin_popcount(keep);
     }
     if (0)
