@@ -16,8 +16,10 @@
  *
  * Usage: bench_splitting [photon_paths (2e6)] [vl_count (1e5)] [threads (0 = all)] [variants (bit mask
  * of the rows below, 0 = all)] [runs (3)] [scene file in the Cornell box folder
- * (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy VLs)]; a reduced case for
- * callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs). */
+ * (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy VLs)] [lights: "camera" (the
+ * placement above, one radius) or "pipeline" (vbnl's own stages 1 and 2 with its defaults:
+ * M = 10 N candidates, adaptive elimination, r_i = 2 r_i,max: radii over a few powers of two)];
+ * a reduced case for callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,6 +28,7 @@
 #include "context.h"
 #include "octahedral.h"
 #include "pool.h"
+#include "prepare.h"
 #include "profiles.h"
 #include "rng.h"
 #include "sampling.h"
@@ -175,13 +178,30 @@ int main(int argc, char **argv)
     unsigned nthreads = vbnl_context_thread_count(ctx);
     double area = world_area(s);
 
-    /* VL placement (Section 3.1, Fig. 6a). */
+    /* VL placement (Section 3.1, Fig. 6a), or the pipeline's lights. */
+    const int pipeline = argc > 7 && !strcmp(argv[7], "pipeline");
+    vbnl_vl_set vls;
+    memset(&vls, 0, sizeof(vls));
+    if (pipeline) {
+        vbnl_prepare_params pp = {nvl, 10u * nvl, 4, 0.15f, 4, VBNL_ELIM_ADAPTIVE, 1, 32, 0.8f, 2.0f, 512, 512, 1};
+        if (vbnl_prepare_lights(s, &pp, NULL, ctx->pool, &vls, NULL, &err) != VBNL_OK) {
+            fprintf(stderr, "%s\n", err.message);
+            return 1;
+        }
+        nvl = vls.count;
+    }
     vec3 *c = malloc(sizeof(vec3) * nvl), *n = malloc(sizeof(vec3) * nvl);
     float *r = malloc(sizeof(float) * nvl);
     uint8_t *glossy = malloc(nvl);
     float rad = 2.0f * sqrtf((float)(area / (2.0 * sqrt(3.0) * nvl)));
     vbnl_rng rng = vbnl_rng_make(3, 3);
     uint32_t k = 0;
+    for (; pipeline && k < nvl; ++k) {
+        c[k] = vls.position[k];
+        n[k] = vls.normal[k];
+        r[k] = vls.radius[k];
+        glossy[k] = s->materials[vls.material[k]].bsdf.type != VBNL_MATERIAL_LAMBERT;
+    }
     while (k < nvl) {
         vec3 o, d;
         vbnl_camera_ray(&s->camera, 512, 512, vbnl_rng_next(&rng) * 512, vbnl_rng_next(&rng) * 512, &o, &d);
@@ -212,8 +232,15 @@ int main(int argc, char **argv)
     uint32_t nglossy = 0;
     for (uint32_t j = 0; j < nvl; ++j)
         nglossy += glossy[j];
-    printf("scene: %s, %llu triangles, area %.3f; %u VLs (%u glossy), r = %.4f; %llu photon paths; %u threads\n", path,
-           (unsigned long long)s->triangle_count, area, nvl, nglossy, rad, (unsigned long long)paths, nthreads);
+    float r_lo = INFINITY, r_hi = 0.0f;
+    for (uint32_t j = 0; j < nvl; ++j) {
+        r_lo = fminf(r_lo, r[j]);
+        r_hi = fmaxf(r_hi, r[j]);
+    }
+    printf("scene: %s, %llu triangles, area %.3f; %u VLs (%s lights, %u glossy), r = %.4f .. %.4f; %llu photon paths; "
+           "%u threads\n",
+           path, (unsigned long long)s->triangle_count, area, nvl, pipeline ? "pipeline" : "camera", nglossy, r_lo,
+           r_hi, (unsigned long long)paths, nthreads);
     printf("raw Embree incoherent ray rate: %.2f Mrays/s\n", raw * 1e-6);
 
     vbnl_hemioct *map = NULL;
@@ -273,13 +300,13 @@ int main(int argc, char **argv)
         qsort(cpu_ratios, (size_t)runs, sizeof(double), cmp_double);
         double t = times[runs / 2], ratio = ratios[runs / 2], cpu_ratio = cpu_ratios[runs / 2];
         printf("%-24s %.3f s (min %.3f max %.3f, %d runs) | %.3f Mpaths/s | %.2f Mrays/s (%.0f%% of raw; median per-run ratio %.0f%%, per CPU second %.0f%%) | %.2f Mdeposits/s | "
-               "%.2f hits/path, %.1f%% covered, %.2f VLs/covered hit, %llu overflow | index %.2f MB (build %.3f s), "
+               "%.2f hits/path, %.1f%% covered, %.2f VLs/covered hit, %llu overflow | index %.2f MB, %u levels (build %.3f s), "
                "profiles %.2f MB, splitting scratch %.2f MB\n",
                variants[v].name, t, times[0], times[runs - 1], runs, st.paths / t * 1e-6, st.rays / t * 1e-6,
                raw > 0.0 ? 100.0 * st.rays / t / raw : 0.0, 100.0 * ratio, 100.0 * cpu_ratio, st.deposits / t * 1e-6, (double)st.hits / st.paths,
                100.0 * st.covered_hits / (st.hits ? st.hits : 1),
                (double)st.deposits / (st.covered_hits ? st.covered_hits : 1), (unsigned long long)st.overflow,
-               vbnl_vl_index_bytes(idx) / 1048576.0, tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
+               vbnl_vl_index_bytes(idx) / 1048576.0, vbnl_vl_index_level_count(idx), tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
         vbnl_vl_index_destroy(idx);
     }
     vbnl_hemioct_destroy(map);
