@@ -309,6 +309,22 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
     return VBNL_OK;
 }
 
+#define ALL_CLASSES UINT32_MAX
+
+/* The ranks of radius class L (every usable sphere for ALL_CLASSES), ascending, into members,
+ * and their largest radius into *r_max; returns their count. */
+static uint32_t class_members(const vbnl_vl_index *x, const uint8_t *cls, uint32_t L, uint32_t *members, float *r_max)
+{
+    uint32_t m = 0;
+    *r_max = 0.0f;
+    for (uint32_t k = 0; k < x->count; ++k)
+        if (L == ALL_CLASSES ? cls[k] != 0xFF : cls[k] == L) {
+            members[m++] = k;
+            *r_max = fmaxf(*r_max, x->rec[k].r);
+        }
+    return m;
+}
+
 /* Levels (vl_index.h, "Levels"): the radius classes, or one level for all spheres with the
  * cells of the most populated class when that level would hold at most
  * VBNL_VLI_ONE_LEVEL_LISTINGS times the listings of the classes (levels == AUTO), or always
@@ -343,40 +359,27 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale, vbnl_vl_index_
             main_class = L;
     }
     if (levels != VBNL_VL_INDEX_LEVELS_CLASSES && classes > 1) {
-        float r_main = 0.0f;
-        uint32_t m = 0;
-        for (uint32_t k = 0; k < x->count; ++k)
-            if (cls[k] != 0xFF) {
-                members[m++] = k;
-                if (cls[k] == main_class)
-                    r_main = fmaxf(r_main, x->rec[k].r);
-            }
+        float r_main;
+        class_members(x, cls, main_class, members, &r_main);
         int one = levels == VBNL_VL_INDEX_LEVELS_ONE;
         if (!one) {
             grid_level probe;
             memset(&probe, 0, sizeof(probe));
-            double single = (double)level_frame(x, &probe, members, m, cell_scale * r_main), split = 0.0;
+            double split = 0.0;
             for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS; ++L) {
-                if (!counts[L])
-                    continue;
-                uint32_t mc = 0;
-                float r_max = 0.0f;
-                for (uint32_t k = 0; k < x->count; ++k)
-                    if (cls[k] == L) {
-                        members[mc++] = k;
-                        r_max = fmaxf(r_max, x->rec[k].r);
-                    }
-                split += (double)level_frame(x, &probe, members, mc, cell_scale * r_max);
+                float r_max;
+                uint32_t mc = counts[L] ? class_members(x, cls, L, members, &r_max) : 0u;
+                if (mc)
+                    split += (double)level_frame(x, &probe, members, mc, cell_scale * r_max);
             }
-            one = single <= VBNL_VLI_ONE_LEVEL_LISTINGS * split;
-            if (one) { /* members again: all usable spheres */
-                m = 0;
-                for (uint32_t k = 0; k < x->count; ++k)
-                    if (cls[k] != 0xFF)
-                        members[m++] = k;
-            }
+            float r_all;
+            uint32_t m = class_members(x, cls, ALL_CLASSES, members, &r_all);
+            one = (double)level_frame(x, &probe, members, m, cell_scale * r_main) <=
+                  VBNL_VLI_ONE_LEVEL_LISTINGS * split;
         }
         if (one) {
+            float r_all;
+            uint32_t m = class_members(x, cls, ALL_CLASSES, members, &r_all);
             res = level_build(x, &x->levels[x->level_count++], members, m, cell_scale * r_main);
             goto done;
         }
@@ -384,13 +387,8 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale, vbnl_vl_index_
     for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS && res == VBNL_OK; ++L) {
         if (!counts[L])
             continue;
-        uint32_t m = 0;
-        float r_max = 0.0f;
-        for (uint32_t k = 0; k < x->count; ++k)
-            if (cls[k] == L) {
-                members[m++] = k;
-                r_max = fmaxf(r_max, x->rec[k].r);
-            }
+        float r_max;
+        uint32_t m = class_members(x, cls, L, members, &r_max);
         res = level_build(x, &x->levels[x->level_count++], members, m, cell_scale * r_max);
     }
 done:
