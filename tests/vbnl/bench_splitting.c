@@ -180,6 +180,10 @@ int main(int argc, char **argv)
 
     /* VL placement (Section 3.1, Fig. 6a), or the pipeline's lights. */
     const int pipeline = argc > 7 && !strcmp(argv[7], "pipeline");
+    if (argc > 7 && !pipeline && strcmp(argv[7], "camera")) {
+        fprintf(stderr, "bench_splitting: lights must be 'camera' or 'pipeline', got '%s'\n", argv[7]);
+        return 2;
+    }
     vbnl_vl_set vls;
     memset(&vls, 0, sizeof(vls));
     if (pipeline) {
@@ -314,6 +318,7 @@ int main(int argc, char **argv)
     free(n);
     free(r);
     free(glossy);
+    vbnl_vl_set_free(&vls);
     free(rr.o);
     free(rr.d);
     vbnl_scene_destroy(s);

@@ -637,15 +637,7 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
     uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
     sl->s0 = s0;
     sl->n = n;
-    /* every line the pre-test reads: four blocks at once (the spare block and the lines past
-     * the array's end are harmless to prefetch), a loop for more */
-    const uint32_t *l0 = g->lst + (size_t)(s0 >> 3) * 16u;
-    __builtin_prefetch(l0);
-    __builtin_prefetch(l0 + 16);
-    __builtin_prefetch(l0 + 32);
-    __builtin_prefetch(l0 + 48);
-    for (uint32_t b = (s0 >> 3) + 4u; n && b <= (s0 + n - 1u) >> 3; ++b)
-        __builtin_prefetch(g->lst + (size_t)b * 16u);
+    vbnl_vli_prefetch_listings(g, s0, n); /* every line the pre-test reads */
 }
 
 static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)

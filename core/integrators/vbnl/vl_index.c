@@ -359,27 +359,19 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale, vbnl_vl_index_
             main_class = L;
     }
     if (levels != VBNL_VL_INDEX_LEVELS_CLASSES && classes > 1) {
-        float r_main;
+        float r_main, r_max;
         class_members(x, cls, main_class, members, &r_main);
-        int one = levels == VBNL_VL_INDEX_LEVELS_ONE;
-        if (!one) {
-            grid_level probe;
-            memset(&probe, 0, sizeof(probe));
-            double split = 0.0;
-            for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS; ++L) {
-                float r_max;
-                uint32_t mc = counts[L] ? class_members(x, cls, L, members, &r_max) : 0u;
-                if (mc)
-                    split += (double)level_frame(x, &probe, members, mc, cell_scale * r_max);
+        double split = 0.0; /* listings of one level per class (AUTO only) */
+        grid_level probe;
+        memset(&probe, 0, sizeof(probe));
+        for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS && levels == VBNL_VL_INDEX_LEVELS_AUTO; ++L)
+            if (counts[L]) {
+                uint32_t mc = class_members(x, cls, L, members, &r_max);
+                split += (double)level_frame(x, &probe, members, mc, cell_scale * r_max);
             }
-            float r_all;
-            uint32_t m = class_members(x, cls, ALL_CLASSES, members, &r_all);
-            one = (double)level_frame(x, &probe, members, m, cell_scale * r_main) <=
-                  VBNL_VLI_ONE_LEVEL_LISTINGS * split;
-        }
-        if (one) {
-            float r_all;
-            uint32_t m = class_members(x, cls, ALL_CLASSES, members, &r_all);
+        uint32_t m = class_members(x, cls, ALL_CLASSES, members, &r_max);
+        if (levels == VBNL_VL_INDEX_LEVELS_ONE ||
+            (double)level_frame(x, &probe, members, m, cell_scale * r_main) <= VBNL_VLI_ONE_LEVEL_LISTINGS * split) {
             res = level_build(x, &x->levels[x->level_count++], members, m, cell_scale * r_main);
             goto done;
         }

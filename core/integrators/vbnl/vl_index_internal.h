@@ -353,9 +353,16 @@ static inline uint32_t vbnl_vli_locate(const grid_level *g, vec3 p, int32_t c3[3
 
 static inline void vbnl_vli_prefetch_listings(const grid_level *g, uint32_t s0, uint32_t n)
 {
-    if (n)
-        for (uint32_t b = s0 >> 3; b <= (s0 + n - 1u) >> 3; ++b)
-            __builtin_prefetch(g->lst + (size_t)b * 16u);
+    /* Four blocks whatever n (a loop of one to four blocks left its exit to the branch
+     * predictor: photon splitting 8-10% slower; prefetching the next cells' lines, or lines
+     * past the array's end, is harmless), a loop for more. */
+    const uint32_t *l0 = g->lst + (size_t)(s0 >> 3) * 16u;
+    __builtin_prefetch(l0);
+    __builtin_prefetch(l0 + 16);
+    __builtin_prefetch(l0 + 32);
+    __builtin_prefetch(l0 + 48);
+    for (uint32_t b = (s0 >> 3) + 4u; n && b <= (s0 + n - 1u) >> 3; ++b)
+        __builtin_prefetch(g->lst + (size_t)b * 16u);
 }
 
 static inline void vbnl_vli_fetch(const grid_level *g, uint32_t c, uint32_t *s0, uint32_t *n)
