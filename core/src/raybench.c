@@ -18,7 +18,7 @@
 
 #define CHUNK 4096u /* rays per work item; a multiple of 8 */
 
-enum { KIND_CAMERA, KIND_CLOSEST, KIND_SHADOW };
+enum { KIND_CAMERA, KIND_CLOSEST, KIND_CLOSEST8, KIND_SHADOW };
 
 typedef struct ray_set {
     const vbnl_scene *scene;
@@ -37,28 +37,16 @@ static void trace_chunk(void *user, uint64_t item, unsigned thread)
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
     uint64_t hits = 0;
-    if (rs->kind == KIND_CAMERA) {
-        ictx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    if (rs->kind == KIND_CAMERA || rs->kind == KIND_CLOSEST8) {
+        if (rs->kind == KIND_CAMERA)
+            ictx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
         for (uint32_t i0 = begin; i0 < end; i0 += 8) {
             _Alignas(32) struct RTCRayHit8 rh;
             _Alignas(32) int valid[8];
             for (uint32_t k = 0; k < 8; ++k) {
                 uint32_t i = i0 + k < end ? i0 + k : i0;
                 valid[k] = i0 + k < end ? -1 : 0;
-                rh.ray.org_x[k] = rs->o[i].x;
-                rh.ray.org_y[k] = rs->o[i].y;
-                rh.ray.org_z[k] = rs->o[i].z;
-                rh.ray.dir_x[k] = rs->d[i].x;
-                rh.ray.dir_y[k] = rs->d[i].y;
-                rh.ray.dir_z[k] = rs->d[i].z;
-                rh.ray.tnear[k] = 0.0f;
-                rh.ray.tfar[k] = INFINITY;
-                rh.ray.time[k] = 0.0f;
-                rh.ray.mask[k] = 0xffffffffu;
-                rh.ray.id[k] = k;
-                rh.ray.flags[k] = 0;
-                rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+                vbnl_rayhit8_set(&rh, k, rs->o[i], rs->d[i], INFINITY);
             }
             rtcIntersect8(valid, rs->scene->world, &ictx, &rh);
             for (uint32_t k = 0; k < 8; ++k)
@@ -202,13 +190,17 @@ vbnl_result vbnl_scene_measure_ray_rates(vbnl_context *ctx, const vbnl_scene *sc
     cam.count = ray_count;
     /* the kinds take turns, so that a load that comes and goes on a shared machine falls on
      * all of them alike */
-    double t_cl[3], t_sh[3], t_cam[3];
+    double t_cl[3], t_cl8[3], t_sh[3], t_cam[3];
     for (int rep = 0; rep < 3; ++rep) {
+        bounce.kind = KIND_CLOSEST;
         t_cl[rep] = time_set(ctx, &bounce);
+        bounce.kind = KIND_CLOSEST8;
+        t_cl8[rep] = time_set(ctx, &bounce);
         t_sh[rep] = time_set(ctx, &shadow);
         t_cam[rep] = time_set(ctx, &cam);
     }
     out->closest = rate_of(&bounce, t_cl);
+    out->closest_packet = rate_of(&bounce, t_cl8);
     out->shadow = rate_of(&shadow, t_sh);
     out->camera = rate_of(&cam, t_cam);
     free_set(&cam);

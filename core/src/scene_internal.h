@@ -121,6 +121,25 @@ static inline void vbnl_rayhit_init(struct RTCRayHit *rh, vec3 o, vec3 d, float 
     rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
 }
 
+/* Lane k of an 8-wide packet: vbnl_rayhit_init for that lane (id = k). */
+static inline void vbnl_rayhit8_set(struct RTCRayHit8 *rh, unsigned k, vec3 o, vec3 d, float tfar)
+{
+    rh->ray.org_x[k] = o.x;
+    rh->ray.org_y[k] = o.y;
+    rh->ray.org_z[k] = o.z;
+    rh->ray.dir_x[k] = d.x;
+    rh->ray.dir_y[k] = d.y;
+    rh->ray.dir_z[k] = d.z;
+    rh->ray.tnear[k] = 0.0f;
+    rh->ray.tfar[k] = tfar;
+    rh->ray.time[k] = 0.0f;
+    rh->ray.mask[k] = 0xffffffffu;
+    rh->ray.id[k] = k;
+    rh->ray.flags[k] = 0;
+    rh->hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+}
+
 /* The mesh part of a hit's set-up (vbnl_fill_hit below; inline also in the photon walk,
  * photon_fast.h): normals, uv, material and light of triangle `prim` at barycentrics (bu, bv),
  * from Embree's unnormalised geometric normal e_ng ((p1 - p0) x (p2 - p0), the scene's winding),

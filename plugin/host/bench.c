@@ -195,7 +195,7 @@ int host_bench_main(int argc, char **argv)
            info.light_count);
     printf("image       %ux%u, %u spp per run, %u runs, %u threads, sampler %s\n\n", width, height, spp, repeat,
            vbnl_context_thread_count(ctx), vbnl_sampler_name(sampler));
-    double raw[99], sps[99], rps[99], raw_cam[99], raw_shadow[99], raw_mix[99], mix_frac[3][99];
+    double raw[99], raw_pkt[99], sps[99], rps[99], raw_cam[99], raw_shadow[99], raw_mix[99], mix_frac[3][99];
     for (unsigned i = 0; i < repeat; ++i) {
         vbnl_ray_rates rr;
         if (vbnl_scene_measure_ray_rates(ctx, scene, 1u << 20, width, height, &rr, &err) != VBNL_OK) {
@@ -222,6 +222,7 @@ int host_bench_main(int argc, char **argv)
         /* path's own mixture of ray kinds, each at its raw rate: the fair ceiling */
         uint64_t closest = st.rays - st.camera_rays - st.shadow_rays;
         raw[i] = rr.closest;
+        raw_pkt[i] = rr.closest_packet;
         raw_cam[i] = rr.camera;
         raw_shadow[i] = rr.shadow;
         raw_mix[i] = vbnl_ray_rates_mix(&rr, st.camera_rays, closest, st.shadow_rays);
@@ -234,6 +235,7 @@ int host_bench_main(int argc, char **argv)
     double m_mix = median(raw_mix, (int)repeat);
     printf("%-34s %14s\n", "figure (median)", "value");
     printf("%-34s %11.2f M/s\n", "raw Embree incoherent rays", m_raw / 1e6);
+    printf("%-34s %11.2f M/s\n", "raw Embree incoherent, 8-packets", median(raw_pkt, (int)repeat) / 1e6);
     printf("%-34s %11.2f M/s\n", "raw Embree camera packets", median(raw_cam, (int)repeat) / 1e6);
     printf("%-34s %11.2f M/s\n", "raw Embree shadow rays", median(raw_shadow, (int)repeat) / 1e6);
     printf("%-34s %11.2f M/s\n", "raw Embree at path's ray mixture", m_mix / 1e6);

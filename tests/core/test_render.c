@@ -511,12 +511,12 @@ static void test_ray_rates(void **state)
     assert_int_equal(vbnl_scene_measure_ray_rates(ctx, s, 0, 16, 16, &rr, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_measure_ray_rates(ctx, s, 1000, 16, 16, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_measure_ray_rates(ctx, s, 20000, 16, 16, &rr, &err), VBNL_OK);
-    assert_true(rr.camera > 0.0 && rr.closest > 0.0 && rr.shadow > 0.0);
+    assert_true(rr.camera > 0.0 && rr.closest > 0.0 && rr.shadow > 0.0 && rr.closest_packet > 0.0);
     double one;
     assert_int_equal(vbnl_scene_measure_ray_rate(ctx, s, 20000, 16, 16, &one, &err), VBNL_OK);
     assert_true(one > 0.0);
     /* the mixture rate is the total over the summed times */
-    vbnl_ray_rates fixed = {4.0, 1.0, 2.0};
+    vbnl_ray_rates fixed = {4.0, 1.0, 2.0, 0.0};
     assert_true(fabs(vbnl_ray_rates_mix(&fixed, 0, 10, 0) - 1.0) < 1e-12);
     assert_true(fabs(vbnl_ray_rates_mix(&fixed, 4, 1, 2) - 7.0 / 3.0) < 1e-12);
     fixed.shadow = 0.0;

@@ -54,6 +54,7 @@ typedef struct raw_rays {
     const vbnl_scene *s;
     vec3 *o, *d;
     uint32_t n;
+    int packet; /* 1: eight rays to a packet (rtcIntersect8), else one at a time (rtcIntersect1) */
 } raw_rays;
 
 static void make_raw_rays(raw_rays *rr, uint32_t count)
@@ -83,10 +84,23 @@ static void raw_chunk(void *user, uint64_t item, unsigned thread)
     uint32_t b = (uint32_t)item * 4096u, e = b + 4096u < rr->n ? b + 4096u : rr->n;
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
-    for (uint32_t i = b; i < e; ++i) {
-        struct RTCRayHit rh;
-        vbnl_rayhit_init(&rh, rr->o[i], rr->d[i], INFINITY);
-        rtcIntersect1(rr->s->world, &ictx, &rh);
+    if (!rr->packet) {
+        for (uint32_t i = b; i < e; ++i) {
+            struct RTCRayHit rh;
+            vbnl_rayhit_init(&rh, rr->o[i], rr->d[i], INFINITY);
+            rtcIntersect1(rr->s->world, &ictx, &rh);
+        }
+        return;
+    }
+    for (uint32_t i0 = b; i0 < e; i0 += 8) {
+        _Alignas(32) struct RTCRayHit8 rh;
+        _Alignas(32) int valid[8];
+        for (uint32_t k = 0; k < 8; ++k) {
+            uint32_t i = i0 + k < e ? i0 + k : i0;
+            valid[k] = i0 + k < e ? -1 : 0;
+            vbnl_rayhit8_set(&rh, k, rr->o[i], rr->d[i], INFINITY);
+        }
+        rtcIntersect8(valid, rr->s->world, &ictx, &rh);
     }
 }
 
@@ -98,23 +112,28 @@ static int no_poll(void *user, uint64_t finished, uint64_t count)
     return 0;
 }
 
-/* Median of 3 runs, per wall second and per CPU second. */
-static void raw_rate(vbnl_context *ctx, const raw_rays *rr, double *wall, double *cpu)
+/* The ceiling: the faster of one ray at a time and eight-ray packets, each the median of 3 runs,
+ * per wall second and per CPU second. */
+static void raw_rate(vbnl_context *ctx, raw_rays *rr, double *wall, double *cpu)
 {
-    double w[3], c[3];
-    for (int k = 0; k < 3; ++k) {
-        double t0 = vbnl_now(), c0 = cpu_now();
-        vbnl_pool_run(ctx->pool, (rr->n + 4095u) / 4096u, raw_chunk, (void *)rr, no_poll, NULL, 1.0);
-        w[k] = rr->n / (vbnl_now() - t0);
-        c[k] = rr->n / (cpu_now() - c0);
-    }
-    for (int a = 0; a < 3; ++a)
-        for (int b = a + 1; b < 3; ++b) {
-            if (w[b] < w[a]) { double t = w[a]; w[a] = w[b]; w[b] = t; }
-            if (c[b] < c[a]) { double t = c[a]; c[a] = c[b]; c[b] = t; }
+    *wall = *cpu = 0.0;
+    for (int packet = 0; packet < 2; ++packet) {
+        rr->packet = packet;
+        double w[3], c[3];
+        for (int k = 0; k < 3; ++k) {
+            double t0 = vbnl_now(), c0 = cpu_now();
+            vbnl_pool_run(ctx->pool, (rr->n + 4095u) / 4096u, raw_chunk, (void *)rr, no_poll, NULL, 1.0);
+            w[k] = rr->n / (vbnl_now() - t0);
+            c[k] = rr->n / (cpu_now() - c0);
         }
-    *wall = w[1];
-    *cpu = c[1];
+        for (int a = 0; a < 3; ++a)
+            for (int b = a + 1; b < 3; ++b) {
+                if (w[b] < w[a]) { double t = w[a]; w[a] = w[b]; w[b] = t; }
+                if (c[b] < c[a]) { double t = c[a]; c[a] = c[b]; c[b] = t; }
+            }
+        *wall = w[1] > *wall ? w[1] : *wall;
+        *cpu = c[1] > *cpu ? c[1] : *cpu;
+    }
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -153,7 +172,10 @@ int main(int argc, char **argv)
     const char *shared = getenv("VBNL_SHARED_DIR");
     char path[1024];
     const char *scene_file = argc > 6 ? argv[6] : "CornellBox-Original.obj";
-    snprintf(path, sizeof(path), "%s/scenes/cornell-box-mcguire/%s", shared ? shared : "/work/shared", scene_file);
+    if (strchr(scene_file, '/')) /* a path of its own */
+        snprintf(path, sizeof(path), "%s", scene_file);
+    else
+        snprintf(path, sizeof(path), "%s/scenes/cornell-box-mcguire/%s", shared ? shared : "/work/shared", scene_file);
 
     vbnl_context_desc cd = {threads};
     vbnl_context *ctx = NULL;
@@ -227,10 +249,15 @@ int main(int argc, char **argv)
     }
     /* VBNL_BENCH_NO_RAW=1 skips the ray-rate measurements (under callgrind). */
     int want_raw = !getenv("VBNL_BENCH_NO_RAW");
-    double raw = 0.0;
-    raw_rays rr = {s, NULL, NULL, 0};
+    double raw = 0.0, raw_single = 0.0, raw_packet = 0.0;
+    raw_rays rr = {s, NULL, NULL, 0, 0};
     if (want_raw) {
-        vbnl_scene_measure_ray_rate(ctx, s, 1000000, 512, 512, &raw, NULL);
+        vbnl_ray_rates rates;
+        if (vbnl_scene_measure_ray_rates(ctx, s, 1000000, 512, 512, &rates, NULL) == VBNL_OK) {
+            raw_single = rates.closest;
+            raw_packet = rates.closest_packet;
+            raw = raw_single > raw_packet ? raw_single : raw_packet;
+        }
         make_raw_rays(&rr, 1000000);
     }
     uint32_t nglossy = 0;
@@ -245,7 +272,9 @@ int main(int argc, char **argv)
            "%u threads\n",
            path, (unsigned long long)s->triangle_count, area, nvl, pipeline ? "pipeline" : "camera", nglossy, r_lo,
            r_hi, (unsigned long long)paths, nthreads);
-    printf("raw Embree incoherent ray rate: %.2f Mrays/s\n", raw * 1e-6);
+    printf("raw Embree incoherent ray rate: %.2f Mrays/s (one ray at a time %.2f, 8-ray packets %.2f; the faster "
+           "is the ceiling)\n",
+           raw * 1e-6, raw_single * 1e-6, raw_packet * 1e-6);
 
     vbnl_hemioct *map = NULL;
     vbnl_hemioct_create(16, &map);

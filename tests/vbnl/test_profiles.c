@@ -433,6 +433,64 @@ static void test_memory_and_arguments(void **state)
     assert_int_equal(vbnl_profile_set_release_incident(NULL), VBNL_ERR_INVALID_ARGUMENT);
 }
 
+/* Splats into private map copies with plain adds, added into the set afterwards
+ * (vbnl_profile_add_incident_fixed; photon splitting's per-thread maps), equal atomic splats
+ * into the set bit for bit; prepare by slot equals prepare by VL. */
+static void test_private_map_copies(void **state)
+{
+    (void)state;
+    const uint32_t n = 40;
+    vbnl_hemioct *m = make_map(16);
+    uint8_t glossy[40];
+    for (uint32_t j = 0; j < n; ++j)
+        glossy[j] = j % 3 != 0;
+    vbnl_profile_set *direct = NULL, *merged = NULL;
+    assert_int_equal(vbnl_profile_set_create(m, n, glossy, &direct), VBNL_OK);
+    assert_int_equal(vbnl_profile_set_create(m, n, glossy, &merged), VBNL_OK);
+    const size_t bytes = vbnl_profile_incident_bytes(merged);
+    assert_int_equal(bytes, (size_t)26 * vbnl_hemioct_texel_count(m) * 3 * sizeof(uint64_t)); /* 26 glossy */
+    uint64_t *copy[2] = {calloc(bytes, 1), calloc(bytes, 1)};
+    assert_non_null(copy[0]);
+    assert_non_null(copy[1]);
+    vbnl_rng rng = vbnl_rng_make(9, 1);
+    int splats = 0;
+    for (int k = 0; k < 20000; ++k) {
+        uint32_t j = (uint32_t)(vbnl_rng_next(&rng) * n) % n;
+        vec3 wi = uniform_dir(&rng);
+        uint64_t q[3] = {1000003u + (uint64_t)k * 7919u, 17u * (uint64_t)k, (uint64_t)k << 20};
+        vbnl_profile_deposit_map_fixed(direct, j, wi, q);
+        vbnl_profile_splat a, b;
+        int ha = vbnl_profile_splat_prepare_in(merged, copy[k & 1], j, wi, q, &a);
+        int hb = vbnl_profile_splat_prepare_slot(merged, copy[k & 1], vbnl_profile_slot(merged, j), wi, q, &b);
+        assert_int_equal(ha, glossy[j]);
+        assert_int_equal(hb, glossy[j]);
+        if (ha) {
+            assert_memory_equal(&a, &b, sizeof(a));
+            vbnl_profile_splat_apply_plain(&a);
+            ++splats;
+        }
+    }
+    assert_true(splats > 10000);
+    for (int c = 0; c < 2; ++c)
+        assert_int_equal(vbnl_profile_add_incident_fixed(merged, copy[c]), VBNL_OK);
+    for (uint32_t j = 0; j < n; ++j) {
+        const uint64_t *x = vbnl_profile_incident_map_fixed(direct, j), *y = vbnl_profile_incident_map_fixed(merged, j);
+        assert_true((x == NULL) == (y == NULL));
+        if (x)
+            assert_memory_equal(x, y, 3 * sizeof(uint64_t) * vbnl_hemioct_texel_count(m));
+    }
+    assert_int_equal(vbnl_profile_add_incident_fixed(merged, NULL), VBNL_ERR_INVALID_ARGUMENT);
+    vbnl_profile_set *lambert = NULL;
+    assert_int_equal(vbnl_profile_set_create(m, n, NULL, &lambert), VBNL_OK);
+    assert_int_equal(vbnl_profile_incident_bytes(lambert), 0); /* nothing to copy */
+    vbnl_profile_set_destroy(lambert);
+    free(copy[0]);
+    free(copy[1]);
+    vbnl_profile_set_destroy(direct);
+    vbnl_profile_set_destroy(merged);
+    vbnl_hemioct_destroy(m);
+}
+
 /* A Lambertian slot given a glossy kernel falls back to the diffuse approximation: power
  * rho_avg Phi_in with rho_avg the kernel's cosine-weighted albedo. */
 static void test_diffuse_fallback(void **state)
@@ -465,6 +523,7 @@ int main(void)
         cmocka_unit_test(test_lazy_equals_eager),
         cmocka_unit_test(test_memory_and_arguments),
         cmocka_unit_test(test_diffuse_fallback),
+        cmocka_unit_test(test_private_map_copies),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -322,9 +322,22 @@ static inline void atomic_add_u64(uint64_t *p, uint64_t v)
 int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
                                vbnl_profile_splat *sp)
 {
-    uint32_t slot = s->slot[vl];
+    return vbnl_profile_splat_prepare_in(s, NULL, vl, wi, q, sp);
+}
+
+int vbnl_profile_splat_prepare_in(vbnl_profile_set *s, uint64_t *maps, uint32_t vl, vec3 wi, const uint64_t q[3],
+                                  vbnl_profile_splat *sp)
+{
+    return vbnl_profile_splat_prepare_slot(s, maps, s->slot[vl], wi, q, sp);
+}
+
+int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_t slot, vec3 wi,
+                                    const uint64_t q[3], vbnl_profile_splat *sp)
+{
     if (slot == NO_SLOT || !s->incident)
         return 0;
+    if (!maps)
+        maps = s->incident;
     /* Bilinear splat (octahedral.h footprint) in integers: the four texels receive exactly q,
      * vbnl_profile_split_fixed(q[c], 4, wgt) for the three channels at once (same bits: q is
      * below 2^53, so the conversions through int64 equal the unsigned ones, and
@@ -332,7 +345,7 @@ int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const 
     uint32_t idx[4];
     float wgt[4];
     vbnl_hemioct_bilinear(s->map, wi, idx, wgt);
-    uint64_t *map = s->incident + 3 * (size_t)slot * s->texels;
+    uint64_t *map = maps + 3 * (size_t)slot * s->texels;
     uint64_t left[3] = {q[0], q[1], q[2]};
     double dq[3] = {(double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2]};
     uint32_t big = 0;
@@ -359,6 +372,34 @@ void vbnl_profile_splat_apply(const vbnl_profile_splat *sp)
     for (int k = 0; k < 4; ++k)
         for (int c = 0; c < 3; ++c)
             atomic_add_u64(sp->texel[k] + c, sp->part[k][c]);
+}
+
+void vbnl_profile_splat_apply_plain(const vbnl_profile_splat *sp)
+{
+    for (int k = 0; k < 4; ++k)
+        for (int c = 0; c < 3; ++c)
+            sp->texel[k][c] += sp->part[k][c];
+}
+
+size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s)
+{
+    return s && s->incident ? 3 * (size_t)s->n_glossy * s->texels * sizeof(uint64_t) : 0;
+}
+
+uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s) { return s ? s->incident : NULL; }
+
+vbnl_result vbnl_profile_add_incident_fixed(vbnl_profile_set *s, const uint64_t *maps)
+{
+    if (!s || !maps)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    if (!s->incident)
+        return VBNL_ERR_STATE; /* released */
+    size_t cells = (size_t)s->n_glossy * s->texels;
+    for (size_t i = 0; i < 3 * cells; ++i)
+        s->incident[i] += maps[i];
+    if (cells) /* converted texels came from the old data: convert again on demand */
+        memset(s->code, 0xFF, cells * sizeof(uint32_t));
+    return VBNL_OK;
 }
 
 void vbnl_profile_deposit_map_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])

@@ -66,9 +66,14 @@
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
  *     spatial order (nearby VLs, nearby sums; prefetched with the records), added to the
  *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
- *     direction maps are shared and get atomic adds; each splat is prepared and its texels
- *     prefetched (vbnl_profile_splat_prepare), then applied 16 splats later, since the maps
- *     are large (6 KB per glossy VL at 16 x 16) and the texels random.
+ *     direction maps: worker 0 splats into the set's own maps, the others into private copies
+ *     added to the set at the end, all with plain adds (while the copies of all threads fit in
+ *     VBNL_SPLIT_MAX_MAP_COPY_BYTES; else atomic adds into the set's maps, the same bits). A
+ *     glossy VL's map slot rides in the zero lane of its sums and its normal comes from the
+ *     record copy, so a splat reads nothing at random before its texels. Each splat is
+ *     prepared and its texels prefetched (vbnl_profile_splat_prepare_slot), then applied 16
+ *     splats later, since the maps are large (6 KB per glossy VL at 16 x 16) and the texels
+ *     random.
  *   The VLs that share a hit and their weights are exactly those of the rules above; only the
  *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
  *   normalised weights may differ in the last bit from an id-ordered sum; either is a
@@ -77,10 +82,13 @@
  *   RGB and a zero lane, one AVX2 vector) and 80 bytes per batch entry (the record, its order,
  *   bin, cell and sorted cell: 5.2 MB); for 100K VLs and 2 threads, 17 MB in all. When the sums
  *   of all threads would exceed VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic adds into the
- *   profile set instead (slower, same bits).
- *   Embree packets and streams (rtcIntersect8, rtcIntersect1M with the incoherent flag) were
- *   measured on these photon rays and are no faster than rtcIntersect1, so paths are traced one
- *   ray at a time.
+ *   profile set instead (slower, same bits); the glossy map copies add (threads - 1) x the
+ *   set's incident maps (120 MB on the glossy-floor box with 2 threads).
+ *   Each thread keeps eight paths in flight and traces their current rays as one rtcIntersect8
+ *   packet (splitting.c, SPLIT_LANES). Packets of consecutive rays of one path, or of recorded
+ *   photon rays, were no faster than rtcIntersect1 (an earlier measurement); packets of eight
+ *   independent paths are: photon tracing alone 15% faster on the Cornell box, the same
+ *   answers bit for bit.
  * Measured (tests/vbnl/bench_splitting.c: Cornell box, 100K VLs, uniform radii; callgrind,
  * 20K paths, 1 thread, per photon hit): ~2100 instructions, of which Embree ~730, the walk
  * ~700 (vector maths of the hit and bounce, the RNG, the batch record with its cell and bin)
@@ -93,7 +101,9 @@
  * pipeline step per traced hit (to overlap its misses with Embree), batches of 4K to 1M hits,
  * cells of 1 to 2 r, fixed 8-lane splits, prefetch distances of 3 to 8 hits, no sort (all
  * within noise on the Cornell box; the sort helps the glossy box), plain instead of atomic
- * adds into the glossy maps (no change: their cost is the misses on 6 KB maps, not the locks).
+ * adds into the glossy maps (within noise then; with the slot and normal reads gone, private
+ * copies with plain adds and the slot in the sums' line took the glossy box's splitting from
+ * 2.25 to 1.96 s, medians of four alternated pairs).
  * Half the raw Embree rate needs the walk and the deposit together below Embree's own cost. */
 #ifndef VBNL_SPLITTING_H
 #define VBNL_SPLITTING_H
@@ -111,6 +121,7 @@
 #define VBNL_SPLIT_BATCH_HITS 65536u    /* photon hits a thread buffers before depositing them */
 #define VBNL_SPLIT_BIN_BITS 12u         /* spatial bins of the batch sort: 2^12 (16 per axis) */
 #define VBNL_SPLIT_MAX_SUM_BYTES (256u << 20) /* per-thread sums of all threads, at most */
+#define VBNL_SPLIT_MAX_MAP_COPY_BYTES (512u << 20) /* private incident-map copies of all threads */
 #define VBNL_SPLIT_SAFETY_DEPTH 4096
 #define VBNL_SPLIT_QUERY_MAX 64u   /* candidates read from the index per hit */
 #define VBNL_SPLIT_MAX_VLS 64u     /* upper bound for max_vls */
@@ -184,11 +195,19 @@ typedef struct vbnl_photon_walk_stats {
 } vbnl_photon_walk_stats;
 void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
                       vbnl_photon_walk_stats *stats);
-/* The same walk, inline: called with a known `visit`, the compiler inlines the visit too (photon
- * splitting's inner loop; vbnl_photon_walk is this function out of line). */
-static inline __attribute__((always_inline)) void
-vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
-                        vbnl_photon_walk_stats *st)
+/* The walk in two steps, so that a caller can keep several paths in flight and trace their rays
+ * together (photon splitting): vbnl_photon_emit draws the path's emission, vbnl_photon_scatter
+ * takes the hit of the path's current ray (o, dir), visits it and bounces. Each returns 1 when
+ * the path has a next ray to trace, 0 when it has ended. */
+typedef struct vbnl_photon_state {
+    vec3 o, dir;   /* the ray to trace next */
+    vec3 beta;     /* flux it carries (already divided by the path count) */
+    int depth;     /* 0 for the emitted ray */
+    int max_depth;
+} vbnl_photon_state;
+
+static inline __attribute__((always_inline)) int vbnl_photon_emit(const vbnl_photon_walk_desc *w, vbnl_rng *rng,
+                                                                  vbnl_photon_state *ps)
 {
     const vbnl_scene *sc = w->scene;
     float pmf;
@@ -196,87 +215,115 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
     vec2 u_pos = vbnl_rng_next2(rng), u_dir = vbnl_rng_next2(rng);
     vbnl_light_le_sample les;
     if (!(pmf > 0.0f) || !vbnl_light_sample_le(&sc->lights[li], u_pos, u_dir, &les))
-        return;
+        return 0;
     float den = pmf * les.pdf_pos * les.pdf_dir;
     if (!(den > 0.0f))
-        return;
+        return 0;
     /* Flux of the photon: Le |cos| / (p_j pdf_pos pdf_dir) / N (lights.h). */
-    vec3 beta = v3_scale(les.Le, les.cos_at_light / den * w->inv_paths);
-    if (!v3_is_finite(beta) || v3_is_black(beta))
-        return;
-    vec3 o = vbnl_offset_ray_origin(les.p, les.n, les.dir), dir = les.dir;
-    int max_depth = w->max_depth > 0 && w->max_depth < VBNL_SPLIT_SAFETY_DEPTH ? w->max_depth
+    ps->beta = v3_scale(les.Le, les.cos_at_light / den * w->inv_paths);
+    if (!v3_is_finite(ps->beta) || v3_is_black(ps->beta))
+        return 0;
+    ps->o = vbnl_offset_ray_origin(les.p, les.n, les.dir);
+    ps->dir = les.dir;
+    ps->depth = 0;
+    ps->max_depth = w->max_depth > 0 && w->max_depth < VBNL_SPLIT_SAFETY_DEPTH ? w->max_depth
                                                                               : VBNL_SPLIT_SAFETY_DEPTH;
-    for (int depth = 0; depth < max_depth; ++depth) {
+    return 1;
+}
+
+static inline __attribute__((always_inline)) int
+vbnl_photon_scatter(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_state *ps, const vbnl_hit *hitp,
+                    vbnl_photon_visit_fn visit, void *user, vbnl_photon_walk_stats *st)
+{
+    const vbnl_scene *sc = w->scene;
+    const vbnl_hit hit = *hitp;
+    const vec3 beta = ps->beta;
+    st->hits++;
+    vbnl_bsdf bsdf_store;
+    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+    vec3 wo_w = v3_neg(ps->dir); /* toward where the photon came from */
+    vec3 ng = hit.ng, ns = hit.ns;
+    int transmissive = vbnl_bsdf_is_transmissive(bsdf);
+    if (!transmissive) { /* two-sided opaque surface: frame facing the photon (path.c) */
+        if (v3_dot(ng, wo_w) < 0.0f) {
+            ng = v3_neg(ng);
+            ns = v3_neg(ns);
+        }
+        if (v3_dot(ns, wo_w) <= 0.0f)
+            ns = ng;
+    }
+    if (vbnl_bsdf_is_delta(bsdf)) {
+        st->delta_hits++;
+    } else {
+        vbnl_photon_vertex v = {hitp, bsdf, ng, ns, wo_w, beta, ps->depth};
+        visit(user, &v);
+    }
+
+    /* Bounce (importance transport, splitting.h). The same draws for every BSDF. */
+    vec2 ub = vbnl_rng_next2(rng);
+    vec3 wi_w, wt;
+    if (bsdf->type == VBNL_MATERIAL_LAMBERT) {
+        /* lambert_sample without the general dispatch (photon_fast.h) */
+        if (!vbnl_photon_lambert_bounce(bsdf, ns, wo_w, ub, &wi_w) || v3_is_black(bsdf->color))
+            return 0;
+        if (v3_dot(wi_w, ng) <= 0.0f)
+            return 0; /* a reflection must leave on the photon's side of the real surface */
+        wt = bsdf->color;
+    } else {
+        frame fr = frame_from_normal(ns);
+        vec3 wo = frame_to_local(&fr, wo_w);
+        vbnl_bsdf_sample_rec bs;
+        if (!vbnl_bsdf_sample(bsdf, wo, ub, &bs) || v3_is_black(bs.weight))
+            return 0;
+        wi_w = frame_to_world(&fr, bs.wi);
+        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
+            return 0; /* a reflection must leave on the photon's side of the real surface */
+        wt = bs.weight;
+        if (bs.lobe & VBNL_LOBE_TRANSMISSION)
+            wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
+    }
+    /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); exactly 1 when ns == ng. */
+    if (ns.x != ng.x || ns.y != ng.y || ns.z != ng.z) {
+        float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
+        if (den_c > 0.0f)
+            wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
+    }
+    vec3 nb = v3_mul(beta, wt);
+    if (ps->depth + 1 >= w->rr_depth) {
+        /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
+         * (q = max(new) / max(old), the sampled albedo) otherwise; at most 1. */
+        float ratio = v3_max_comp(nb) / v3_max_comp(beta);
+        float q = minf(1.0f, w->rr_sqrt ? sqrtf(ratio) : ratio);
+        if (!(q > 0.0f) || vbnl_rng_next(rng) >= q)
+            return 0;
+        nb = v3_scale(nb, 1.0f / q);
+    }
+    if (!v3_is_finite(nb) || v3_is_black(nb))
+        return 0;
+    if (++ps->depth >= ps->max_depth)
+        return 0;
+    ps->beta = nb;
+    ps->o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
+    ps->dir = wi_w;
+    return 1;
+}
+
+/* The same walk, inline: called with a known `visit`, the compiler inlines the visit too
+ * (vbnl_photon_walk is this function out of line). */
+static inline __attribute__((always_inline)) void
+vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
+                        vbnl_photon_walk_stats *st)
+{
+    vbnl_photon_state ps;
+    if (!vbnl_photon_emit(w, rng, &ps))
+        return;
+    for (;;) {
         vbnl_hit hit;
         st->rays++;
-        if (!vbnl_photon_intersect(sc, o, dir, &hit)) /* photon_fast.h */
+        if (!vbnl_photon_intersect(w->scene, ps.o, ps.dir, &hit)) /* photon_fast.h */
             return;
-        st->hits++;
-        vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
-        vec3 wo_w = v3_neg(dir); /* toward where the photon came from */
-        vec3 ng = hit.ng, ns = hit.ns;
-        int transmissive = vbnl_bsdf_is_transmissive(bsdf);
-        if (!transmissive) { /* two-sided opaque surface: frame facing the photon (path.c) */
-            if (v3_dot(ng, wo_w) < 0.0f) {
-                ng = v3_neg(ng);
-                ns = v3_neg(ns);
-            }
-            if (v3_dot(ns, wo_w) <= 0.0f)
-                ns = ng;
-        }
-        if (vbnl_bsdf_is_delta(bsdf)) {
-            st->delta_hits++;
-        } else {
-            vbnl_photon_vertex v = {&hit, bsdf, ng, ns, wo_w, beta, depth};
-            visit(user, &v);
-        }
-
-        /* Bounce (importance transport, splitting.h). The same draws for every BSDF. */
-        vec2 ub = vbnl_rng_next2(rng);
-        vec3 wi_w, wt;
-        if (bsdf->type == VBNL_MATERIAL_LAMBERT) {
-            /* lambert_sample without the general dispatch (photon_fast.h) */
-            if (!vbnl_photon_lambert_bounce(bsdf, ns, wo_w, ub, &wi_w) || v3_is_black(bsdf->color))
-                return;
-            if (v3_dot(wi_w, ng) <= 0.0f)
-                return; /* a reflection must leave on the photon's side of the real surface */
-            wt = bsdf->color;
-        } else {
-            frame fr = frame_from_normal(ns);
-            vec3 wo = frame_to_local(&fr, wo_w);
-            vbnl_bsdf_sample_rec bs;
-            if (!vbnl_bsdf_sample(bsdf, wo, ub, &bs) || v3_is_black(bs.weight))
-                return;
-            wi_w = frame_to_world(&fr, bs.wi);
-            if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
-                return; /* a reflection must leave on the photon's side of the real surface */
-            wt = bs.weight;
-            if (bs.lobe & VBNL_LOBE_TRANSMISSION)
-                wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
-        }
-        /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); exactly 1 when ns == ng. */
-        if (ns.x != ng.x || ns.y != ng.y || ns.z != ng.z) {
-            float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
-            if (den_c > 0.0f)
-                wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
-        }
-        vec3 nb = v3_mul(beta, wt);
-        if (depth + 1 >= w->rr_depth) {
-            /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
-             * (q = max(new) / max(old), the sampled albedo) otherwise; at most 1. */
-            float ratio = v3_max_comp(nb) / v3_max_comp(beta);
-            float q = minf(1.0f, w->rr_sqrt ? sqrtf(ratio) : ratio);
-            if (!(q > 0.0f) || vbnl_rng_next(rng) >= q)
-                return;
-            nb = v3_scale(nb, 1.0f / q);
-        }
-        if (!v3_is_finite(nb) || v3_is_black(nb))
+        if (!vbnl_photon_scatter(w, rng, &ps, &hit, visit, user, st))
             return;
-        beta = nb;
-        o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
-        dir = wi_w;
     }
 }
 
