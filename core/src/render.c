@@ -165,6 +165,8 @@ static void record_stage(vbnl_renderer *r, const char *name, double seconds)
     if (r->stage_count < MAX_STAGES) {
         r->stages[r->stage_count].name = name;
         r->stages[r->stage_count].seconds = seconds;
+        r->stages[r->stage_count].work = 0.0;
+        r->stages[r->stage_count].work_unit = NULL;
         r->stage_count++;
     }
 }
@@ -209,6 +211,19 @@ int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *us
 }
 
 void vbnl_stage_end(vbnl_stage_ctx *st) { record_stage(st->renderer, st->name, vbnl_now() - st->start); }
+
+void vbnl_stage_add_work(vbnl_stage_ctx *st, const char *name, double work, const char *unit)
+{
+    if (!st)
+        return;
+    vbnl_renderer *r = st->renderer;
+    for (uint32_t i = 0; i < r->stage_count; ++i)
+        if (strcmp(r->stages[i].name, name) == 0) {
+            r->stages[i].work += work;
+            r->stages[i].work_unit = unit;
+            return;
+        }
+}
 
 void vbnl_stage_set_storage(vbnl_stage_ctx *st, uint64_t bytes)
 {

@@ -52,7 +52,7 @@ vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_setting
         vbnl_renderer_get_stats(r, &st, NULL);
         vbnl_image_attr attrs[MAX_ATTRS];
         uint32_t na = 0;
-        char params[2048] = "", seed[32], stage_names[32][64];
+        char params[2048] = "", seed[32], stage_names[32][64], work_names[8][2][96];
         const vbnl_params *p = s->params;
         for (uint32_t i = 0; p && i < vbnl_params_count(p); ++i) {
             const char *name, *str;
@@ -81,6 +81,19 @@ vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_setting
         for (uint32_t i = 0; i < st.stage_count && na < MAX_ATTRS && i < 32; ++i) {
             snprintf(stage_names[i], sizeof(stage_names[i]), "vbnl/time/%s", st.stages[i].name);
             attrs[na++] = (vbnl_image_attr){stage_names[i], VBNL_IMAGE_ATTR_DOUBLE, {.d = st.stages[i].seconds}};
+        }
+        /* the stages that counted their work: the count and the rate per second beside the time
+         * (the photon stage's rays/s, to compare with `vbnl bench`'s raw Embree rates) */
+        for (uint32_t i = 0, k = 0; i < st.stage_count && na + 2 <= MAX_ATTRS && k < 8; ++i) {
+            const vbnl_stage_time *sg = &st.stages[i];
+            if (!(sg->work > 0.0) || !sg->work_unit)
+                continue;
+            snprintf(work_names[k][0], sizeof(work_names[k][0]), "vbnl/%s/%s", sg->work_unit, sg->name);
+            snprintf(work_names[k][1], sizeof(work_names[k][1]), "vbnl/%s_per_second/%s", sg->work_unit, sg->name);
+            attrs[na++] = (vbnl_image_attr){work_names[k][0], VBNL_IMAGE_ATTR_DOUBLE, {.d = sg->work}};
+            attrs[na++] = (vbnl_image_attr){work_names[k][1], VBNL_IMAGE_ATTR_DOUBLE,
+                                            {.d = sg->seconds > 0.0 ? sg->work / sg->seconds : 0.0}};
+            ++k;
         }
         if ((res = vbnl_exr_write(exr_path, w, h, layers, nl, attrs, na, half, err)) != VBNL_OK)
             goto done;

@@ -201,6 +201,13 @@ for st in placement elimination photons profiles render; do
     grep -qE "^$st: .*/s, ETA" <<<"$out" && ok "progress line for $st" || not_ok "progress line for $st" "$out"
 done
 grep -q $'\r' <<<"$out" && not_ok "no carriage returns when not a terminal" || ok "no carriage returns when not a terminal"
+# The photon stage's ray count and rate beside its time in the EXR header (a positive count).
+"$VBNL" render "$SCENE" -o "$TMP/ph.exr" --integrator vbnl --set virtual_lights=500 --set photon_paths=5000 --width 16 --height 16 --spp 2 -q
+hdr=$($HDR "$TMP/ph.exr" 2>&1)
+for want in "vbnl/time/photons=" "vbnl/rays/photons=" "vbnl/rays_per_second/photons="; do
+    grep -qF -- "$want" <<<"$hdr" && ok "vbnl EXR header has $want" || not_ok "vbnl EXR header has $want" "$hdr"
+done
+grep -qE "^vbnl/rays/photons=[1-9]" <<<"$hdr" && ok "photon rays counted" || not_ok "photon rays counted" "$hdr"
 out=$("$VBNL" render "$SCENE" --png "$TMP/p.png" --width 16 --height 16 --spp 2 -q 2>&1)
 [ -z "$out" ] && ok "--quiet prints nothing" || not_ok "--quiet prints nothing" "$out"
 expect "crop outside the image" 2 "--crop window reaches outside" -- "$VBNL" render "$SCENE" --png "$TMP/c.png" --width 16 --height 16 --crop 0,0,20,8

@@ -101,6 +101,8 @@ const vbnl_film *vbnl_renderer_film(const vbnl_renderer *r);
 typedef struct vbnl_stage_time {
     const char *name;
     double seconds;
+    double work;            /* what the stage counted, e.g. the photon stage's rays (0: nothing) */
+    const char *work_unit;  /* its unit ("rays"), NULL when work is 0 */
 } vbnl_stage_time;
 
 typedef struct vbnl_render_stats {

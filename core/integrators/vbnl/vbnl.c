@@ -349,9 +349,12 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     sd.path_count = count;
     sd.seed = s->pp.seed;
     sd.normal_cos = VL_NORMAL_COS;
-    r = vbnl_split_photons(&sd, NULL, stage, NULL);
-    if (stage)
+    vbnl_split_stats sst;
+    r = vbnl_split_photons(&sd, NULL, stage, &sst);
+    if (stage) {
         vbnl_stage_end(stage);
+        vbnl_stage_add_work(stage, "photons", (double)sst.rays, "rays");
+    }
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "photon splitting was cancelled"
                                                               : "photon splitting failed (%s)",
