@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #if defined(__AVX2__)
 #include <immintrin.h>
 #endif
@@ -1082,10 +1083,13 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     int own_sums = !d->atomic_deposits &&
                    (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
     /* Private map copies for workers 1.. (worker 0 splats into the set's own maps) when they
-     * fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES; else atomic splats into the set, the same bits. */
+     * fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of the machine's memory; else atomic
+     * splats into the set, the same bits. */
     const size_t map_bytes = vbnl_profile_incident_bytes(d->profiles);
-    const int map_copies = own_sums && map_bytes > 0 &&
-                           (double)map_bytes * (job.thread_count - 1) <= (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES;
+    const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    const double copy_bytes = (double)map_bytes * (job.thread_count - 1);
+    const int map_copies = own_sums && map_bytes > 0 && copy_bytes <= (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES &&
+                           (!(phys > 0.0) || copy_bytes <= phys / 8.0);
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;

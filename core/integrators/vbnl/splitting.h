@@ -68,7 +68,8 @@
  *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
  *     direction maps: worker 0 splats into the set's own maps, the others into private copies
  *     added to the set at the end, all with plain adds (while the copies of all threads fit in
- *     VBNL_SPLIT_MAX_MAP_COPY_BYTES; else atomic adds into the set's maps, the same bits). A
+ *     VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of the machine's memory; else atomic adds
+ *     into the set's maps, the same bits). A
  *     glossy VL's map slot rides in the zero lane of its sums and its normal comes from the
  *     record copy, so a splat reads nothing at random before its texels. Each splat is
  *     prepared and its texels prefetched (vbnl_profile_splat_prepare_slot), then applied 16

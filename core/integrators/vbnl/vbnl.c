@@ -26,6 +26,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "context.h"
 #include "placement.h"
 #include "prepare.h"
 #include "profiles.h"
@@ -203,9 +204,15 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     } else if (r == VBNL_OK) {
         pp->candidates = (uint32_t)m;
         /* Peak memory: candidates and the elimination's working set (~96 B each), the lights
-         * with a glossy incident map each in the worst case (R^2 x 28 B) and the index. */
+         * with a glossy incident map each in the worst case (R^2 x 28 B) and the index, and
+         * photon splitting's private map copies (splitting.h: threads - 1 copies of the maps,
+         * R^2 x 24 B per light, when they fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES). */
         double res2 = (double)s->profile_res * s->profile_res;
         double bytes = (double)pp->candidates * 96.0 + (double)pp->virtual_lights * (64.0 + res2 * 28.0 + 64.0);
+        double copies = (double)pp->virtual_lights * res2 * 24.0 *
+                        (env->ctx->threads > 1 ? (double)(env->ctx->threads - 1) : 0.0);
+        if (copies <= (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES)
+            bytes += copies;
         double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
         if (phys > 0.0 && bytes > 0.8 * phys)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
