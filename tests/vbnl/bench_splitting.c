@@ -5,8 +5,10 @@
  * ray, a cosine bounce at its hit, a VL at the secondary hit with its normal facing the
  * incoming ray; radius alpha_r r_max of Eq. 1 (alpha_r = 2, A = the total triangle area).
  * Reports, median of the runs per index variant: time, photon paths/s, rays/s, deposits/s, the
- * memory of the index and the profile set, and the raw Embree incoherent ray rate
- * (vbnl_scene_measure_ray_rate) of the same scene. Also photon tracing with an empty VL set
+ * memory of the index and the profile set, and the raw Embree incoherent ray rate of the same
+ * scene: the faster of one ray at a time (rtcIntersect1) and eight to a packet (rtcIntersect8),
+ * since splitting traces eight paths as one packet (vbnl_scene_measure_ray_rates: closest,
+ * closest_packet). Also photon tracing with an empty VL set
  * (no splitting) to separate the cost of the splitting itself.
  *
  * Shared machines: the raw rate is measured again before every run (same rays) and the ratio
@@ -16,7 +18,8 @@
  *
  * Usage: bench_splitting [photon_paths (2e6)] [vl_count (1e5)] [threads (0 = all)] [variants (bit mask
  * of the rows below, 0 = all)] [runs (3)] [scene file in the Cornell box folder
- * (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy VLs)] [lights: "camera" (the
+ * (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy VLs), or a path with a '/'
+ * (tools/gen_dense_box.py writes a 320K-triangle variant)] [lights: "camera" (the
  * placement above, one radius) or "pipeline" (vbnl's own stages 1 and 2 with its defaults:
  * M = 10 N candidates, adaptive elimination, r_i = 2 r_i,max: radii over a few powers of two)];
  * a reduced case for callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs). */
