@@ -329,12 +329,13 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
 }
 
 
-/* Traces the photon paths of `d` and deposits into d->profiles (adds to what it holds). Work
- * items run on `stage`'s
- * workers with progress in photon paths when stage is not NULL (cancellation:
- * VBNL_ERR_CANCELLED, deposits of finished items stay), else on `pool` (which must then be
- * given). With a stage, the caller brackets the call with vbnl_stage_begin(stage, name, path
- * count, "photons") and vbnl_stage_end. Stats are summed from per-thread counters. Errors:
+/* Traces the photon paths of `d` and deposits into d->profiles (adds to what it holds; the
+ * call owns the set while it runs: nothing else may read or deposit into it meanwhile, since
+ * worker 0 and the final merges use plain adds). Work items run on `stage`'s workers with
+ * progress in photon paths when stage is not NULL (cancellation: VBNL_ERR_CANCELLED, deposits
+ * of finished items stay), else on `pool` (which must then be given). With a stage, the caller
+ * brackets the call with vbnl_stage_begin(stage, name, path count, "photons") and
+ * vbnl_stage_end. Stats are summed from per-thread counters. Errors:
  * VBNL_ERR_INVALID_ARGUMENT, VBNL_ERR_OUT_OF_MEMORY. */
 vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_stage_ctx *stage,
                                vbnl_split_stats *stats);
