@@ -154,19 +154,19 @@ void vbnl_renderer_destroy(vbnl_renderer *r)
 
 const vbnl_film *vbnl_renderer_film(const vbnl_renderer *r) { return r ? r->film : NULL; }
 
-static void record_stage(vbnl_renderer *r, const char *name, double seconds)
+static void record_stage(vbnl_renderer *r, const char *name, double seconds, double work, const char *unit)
 {
     for (uint32_t i = 0; i < r->stage_count; ++i) {
         if (strcmp(r->stages[i].name, name) == 0) {
             r->stages[i].seconds += seconds;
+            r->stages[i].work += work;
+            if (unit)
+                r->stages[i].work_unit = unit;
             return;
         }
     }
     if (r->stage_count < MAX_STAGES) {
-        r->stages[r->stage_count].name = name;
-        r->stages[r->stage_count].seconds = seconds;
-        r->stages[r->stage_count].work = 0.0;
-        r->stages[r->stage_count].work_unit = NULL;
+        r->stages[r->stage_count] = (vbnl_stage_time){name, seconds, work, unit};
         r->stage_count++;
     }
 }
@@ -179,6 +179,8 @@ void vbnl_stage_begin(vbnl_stage_ctx *st, const char *name, double total, const 
     st->unit = unit;
     st->total = total;
     st->start = vbnl_now();
+    st->work = 0.0;
+    st->work_unit = NULL;
 }
 
 static int stage_poll(void *user, uint64_t finished, uint64_t count)
@@ -210,19 +212,17 @@ int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *us
     return (ran < count || st->cancelled) ? -1 : 0;
 }
 
-void vbnl_stage_end(vbnl_stage_ctx *st) { record_stage(st->renderer, st->name, vbnl_now() - st->start); }
+void vbnl_stage_end(vbnl_stage_ctx *st)
+{
+    record_stage(st->renderer, st->name, vbnl_now() - st->start, st->work, st->work_unit);
+}
 
-void vbnl_stage_add_work(vbnl_stage_ctx *st, const char *name, double work, const char *unit)
+void vbnl_stage_set_work(vbnl_stage_ctx *st, double work, const char *unit)
 {
     if (!st)
         return;
-    vbnl_renderer *r = st->renderer;
-    for (uint32_t i = 0; i < r->stage_count; ++i)
-        if (strcmp(r->stages[i].name, name) == 0) {
-            r->stages[i].work += work;
-            r->stages[i].work_unit = unit;
-            return;
-        }
+    st->work = work;
+    st->work_unit = unit;
 }
 
 void vbnl_stage_set_storage(vbnl_stage_ctx *st, uint64_t bytes)
@@ -422,7 +422,7 @@ vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, vo
     }
     double spent = vbnl_now() - pc.t_render_start;
     r->render_seconds += spent;
-    record_stage(r, "render", spent);
+    record_stage(r, "render", spent, 0.0, NULL);
     if (pc.cancelled) {
         r->cancelled = 1;
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "rendering was cancelled after %u samples per pixel",

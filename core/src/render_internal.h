@@ -51,6 +51,8 @@ struct vbnl_stage_ctx {
     const char *unit;
     double total;
     double start;
+    double work;           /* vbnl_stage_set_work, recorded by vbnl_stage_end */
+    const char *work_unit;
     int cancelled;
 };
 
@@ -60,9 +62,10 @@ void vbnl_stage_begin(vbnl_stage_ctx *st, const char *name, double total, const 
  * Returns 0, or -1 when cancelled (items in flight finish; later ones do not run). */
 int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *user);
 void vbnl_stage_end(vbnl_stage_ctx *st);
-/* Adds `work` (in `unit`, a string literal) to the finished stage `name`'s count
- * (vbnl_stage_time.work: photon rays, so that outputs can report a rate next to the time). */
-void vbnl_stage_add_work(vbnl_stage_ctx *st, const char *name, double work, const char *unit);
+/* What the current stage counted (`work` in `unit`, a string literal; vbnl_stage_time.work: the
+ * photon stage's rays, so that outputs can report a rate beside the time); call before
+ * vbnl_stage_end. A no-op without a stage. */
+void vbnl_stage_set_work(vbnl_stage_ctx *st, double work, const char *unit);
 /* Records the bytes the integrator's prepared data hold (vbnl_render_stats.storage_bytes). */
 void vbnl_stage_set_storage(vbnl_stage_ctx *st, uint64_t bytes);
 unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st);

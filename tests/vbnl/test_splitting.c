@@ -19,6 +19,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "context.h"
 #include "octahedral.h"
@@ -723,6 +724,23 @@ static void test_key_bin(void **state)
 
 /* photon_fast.h's inline intersection fills the same hit as vbnl_scene_intersect (meshes inline,
  * the sphere and the area light through the general call). */
+/* The rule for private glossy map copies: none for one thread or no maps, (threads - 1) copies
+ * within the budget, none (the atomic path) beyond it. */
+static void test_map_copy_rule(void **state)
+{
+    (void)state;
+    assert_int_equal(vbnl_split_map_copy_bytes(1000, 1), 0);
+    assert_int_equal(vbnl_split_map_copy_bytes(0, 8), 0);
+    assert_int_equal(vbnl_split_map_copy_bytes(1000, 2), 1000);
+    assert_int_equal(vbnl_split_map_copy_bytes(1000, 4), 3000);
+    const uint64_t budget = VBNL_SPLIT_MAX_MAP_COPY_BYTES;
+    const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    if (phys >= 8.0 * (double)budget) /* else the eighth of memory is the smaller cap */
+        assert_int_equal(vbnl_split_map_copy_bytes(budget / 2, 3), budget); /* exactly the budget */
+    assert_int_equal(vbnl_split_map_copy_bytes(budget / 2 + 1, 3), 0);    /* one byte over */
+    assert_int_equal(vbnl_split_map_copy_bytes(budget, 33), 0);
+}
+
 static void test_photon_fast(void **state)
 {
     (void)state;
@@ -756,6 +774,7 @@ int main(void)
         cmocka_unit_test(test_index_brute_force),
         cmocka_unit_test(test_key_bin),
         cmocka_unit_test(test_photon_fast),
+        cmocka_unit_test(test_map_copy_rule),
         cmocka_unit_test(test_closed_sphere),
         cmocka_unit_test(test_determinism_and_merge),
         cmocka_unit_test(test_glossy_directions),

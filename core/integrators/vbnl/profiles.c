@@ -322,13 +322,7 @@ static inline void atomic_add_u64(uint64_t *p, uint64_t v)
 int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
                                vbnl_profile_splat *sp)
 {
-    return vbnl_profile_splat_prepare_in(s, NULL, vl, wi, q, sp);
-}
-
-int vbnl_profile_splat_prepare_in(vbnl_profile_set *s, uint64_t *maps, uint32_t vl, vec3 wi, const uint64_t q[3],
-                                  vbnl_profile_splat *sp)
-{
-    return vbnl_profile_splat_prepare_slot(s, maps, s->slot[vl], wi, q, sp);
+    return vbnl_profile_splat_prepare_slot(s, NULL, s->slot[vl], wi, q, sp);
 }
 
 int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_t slot, vec3 wi,

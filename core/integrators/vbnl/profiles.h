@@ -199,18 +199,15 @@ void vbnl_profile_splat_apply(const vbnl_profile_splat *sp);
 /* Private copies of the incident maps, so that each thread splats with plain adds (photon
  * splitting: a locked add per texel channel cost ~10% of the glossy box's splitting): a copy is
  * vbnl_profile_incident_bytes long and laid out as the set's own maps (NULL for a set without
- * glossy VLs or after release: there is nothing to copy). splat_prepare_in is splat_prepare
- * into `maps` (the set's own when NULL); splat_apply_plain adds with plain adds (one writer per
- * copy at a time); add_incident_fixed adds a copy into the set's maps (integer adds: the same
+ * glossy VLs or after release: there is nothing to copy). splat_prepare_slot is splat_prepare
+ * by map slot (vbnl_profile_slot) into `maps` (the set's own when NULL), for a caller that keeps
+ * the slot beside its own per-VL data (photon splitting: in the VL's line of per-thread sums, so
+ * that a splat does not read the set's slot table at random); splat_apply_plain adds with plain
+ * adds (one writer per copy at a time); add_incident_fixed adds a copy into the set's maps (integer adds: the same
  * bits as atomic splats into the set; not thread-safe: call between phases). */
 size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s);
 uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s);
-int vbnl_profile_splat_prepare_in(vbnl_profile_set *s, uint64_t *maps, uint32_t vl, vec3 wi, const uint64_t q[3],
-                                  vbnl_profile_splat *sp);
 void vbnl_profile_splat_apply_plain(const vbnl_profile_splat *sp);
-/* splat_prepare_in by map slot (vbnl_profile_slot), for a caller that keeps the slot beside its
- * own per-VL data (photon splitting: in the VL's line of per-thread sums, so that a splat does
- * not read the set's slot table at random). */
 int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_t slot, vec3 wi,
                                     const uint64_t q[3], vbnl_profile_splat *sp);
 vbnl_result vbnl_profile_add_incident_fixed(vbnl_profile_set *s, const uint64_t *maps);

@@ -131,6 +131,17 @@ typedef struct split_job {
     unsigned thread_count;
 } split_job;
 
+uint64_t vbnl_split_map_copy_bytes(uint64_t map_bytes, unsigned threads)
+{
+    if (threads < 2 || map_bytes == 0)
+        return 0;
+    const double bytes = (double)map_bytes * (threads - 1);
+    const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    if (bytes > (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES || (phys > 0.0 && bytes > phys / 8.0))
+        return 0;
+    return (uint64_t)map_bytes * (threads - 1);
+}
+
 void vbnl_split_desc_init(vbnl_split_desc *d)
 {
     memset(d, 0, sizeof(*d));
@@ -1086,10 +1097,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
      * fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of the machine's memory; else atomic
      * splats into the set, the same bits. */
     const size_t map_bytes = vbnl_profile_incident_bytes(d->profiles);
-    const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
-    const double copy_bytes = (double)map_bytes * (job.thread_count - 1);
-    const int map_copies = own_sums && map_bytes > 0 && copy_bytes <= (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES &&
-                           (!(phys > 0.0) || copy_bytes <= phys / 8.0);
+    const uint64_t copy_bytes = vbnl_split_map_copy_bytes(map_bytes, job.thread_count);
+    const int map_copies = own_sums && map_bytes > 0 && (job.thread_count == 1 || copy_bytes > 0);
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = VBNL_SPLIT_BATCH_HITS;
@@ -1168,7 +1177,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
                                     (sizeof(split_rec) + (job.cell_fast ? 4 : 2) * sizeof(uint32_t)) +
                                 4ull * (job.bins + 1)) +
                                (glossy ? nvl : 0u) +
-                               (map_copies ? (uint64_t)map_bytes * (job.thread_count - 1) : 0ull);
+                               (map_copies ? copy_bytes : 0ull);
     }
 done:
     threads_free(&job);

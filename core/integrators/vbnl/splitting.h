@@ -69,9 +69,9 @@
  *     direction maps: worker 0 splats into the set's own maps, the others into private copies
  *     added to the set at the end, all with plain adds (while the copies of all threads fit in
  *     VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of the machine's memory; else atomic adds
- *     into the set's maps, the same bits). A
- *     glossy VL's map slot rides in the zero lane of its sums and its normal comes from the
- *     record copy, so a splat reads nothing at random before its texels. Each splat is
+ *     into the set's maps, the same bits; vbnl_split_map_copy_bytes). A glossy VL's map slot
+ *     rides in the zero lane of its sums and its normal comes from the record copy, so a splat
+ *     reads nothing at random before its texels. Each splat is
  *     prepared and its texels prefetched (vbnl_profile_splat_prepare_slot), then applied 16
  *     splats later, since the maps are large (6 KB per glossy VL at 16 x 16) and the texels
  *     random.
@@ -147,6 +147,12 @@ typedef struct vbnl_split_desc {
     int atomic_deposits;            /* 1: no per-thread sums, atomic adds into `profiles` (what
                                      * happens beyond VBNL_SPLIT_MAX_SUM_BYTES; same bits) */
 } vbnl_split_desc;
+
+/* Bytes of the private incident-map copies photon splitting allocates for a set whose maps take
+ * `map_bytes` (vbnl_profile_incident_bytes), run on `threads` workers: (threads - 1) x map_bytes
+ * when that fits in VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of physical memory, else 0 (the
+ * atomic path). The one rule for the splitting and for vbnl's memory check before any work. */
+uint64_t vbnl_split_map_copy_bytes(uint64_t map_bytes, unsigned threads);
 
 /* Defaults of the authors' code: normal_cos 0.7, facing on, 8 VLs, RR after bounce 5, unlimited
  * depth, chunks of 16384 paths. Scene, index, normals, profiles, counts and seed to be filled. */
@@ -237,13 +243,13 @@ vbnl_photon_scatter(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_s
                     vbnl_photon_visit_fn visit, void *user, vbnl_photon_walk_stats *st)
 {
     const vbnl_scene *sc = w->scene;
-    const vbnl_hit hit = *hitp;
+    const vbnl_hit *hit = hitp; /* read in place: `visit` sees the caller's record */
     const vec3 beta = ps->beta;
     st->hits++;
     vbnl_bsdf bsdf_store;
-    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, hit, &bsdf_store);
     vec3 wo_w = v3_neg(ps->dir); /* toward where the photon came from */
-    vec3 ng = hit.ng, ns = hit.ns;
+    vec3 ng = hit->ng, ns = hit->ns;
     int transmissive = vbnl_bsdf_is_transmissive(bsdf);
     if (!transmissive) { /* two-sided opaque surface: frame facing the photon (path.c) */
         if (v3_dot(ng, wo_w) < 0.0f) {
@@ -256,7 +262,7 @@ vbnl_photon_scatter(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_s
     if (vbnl_bsdf_is_delta(bsdf)) {
         st->delta_hits++;
     } else {
-        vbnl_photon_vertex v = {hitp, bsdf, ng, ns, wo_w, beta, ps->depth};
+        vbnl_photon_vertex v = {hit, bsdf, ng, ns, wo_w, beta, ps->depth};
         visit(user, &v);
     }
 
@@ -304,7 +310,7 @@ vbnl_photon_scatter(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_s
     if (++ps->depth >= ps->max_depth)
         return 0;
     ps->beta = nb;
-    ps->o = vbnl_offset_ray_origin(hit.p, hit.ng, wi_w);
+    ps->o = vbnl_offset_ray_origin(hit->p, hit->ng, wi_w);
     ps->dir = wi_w;
     return 1;
 }

@@ -205,14 +205,12 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
         pp->candidates = (uint32_t)m;
         /* Peak memory: candidates and the elimination's working set (~96 B each), the lights
          * with a glossy incident map each in the worst case (R^2 x 28 B) and the index, and
-         * photon splitting's private map copies (splitting.h: threads - 1 copies of the maps,
-         * R^2 x 24 B per light, when they fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES). */
+         * photon splitting's private map copies (vbnl_split_map_copy_bytes of maps of
+         * R^2 x 24 B per light). */
         double res2 = (double)s->profile_res * s->profile_res;
         double bytes = (double)pp->candidates * 96.0 + (double)pp->virtual_lights * (64.0 + res2 * 28.0 + 64.0);
-        double copies = (double)pp->virtual_lights * res2 * 24.0 *
-                        (env->ctx->threads > 1 ? (double)(env->ctx->threads - 1) : 0.0);
-        if (copies <= (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES)
-            bytes += copies;
+        bytes += (double)vbnl_split_map_copy_bytes((uint64_t)pp->virtual_lights * (uint64_t)res2 * 24u,
+                                                   env->ctx->threads);
         double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
         if (phys > 0.0 && bytes > 0.8 * phys)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
@@ -359,8 +357,8 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     vbnl_split_stats sst;
     r = vbnl_split_photons(&sd, NULL, stage, &sst);
     if (stage) {
+        vbnl_stage_set_work(stage, (double)sst.rays, "rays");
         vbnl_stage_end(stage);
-        vbnl_stage_add_work(stage, "photons", (double)sst.rays, "rays");
     }
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "photon splitting was cancelled"
