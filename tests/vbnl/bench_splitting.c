@@ -336,11 +336,11 @@ int main(int argc, char **argv)
         qsort(cpu_ratios, (size_t)runs, sizeof(double), cmp_double);
         double t = times[runs / 2], ratio = ratios[runs / 2], cpu_ratio = cpu_ratios[runs / 2];
         printf("%-24s %.3f s (min %.3f max %.3f, %d runs) | %.3f Mpaths/s | %.2f Mrays/s (%.0f%% of raw; median per-run ratio %.0f%%, per CPU second %.0f%%) | %.2f Mdeposits/s | "
-               "%.2f hits/path, %.1f%% covered, %.2f VLs/covered hit, %llu overflow | index %.2f MB, %u levels (build %.3f s), "
+               "%.2f hits/path (%.0f%% in the SIMD step), %.1f%% covered, %.2f VLs/covered hit, %llu overflow | index %.2f MB, %u levels (build %.3f s), "
                "profiles %.2f MB, splitting scratch %.2f MB\n",
                variants[v].name, t, times[0], times[runs - 1], runs, st.paths / t * 1e-6, st.rays / t * 1e-6,
                raw > 0.0 ? 100.0 * st.rays / t / raw : 0.0, 100.0 * ratio, 100.0 * cpu_ratio, st.deposits / t * 1e-6, (double)st.hits / st.paths,
-               100.0 * st.covered_hits / (st.hits ? st.hits : 1),
+               100.0 * st.simd_hits / (st.hits ? st.hits : 1), 100.0 * st.covered_hits / (st.hits ? st.hits : 1),
                (double)st.deposits / (st.covered_hits ? st.covered_hits : 1), (unsigned long long)st.overflow,
                vbnl_vl_index_bytes(idx) / 1048576.0, vbnl_vl_index_level_count(idx), tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
         vbnl_vl_index_destroy(idx);

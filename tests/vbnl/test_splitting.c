@@ -444,6 +444,7 @@ static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area
 }
 
 static int g_atomic_deposits; /* run_split_chunk: vbnl_split_desc.atomic_deposits */
+static int g_general_walk;    /* run_split_chunk: vbnl_split_desc.general_walk */
 
 static vbnl_profile_set *run_split_chunk(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
                                          const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
@@ -464,6 +465,7 @@ static vbnl_profile_set *run_split_chunk(const vbnl_scene *s, const vbnl_vl_inde
     d.seed = seed;
     d.chunk = chunk;
     d.atomic_deposits = g_atomic_deposits;
+    d.general_walk = g_general_walk;
     assert_int_equal(vbnl_split_photons(&d, pool, NULL, st), VBNL_OK);
     return ps;
 }
@@ -534,6 +536,26 @@ static void test_determinism_and_merge(void **state)
         vbnl_profile_set_destroy(three);
         vbnl_profile_set_destroy(dflt);
         vbnl_pool_destroy(p3);
+    }
+    /* Every hit through the general walk instead of the SIMD step where it applies (Lambertian
+     * mesh faces: here nearly all): the same paths, hits and bits. */
+    {
+        vbnl_split_stats s5;
+        g_general_walk = 1;
+        vbnl_profile_set *gen = run_split_chunk(s, idx, &v, map, unit, p2, 5, P, 0, 0, 0, &s5);
+        g_general_walk = 0;
+        print_message("# box: %llu of %llu hits in the SIMD step\n", (unsigned long long)s1.simd_hits,
+                      (unsigned long long)s1.hits);
+#if defined(__AVX2__)
+        assert_true(s1.simd_hits > s1.hits / 2);
+#endif
+        assert_int_equal(s5.simd_hits, 0);
+        assert_true(sets_equal(one, gen, texels));
+        assert_memory_equal(s1.covered_power, s5.covered_power, sizeof(s1.covered_power));
+        assert_int_equal(s1.rays, s5.rays);
+        assert_int_equal(s1.hits, s5.hits);
+        assert_int_equal(s1.deposits, s5.deposits);
+        vbnl_profile_set_destroy(gen);
     }
     /* Exact bookkeeping: VL sums == covered photon power; each glossy map sums to its Phi_in. */
     uint64_t sum[3];

@@ -827,20 +827,14 @@ static inline __attribute__((always_inline)) uint32_t fast_cell(const grid_level
 #endif
 }
 
-typedef struct split_visit {
-    const split_job *job;
-    split_thread *t;
-} split_visit;
-
-static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
+/* Records a photon hit in the thread's batch (deposited when the batch fills up or the work item
+ * ends): p, the geometric normal and wo facing the arriving photon, its flux. */
+static inline __attribute__((always_inline)) void record_hit(const split_job *job, split_thread *t, vec3 p, vec3 ng,
+                                                             vec3 wo, vec3 beta)
 {
-    split_visit *sv = user;
-    split_thread *t = sv->t;
     if (t->n == t->cap)
-        flush_batch(sv->job, t);
-    const split_job *job = sv->job;
+        flush_batch(job, t);
     split_rec *h = &t->hits[t->n];
-    const vec3 p = v->hit->p;
     if (job->cell_fast) {
         /* level_cell and cell_frame of the deposit, done here; no sphere can contain a point
          * outside the level (the hit is not recorded) */
@@ -849,7 +843,7 @@ static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
         uint32_t c = fast_cell(g, p, c3);
         if (c == UINT32_MAX)
             return;
-        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, 0};
+        *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, 0};
         cell_frame(g, p, c3, h->q);
         t->cell[t->n] = c;
         const uint32_t sh = job->cell_shift, b = VBNL_SPLIT_BIN_BITS / 3u;
@@ -857,11 +851,22 @@ static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
                        vbnl_vl_key_spread_bits((uint32_t)c3[1] >> sh, b) << 1 |
                        vbnl_vl_key_spread_bits((uint32_t)c3[2] >> sh, b) << 2;
     } else {
-        *h = (split_rec){p, v->ng, v->wo, v->beta, {0.0f, 0.0f, 0.0f}, 0};
+        *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, 0};
         /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
         t->bin[t->n] = vbnl_vl_key_bin(&job->key_grid, p, VBNL_SPLIT_BIN_BITS / 3u);
     }
     t->n++;
+}
+
+typedef struct split_visit {
+    const split_job *job;
+    split_thread *t;
+} split_visit;
+
+static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
+{
+    split_visit *sv = user;
+    record_hit(sv->job, sv->t, v->hit->p, v->ng, v->wo, v->beta);
 }
 
 /* No VL at all: no hit can deposit. */
@@ -874,92 +879,405 @@ static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
 /* Paths in flight per thread. One walk alone is a chain of dependent steps (trace, set up the
  * hit, visit, bounce, trace again). With several paths in flight their rays go to Embree
  * together as one 8-wide packet (rtcIntersect8; independent directions, so Embree's hybrid
- * traversal), then their hits are handled one after another. Measured on the Cornell box
- * (bench_splitting, 2 threads): photon tracing alone 0.73 -> 0.62 s per 2M paths, splitting
- * 1.10 -> 1.01 s; the same eight paths traced with rtcIntersect1 one after another gained
- * nothing, and 16 or 24 paths in flight no more than 8. Paths keep their own streams, a ray's
- * answer does not depend on its packet mates, and the deposits are integer sums, so neither
- * the order of hits nor the grouping changes a bit of the result (test_splitting: chunks of 7
- * paths, ranges merged, 1 to 3 threads). */
+ * traversal), and the hits that are the common case (below) are set up, recorded and bounced
+ * eight at a time in SIMD; the others one after another by the general walk. Measured on the
+ * Cornell box (bench_splitting, 2 threads): photon tracing alone 0.73 -> 0.62 s per 2M paths
+ * with packets, splitting 1.10 -> 1.01 s; the same eight paths traced with rtcIntersect1 one
+ * after another gained nothing, and 16 or 24 paths in flight no more than 8. Paths keep their
+ * own streams, a ray's answer does not depend on its packet mates, the SIMD step computes the
+ * general walk's values bit for bit (same operations in the same order; this file is compiled
+ * without contracted multiply-adds), and the deposits are integer sums, so neither the order
+ * of hits nor the grouping changes a bit of the result (test_splitting: chunks of 7 paths,
+ * ranges merged, 1 to 3 threads; SIMD step against the general walk). */
 #define SPLIT_LANES 8u
 
-typedef struct photon_lane {
-    vbnl_rng rng;
-    vbnl_photon_state ps;
-} photon_lane;
+/* The paths in flight, a structure of arrays (the SIMD step reads each field as a vector);
+ * lane i's vbnl_photon_state is (o, d, b, depth, max_depth)[i]. */
+typedef struct photon_lanes {
+    _Alignas(32) float ox[SPLIT_LANES], oy[SPLIT_LANES], oz[SPLIT_LANES];
+    _Alignas(32) float dx[SPLIT_LANES], dy[SPLIT_LANES], dz[SPLIT_LANES];
+    _Alignas(32) float bx[SPLIT_LANES], by[SPLIT_LANES], bz[SPLIT_LANES];
+    _Alignas(32) int32_t depth[SPLIT_LANES], max_depth[SPLIT_LANES];
+    vbnl_rng rng[SPLIT_LANES];
+} photon_lanes;
 
-/* Starts path k, or the next ones whose emission succeeds, in `l`; 0 when [*k, e) has none. */
+static inline __attribute__((always_inline)) void lane_get(const photon_lanes *L, uint32_t i, vbnl_photon_state *ps)
+{
+    ps->o = v3(L->ox[i], L->oy[i], L->oz[i]);
+    ps->dir = v3(L->dx[i], L->dy[i], L->dz[i]);
+    ps->beta = v3(L->bx[i], L->by[i], L->bz[i]);
+    ps->depth = L->depth[i];
+    ps->max_depth = L->max_depth[i];
+}
+
+static inline __attribute__((always_inline)) void lane_put(photon_lanes *L, uint32_t i, const vbnl_photon_state *ps)
+{
+    L->ox[i] = ps->o.x, L->oy[i] = ps->o.y, L->oz[i] = ps->o.z;
+    L->dx[i] = ps->dir.x, L->dy[i] = ps->dir.y, L->dz[i] = ps->dir.z;
+    L->bx[i] = ps->beta.x, L->by[i] = ps->beta.y, L->bz[i] = ps->beta.z;
+    L->depth[i] = ps->depth;
+    L->max_depth[i] = ps->max_depth;
+}
+
+static inline __attribute__((always_inline)) void lane_move(photon_lanes *L, uint32_t to, uint32_t from)
+{
+    L->ox[to] = L->ox[from], L->oy[to] = L->oy[from], L->oz[to] = L->oz[from];
+    L->dx[to] = L->dx[from], L->dy[to] = L->dy[from], L->dz[to] = L->dz[from];
+    L->bx[to] = L->bx[from], L->by[to] = L->by[from], L->bz[to] = L->bz[from];
+    L->depth[to] = L->depth[from];
+    L->max_depth[to] = L->max_depth[from];
+    L->rng[to] = L->rng[from];
+}
+
+/* Starts path k, or the next ones whose emission succeeds, in lane i; 0 when [*k, e) has none. */
 static inline __attribute__((always_inline)) int lane_start(const split_job *job, split_thread *t,
-                                                            const vbnl_photon_walk_desc *w, photon_lane *l,
-                                                            uint64_t *k, uint64_t e)
+                                                            const vbnl_photon_walk_desc *w, photon_lanes *L,
+                                                            uint32_t i, uint64_t *k, uint64_t e)
 {
     while (*k < e) {
-        l->rng = vbnl_rng_for(job->d->seed, *k, 0);
+        vbnl_rng rng = vbnl_rng_for(job->d->seed, *k, 0);
         ++*k;
         t->s.paths++;
-        if (vbnl_photon_emit(w, &l->rng, &l->ps))
+        vbnl_photon_state ps;
+        if (vbnl_photon_emit(w, &rng, &ps)) {
+            L->rng[i] = rng;
+            lane_put(L, i, &ps);
             return 1;
+        }
     }
     return 0;
 }
 
-/* The current rays of lanes [0, n) as one packet; their answers in rh (RTCRayHit's fields
- * vbnl_photon_hit_from reads). */
+/* The current rays of lanes [0, n) as one packet, answered in r8. */
 static inline __attribute__((always_inline)) void trace_packet(const vbnl_scene *sc, struct RTCIntersectContext *ictx,
-                                                              const photon_lane *lane, uint32_t n,
-                                                              struct RTCRayHit *rh)
+                                                              const photon_lanes *L, uint32_t n,
+                                                              struct RTCRayHit8 *r8)
 {
     _Static_assert(SPLIT_LANES == 8, "one rtcIntersect8 packet per step");
-    _Alignas(32) struct RTCRayHit8 r8;
     _Alignas(32) int valid[8];
+    memcpy(r8->ray.org_x, L->ox, sizeof(L->ox));
+    memcpy(r8->ray.org_y, L->oy, sizeof(L->oy));
+    memcpy(r8->ray.org_z, L->oz, sizeof(L->oz));
+    memcpy(r8->ray.dir_x, L->dx, sizeof(L->dx));
+    memcpy(r8->ray.dir_y, L->dy, sizeof(L->dy));
+    memcpy(r8->ray.dir_z, L->dz, sizeof(L->dz));
     for (uint32_t i = 0; i < 8; ++i) {
-        uint32_t j = i < n ? i : 0;
         valid[i] = i < n ? -1 : 0;
-        vbnl_rayhit8_set(&r8, i, lane[j].ps.o, lane[j].ps.dir, INFINITY);
+        r8->ray.tnear[i] = 0.0f;
+        r8->ray.tfar[i] = INFINITY;
+        r8->ray.time[i] = 0.0f;
+        r8->ray.mask[i] = 0xffffffffu;
+        r8->ray.id[i] = i;
+        r8->ray.flags[i] = 0;
+        r8->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        r8->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
-    rtcIntersect8(valid, sc->world, ictx, &r8);
-    for (uint32_t i = 0; i < n; ++i) {
-        rh[i].ray.tfar = r8.ray.tfar[i];
-        rh[i].hit.Ng_x = r8.hit.Ng_x[i];
-        rh[i].hit.Ng_y = r8.hit.Ng_y[i];
-        rh[i].hit.Ng_z = r8.hit.Ng_z[i];
-        rh[i].hit.u = r8.hit.u[i];
-        rh[i].hit.v = r8.hit.v[i];
-        rh[i].hit.primID = r8.hit.primID[i];
-        rh[i].hit.geomID = r8.hit.geomID[i];
-        rh[i].hit.instID[0] = r8.hit.instID[0][i];
-    }
+    rtcIntersect8(valid, sc->world, ictx, r8);
 }
 
-/* Paths [b, e) of the walk (vbnl_photon_walk_inline's steps), SPLIT_LANES at a time. */
+/* Lane i's answer as vbnl_photon_hit_from reads it. */
+static inline __attribute__((always_inline)) void packet_lane(const struct RTCRayHit8 *r8, uint32_t i,
+                                                             struct RTCRayHit *rh)
+{
+    rh->ray.tfar = r8->ray.tfar[i];
+    rh->hit.Ng_x = r8->hit.Ng_x[i];
+    rh->hit.Ng_y = r8->hit.Ng_y[i];
+    rh->hit.Ng_z = r8->hit.Ng_z[i];
+    rh->hit.u = r8->hit.u[i];
+    rh->hit.v = r8->hit.v[i];
+    rh->hit.primID = r8->hit.primID[i];
+    rh->hit.geomID = r8->hit.geomID[i];
+    rh->hit.instID[0] = r8->hit.instID[0][i];
+}
+
+#if defined(__AVX2__)
+/* maxf / minf of vmath.h on lanes (the non-NaN operand wins; same results). */
+static inline __m256 maxf8(__m256 a, __m256 b)
+{
+    return _mm256_blendv_ps(b, a, _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_GT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q)));
+}
+static inline __m256 minf8(__m256 a, __m256 b)
+{
+    return _mm256_blendv_ps(b, a, _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_LT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q)));
+}
+static inline __m256 neg8(__m256 a) { return _mm256_xor_ps(a, _mm256_set1_ps(-0.0f)); }
+static inline __m256 sel8(__m256 m, __m256 a, __m256 b) { return _mm256_blendv_ps(b, a, m); } /* m ? a : b */
+static inline __m256 dot8(__m256 ax, __m256 ay, __m256 az, __m256 bx, __m256 by, __m256 bz)
+{
+    return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, bx), _mm256_mul_ps(ay, by)), _mm256_mul_ps(az, bz));
+}
+static inline __m256 mask8(unsigned bits)
+{
+    const __m256i lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    return _mm256_castsi256_ps(
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32((int)bits), lane), lane));
+}
+
+/* The lanes of `fast` (hits on a non-instanced triangle mesh without shading normals, whose
+ * material is an untextured Lambertian with a non-black colour (cr, cg, cb)), eight at once:
+ * vbnl_photon_hit_from, vbnl_photon_scatter with its visit (record_hit when `rec`) and
+ * Lambertian bounce, operation for operation (hence the same bits): the hit point o + d t, the
+ * unit normal facing the photon (ns = ng: no shading normals, no adjoint correction), the
+ * cosine-weighted direction (sample_cosine_hemisphere, frame_from_normal, frame_to_world),
+ * Russian roulette, the offset origin of the next ray. Each lane draws from its own stream in
+ * the general walk's order (the bounce's two numbers, then the roulette's). Returns the lanes
+ * of `fast` that go on. */
+static inline __attribute__((always_inline)) unsigned step_fast(const split_job *job, split_thread *t,
+                                                               const vbnl_photon_walk_desc *w, photon_lanes *L,
+                                                               const struct RTCRayHit8 *r8, unsigned fast,
+                                                               const float *cr, const float *cg, const float *cb,
+                                                               int rec, vbnl_photon_walk_stats *ws)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    const __m256 ox = _mm256_load_ps(L->ox), oy = _mm256_load_ps(L->oy), oz = _mm256_load_ps(L->oz);
+    const __m256 dx = _mm256_load_ps(L->dx), dy = _mm256_load_ps(L->dy), dz = _mm256_load_ps(L->dz);
+    const __m256 tf = _mm256_loadu_ps(r8->ray.tfar);
+    /* p = o + d t (v3_fma) */
+    const __m256 px = _mm256_add_ps(ox, _mm256_mul_ps(dx, tf)), py = _mm256_add_ps(oy, _mm256_mul_ps(dy, tf)),
+                 pz = _mm256_add_ps(oz, _mm256_mul_ps(dz, tf));
+    /* ng = v3_norm(Embree's Ng) */
+    __m256 nx = _mm256_loadu_ps(r8->hit.Ng_x), ny = _mm256_loadu_ps(r8->hit.Ng_y), nz = _mm256_loadu_ps(r8->hit.Ng_z);
+    {
+        __m256 l = _mm256_sqrt_ps(dot8(nx, ny, nz, nx, ny, nz));
+        __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ), inv = _mm256_div_ps(one, l);
+        nx = sel8(pos, _mm256_mul_ps(nx, inv), nx);
+        ny = sel8(pos, _mm256_mul_ps(ny, inv), ny);
+        nz = sel8(pos, _mm256_mul_ps(nz, inv), nz);
+    }
+    /* wo = -d; the frame faces the photon (ns = ng) */
+    const __m256 wox = neg8(dx), woy = neg8(dy), woz = neg8(dz);
+    {
+        __m256 flip = _mm256_cmp_ps(dot8(nx, ny, nz, wox, woy, woz), zero, _CMP_LT_OQ);
+        nx = sel8(flip, neg8(nx), nx);
+        ny = sel8(flip, neg8(ny), ny);
+        nz = sel8(flip, neg8(nz), nz);
+    }
+    const __m256 bx = _mm256_load_ps(L->bx), by = _mm256_load_ps(L->by), bz = _mm256_load_ps(L->bz);
+    ws->hits += (uint64_t)__builtin_popcount(fast);
+
+    /* the visits, and the bounce's two numbers of each lane */
+    _Alignas(32) float ux[8], uy[8];
+    {
+        _Alignas(32) float a[12][8];
+        if (rec) {
+            _mm256_store_ps(a[0], px), _mm256_store_ps(a[1], py), _mm256_store_ps(a[2], pz);
+            _mm256_store_ps(a[3], nx), _mm256_store_ps(a[4], ny), _mm256_store_ps(a[5], nz);
+            _mm256_store_ps(a[6], wox), _mm256_store_ps(a[7], woy), _mm256_store_ps(a[8], woz);
+            _mm256_store_ps(a[9], bx), _mm256_store_ps(a[10], by), _mm256_store_ps(a[11], bz);
+        }
+        for (unsigned m = fast; m; m &= m - 1) {
+            unsigned i = (unsigned)__builtin_ctz(m);
+            if (rec)
+                record_hit(job, t, v3(a[0][i], a[1][i], a[2][i]), v3(a[3][i], a[4][i], a[5][i]),
+                           v3(a[6][i], a[7][i], a[8][i]), v3(a[9][i], a[10][i], a[11][i]));
+            ux[i] = vbnl_rng_next(&L->rng[i]);
+            uy[i] = vbnl_rng_next(&L->rng[i]);
+        }
+    }
+    __m256 alive = _mm256_and_ps(mask8(fast), _mm256_cmp_ps(dot8(wox, woy, woz, nx, ny, nz), zero, _CMP_GT_OQ));
+
+    /* sample_cosine_hemisphere(u): the concentric disk with sincos_quarter, then z */
+    __m256 wx, wy, wz;
+    {
+        const __m256 two = _mm256_set1_ps(2.0f), am = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+        __m256 sx = _mm256_sub_ps(_mm256_mul_ps(two, _mm256_load_ps(ux)), one);
+        __m256 sy = _mm256_sub_ps(_mm256_mul_ps(two, _mm256_load_ps(uy)), one);
+        __m256 centre = _mm256_and_ps(_mm256_cmp_ps(sx, zero, _CMP_EQ_OQ), _mm256_cmp_ps(sy, zero, _CMP_EQ_OQ));
+        __m256 first = _mm256_cmp_ps(_mm256_and_ps(sx, am), _mm256_and_ps(sy, am), _CMP_GT_OQ);
+        __m256 r = sel8(first, sx, sy), other = sel8(first, sy, sx);
+        __m256 phi = _mm256_mul_ps(_mm256_set1_ps(VBNL_PI / 4.0f), _mm256_div_ps(other, r));
+        __m256 x2 = _mm256_mul_ps(phi, phi);
+        /* sincos_quarter(phi): the same Horner steps, innermost first */
+#define SPLIT_H(acc, cst) _mm256_add_ps(_mm256_set1_ps(cst), _mm256_mul_ps(x2, (acc)))
+        __m256 s = _mm256_set1_ps(1.0f / 362880.0f);
+        s = SPLIT_H(s, -1.0f / 5040.0f);
+        s = SPLIT_H(s, 1.0f / 120.0f);
+        s = SPLIT_H(s, -1.0f / 6.0f);
+        s = _mm256_mul_ps(phi, _mm256_add_ps(one, _mm256_mul_ps(x2, s)));
+        __m256 c = _mm256_set1_ps(-1.0f / 3628800.0f);
+        c = SPLIT_H(c, 1.0f / 40320.0f);
+        c = SPLIT_H(c, -1.0f / 720.0f);
+        c = SPLIT_H(c, 1.0f / 24.0f);
+        c = SPLIT_H(c, -0.5f);
+        c = _mm256_add_ps(one, _mm256_mul_ps(x2, c));
+#undef SPLIT_H
+        __m256 rs = _mm256_mul_ps(r, s), rc = _mm256_mul_ps(r, c);
+        __m256 ddx = _mm256_andnot_ps(centre, sel8(first, rc, rs));
+        __m256 ddy = _mm256_andnot_ps(centre, sel8(first, rs, rc));
+        wx = ddx;
+        wy = ddy;
+        wz = _mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(_mm256_sub_ps(one, _mm256_mul_ps(ddx, ddx)),
+                                                        _mm256_mul_ps(ddy, ddy)),
+                                          zero));
+    }
+    alive = _mm256_and_ps(alive, _mm256_cmp_ps(wz, zero, _CMP_GT_OQ));
+    /* frame_from_normal(ns), frame_to_world */
+    __m256 ix, iy, iz;
+    {
+        __m256 sign = _mm256_or_ps(_mm256_and_ps(nz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
+        __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, nz));
+        __m256 b = _mm256_mul_ps(_mm256_mul_ps(nx, ny), a);
+        __m256 snx = _mm256_mul_ps(sign, nx);
+        __m256 fsx = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(snx, nx), a)), fsy = _mm256_mul_ps(sign, b),
+               fsz = _mm256_mul_ps(neg8(sign), nx);
+        __m256 ftx = b, fty = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(ny, ny), a)), ftz = neg8(ny);
+        ix = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsx, wx), _mm256_mul_ps(ftx, wy)), _mm256_mul_ps(nx, wz));
+        iy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsy, wx), _mm256_mul_ps(fty, wy)), _mm256_mul_ps(ny, wz));
+        iz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsz, wx), _mm256_mul_ps(ftz, wy)), _mm256_mul_ps(nz, wz));
+    }
+    /* a reflection must leave on the photon's side of the real surface */
+    alive = _mm256_and_ps(alive, _mm256_cmp_ps(dot8(ix, iy, iz, nx, ny, nz), zero, _CMP_GT_OQ));
+    /* nb = beta * colour; Russian roulette */
+    __m256 nbx = _mm256_mul_ps(bx, _mm256_loadu_ps(cr)), nby = _mm256_mul_ps(by, _mm256_loadu_ps(cg)),
+           nbz = _mm256_mul_ps(bz, _mm256_loadu_ps(cb));
+    const __m256i depth = _mm256_load_si256((const __m256i *)L->depth);
+    const __m256i depth1 = _mm256_add_epi32(depth, _mm256_set1_epi32(1));
+    __m256 rr = _mm256_castsi256_ps(_mm256_cmpgt_epi32(depth1, _mm256_set1_epi32(w->rr_depth - 1)));
+    unsigned rr_bits = (unsigned)_mm256_movemask_ps(_mm256_and_ps(rr, alive));
+    if (rr_bits) {
+        __m256 ratio = _mm256_div_ps(maxf8(nbx, maxf8(nby, nbz)), maxf8(bx, maxf8(by, bz)));
+        __m256 q = minf8(one, w->rr_sqrt ? _mm256_sqrt_ps(ratio) : ratio);
+        unsigned draw = rr_bits & (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(q, zero, _CMP_GT_OQ));
+        _Alignas(32) float qa[8], ua[8] = {0};
+        _mm256_store_ps(qa, q);
+        for (unsigned m = draw; m; m &= m - 1) {
+            unsigned i = (unsigned)__builtin_ctz(m);
+            ua[i] = vbnl_rng_next(&L->rng[i]);
+        }
+        /* survivors: drawn and below q; lanes without roulette stay */
+        __m256 survive = _mm256_and_ps(mask8(draw), _mm256_cmp_ps(_mm256_load_ps(ua), q, _CMP_LT_OQ));
+        alive = _mm256_and_ps(alive, _mm256_or_ps(_mm256_andnot_ps(rr, alive), survive));
+        __m256 inv = _mm256_div_ps(one, q);
+        nbx = sel8(rr, _mm256_mul_ps(nbx, inv), nbx);
+        nby = sel8(rr, _mm256_mul_ps(nby, inv), nby);
+        nbz = sel8(rr, _mm256_mul_ps(nbz, inv), nbz);
+    }
+    const __m256 absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    {
+        const __m256 inf = _mm256_set1_ps(INFINITY);
+        __m256 finite = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(_mm256_and_ps(nbx, absm), inf, _CMP_LT_OQ),
+                                                    _mm256_cmp_ps(_mm256_and_ps(nby, absm), inf, _CMP_LT_OQ)),
+                                      _mm256_cmp_ps(_mm256_and_ps(nbz, absm), inf, _CMP_LT_OQ));
+        __m256 black = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(nbx, zero, _CMP_EQ_OQ),
+                                                   _mm256_cmp_ps(nby, zero, _CMP_EQ_OQ)),
+                                     _mm256_cmp_ps(nbz, zero, _CMP_EQ_OQ));
+        alive = _mm256_and_ps(alive, _mm256_andnot_ps(black, finite));
+    }
+    /* ++depth < max_depth */
+    const __m256i maxd = _mm256_load_si256((const __m256i *)L->max_depth);
+    alive = _mm256_and_ps(alive, _mm256_castsi256_ps(_mm256_cmpgt_epi32(maxd, depth1)));
+    /* the next ray: vbnl_offset_ray_origin(p, ng, wi), whose normal faces wi already (ng . wi > 0
+     * above, and the hit's unflipped normal is turned to the same side), then wi */
+    __m256 nox, noy, noz;
+    {
+        const __m256 int_scale = _mm256_set1_ps(256.0f), float_scale = _mm256_set1_ps(1.0f / 65536.0f);
+        const __m256 origin = _mm256_set1_ps(1.0f / 32.0f);
+#define SPLIT_OFFSET(P, N, OUT)                                                                            \
+    do {                                                                                                   \
+        __m256i of_ = _mm256_cvttps_epi32(_mm256_mul_ps(int_scale, (N)));                                  \
+        __m256i neg_ = _mm256_castps_si256(_mm256_cmp_ps((P), zero, _CMP_LT_OQ));                          \
+        of_ = _mm256_sub_epi32(_mm256_xor_si256(of_, neg_), neg_);                                         \
+        __m256 pi_ = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_castps_si256(P), of_));                   \
+        __m256 pf_ = _mm256_add_ps((P), _mm256_mul_ps(float_scale, (N)));                                  \
+        (OUT) = sel8(_mm256_cmp_ps(_mm256_and_ps((P), absm), origin, _CMP_LT_OQ), pf_, pi_);               \
+    } while (0)
+        SPLIT_OFFSET(px, nx, nox);
+        SPLIT_OFFSET(py, ny, noy);
+        SPLIT_OFFSET(pz, nz, noz);
+#undef SPLIT_OFFSET
+    }
+    /* the lanes of `fast` take their new state (dead ones are replaced by the caller) */
+    const __m256 fm = mask8(fast);
+    _mm256_store_ps(L->ox, sel8(fm, nox, ox)), _mm256_store_ps(L->oy, sel8(fm, noy, oy));
+    _mm256_store_ps(L->oz, sel8(fm, noz, oz));
+    _mm256_store_ps(L->dx, sel8(fm, ix, dx)), _mm256_store_ps(L->dy, sel8(fm, iy, dy));
+    _mm256_store_ps(L->dz, sel8(fm, iz, dz));
+    _mm256_store_ps(L->bx, sel8(fm, nbx, bx)), _mm256_store_ps(L->by, sel8(fm, nby, by));
+    _mm256_store_ps(L->bz, sel8(fm, nbz, bz));
+    _mm256_store_si256((__m256i *)L->depth,
+                       _mm256_castps_si256(sel8(fm, _mm256_castsi256_ps(depth1), _mm256_castsi256_ps(depth))));
+    return (unsigned)_mm256_movemask_ps(alive) & fast;
+}
+#endif
+
+/* Paths [b, e) of the walk (vbnl_photon_walk_inline's steps), SPLIT_LANES at a time; `rec`:
+ * hits are recorded (else there is no VL to deposit into). */
 static inline __attribute__((always_inline)) void trace_lanes(const split_job *job, split_thread *t, uint64_t b,
-                                                             uint64_t e, vbnl_photon_visit_fn visit)
+                                                             uint64_t e, int rec)
 {
     const vbnl_split_desc *d = job->d;
     const vbnl_scene *sc = d->scene;
     vbnl_photon_walk_desc w = {sc, job->inv_paths, d->rr_depth, d->max_depth, 1};
     vbnl_photon_walk_stats ws = {0, 0, 0};
     split_visit sv = {job, t};
-    photon_lane lane[SPLIT_LANES];
-    struct RTCRayHit rh[SPLIT_LANES];
+    const vbnl_photon_visit_fn visit = rec ? split_visit_fn : skip_visit_fn;
+    photon_lanes L;
+    memset(&L, 0, sizeof(L));
+    _Alignas(32) struct RTCRayHit8 r8;
     uint32_t n = 0;
     uint64_t k = b;
-    while (n < SPLIT_LANES && lane_start(job, t, &w, &lane[n], &k, e))
+    while (n < SPLIT_LANES && lane_start(job, t, &w, &L, n, &k, e))
         n++;
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
     while (n > 0) {
-        trace_packet(sc, &ictx, lane, n, rh);
+        trace_packet(sc, &ictx, &L, n, &r8);
         ws.rays += n;
+        unsigned alive = 0, general = 0;
+#if defined(__AVX2__)
+        /* the lanes the SIMD step takes (step_fast); misses end */
+        _Alignas(32) float cr[8] = {0}, cg[8] = {0}, cb[8] = {0};
+        unsigned fast = 0;
+        if (d->general_walk)
+            general = (1u << n) - 1u;
+        else
+            for (uint32_t i = 0; i < n; ++i) {
+            const uint32_t gid = r8.hit.geomID[i];
+            if (gid == RTC_INVALID_GEOMETRY_ID)
+                continue;
+            const scene_geom *g = &sc->geoms[gid];
+            if (r8.hit.instID[0][i] != RTC_INVALID_GEOMETRY_ID || g->kind != SCENE_GEOM_MESH || g->u.mesh.normals) {
+                general |= 1u << i;
+                continue;
+            }
+            const scene_mesh *me = &g->u.mesh;
+            const scene_material *sm = &sc->materials[me->face_materials ? me->face_materials[r8.hit.primID[i]]
+                                                                          : me->material];
+            if (sm->texture || sm->bsdf.type != VBNL_MATERIAL_LAMBERT || v3_is_black(sm->bsdf.color)) {
+                general |= 1u << i;
+                continue;
+            }
+            fast |= 1u << i;
+            cr[i] = sm->bsdf.color.x;
+            cg[i] = sm->bsdf.color.y;
+            cb[i] = sm->bsdf.color.z;
+        }
+        if (fast) {
+            alive = step_fast(job, t, &w, &L, &r8, fast, cr, cg, cb, rec, &ws);
+            t->s.simd_hits += (uint64_t)__builtin_popcount(fast);
+        }
+#else
+        general = (1u << n) - 1u;
+#endif
+        /* the others through the general walk */
+        for (unsigned m = general; m; m &= m - 1) {
+            unsigned i = (unsigned)__builtin_ctz(m);
+            struct RTCRayHit rh;
+            packet_lane(&r8, i, &rh);
+            vbnl_photon_state ps;
+            lane_get(&L, i, &ps);
+            vbnl_hit hit;
+            if (vbnl_photon_hit_from(sc, ps.o, ps.dir, &rh, &hit) &&
+                vbnl_photon_scatter(&w, &L.rng[i], &ps, &hit, visit, &sv, &ws)) {
+                lane_put(&L, i, &ps);
+                alive |= 1u << i;
+            }
+        }
         uint32_t m = 0; /* lanes kept, compacted in place */
         for (uint32_t i = 0; i < n; ++i) {
-            photon_lane *l = &lane[i];
-            vbnl_hit hit;
-            int alive = vbnl_photon_hit_from(sc, l->ps.o, l->ps.dir, &rh[i], &hit) &&
-                        vbnl_photon_scatter(&w, &l->rng, &l->ps, &hit, visit, &sv, &ws);
-            if (alive || lane_start(job, t, &w, l, &k, e)) {
+            if ((alive >> i & 1u) || lane_start(job, t, &w, &L, i, &k, e)) {
                 if (m != i)
-                    lane[m] = *l;
+                    lane_move(&L, m, i);
                 m++;
             }
         }
@@ -973,9 +1291,9 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
 static __attribute__((flatten)) void trace_paths(const split_job *job, split_thread *t, uint64_t b, uint64_t e)
 {
     if (job->empty)
-        trace_lanes(job, t, b, e, skip_visit_fn);
+        trace_lanes(job, t, b, e, 0);
     else
-        trace_lanes(job, t, b, e, split_visit_fn);
+        trace_lanes(job, t, b, e, 1);
 }
 
 /* vbnl_pool_run with poll == NULL never moves its wake-up time forward once it has passed and
@@ -1164,6 +1482,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             stats->rays += s->rays;
             stats->hits += s->hits;
             stats->delta_hits += s->delta_hits;
+            stats->simd_hits += s->simd_hits;
             stats->covered_hits += s->covered_hits;
             stats->deposits += s->deposits;
             stats->overflow += s->overflow;

@@ -146,6 +146,8 @@ typedef struct vbnl_split_desc {
                                      * depend on it) */
     int atomic_deposits;            /* 1: no per-thread sums, atomic adds into `profiles` (what
                                      * happens beyond VBNL_SPLIT_MAX_SUM_BYTES; same bits) */
+    int general_walk;               /* 1: every hit through the general walk, none through the SIMD
+                                     * step (splitting.c, step_fast; same bits: tests compare) */
 } vbnl_split_desc;
 
 /* Bytes of the private incident-map copies photon splitting allocates for a set whose maps take
@@ -163,6 +165,7 @@ typedef struct vbnl_split_stats {
     uint64_t rays;          /* rays traced */
     uint64_t hits;          /* photon hits (surface interactions) */
     uint64_t delta_hits;    /* hits on delta surfaces (no deposit) */
+    uint64_t simd_hits;     /* hits set up and bounced eight at a time (the SIMD step) */
     uint64_t covered_hits;  /* hits that deposited into at least one VL */
     uint64_t deposits;      /* VL deposits (<= max_vls per covered hit) */
     uint64_t overflow;      /* hits with more than VBNL_SPLIT_QUERY_MAX containing spheres */
