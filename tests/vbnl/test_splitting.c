@@ -621,6 +621,85 @@ static void test_determinism_and_merge(void **state)
     vbnl_context_destroy(ctx);
 }
 
+/* ---- the SIMD step on shading normals ---------------------------------------------------- */
+
+/* The box with a Lambertian sphere mesh (24 x 12 facets) whose vertex normals are the smooth
+ * ones, every 7th reversed and every 5th tilted: interpolated normals that differ from the
+ * facet's (adjoint correction) and that lie behind it (the facet normal turned to their side;
+ * photons arriving behind the shading normal). Photon splitting through the SIMD step and through the
+ * general walk alone: the same rays, hits and bits. */
+static void test_simd_step_shading_normals(void **state)
+{
+    (void)state;
+    vbnl_context *ctx = make_ctx(2);
+    vbnl_scene *s = ts_box_scene(ctx, 1.0f);
+    enum { NU = 24, NV = 12 };
+    static float pos[(NU + 1) * (NV + 1) * 3], nrm[(NU + 1) * (NV + 1) * 3];
+    static uint32_t idx[NU * NV * 6];
+    const float c[3] = {-0.45f, 0.45f, 0.25f}, R = 0.35f;
+    for (int j = 0, k = 0; j <= NV; ++j)
+        for (int i = 0; i <= NU; ++i, ++k) {
+            float th = VBNL_PI * (float)j / NV, ph = 2.0f * VBNL_PI * (float)i / NU;
+            float n3[3] = {sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph)};
+            float sg = k % 7 == 3 ? -1.0f : 1.0f, tilt = k % 5 == 1 ? 0.6f : 0.0f;
+            for (int a = 0; a < 3; ++a) {
+                pos[3 * k + a] = c[a] + R * n3[a];
+                nrm[3 * k + a] = sg * n3[a] + (a == 0 ? tilt : 0.0f);
+            }
+        }
+    uint32_t nt = 0;
+    for (int j = 0; j < NV; ++j)
+        for (int i = 0; i < NU; ++i) {
+            uint32_t a = (uint32_t)(j * (NU + 1) + i), b = a + 1, d = a + NU + 1, e = d + 1;
+            uint32_t t6[6] = {a, d, b, b, d, e};
+            memcpy(idx + 3 * nt, t6, sizeof(t6));
+            nt += 2;
+        }
+    vbnl_mesh_desc m;
+    memset(&m, 0, sizeof(m));
+    m.positions = pos;
+    m.normals = nrm;
+    m.vertex_count = (NU + 1) * (NV + 1);
+    m.indices = idx;
+    m.triangle_count = nt;
+    m.material = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.8f, 0.75f, 0.7f, 0.0f);
+    assert_int_equal(vbnl_scene_add_mesh(s, &m, NULL, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    static vl_list v;
+    place_vls(s, &v, 3000, 24.0f);
+    vbnl_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
+    vbnl_vl_index *x = NULL;
+    assert_int_equal(vbnl_vl_index_create(&xd, &x), VBNL_OK);
+    vbnl_hemioct *map = NULL;
+    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    const uint64_t P = 100000;
+    const double unit = vbnl_split_photon_unit(s, P);
+    vbnl_pool *pool = vbnl_pool_create(2);
+    vbnl_split_stats sa, sb;
+    vbnl_profile_set *a = run_split_chunk(s, x, &v, map, unit, pool, 9, P, 0, 0, 0, &sa);
+    g_general_walk = 1;
+    vbnl_profile_set *b = run_split_chunk(s, x, &v, map, unit, pool, 9, P, 0, 0, 0, &sb);
+    g_general_walk = 0;
+    print_message("# shaded sphere: %llu of %llu hits in the SIMD step, %llu covered\n",
+                  (unsigned long long)sa.simd_hits, (unsigned long long)sa.hits, (unsigned long long)sa.covered_hits);
+#if defined(__AVX2__)
+    assert_true(sa.simd_hits > sa.hits / 2);
+#endif
+    assert_int_equal(sb.simd_hits, 0);
+    assert_int_equal(sa.rays, sb.rays);
+    assert_int_equal(sa.hits, sb.hits);
+    assert_int_equal(sa.deposits, sb.deposits);
+    assert_memory_equal(sa.covered_power, sb.covered_power, sizeof(sa.covered_power));
+    assert_true(sets_equal(a, b, vbnl_hemioct_texel_count(map)));
+    vbnl_profile_set_destroy(a);
+    vbnl_profile_set_destroy(b);
+    vbnl_pool_destroy(pool);
+    vbnl_hemioct_destroy(map);
+    vbnl_vl_index_destroy(x);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
 /* ---- glossy VL under a small area light --------------------------------------------------- */
 
 /* A black floor (no bounces) and a 0.1 x 0.1 light at height 1, offset by 0.5 in x; one glossy
@@ -799,6 +878,7 @@ int main(void)
         cmocka_unit_test(test_map_copy_rule),
         cmocka_unit_test(test_closed_sphere),
         cmocka_unit_test(test_determinism_and_merge),
+        cmocka_unit_test(test_simd_step_shading_normals),
         cmocka_unit_test(test_glossy_directions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -1013,20 +1013,28 @@ static inline __m256 mask8(unsigned bits)
         _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32((int)bits), lane), lane));
 }
 
-/* The lanes of `fast` (hits on a non-instanced triangle mesh without shading normals, whose
- * material is an untextured Lambertian with a non-black colour (cr, cg, cb)), eight at once:
- * vbnl_photon_hit_from, vbnl_photon_scatter with its visit (record_hit when `rec`) and
- * Lambertian bounce, operation for operation (hence the same bits): the hit point o + d t, the
- * unit normal facing the photon (ns = ng: no shading normals, no adjoint correction), the
- * cosine-weighted direction (sample_cosine_hemisphere, frame_from_normal, frame_to_world),
- * Russian roulette, the offset origin of the next ray. Each lane draws from its own stream in
- * the general walk's order (the bounce's two numbers, then the roulette's). Returns the lanes
- * of `fast` that go on. */
+/* What step_fast needs of the lanes' surfaces beyond Embree's answer: the Lambertian colour
+ * and, for lanes in `shaded`, the vertex normals of the triangle hit (vertex k's in n[k]). */
+typedef struct fast_surf {
+    _Alignas(32) float cr[8], cg[8], cb[8];
+    _Alignas(32) float n[3][3][8]; /* [vertex][axis][lane] */
+    unsigned shaded;
+} fast_surf;
+
+/* The lanes of `fast` (hits on a non-instanced triangle mesh whose material is an untextured
+ * Lambertian with a non-black colour), eight at once: vbnl_photon_hit_from, vbnl_photon_scatter
+ * with its visit (record_hit when `rec`) and Lambertian bounce, operation for operation (hence
+ * the same bits): the hit point o + d t; the unit normals (vbnl_fill_mesh_hit: the interpolated
+ * shading normal where the mesh has normals, the geometric one turned to its side) turned to
+ * face the photon; the cosine-weighted direction (sample_cosine_hemisphere, frame_from_normal,
+ * frame_to_world); the adjoint shading-normal correction; Russian roulette; the offset origin
+ * of the next ray. Each lane draws from its own stream in the general walk's order (the
+ * bounce's two numbers, then the roulette's). Returns the lanes of `fast` that go on. */
 static inline __attribute__((always_inline)) unsigned step_fast(const split_job *job, split_thread *t,
                                                                const vbnl_photon_walk_desc *w, photon_lanes *L,
                                                                const struct RTCRayHit8 *r8, unsigned fast,
-                                                               const float *cr, const float *cg, const float *cb,
-                                                               int rec, vbnl_photon_walk_stats *ws)
+                                                               const fast_surf *sf, int rec,
+                                                               vbnl_photon_walk_stats *ws)
 {
     const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
     const __m256 ox = _mm256_load_ps(L->ox), oy = _mm256_load_ps(L->oy), oz = _mm256_load_ps(L->oz);
@@ -1044,13 +1052,46 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
         ny = sel8(pos, _mm256_mul_ps(ny, inv), ny);
         nz = sel8(pos, _mm256_mul_ps(nz, inv), nz);
     }
-    /* wo = -d; the frame faces the photon (ns = ng) */
+    /* the shading normal: b0 n0 + u n1 + v n2, normalised; ng = ns where that is degenerate;
+     * then ng on the side of ns */
+    __m256 sx = nx, sy = ny, sz = nz;
+    if (sf->shaded) {
+        const __m256 bu = _mm256_loadu_ps(r8->hit.u), bv = _mm256_loadu_ps(r8->hit.v);
+        const __m256 b0 = _mm256_sub_ps(_mm256_sub_ps(one, bu), bv);
+        __m256 ix_[3];
+        for (int a = 0; a < 3; ++a)
+            ix_[a] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_load_ps(sf->n[0][a]), b0),
+                                                 _mm256_mul_ps(_mm256_load_ps(sf->n[1][a]), bu)),
+                                   _mm256_mul_ps(_mm256_load_ps(sf->n[2][a]), bv));
+        __m256 l = _mm256_sqrt_ps(dot8(ix_[0], ix_[1], ix_[2], ix_[0], ix_[1], ix_[2]));
+        __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ), inv = _mm256_div_ps(one, l);
+        for (int a = 0; a < 3; ++a)
+            ix_[a] = sel8(pos, _mm256_mul_ps(ix_[a], inv), ix_[a]);
+        __m256 use = _mm256_and_ps(mask8(sf->shaded),
+                                   _mm256_cmp_ps(dot8(ix_[0], ix_[1], ix_[2], ix_[0], ix_[1], ix_[2]),
+                                                 _mm256_set1_ps(0.5f), _CMP_GT_OQ));
+        sx = sel8(use, ix_[0], nx);
+        sy = sel8(use, ix_[1], ny);
+        sz = sel8(use, ix_[2], nz);
+        __m256 flip = _mm256_and_ps(mask8(sf->shaded), _mm256_cmp_ps(dot8(nx, ny, nz, sx, sy, sz), zero, _CMP_LT_OQ));
+        nx = sel8(flip, neg8(nx), nx);
+        ny = sel8(flip, neg8(ny), ny);
+        nz = sel8(flip, neg8(nz), nz);
+    }
+    /* wo = -d; both normals face the photon, ns = ng where ns does not */
     const __m256 wox = neg8(dx), woy = neg8(dy), woz = neg8(dz);
     {
         __m256 flip = _mm256_cmp_ps(dot8(nx, ny, nz, wox, woy, woz), zero, _CMP_LT_OQ);
         nx = sel8(flip, neg8(nx), nx);
         ny = sel8(flip, neg8(ny), ny);
         nz = sel8(flip, neg8(nz), nz);
+        sx = sel8(flip, neg8(sx), sx);
+        sy = sel8(flip, neg8(sy), sy);
+        sz = sel8(flip, neg8(sz), sz);
+        __m256 back = _mm256_cmp_ps(dot8(sx, sy, sz, wox, woy, woz), zero, _CMP_LE_OQ);
+        sx = sel8(back, nx, sx);
+        sy = sel8(back, ny, sy);
+        sz = sel8(back, nz, sz);
     }
     const __m256 bx = _mm256_load_ps(L->bx), by = _mm256_load_ps(L->by), bz = _mm256_load_ps(L->bz);
     ws->hits += (uint64_t)__builtin_popcount(fast);
@@ -1074,17 +1115,17 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
             uy[i] = vbnl_rng_next(&L->rng[i]);
         }
     }
-    __m256 alive = _mm256_and_ps(mask8(fast), _mm256_cmp_ps(dot8(wox, woy, woz, nx, ny, nz), zero, _CMP_GT_OQ));
+    __m256 alive = _mm256_and_ps(mask8(fast), _mm256_cmp_ps(dot8(wox, woy, woz, sx, sy, sz), zero, _CMP_GT_OQ));
 
     /* sample_cosine_hemisphere(u): the concentric disk with sincos_quarter, then z */
     __m256 wx, wy, wz;
     {
         const __m256 two = _mm256_set1_ps(2.0f), am = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-        __m256 sx = _mm256_sub_ps(_mm256_mul_ps(two, _mm256_load_ps(ux)), one);
-        __m256 sy = _mm256_sub_ps(_mm256_mul_ps(two, _mm256_load_ps(uy)), one);
-        __m256 centre = _mm256_and_ps(_mm256_cmp_ps(sx, zero, _CMP_EQ_OQ), _mm256_cmp_ps(sy, zero, _CMP_EQ_OQ));
-        __m256 first = _mm256_cmp_ps(_mm256_and_ps(sx, am), _mm256_and_ps(sy, am), _CMP_GT_OQ);
-        __m256 r = sel8(first, sx, sy), other = sel8(first, sy, sx);
+        __m256 ex = _mm256_sub_ps(_mm256_mul_ps(two, _mm256_load_ps(ux)), one);
+        __m256 ey = _mm256_sub_ps(_mm256_mul_ps(two, _mm256_load_ps(uy)), one);
+        __m256 centre = _mm256_and_ps(_mm256_cmp_ps(ex, zero, _CMP_EQ_OQ), _mm256_cmp_ps(ey, zero, _CMP_EQ_OQ));
+        __m256 first = _mm256_cmp_ps(_mm256_and_ps(ex, am), _mm256_and_ps(ey, am), _CMP_GT_OQ);
+        __m256 r = sel8(first, ex, ey), other = sel8(first, ey, ex);
         __m256 phi = _mm256_mul_ps(_mm256_set1_ps(VBNL_PI / 4.0f), _mm256_div_ps(other, r));
         __m256 x2 = _mm256_mul_ps(phi, phi);
         /* sincos_quarter(phi): the same Horner steps, innermost first */
@@ -1114,22 +1155,37 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
     /* frame_from_normal(ns), frame_to_world */
     __m256 ix, iy, iz;
     {
-        __m256 sign = _mm256_or_ps(_mm256_and_ps(nz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
-        __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, nz));
-        __m256 b = _mm256_mul_ps(_mm256_mul_ps(nx, ny), a);
-        __m256 snx = _mm256_mul_ps(sign, nx);
-        __m256 fsx = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(snx, nx), a)), fsy = _mm256_mul_ps(sign, b),
-               fsz = _mm256_mul_ps(neg8(sign), nx);
-        __m256 ftx = b, fty = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(ny, ny), a)), ftz = neg8(ny);
-        ix = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsx, wx), _mm256_mul_ps(ftx, wy)), _mm256_mul_ps(nx, wz));
-        iy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsy, wx), _mm256_mul_ps(fty, wy)), _mm256_mul_ps(ny, wz));
-        iz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsz, wx), _mm256_mul_ps(ftz, wy)), _mm256_mul_ps(nz, wz));
+        __m256 sign = _mm256_or_ps(_mm256_and_ps(sz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
+        __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, sz));
+        __m256 b = _mm256_mul_ps(_mm256_mul_ps(sx, sy), a);
+        __m256 snx = _mm256_mul_ps(sign, sx);
+        __m256 fsx = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(snx, sx), a)), fsy = _mm256_mul_ps(sign, b),
+               fsz = _mm256_mul_ps(neg8(sign), sx);
+        __m256 ftx = b, fty = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(sy, sy), a)), ftz = neg8(sy);
+        ix = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsx, wx), _mm256_mul_ps(ftx, wy)), _mm256_mul_ps(sx, wz));
+        iy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsy, wx), _mm256_mul_ps(fty, wy)), _mm256_mul_ps(sy, wz));
+        iz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsz, wx), _mm256_mul_ps(ftz, wy)), _mm256_mul_ps(sz, wz));
     }
     /* a reflection must leave on the photon's side of the real surface */
     alive = _mm256_and_ps(alive, _mm256_cmp_ps(dot8(ix, iy, iz, nx, ny, nz), zero, _CMP_GT_OQ));
-    /* nb = beta * colour; Russian roulette */
-    __m256 nbx = _mm256_mul_ps(bx, _mm256_loadu_ps(cr)), nby = _mm256_mul_ps(by, _mm256_loadu_ps(cg)),
-           nbz = _mm256_mul_ps(bz, _mm256_loadu_ps(cb));
+    /* wt = colour, with the adjoint shading-normal correction (Veach 1997, Eq. 5.17) where ns
+     * differs from ng; nb = beta wt; Russian roulette */
+    __m256 wtx = _mm256_load_ps(sf->cr), wty = _mm256_load_ps(sf->cg), wtz = _mm256_load_ps(sf->cb);
+    if (sf->shaded) {
+        __m256 differ = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(sx, nx, _CMP_NEQ_UQ), _mm256_cmp_ps(sy, ny, _CMP_NEQ_UQ)),
+                                     _mm256_cmp_ps(sz, nz, _CMP_NEQ_UQ));
+        const __m256 am = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+        __m256 den = _mm256_mul_ps(_mm256_and_ps(dot8(wox, woy, woz, nx, ny, nz), am),
+                                   _mm256_and_ps(dot8(ix, iy, iz, sx, sy, sz), am));
+        __m256 fac = _mm256_div_ps(_mm256_mul_ps(_mm256_and_ps(dot8(wox, woy, woz, sx, sy, sz), am),
+                                                 _mm256_and_ps(dot8(ix, iy, iz, nx, ny, nz), am)),
+                                   den);
+        __m256 corr = _mm256_and_ps(differ, _mm256_cmp_ps(den, zero, _CMP_GT_OQ));
+        wtx = sel8(corr, _mm256_mul_ps(wtx, fac), wtx);
+        wty = sel8(corr, _mm256_mul_ps(wty, fac), wty);
+        wtz = sel8(corr, _mm256_mul_ps(wtz, fac), wtz);
+    }
+    __m256 nbx = _mm256_mul_ps(bx, wtx), nby = _mm256_mul_ps(by, wty), nbz = _mm256_mul_ps(bz, wtz);
     const __m256i depth = _mm256_load_si256((const __m256i *)L->depth);
     const __m256i depth1 = _mm256_add_epi32(depth, _mm256_set1_epi32(1));
     __m256 rr = _mm256_castsi256_ps(_mm256_cmpgt_epi32(depth1, _mm256_set1_epi32(w->rr_depth - 1)));
@@ -1226,7 +1282,8 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
         unsigned alive = 0, general = 0;
 #if defined(__AVX2__)
         /* the lanes the SIMD step takes (step_fast); misses end */
-        _Alignas(32) float cr[8] = {0}, cg[8] = {0}, cb[8] = {0};
+        fast_surf sf;
+        sf.shaded = 0;
         unsigned fast = 0;
         if (d->general_walk)
             general = (1u << n) - 1u;
@@ -1236,7 +1293,7 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
             if (gid == RTC_INVALID_GEOMETRY_ID)
                 continue;
             const scene_geom *g = &sc->geoms[gid];
-            if (r8.hit.instID[0][i] != RTC_INVALID_GEOMETRY_ID || g->kind != SCENE_GEOM_MESH || g->u.mesh.normals) {
+            if (r8.hit.instID[0][i] != RTC_INVALID_GEOMETRY_ID || g->kind != SCENE_GEOM_MESH) {
                 general |= 1u << i;
                 continue;
             }
@@ -1248,12 +1305,19 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
                 continue;
             }
             fast |= 1u << i;
-            cr[i] = sm->bsdf.color.x;
-            cg[i] = sm->bsdf.color.y;
-            cb[i] = sm->bsdf.color.z;
+            sf.cr[i] = sm->bsdf.color.x;
+            sf.cg[i] = sm->bsdf.color.y;
+            sf.cb[i] = sm->bsdf.color.z;
+            if (me->normals) {
+                const uint32_t *tri = me->indices + 3 * (size_t)r8.hit.primID[i];
+                for (int vtx = 0; vtx < 3; ++vtx)
+                    for (int a = 0; a < 3; ++a)
+                        sf.n[vtx][a][i] = me->normals[3 * (size_t)tri[vtx] + (size_t)a];
+                sf.shaded |= 1u << i;
+            }
         }
         if (fast) {
-            alive = step_fast(job, t, &w, &L, &r8, fast, cr, cg, cb, rec, &ws);
+            alive = step_fast(job, t, &w, &L, &r8, fast, &sf, rec, &ws);
             t->s.simd_hits += (uint64_t)__builtin_popcount(fast);
         }
 #else
