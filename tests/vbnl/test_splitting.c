@@ -840,6 +840,19 @@ static void test_map_copy_rule(void **state)
         assert_int_equal(vbnl_split_map_copy_bytes(budget / 2, 3), budget); /* exactly the budget */
     assert_int_equal(vbnl_split_map_copy_bytes(budget / 2 + 1, 3), 0);    /* one byte over */
     assert_int_equal(vbnl_split_map_copy_bytes(budget, 33), 0);
+    /* hit batches: the largest while all threads' fit the budget, then fewer, never below the
+     * minimum */
+    assert_int_equal(vbnl_split_batch_hits(0), VBNL_SPLIT_BATCH_HITS);
+    assert_int_equal(vbnl_split_batch_hits(1), VBNL_SPLIT_BATCH_HITS);
+    assert_int_equal(vbnl_split_batch_hits(4096), VBNL_SPLIT_BATCH_HITS_MIN);
+    for (unsigned th = 1; th <= 64; ++th) {
+        uint32_t h = vbnl_split_batch_hits(th);
+        assert_true(h >= VBNL_SPLIT_BATCH_HITS_MIN && h <= VBNL_SPLIT_BATCH_HITS);
+        if (h > VBNL_SPLIT_BATCH_HITS_MIN)
+            assert_true((uint64_t)th * vbnl_split_batch_bytes(h) <= VBNL_SPLIT_MAX_BATCH_BYTES);
+        if (h < VBNL_SPLIT_BATCH_HITS) /* 1024 more would not have fitted */
+            assert_true((uint64_t)th * vbnl_split_batch_bytes(h + 1024u) > VBNL_SPLIT_MAX_BATCH_BYTES);
+    }
 }
 
 static void test_photon_fast(void **state)

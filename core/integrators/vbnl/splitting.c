@@ -114,6 +114,7 @@ typedef struct split_thread {
 typedef struct split_job {
     const vbnl_split_desc *d;
     uint64_t begin, end;     /* global path range */
+    uint64_t items;          /* work items of `chunk` paths */
     uint32_t chunk, max_vls;
     float inv_paths;
     double inv_unit;         /* 1 / fixed-point unit of the profiles (exact: a power of two) */
@@ -140,6 +141,19 @@ uint64_t vbnl_split_map_copy_bytes(uint64_t map_bytes, unsigned threads)
     if (bytes > (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES || (phys > 0.0 && bytes > phys / 8.0))
         return 0;
     return (uint64_t)map_bytes * (threads - 1);
+}
+
+uint64_t vbnl_split_batch_bytes(uint32_t hits)
+{
+    return (uint64_t)hits * (sizeof(split_rec) + 4u * sizeof(uint32_t)); /* hits, order, bin, cell, scell */
+}
+
+uint32_t vbnl_split_batch_hits(unsigned threads)
+{
+    uint64_t fit = (uint64_t)VBNL_SPLIT_MAX_BATCH_BYTES / vbnl_split_batch_bytes(1) / (threads ? threads : 1u);
+    fit &= ~(uint64_t)1023u;
+    return fit >= VBNL_SPLIT_BATCH_HITS ? VBNL_SPLIT_BATCH_HITS
+                                        : (fit <= VBNL_SPLIT_BATCH_HITS_MIN ? VBNL_SPLIT_BATCH_HITS_MIN : (uint32_t)fit);
 }
 
 void vbnl_split_desc_init(vbnl_split_desc *d)
@@ -1370,8 +1384,10 @@ static int no_poll(void *user, uint64_t finished, uint64_t count)
     return 0;
 }
 
-/* A work item traces its paths into the thread's batch and deposits the batch before it
- * returns (also whenever the batch fills up), so a finished item has made all its deposits. */
+/* A work item traces its paths into the thread's batch, deposited whenever it fills up; the
+ * last thread_count items deposit what their thread holds before they return (the caller
+ * deposits what is left after the run, splitting.h), so once the run is over every finished
+ * item has made all its deposits. */
 static void run_chunk(void *user, uint64_t item, unsigned thread)
 {
     const split_job *job = user;
@@ -1381,7 +1397,8 @@ static void run_chunk(void *user, uint64_t item, unsigned thread)
     uint64_t b = job->begin + item * job->chunk;
     uint64_t e = b + job->chunk < job->end ? b + job->chunk : job->end;
     trace_paths(job, t, b, e);
-    flush_batch(job, t);
+    if (item + job->thread_count >= job->items)
+        flush_batch(job, t);
 }
 
 static void threads_free(split_job *job)
@@ -1444,6 +1461,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbnl_pool_thread_count(pool);
     if (job.thread_count == 0)
         job.thread_count = 1;
+    const uint32_t batch_hits = vbnl_split_batch_hits(job.thread_count);
     uint32_t nvl = vbnl_vl_index_count(d->index);
     job.empty = nvl == 0;
     uint8_t *glossy = NULL;
@@ -1483,7 +1501,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     const int map_copies = own_sums && map_bytes > 0 && (job.thread_count == 1 || copy_bytes > 0);
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
-        t->cap = VBNL_SPLIT_BATCH_HITS;
+        t->cap = batch_hits;
         if (own_sums && (t->vl = vbnl_big_alloc(sizeof(split_vl) * ((size_t)nvl + 1)))) {
             memset(t->vl, 0, sizeof(split_vl) * ((size_t)nvl + 1));
             for (uint32_t r = 0; r < nvl; ++r) {
@@ -1516,6 +1534,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         }
     }
     uint64_t items = (job.end - job.begin + job.chunk - 1) / job.chunk;
+    job.items = items;
     if (items) {
         if (stage) {
             if (vbnl_stage_run(stage, items, run_chunk, &job) != 0)
@@ -1523,6 +1542,10 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         } else {
             vbnl_pool_run(pool, items, run_chunk, &job, no_poll, NULL, 1.0);
         }
+        /* the batches of threads whose last item was not among the last thread_count (also
+         * after a cancel: the items that ran have finished) */
+        for (unsigned i = 0; i < job.thread_count && !job.empty; ++i)
+            flush_batch(&job, &job.threads[i]);
     }
     /* The private map copies into the set's maps (integer adds: the same bits as atomic
      * splats; deposits of finished work items stay after a cancel). */
@@ -1556,7 +1579,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         stats->seconds = vbnl_now() - t0;
         stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
                                ((own_sums ? (uint64_t)sizeof(split_vl) * (nvl + 1) : 0ull) +
-                                (uint64_t)VBNL_SPLIT_BATCH_HITS *
+                                (uint64_t)batch_hits *
                                     (sizeof(split_rec) + (job.cell_fast ? 4 : 2) * sizeof(uint32_t)) +
                                 4ull * (job.bins + 1)) +
                                (glossy ? nvl : 0u) +

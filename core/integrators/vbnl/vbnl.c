@@ -206,11 +206,12 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
         /* Peak memory: candidates and the elimination's working set (~96 B each), the lights
          * with a glossy incident map each in the worst case (R^2 x 28 B) and the index, and
          * photon splitting's private map copies (vbnl_split_map_copy_bytes of maps of
-         * R^2 x 24 B per light). */
+         * R^2 x 24 B per light) and hit batches (vbnl_split_batch_bytes per thread). */
         double res2 = (double)s->profile_res * s->profile_res;
         double bytes = (double)pp->candidates * 96.0 + (double)pp->virtual_lights * (64.0 + res2 * 28.0 + 64.0);
         bytes += (double)vbnl_split_map_copy_bytes((uint64_t)pp->virtual_lights * (uint64_t)res2 * 24u,
                                                    env->ctx->threads);
+        bytes += (double)env->ctx->threads * (double)vbnl_split_batch_bytes(vbnl_split_batch_hits(env->ctx->threads));
         double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
         if (phys > 0.0 && bytes > 0.8 * phys)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
