@@ -489,6 +489,18 @@ static int sets_equal(const vbnl_profile_set *a, const vbnl_profile_set *b, uint
     return 1;
 }
 
+/* 3000 VLs placed from the camera of committed scene s (place_vls), their grid index, and a
+ * 16 x 16 octahedral map in *map. */
+static vbnl_vl_index *place_and_index(const vbnl_scene *s, vl_list *v, vbnl_hemioct **map)
+{
+    place_vls(s, v, 3000, 24.0f);
+    vbnl_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
+    vbnl_vl_index *x = NULL;
+    assert_int_equal(vbnl_vl_index_create(&xd, &x), VBNL_OK);
+    assert_int_equal(vbnl_hemioct_create(16, map), VBNL_OK);
+    return x;
+}
+
 static void test_determinism_and_merge(void **state)
 {
     (void)state;
@@ -496,12 +508,8 @@ static void test_determinism_and_merge(void **state)
     vbnl_scene *s = ts_box_scene(ctx, 1.0f);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;
-    place_vls(s, &v, 3000, 24.0f);
-    vbnl_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
-    vbnl_vl_index *idx = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
     vbnl_hemioct *map = NULL;
-    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    vbnl_vl_index *idx = place_and_index(s, &v, &map);
     const uint32_t texels = vbnl_hemioct_texel_count(map);
     const uint64_t P = 200000;
     double unit = vbnl_split_photon_unit(s, P);
@@ -666,12 +674,8 @@ static void test_simd_step_shading_normals(void **state)
     assert_int_equal(vbnl_scene_add_mesh(s, &m, NULL, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;
-    place_vls(s, &v, 3000, 24.0f);
-    vbnl_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
-    vbnl_vl_index *x = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &x), VBNL_OK);
     vbnl_hemioct *map = NULL;
-    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    vbnl_vl_index *x = place_and_index(s, &v, &map);
     const uint64_t P = 100000;
     const double unit = vbnl_split_photon_unit(s, P);
     vbnl_pool *pool = vbnl_pool_create(2);
