@@ -1102,7 +1102,60 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
 
     /* the visits, and the bounce's two numbers of each lane */
     _Alignas(32) float ux[8], uy[8];
-    {
+    if (rec && job->cell_fast) {
+        /* record_hit with the cell of each hit (fast_cell) and its point in the cell's frame
+         * (cell_frame) computed for the eight lanes at once */
+        const grid_level *g = &job->d->index->levels[0];
+        _Alignas(32) float a[15][8];
+        _Alignas(32) int32_t ci[3][8];
+        _Alignas(32) uint32_t cl[8];
+        const __m256 P[3] = {px, py, pz}, lo[3] = {_mm256_set1_ps(g->lo.x), _mm256_set1_ps(g->lo.y),
+                                                   _mm256_set1_ps(g->lo.z)};
+        const __m256 inv = _mm256_set1_ps(g->inv_cell), cellv = _mm256_set1_ps(g->cell);
+        __m256 in = mask8(fast);
+        __m256i c3[3];
+        for (int ax = 0; ax < 3; ++ax) {
+            const __m256 nf = _mm256_set1_ps((float)g->n[ax]);
+            __m256 f = _mm256_mul_ps(_mm256_sub_ps(P[ax], lo[ax]), inv);
+            in = _mm256_and_ps(in, _mm256_and_ps(_mm256_cmp_ps(f, _mm256_set1_ps(-1.0f), _CMP_GT_OQ),
+                                                 _mm256_cmp_ps(f, _mm256_add_ps(nf, one), _CMP_LT_OQ)));
+            __m256 fl = _mm256_min_ps(_mm256_max_ps(_mm256_floor_ps(f), zero), _mm256_sub_ps(nf, one));
+            c3[ax] = _mm256_cvttps_epi32(fl);
+            _mm256_store_si256((__m256i *)ci[ax], c3[ax]);
+            /* cell_frame: (p - (lo + c cell) + q_off) q_scale */
+            __m256 org = _mm256_add_ps(lo[ax], _mm256_mul_ps(_mm256_cvtepi32_ps(c3[ax]), cellv));
+            _mm256_store_ps(a[12 + ax], _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(P[ax], org), _mm256_set1_ps(g->q_off)),
+                                                      _mm256_set1_ps(g->q_scale)));
+        }
+        _mm256_store_si256((__m256i *)cl,
+                           _mm256_add_epi32(c3[0], _mm256_mullo_epi32(_mm256_set1_epi32(g->n[0]),
+                                                                      _mm256_add_epi32(c3[1], _mm256_mullo_epi32(
+                                                                          _mm256_set1_epi32(g->n[1]), c3[2])))));
+        _mm256_store_ps(a[0], px), _mm256_store_ps(a[1], py), _mm256_store_ps(a[2], pz);
+        _mm256_store_ps(a[3], nx), _mm256_store_ps(a[4], ny), _mm256_store_ps(a[5], nz);
+        _mm256_store_ps(a[6], wox), _mm256_store_ps(a[7], woy), _mm256_store_ps(a[8], woz);
+        _mm256_store_ps(a[9], bx), _mm256_store_ps(a[10], by), _mm256_store_ps(a[11], bz);
+        const unsigned inside = (unsigned)_mm256_movemask_ps(in);
+        const uint32_t sh = job->cell_shift, bb = VBNL_SPLIT_BIN_BITS / 3u;
+        for (unsigned m = fast; m; m &= m - 1) {
+            unsigned i = (unsigned)__builtin_ctz(m);
+            if (inside >> i & 1u) {
+                if (t->n == t->cap)
+                    flush_batch(job, t);
+                split_rec *h = &t->hits[t->n];
+                *h = (split_rec){v3(a[0][i], a[1][i], a[2][i]), v3(a[3][i], a[4][i], a[5][i]),
+                                 v3(a[6][i], a[7][i], a[8][i]), v3(a[9][i], a[10][i], a[11][i]),
+                                 {a[12][i], a[13][i], a[14][i]}, 0};
+                t->cell[t->n] = cl[i];
+                t->bin[t->n] = vbnl_vl_key_spread_bits((uint32_t)ci[0][i] >> sh, bb) |
+                               vbnl_vl_key_spread_bits((uint32_t)ci[1][i] >> sh, bb) << 1 |
+                               vbnl_vl_key_spread_bits((uint32_t)ci[2][i] >> sh, bb) << 2;
+                t->n++;
+            }
+            ux[i] = vbnl_rng_next(&L->rng[i]);
+            uy[i] = vbnl_rng_next(&L->rng[i]);
+        }
+    } else {
         _Alignas(32) float a[12][8];
         if (rec) {
             _mm256_store_ps(a[0], px), _mm256_store_ps(a[1], py), _mm256_store_ps(a[2], pz);
