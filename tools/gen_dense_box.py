@@ -21,10 +21,18 @@ def main():
     if len(sys.argv) not in (3, 5):
         sys.exit(__doc__)
     src_dir, out_dir = sys.argv[1], sys.argv[2]
-    rings, segs = (int(sys.argv[3]), int(sys.argv[4])) if len(sys.argv) == 5 else (320, 500)
+    try:
+        rings, segs = (int(sys.argv[3]), int(sys.argv[4])) if len(sys.argv) == 5 else (320, 500)
+    except ValueError:
+        sys.exit("gen_dense_box: RINGS and SEGMENTS must be integers, got '%s' '%s'" % (sys.argv[3], sys.argv[4]))
     if rings < 2 or segs < 3:
         sys.exit("gen_dense_box: RINGS >= 2 and SEGMENTS >= 3")
-    src = open(os.path.join(src_dir, "CornellBox-Original.obj")).read()
+    for name in ("CornellBox-Original.obj", "CornellBox-Original.mtl"):
+        if not os.path.isfile(os.path.join(src_dir, name)):
+            sys.exit("gen_dense_box: %s: no such file (SHARED_SCENES_DIR is the cornell-box-mcguire folder)"
+                     % os.path.join(src_dir, name))
+    with open(os.path.join(src_dir, "CornellBox-Original.obj")) as f:
+        src = f.read()
     base = sum(1 for line in src.splitlines() if line.startswith("v "))
     out = [src.rstrip("\n"), "o denseSphere", "usemtl tallBox"]
     r0, cx, cy, cz = 0.3, -0.3, 0.45, 0.3

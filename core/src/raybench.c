@@ -43,11 +43,7 @@ static void trace_chunk(void *user, uint64_t item, unsigned thread)
         for (uint32_t i0 = begin; i0 < end; i0 += 8) {
             _Alignas(32) struct RTCRayHit8 rh;
             _Alignas(32) int valid[8];
-            for (uint32_t k = 0; k < 8; ++k) {
-                uint32_t i = i0 + k < end ? i0 + k : i0;
-                valid[k] = i0 + k < end ? -1 : 0;
-                vbnl_rayhit8_set(&rh, k, rs->o[i], rs->d[i], INFINITY);
-            }
+            vbnl_rayhit8_fill(&rh, valid, rs->o, rs->d, i0, end);
             rtcIntersect8(valid, rs->scene->world, &ictx, &rh);
             for (uint32_t k = 0; k < 8; ++k)
                 hits += valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;

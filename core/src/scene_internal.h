@@ -140,6 +140,18 @@ static inline void vbnl_rayhit8_set(struct RTCRayHit8 *rh, unsigned k, vec3 o, v
     rh->hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
 }
 
+/* Rays i0 .. min(i0 + 8, end) - 1 of the arrays (o, d) as one packet (vbnl_rayhit8_set, tfar
+ * infinite); lanes past `end` repeat ray i0 and are off in `valid`. */
+static inline void vbnl_rayhit8_fill(struct RTCRayHit8 *rh, int valid[8], const vec3 *o, const vec3 *d, uint32_t i0,
+                                     uint32_t end)
+{
+    for (uint32_t k = 0; k < 8; ++k) {
+        uint32_t i = i0 + k < end ? i0 + k : i0;
+        valid[k] = i0 + k < end ? -1 : 0;
+        vbnl_rayhit8_set(rh, k, o[i], d[i], INFINITY);
+    }
+}
+
 /* The mesh part of a hit's set-up (vbnl_fill_hit below; inline also in the photon walk,
  * photon_fast.h): normals, uv, material and light of triangle `prim` at barycentrics (bu, bv),
  * from Embree's unnormalised geometric normal e_ng ((p1 - p0) x (p2 - p0), the scene's winding),

@@ -98,11 +98,7 @@ static void raw_chunk(void *user, uint64_t item, unsigned thread)
     for (uint32_t i0 = b; i0 < e; i0 += 8) {
         _Alignas(32) struct RTCRayHit8 rh;
         _Alignas(32) int valid[8];
-        for (uint32_t k = 0; k < 8; ++k) {
-            uint32_t i = i0 + k < e ? i0 + k : i0;
-            valid[k] = i0 + k < e ? -1 : 0;
-            vbnl_rayhit8_set(&rh, k, rr->o[i], rr->d[i], INFINITY);
-        }
+        vbnl_rayhit8_fill(&rh, valid, rr->o, rr->d, i0, e);
         rtcIntersect8(valid, rr->s->world, &ictx, &rh);
     }
 }

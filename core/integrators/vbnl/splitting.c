@@ -1339,8 +1339,9 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
         unsigned alive = 0, general = 0;
 #if defined(__AVX2__)
         /* the lanes the SIMD step takes (step_fast); misses end */
-        fast_surf sf;
-        sf.shaded = 0;
+        fast_surf sf; /* lanes outside `fast` (and normals outside `shaded`) are computed on and
+                       * discarded: zero, not indeterminate, values there */
+        memset(&sf, 0, sizeof(sf));
         unsigned fast = 0;
         if (d->general_walk)
             general = (1u << n) - 1u;
