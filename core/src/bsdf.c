@@ -37,47 +37,63 @@ static float lerp2(const float *row0, const float *row1, int im, float fm, float
     return a + (b - a) * fa;
 }
 
-/* Single-scattering albedo of a white GGX conductor and its cosine-weighted average. */
-static float conductor_E(float mu, float alpha)
+/* The cells of a material's roughness (and coat IOR) in the tables: a BSDF's context computes
+ * them once for its E(mu_o), E_avg and E(mu_i) (the same values as three separate lookups). */
+typedef struct table_ai {
+    int ia, ik;
+    float fa, fk;
+} table_ai;
+
+static table_ai table_alpha(float alpha)
 {
-    int ia, im;
-    float fa, fm;
-    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &ia, &fa);
-    table_cell(ggx_table_x_mu(mu), VBNL_GGX_N_MU, &im, &fm);
-    return lerp2(vbnl_ggx_conductor_E[ia], vbnl_ggx_conductor_E[ia + 1], im, fm, fa);
+    table_ai t = {0, 0, 0.0f, 0.0f};
+    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &t.ia, &t.fa);
+    return t;
 }
 
-static float conductor_Eavg(float alpha)
+static table_ai table_alpha_ior(float alpha, float ior)
 {
-    int ia;
-    float fa;
-    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &ia, &fa);
-    return vbnl_ggx_conductor_Eavg[ia] + (vbnl_ggx_conductor_Eavg[ia + 1] - vbnl_ggx_conductor_Eavg[ia]) * fa;
+    table_ai t;
+    table_cell(ggx_table_x_ior(ior), VBNL_GGX_N_IOR, &t.ik, &t.fk);
+    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &t.ia, &t.fa);
+    return t;
+}
+
+/* Single-scattering albedo of a white GGX conductor and its cosine-weighted average. */
+static float conductor_E(const table_ai *t, float mu)
+{
+    int im;
+    float fm;
+    table_cell(ggx_table_x_mu(mu), VBNL_GGX_N_MU, &im, &fm);
+    return lerp2(vbnl_ggx_conductor_E[t->ia], vbnl_ggx_conductor_E[t->ia + 1], im, fm, t->fa);
+}
+
+static float conductor_Eavg(const table_ai *t)
+{
+    const int ia = t->ia;
+    return vbnl_ggx_conductor_Eavg[ia] + (vbnl_ggx_conductor_Eavg[ia + 1] - vbnl_ggx_conductor_Eavg[ia]) * t->fa;
 }
 
 /* Albedo of the dielectric coat's specular reflection (trilinear in ior, alpha, mu). */
-static float coat_E(float mu, float alpha, float ior)
+static float coat_E(const table_ai *t, float mu)
 {
-    int ik, ia, im;
-    float fk, fa, fm;
-    table_cell(ggx_table_x_ior(ior), VBNL_GGX_N_IOR, &ik, &fk);
-    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &ia, &fa);
+    int im;
+    float fm;
+    const int ik = t->ik, ia = t->ia;
     table_cell(ggx_table_x_mu(mu), VBNL_GGX_N_MU, &im, &fm);
-    float e0 = lerp2(vbnl_ggx_coat_E[ik][ia], vbnl_ggx_coat_E[ik][ia + 1], im, fm, fa);
-    float e1 = lerp2(vbnl_ggx_coat_E[ik + 1][ia], vbnl_ggx_coat_E[ik + 1][ia + 1], im, fm, fa);
-    return e0 + (e1 - e0) * fk;
+    float e0 = lerp2(vbnl_ggx_coat_E[ik][ia], vbnl_ggx_coat_E[ik][ia + 1], im, fm, t->fa);
+    float e1 = lerp2(vbnl_ggx_coat_E[ik + 1][ia], vbnl_ggx_coat_E[ik + 1][ia + 1], im, fm, t->fa);
+    return e0 + (e1 - e0) * t->fk;
 }
 
-static float coat_Eavg(float alpha, float ior)
+static float coat_Eavg(const table_ai *t)
 {
-    int ik, ia;
-    float fk, fa;
-    table_cell(ggx_table_x_ior(ior), VBNL_GGX_N_IOR, &ik, &fk);
-    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &ia, &fa);
+    const int ik = t->ik, ia = t->ia;
+    const float fa = t->fa;
     const float *r0 = vbnl_ggx_coat_Eavg[ik], *r1 = vbnl_ggx_coat_Eavg[ik + 1];
     float e0 = r0[ia] + (r0[ia + 1] - r0[ia]) * fa;
     float e1 = r1[ia] + (r1[ia + 1] - r1[ia]) * fa;
-    return e0 + (e1 - e0) * fk;
+    return e0 + (e1 - e0) * t->fk;
 }
 
 /* ---- Fresnel ------------------------------------------------------------------------------ */
@@ -154,6 +170,7 @@ void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m)
 
 /* Everything the conductor's eval, pdf and sample need about wo. */
 typedef struct conductor_ctx {
+    table_ai t;     /* the roughness's table cell */
     float e_o;      /* E(mu_o) */
     float e_avg;
     vec3 fms;       /* colour of the multiple-scattering lobe: F_avg^2 E_avg / (1 - F_avg (1 - E_avg)) */
@@ -163,8 +180,9 @@ typedef struct conductor_ctx {
 static conductor_ctx conductor_setup(const vbnl_bsdf *b, vec3 wo)
 {
     conductor_ctx c;
-    c.e_o = conductor_E(wo.z, b->alpha);
-    c.e_avg = conductor_Eavg(b->alpha);
+    c.t = table_alpha(b->alpha);
+    c.e_o = conductor_E(&c.t, wo.z);
+    c.e_avg = conductor_Eavg(&c.t);
     vec3 favg = conductor_favg(b);
     /* Kulla & Conty 2017: the energy that leaves after k >= 1 extra bounces forms the geometric
      * series F_avg E_avg sum (F_avg (1 - E_avg))^k; with F = 1 the factor is exactly 1. */
@@ -178,7 +196,7 @@ static conductor_ctx conductor_setup(const vbnl_bsdf *b, vec3 wo)
     return c;
 }
 
-static vec3 conductor_eval_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) vec3 conductor_eval_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_add(wo, wi);
     if (v3_len2(h) == 0.0f)
@@ -189,12 +207,12 @@ static vec3 conductor_eval_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 
     float dg = ggx_d(h, b->alpha) * ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
     vec3 f = v3_scale(conductor_fresnel(b, v3_dot(wo, h)), dg);
     /* Multiple scattering (Kulla & Conty 2017), times cos theta_i. */
-    float e_i = conductor_E(wi.z, b->alpha);
+    float e_i = conductor_E(&c->t, wi.z);
     float ms = (1.0f - c->e_o) * (1.0f - e_i) / (VBNL_PI * maxf(1.0f - c->e_avg, 1e-6f)) * wi.z;
     return v3_fma(f, c->fms, ms);
 }
 
-static float conductor_pdf_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) float conductor_pdf_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_add(wo, wi);
     if (v3_len2(h) == 0.0f)
@@ -257,6 +275,7 @@ static int conductor_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sampl
  * that range the table is clamped while the Fresnel term uses the true ior, which keeps
  * reciprocity but no longer guarantees the albedo bound exactly. */
 typedef struct plastic_ctx {
+    table_ai t;     /* the roughness's and the coat IOR's table cells */
     float es_o;     /* E_s(mu_o) */
     float es_avg;
     float p_spec;   /* probability of sampling the specular lobe */
@@ -265,8 +284,9 @@ typedef struct plastic_ctx {
 static plastic_ctx plastic_setup(const vbnl_bsdf *b, vec3 wo)
 {
     plastic_ctx c;
-    c.es_o = coat_E(wo.z, b->alpha, b->ior);
-    c.es_avg = coat_Eavg(b->alpha, b->ior);
+    c.t = table_alpha_ior(b->alpha, b->ior);
+    c.es_o = coat_E(&c.t, wo.z);
+    c.es_avg = coat_Eavg(&c.t);
     /* Lobe albedos at wo: specular E_s(mu_o), diffuse lum(color) (1 - E_s(mu_o)). */
     float spec = c.es_o;
     float diff = v3_luminance(b->color) * (1.0f - c.es_o);
@@ -274,17 +294,17 @@ static plastic_ctx plastic_setup(const vbnl_bsdf *b, vec3 wo)
     return c;
 }
 
-static vec3 plastic_eval_ctx(const vbnl_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) vec3 plastic_eval_ctx(const vbnl_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_norm(v3_add(wo, wi));
     float spec = vbnl_fresnel_dielectric(v3_dot(wo, h), b->ior) * ggx_d(h, b->alpha) *
                  ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
-    float es_i = coat_E(wi.z, b->alpha, b->ior);
+    float es_i = coat_E(&c->t, wi.z);
     float diff = (1.0f - c->es_o) * (1.0f - es_i) / maxf(1.0f - c->es_avg, 1e-6f) * VBNL_INV_PI * wi.z;
     return v3_add(v3s(spec), v3_scale(b->color, diff));
 }
 
-static float plastic_pdf_ctx(const vbnl_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) float plastic_pdf_ctx(const vbnl_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_norm(v3_add(wo, wi));
     return c->p_spec * ggx_pdf_vndf_reflect(wo, h, b->alpha) + (1.0f - c->p_spec) * pdf_cosine_hemisphere(wi);

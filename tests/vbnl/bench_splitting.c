@@ -9,7 +9,8 @@
  * scene: the faster of one ray at a time (rtcIntersect1) and eight to a packet (rtcIntersect8),
  * since splitting traces eight paths as one packet (vbnl_scene_measure_ray_rates: closest,
  * closest_packet). Also photon tracing with an empty VL set
- * (no splitting) to separate the cost of the splitting itself.
+ * (no splitting) to separate the cost of the splitting itself; with both rows and the raw rate,
+ * a last line splits a ray's CPU time into Embree's (at the ceiling), the walk's and the deposit's.
  *
  * Shared machines: the raw rate is measured again before every run (same rays) and the ratio
  * splitting rays/s : raw rays/s is reported per run (median), once per wall second and once per
@@ -289,6 +290,8 @@ int main(int argc, char **argv)
         {"grid, cell = 1 r", VBNL_VL_INDEX_GRID, 1.0f, nvl},
         {"embree point query", VBNL_VL_INDEX_EMBREE, 0.0f, nvl},
     };
+    /* Per variant that ran: CPU nanoseconds per traced ray (threads x median seconds / rays). */
+    double ns_per_ray[sizeof(variants) / sizeof(variants[0])] = {0};
     for (size_t v = 0; v < sizeof(variants) / sizeof(variants[0]); ++v) {
         if (mask && !(mask >> v & 1u))
             continue;
@@ -339,7 +342,20 @@ int main(int argc, char **argv)
                100.0 * st.simd_hits / (st.hits ? st.hits : 1), 100.0 * st.covered_hits / (st.hits ? st.hits : 1),
                (double)st.deposits / (st.covered_hits ? st.covered_hits : 1), (unsigned long long)st.overflow,
                vbnl_vl_index_bytes(idx) / 1048576.0, vbnl_vl_index_level_count(idx), tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
+        ns_per_ray[v] = st.rays ? 1e9 * nthreads * t / (double)st.rays : 0.0;
         vbnl_vl_index_destroy(idx);
+    }
+    /* Where a ray's time goes, against the target: at half the ceiling a ray may take twice what
+     * Embree alone needs, so the walk (emission, hit set-up, bounce) and the deposit together must
+     * fit in one ceiling ray's time. */
+    if (raw > 0.0 && ns_per_ray[0] > 0.0) {
+        const double embree = 1e9 * nthreads / raw;
+        printf("per ray and thread: Embree at the ceiling %.0f ns; tracing alone %.0f ns (walk and emission %.0f ns)",
+               embree, ns_per_ray[0], ns_per_ray[0] - embree);
+        for (size_t v = 1; v < sizeof(variants) / sizeof(variants[0]); ++v)
+            if (ns_per_ray[v] > 0.0)
+                printf("; %s %.0f ns (deposit %.0f ns)", variants[v].name, ns_per_ray[v], ns_per_ray[v] - ns_per_ray[0]);
+        printf(". Half the ceiling leaves %.0f ns for walk and deposit together\n", embree);
     }
     vbnl_hemioct_destroy(map);
     free(c);
