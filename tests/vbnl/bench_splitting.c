@@ -228,7 +228,15 @@ int main(int argc, char **argv)
         r[k] = vls.radius[k];
         glossy[k] = s->materials[vls.material[k]].bsdf.type != VBNL_MATERIAL_LAMBERT;
     }
+    uint64_t tries = 0;
     while (k < nvl) {
+        if (++tries > 100ull * nvl + 1000000ull) { /* the fixed camera sees (almost) nothing of this scene */
+            fprintf(stderr,
+                    "bench_splitting: camera lights: the camera at (0, 1, 3.4) looking at (0, 1, 0) found %u of %u "
+                    "light positions in %llu rays in %s; use 'pipeline' lights\n",
+                    k, nvl, (unsigned long long)tries, path);
+            return 1;
+        }
         vec3 o, d;
         vbnl_camera_ray(&s->camera, 512, 512, vbnl_rng_next(&rng) * 512, vbnl_rng_next(&rng) * 512, &o, &d);
         vbnl_hit h;

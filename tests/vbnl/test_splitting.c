@@ -631,14 +631,13 @@ static void test_determinism_and_merge(void **state)
 
 /* ---- the SIMD step on shading normals ---------------------------------------------------- */
 
-/* The box with a Lambertian sphere mesh (24 x 12 facets) whose vertex normals are the smooth
+/* The box with a sphere mesh of material `type` (24 x 12 facets) whose vertex normals are the smooth
  * ones, every 7th reversed and every 5th tilted: interpolated normals that differ from the
  * facet's (adjoint correction) and that lie behind it (the facet normal turned to their side;
  * photons arriving behind the shading normal). Photon splitting through the SIMD step and through the
  * general walk alone: the same rays, hits and bits. */
-static void test_simd_step_shading_normals(void **state)
+static double simd_step_sphere(vbnl_material_type type, const char *name)
 {
-    (void)state;
     vbnl_context *ctx = make_ctx(2);
     vbnl_scene *s = ts_box_scene(ctx, 1.0f);
     enum { NU = 24, NV = 12 };
@@ -670,7 +669,7 @@ static void test_simd_step_shading_normals(void **state)
     m.vertex_count = (NU + 1) * (NV + 1);
     m.indices = idx;
     m.triangle_count = nt;
-    m.material = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.8f, 0.75f, 0.7f, 0.0f);
+    m.material = ts_material(s, type, 0.8f, 0.75f, 0.7f, 0.0f);
     assert_int_equal(vbnl_scene_add_mesh(s, &m, NULL, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;
@@ -684,7 +683,7 @@ static void test_simd_step_shading_normals(void **state)
     g_general_walk = 1;
     vbnl_profile_set *b = run_split_chunk(s, x, &v, map, unit, pool, 9, P, 0, 0, 0, &sb);
     g_general_walk = 0;
-    print_message("# shaded sphere: %llu of %llu hits in the SIMD step, %llu covered\n",
+    print_message("# shaded %s sphere: %llu of %llu hits in the SIMD step, %llu covered\n", name,
                   (unsigned long long)sa.simd_hits, (unsigned long long)sa.hits, (unsigned long long)sa.covered_hits);
 #if defined(__AVX2__)
     assert_true(sa.simd_hits > sa.hits / 2);
@@ -702,6 +701,26 @@ static void test_simd_step_shading_normals(void **state)
     vbnl_vl_index_destroy(x);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
+    return (double)(sa.hits - sa.simd_hits) / (double)sa.hits; /* the general walk's share */
+}
+
+/* The SIMD step (step_fast) against the general walk on a sphere mesh whose vertex normals are
+ * partly reversed and tilted (shading normals, their flips and the adjoint correction), for a
+ * Lambertian sphere and for the BSDFs the step samples one lane at a time (plastic, conductor):
+ * the same rays, hits, deposits and light sums, bit for bit. */
+static void test_simd_step_shading_normals(void **state)
+{
+    (void)state;
+    /* The general walk takes only the light's hits (its surface is black) in every case: the
+     * sphere's hits take the step whatever its BSDF. */
+    double lambert = simd_step_sphere(VBNL_MATERIAL_LAMBERT, "Lambertian");
+    double plastic = simd_step_sphere(VBNL_MATERIAL_PLASTIC, "plastic");
+    double conductor = simd_step_sphere(VBNL_MATERIAL_CONDUCTOR, "conductor");
+    print_message("# general walk's share of the hits: %.4f, %.4f, %.4f\n", lambert, plastic, conductor);
+#if defined(__AVX2__)
+    assert_true(plastic < lambert + 0.01);
+    assert_true(conductor < lambert + 0.01);
+#endif
 }
 
 /* ---- glossy VL under a small area light --------------------------------------------------- */

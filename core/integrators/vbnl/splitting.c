@@ -1018,22 +1018,28 @@ static inline __m256 mask8(unsigned bits)
 }
 
 /* What step_fast needs of the lanes' surfaces beyond Embree's answer: the Lambertian colour
- * and, for lanes in `shaded`, the vertex normals of the triangle hit (vertex k's in n[k]). */
+ * and, for lanes in `shaded`, the vertex normals of the triangle hit (vertex k's in n[k]); for
+ * lanes in `other` (an opaque, non-delta, non-Lambertian BSDF: plastic, conductor), the BSDF
+ * the bounce samples instead. */
 typedef struct fast_surf {
     _Alignas(32) float cr[8], cg[8], cb[8];
     _Alignas(32) float n[3][3][8]; /* [vertex][axis][lane] */
-    unsigned shaded;
+    const vbnl_bsdf *bsdf[8];
+    unsigned shaded, other;
 } fast_surf;
 
-/* The lanes of `fast` (hits on a non-instanced triangle mesh whose material is an untextured
- * Lambertian with a non-black colour), eight at once: vbnl_photon_hit_from, vbnl_photon_scatter
- * with its visit (record_hit when `rec`) and Lambertian bounce, operation for operation (hence
- * the same bits): the hit point o + d t; the unit normals (vbnl_fill_mesh_hit: the interpolated
- * shading normal where the mesh has normals, the geometric one turned to its side) turned to
- * face the photon; the cosine-weighted direction (sample_cosine_hemisphere, frame_from_normal,
- * frame_to_world); the adjoint shading-normal correction; Russian roulette; the offset origin
- * of the next ray. Each lane draws from its own stream in the general walk's order (the
- * bounce's two numbers, then the roulette's). Returns the lanes of `fast` that go on. */
+/* The lanes of `fast` (hits on a non-instanced triangle mesh whose material is untextured and
+ * either a Lambertian with a non-black colour or, in sf->other, an opaque non-delta BSDF),
+ * eight at once: vbnl_photon_hit_from, vbnl_photon_scatter with its visit (record_hit when
+ * `rec`) and bounce, operation for operation (hence the same bits): the hit point o + d t; the
+ * unit normals (vbnl_fill_mesh_hit: the interpolated shading normal where the mesh has normals,
+ * the geometric one turned to its side) turned to face the photon; the frame of the shading
+ * normal (frame_from_normal); the direction: cosine-weighted for the Lambertian lanes
+ * (sample_cosine_hemisphere), vbnl_bsdf_sample of wo in the frame (frame_to_local) for the
+ * others, one lane at a time; frame_to_world; the adjoint shading-normal correction; Russian
+ * roulette; the offset origin of the next ray. Each lane draws from its own stream in the
+ * general walk's order (the bounce's two numbers, then the roulette's). Returns the lanes of
+ * `fast` that go on. */
 static inline __attribute__((always_inline)) unsigned step_fast(const split_job *job, split_thread *t,
                                                                const vbnl_photon_walk_desc *w, photon_lanes *L,
                                                                const struct RTCRayHit8 *r8, unsigned fast,
@@ -1173,6 +1179,20 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
         }
     }
     __m256 alive = _mm256_and_ps(mask8(fast), _mm256_cmp_ps(dot8(wox, woy, woz, sx, sy, sz), zero, _CMP_GT_OQ));
+    /* frame_from_normal(ns) */
+    __m256 fsx, fsy, fsz, ftx, fty, ftz;
+    {
+        __m256 sign = _mm256_or_ps(_mm256_and_ps(sz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
+        __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, sz));
+        __m256 b = _mm256_mul_ps(_mm256_mul_ps(sx, sy), a);
+        __m256 snx = _mm256_mul_ps(sign, sx);
+        fsx = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(snx, sx), a));
+        fsy = _mm256_mul_ps(sign, b);
+        fsz = _mm256_mul_ps(neg8(sign), sx);
+        ftx = b;
+        fty = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(sy, sy), a));
+        ftz = neg8(sy);
+    }
 
     /* sample_cosine_hemisphere(u): the concentric disk with sincos_quarter, then z */
     __m256 wx, wy, wz;
@@ -1209,16 +1229,34 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
                                           zero));
     }
     alive = _mm256_and_ps(alive, _mm256_cmp_ps(wz, zero, _CMP_GT_OQ));
-    /* frame_from_normal(ns), frame_to_world */
+    /* the other lanes: vbnl_bsdf_sample of wo in the frame, then their direction and weight */
+    _Alignas(32) float owx[8], owy[8], owz[8], ogr[8], ogg[8], ogb[8];
+    if (sf->other) {
+        _Alignas(32) float lx[8], ly[8], lz[8];
+        _mm256_store_ps(lx, dot8(wox, woy, woz, fsx, fsy, fsz));
+        _mm256_store_ps(ly, dot8(wox, woy, woz, ftx, fty, ftz));
+        _mm256_store_ps(lz, dot8(wox, woy, woz, sx, sy, sz));
+        unsigned ok = 0;
+        for (unsigned m = sf->other; m; m &= m - 1) {
+            unsigned i = (unsigned)__builtin_ctz(m);
+            vbnl_bsdf_sample_rec bs;
+            owx[i] = owy[i] = owz[i] = ogr[i] = ogg[i] = ogb[i] = 0.0f;
+            if (!vbnl_bsdf_sample(sf->bsdf[i], v3(lx[i], ly[i], lz[i]), (vec2){ux[i], uy[i]}, &bs) ||
+                v3_is_black(bs.weight))
+                continue;
+            ok |= 1u << i;
+            owx[i] = bs.wi.x, owy[i] = bs.wi.y, owz[i] = bs.wi.z;
+            ogr[i] = bs.weight.x, ogg[i] = bs.weight.y, ogb[i] = bs.weight.z;
+        }
+        const __m256 om = mask8(sf->other);
+        wx = sel8(om, _mm256_load_ps(owx), wx);
+        wy = sel8(om, _mm256_load_ps(owy), wy);
+        wz = sel8(om, _mm256_load_ps(owz), wz);
+        alive = sel8(om, mask8(ok), alive);
+    }
+    /* frame_to_world */
     __m256 ix, iy, iz;
     {
-        __m256 sign = _mm256_or_ps(_mm256_and_ps(sz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
-        __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, sz));
-        __m256 b = _mm256_mul_ps(_mm256_mul_ps(sx, sy), a);
-        __m256 snx = _mm256_mul_ps(sign, sx);
-        __m256 fsx = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(snx, sx), a)), fsy = _mm256_mul_ps(sign, b),
-               fsz = _mm256_mul_ps(neg8(sign), sx);
-        __m256 ftx = b, fty = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(sy, sy), a)), ftz = neg8(sy);
         ix = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsx, wx), _mm256_mul_ps(ftx, wy)), _mm256_mul_ps(sx, wz));
         iy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsy, wx), _mm256_mul_ps(fty, wy)), _mm256_mul_ps(sy, wz));
         iz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(fsz, wx), _mm256_mul_ps(ftz, wy)), _mm256_mul_ps(sz, wz));
@@ -1228,6 +1266,12 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
     /* wt = colour, with the adjoint shading-normal correction (Veach 1997, Eq. 5.17) where ns
      * differs from ng; nb = beta wt; Russian roulette */
     __m256 wtx = _mm256_load_ps(sf->cr), wty = _mm256_load_ps(sf->cg), wtz = _mm256_load_ps(sf->cb);
+    if (sf->other) { /* the sampled weight f cos / pdf */
+        const __m256 om = mask8(sf->other);
+        wtx = sel8(om, _mm256_load_ps(ogr), wtx);
+        wty = sel8(om, _mm256_load_ps(ogg), wty);
+        wtz = sel8(om, _mm256_load_ps(ogb), wtz);
+    }
     if (sf->shaded) {
         __m256 differ = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(sx, nx, _CMP_NEQ_UQ), _mm256_cmp_ps(sy, ny, _CMP_NEQ_UQ)),
                                      _mm256_cmp_ps(sz, nz, _CMP_NEQ_UQ));
@@ -1358,7 +1402,18 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
             const scene_mesh *me = &g->u.mesh;
             const scene_material *sm = &sc->materials[me->face_materials ? me->face_materials[r8.hit.primID[i]]
                                                                           : me->material];
-            if (sm->texture || sm->bsdf.type != VBNL_MATERIAL_LAMBERT || v3_is_black(sm->bsdf.color)) {
+            if (sm->texture) {
+                general |= 1u << i;
+                continue;
+            }
+            if (sm->bsdf.type != VBNL_MATERIAL_LAMBERT) {
+                if (vbnl_bsdf_is_delta(&sm->bsdf) || vbnl_bsdf_is_transmissive(&sm->bsdf)) {
+                    general |= 1u << i;
+                    continue;
+                }
+                sf.other |= 1u << i;
+                sf.bsdf[i] = &sm->bsdf;
+            } else if (v3_is_black(sm->bsdf.color)) {
                 general |= 1u << i;
                 continue;
             }
