@@ -433,9 +433,11 @@ static void test_memory_and_arguments(void **state)
     assert_int_equal(vbnl_profile_set_release_incident(NULL), VBNL_ERR_INVALID_ARGUMENT);
 }
 
-/* Splats into private map copies with plain adds, added into the set afterwards
- * (vbnl_profile_add_incident_fixed; photon splitting's per-thread maps), equal atomic splats
- * into the set bit for bit; prepare by slot into a copy equals prepare by VL into the set. */
+/* Splats into private 32-bit maps with plain adds, their carries past 2^32 into the set, the
+ * low halves added into the set afterwards (vbnl_profile_add_incident_lo32; photon splitting's
+ * per-thread maps), equal atomic splats into the set bit for bit; prepare by slot into a 32-bit
+ * map gives the shares and offsets of prepare by VL into the set. The deposits are large enough
+ * (up to 2^34 steps) that carries happen often. */
 static void test_private_map_copies(void **state)
 {
     (void)state;
@@ -449,9 +451,10 @@ static void test_private_map_copies(void **state)
     assert_int_equal(vbnl_profile_set_create(m, n, glossy, &merged), VBNL_OK);
     const size_t bytes = vbnl_profile_incident_bytes(merged);
     assert_int_equal(bytes, (size_t)26 * vbnl_hemioct_texel_count(m) * 3 * sizeof(uint64_t)); /* 26 glossy */
-    uint64_t *copy[2] = {calloc(bytes, 1), calloc(bytes, 1)};
-    assert_non_null(copy[0]);
-    assert_non_null(copy[1]);
+    uint32_t *lo[2] = {calloc(bytes / 2, 1), calloc(bytes / 2, 1)};
+    assert_non_null(lo[0]);
+    assert_non_null(lo[1]);
+    const uint64_t *set_maps = vbnl_profile_incident_maps(merged);
     vbnl_rng rng = vbnl_rng_make(9, 1);
     int splats = 0;
     for (int k = 0; k < 20000; ++k) {
@@ -459,37 +462,48 @@ static void test_private_map_copies(void **state)
         vec3 wi = uniform_dir(&rng);
         uint64_t q[3] = {1000003u + (uint64_t)k * 7919u, 17u * (uint64_t)k, (uint64_t)k << 20};
         vbnl_profile_deposit_map_fixed(direct, j, wi, q);
-        /* by VL into the set's maps (not applied) and by slot into a copy: the same shares at
-         * the same offsets */
-        vbnl_profile_splat a, b;
+        /* by VL into the set's maps (not applied) and by slot into a 32-bit map: the same shares
+         * at the same offsets, the carries into the set's texels */
+        vbnl_profile_splat a;
+        vbnl_profile_splat32 b;
         int ha = vbnl_profile_splat_prepare(merged, j, wi, q, &a);
-        int hb = vbnl_profile_splat_prepare_slot(merged, copy[k & 1], vbnl_profile_slot(merged, j), wi, q, &b);
+        int hb = vbnl_profile_splat_prepare_lo32(merged, lo[k & 1], vbnl_profile_slot(merged, j), wi, q, &b);
         assert_int_equal(ha, glossy[j]);
         assert_int_equal(hb, glossy[j]);
         if (hb) {
             assert_memory_equal(a.part, b.part, sizeof(a.part));
-            for (int t = 0; t < 4; ++t)
-                assert_true(a.texel[t] - vbnl_profile_incident_maps(merged) == b.texel[t] - copy[k & 1]);
-            vbnl_profile_splat_apply_plain(&b);
+            for (int t = 0; t < 4; ++t) {
+                assert_true(a.texel[t] - set_maps == b.texel[t] - lo[k & 1]);
+                assert_ptr_equal(b.carry[t], a.texel[t]);
+            }
+            vbnl_profile_splat_apply_lo32(&b);
             ++splats;
         }
     }
     assert_true(splats > 10000);
+    /* before the low halves: only carries have reached the set, and there were some */
+    uint64_t carried = 0;
+    for (size_t i = 0; i < bytes / sizeof(uint64_t); ++i) {
+        assert_int_equal(set_maps[i] & UINT32_MAX, 0);
+        carried += set_maps[i] != 0;
+    }
+    print_message("# %d splats, %llu texel channels carried past 2^32\n", splats, (unsigned long long)carried);
+    assert_true(carried > 100);
     for (int c = 0; c < 2; ++c)
-        assert_int_equal(vbnl_profile_add_incident_fixed(merged, copy[c]), VBNL_OK);
+        assert_int_equal(vbnl_profile_add_incident_lo32(merged, lo[c]), VBNL_OK);
     for (uint32_t j = 0; j < n; ++j) {
         const uint64_t *x = vbnl_profile_incident_map_fixed(direct, j), *y = vbnl_profile_incident_map_fixed(merged, j);
         assert_true((x == NULL) == (y == NULL));
         if (x)
             assert_memory_equal(x, y, 3 * sizeof(uint64_t) * vbnl_hemioct_texel_count(m));
     }
-    assert_int_equal(vbnl_profile_add_incident_fixed(merged, NULL), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbnl_profile_add_incident_lo32(merged, NULL), VBNL_ERR_INVALID_ARGUMENT);
     vbnl_profile_set *lambert = NULL;
     assert_int_equal(vbnl_profile_set_create(m, n, NULL, &lambert), VBNL_OK);
     assert_int_equal(vbnl_profile_incident_bytes(lambert), 0); /* nothing to copy */
     vbnl_profile_set_destroy(lambert);
-    free(copy[0]);
-    free(copy[1]);
+    free(lo[0]);
+    free(lo[1]);
     vbnl_profile_set_destroy(direct);
     vbnl_profile_set_destroy(merged);
     vbnl_hemioct_destroy(m);

@@ -853,15 +853,17 @@ static void test_key_bin(void **state)
 static void test_map_copy_rule(void **state)
 {
     (void)state;
-    assert_int_equal(vbnl_split_map_copy_bytes(1000, 1), 0);
+    /* a 32-bit map (half the set's 64-bit maps) per thread */
+    assert_int_equal(vbnl_split_map_copy_bytes(1000, 0), 0);
     assert_int_equal(vbnl_split_map_copy_bytes(0, 8), 0);
+    assert_int_equal(vbnl_split_map_copy_bytes(1000, 1), 500);
     assert_int_equal(vbnl_split_map_copy_bytes(1000, 2), 1000);
-    assert_int_equal(vbnl_split_map_copy_bytes(1000, 4), 3000);
+    assert_int_equal(vbnl_split_map_copy_bytes(1000, 4), 2000);
     const uint64_t budget = VBNL_SPLIT_MAX_MAP_COPY_BYTES;
     const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
     if (phys >= 8.0 * (double)budget) /* else the eighth of memory is the smaller cap */
-        assert_int_equal(vbnl_split_map_copy_bytes(budget / 2, 3), budget); /* exactly the budget */
-    assert_int_equal(vbnl_split_map_copy_bytes(budget / 2 + 1, 3), 0);    /* one byte over */
+        assert_int_equal(vbnl_split_map_copy_bytes(budget, 2), budget); /* exactly the budget */
+    assert_int_equal(vbnl_split_map_copy_bytes(budget + 2, 2), 0);       /* two bytes over */
     assert_int_equal(vbnl_split_map_copy_bytes(budget, 33), 0);
     /* hit batches: the largest while all threads' fit the budget, then fewer, never below the
      * minimum */

@@ -325,6 +325,33 @@ int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const 
     return vbnl_profile_splat_prepare_slot(s, NULL, s->slot[vl], wi, q, sp);
 }
 
+/* The bilinear splat of q at direction wi (octahedral.h footprint) in integers: the texels
+ * idx[k] of the map receive exactly q, vbnl_profile_split_fixed(q[c], 4, wgt) for the three
+ * channels at once (same bits: q is below 2^53, so the conversions through int64 equal the
+ * unsigned ones, and x < left ? trunc(x) : left is min(trunc(x), left)). */
+static inline void splat_parts(const vbnl_profile_set *s, vec3 wi, const uint64_t q[3], uint32_t idx[4],
+                               uint64_t part[4][3])
+{
+    float wgt[4];
+    vbnl_hemioct_bilinear(s->map, wi, idx, wgt);
+    uint64_t left[3] = {q[0], q[1], q[2]};
+    double dq[3] = {(double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2]};
+    uint32_t big = 0;
+    for (int k = 0; k < 4; ++k) {
+        double wk = (double)(wgt[k] > 0.0f ? wgt[k] : 0.0f);
+        for (int c = 0; c < 3; ++c) {
+            uint64_t v = (uint64_t)(int64_t)(dq[c] * wk);
+            v = v < left[c] ? v : left[c];
+            left[c] -= v;
+            part[k][c] = v;
+        }
+        if (wgt[k] > wgt[big])
+            big = (uint32_t)k;
+    }
+    for (int c = 0; c < 3; ++c)
+        part[big][c] += left[c];
+}
+
 int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_t slot, vec3 wi,
                                     const uint64_t q[3], vbnl_profile_splat *sp)
 {
@@ -332,32 +359,30 @@ int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_
         return 0;
     if (!maps)
         maps = s->incident;
-    /* Bilinear splat (octahedral.h footprint) in integers: the four texels receive exactly q,
-     * vbnl_profile_split_fixed(q[c], 4, wgt) for the three channels at once (same bits: q is
-     * below 2^53, so the conversions through int64 equal the unsigned ones, and
-     * x < left ? trunc(x) : left is min(trunc(x), left)). */
     uint32_t idx[4];
-    float wgt[4];
-    vbnl_hemioct_bilinear(s->map, wi, idx, wgt);
+    splat_parts(s, wi, q, idx, sp->part);
     uint64_t *map = maps + 3 * (size_t)slot * s->texels;
-    uint64_t left[3] = {q[0], q[1], q[2]};
-    double dq[3] = {(double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2]};
-    uint32_t big = 0;
     for (int k = 0; k < 4; ++k) {
-        double wk = (double)(wgt[k] > 0.0f ? wgt[k] : 0.0f);
         sp->texel[k] = map + 3 * (size_t)idx[k];
         __builtin_prefetch(sp->texel[k], 1);
-        for (int c = 0; c < 3; ++c) {
-            uint64_t v = (uint64_t)(int64_t)(dq[c] * wk);
-            v = v < left[c] ? v : left[c];
-            left[c] -= v;
-            sp->part[k][c] = v;
-        }
-        if (wgt[k] > wgt[big])
-            big = (uint32_t)k;
     }
-    for (int c = 0; c < 3; ++c)
-        sp->part[big][c] += left[c];
+    return 1;
+}
+
+int vbnl_profile_splat_prepare_lo32(vbnl_profile_set *s, uint32_t *lo, uint32_t slot, vec3 wi, const uint64_t q[3],
+                                    vbnl_profile_splat32 *sp)
+{
+    if (slot == NO_SLOT || !s->incident || !lo)
+        return 0;
+    uint32_t idx[4];
+    splat_parts(s, wi, q, idx, sp->part);
+    const size_t base = 3 * (size_t)slot * s->texels;
+    for (int k = 0; k < 4; ++k) {
+        const size_t at = base + 3 * (size_t)idx[k];
+        sp->texel[k] = lo + at;
+        sp->carry[k] = s->incident + at;
+        __builtin_prefetch(sp->texel[k], 1);
+    }
     return 1;
 }
 
@@ -368,11 +393,17 @@ void vbnl_profile_splat_apply(const vbnl_profile_splat *sp)
             atomic_add_u64(sp->texel[k] + c, sp->part[k][c]);
 }
 
-void vbnl_profile_splat_apply_plain(const vbnl_profile_splat *sp)
+void vbnl_profile_splat_apply_lo32(const vbnl_profile_splat32 *sp)
 {
     for (int k = 0; k < 4; ++k)
-        for (int c = 0; c < 3; ++c)
-            sp->texel[k][c] += sp->part[k][c];
+        for (int c = 0; c < 3; ++c) {
+            /* the 32-bit sum keeps the low half; what passes 2^32 goes to the set (rare: a texel
+             * channel takes 2^7..2^8 typical photon shares before it wraps) */
+            const uint64_t sum = (uint64_t)sp->texel[k][c] + sp->part[k][c];
+            sp->texel[k][c] = (uint32_t)sum;
+            if (sum >> 32)
+                atomic_add_u64(sp->carry[k] + c, sum & ~(uint64_t)UINT32_MAX);
+        }
 }
 
 size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s)
@@ -382,15 +413,15 @@ size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s)
 
 uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s) { return s ? s->incident : NULL; }
 
-vbnl_result vbnl_profile_add_incident_fixed(vbnl_profile_set *s, const uint64_t *maps)
+vbnl_result vbnl_profile_add_incident_lo32(vbnl_profile_set *s, const uint32_t *lo)
 {
-    if (!s || !maps)
+    if (!s || !lo)
         return VBNL_ERR_INVALID_ARGUMENT;
     if (!s->incident)
         return VBNL_ERR_STATE; /* released */
     size_t cells = (size_t)s->n_glossy * s->texels;
     for (size_t i = 0; i < 3 * cells; ++i)
-        s->incident[i] += maps[i];
+        s->incident[i] += lo[i];
     if (cells) /* converted texels came from the old data: convert again on demand */
         memset(s->code, 0xFF, cells * sizeof(uint32_t));
     return VBNL_OK;

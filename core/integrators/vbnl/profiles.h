@@ -196,21 +196,31 @@ typedef struct vbnl_profile_splat {
 int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
                                vbnl_profile_splat *sp);
 void vbnl_profile_splat_apply(const vbnl_profile_splat *sp);
-/* Private copies of the incident maps, so that each thread splats with plain adds (photon
- * splitting: a locked add per texel channel cost ~10% of the glossy box's splitting): a copy is
- * vbnl_profile_incident_bytes long and laid out as the set's own maps (NULL for a set without
- * glossy VLs or after release: there is nothing to copy). splat_prepare_slot is splat_prepare
- * by map slot (vbnl_profile_slot) into `maps` (the set's own when NULL), for a caller that keeps
- * the slot beside its own per-VL data (photon splitting: in the VL's line of per-thread sums, so
- * that a splat does not read the set's slot table at random); splat_apply_plain adds with plain
- * adds (one writer per copy at a time); add_incident_fixed adds a copy into the set's maps (integer adds: the same
- * bits as atomic splats into the set; not thread-safe: call between phases). */
+/* Private 32-bit incident maps, so that each thread splats with plain adds (photon splitting:
+ * a locked add per texel channel cost ~10% of the glossy box's splitting) into half the memory
+ * of a copy of the set's 64-bit maps (fewer cache lines per splat, a smaller working set). A
+ * thread's map holds the low 32 bits of its sums, laid out as the set's maps (3 per texel,
+ * vbnl_profile_incident_bytes / 2 bytes, zeroed); an add that passes 2^32 adds its high part
+ * into the set's own texel atomically (sum = set + low half, exactly), and add_incident_lo32
+ * adds the low halves when the run ends: the same bits as atomic splats into the set.
+ * splat_prepare_slot is splat_prepare by map slot (vbnl_profile_slot) into `maps` (the set's
+ * own when NULL), prepare_lo32 the same into a 32-bit map, for a caller that keeps the slot
+ * beside its own per-VL data (photon splitting: in the VL's line of per-thread sums, so that a
+ * splat does not read the set's slot table at random); apply_lo32 adds with plain adds (one
+ * writer per map at a time); add_incident_lo32 is not thread-safe: call between phases. */
+typedef struct vbnl_profile_splat32 {
+    uint32_t *texel[4];  /* the low halves in the thread's map */
+    uint64_t *carry[4];  /* the same texels in the set's maps */
+    uint64_t part[4][3];
+} vbnl_profile_splat32;
 size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s);
 uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s);
-void vbnl_profile_splat_apply_plain(const vbnl_profile_splat *sp);
 int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_t slot, vec3 wi,
                                     const uint64_t q[3], vbnl_profile_splat *sp);
-vbnl_result vbnl_profile_add_incident_fixed(vbnl_profile_set *s, const uint64_t *maps);
+int vbnl_profile_splat_prepare_lo32(vbnl_profile_set *s, uint32_t *lo, uint32_t slot, vec3 wi, const uint64_t q[3],
+                                    vbnl_profile_splat32 *sp);
+void vbnl_profile_splat_apply_lo32(const vbnl_profile_splat32 *sp);
+vbnl_result vbnl_profile_add_incident_lo32(vbnl_profile_set *s, const uint32_t *lo);
 /* Exact integer partition of q by weights w[0..n-1] (sum <= 1 up to float rounding):
  * out[k] = floor(q w_k), the residue to the largest weight, so sum out == q. Deterministic. */
 void vbnl_profile_split_fixed(uint64_t q, uint32_t n, const float *w, uint64_t *out);

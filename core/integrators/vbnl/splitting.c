@@ -102,13 +102,13 @@ typedef struct split_thread {
     _Alignas(32) uint64_t cov[4]; /* covered power (fixed point, RGB and a zero lane), added to
                                    * s.covered_power when the run ends */
     /* glossy splats in flight (prepared and prefetched, applied SPLAT_RING deposits later) */
-    vbnl_profile_splat ring[SPLAT_RING];
+    vbnl_profile_splat32 ring[SPLAT_RING];
     uint32_t ring_n, ring_at;
-    /* Incident maps this thread splats into with plain adds: the set's own for worker 0, a
-     * private copy (added into the set when the run ends) for the others; NULL: atomic adds
-     * into the set's maps (no glossy VL, no per-thread sums, or copies over the budget). */
-    uint64_t *maps;
-    int own_maps; /* maps is a private copy */
+    /* This thread's 32-bit incident maps (profiles.h, vbnl_profile_splat_prepare_lo32), which
+     * it splats into with plain adds and which are added into the set when the run ends; NULL:
+     * atomic adds into the set's maps (no glossy VL, no per-thread sums, or maps over the
+     * budget). */
+    uint32_t *maps;
 } split_thread;
 
 typedef struct split_job {
@@ -134,13 +134,13 @@ typedef struct split_job {
 
 uint64_t vbnl_split_map_copy_bytes(uint64_t map_bytes, unsigned threads)
 {
-    if (threads < 2 || map_bytes == 0)
+    if (threads < 1 || map_bytes == 0)
         return 0;
-    const double bytes = (double)map_bytes * (threads - 1);
+    const uint64_t copy = map_bytes / 2u * threads; /* 32-bit maps, one per thread */
     const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
-    if (bytes > (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES || (phys > 0.0 && bytes > phys / 8.0))
+    if ((double)copy > (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES || (phys > 0.0 && (double)copy > phys / 8.0))
         return 0;
-    return (uint64_t)map_bytes * (threads - 1);
+    return copy;
 }
 
 uint64_t vbnl_split_batch_bytes(uint32_t hits)
@@ -263,12 +263,9 @@ static inline float select_max_vls(const vbnl_vl_index *x, float *w, uint32_t *r
 }
 
 /* A glossy splat into the thread's maps (split_thread.maps). */
-static inline __attribute__((always_inline)) void splat_apply(const split_thread *t, const vbnl_profile_splat *sp)
+static inline __attribute__((always_inline)) void splat_apply(const vbnl_profile_splat32 *sp)
 {
-    if (t->maps)
-        vbnl_profile_splat_apply_plain(sp);
-    else
-        vbnl_profile_splat_apply(sp);
+    vbnl_profile_splat_apply_lo32(sp);
 }
 
 /* The deposit of one hit h: the m VLs of rank rk[i] and weight w[i] = 1 - (d/r)^2 > 0
@@ -372,12 +369,18 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 vec3 nv = job->rec_normals ? v3(sv->rec.nx, sv->rec.ny, sv->rec.nz) : d->vl_normals[sv->rec.id];
                 frame fr = frame_from_normal(nv);
                 vec3 wl = frame_to_local(&fr, h->wi);
-                vbnl_profile_splat *sp = &t->ring[t->ring_at];
+                if (!t->maps) { /* atomic adds into the set's maps */
+                    vbnl_profile_splat sp;
+                    if (vbnl_profile_splat_prepare_slot(d->profiles, NULL, (uint32_t)(a[3] - 1), wl, s3, &sp))
+                        vbnl_profile_splat_apply(&sp);
+                    continue;
+                }
+                vbnl_profile_splat32 *sp = &t->ring[t->ring_at];
                 if (t->ring_n == SPLAT_RING)
-                    splat_apply(t, sp); /* the oldest, prefetched long ago */
+                    splat_apply(sp); /* the oldest, prefetched long ago */
                 else
                     t->ring_n++;
-                if (!vbnl_profile_splat_prepare_slot(d->profiles, t->maps, (uint32_t)(a[3] - 1), wl, s3, sp))
+                if (!vbnl_profile_splat_prepare_lo32(d->profiles, t->maps, (uint32_t)(a[3] - 1), wl, s3, sp))
                     t->ring_n--;
                 else
                     t->ring_at = (t->ring_at + 1) % SPLAT_RING;
@@ -804,7 +807,7 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
         vbnl_vl_index_query_batch(x, &b, split_hit, &cx);
     }
     for (uint32_t i = 0; i < t->ring_n; ++i) /* the glossy splats still in flight */
-        splat_apply(t, &t->ring[(t->ring_at + SPLAT_RING - t->ring_n + i) % SPLAT_RING]);
+        splat_apply(&t->ring[(t->ring_at + SPLAT_RING - t->ring_n + i) % SPLAT_RING]);
     t->ring_n = 0;
     t->ring_at = 0;
     t->n = 0;
@@ -900,7 +903,8 @@ static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
  * with packets, splitting 1.10 -> 1.01 s; the same eight paths traced with rtcIntersect1 one
  * after another gained nothing, and 16 or 24 paths in flight no more than 8; the SIMD step then
  * 0.60 -> 0.52 s tracing alone, 1.02 -> 0.91 s splitting (callgrind: the walk's own work 500 ->
- * 170 instructions per hit). Paths keep their
+ * 170 instructions per hit); plastic and conductor hits in the step too: glossy box tracing
+ * alone 0.96-0.99 -> 0.89-0.92 s. Paths keep their
  * own streams, a ray's answer does not depend on its packet mates, the SIMD step computes the
  * general walk's values bit for bit (same operations in the same order; this file is compiled
  * without contracted multiply-adds), and the deposits are integer sums, so neither the order
@@ -1507,8 +1511,7 @@ static void threads_free(split_job *job)
     for (unsigned i = 0; i < job->thread_count; ++i) {
         split_thread *t = &job->threads[i];
         free(t->vl);
-        if (t->own_maps)
-            free(t->maps);
+        free(t->maps);
         free(t->hits);
         free(t->order);
         free(t->bin);
@@ -1592,12 +1595,11 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
      * and millions of VLs): then atomic adds into the set, the same bits. */
     int own_sums = !d->atomic_deposits &&
                    (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
-    /* Private map copies for workers 1.. (worker 0 splats into the set's own maps) when they
-     * fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of the machine's memory; else atomic
-     * splats into the set, the same bits. */
+    /* 32-bit private maps for every worker when they fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES and
+     * an eighth of the machine's memory; else atomic splats into the set, the same bits. */
     const size_t map_bytes = vbnl_profile_incident_bytes(d->profiles);
     const uint64_t copy_bytes = vbnl_split_map_copy_bytes(map_bytes, job.thread_count);
-    const int map_copies = own_sums && map_bytes > 0 && (job.thread_count == 1 || copy_bytes > 0);
+    const int map_copies = own_sums && copy_bytes > 0;
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = batch_hits;
@@ -1611,8 +1613,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             t->acc = t->vl[0].acc;
         }
         if (t->acc && glossy && map_copies) {
-            t->maps = i == 0 ? vbnl_profile_incident_maps(d->profiles) : vbnl_big_calloc(map_bytes, 1);
-            t->own_maps = i > 0;
+            t->maps = vbnl_big_calloc(map_bytes / 2u, 1);
             if (!t->maps) {
                 res = VBNL_ERR_OUT_OF_MEMORY;
                 goto done;
@@ -1646,11 +1647,11 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         for (unsigned i = 0; i < job.thread_count && !job.empty; ++i)
             flush_batch(&job, &job.threads[i]);
     }
-    /* The private map copies into the set's maps (integer adds: the same bits as atomic
+    /* The private maps' low halves into the set's maps (integer adds: the same bits as atomic
      * splats; deposits of finished work items stay after a cancel). */
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i)
-        if (job.threads[i].own_maps)
-            vbnl_profile_add_incident_fixed(d->profiles, job.threads[i].maps);
+        if (job.threads[i].maps)
+            vbnl_profile_add_incident_lo32(d->profiles, job.threads[i].maps);
     /* Phi_in: the threads' sums, added in rank order (integer adds: the same bits for any
      * thread count and order). */
     for (uint32_t r = 0; r < nvl && own_sums; ++r) {

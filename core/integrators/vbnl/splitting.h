@@ -70,13 +70,16 @@
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
  *     spatial order (nearby VLs, nearby sums; prefetched with the records), added to the
  *     profile set once at the end (integer adds: any order gives the same bits). Glossy VLs'
- *     direction maps: worker 0 splats into the set's own maps, the others into private copies
- *     added to the set at the end, all with plain adds (while the copies of all threads fit in
- *     VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of the machine's memory; else atomic adds
+ *     direction maps: every worker splats with plain adds into its own 32-bit maps, which keep
+ *     the low halves of its sums (a sum passing 2^32 adds its high part into the set's texel
+ *     atomically, a rare event) and are added into the set at the end (profiles.h,
+ *     vbnl_profile_splat_prepare_lo32): half the memory of copies of the set's 64-bit maps,
+ *     so fewer cache lines per splat; while the maps of all threads fit in
+ *     VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of the machine's memory, else atomic adds
  *     into the set's maps, the same bits; vbnl_split_map_copy_bytes). A glossy VL's map slot
  *     rides in the zero lane of its sums and its normal comes from the record copy, so a splat
  *     reads nothing at random before its texels. Each splat is
- *     prepared and its texels prefetched (vbnl_profile_splat_prepare_slot), then applied 16
+ *     prepared and its texels prefetched (vbnl_profile_splat_prepare_lo32), then applied 16
  *     splats later, since the maps are large (6 KB per glossy VL at 16 x 16) and the texels
  *     random.
  *   The VLs that share a hit and their weights are exactly those of the rules above; only the
@@ -157,9 +160,10 @@ typedef struct vbnl_split_desc {
 } vbnl_split_desc;
 
 /* Bytes of the private incident-map copies photon splitting allocates for a set whose maps take
- * `map_bytes` (vbnl_profile_incident_bytes), run on `threads` workers: (threads - 1) x map_bytes
- * when that fits in VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of physical memory, else 0 (the
- * atomic path). The one rule for the splitting and for vbnl's memory check before any work. */
+ * `map_bytes` (vbnl_profile_incident_bytes), run on `threads` workers: threads x map_bytes / 2
+ * (a 32-bit map per thread) when that fits in VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of
+ * physical memory, else 0 (the atomic path). The one rule for the splitting and for vbnl's
+ * memory check before any work. */
 uint64_t vbnl_split_map_copy_bytes(uint64_t map_bytes, unsigned threads);
 /* Hits a thread's batch holds on `threads` workers: VBNL_SPLIT_BATCH_HITS, fewer (down to
  * VBNL_SPLIT_BATCH_HITS_MIN) when the batches would exceed VBNL_SPLIT_MAX_BATCH_BYTES;
