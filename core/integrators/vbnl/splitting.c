@@ -268,6 +268,35 @@ static inline __attribute__((always_inline)) void splat_apply(const vbnl_profile
     vbnl_profile_splat_apply_lo32(sp);
 }
 
+/* The splat of share s3 of a photon arriving from wi into glossy VL sv's map (slot), in the
+ * thread's 32-bit maps (prepared and prefetched now, applied SPLAT_RING splats later) or, without
+ * them, atomically into the set's. */
+static inline __attribute__((always_inline)) void glossy_splat(const split_job *job, split_thread *t,
+                                                               const split_vl *sv, uint32_t slot, vec3 wi,
+                                                               const uint64_t s3[3])
+{
+    const vbnl_split_desc *d = job->d;
+    /* the record's normal when it is the VL's (split_job.rec_normals) */
+    vec3 nv = job->rec_normals ? v3(sv->rec.nx, sv->rec.ny, sv->rec.nz) : d->vl_normals[sv->rec.id];
+    frame fr = frame_from_normal(nv);
+    vec3 wl = frame_to_local(&fr, wi);
+    if (!t->maps) { /* atomic adds into the set's maps */
+        vbnl_profile_splat sp;
+        if (vbnl_profile_splat_prepare_slot(d->profiles, NULL, slot, wl, s3, &sp))
+            vbnl_profile_splat_apply(&sp);
+        return;
+    }
+    vbnl_profile_splat32 *sp = &t->ring[t->ring_at];
+    if (t->ring_n == SPLAT_RING)
+        splat_apply(sp); /* the oldest, prefetched long ago */
+    else
+        t->ring_n++;
+    if (!vbnl_profile_splat_prepare_lo32(d->profiles, t->maps, slot, wl, s3, sp))
+        t->ring_n--;
+    else
+        t->ring_at = (t->ring_at + 1) % SPLAT_RING;
+}
+
 /* The deposit of one hit h: the m VLs of rank rk[i] and weight w[i] = 1 - (d/r)^2 > 0
  * (Section 3.3; those that passed the authors' filters, in rank order) share it; sum is the
  * sum of the w[i] in order. The arrays are scratch (reordered by the max_vls selection). */
@@ -296,7 +325,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 glossy |= job->glossy[rk[i]];
     }
 #if defined(__AVX2__)
-    if (!glossy && t->acc) {
+    if (t->acc) {
         /* quantize1 for the three channels in one vector (same bits): x = power / unit, 0 unless
          * x > 0 (also NaN), trunc(x + 0.5) turned into an integer by the 2^52 trick, exact below
          * 2^51; larger photons take the scalar path below. */
@@ -319,6 +348,8 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
              * 64-bit lanes; the residue goes to the largest normalised weight (first on ties). */
             __m256i *a_big = NULL;
             float w_big = -1.0f;
+            uint32_t i_big = 0;
+            _Alignas(32) uint64_t share[VBNL_SPLIT_MAX_VLS][4]; /* glossy: the shares to splat */
             for (uint32_t i = 0; i < m; ++i) {
                 float wk = w[i] / sum;
                 __m256d xv = _mm256_mul_pd(dq, _mm256_set1_pd((double)wk));
@@ -328,12 +359,24 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 left = _mm256_sub_epi64(left, v);
                 __m256i *a = (__m256i *)(t->acc + ACC_STRIDE * (size_t)rk[i]);
                 _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
+                if (glossy)
+                    _mm256_store_si256((__m256i *)share[i], v);
                 if (wk > w_big) {
                     w_big = wk;
                     a_big = a;
+                    i_big = i;
                 }
             }
             _mm256_store_si256(a_big, _mm256_add_epi64(_mm256_load_si256(a_big), left));
+            if (glossy) { /* the splats of the glossy VLs, the residue in the largest share */
+                _mm256_store_si256((__m256i *)share[i_big],
+                                   _mm256_add_epi64(_mm256_load_si256((const __m256i *)share[i_big]), left));
+                for (uint32_t i = 0; i < m; ++i) {
+                    const uint64_t slot1 = t->acc[ACC_STRIDE * (size_t)rk[i] + 3];
+                    if (slot1)
+                        glossy_splat(job, t, &t->vl[rk[i]], (uint32_t)(slot1 - 1), h->wi, share[i]);
+                }
+            }
             st->covered_hits++;
             st->deposits += m;
             return;
@@ -364,27 +407,8 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
             a[0] += s3[0];
             a[1] += s3[1];
             a[2] += s3[2];
-            if (a[3]) { /* glossy: slot + 1 */
-                /* the record's normal when it is the VL's (split_job.rec_normals) */
-                vec3 nv = job->rec_normals ? v3(sv->rec.nx, sv->rec.ny, sv->rec.nz) : d->vl_normals[sv->rec.id];
-                frame fr = frame_from_normal(nv);
-                vec3 wl = frame_to_local(&fr, h->wi);
-                if (!t->maps) { /* atomic adds into the set's maps */
-                    vbnl_profile_splat sp;
-                    if (vbnl_profile_splat_prepare_slot(d->profiles, NULL, (uint32_t)(a[3] - 1), wl, s3, &sp))
-                        vbnl_profile_splat_apply(&sp);
-                    continue;
-                }
-                vbnl_profile_splat32 *sp = &t->ring[t->ring_at];
-                if (t->ring_n == SPLAT_RING)
-                    splat_apply(sp); /* the oldest, prefetched long ago */
-                else
-                    t->ring_n++;
-                if (!vbnl_profile_splat_prepare_lo32(d->profiles, t->maps, (uint32_t)(a[3] - 1), wl, s3, sp))
-                    t->ring_n--;
-                else
-                    t->ring_at = (t->ring_at + 1) % SPLAT_RING;
-            }
+            if (a[3]) /* glossy: slot + 1 */
+                glossy_splat(job, t, sv, (uint32_t)(a[3] - 1), h->wi, s3);
         } else {
             uint32_t id = x->rec[rk[i]].id;
             int gl = job->glossy && job->glossy[rk[i]];
