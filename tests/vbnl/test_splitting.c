@@ -846,10 +846,8 @@ static void test_key_bin(void **state)
     vbnl_vl_index_destroy(idx);
 }
 
-/* photon_fast.h's inline intersection fills the same hit as vbnl_scene_intersect (meshes inline,
- * the sphere and the area light through the general call). */
-/* The rule for private glossy map copies: none for one thread or no maps, (threads - 1) copies
- * within the budget, none (the atomic path) beyond it. */
+/* The rule for the private 32-bit glossy maps: none without maps, threads x half the maps
+ * within the budget, none (the atomic path) beyond it; and the rule for hit batches. */
 static void test_map_copy_rule(void **state)
 {
     (void)state;
@@ -880,6 +878,8 @@ static void test_map_copy_rule(void **state)
     }
 }
 
+/* photon_fast.h's inline intersection fills the same hit as vbnl_scene_intersect (meshes inline,
+ * the sphere and the area light through the general call). */
 static void test_photon_fast(void **state)
 {
     (void)state;

@@ -322,7 +322,7 @@ static inline void atomic_add_u64(uint64_t *p, uint64_t v)
 int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
                                vbnl_profile_splat *sp)
 {
-    return vbnl_profile_splat_prepare_slot(s, NULL, s->slot[vl], wi, q, sp);
+    return vbnl_profile_splat_prepare_slot(s, s->slot[vl], wi, q, sp);
 }
 
 /* The bilinear splat of q at direction wi (octahedral.h footprint) in integers: the texels
@@ -352,16 +352,14 @@ static inline void splat_parts(const vbnl_profile_set *s, vec3 wi, const uint64_
         part[big][c] += left[c];
 }
 
-int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_t slot, vec3 wi,
-                                    const uint64_t q[3], vbnl_profile_splat *sp)
+int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint32_t slot, vec3 wi, const uint64_t q[3],
+                                    vbnl_profile_splat *sp)
 {
     if (slot == NO_SLOT || !s->incident)
         return 0;
-    if (!maps)
-        maps = s->incident;
     uint32_t idx[4];
     splat_parts(s, wi, q, idx, sp->part);
-    uint64_t *map = maps + 3 * (size_t)slot * s->texels;
+    uint64_t *map = s->incident + 3 * (size_t)slot * s->texels;
     for (int k = 0; k < 4; ++k) {
         sp->texel[k] = map + 3 * (size_t)idx[k];
         __builtin_prefetch(sp->texel[k], 1);

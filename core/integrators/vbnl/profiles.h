@@ -203,8 +203,8 @@ void vbnl_profile_splat_apply(const vbnl_profile_splat *sp);
  * vbnl_profile_incident_bytes / 2 bytes, zeroed); an add that passes 2^32 adds its high part
  * into the set's own texel atomically (sum = set + low half, exactly), and add_incident_lo32
  * adds the low halves when the run ends: the same bits as atomic splats into the set.
- * splat_prepare_slot is splat_prepare by map slot (vbnl_profile_slot) into `maps` (the set's
- * own when NULL), prepare_lo32 the same into a 32-bit map, for a caller that keeps the slot
+ * splat_prepare_slot is splat_prepare by map slot (vbnl_profile_slot), prepare_lo32 the same
+ * into a 32-bit map, for a caller that keeps the slot
  * beside its own per-VL data (photon splitting: in the VL's line of per-thread sums, so that a
  * splat does not read the set's slot table at random); apply_lo32 adds with plain adds (one
  * writer per map at a time); add_incident_lo32 is not thread-safe: call between phases. */
@@ -215,8 +215,8 @@ typedef struct vbnl_profile_splat32 {
 } vbnl_profile_splat32;
 size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s);
 uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s);
-int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint64_t *maps, uint32_t slot, vec3 wi,
-                                    const uint64_t q[3], vbnl_profile_splat *sp);
+int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint32_t slot, vec3 wi, const uint64_t q[3],
+                                    vbnl_profile_splat *sp);
 int vbnl_profile_splat_prepare_lo32(vbnl_profile_set *s, uint32_t *lo, uint32_t slot, vec3 wi, const uint64_t q[3],
                                     vbnl_profile_splat32 *sp);
 void vbnl_profile_splat_apply_lo32(const vbnl_profile_splat32 *sp);

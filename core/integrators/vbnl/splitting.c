@@ -282,7 +282,7 @@ static inline __attribute__((always_inline)) void glossy_splat(const split_job *
     vec3 wl = frame_to_local(&fr, wi);
     if (!t->maps) { /* atomic adds into the set's maps */
         vbnl_profile_splat sp;
-        if (vbnl_profile_splat_prepare_slot(d->profiles, NULL, slot, wl, s3, &sp))
+        if (vbnl_profile_splat_prepare_slot(d->profiles, slot, wl, s3, &sp))
             vbnl_profile_splat_apply(&sp);
         return;
     }

@@ -86,12 +86,13 @@
  *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
  *   normalised weights may differ in the last bit from an id-ordered sum; either is a
  *   deterministic function of the hit).
- *   Memory beyond the profile set (stats.scratch_bytes): per thread 32 bytes per VL (the sums:
- *   RGB and a zero lane, one AVX2 vector) and 80 bytes per batch entry (the record, its order,
- *   bin, cell and sorted cell: 5.2 MB); for 100K VLs and 2 threads, 17 MB in all. When the sums
- *   of all threads would exceed VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic adds into the
- *   profile set instead (slower, same bits); the glossy map copies add (threads - 1) x the
- *   set's incident maps (120 MB on the glossy-floor box with 2 threads).
+ *   Memory beyond the profile set (stats.scratch_bytes): per thread 64 bytes per VL (a record
+ *   copy and the sums: RGB and a zero lane, one AVX2 vector) and 80 bytes per batch entry (the
+ *   record, its order, bin, cell and sorted cell: 21 MB for the 262,144 entries of a batch);
+ *   for 100K VLs and 2 threads, ~55 MB in all. When the sums of all threads would exceed
+ *   VBNL_SPLIT_MAX_SUM_BYTES, the deposits are atomic adds into the profile set instead
+ *   (slower, same bits); the 32-bit glossy maps add threads x half the set's incident maps
+ *   (2 x 60 MB on the glossy-floor box with 2 threads).
  *   Each thread keeps eight paths in flight and traces their current rays as one rtcIntersect8
  *   packet (splitting.c, SPLIT_LANES). Packets of consecutive rays of one path, or of recorded
  *   photon rays, were no faster than rtcIntersect1 (an earlier measurement); packets of eight
@@ -131,7 +132,7 @@
 #define VBNL_SPLIT_MAX_BATCH_BYTES (256u << 20) /* would take more than this */
 #define VBNL_SPLIT_BIN_BITS 12u         /* spatial bins of the batch sort: 2^12 (16 per axis) */
 #define VBNL_SPLIT_MAX_SUM_BYTES (256u << 20) /* per-thread sums of all threads, at most */
-#define VBNL_SPLIT_MAX_MAP_COPY_BYTES (512u << 20) /* private incident-map copies of all threads */
+#define VBNL_SPLIT_MAX_MAP_COPY_BYTES (512u << 20) /* the 32-bit incident maps of all threads */
 #define VBNL_SPLIT_SAFETY_DEPTH 4096
 #define VBNL_SPLIT_QUERY_MAX 64u   /* candidates read from the index per hit */
 #define VBNL_SPLIT_MAX_VLS 64u     /* upper bound for max_vls */
@@ -159,7 +160,7 @@ typedef struct vbnl_split_desc {
                                      * step (splitting.c, step_fast; same bits: tests compare) */
 } vbnl_split_desc;
 
-/* Bytes of the private incident-map copies photon splitting allocates for a set whose maps take
+/* Bytes of the private 32-bit incident maps photon splitting allocates for a set whose maps take
  * `map_bytes` (vbnl_profile_incident_bytes), run on `threads` workers: threads x map_bytes / 2
  * (a 32-bit map per thread) when that fits in VBNL_SPLIT_MAX_MAP_COPY_BYTES and an eighth of
  * physical memory, else 0 (the atomic path). The one rule for the splitting and for vbnl's
@@ -355,7 +356,7 @@ vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_phot
 
 /* Traces the photon paths of `d` and deposits into d->profiles (adds to what it holds; the
  * call owns the set while it runs: nothing else may read or deposit into it meanwhile, since
- * worker 0 and the final merges use plain adds). Work items run on `stage`'s workers with
+ * the final merges use plain adds). Work items run on `stage`'s workers with
  * progress in photon paths when stage is not NULL (cancellation: VBNL_ERR_CANCELLED, deposits
  * of finished items stay), else on `pool` (which must then be given). With a stage, the caller
  * brackets the call with vbnl_stage_begin(stage, name, path count, "photons") and

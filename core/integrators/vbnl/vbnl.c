@@ -205,7 +205,7 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
         pp->candidates = (uint32_t)m;
         /* Peak memory: candidates and the elimination's working set (~96 B each), the lights
          * with a glossy incident map each in the worst case (R^2 x 28 B) and the index, and
-         * photon splitting's private map copies (vbnl_split_map_copy_bytes of maps of
+         * photon splitting's private 32-bit maps (vbnl_split_map_copy_bytes of maps of
          * R^2 x 24 B per light) and hit batches (vbnl_split_batch_bytes per thread). */
         double res2 = (double)s->profile_res * s->profile_res;
         double bytes = (double)pp->candidates * 96.0 + (double)pp->virtual_lights * (64.0 + res2 * 28.0 + 64.0);
