@@ -565,6 +565,22 @@ static void test_determinism_and_merge(void **state)
         assert_int_equal(s1.deposits, s5.deposits);
         vbnl_profile_set_destroy(gen);
     }
+    /* Large shares: units 2^6 and 2^12 times finer than the default, so that the thread maps'
+     * 32-bit texels wrap every few photons (the carry into the set's maps) and, at 2^12, shares
+     * reach 2^31 (splitting.c: then the general splat form instead of the vector rows). The
+     * private maps give the same bits as atomic splats into the set. */
+    for (int fine = 6; fine <= 12; fine += 6) {
+        vbnl_split_stats s6, s7;
+        const double u2 = ldexp(unit, -fine);
+        vbnl_profile_set *priv = run_split(s, idx, &v, map, u2, p2, 7, 40000, 0, 0, &s6);
+        g_atomic_deposits = 1;
+        vbnl_profile_set *atom = run_split(s, idx, &v, map, u2, p2, 7, 40000, 0, 0, &s7);
+        g_atomic_deposits = 0;
+        assert_true(sets_equal(priv, atom, texels));
+        assert_memory_equal(s6.covered_power, s7.covered_power, sizeof(s6.covered_power));
+        vbnl_profile_set_destroy(priv);
+        vbnl_profile_set_destroy(atom);
+    }
     /* Exact bookkeeping: VL sums == covered photon power; each glossy map sums to its Phi_in. */
     uint64_t sum[3];
     sum_phi(one, sum);

@@ -22,19 +22,7 @@ struct vbnl_hemioct_dist {
 
 /* ---- mapping ------------------------------------------------------------------------------- */
 
-vec2 vbnl_hemioct_encode(vec3 w)
-{
-    float z = fmaxf(w.z, 0.0f);
-    float l1 = fabsf(w.x) + fabsf(w.y) + z;
-    if (!(l1 > 0.0f))
-        return (vec2){1.0f, 1.0f};
-    float px = w.x / l1, py = w.y / l1;
-    /* Cigolle et al. 2014, hemi-oct: rotate the diamond |p|_1 <= 1 by 45 degrees. */
-    vec2 u = {0.5f * (px + py) + 0.5f, 0.5f * (px - py) + 0.5f};
-    u.x = clampf(u.x, 0.0f, 1.0f);
-    u.y = clampf(u.y, 0.0f, 1.0f);
-    return u;
-}
+vec2 vbnl_hemioct_encode(vec3 w) { return vbnl_hemioct_encode_inline(w); }
 
 vec3 vbnl_hemioct_decode(vec2 u)
 {
@@ -106,29 +94,6 @@ static double texel_solid_angle_d(uint32_t res, uint32_t i, uint32_t j)
     return sum;
 }
 
-/* Bilinear footprint in the square domain, clamp-to-edge (octahedral.h). */
-static void footprint(uint32_t res, float ux, float uy, uint32_t idx[4], float wgt[4])
-{
-    float x = ux * (float)res - 0.5f, y = uy * (float)res - 0.5f;
-    float fx0 = floorf(x), fy0 = floorf(y);
-    float fx = x - fx0, fy = y - fy0;
-    int last = (int)res - 1;
-    int x0 = (int)fx0, y0 = (int)fy0;
-    int x1 = x0 + 1, y1 = y0 + 1;
-    x0 = x0 < 0 ? 0 : (x0 > last ? last : x0);
-    x1 = x1 < 0 ? 0 : (x1 > last ? last : x1);
-    y0 = y0 < 0 ? 0 : (y0 > last ? last : y0);
-    y1 = y1 < 0 ? 0 : (y1 > last ? last : y1);
-    idx[0] = (uint32_t)(y0 * (int)res + x0);
-    idx[1] = (uint32_t)(y0 * (int)res + x1);
-    idx[2] = (uint32_t)(y1 * (int)res + x0);
-    idx[3] = (uint32_t)(y1 * (int)res + x1);
-    wgt[0] = (1.0f - fx) * (1.0f - fy);
-    wgt[1] = fx * (1.0f - fy);
-    wgt[2] = (1.0f - fx) * fy;
-    wgt[3] = fx * fy;
-}
-
 /* B_t and C_t by the midpoint rule on an N x N grid, N = res * sub >= 512 with `sub` even: the
  * sub-cell boundaries then contain the texel-centre lines (the kinks of the bilinear basis) and
  * the diagonals cross sub-cells only along their own diagonals (the Jacobian's kinks). Measured:
@@ -159,7 +124,7 @@ static void bilinear_tables(vbnl_hemioct *m)
             double l = sqrt(l2);
             double dw = 2.0 / (l2 * l) * du * du; /* Jacobian 2 / |p|^3 */
             double cosv = p[2] / l;
-            /* Bilinear weights in double, same footprint rule as footprint(). */
+            /* Bilinear weights in double, same footprint rule as vbnl_hemioct_footprint (octahedral.h). */
             double fxp = ux * m->res - 0.5, fyp = uy * m->res - 0.5;
             double x0f = floor(fxp), y0f = floor(fyp);
             double fx = fxp - x0f, fy = fyp - y0f;
@@ -255,8 +220,7 @@ const vec3 *vbnl_hemioct_texel_dirs(const vbnl_hemioct *map) { return map->dir; 
 
 void vbnl_hemioct_bilinear(const vbnl_hemioct *map, vec3 w, uint32_t idx[4], float wgt[4])
 {
-    vec2 u = vbnl_hemioct_encode(w);
-    footprint(map->res, u.x, u.y, idx, wgt);
+    vbnl_hemioct_footprint(map->res, w, idx, wgt);
 }
 
 void vbnl_hemioct_splat(const vbnl_hemioct *map, float *rgb, vec3 w, vec3 value)

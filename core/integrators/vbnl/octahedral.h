@@ -54,6 +54,7 @@
 #ifndef VBNL_OCTAHEDRAL_H
 #define VBNL_OCTAHEDRAL_H
 
+#include <math.h>
 #include <stdint.h>
 
 #include "vbnl/result.h"
@@ -109,6 +110,48 @@ const vec3 *vbnl_hemioct_texel_dirs(const vbnl_hemioct *map);
 /* The bilinear footprint of direction w: four texel indices (possibly repeated at the border)
  * and non-negative weights summing to one. */
 void vbnl_hemioct_bilinear(const vbnl_hemioct *map, vec3 w, uint32_t idx[4], float wgt[4]);
+
+/* vbnl_hemioct_encode and vbnl_hemioct_bilinear (on a map of res x res texels) inline, for
+ * photon splitting's splats; the functions above are these. Neither has a product followed by a
+ * sum whose contraction into a fused multiply-add could change its value (0.5 a + 0.5 is exact
+ * either way, u res with res a power of two is exact), so callers compiled with or without
+ * contraction get the same bits. The footprint: texel centres at (i + 0.5) / res, clamp to edge
+ * (idx[1] == idx[0] or idx[0] + 1, idx[3] == idx[2] or idx[2] + 1, rows 0-1 and 2-3). */
+static inline vec2 vbnl_hemioct_encode_inline(vec3 w)
+{
+    float z = fmaxf(w.z, 0.0f);
+    float l1 = fabsf(w.x) + fabsf(w.y) + z;
+    if (!(l1 > 0.0f))
+        return (vec2){1.0f, 1.0f};
+    float px = w.x / l1, py = w.y / l1;
+    /* Cigolle et al. 2014, hemi-oct: rotate the diamond |p|_1 <= 1 by 45 degrees. */
+    vec2 u = {0.5f * (px + py) + 0.5f, 0.5f * (px - py) + 0.5f};
+    u.x = clampf(u.x, 0.0f, 1.0f);
+    u.y = clampf(u.y, 0.0f, 1.0f);
+    return u;
+}
+static inline void vbnl_hemioct_footprint(uint32_t res, vec3 w, uint32_t idx[4], float wgt[4])
+{
+    vec2 u = vbnl_hemioct_encode_inline(w);
+    float x = u.x * (float)res - 0.5f, y = u.y * (float)res - 0.5f;
+    float fx0 = floorf(x), fy0 = floorf(y);
+    float fx = x - fx0, fy = y - fy0;
+    int last = (int)res - 1;
+    int x0 = (int)fx0, y0 = (int)fy0;
+    int x1 = x0 + 1, y1 = y0 + 1;
+    x0 = x0 < 0 ? 0 : (x0 > last ? last : x0);
+    x1 = x1 < 0 ? 0 : (x1 > last ? last : x1);
+    y0 = y0 < 0 ? 0 : (y0 > last ? last : y0);
+    y1 = y1 < 0 ? 0 : (y1 > last ? last : y1);
+    idx[0] = (uint32_t)(y0 * (int)res + x0);
+    idx[1] = (uint32_t)(y0 * (int)res + x1);
+    idx[2] = (uint32_t)(y1 * (int)res + x0);
+    idx[3] = (uint32_t)(y1 * (int)res + x1);
+    wgt[0] = (1.0f - fx) * (1.0f - fy);
+    wgt[1] = fx * (1.0f - fy);
+    wgt[2] = (1.0f - fx) * fy;
+    wgt[3] = fx * fy;
+}
 
 /* rgb is an R^2 x 3 float array (texel-major: rgb[3 t + c]). Adds value * weight_k to the four
  * footprint texels; the texels receive exactly `value` in total (up to rounding). Not atomic. */

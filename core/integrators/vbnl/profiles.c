@@ -411,6 +411,11 @@ size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s)
 
 uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s) { return s ? s->incident : NULL; }
 
+vbnl_profile_maps_view vbnl_profile_maps_view_of(vbnl_profile_set *s)
+{
+    return (vbnl_profile_maps_view){vbnl_hemioct_res(s->map), s->texels, s->incident};
+}
+
 vbnl_result vbnl_profile_add_incident_lo32(vbnl_profile_set *s, const uint32_t *lo)
 {
     if (!s || !lo)

@@ -215,6 +215,15 @@ typedef struct vbnl_profile_splat32 {
 } vbnl_profile_splat32;
 size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s);
 uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s);
+/* What a caller's own inline splat into 32-bit maps needs (photon splitting's vector splat,
+ * which keeps to the rules of prepare_lo32 and apply_lo32 and gives the same bits): the map
+ * resolution (octahedral.h, vbnl_hemioct_footprint), texels per map and the set's 64-bit maps
+ * (slot s's map at incident + 3 s texels; NULL after release). */
+typedef struct vbnl_profile_maps_view {
+    uint32_t res, texels;
+    uint64_t *incident;
+} vbnl_profile_maps_view;
+vbnl_profile_maps_view vbnl_profile_maps_view_of(vbnl_profile_set *s);
 int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint32_t slot, vec3 wi, const uint64_t q[3],
                                     vbnl_profile_splat *sp);
 int vbnl_profile_splat_prepare_lo32(vbnl_profile_set *s, uint32_t *lo, uint32_t slot, vec3 wi, const uint64_t q[3],

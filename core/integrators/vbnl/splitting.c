@@ -86,6 +86,30 @@ typedef struct split_vl {
 _Static_assert(sizeof(split_vl) == 64 && offsetof(split_vl, acc) == 32, "split_vl: one cache line");
 #define ACC_STRIDE (sizeof(split_vl) / sizeof(uint64_t)) /* uint64_t from one VL's sums to the next */
 
+#if defined(__AVX2__)
+/* A glossy splat prepared by the vector path (glossy_splat_v): the footprint's two rows
+ * (octahedral.h, vbnl_hemioct_footprint: texels x0 and x1 == x0 or x0 + 1 of rows y0 and y1) as
+ * eight 32-bit lanes from texel x0's first channel on: x0's three channels, x0 + 1's three, and
+ * two lanes that get zero (the next texel's, or the maps' 32 bytes of slack). One unaligned load,
+ * add and store per row instead of twelve adds; carry[r] is x0's texel in the set's maps. */
+typedef struct splat_rows {
+    __m256i add[2];
+    uint32_t *row[2];
+    uint64_t *carry[2];
+} splat_rows;
+#endif
+/* A glossy splat in flight: rows (AVX2, shares below 2^31) or the general form. */
+typedef struct splat_slot {
+    int rows;
+    union {
+        vbnl_profile_splat32 sp;
+#if defined(__AVX2__)
+        splat_rows sr;
+#endif
+    } u;
+} splat_slot;
+#define SPLIT_MAP_SLACK 32u /* bytes after a thread's 32-bit maps (splat_rows) */
+
 /* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
     _Alignas(64) vbnl_split_stats s;
@@ -102,7 +126,7 @@ typedef struct split_thread {
     _Alignas(32) uint64_t cov[4]; /* covered power (fixed point, RGB and a zero lane), added to
                                    * s.covered_power when the run ends */
     /* glossy splats in flight (prepared and prefetched, applied SPLAT_RING deposits later) */
-    vbnl_profile_splat32 ring[SPLAT_RING];
+    splat_slot ring[SPLAT_RING];
     uint32_t ring_n, ring_at;
     /* This thread's 32-bit incident maps (profiles.h, vbnl_profile_splat_prepare_lo32), which
      * it splats into with plain adds and which are added into the set when the run ends; NULL:
@@ -128,6 +152,7 @@ typedef struct split_job {
     uint32_t cell_shift;
     int empty;               /* the index holds no VL */
     int rec_normals;         /* every index record's normal is bit for bit d->vl_normals[id] */
+    vbnl_profile_maps_view maps_view; /* for the threads' inline splats (splat_rows_prepare) */
     split_thread *threads;
     unsigned thread_count;
 } split_job;
@@ -262,11 +287,86 @@ static inline float select_max_vls(const vbnl_vl_index *x, float *w, uint32_t *r
     return sum;
 }
 
-/* A glossy splat into the thread's maps (split_thread.maps). */
-static inline __attribute__((always_inline)) void splat_apply(const vbnl_profile_splat32 *sp)
+/* A glossy splat into the thread's maps (split_thread.maps): the rows of splat_rows, each one
+ * 32-bit add of eight lanes, unless a lane wraps past 2^32 (then that row lane by lane in 64 bits,
+ * the high part into the set atomically, as vbnl_profile_splat_apply_lo32), or the general form. */
+static inline __attribute__((always_inline)) void splat_apply(const splat_slot *ss)
 {
-    vbnl_profile_splat_apply_lo32(sp);
+#if defined(__AVX2__)
+    if (ss->rows) {
+        const splat_rows *sr = &ss->u.sr;
+        for (int r = 0; r < 2; ++r) {
+            const __m256i old = _mm256_loadu_si256((const __m256i *)sr->row[r]);
+            const __m256i sum = _mm256_add_epi32(old, sr->add[r]);
+            /* no lane wrapped: sum >= old (unsigned) everywhere */
+            if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(_mm256_max_epu32(sum, old), sum)) == -1) {
+                _mm256_storeu_si256((__m256i *)sr->row[r], sum);
+                continue;
+            }
+            _Alignas(32) uint32_t add[8];
+            _mm256_store_si256((__m256i *)add, sr->add[r]);
+            for (int l = 0; l < 6; ++l) { /* lanes 6 and 7 add zero */
+                const uint64_t s64 = (uint64_t)sr->row[r][l] + add[l];
+                sr->row[r][l] = (uint32_t)s64;
+                if (s64 >> 32)
+                    __atomic_fetch_add(sr->carry[r] + l, s64 & ~(uint64_t)UINT32_MAX, __ATOMIC_RELAXED);
+            }
+        }
+        return;
+    }
+#endif
+    vbnl_profile_splat_apply_lo32(&ss->u.sp);
 }
+
+#if defined(__AVX2__)
+/* vbnl_profile_splat_prepare_lo32 (the footprint, the exact integer parts, same bits) for a share
+ * q in the lanes 0-2 of a vector (below 2^51), into splat_rows; 0 when a part reaches 2^31 (then
+ * two parts of a row could pass 2^32 together: the caller takes the general form). The parts:
+ * v_k = min(floor(q w_k), left) per channel in 64-bit lanes (floor by rounding and the 2^52
+ * trick, as split_deposit), the residue to the largest weight (first on ties). */
+static inline __attribute__((always_inline)) int splat_rows_prepare(const vbnl_profile_maps_view *mv, uint32_t *lo,
+                                                                   uint32_t slot, vec3 wl, __m256i q, splat_rows *sr)
+{
+    uint32_t idx[4];
+    float wgt[4];
+    vbnl_hemioct_footprint(mv->res, wl, idx, wgt);
+    const __m256d two52 = _mm256_set1_pd(0x1p52);
+    const __m256i two52i = _mm256_castpd_si256(two52);
+    const __m256d dq = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(q, two52i)), two52);
+    __m256i left = q, part[4];
+    uint32_t big = 0;
+    for (uint32_t k = 0; k < 4; ++k) {
+        const double wk = (double)(wgt[k] > 0.0f ? wgt[k] : 0.0f);
+        __m256d xv = _mm256_round_pd(_mm256_mul_pd(dq, _mm256_set1_pd(wk)), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+        __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), two52i);
+        v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
+        left = _mm256_sub_epi64(left, v);
+        part[k] = v;
+        if (wgt[k] > wgt[big])
+            big = k;
+    }
+    part[big] = _mm256_add_epi64(part[big], left);
+    const __m256i lim = _mm256_set1_epi64x(((int64_t)1 << 31) - 1);
+    __m256i over = _mm256_or_si256(_mm256_cmpgt_epi64(part[0], lim), _mm256_cmpgt_epi64(part[1], lim));
+    over = _mm256_or_si256(over, _mm256_or_si256(_mm256_cmpgt_epi64(part[2], lim), _mm256_cmpgt_epi64(part[3], lim)));
+    if (!_mm256_testz_si256(over, over))
+        return 0;
+    /* the low halves of a texel's three parts into lanes 0-2 (first) or 3-5 (second texel) */
+    const __m256i first = _mm256_setr_epi32(0, 2, 4, 6, 6, 6, 6, 6), second = _mm256_setr_epi32(6, 6, 6, 0, 2, 4, 6, 6);
+    const size_t base = 3 * (size_t)slot * mv->texels;
+    for (int r = 0; r < 2; ++r) {
+        const uint32_t i0 = idx[2 * r], i1 = idx[2 * r + 1];
+        const __m256i a = _mm256_permutevar8x32_epi32(part[2 * r], first);
+        const __m256i b = _mm256_permutevar8x32_epi32(part[2 * r + 1], i1 == i0 ? first : second);
+        sr->add[r] = _mm256_add_epi32(a, b);
+        sr->row[r] = lo + base + 3 * (size_t)i0;
+        sr->carry[r] = mv->incident + base + 3 * (size_t)i0;
+        __builtin_prefetch(sr->row[r], 1);
+        __builtin_prefetch((const char *)sr->row[r] + 31, 1);
+    }
+    return 1;
+}
+#endif
 
 /* The splat of share s3 of a photon arriving from wi into glossy VL sv's map (slot), in the
  * thread's 32-bit maps (prepared and prefetched now, applied SPLAT_RING splats later) or, without
@@ -286,12 +386,18 @@ static inline __attribute__((always_inline)) void glossy_splat(const split_job *
             vbnl_profile_splat_apply(&sp);
         return;
     }
-    vbnl_profile_splat32 *sp = &t->ring[t->ring_at];
+    splat_slot *ss = &t->ring[t->ring_at];
     if (t->ring_n == SPLAT_RING)
-        splat_apply(sp); /* the oldest, prefetched long ago */
+        splat_apply(ss); /* the oldest, prefetched long ago */
     else
         t->ring_n++;
-    if (!vbnl_profile_splat_prepare_lo32(d->profiles, t->maps, slot, wl, s3, sp))
+    ss->rows = 0;
+#if defined(__AVX2__)
+    if (s3[0] < ((uint64_t)1 << 51) && s3[1] < ((uint64_t)1 << 51) && s3[2] < ((uint64_t)1 << 51))
+        ss->rows = splat_rows_prepare(&job->maps_view, t->maps, slot, wl,
+                                      _mm256_setr_epi64x((int64_t)s3[0], (int64_t)s3[1], (int64_t)s3[2], 0), &ss->u.sr);
+#endif
+    if (!ss->rows && !vbnl_profile_splat_prepare_lo32(d->profiles, t->maps, slot, wl, s3, &ss->u.sp))
         t->ring_n--;
     else
         t->ring_at = (t->ring_at + 1) % SPLAT_RING;
@@ -1603,6 +1709,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         glossy[r] = 1;
     }
     job.glossy = glossy;
+    if (glossy)
+        job.maps_view = vbnl_profile_maps_view_of(d->profiles);
     job.rec_normals = vbnl_vl_index_has_normals(d->index);
     for (uint32_t r = 0; r < nvl && job.rec_normals; ++r) {
         const vl_rec *e = &d->index->rec[r];
@@ -1637,7 +1745,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             t->acc = t->vl[0].acc;
         }
         if (t->acc && glossy && map_copies) {
-            t->maps = vbnl_big_calloc(map_bytes / 2u, 1);
+            t->maps = vbnl_big_calloc(map_bytes / 2u + SPLIT_MAP_SLACK, 1);
             if (!t->maps) {
                 res = VBNL_ERR_OUT_OF_MEMORY;
                 goto done;
