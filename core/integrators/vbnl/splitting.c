@@ -421,15 +421,6 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
     /* With per-thread sums, a glossy VL's map slot + 1 is kept in the zero lane of its sums
      * (split_vl.acc[3]; every add leaves that lane alone), on the line the candidate test has
      * just read. */
-    int glossy = 0;
-    if (job->glossy) {
-        if (t->acc)
-            for (uint32_t i = 0; i < m; ++i)
-                glossy |= t->acc[ACC_STRIDE * (size_t)rk[i] + 3] != 0;
-        else
-            for (uint32_t i = 0; i < m; ++i)
-                glossy |= job->glossy[rk[i]];
-    }
 #if defined(__AVX2__)
     if (t->acc) {
         /* quantize1 for the three channels in one vector (same bits): x = power / unit, 0 unless
@@ -456,6 +447,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
             float w_big = -1.0f;
             uint32_t i_big = 0;
             _Alignas(32) uint64_t share[VBNL_SPLIT_MAX_VLS][4]; /* glossy: the shares to splat */
+            uint64_t glossy = 0; /* bit i: VL i keeps a map (its slot + 1 in acc[3]) */
             for (uint32_t i = 0; i < m; ++i) {
                 float wk = w[i] / sum;
                 __m256d xv = _mm256_mul_pd(dq, _mm256_set1_pd((double)wk));
@@ -464,9 +456,10 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
                 left = _mm256_sub_epi64(left, v);
                 __m256i *a = (__m256i *)(t->acc + ACC_STRIDE * (size_t)rk[i]);
-                _mm256_store_si256(a, _mm256_add_epi64(_mm256_load_si256(a), v));
-                if (glossy)
-                    _mm256_store_si256((__m256i *)share[i], v);
+                const __m256i sums = _mm256_load_si256(a);
+                _mm256_store_si256(a, _mm256_add_epi64(sums, v));
+                _mm256_store_si256((__m256i *)share[i], v);
+                glossy |= (uint64_t)(_mm256_extract_epi64(sums, 3) != 0) << i;
                 if (wk > w_big) {
                     w_big = wk;
                     a_big = a;
@@ -477,10 +470,10 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
             if (glossy) { /* the splats of the glossy VLs, the residue in the largest share */
                 _mm256_store_si256((__m256i *)share[i_big],
                                    _mm256_add_epi64(_mm256_load_si256((const __m256i *)share[i_big]), left));
-                for (uint32_t i = 0; i < m; ++i) {
+                for (uint64_t gm = glossy; gm; gm &= gm - 1) {
+                    const uint32_t i = (uint32_t)__builtin_ctzll(gm);
                     const uint64_t slot1 = t->acc[ACC_STRIDE * (size_t)rk[i] + 3];
-                    if (slot1)
-                        glossy_splat(job, t, &t->vl[rk[i]], (uint32_t)(slot1 - 1), h->wi, share[i]);
+                    glossy_splat(job, t, &t->vl[rk[i]], (uint32_t)(slot1 - 1), h->wi, share[i]);
                 }
             }
             st->covered_hits++;
