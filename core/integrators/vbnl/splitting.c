@@ -448,6 +448,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
             uint32_t i_big = 0;
             _Alignas(32) uint64_t share[VBNL_SPLIT_MAX_VLS][4]; /* glossy: the shares to splat */
             uint64_t glossy = 0; /* bit i: VL i keeps a map (its slot + 1 in acc[3]) */
+            const int any_glossy = job->glossy != NULL;
             for (uint32_t i = 0; i < m; ++i) {
                 float wk = w[i] / sum;
                 __m256d xv = _mm256_mul_pd(dq, _mm256_set1_pd((double)wk));
@@ -458,8 +459,10 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 __m256i *a = (__m256i *)(t->acc + ACC_STRIDE * (size_t)rk[i]);
                 const __m256i sums = _mm256_load_si256(a);
                 _mm256_store_si256(a, _mm256_add_epi64(sums, v));
-                _mm256_store_si256((__m256i *)share[i], v);
-                glossy |= (uint64_t)(_mm256_extract_epi64(sums, 3) != 0) << i;
+                if (any_glossy) { /* loop-invariant */
+                    _mm256_store_si256((__m256i *)share[i], v);
+                    glossy |= (uint64_t)(_mm256_extract_epi64(sums, 3) != 0) << i;
+                }
                 if (wk > w_big) {
                     w_big = wk;
                     a_big = a;
