@@ -728,7 +728,7 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
     const __m256 sl = _mm256_set1_ps(VBNL_VLI_QSLACK);
     const __m256i byte = _mm256_set1_epi32(0xff);
     const uint32_t end = s0 + n;
-    for (uint32_t b = s0 >> 3; b * 8u < end; ++b) { /* whole blocks, lanes outside masked */
+    for (uint32_t b = s0 >> 3; b * 8u < end; ++b) { /* whole blocks (level_build pads cells) */
         const uint32_t *blk = g->lst + (size_t)b * 16u;
         __m256i v = _mm256_load_si256((const __m256i *)blk);
         __m256 dx = _mm256_sub_ps(vx, _mm256_cvtepi32_ps(_mm256_and_si256(v, byte)));
@@ -736,8 +736,7 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
         __m256 dz = _mm256_sub_ps(vz, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v, 16), byte)));
         __m256 rr = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v, 24)), sl);
         __m256 d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
-        unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ)) &
-                        vbnl_vli_lane_mask(b, s0, end);
+        unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ));
         if (nc + 8 > VBNL_VLI_PIPE_CAND) { /* near the capacity: count the rest */
             while (bits) {
                 unsigned j = (unsigned)__builtin_ctz(bits);

@@ -258,20 +258,29 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
         }
     }
     g->start = vbnl_big_calloc((size_t)ncell + 1, sizeof(uint32_t));
-    const size_t lst_bytes = ((size_t)listings + 7u) / 8u * 64u + 64u; /* whole blocks, + 1 */
-    g->lst = vbnl_big_alloc(lst_bytes);
-    if (!g->start || !g->lst)
+    uint32_t *fill = malloc(((size_t)ncell + 1) * sizeof(uint32_t));
+    if (!g->start || !fill) {
+        free(fill);
         return VBNL_ERR_OUT_OF_MEMORY;
-    memset(g->lst, 0, lst_bytes);
+    }
     float off = 0.0f;
     for (uint32_t k = 0; k < m; ++k) {
         const vl_rec *e = x->rec + members[k];
         float pad = 1e-5f * (e->r + fmaxf(fabsf(e->cx), fmaxf(fabsf(e->cy), fabsf(e->cz))));
         off = fmaxf(off, e->r + pad);
     }
-    g->q_off = off * 1.001f;
+    /* A margin of at least one unit of the frame (255 units per cell + 2 q_off; only cells far
+     * larger than the spheres need the floor): the padding listings below then fail the
+     * pre-test for every point of their cell. */
+    g->q_off = fmaxf(off * 1.001f, cell / 250.0f);
     g->q_scale = 255.0f / (cell + 2.0f * g->q_off);
-    /* Pass 2: counts, prefix sums, then fill in rank order (a cell's ranks ascend). */
+    /* Pass 2: counts, prefix sums, then fill in rank order (a cell's ranks ascend). Every
+     * cell's listings start on a block boundary and fill whole blocks: the pre-test reads whole
+     * blocks without lane masks. A padding listing is all zeros (centre at the frame's corner,
+     * radius 0, rank 0): its pre-test bound is QSLACK < 0.88 units around the corner, and every
+     * point of the cell is at least sqrt(3) units away. A point clamped into a border cell from
+     * outside the grid may pass it, but lies in no sphere (the grid covers every sphere's box),
+     * so rank 0's exact test rejects it, as the candidates' contract allows. */
     for (int pass = 0; pass < 2; ++pass) {
         for (uint32_t k = 0; k < m; ++k) {
             uint32_t rank = members[k];
@@ -287,22 +296,36 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
                             g->start[c + 1]++;
                         } else {
                             const int32_t c3[3] = {xx, y, z};
-                            VBNL_VLI_QENT(g, g->start[c]) = quantize_entry(g, rec_center(e), e->r, c3);
-                            VBNL_VLI_RANK(g, g->start[c]) = rank;
-                            g->start[c]++;
+                            VBNL_VLI_QENT(g, fill[c]) = quantize_entry(g, rec_center(e), e->r, c3);
+                            VBNL_VLI_RANK(g, fill[c]) = rank;
+                            fill[c]++;
                         }
                     }
         }
         if (pass == 0) {
-            for (uint32_t c = 0; c < ncell; ++c)
-                g->start[c + 1] += g->start[c];
-        } else {
-            /* the fill advanced every start to the next cell's start: shift back */
-            for (uint32_t c = ncell; c > 0; --c)
-                g->start[c] = g->start[c - 1];
-            g->start[0] = 0;
+            uint64_t total = 0;
+            for (uint32_t c = 0; c < ncell; ++c) {
+                const uint64_t n = g->start[c + 1];
+                g->start[c] = (uint32_t)total;
+                fill[c] = (uint32_t)total;
+                total += (n + 7u) & ~(uint64_t)7u;
+                if (total >= UINT32_MAX) {
+                    free(fill);
+                    return VBNL_ERR_OUT_OF_MEMORY;
+                }
+            }
+            g->start[ncell] = (uint32_t)total;
+            g->lst_bytes = (size_t)total / 8u * 64u + 64u; /* whole blocks, + 1 */
+            g->lst = vbnl_big_alloc(g->lst_bytes);
+            if (!g->lst) {
+                free(fill);
+                return VBNL_ERR_OUT_OF_MEMORY;
+            }
+            memset(g->lst, 0, g->lst_bytes);
         }
     }
+    free(fill);
+    const size_t lst_bytes = g->lst_bytes;
     x->bytes += ((size_t)ncell + 1) * sizeof(uint32_t) + lst_bytes;
     if (!g->dense)
         x->bytes += ((size_t)g->hash_mask + 1) * (sizeof(uint64_t) + sizeof(uint32_t));

@@ -65,6 +65,7 @@ typedef struct grid_level {
      * ascending within a cell. A candidate's rank thus sits in the line its pre-test read (two
      * arrays cost a second dependent miss per query). One spare block past the last listing. */
     uint32_t *lst;
+    size_t lst_bytes;
     float q_off, q_scale;     /* cell frame: q = (v - cell origin + q_off) * q_scale */
 } grid_level;
 
@@ -261,26 +262,15 @@ static inline void cell_frame(const grid_level *g, vec3 p, const int32_t c3[3], 
     q[2] = (p.z - cell_origin(g, c3[2], g->lo.z) + g->q_off) * g->q_scale;
 }
 
-/* Lanes of block b (listings 8b .. 8b + 7) inside [lo, hi), as a bit mask. */
-static inline unsigned vbnl_vli_lane_mask(uint32_t b, uint32_t lo, uint32_t hi)
-{
-    uint32_t first = b * 8u;
-    unsigned m = 0xffu;
-    if (lo > first)
-        m &= 0xffu << (lo - first);
-    if (hi < first + 8u)
-        m &= (1u << (hi - first)) - 1u;
-    return m;
-}
-
 /* Listing i of a level: its quantised sphere and its rank (see grid_level.lst). */
 #define VBNL_VLI_BLOCK(g, i) ((g)->lst + (size_t)((i) >> 3) * 16u)
 #define VBNL_VLI_QENT(g, i) (VBNL_VLI_BLOCK(g, i)[(i) & 7u])
 #define VBNL_VLI_RANK(g, i) (VBNL_VLI_BLOCK(g, i)[8u + ((i) & 7u)])
 
 /* The quantised pre-test of the n listings from s0 for a point at q (cell frame): calls
- * keep(rank) for those that may contain it, in listing order. The 8-wide version reads whole
- * blocks, masking the lanes outside [s0, s0 + n). */
+ * keep(rank) for those that may contain it, in listing order. A cell's listings are whole
+ * blocks (s0 and n multiples of 8, the padding failing the test: level_build), which the 8-wide
+ * version reads without lane masks. */
 #if defined(__AVX2__)
 #define VBNL_VLI_PRETEST(g, s0, n, q, KEEP)                                                                   \
     do {                                                                                                      \
@@ -296,8 +286,7 @@ static inline unsigned vbnl_vli_lane_mask(uint32_t b, uint32_t lo, uint32_t hi)
         __m256 dz_ = _mm256_sub_ps(vz_, _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(v_, 16), byte_))); \
         __m256 rr_ = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v_, 24)), sl_);                       \
         __m256 d2_ = _mm256_fmadd_ps(dz_, dz_, _mm256_fmadd_ps(dy_, dy_, _mm256_mul_ps(dx_, dx_)));           \
-        unsigned bits_ = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2_, _mm256_mul_ps(rr_, rr_), _CMP_LT_OQ)) \
-                         & vbnl_vli_lane_mask(b_, (s0), end_);                                               \
+        unsigned bits_ = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2_, _mm256_mul_ps(rr_, rr_), _CMP_LT_OQ)); \
         while (bits_) {                                                                                       \
             unsigned j_ = (unsigned)__builtin_ctz(bits_);                                                     \
             bits_ &= bits_ - 1;                                                                               \
