@@ -413,6 +413,8 @@ uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s) { return s ? s->incide
 
 vbnl_profile_maps_view vbnl_profile_maps_view_of(vbnl_profile_set *s)
 {
+    if (!s)
+        return (vbnl_profile_maps_view){0, 0, NULL};
     return (vbnl_profile_maps_view){vbnl_hemioct_res(s->map), s->texels, s->incident};
 }
 

@@ -87,7 +87,7 @@ _Static_assert(sizeof(split_vl) == 64 && offsetof(split_vl, acc) == 32, "split_v
 #define ACC_STRIDE (sizeof(split_vl) / sizeof(uint64_t)) /* uint64_t from one VL's sums to the next */
 
 #if defined(__AVX2__)
-/* A glossy splat prepared by the vector path (glossy_splat_v): the footprint's two rows
+/* A glossy splat prepared by the vector path (splat_rows_prepare): the footprint's two rows
  * (octahedral.h, vbnl_hemioct_footprint: texels x0 and x1 == x0 or x0 + 1 of rows y0 and y1) as
  * eight 32-bit lanes from texel x0's first channel on: x0's three channels, x0 + 1's three, and
  * two lanes that get zero (the next texel's, or the maps' 32 bytes of slack). One unaligned load,
@@ -319,11 +319,24 @@ static inline __attribute__((always_inline)) void splat_apply(const splat_slot *
 }
 
 #if defined(__AVX2__)
+/* One share of the exact integer split (vbnl_profile_split_fixed, same bits) for three channels
+ * in 64-bit lanes: v = min(floor(dq w), left), left -= v, with dq w >= 0 below 2^51, floor by
+ * rounding and the 2^52 trick. Shared by split_deposit (a photon among its VLs) and
+ * splat_rows_prepare (a share among four texels). */
+static inline __attribute__((always_inline)) __m256i split_step(__m256d dq, double w, __m256i *left)
+{
+    const __m256d two52 = _mm256_set1_pd(0x1p52);
+    const __m256d xv = _mm256_round_pd(_mm256_mul_pd(dq, _mm256_set1_pd(w)), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), _mm256_castpd_si256(two52));
+    v = _mm256_blendv_epi8(v, *left, _mm256_cmpgt_epi64(v, *left));
+    *left = _mm256_sub_epi64(*left, v);
+    return v;
+}
+
 /* vbnl_profile_splat_prepare_lo32 (the footprint, the exact integer parts, same bits) for a share
  * q in the lanes 0-2 of a vector (below 2^51), into splat_rows; 0 when a part reaches 2^31 (then
  * two parts of a row could pass 2^32 together: the caller takes the general form). The parts:
- * v_k = min(floor(q w_k), left) per channel in 64-bit lanes (floor by rounding and the 2^52
- * trick, as split_deposit), the residue to the largest weight (first on ties). */
+ * split_step per texel, the residue to the largest weight (first on ties). */
 static inline __attribute__((always_inline)) int splat_rows_prepare(const vbnl_profile_maps_view *mv, uint32_t *lo,
                                                                    uint32_t slot, vec3 wl, __m256i q, splat_rows *sr)
 {
@@ -331,17 +344,11 @@ static inline __attribute__((always_inline)) int splat_rows_prepare(const vbnl_p
     float wgt[4];
     vbnl_hemioct_footprint(mv->res, wl, idx, wgt);
     const __m256d two52 = _mm256_set1_pd(0x1p52);
-    const __m256i two52i = _mm256_castpd_si256(two52);
-    const __m256d dq = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(q, two52i)), two52);
+    const __m256d dq = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(q, _mm256_castpd_si256(two52))), two52);
     __m256i left = q, part[4];
     uint32_t big = 0;
     for (uint32_t k = 0; k < 4; ++k) {
-        const double wk = (double)(wgt[k] > 0.0f ? wgt[k] : 0.0f);
-        __m256d xv = _mm256_round_pd(_mm256_mul_pd(dq, _mm256_set1_pd(wk)), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-        __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), two52i);
-        v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
-        left = _mm256_sub_epi64(left, v);
-        part[k] = v;
+        part[k] = split_step(dq, (double)(wgt[k] > 0.0f ? wgt[k] : 0.0f), &left);
         if (wgt[k] > wgt[big])
             big = k;
     }
@@ -451,11 +458,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
             const int any_glossy = job->glossy != NULL;
             for (uint32_t i = 0; i < m; ++i) {
                 float wk = w[i] / sum;
-                __m256d xv = _mm256_mul_pd(dq, _mm256_set1_pd((double)wk));
-                xv = _mm256_round_pd(xv, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-                __m256i v = _mm256_xor_si256(_mm256_castpd_si256(_mm256_add_pd(xv, two52)), two52i);
-                v = _mm256_blendv_epi8(v, left, _mm256_cmpgt_epi64(v, left));
-                left = _mm256_sub_epi64(left, v);
+                const __m256i v = split_step(dq, (double)wk, &left);
                 __m256i *a = (__m256i *)(t->acc + ACC_STRIDE * (size_t)rk[i]);
                 const __m256i sums = _mm256_load_si256(a);
                 _mm256_store_si256(a, _mm256_add_epi64(sums, v));
