@@ -23,7 +23,10 @@
  * (tools/gen_dense_box.py writes a 320K-triangle variant)] [lights: "camera" (the
  * placement above, one radius) or "pipeline" (vbnl's own stages 1 and 2 with its defaults:
  * M = 10 N candidates, adaptive elimination, r_i = 2 r_i,max: radii over a few powers of two)];
- * a reduced case for callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs). */
+ * a reduced case for callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs).
+ * VBNL_BENCH_LAMBERT_VLS=1 gives every VL a Lambertian profile (one sum, no incident map), so
+ * that the glossy box's rows against a normal run show what its glossy maps cost; the photon
+ * walk is unchanged. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -268,6 +271,9 @@ int main(int argc, char **argv)
         }
         make_raw_rays(&rr, 1000000);
     }
+    const int lambert_vls = getenv("VBNL_BENCH_LAMBERT_VLS") != NULL;
+    if (lambert_vls)
+        memset(glossy, 0, nvl);
     uint32_t nglossy = 0;
     for (uint32_t j = 0; j < nvl; ++j)
         nglossy += glossy[j];
@@ -276,9 +282,10 @@ int main(int argc, char **argv)
         r_lo = fminf(r_lo, r[j]);
         r_hi = fmaxf(r_hi, r[j]);
     }
-    printf("scene: %s, %llu triangles, area %.3f; %u VLs (%s lights, %u glossy), r = %.4f .. %.4f; %llu photon paths; "
-           "%u threads\n",
-           path, (unsigned long long)s->triangle_count, area, nvl, pipeline ? "pipeline" : "camera", nglossy, r_lo,
+    printf("scene: %s, %llu triangles, area %.3f; %u VLs (%s lights, %u glossy%s), r = %.4f .. %.4f; %llu photon "
+           "paths; %u threads\n",
+           path, (unsigned long long)s->triangle_count, area, nvl, pipeline ? "pipeline" : "camera", nglossy,
+           lambert_vls ? ", all kept as Lambertian: VBNL_BENCH_LAMBERT_VLS" : "", r_lo,
            r_hi, (unsigned long long)paths, nthreads);
     printf("raw Embree incoherent ray rate: %.2f Mrays/s (one ray at a time %.2f, 8-ray packets %.2f; the faster "
            "is the ceiling)\n",
