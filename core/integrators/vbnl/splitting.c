@@ -82,6 +82,21 @@ static inline __m256 mask8(unsigned bits)
     return _mm256_castsi256_ps(
         _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32((int)bits), lane), lane));
 }
+/* frame_from_normal (vmath.h) of the unit normals (nx, ny, nz) on lanes, operation for
+ * operation: the tangents s = f[0..2] and t = f[3..5] (the frame's n is the normal). */
+static inline __attribute__((always_inline)) void frame8(__m256 nx, __m256 ny, __m256 nz, __m256 f[6])
+{
+    const __m256 one = _mm256_set1_ps(1.0f);
+    const __m256 sign = _mm256_or_ps(_mm256_and_ps(nz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
+    const __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, nz));
+    const __m256 b = _mm256_mul_ps(_mm256_mul_ps(nx, ny), a);
+    f[0] = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(sign, nx), nx), a));
+    f[1] = _mm256_mul_ps(sign, b);
+    f[2] = _mm256_mul_ps(neg8(sign), nx);
+    f[3] = b;
+    f[4] = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(ny, ny), a));
+    f[5] = neg8(ny);
+}
 #endif
 
 /* A photon hit waiting in a thread's batch (64 bytes, one cache line): everything the deposit
@@ -432,13 +447,9 @@ static __attribute__((noinline)) void splat_queue_run(const split_job *job, spli
     /* frame_from_normal(nv), then wl = frame_to_local(wi) */
     const __m256 nx = _mm256_load_ps(sq->nx), ny = _mm256_load_ps(sq->ny), nz = _mm256_load_ps(sq->nz);
     const __m256 wx = _mm256_load_ps(sq->wx), wy = _mm256_load_ps(sq->wy), wz = _mm256_load_ps(sq->wz);
-    const __m256 sign = _mm256_or_ps(_mm256_and_ps(nz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
-    const __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, nz));
-    const __m256 b = _mm256_mul_ps(_mm256_mul_ps(nx, ny), a);
-    const __m256 fsx = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(sign, nx), nx), a));
-    const __m256 fsy = _mm256_mul_ps(sign, b), fsz = _mm256_mul_ps(neg8(sign), nx);
-    const __m256 ftx = b, fty = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(ny, ny), a)), ftz = neg8(ny);
-    const __m256 lx = dot8(wx, wy, wz, fsx, fsy, fsz), ly = dot8(wx, wy, wz, ftx, fty, ftz),
+    __m256 fr[6];
+    frame8(nx, ny, nz, fr);
+    const __m256 lx = dot8(wx, wy, wz, fr[0], fr[1], fr[2]), ly = dot8(wx, wy, wz, fr[3], fr[4], fr[5]),
                  lz = dot8(wx, wy, wz, nx, ny, nz);
     /* vbnl_hemioct_encode_inline: fmaxf(z, 0) (max_ps gives 0 for a NaN, as fmaxf does; the sign
      * of a zero result cannot change l1), then the rotated diamond, clampf to [0, 1], (1, 1)
@@ -1493,19 +1504,9 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
     }
     __m256 alive = _mm256_and_ps(mask8(fast), _mm256_cmp_ps(dot8(wox, woy, woz, sx, sy, sz), zero, _CMP_GT_OQ));
     /* frame_from_normal(ns) */
-    __m256 fsx, fsy, fsz, ftx, fty, ftz;
-    {
-        __m256 sign = _mm256_or_ps(_mm256_and_ps(sz, _mm256_set1_ps(-0.0f)), one); /* copysignf(1, n.z) */
-        __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.0f), _mm256_add_ps(sign, sz));
-        __m256 b = _mm256_mul_ps(_mm256_mul_ps(sx, sy), a);
-        __m256 snx = _mm256_mul_ps(sign, sx);
-        fsx = _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(snx, sx), a));
-        fsy = _mm256_mul_ps(sign, b);
-        fsz = _mm256_mul_ps(neg8(sign), sx);
-        ftx = b;
-        fty = _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(sy, sy), a));
-        ftz = neg8(sy);
-    }
+    __m256 fr[6];
+    frame8(sx, sy, sz, fr);
+    const __m256 fsx = fr[0], fsy = fr[1], fsz = fr[2], ftx = fr[3], fty = fr[4], ftz = fr[5];
 
     /* sample_cosine_hemisphere(u): the concentric disk with sincos_quarter, then z */
     __m256 wx, wy, wz;

@@ -52,8 +52,8 @@
  * containing p (quantisation error and float rounding included), and runs the exact test of
  * vbnl_vl_contains on the few that remain, so answers are exact. A sphere costs
  * 36 + 8 x (cells it overlaps) bytes, plus the padding (<= 100 at the default cell size; the
- * earlier layout copied the 32-byte record into every cell: up to 284), and the spheres found by queries at
- * nearby points lie next to each other in memory. Callers that keep per-sphere data (photon
+ * earlier layout copied the 32-byte record into every cell: up to 284), and the spheres found
+ * by queries at nearby points lie next to each other in memory. Callers that keep per-sphere data (photon
  * splitting's sums) can index it by rank for the same locality, and can sort query points by
  * vbnl_vl_index_spatial_key, the Morton code the ranks come from. The Embree variant keeps id
  * order (rank == id).
