@@ -26,7 +26,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "exit_codes.h"
+#include "cli.h"
 #include "vbnl/vbnl_plugin.h"
 
 #ifndef VBNL_PLUGIN_FILE
@@ -300,22 +300,6 @@ static int parse_u32(const char *s, uint32_t *out, uint32_t min, uint32_t max)
     return 0;
 }
 
-static int parse_camera(const char *text, vbnl_plugin_options *o)
-{
-    float v[7];
-    char extra;
-    if (sscanf(text, "%f,%f,%f,%f,%f,%f,%f%c", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6], &extra) != 7)
-        return -1;
-    for (int i = 0; i < 7; ++i)
-        if (!isfinite(v[i]))
-            return -1;
-    memcpy(o->camera_position, v, sizeof(float) * 3);
-    memcpy(o->camera_target, v + 3, sizeof(float) * 3);
-    o->camera_fov_y = v[6];
-    o->camera_given = 1;
-    return 0;
-}
-
 #define MAX_SETS 256
 
 static int cmd_render(const plugin *pl, int argc, char **argv)
@@ -415,10 +399,11 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
             }
             break;
         case 'c':
-            if (parse_camera(optarg, &o)) {
+            if (cli_parse_camera(optarg, o.camera_position, o.camera_target, &o.camera_fov_y)) {
                 fprintf(stderr, "vbnl render: --camera takes px,py,pz,tx,ty,tz,fov_degrees, got '%s'\n", optarg);
                 return VBNL_EXIT_USAGE;
             }
+            o.camera_given = 1;
             break;
         case 'C': {
             unsigned v[4];

@@ -1,15 +1,16 @@
 /* The vbnl plugin module: vbnl_plugin_entry and the function table of vbnl_plugin.h, on top of the
  * core's public API (render.h, integrator.h, params.h), the scene loaders (POV-Ray language,
- * mesh import), the EXR/PNG writers and the OpenColorIO shim. */
+ * mesh import), the EXR/PNG writers and the OpenColorIO shim. The developer commands that
+ * command_at / run_command reach are in plugin/commands/. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 #include "atomic_file.h"
-#include "host.h"
+#include "commands.h"
 #include "image_io.h"
+#include "module.h"
 #include "ocio_shim.h"
 #include "vbnl/pov_scene.h"
 #include "vbnl/vbnl.h"
@@ -57,12 +58,6 @@ static vbnl_result fail(char *msg, size_t n, vbnl_result code, const char *text)
     if (msg && n)
         snprintf(msg, n, "%s", text);
     return code;
-}
-
-static int has_extension(const char *path, const char *ext)
-{
-    size_t n = strlen(path), e = strlen(ext);
-    return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
 /* ---- library and integrators ------------------------------------------------------------------ */
@@ -307,7 +302,7 @@ static vbnl_plugin_result p_load_scene_file(vbnl_plugin_renderer *r, const char 
     vbnl_result res = ensure_context(r, &e);
     if (res != VBNL_OK)
         return to_msg(res, &e, msg, n);
-    if (has_extension(path, ".pov") || has_extension(path, ".inc")) {
+    if (module_is_pov(path)) {
         if (r->opt.camera_given)
             return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT,
                         "a camera option applies to mesh files; a .pov scene sets its own camera");
@@ -319,7 +314,7 @@ static vbnl_plugin_result p_load_scene_file(vbnl_plugin_renderer *r, const char 
         return to_msg(adopt_pov(r, ps, &e), &e, msg, n);
     }
     /* Mesh files: scene_load.c frames them (or uses the given camera). */
-    host_camera cam = {0};
+    module_camera cam = {0};
     if (r->opt.camera_given) {
         cam.given = 1;
         memcpy(cam.position, r->opt.camera_position, sizeof(cam.position));
@@ -327,7 +322,7 @@ static vbnl_plugin_result p_load_scene_file(vbnl_plugin_renderer *r, const char 
         cam.fov_y = r->opt.camera_fov_y;
     }
     vbnl_scene *scene = NULL;
-    if ((res = host_load_scene(r->ctx, path, &cam, (float)r->opt.width / (float)r->opt.height, &scene, &e)) !=
+    if ((res = module_load_scene(r->ctx, path, &cam, (float)r->opt.width / (float)r->opt.height, &scene, &e)) !=
         VBNL_OK)
         return to_msg(res, &e, msg, n);
     replace_scene(r, scene, NULL, NULL);
@@ -500,7 +495,7 @@ static vbnl_plugin_result p_check_writable(const char *path, char *msg, size_t n
     if (!path)
         return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "check_writable: path is NULL");
     vbnl_error e = {0};
-    return to_msg(host_check_writable(path, &e), &e, msg, n);
+    return to_msg(module_check_writable(path, &e), &e, msg, n);
 }
 
 static vbnl_plugin_result p_write_exr(const vbnl_plugin_renderer *r, const char *path, int half, char *msg, size_t n)
@@ -509,7 +504,7 @@ static vbnl_plugin_result p_write_exr(const vbnl_plugin_renderer *r, const char 
         return fail(msg, n, !r || !path ? VBNL_ERR_INVALID_ARGUMENT : VBNL_ERR_STATE,
                     "write_exr: NULL argument or nothing rendered");
     vbnl_error e = {0};
-    return to_msg(host_write_outputs(r->core, &r->settings, path, NULL, 0.0f, half, r->partial, &e), &e, msg, n);
+    return to_msg(module_write_outputs(r->core, &r->settings, path, NULL, 0.0f, half, r->partial, &e), &e, msg, n);
 }
 
 static int view_valid(const vbnl_plugin_view *v, char *msg, size_t n)
@@ -605,8 +600,8 @@ typedef struct plugin_command {
 } plugin_command;
 
 static const plugin_command commands[] = {
-    {"bench", "path tracer speed against the raw Embree ray rate; --equal-time / --equal-count: every method", host_bench_main},
-    {"compare", "error of images against a reference: table, error maps, montage", host_compare_main},
+    {"bench", "path tracer speed against the raw Embree ray rate; --equal-time / --equal-count: every method", cmd_bench},
+    {"compare", "error of images against a reference: table, error maps, montage", cmd_compare},
 };
 
 static const char *p_command_at(uint32_t i, const char **summary)

@@ -5,7 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "host.h"
+#include "commands.h"
+#include "module.h"
 
 #define DEFAULT_SCENE "../shared/scenes/cornell-box-mcguire/CornellBox-Original.obj"
 #define DEFAULT_CAMERA "0,1,3.5,0,1,0,40"
@@ -60,7 +61,7 @@ static void bench_usage(FILE *f)
             "  --shared DIR       where scenes/cornell-box-mcguire is (default ../shared)\n");
 }
 
-int host_bench_main(int argc, char **argv)
+int cmd_bench(int argc, char **argv)
 {
     static const struct option opts[] = {
         {"scene", required_argument, 0, 's'}, {"camera", required_argument, 0, 'c'},
@@ -81,8 +82,8 @@ int host_bench_main(int argc, char **argv)
     double ref_time = 1200.0;
     const char *out_dir = "bench-out", *only = NULL, *shared = "../shared";
     const char *scene_path = DEFAULT_SCENE;
-    host_camera cam = {0};
-    host_parse_camera(DEFAULT_CAMERA, &cam);
+    module_camera cam = {1, {0}, {0}, 0.0f};
+    cli_parse_camera(DEFAULT_CAMERA, cam.position, cam.target, &cam.fov_y);
     unsigned width = 256, height = 256, spp = 16, repeat = 3, threads = 0;
     vbnl_sampler_kind sampler = VBNL_SAMPLER_SOBOL;
     int c;
@@ -91,7 +92,7 @@ int host_bench_main(int argc, char **argv)
         switch (c) {
         case 's': scene_path = optarg; break;
         case 'c':
-            if (host_parse_camera(optarg, &cam)) {
+            if (cli_parse_camera(optarg, cam.position, cam.target, &cam.fov_y)) {
                 fprintf(stderr, "vbnl bench: bad --camera '%s'\n", optarg);
                 return VBNL_EXIT_USAGE;
             }
@@ -169,10 +170,10 @@ int host_bench_main(int argc, char **argv)
             fprintf(stderr, "vbnl bench: --repeat takes 1..99\n");
             return VBNL_EXIT_USAGE;
         }
-        host_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, shared, only,
-                                   methods, (uint32_t)count, (uint32_t)count_spp, sampler,
-                                   repeat_set ? repeat : 1u};
-        return host_bench_equal_time(&o);
+        cmd_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, shared, only,
+                                  methods, (uint32_t)count, (uint32_t)count_spp, sampler,
+                                  repeat_set ? repeat : 1u};
+        return cmd_bench_equal_time(&o);
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||
         repeat > 99 || threads > 1024) {
@@ -185,7 +186,7 @@ int host_bench_main(int argc, char **argv)
     vbnl_context_desc cd = {threads};
     int rc = VBNL_EXIT_FAILURE;
     if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK ||
-        host_load_scene(ctx, scene_path, &cam, (float)width / (float)height, &scene, &err) != VBNL_OK) {
+        module_load_scene(ctx, scene_path, &cam, (float)width / (float)height, &scene, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl bench: %s\n", err.message);
         goto done;
     }

@@ -13,8 +13,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "host.h"
+#include "commands.h"
 #include "image_io.h"
+#include "module.h"
 
 typedef struct bench_scene {
     const char *name, *file, *camera;
@@ -73,7 +74,7 @@ static int method_available(const bench_method *m, const char *list)
     return method_selected(m, list) && vbnl_integrator_find(m->integrator) != NULL;
 }
 
-static double rmae(const float *img, const float *ref, size_t n) { return host_rmae(img, ref, n); }
+static double rmae(const float *img, const float *ref, size_t n) { return cmd_rmae(img, ref, n); }
 
 /* The preparation of `vbnl` under a budget on a 2-core CPU (the paper's defaults, 130K lights and
  * 20M photon paths, are sized for a GPU). Photon paths grow with the budget. Lights do not, up to
@@ -280,7 +281,7 @@ static void png_name(char *out, size_t size, const char *dir, const char *scene,
 }
 
 /* The equal-count run: every selected virtual-light method with `count` lights, `spp` samples. */
-static void equal_count(vbnl_context *ctx, const vbnl_scene *scene, const char *scene_name, const host_bench_equal_opts *o,
+static void equal_count(vbnl_context *ctx, const vbnl_scene *scene, const char *scene_name, const cmd_bench_equal_opts *o,
                         const float *ref)
 {
     printf("  equal count: %u virtual lights, %u spp, %ux%u (times are noisy on a shared machine)\n", o->count,
@@ -309,7 +310,7 @@ static void equal_count(vbnl_context *ctx, const vbnl_scene *scene, const char *
     }
 }
 
-int host_bench_equal_time(const host_bench_equal_opts *o)
+int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
 {
     const char *out_dir = o->out_dir;
     const uint32_t size = o->size;
@@ -345,10 +346,10 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
         const bench_scene *bs = &scenes[si];
         if (o->only_scene && strcmp(o->only_scene, bs->name) != 0)
             continue;
-        host_camera cam = {0};
-        host_parse_camera(bs->camera, &cam);
+        module_camera cam = {1, {0}, {0}, 0.0f};
+        cli_parse_camera(bs->camera, cam.position, cam.target, &cam.fov_y);
         vbnl_scene *scene = NULL;
-        if (host_load_scene(ctx, bs->file, &cam, 1.0f, &scene, &err) != VBNL_OK) {
+        if (module_load_scene(ctx, bs->file, &cam, 1.0f, &scene, &err) != VBNL_OK) {
             fprintf(stderr, "vbnl bench: %s\n", err.message);
             rc = VBNL_EXIT_SCENE;
             continue;
@@ -393,7 +394,7 @@ int host_bench_equal_time(const host_bench_equal_opts *o)
             vbnl_renderer_get_stats(r, &st, NULL);
             ref_spp = st.spp;
             printf("scene %s: reference rendered, %u spp in %.0f s\n", bs->name, st.spp, st.render_seconds);
-            host_write_outputs(r, &s, ref_path, NULL, 0.0f, 0, 0, NULL);
+            module_write_outputs(r, &s, ref_path, NULL, 0.0f, 0, 0, NULL);
             vbnl_renderer_destroy(r);
         }
         printf("scene %s (%s): reference `path` %u spp (%s)\n", bs->name, bs->file, ref_spp, ref_path);

@@ -4,10 +4,10 @@
 #include <string.h>
 
 #include "atomic_file.h"
-#include "host.h"
 #include "image_io.h"
+#include "module.h"
 
-vbnl_result host_check_writable(const char *path, vbnl_error *err)
+vbnl_result module_check_writable(const char *path, vbnl_error *err)
 {
     vbnl_atomic_file f;
     vbnl_result r = vbnl_atomic_file_open(&f, path, err);
@@ -18,9 +18,9 @@ vbnl_result host_check_writable(const char *path, vbnl_error *err)
 
 #define MAX_ATTRS 64
 
-vbnl_result host_write_outputs(const vbnl_renderer *r, const vbnl_render_settings *s,
-                               const char *exr_path, const char *png_path, float exposure, int half,
-                               int partial, vbnl_error *err)
+vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_settings *s,
+                                 const char *exr_path, const char *png_path, float exposure, int half,
+                                 int partial, vbnl_error *err)
 {
     const vbnl_film *film = vbnl_renderer_film(r);
     uint32_t w = vbnl_film_width(film), h = vbnl_film_height(film);

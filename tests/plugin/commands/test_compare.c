@@ -11,7 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "host.h"
+#include "commands.h"
 #include "image_io.h"
 
 /* Reference: every channel 1, except pixel 0 (all 3). Candidate: reference + 0.1 everywhere,
@@ -30,15 +30,15 @@ static void test_known_values(void **state)
         img[4 + c] = 5.0f;
     /* mean(ref) = (3 + 1 + 1 + 1) / 4 = 1.5, eps = 0.015 */
     const double eps = 0.015;
-    assert_true(fabs(host_rmae_eps(ref, N) - eps) < 1e-12);
+    assert_true(fabs(cmd_rmae_eps(ref, N) - eps) < 1e-12);
     double d0 = 0.1f, d1 = 4.0;
     double rmae = (d0 / (3.0 + eps) + d1 / (1.0 + eps) + 2.0 * d0 / (1.0 + eps)) / 4.0;
     double mse = (d0 * d0 * 3.0 + d1 * d1) / 4.0;
     double rel = (d0 * d0 / ((3.0 + eps) * (3.0 + eps)) + d1 * d1 / ((1.0 + eps) * (1.0 + eps)) +
                   2.0 * d0 * d0 / ((1.0 + eps) * (1.0 + eps))) /
                  4.0;
-    host_metrics m;
-    host_image_metrics(img, ref, N, &m);
+    cmd_metrics m;
+    cmd_image_metrics(img, ref, N, &m);
     print_message("# rMAE %.6f (expected %.6f), MSE %.6f (%.6f), relMSE %.6f (%.6f), outliers %.3f (0.25)\n",
                   m.rmae, rmae, m.mse, mse, m.rel_mse, rel, m.outliers);
     assert_true(fabs(m.rmae - rmae) < 1e-6);
@@ -47,9 +47,9 @@ static void test_known_values(void **state)
     assert_true(m.outliers == 0.25);
     /* energy: (3.1 + 5 + 1.1 + 1.1) / (3 + 1 + 1 + 1), per channel alike */
     assert_true(fabs(m.energy - (3.1 + 5.0 + 2.2) / 6.0) < 1e-6);
-    assert_true(fabs(host_rmae(img, ref, N) - rmae) < 1e-6);
+    assert_true(fabs(cmd_rmae(img, ref, N) - rmae) < 1e-6);
     /* identical images: every metric 0 */
-    host_image_metrics(ref, ref, N, &m);
+    cmd_image_metrics(ref, ref, N, &m);
     assert_true(m.rmae == 0.0 && m.mse == 0.0 && m.rel_mse == 0.0 && m.outliers == 0.0);
 }
 
@@ -72,7 +72,7 @@ static int run_compare_to(int argc, char **argv, const char *out_path)
     FILE *out = fopen(out_path, "w"), *null = fopen("/dev/null", "w");
     dup2(fileno(out), 1);
     dup2(fileno(null), 2);
-    int rc = host_compare_main(argc, argv);
+    int rc = cmd_compare(argc, argv);
     fflush(stdout);
     fflush(stderr);
     dup2(so, 1);

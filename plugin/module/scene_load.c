@@ -1,30 +1,14 @@
-/* Loading scenes for the host: POV-Ray scene files through the scene parser, mesh files through
- * assimp. */
+/* Loading scene files for the module: mesh files through assimp (the ABI's load_scene_file) and,
+ * for the bench commands, POV-Ray scene files through the scene parser. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
-#include "host.h"
+#include "module.h"
 #include "vbnl/mesh_import.h"
 #include "vbnl/pov_scene.h"
-
-int host_parse_camera(const char *text, host_camera *cam)
-{
-    float v[7];
-    char extra;
-    if (sscanf(text, "%f,%f,%f,%f,%f,%f,%f%c", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6], &extra) != 7)
-        return -1;
-    for (int i = 0; i < 7; ++i)
-        if (!isfinite(v[i]))
-            return -1;
-    memcpy(cam->position, v, sizeof(float) * 3);
-    memcpy(cam->target, v + 3, sizeof(float) * 3);
-    cam->fov_y = v[6];
-    cam->given = 1;
-    return 0;
-}
 
 static int has_extension(const char *path, const char *ext)
 {
@@ -32,7 +16,7 @@ static int has_extension(const char *path, const char *ext)
     return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
-int host_is_pov(const char *path) { return has_extension(path, ".pov") || has_extension(path, ".inc"); }
+int module_is_pov(const char *path) { return has_extension(path, ".pov") || has_extension(path, ".inc"); }
 
 static void print_diag(const vbnl_sdl_diag *d, void *user)
 {
@@ -40,13 +24,12 @@ static void print_diag(const vbnl_sdl_diag *d, void *user)
     fputs(d->text, stderr);
 }
 
-vbnl_result host_load_pov(vbnl_context *ctx, const char *path, uint32_t width, uint32_t height,
-                          vbnl_scene **out, char *integrator, size_t size, vbnl_params **params,
-                          vbnl_error *err)
+/* A POV-Ray scene file; the integrator and parameters it selects are not kept (the bench commands
+ * choose their own). plugin.c loads the scenes of the ABI itself, keeping them. */
+static vbnl_result load_pov(vbnl_context *ctx, const char *path, uint32_t width, uint32_t height, vbnl_scene **out,
+                            vbnl_error *err)
 {
     *out = NULL;
-    if (params)
-        *params = NULL;
     vbnl_pov_options o;
     vbnl_pov_options_init(&o);
     o.width = (int)width;
@@ -56,29 +39,18 @@ vbnl_result host_load_pov(vbnl_context *ctx, const char *path, uint32_t width, u
     vbnl_result r = vbnl_pov_load_file(ctx, path, &o, &ps, err);
     if (r != VBNL_OK)
         return r;
-    if (integrator && size)
-        snprintf(integrator, size, "%s", vbnl_pov_scene_integrator(ps));
-    if (params) {
-        if ((r = vbnl_params_create(params, err)) != VBNL_OK ||
-            (r = vbnl_params_append(*params, vbnl_pov_scene_params(ps), err)) != VBNL_OK) {
-            vbnl_params_destroy(*params);
-            *params = NULL;
-            vbnl_pov_scene_destroy(ps);
-            return r;
-        }
-    }
     *out = vbnl_pov_scene_take_scene(ps);
     vbnl_pov_scene_destroy(ps);
     return VBNL_OK;
 }
 
-vbnl_result host_load_scene(vbnl_context *ctx, const char *path, const host_camera *cam, float aspect,
-                            vbnl_scene **out, vbnl_error *err)
+vbnl_result module_load_scene(vbnl_context *ctx, const char *path, const module_camera *cam, float aspect,
+                              vbnl_scene **out, vbnl_error *err)
 {
     *out = NULL;
-    if (host_is_pov(path)) {
+    if (module_is_pov(path)) {
         uint32_t h = 480, w = (uint32_t)lroundf(480.0f * (aspect > 0 ? aspect : 1.0f));
-        return host_load_pov(ctx, path, w ? w : 1, h, out, NULL, 0, NULL, err);
+        return load_pov(ctx, path, w ? w : 1, h, out, err);
     }
     vbnl_scene *scene;
     vbnl_result r = vbnl_scene_create(ctx, &scene, err);

@@ -24,12 +24,12 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "host.h"
+#include "commands.h"
 #include "image_io.h"
 
 /* ---- metrics --------------------------------------------------------------------------------- */
 
-double host_rmae_eps(const float *ref, size_t n)
+double cmd_rmae_eps(const float *ref, size_t n)
 {
     double mean = 0.0;
     for (size_t i = 0; i < n; ++i)
@@ -38,19 +38,19 @@ double host_rmae_eps(const float *ref, size_t n)
     return n ? 0.01 * mean / (3.0 * (double)n) : 0.0;
 }
 
-double host_rmae(const float *img, const float *ref, size_t n)
+double cmd_rmae(const float *img, const float *ref, size_t n)
 {
-    host_metrics m;
-    host_image_metrics(img, ref, n, &m);
+    cmd_metrics m;
+    cmd_image_metrics(img, ref, n, &m);
     return m.rmae;
 }
 
-void host_image_metrics(const float *img, const float *ref, size_t n, host_metrics *m)
+void cmd_image_metrics(const float *img, const float *ref, size_t n, cmd_metrics *m)
 {
     memset(m, 0, sizeof(*m));
     if (!n)
         return;
-    const double eps = host_rmae_eps(ref, n);
+    const double eps = cmd_rmae_eps(ref, n);
     double rmae = 0.0, mse = 0.0, rel = 0.0, si = 0.0, sr = 0.0;
     size_t outliers = 0;
     for (size_t i = 0; i < n; ++i) {
@@ -173,7 +173,7 @@ static double pixel_error(const float *img, const float *ref, size_t i, double e
 
 static void blit_error(canvas *cv, int x0, int y0, const float *img, const float *ref, uint32_t w, uint32_t h)
 {
-    double eps = host_rmae_eps(ref, (size_t)w * h);
+    double eps = cmd_rmae_eps(ref, (size_t)w * h);
     for (uint32_t y = 0; y < h; ++y)
         for (uint32_t x = 0; x < w; ++x) {
             uint8_t c[3];
@@ -298,7 +298,7 @@ static void file_label(const char *label, char *out, size_t size)
 
 #define MAX_CANDIDATES 32
 
-int host_compare_main(int argc, char **argv)
+int cmd_compare(int argc, char **argv)
 {
     const char *files[MAX_CANDIDATES + 1];
     int nfiles = 0;
@@ -398,14 +398,14 @@ int host_compare_main(int argc, char **argv)
     if (rc == VBNL_EXIT_OK) {
         const size_t n = (size_t)w * h;
         printf("reference %s (%ux%u); eps = 0.01 mean(reference) = %.4g; outlier: relative error > 1\n", files[0],
-               w, h, host_rmae_eps(img[0], n));
+               w, h, cmd_rmae_eps(img[0], n));
         if (layer || ref_layer)
             printf("layers: reference %s, candidates %s\n", ref_layer ? ref_layer : "beauty",
                    layer ? layer : "beauty");
         printf("%-24s %12s %12s %12s %10s %9s\n", "candidate", "rMAE", "MSE", "relMSE", "outliers", "mean/ref");
         for (int i = 0; i < nc; ++i) {
-            host_metrics m;
-            host_image_metrics(img[i + 1], img[0], n, &m);
+            cmd_metrics m;
+            cmd_image_metrics(img[i + 1], img[0], n, &m);
             printf("%-24s %12.5f %12.5g %12.5g %9.3f%% %9.4f\n", labels[i], m.rmae, m.mse, m.rel_mse,
                    100.0 * m.outliers, m.energy);
         }
