@@ -2,12 +2,12 @@
 """Writes the McGuire Cornell box with a finely tessellated bumpy sphere added (320K triangles by
 default): a benchmark scene where Embree's traversal, not the per-hit work, dominates a ray.
 
-    tools/gen_dense_box.py SHARED_SCENES_DIR OUT_DIR [RINGS SEGMENTS]
+    tools/gen_dense_box.py OUT_DIR [RINGS SEGMENTS]
 
-SHARED_SCENES_DIR holds CornellBox-Original.obj/.mtl (../shared/scenes/cornell-box-mcguire);
-OUT_DIR receives CornellBox-Dense.obj and a copy of the .mtl. The sphere (radius 0.3, 5% bumps)
-stands on the left of the box's floor with the tall box's white material; RINGS x SEGMENTS x 2
-triangles (default 320 x 500). Then, for instance:
+The box is this repository's examples/mcguire/CornellBox-Original.obj and .mtl (written by
+tools/gen_mcguire_boxes.py); OUT_DIR receives CornellBox-Dense.obj and a copy of the .mtl. The
+sphere (radius 0.3, 5% bumps) stands on the left of the box's floor with the tall box's white
+material; RINGS x SEGMENTS x 2 triangles (default 320 x 500). Then, for instance:
 
     build/tests/bench_splitting 2e6 1e5 0 3 3 OUT_DIR/CornellBox-Dense.obj camera
 """
@@ -18,22 +18,23 @@ import sys
 
 
 def main():
-    if len(sys.argv) not in (3, 5):
+    if len(sys.argv) not in (2, 4):
         sys.exit(__doc__)
-    src_dir, out_dir = sys.argv[1], sys.argv[2]
+    src_dir = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples", "mcguire")
+    out_dir = sys.argv[1]
     try:
-        rings, segs = (int(sys.argv[3]), int(sys.argv[4])) if len(sys.argv) == 5 else (320, 500)
+        rings, segs = (int(sys.argv[2]), int(sys.argv[3])) if len(sys.argv) == 4 else (320, 500)
     except ValueError:
-        sys.exit("gen_dense_box: RINGS and SEGMENTS must be integers, got '%s' '%s'" % (sys.argv[3], sys.argv[4]))
+        sys.exit("gen_dense_box: RINGS and SEGMENTS must be integers, got '%s' '%s'" % (sys.argv[2], sys.argv[3]))
     if rings < 2 or segs < 3:
         sys.exit("gen_dense_box: RINGS >= 2 and SEGMENTS >= 3")
     for name in ("CornellBox-Original.obj", "CornellBox-Original.mtl"):
         if not os.path.isfile(os.path.join(src_dir, name)):
-            sys.exit("gen_dense_box: %s: no such file (SHARED_SCENES_DIR is the cornell-box-mcguire folder)"
-                     % os.path.join(src_dir, name))
+            sys.exit("gen_dense_box: %s: no such file (tools/gen_mcguire_boxes.py writes it)"
+                     % os.path.normpath(os.path.join(src_dir, name)))
     with open(os.path.join(src_dir, "CornellBox-Original.obj")) as f:
         src = f.read()
-    base = sum(1 for line in src.splitlines() if line.startswith("v "))
+    base = sum(1 for line in src.splitlines() if line.split()[:1] == ["v"])
     out = [src.rstrip("\n"), "o denseSphere", "usemtl tallBox"]
     r0, cx, cy, cz = 0.3, -0.3, 0.45, 0.3
     for j in range(rings + 1):

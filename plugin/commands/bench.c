@@ -8,7 +8,9 @@
 #include "commands.h"
 #include "module.h"
 
-#define DEFAULT_SCENE "../shared/scenes/cornell-box-mcguire/CornellBox-Original.obj"
+/* Scene paths, here and in bench_equal.c, are relative to the working directory: the bench runs
+ * from the repository's root. */
+#define DEFAULT_SCENE "examples/mcguire/CornellBox-Original.obj"
 #define DEFAULT_CAMERA "0,1,3.5,0,1,0,40"
 
 static int cmp_double(const void *a, const void *b)
@@ -57,8 +59,7 @@ static void bench_usage(FILE *f)
             "  --ref-spp N        instead: references of N samples per pixel (cached by N; unlike\n"
             "                     --ref-time, the same reference whatever else the machine runs)\n"
             "  --out DIR          images, references and plots (default bench-out)\n"
-            "  --only NAME        one scene: cornell, glossy or door-ajar\n"
-            "  --shared DIR       where scenes/cornell-box-mcguire is (default ../shared)\n");
+            "  --only NAME        one scene: cornell, glossy or door-ajar\n");
 }
 
 int cmd_bench(int argc, char **argv)
@@ -71,7 +72,7 @@ int cmd_bench(int argc, char **argv)
         {"equal-time", no_argument, 0, 'E'}, {"budgets", required_argument, 0, 'B'},
         {"size", required_argument, 0, 'Z'}, {"ref-time", required_argument, 0, 'F'},
         {"out", required_argument, 0, 'O'}, {"only", required_argument, 0, 'Y'},
-        {"shared", required_argument, 0, 'D'}, {"equal-count", required_argument, 0, 'C'},
+        {"equal-count", required_argument, 0, 'C'},
         {"count-spp", required_argument, 0, 'P'}, {"methods", required_argument, 0, 'M'},
         {"ref-spp", required_argument, 0, 'S'}, {"sampler", required_argument, 0, 'm'}, {0, 0, 0, 0}};
     int equal_time = 0, nb = 0, no_budgets = 0, repeat_set = 0;
@@ -80,7 +81,7 @@ int cmd_bench(int argc, char **argv)
     double budgets[8];
     unsigned size = 512;
     double ref_time = 1200.0;
-    const char *out_dir = "bench-out", *only = NULL, *shared = "../shared";
+    const char *out_dir = "bench-out", *only = NULL;
     const char *scene_path = DEFAULT_SCENE;
     module_camera cam = {1, {0}, {0}, 0.0f};
     cli_parse_camera(DEFAULT_CAMERA, cam.position, cam.target, &cam.fov_y);
@@ -147,7 +148,6 @@ int cmd_bench(int argc, char **argv)
         }
         case 'O': out_dir = optarg; break;
         case 'Y': only = optarg; break;
-        case 'D': shared = optarg; break;
         default: bench_usage(stderr); return VBNL_EXIT_USAGE;
         }
     }
@@ -170,9 +170,8 @@ int cmd_bench(int argc, char **argv)
             fprintf(stderr, "vbnl bench: --repeat takes 1..99\n");
             return VBNL_EXIT_USAGE;
         }
-        cmd_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, shared, only,
-                                  methods, (uint32_t)count, (uint32_t)count_spp, sampler,
-                                  repeat_set ? repeat : 1u};
+        cmd_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, only, methods,
+                                  (uint32_t)count, (uint32_t)count_spp, sampler, repeat_set ? repeat : 1u};
         return cmd_bench_equal_time(&o);
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||

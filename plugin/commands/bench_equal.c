@@ -316,12 +316,9 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
     const uint32_t size = o->size;
     const double *budgets = o->budgets;
     const int nb = o->nb;
-    char cornell[1024], glossy[1024];
-    snprintf(cornell, sizeof(cornell), "examples/cornell-box.obj");
-    snprintf(glossy, sizeof(glossy), "%s/scenes/cornell-box-mcguire/CornellBox-Glossy-Floor.obj", o->shared_dir);
     const bench_scene scenes[] = {
-        {"cornell", cornell, "0,1,3.6,0,1,0,39"},
-        {"glossy", glossy, "0,1,3.5,0,1,0,40"},
+        {"cornell", "examples/cornell-box.obj", "0,1,3.6,0,1,0,39"},
+        {"glossy", "examples/mcguire/CornellBox-Glossy-Floor.obj", "0,1,3.5,0,1,0,40"},
         {"door-ajar", "examples/door-ajar.obj", "3.6,1.3,1.6,0,1,-0.2,60"},
     };
     for (unsigned m = 0; m < N_METHODS; ++m)

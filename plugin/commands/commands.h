@@ -14,7 +14,8 @@
 /* `vbnl bench` (bench.c). */
 int cmd_bench(int argc, char **argv);
 
-/* The equal-time and equal-count comparisons of `vbnl bench --equal-time` (bench_equal.c). */
+/* The equal-time and equal-count comparisons of `vbnl bench --equal-time` (bench_equal.c). Scene
+ * files are read from examples/ relative to the working directory (the repository's root). */
 typedef struct cmd_bench_equal_opts {
     const char *out_dir;
     uint32_t size;
@@ -22,7 +23,6 @@ typedef struct cmd_bench_equal_opts {
     int nb;                 /* 0: no equal-time runs */
     double ref_time;
     uint32_t ref_spp;       /* > 0: references by sample count instead of ref_time */
-    const char *shared_dir;
     const char *only_scene; /* NULL: every scene */
     const char *methods;    /* comma-separated method labels, NULL: all */
     uint32_t count;         /* equal-count run with this many virtual lights, 0: none */

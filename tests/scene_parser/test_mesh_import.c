@@ -16,10 +16,11 @@
 
 static char g_dir[512];
 
-static const char *shared_scene(const char *name, char *buf, size_t n)
+/* A McGuire box of examples/mcguire (written by tools/gen_mcguire_boxes.py). */
+static const char *mcguire_scene(const char *name, char *buf, size_t n)
 {
-    const char *dir = getenv("VBNL_SHARED_DIR");
-    snprintf(buf, n, "%s/scenes/cornell-box-mcguire/%s", dir ? dir : "../shared", name);
+    const char *src = getenv("VBNL_SOURCE_DIR");
+    snprintf(buf, n, "%s/examples/mcguire/%s", src ? src : ".", name);
     return buf;
 }
 
@@ -52,7 +53,7 @@ static void test_cornell_original(void **state)
     vbnl_context_create(&d, &ctx, NULL);
     char path[1024];
     vbnl_mesh_import_stats st;
-    vbnl_scene *s = import(ctx, shared_scene("CornellBox-Original.obj", path, sizeof(path)), &st, VBNL_OK);
+    vbnl_scene *s = import(ctx, mcguire_scene("CornellBox-Original.obj", path, sizeof(path)), &st, VBNL_OK);
     assert_int_equal(st.triangles, 36); /* 18 quads */
     assert_int_equal(st.materials, 9);  /* 8 in the MTL + assimp's default */
     assert_int_equal(st.emissive_materials, 1);
@@ -95,13 +96,13 @@ static void test_material_mapping(void **state)
     vbnl_context_create(&d, &ctx, NULL);
     char path[1024];
     /* Mirror: tallBox has Ks 0.95, Ns 1000, illum 5 -> perfect mirror tinted 0.95 */
-    vbnl_scene *s = import(ctx, shared_scene("CornellBox-Mirror.obj", path, sizeof(path)), NULL, VBNL_OK);
+    vbnl_scene *s = import(ctx, mcguire_scene("CornellBox-Mirror.obj", path, sizeof(path)), NULL, VBNL_OK);
     const vbnl_material_desc *m = find_type(s, VBNL_MATERIAL_MIRROR);
     assert_non_null(m);
     assert_float_equal(m->base_color[0], 0.95f, 1e-6f);
     vbnl_scene_destroy(s);
     /* Glossy floor: Kd + Ks with Ns 32 -> plastic with alpha sqrt(2/34), ior Ni 1.5 */
-    s = import(ctx, shared_scene("CornellBox-Glossy-Floor.obj", path, sizeof(path)), NULL, VBNL_OK);
+    s = import(ctx, mcguire_scene("CornellBox-Glossy-Floor.obj", path, sizeof(path)), NULL, VBNL_OK);
     m = find_type(s, VBNL_MATERIAL_PLASTIC);
     assert_non_null(m);
     assert_float_equal(m->alpha, sqrtf(2.0f / 34.0f), 1e-5f);

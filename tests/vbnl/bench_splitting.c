@@ -18,9 +18,9 @@
  * is the steadiest figure under load.
  *
  * Usage: bench_splitting [photon_paths (2e6)] [vl_count (1e5)] [threads (0 = all)] [variants (bit mask
- * of the rows below, 0 = all)] [runs (3)] [scene file in the Cornell box folder
- * (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy VLs), or a path with a '/'
- * (tools/gen_dense_box.py writes a 320K-triangle variant)] [lights: "camera" (the
+ * of the rows below, 0 = all)] [runs (3)] [scene file in examples/mcguire of $VBNL_SOURCE_DIR,
+ * else of the working directory (CornellBox-Original.obj; CornellBox-Glossy-Floor.obj has glossy
+ * VLs), or a path with a '/' (tools/gen_dense_box.py writes a 320K-triangle variant)] [lights: "camera" (the
  * placement above, one radius) or "pipeline" (vbnl's own stages 1 and 2 with its defaults:
  * M = 10 N candidates, adaptive elimination, r_i = 2 r_i,max: radii over a few powers of two)];
  * a reduced case for callgrind: 20000 100000 1 2 1 (VBNL_BENCH_NO_RAW=1 skips the raw-rate runs).
@@ -172,13 +172,13 @@ int main(int argc, char **argv)
     int runs = argc > 5 ? atoi(argv[5]) : 3;
     if (runs < 1 || runs > 15)
         runs = 3;
-    const char *shared = getenv("VBNL_SHARED_DIR");
+    const char *src = getenv("VBNL_SOURCE_DIR");
     char path[1024];
     const char *scene_file = argc > 6 ? argv[6] : "CornellBox-Original.obj";
     if (strchr(scene_file, '/')) /* a path of its own */
         snprintf(path, sizeof(path), "%s", scene_file);
     else
-        snprintf(path, sizeof(path), "%s/scenes/cornell-box-mcguire/%s", shared ? shared : "/work/shared", scene_file);
+        snprintf(path, sizeof(path), "%s/examples/mcguire/%s", src ? src : ".", scene_file);
 
     vbnl_context_desc cd = {threads};
     vbnl_context *ctx = NULL;
