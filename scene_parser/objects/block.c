@@ -4,8 +4,6 @@
 #include "pov_block.h"
 #include "sdl_internal.h"
 
-static int is_punct(const vbnl_sdl_token *t, int op) { return t->kind == VBNL_SDL_TOK_PUNCT && t->op == op; }
-
 const pov_row *pov_row_find(const pov_row *rows, const char *word)
 {
     for (; rows->keyword; ++rows)
@@ -57,7 +55,7 @@ vbnl_result pov_block_parse(const pov_block *b, vbnl_sdl_parser *p, void *ctx, v
     int close = b->close ? b->close : '}';
     for (;;) {
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-        if (is_punct(t, close)) {
+        if (pov_is_punct(t, close)) {
             if (!b->keep_close)
                 vbnl_sdl_next(p);
             return VBNL_OK;
@@ -161,7 +159,7 @@ vbnl_result pov_opt_bool(vbnl_sdl_parser *p, double *out)
     int word = 0;
     for (int i = 0; t->kind == VBNL_SDL_TOK_IDENT && words[i]; ++i)
         word |= strcmp(t->text, words[i]) == 0;
-    if (t->kind == VBNL_SDL_TOK_NUMBER || is_punct(t, '(') || is_punct(t, '!') || word)
+    if (t->kind == VBNL_SDL_TOK_NUMBER || pov_is_punct(t, '(') || pov_is_punct(t, '!') || word)
         return vbnl_sdl_parse_float(p, out);
     if (t->kind == VBNL_SDL_TOK_IDENT) {
         const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);

@@ -117,7 +117,9 @@ static const pov_row camera_rows[] = {
 };
 
 static const pov_row *const camera_tables[] = {pov_transform_rows, camera_rows, NULL};
-static const pov_block camera_block = {.name = "camera", .tables = camera_tables, .transform = camera_transform};
+static const pov_block camera_block = {.name = "camera",
+                                       .tables = camera_tables,
+                                       .transform = camera_transform};
 
 vbnl_result pov_camera_parse(pov_loader *L, pov_cam *c)
 {

@@ -58,7 +58,7 @@ static vbnl_result sky_unsupported(const pov_item *it)
         const vbnl_sdl_token *n = vbnl_sdl_peek(p);
         if (n->kind == VBNL_SDL_TOK_EOF)
             return vbnl_sdl_failed(p) ? VBNL_ERR_PARSE : vbnl_sdl_error(p, s->loc, "missing '}' at the end of 'sky_sphere'");
-        int close = n->kind == VBNL_SDL_TOK_PUNCT && n->op == '}', open = n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{';
+        int close = pov_is_punct(n, '}'), open = pov_is_punct(n, '{');
         if (close && depth == 1)
             break; /* the block's own '}' ends the block */
         depth += open - close;
@@ -76,8 +76,10 @@ static const pov_row sky_rows[] = {
 };
 
 static const pov_row *const sky_tables[] = {sky_rows, pov_transform_rows, NULL};
-static const pov_block sky_block = {
-    .name = "sky_sphere", .tables = sky_tables, .unknown = sky_unsupported, .transform = sky_transform};
+static const pov_block sky_block = {.name = "sky_sphere",
+                                    .tables = sky_tables,
+                                    .unknown = sky_unsupported,
+                                    .transform = sky_transform};
 
 /* sky_sphere { pigment { ... } [emission c] [transforms] }: a constant environment of the
  * pigment's average colour, which lights the scene as the sky does in POV-Ray with radiosity and

@@ -104,7 +104,9 @@ static const pov_row light_rows[] = {
 };
 
 static const pov_row *const light_tables[] = {pov_transform_rows, light_rows, NULL};
-static const pov_block light_block = {.name = "light_source", .tables = light_tables, .transform = light_transform};
+static const pov_block light_block = {.name = "light_source",
+                                      .tables = light_tables,
+                                      .transform = light_transform};
 
 /* light_source { ID | <location>, colour  items } (after the '{'): a light primitive. */
 vbnl_result pov_shape_light(const pov_shape *s)

@@ -116,7 +116,7 @@ static int hook_statement(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, void *u
         const char *name = tok->text; /* interned: stays valid */
         vbnl_sdl_loc loc = tok->loc;
         vbnl_sdl_next(p);
-        if (vbnl_sdl_peek(p)->kind == VBNL_SDL_TOK_PUNCT && vbnl_sdl_peek(p)->op == '{') {
+        if (pov_is_punct(vbnl_sdl_peek(p), '{')) {
             vbnl_sdl_warning(p, &loc, "unknown statement '%.63s'; its block is skipped", name);
             return vbnl_sdl_skip_block(p) == VBNL_OK ? 1 : -1;
         }

@@ -52,7 +52,7 @@ static vbnl_result parse_clipped_by(pov_loader *L, pov_obj *clip)
     if (vbnl_sdl_expect(p, '{', "after 'clipped_by'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    if (t->kind == VBNL_SDL_TOK_IDENT && strcmp(t->text, "bounded_by") == 0) { /* clipped_by { bounded_by }: no clipping */
+    if (pov_is_word(t, "bounded_by")) { /* clipped_by { bounded_by }: no clipping */
         vbnl_sdl_next(p);
         return vbnl_sdl_expect(p, '}', "after 'bounded_by' in 'clipped_by'");
     }
@@ -142,10 +142,12 @@ void pov_modifier_transform(const pov_item *it, const double m[16])
 static const pov_row *const modifier_tables[] = {pov_transform_rows, pov_modifier_rows, NULL};
 static const pov_row *const open_modifier_tables[] = {pov_transform_rows, pov_modifier_rows, open_rows, NULL};
 
-static const pov_block modifier_block = {
-    .tables = modifier_tables, .before = pov_modifier_appearance, .transform = pov_modifier_transform};
-static const pov_block open_modifier_block = {
-    .tables = open_modifier_tables, .before = pov_modifier_appearance, .transform = pov_modifier_transform};
+static const pov_block modifier_block = {.tables = modifier_tables,
+                                         .before = pov_modifier_appearance,
+                                         .transform = pov_modifier_transform};
+static const pov_block open_modifier_block = {.tables = open_modifier_tables,
+                                              .before = pov_modifier_appearance,
+                                              .transform = pov_modifier_transform};
 
 /* ---- the interface ------------------------------------------------------------------------------ */
 

@@ -12,6 +12,7 @@
 #define VBNL_POV_BLOCK_H
 
 #include <stddef.h>
+#include <string.h>
 
 #include "vbnl/sdl.h"
 
@@ -94,6 +95,13 @@ vbnl_result pov_item_any_bool(const pov_item *it);
 /* An optional boolean after a flag keyword ("hollow", "hollow on", "hollow false"): 1 unless a
  * value follows. */
 vbnl_result pov_opt_bool(vbnl_sdl_parser *p, double *out);
+
+/* Token tests for handlers. */
+static inline int pov_is_word(const vbnl_sdl_token *t, const char *w)
+{
+    return t->kind == VBNL_SDL_TOK_IDENT && strcmp(t->text, w) == 0;
+}
+static inline int pov_is_punct(const vbnl_sdl_token *t, int op) { return t->kind == VBNL_SDL_TOK_PUNCT && t->op == op; }
 
 /* The field `arg` bytes into the item's target. */
 static inline void *pov_item_field(const pov_item *it) { return (char *)it->target + it->arg; }

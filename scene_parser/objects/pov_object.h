@@ -37,7 +37,7 @@ typedef struct pov_light {
 } pov_light;
 
 /* The inside of a shape that tessellates to a mesh (box, cylinder, cone, torus) or of a CSG, in
- * its primitive's object space (csg.c). Shared between copies (reference counted). */
+ * its primitive's object space (csg_build.c). Shared between copies (reference counted). */
 typedef struct pov_solid pov_solid;
 
 /* SKIPPED: an unsupported shape (path holds its keyword); warned about where it is placed. */
@@ -105,7 +105,7 @@ int pov_obj_finish(pov_obj *o);
 /* p' = m p for every primitive and the patterns of every appearance attached so far. */
 void pov_obj_transform(pov_obj *o, const double m[16]);
 
-/* ---- CSG (csg.c) ----------------------------------------------------------------------- */
+/* ---- CSG (csg_build.c) ----------------------------------------------------------------- */
 pov_solid *pov_solid_box(const double a[3], const double b[3]);
 pov_solid *pov_solid_cone(const double base[3], double rb, const double top[3], double rt);
 pov_solid *pov_solid_torus(double major, double minor);

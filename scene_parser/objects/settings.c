@@ -147,7 +147,9 @@ static const pov_row settings_rows[] = {
 };
 
 static const pov_row *const settings_tables[] = {settings_rows, NULL};
-static const pov_block settings_block = {.name = "global_settings", .tables = settings_tables, .unknown = unknown_setting};
+static const pov_block settings_block = {.name = "global_settings",
+                                         .tables = settings_tables,
+                                         .unknown = unknown_setting};
 
 vbnl_result pov_global_settings_parse(pov_loader *L)
 {

@@ -137,8 +137,11 @@ static vbnl_result not_transform(const pov_item *it)
 }
 
 static const pov_row *const block_tables[] = {pov_inverse_rows, pov_transform_rows, NULL};
-static const pov_block transform_block = {
-    .name = "transform", .tables = block_tables, .before = declared_transform, .unknown = not_transform, .transform = pov_xform_compose};
+static const pov_block transform_block = {.name = "transform",
+                                          .tables = block_tables,
+                                          .before = declared_transform,
+                                          .unknown = not_transform,
+                                          .transform = pov_xform_compose};
 
 vbnl_result pov_transform_block(pov_loader *L, double m[16])
 {

@@ -1,6 +1,6 @@
 /* vbnl object layer: intersection / difference / merge { objects... modifiers }. The operands
- * come first (as in POV-Ray); the surface is built (../csg.c) when the first modifier or the '}'
- * comes, so the modifiers apply to it as to any object. */
+ * come first (as in POV-Ray); the surface is built (../csg_build.c) when the first modifier or
+ * the '}' comes, so the modifiers apply to it as to any object. */
 #include <stdlib.h>
 #include <string.h>
 

@@ -48,7 +48,7 @@ static vbnl_result counted_vectors(pov_loader *L, const char *what, int dim, dou
         return pov_oom(L);
     for (size_t i = 0; i < (size_t)n; ++i) {
         pov_comma(L);
-        if (vbnl_sdl_peek(p)->kind == VBNL_SDL_TOK_PUNCT && vbnl_sdl_peek(p)->op == '}') {
+        if (pov_is_punct(vbnl_sdl_peek(p), '}')) {
             free(v);
             return vbnl_sdl_error(p, NULL, "%s: %zu items given, %g declared", what, i, n);
         }
@@ -105,7 +105,7 @@ static vbnl_result texture_list(const pov_item *it)
     for (size_t i = 0; i < (size_t)n; ++i) {
         pov_comma(L);
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-        if (t->kind != VBNL_SDL_TOK_IDENT || strcmp(t->text, "texture") != 0)
+        if (!pov_is_word(t, "texture"))
             return vbnl_sdl_error(p, NULL, "texture_list: expected 'texture' (%zu of %g)", i + 1, n);
         if (pov_appearance_parse_modifier(&L->c, &m2->texs[m2->ntex]) != VBNL_OK)
             return VBNL_ERR_PARSE;
@@ -114,8 +114,6 @@ static vbnl_result texture_list(const pov_item *it)
     pov_comma(L);
     return vbnl_sdl_expect(p, '}', "after the textures of 'texture_list'");
 }
-
-static int is_punct(const vbnl_sdl_token *t, int op) { return t->kind == VBNL_SDL_TOK_PUNCT && t->op == op; }
 
 static vbnl_result face_indices(const pov_item *it)
 {
@@ -141,11 +139,11 @@ static vbnl_result face_indices(const pov_item *it)
          * three (per vertex; the first is used) */
         for (int k = 0; k < (m2->ntex > 0 ? 3 : 0); ++k) {
             const vbnl_sdl_token *a = vbnl_sdl_peek(p);
-            if (!is_punct(a, ','))
+            if (!pov_is_punct(a, ','))
                 break;
             vbnl_sdl_next(p);
             a = vbnl_sdl_peek(p);
-            if (is_punct(a, '<') || is_punct(a, '}'))
+            if (pov_is_punct(a, '<') || pov_is_punct(a, '}'))
                 break;
             double ti;
             if (pov_float(L, &ti) != VBNL_OK)

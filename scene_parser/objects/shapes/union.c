@@ -13,10 +13,14 @@ static const pov_row light_group_rows[] = {{"global_lights", pov_item_any_bool, 
 static const pov_row *const union_tables[] = {pov_transform_rows, pov_modifier_rows, NULL};
 static const pov_row *const light_group_tables[] = {light_group_rows, pov_transform_rows, pov_modifier_rows, NULL};
 
-static const pov_block union_block = {
-    .tables = union_tables, .before = pov_modifier_appearance, .after = member, .transform = pov_modifier_transform};
-static const pov_block light_group_block = {
-    .tables = light_group_tables, .before = pov_modifier_appearance, .after = member, .transform = pov_modifier_transform};
+static const pov_block union_block = {.tables = union_tables,
+                                      .before = pov_modifier_appearance,
+                                      .after = member,
+                                      .transform = pov_modifier_transform};
+static const pov_block light_group_block = {.tables = light_group_tables,
+                                            .before = pov_modifier_appearance,
+                                            .after = member,
+                                            .transform = pov_modifier_transform};
 
 vbnl_result pov_shape_union(const pov_shape *s)
 {

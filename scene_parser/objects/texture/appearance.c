@@ -246,8 +246,9 @@ vbnl_result pov_appearance_parse_modifier(pov_ctx *c, pov_appearance **app)
 /* ---- #default { texture/pigment/finish/normal } ------------------------------------------------ */
 
 static const pov_row *const default_tables[] = {pov_texture_rows, pov_texture_item_rows, NULL};
-static const pov_block default_items = {
-    .name = "#default (texture pigment finish normal)", .tables = default_tables, .unknown = pov_block_unexpected_word};
+static const pov_block default_items = {.name = "#default (texture pigment finish normal)",
+                                        .tables = default_tables,
+                                        .unknown = pov_block_unexpected_word};
 
 int pov_appearance_default_block(pov_ctx *c)
 {

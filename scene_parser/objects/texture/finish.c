@@ -4,8 +4,6 @@
 
 #include "pov_texture.h"
 
-static int is_word(const vbnl_sdl_token *t, const char *w) { return t->kind == VBNL_SDL_TOK_IDENT && strcmp(t->text, w) == 0; }
-
 void pov_finish_init(pov_finish *f)
 {
     memset(f, 0, sizeof(*f));
@@ -96,8 +94,10 @@ static const pov_row reflection_rows[] = {
     {NULL, NULL, 0},
 };
 static const pov_row *const reflection_tables[] = {reflection_rows, NULL};
-static const pov_block reflection_items = {
-    .name = "reflection", .tables = reflection_tables, .after = refl_color, .eof = "unexpected end of file in reflection"};
+static const pov_block reflection_items = {.name = "reflection",
+                                           .tables = reflection_tables,
+                                           .after = refl_color,
+                                           .eof = "unexpected end of file in reflection"};
 
 /* ---- finish { } -------------------------------------------------------------------------------- */
 
@@ -116,7 +116,7 @@ static vbnl_result diffuse_specular(const pov_item *it)
     int diff = !strcmp(it->kw, "diffuse");
     double v;
     vbnl_sdl_next(p);
-    if (is_word(vbnl_sdl_peek(p), "albedo"))
+    if (pov_is_word(vbnl_sdl_peek(p), "albedo"))
         vbnl_sdl_next(p);
     if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
         return VBNL_ERR_PARSE;
@@ -154,7 +154,7 @@ static vbnl_result amount(const pov_item *it)
             return vbnl_sdl_error(p, &it->loc, "roughness must be > 0");
         f->roughness = v;
     } else if (!strcmp(kw, "phong")) {
-        if (is_word(vbnl_sdl_peek(p), "albedo"))
+        if (pov_is_word(vbnl_sdl_peek(p), "albedo"))
             vbnl_sdl_next(p);
         f->phong = v;
     } else if (!strcmp(kw, "phong_size")) {
@@ -211,7 +211,9 @@ static const pov_row finish_rows[] = {
     {NULL, NULL, 0},
 };
 static const pov_row *const finish_tables[] = {finish_rows, NULL};
-static const pov_block finish_items = {.name = "finish", .tables = finish_tables, .unknown = pov_block_unexpected_word};
+static const pov_block finish_items = {.name = "finish",
+                                       .tables = finish_tables,
+                                       .unknown = pov_block_unexpected_word};
 
 vbnl_result pov_finish_parse(pov_ctx *c, pov_finish *f)
 {

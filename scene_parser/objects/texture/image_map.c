@@ -9,8 +9,6 @@
 
 #include "pov_texture.h"
 
-static int is_word(const vbnl_sdl_token *t, const char *w) { return t->kind == VBNL_SDL_TOK_IDENT && strcmp(t->text, w) == 0; }
-
 static float srgb_to_linear(float v)
 {
     return v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f);
@@ -136,7 +134,7 @@ static vbnl_result interpolate(const pov_item *it)
 static vbnl_result word_or_float(vbnl_sdl_parser *p, const char *word)
 {
     double v;
-    if (is_word(vbnl_sdl_peek(p), word)) {
+    if (pov_is_word(vbnl_sdl_peek(p), word)) {
         vbnl_sdl_next(p);
         return VBNL_OK;
     }
@@ -183,7 +181,9 @@ static const pov_row image_map_rows[] = {
     {NULL, NULL, 0},
 };
 static const pov_row *const image_map_tables[] = {image_map_rows, NULL};
-static const pov_block image_map_items = {.name = "image_map", .tables = image_map_tables, .unknown = pov_block_unexpected_word};
+static const pov_block image_map_items = {.name = "image_map",
+                                          .tables = image_map_tables,
+                                          .unknown = pov_block_unexpected_word};
 
 vbnl_result pov_image_map_parse(pov_ctx *c, pov_pigment *pg)
 {
@@ -193,9 +193,9 @@ vbnl_result pov_image_map_parse(pov_ctx *c, pov_pigment *pg)
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
     static const char *const other[] = {"gif", "tga", "iff", "ppm", "pgm", "sys", "jpeg", "tiff", "bmp", "exr", "hdr", "ttf"};
     for (size_t i = 0; i < sizeof(other) / sizeof(other[0]); ++i)
-        if (is_word(t, other[i]))
+        if (pov_is_word(t, other[i]))
             return vbnl_sdl_error(p, &t->loc, "image_map: only png images are supported (found '%s')", t->text);
-    if (is_word(t, "png"))
+    if (pov_is_word(t, "png"))
         vbnl_sdl_next(p);
     vbnl_sdl_loc loc = vbnl_sdl_peek(p)->loc;
     char *name = NULL;

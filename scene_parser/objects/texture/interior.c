@@ -47,7 +47,9 @@ static const pov_row interior_rows[] = {
     {NULL, NULL, 0},
 };
 static const pov_row *const interior_tables[] = {interior_rows, NULL};
-static const pov_block interior_items = {.name = "interior", .tables = interior_tables, .unknown = pov_block_unexpected_word};
+static const pov_block interior_items = {.name = "interior",
+                                         .tables = interior_tables,
+                                         .unknown = pov_block_unexpected_word};
 
 vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
 {
@@ -87,8 +89,10 @@ static const pov_row material_rows[] = {
     {NULL, NULL, 0},
 };
 static const pov_row *const material_tables[] = {material_rows, pov_pattern_transform_rows, NULL};
-static const pov_block material_items = {
-    .name = "material", .tables = material_tables, .unknown = pov_block_unexpected_word, .transform = mat_transform};
+static const pov_block material_items = {.name = "material",
+                                         .tables = material_tables,
+                                         .unknown = pov_block_unexpected_word,
+                                         .transform = mat_transform};
 
 vbnl_result pov_material_parse(pov_ctx *c, pov_appearance *a)
 {

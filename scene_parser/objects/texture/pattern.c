@@ -7,8 +7,6 @@
 
 #include "pov_texture.h"
 
-static int is_word(const vbnl_sdl_token *t, const char *w) { return t->kind == VBNL_SDL_TOK_IDENT && strcmp(t->text, w) == 0; }
-
 static const char *const fallback_patterns[] = {
     "agate", "bozo", "granite", "marble", "wood", "leopard", "onion", "spotted", "wrinkles", "ripples",
     "waves", "crackle", "dents", "bumps", "radial", "spherical", "cylindrical", "boxed", "planar",
@@ -104,7 +102,7 @@ static vbnl_result other_wave(const pov_item *it) /* cubic_wave, poly_wave [expo
     double v;
     vbnl_sdl_next(it->p);
     const vbnl_sdl_token *n = vbnl_sdl_peek(it->p);
-    if (poly && (n->kind == VBNL_SDL_TOK_NUMBER || (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '(')) &&
+    if (poly && (n->kind == VBNL_SDL_TOK_NUMBER || pov_is_punct(n, '(')) &&
         vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
         return VBNL_ERR_PARSE;
     vbnl_sdl_warning(it->p, &it->loc, "'%s' is not supported: using ramp_wave", poly ? "poly_wave" : "cubic_wave");
@@ -207,12 +205,12 @@ vbnl_result pov_pattern_args(pov_ctx *c, pov_pigment *pg, const char *name)
         if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
             return VBNL_ERR_PARSE;
         n = vbnl_sdl_peek(p);
-        if (is_word(n, "julia")) {
+        if (pov_is_word(n, "julia")) {
             vbnl_sdl_next(p);
             if (vbnl_sdl_parse_vector(p, 2, vv) != VBNL_OK)
                 return VBNL_ERR_PARSE;
             vbnl_sdl_accept(p, ',');
-        } else if (is_word(n, "mandel")) {
+        } else if (pov_is_word(n, "mandel")) {
             vbnl_sdl_next(p);
         } else {
             return vbnl_sdl_error(p, &n->loc, "expected 'mandel' or 'julia' after 'magnet %g'", v);
@@ -220,7 +218,7 @@ vbnl_result pov_pattern_args(pov_ctx *c, pov_pigment *pg, const char *name)
         return vbnl_sdl_parse_float(p, &v);
     }
     if (!strcmp(name, "density_file")) {
-        if (is_word(n, "df3"))
+        if (pov_is_word(n, "df3"))
             vbnl_sdl_next(p);
         char *file = NULL;
         vbnl_result r = vbnl_sdl_parse_string(p, &file);
@@ -228,7 +226,7 @@ vbnl_result pov_pattern_args(pov_ctx *c, pov_pigment *pg, const char *name)
         return r;
     }
     if (!strcmp(name, "slope")) {
-        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{')
+        if (pov_is_punct(n, '{'))
             return vbnl_sdl_skip_block(p);
         return vbnl_sdl_parse_vector(p, 3, vv);
     }
@@ -236,7 +234,7 @@ vbnl_result pov_pattern_args(pov_ctx *c, pov_pigment *pg, const char *name)
         return vbnl_sdl_parse_vector(p, 3, vv);
     if (!strcmp(name, "object") || !strcmp(name, "function") || !strcmp(name, "pigment_pattern") ||
         !strcmp(name, "image_pattern")) {
-        if (n->kind == VBNL_SDL_TOK_PUNCT && n->op == '{' && vbnl_sdl_skip_block(p) != VBNL_OK)
+        if (pov_is_punct(n, '{') && vbnl_sdl_skip_block(p) != VBNL_OK)
             return VBNL_ERR_PARSE;
         if (strcmp(name, "object"))
             return VBNL_OK;

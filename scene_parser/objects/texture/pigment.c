@@ -5,8 +5,6 @@
 
 #include "pov_texture.h"
 
-static int is_word(const vbnl_sdl_token *t, const char *w) { return t->kind == VBNL_SDL_TOK_IDENT && strcmp(t->text, w) == 0; }
-
 void pov_pigment_init(pov_pigment *p)
 {
     memset(p, 0, sizeof(*p));
@@ -39,12 +37,12 @@ vbnl_result pov_block_colors(pov_ctx *c, pov_pigment *pg, int max)
     int n = 0;
     for (; n < max; ++n) {
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-        int starts = is_color_word(t) || (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '<');
+        int starts = is_color_word(t) || pov_is_punct(t, '<');
         if (!starts && t->kind == VBNL_SDL_TOK_IDENT) {
             const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);
             starts = v && (v->kind == VBNL_SDL_COLOR || v->kind == VBNL_SDL_VECTOR);
         }
-        if (is_word(t, "pigment")) {
+        if (pov_is_word(t, "pigment")) {
             /* a pigment list entry: its representative colour */
             vbnl_sdl_loc loc = t->loc;
             vbnl_sdl_next(p);

@@ -33,15 +33,17 @@ static vbnl_result read_matrix(const pov_item *it)
 /* ---- transform { items [inverse] } ------------------------------------------------------------- */
 
 static const pov_row *const block_tables[] = {pov_inverse_rows, pov_pattern_transform_rows, NULL};
-static const pov_block transform_block = {
-    .name = "transform", .tables = block_tables, .unknown = pov_block_unexpected_word, .transform = pov_xform_compose};
+static const pov_block transform_block = {.name = "transform",
+                                          .tables = block_tables,
+                                          .unknown = pov_block_unexpected_word,
+                                          .transform = pov_xform_compose};
 
 static vbnl_result read_transform(const pov_item *it)
 {
     vbnl_sdl_parser *p = it->p;
     vbnl_sdl_next(p);
     const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-    if (n->kind != VBNL_SDL_TOK_PUNCT || n->op != '{')
+    if (!pov_is_punct(n, '{'))
         return vbnl_sdl_error(p, &n->loc, "'transform' in an appearance takes a { } block here");
     vbnl_sdl_next(p);
     pov_xform x;

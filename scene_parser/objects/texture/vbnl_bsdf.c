@@ -93,7 +93,7 @@ vbnl_result pov_bsdf_parse(pov_ctx *c, pov_ext_bsdf *e)
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
     int found = -1;
     for (int i = 0; i < 5; ++i)
-        if (t->kind == VBNL_SDL_TOK_IDENT && !strcmp(t->text, types[i]))
+        if (pov_is_word(t, types[i]))
             found = i;
     if (found < 0)
         return vbnl_sdl_error(p, &t->loc, "vbnl_bsdf must start with lambert, conductor, plastic, mirror or dielectric (found '%s')",
