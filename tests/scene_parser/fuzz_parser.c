@@ -4,7 +4,7 @@
  * small so that every input finishes quickly, and the core scene is built but not committed.
  * tools/fuzz.sh builds it (the parser's and the core's sources with -fsanitize=fuzzer,address,
  * undefined, linked with Embree and assimp) and runs it, seeded with the examples and includes.
- * Crashes become regression inputs in tests/scene_parser/regressions/ (test_sdl_regressions). */
+ * Crashes become regression inputs in tests/scene_parser/language/regressions/ (test_sdl_regressions). */
 #include <stddef.h>
 #include <stdint.h>
 

@@ -9,10 +9,10 @@
  * The object layer (objects, textures, cameras, lights) is written on top of this one: it drives
  * a vbnl_sdl_parser through the token API (vbnl_sdl_peek/vbnl_sdl_next return tokens after
  * directive processing and macro expansion) and the value API (vbnl_sdl_parse_float ...), and
- * plugs in through vbnl_sdl_hooks. Until it exists, statements and declarations the language
- * layer does not know ("sphere { ... }", "#declare T = texture { ... }") are consumed
- * structurally by a fallback that skips a balanced { } block; identifiers declared to such a
- * block hold a VBNL_SDL_BLOCK value.
+ * plugs in through vbnl_sdl_hooks. Without hooks (or when a hook declines), statements and
+ * declarations the language layer does not know ("sphere { ... }", "#declare T = texture { ... }")
+ * are consumed structurally by a fallback that skips a balanced { } block; identifiers declared
+ * to such a block hold a VBNL_SDL_BLOCK value.
  *
  * Errors: the first error stops the parse (as in POV-Ray). Every diagnostic is formatted as
  *     file:line:col: error: message

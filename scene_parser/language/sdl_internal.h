@@ -204,7 +204,7 @@ struct vbnl_sdl_parser {
     int ndefer_open, capdefer_open;
 };
 
-/* sdl_names.c / sdl_parser.c */
+/* value.c: interned names, tracked memory; parser.c: the recursion guard */
 const char *sdl_intern(vbnl_sdl_parser *p, const char *s, size_t len, int *kw);
 const char *sdl_intern_keyword(vbnl_sdl_parser *p, const char *s, int kw);
 void *sdl_alloc(vbnl_sdl_parser *p, size_t n);    /* zeroed; reports OOM/limit, NULL on failure */
@@ -214,12 +214,12 @@ char *sdl_strdup(vbnl_sdl_parser *p, const char *s, size_t len);
 bool sdl_enter(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc); /* recursion guard */
 void sdl_leave(vbnl_sdl_parser *p);
 
-/* sdl_lexer.c: raw tokens from the top frame. */
+/* lexer.c: raw tokens from the top frame. */
 void sdl_lex(vbnl_sdl_parser *p, sdl_frame *f, vbnl_sdl_token *tok);
 void sdl_token_free(vbnl_sdl_token *tok);
 const char *sdl_token_describe(const vbnl_sdl_token *tok, char *buf, size_t n);
 
-/* sdl_diag.c */
+/* diag.c */
 void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc *loc,
                    const char *msg);
 void sdl_errorf(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
@@ -231,7 +231,7 @@ void sdl_defer_free(vbnl_sdl_parser *p);
 void sdl_defer_link(vbnl_sdl_parser *p, int parent, int child);
 const char *sdl_suggest(vbnl_sdl_parser *p, const char *name);
 
-/* sdl_value.c */
+/* value.c */
 void sdl_table_init(sdl_table *t);
 void sdl_table_free(vbnl_sdl_parser *p, sdl_table *t);
 sdl_sym *sdl_table_find(const sdl_table *t, const char *name);
@@ -248,7 +248,7 @@ void sdl_set_float(vbnl_sdl_value *v, double f);
 void sdl_set_vector(vbnl_sdl_value *v, int dim, const double *c);
 bool sdl_set_string(vbnl_sdl_parser *p, vbnl_sdl_value *v, const char *s, size_t len);
 
-/* sdl_source.c: frames and the expanded token stream. */
+/* source.c: frames and the expanded token stream. */
 sdl_frame *sdl_top(vbnl_sdl_parser *p);
 bool sdl_push_file(vbnl_sdl_parser *p, sdl_file *f, const vbnl_sdl_loc *from);
 void sdl_pop_frame(vbnl_sdl_parser *p);
@@ -265,7 +265,7 @@ void sdl_cond_pop(vbnl_sdl_parser *p);
 sdl_file *sdl_find_include(vbnl_sdl_parser *p, const char *name, const vbnl_sdl_loc *loc);
 int sdl_macro_depth(vbnl_sdl_parser *p);
 
-/* sdl_directive.c */
+/* directive.c */
 void sdl_directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash_loc);
 /* Skips raw text to the next #else/#elseif/#case/#range/#break/#end at nesting 0 of the top
  * frame; returns its keyword id (0 at end of file, after an error). `kwloc` gets its loc. */
@@ -275,7 +275,7 @@ bool sdl_parse_rvalue(vbnl_sdl_parser *p, vbnl_sdl_value *out);
 void sdl_declare(vbnl_sdl_parser *p, const char *name, int frame, vbnl_sdl_value *val,
                  const vbnl_sdl_loc *loc);
 
-/* sdl_expr.c */
+/* expr.c */
 bool sdl_expr(vbnl_sdl_parser *p, vbnl_sdl_value *out);
 bool sdl_expr_float(vbnl_sdl_parser *p, double *out, const char *what);
 bool sdl_expect_op(vbnl_sdl_parser *p, int op, const char *context);
@@ -283,20 +283,20 @@ bool sdl_truth(vbnl_sdl_parser *p, const vbnl_sdl_value *v, const vbnl_sdl_loc *
 bool sdl_parse_array_decl(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc);
 const char *sdl_op_name(int op);
 
-/* sdl_builtin.c */
+/* builtin.c */
 bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *tok, vbnl_sdl_value *out);
 bool sdl_is_builtin(int kw);
 double sdl_rng_next(sdl_rng *r);
 bool sdl_to_vector(vbnl_sdl_parser *p, const vbnl_sdl_value *v, int dim, double *out,
                    const vbnl_sdl_loc *loc, const char *what);
 
-/* sdl_spline.c */
+/* spline.c */
 bool sdl_parse_spline(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc); /* on '{' */
 bool sdl_call_spline(vbnl_sdl_parser *p, const vbnl_sdl_spline *s, const vbnl_sdl_loc *loc, vbnl_sdl_value *out);
 void sdl_spline_retain(vbnl_sdl_spline *s);
 void sdl_spline_release(vbnl_sdl_parser *p, vbnl_sdl_spline *s);
 
-/* sdl_func.c */
+/* func.c */
 bool sdl_parse_function(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc);
 bool sdl_call_function(vbnl_sdl_parser *p, const vbnl_sdl_function *f, const vbnl_sdl_loc *loc,
                        vbnl_sdl_value *out);

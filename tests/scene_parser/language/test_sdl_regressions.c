@@ -1,6 +1,6 @@
-/* vbnl: replays every input in tests/scene_parser/regressions/ (fuzzer crashes, leaks and slow
- * inputs) with the fuzz target's limits. Each must finish with VBNL_OK or VBNL_ERR_PARSE; run
- * the suite under AddressSanitizer/UBSan to catch memory errors. The directory defaults to the
+/* vbnl: replays every input in tests/scene_parser/language/regressions/ (fuzzer crashes, leaks
+ * and slow inputs) with the fuzz target's limits. Each must finish with VBNL_OK or
+ * VBNL_ERR_PARSE; run the suite under AddressSanitizer/UBSan to catch memory errors. The directory defaults to the
  * one next to this source file; VBNL_SDL_REGRESSIONS overrides it. */
 #include <stdarg.h>
 #include <stddef.h>

@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include "pov_internal.h"
+#include "pov_matrix.h"
 
 typedef struct pov_mesh {
     int refs;
@@ -36,7 +37,7 @@ typedef struct pov_light {
 } pov_light;
 
 /* The inside of a shape that tessellates to a mesh (box, cylinder, cone, torus) or of a CSG, in
- * its primitive's object space (pov_csg.c). Shared between copies (reference counted). */
+ * its primitive's object space (csg_build.c). Shared between copies (reference counted). */
 typedef struct pov_solid pov_solid;
 
 /* SKIPPED: an unsupported shape (path holds its keyword); warned about where it is placed. */
@@ -62,22 +63,7 @@ typedef struct pov_obj {
     vbnl_sdl_loc loc;
 } pov_obj;
 
-/* ---- 4x4 row-major affine matrices (pov_geom.c) -------------------------------------------- */
-void pov_m4_identity(double m[16]);
-void pov_m4_mul(const double a[16], const double b[16], double out[16]); /* out = a b */
-void pov_m4_translate(const double v[3], double m[16]);
-void pov_m4_scale(const double v[3], double m[16]);
-/* POV-Ray rotate <a,b,c>: about x by a, then y by b, then z by c (degrees). */
-void pov_m4_rotate(const double deg[3], double m[16]);
-/* POV-Ray matrix <12 values>: row-vector convention, p' = p M. */
-void pov_m4_from_pov(const double v[12], double m[16]);
-int pov_m4_invert(const double m[16], double out[16]); /* 0: singular */
-void pov_m4_point(const double m[16], const double p[3], double out[3]);
-void pov_m4_dir(const double m[16], const double d[3], double out[3]);
-/* 1 when the linear part is a rotation times a uniform scale (returned in *s). */
-int pov_m4_is_similarity(const double m[16], double *s);
-
-/* ---- meshes (pov_geom.c) ------------------------------------------------------------------- */
+/* ---- meshes (tessellate.c) ------------------------------------------------------------------- */
 pov_mesh *pov_mesh_new(void);
 void pov_mesh_unref(pov_mesh *m);
 /* Appends a vertex (nrm/uv may be NULL; every vertex of a mesh must then agree); returns its
@@ -85,7 +71,7 @@ void pov_mesh_unref(pov_mesh *m);
 uint32_t pov_mesh_vertex(pov_mesh *m, const double p[3], const double n[3], const double uv[2]);
 int pov_mesh_tri(pov_mesh *m, uint32_t a, uint32_t b, uint32_t c, int32_t tex); /* 0: OOM */
 
-/* Tessellations (segment counts in pov_geom.c); NULL when out of memory. */
+/* Tessellations (segment counts in tessellate.c); NULL when out of memory. */
 #define POV_SEGMENTS 64 /* around an axis */
 #define POV_RINGS 32    /* pole to pole */
 pov_mesh *pov_tess_sphere(const double c[3], double r);
@@ -104,10 +90,22 @@ pov_mesh *pov_tess_plane(const double n[3], double d, const double centre[3], do
 #define POV_EAR_CLIP_MAX 4096
 pov_mesh *pov_tess_polygon(const double *pts, int n, int *nested, int *open_last, int *huge);
 
-/* Appends a primitive (identity transform); NULL when out of memory (pov_scene.c). */
+/* ---- objects (object.c) --------------------------------------------------------------------- */
+/* Appends a primitive (identity transform); NULL when out of memory. */
 pov_prim *pov_obj_add(pov_obj *o, int kind, vbnl_sdl_loc loc);
+/* Frees the primitives and the appearance and empties the object. */
+void pov_obj_clear(pov_obj *o);
+/* Appends deep copies of src's primitives (meshes and solids shared). 0 when out of memory. */
+int pov_obj_append_copy(pov_obj *dst, const pov_obj *src);
+/* Moves src's primitives into dst (src is left without primitives). 0 when out of memory. */
+int pov_obj_move(pov_obj *dst, pov_obj *src);
+/* Hands the object's own appearance to primitives without one (POV-Ray's CSG inheritance).
+ * 0 when out of memory. */
+int pov_obj_finish(pov_obj *o);
+/* p' = m p for every primitive and the patterns of every appearance attached so far. */
+void pov_obj_transform(pov_obj *o, const double m[16]);
 
-/* ---- CSG (pov_csg.c) ----------------------------------------------------------------------- */
+/* ---- CSG (csg_build.c) ----------------------------------------------------------------- */
 pov_solid *pov_solid_box(const double a[3], const double b[3]);
 pov_solid *pov_solid_cone(const double base[3], double rb, const double top[3], double rt);
 pov_solid *pov_solid_torus(double major, double minor);

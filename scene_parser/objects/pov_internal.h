@@ -1,18 +1,19 @@
-/* vbnl: object layer internals shared by its parts.
+/* vbnl: the object layer's two parts and what they share.
  *
- *   pov_scene.c, pov_object*.c  (objects, CSG, transforms, camera, lights, global_settings,
- *                                the integrator block, building the vbnl_scene)
- *   pov_texture*.c              (texture, pigment, finish, normal, interior, material, maps,
- *                                #default, and the mapping of a POV-Ray appearance onto a core
- *                                material and texture)
+ *   objects/, objects/shapes/  the object part: objects, shapes, CSG, transforms, camera,
+ *                              lights, global_settings and the integrator block, building the
+ *                              vbnl_scene (pov_loader.h)
+ *   objects/texture/           the texture part: texture, pigment, finish, normal, interior,
+ *                              material, maps, #default, and the mapping of a POV-Ray
+ *                              appearance onto a core material and texture (pov_texture.h)
  *
- * The object part owns the parser hooks (vbnl_sdl_hooks) and dispatches every appearance
- * keyword to the texture part through the functions below.
+ * The object part owns the parser hooks (vbnl_sdl_hooks) and hands every appearance keyword to
+ * the texture part through the functions below.
  *
- * Matrices are 4x4 row-major affine maps (p' = M p, as in vbnl/scene.h). The object part chooses
- * how POV-Ray's left-handed world maps onto the core's (keeping coordinates unchanged works: the
- * core camera takes explicit forward/right/up vectors) and passes that map to
- * pov_appearance_material as world_from_pov, so patterns stay attached to their objects. */
+ * Matrices are 4x4 row-major affine maps (pov_matrix.h). The object part chooses how POV-Ray's
+ * left-handed world maps onto the core's (keeping coordinates unchanged works: the core camera
+ * takes explicit forward/right/up vectors) and passes that map to pov_appearance_material as
+ * world_from_pov, so patterns stay attached to their objects. */
 #ifndef VBNL_POV_INTERNAL_H
 #define VBNL_POV_INTERNAL_H
 
@@ -50,8 +51,9 @@ int pov_appearance_is_modifier(const vbnl_sdl_token *tok);
 vbnl_result pov_appearance_parse_modifier(pov_ctx *c, pov_appearance **app);
 
 /* The rvalue hook's share: `#declare X = texture { ... }` and the same for pigment, finish,
- * normal, interior, material, color_map/colour_map, pigment_map, normal_map, texture_map,
- * slope_map, density, media. Same return convention as vbnl_sdl_hooks.rvalue. */
+ * normal, interior, material and color_map/colour_map. Same return convention as
+ * vbnl_sdl_hooks.rvalue (0: not one of these; the language layer's block fallback then keeps
+ * the block). */
 int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value *out);
 
 /* The average colour of an appearance's pigment (solid colour, colour map or image average). */

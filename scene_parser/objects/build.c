@@ -1,0 +1,263 @@
+/* vbnl object layer: building the core scene from the parsed world. Primitives are collected
+ * during the parse and added here, at the end, because an infinite plane needs the bounds of
+ * everything else: its patch is POV_PLANE_EXTENT times the scene's bounding radius. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "pov_loader.h"
+#include "vbnl/mesh_import.h"
+
+#define POV_PLANE_EXTENT 100.0
+
+static void bounds_add(double lo[3], double hi[3], const double p[3])
+{
+    for (int i = 0; i < 3; ++i) {
+        lo[i] = fmin(lo[i], p[i]);
+        hi[i] = fmax(hi[i], p[i]);
+    }
+}
+
+static void m4f(const double m[16], float out[16])
+{
+    for (int i = 0; i < 16; ++i)
+        out[i] = (float)m[i];
+}
+
+static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *m, vbnl_error *err)
+{
+    if (m->nt == 0)
+        return VBNL_OK;
+    const double *q = pr->m;
+    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
+                 q[2] * (q[4] * q[9] - q[5] * q[8]);
+    if (!(fabs(det) > 1e-12)) { /* e.g. `scale <1e-16, 1, 1>` from a loop: nothing to see */
+        vbnl_sdl_warning(L->c.parser, &pr->loc, "the object is scaled flat (singular transform): skipped");
+        return VBNL_OK;
+    }
+    static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    uint32_t mat;
+    vbnl_result r = pov_appearance_material(&L->c, pr->app, ident, &mat, err);
+    if (r != VBNL_OK)
+        return r;
+    uint32_t *fm = NULL;
+    if (m->ftex) {
+        uint32_t *tm = calloc(m->ntex + 1, sizeof *tm);
+        fm = malloc(sizeof *fm * m->nt);
+        if (!tm || !fm) {
+            free(tm);
+            free(fm);
+            return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        for (uint32_t i = 0; i < m->ntex && r == VBNL_OK; ++i) {
+            pov_appearance *a = pov_appearance_copy(m->texs[i]);
+            if (!a) {
+                r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                break;
+            }
+            pov_appearance_transform(a, pr->m);
+            r = pov_appearance_material(&L->c, a, ident, &tm[i], err);
+            pov_appearance_free(a);
+        }
+        for (uint32_t t = 0; t < m->nt; ++t)
+            fm[t] = m->ftex[t] >= 0 ? tm[m->ftex[t]] : mat;
+        free(tm);
+    }
+    float xf[16];
+    m4f(pr->m, xf);
+    vbnl_mesh_desc d;
+    memset(&d, 0, sizeof d);
+    d.positions = m->pos;
+    d.normals = m->nrm;
+    d.uvs = m->uv;
+    d.vertex_count = m->nv;
+    d.indices = m->idx;
+    d.triangle_count = m->nt;
+    d.material = mat;
+    d.face_materials = fm;
+    d.transform = xf;
+    d.group = VBNL_GROUP_WORLD;
+    if (r == VBNL_OK)
+        r = vbnl_scene_add_mesh(L->c.scene, &d, NULL, err);
+    free(fm);
+    return r;
+}
+
+vbnl_result pov_build(pov_loader *L, vbnl_error *err)
+{
+    vbnl_result r = VBNL_OK;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    vbnl_camera_desc cd;
+    pov_cam dc;
+    if (!L->have_camera) {
+        pov_camera_default(&dc);
+        L->cam = dc;
+    }
+    vbnl_sdl_loc nowhere = {"", 0, 0};
+    if ((r = pov_camera_resolve(L, &L->cam, nowhere, &cd)) != VBNL_OK)
+        return vbnl_error_set(err, r, "camera: invalid vectors");
+    double glo[3] = {INFINITY, INFINITY, INFINITY}, ghi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < L->world.n; ++i) { /* the geometry alone (unfaded lights) */
+        const pov_prim *pr = &L->world.v[i];
+        double q[3];
+        if (pr->kind == POV_PRIM_SPHERE) {
+            pov_m4_point(pr->m, pr->a, q);
+            bounds_add(glo, ghi, q);
+        } else if (pr->kind == POV_PRIM_MESH) {
+            for (uint32_t v = 0; v < pr->mesh->nv; ++v) {
+                double pp[3] = {pr->mesh->pos[3 * v], pr->mesh->pos[3 * v + 1], pr->mesh->pos[3 * v + 2]};
+                pov_m4_point(pr->m, pp, q);
+                bounds_add(glo, ghi, q);
+            }
+        } else if (pr->kind == POV_PRIM_PLANE) { /* its point nearest the origin */
+            double nl2 = pov_dot3(pr->a, pr->a), p0[3];
+            for (int k = 0; k < 3; ++k)
+                p0[k] = pr->a[k] * pr->a[3] / nl2;
+            pov_m4_point(pr->m, p0, q);
+            bounds_add(glo, ghi, q);
+        }
+    }
+    L->have_geo = glo[0] <= ghi[0];
+    for (int k = 0; k < 3; ++k)
+        L->geo_centre[k] = L->have_geo ? 0.5 * (glo[k] + ghi[k]) : 0.0;
+    double cp[3] = {cd.position[0], cd.position[1], cd.position[2]};
+    bounds_add(lo, hi, cp);
+    for (size_t i = 0; i < L->world.n; ++i) {
+        const pov_prim *pr = &L->world.v[i];
+        double q[3];
+        if (pr->kind == POV_PRIM_SPHERE) {
+            double s = 0;
+            for (int k = 0; k < 3; ++k)
+                s = fmax(s, pov_len3((double[3]){pr->m[k], pr->m[4 + k], pr->m[8 + k]}));
+            pov_m4_point(pr->m, pr->a, q);
+            for (int k = 0; k < 3; ++k) {
+                double e[3] = {q[0], q[1], q[2]};
+                e[k] += pr->a[3] * s;
+                bounds_add(lo, hi, e);
+                e[k] -= 2 * pr->a[3] * s;
+                bounds_add(lo, hi, e);
+            }
+        } else if (pr->kind == POV_PRIM_MESH) {
+            for (uint32_t v = 0; v < pr->mesh->nv; ++v) {
+                double pp[3] = {pr->mesh->pos[3 * v], pr->mesh->pos[3 * v + 1], pr->mesh->pos[3 * v + 2]};
+                pov_m4_point(pr->m, pp, q);
+                bounds_add(lo, hi, q);
+            }
+        } else if (pr->kind == POV_PRIM_LIGHT && pr->light.type != POV_LIGHT_PARALLEL) {
+            pov_m4_point(pr->m, pr->light.pos, q);
+            bounds_add(lo, hi, q);
+        }
+    }
+    double centre[3], radius = 0;
+    for (int k = 0; k < 3; ++k) {
+        centre[k] = 0.5 * (lo[k] + hi[k]);
+        radius = fmax(radius, 0.5 * (hi[k] - lo[k]));
+    }
+    radius = fmax(radius * sqrt(3.0), 1.0);
+    static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    for (size_t i = 0; i < L->world.n && r == VBNL_OK; ++i) {
+        pov_prim *pr = &L->world.v[i];
+        double s;
+        switch (pr->kind) {
+        case POV_PRIM_SPHERE:
+            if (pov_m4_is_similarity(pr->m, &s)) {
+                uint32_t mat;
+                double c[3];
+                pov_m4_point(pr->m, pr->a, c);
+                float cf[3] = {(float)c[0], (float)c[1], (float)c[2]};
+                if ((r = pov_appearance_material(&L->c, pr->app, ident, &mat, err)) == VBNL_OK)
+                    r = vbnl_scene_add_sphere(L->c.scene, cf, (float)(pr->a[3] * s), mat, VBNL_GROUP_WORLD, NULL, err);
+            } else if (!pov_appearance_is_emissive(pr->app)) {
+                /* An ellipsoid: an instance of an analytic unit sphere (exact surface and normals). */
+                uint32_t mat;
+                if ((r = pov_appearance_material(&L->c, pr->app, ident, &mat, err)) != VBNL_OK)
+                    break;
+                if (mat >= L->nsphere_groups) {
+                    uint32_t *g = realloc(L->sphere_groups, sizeof *g * (mat + 1));
+                    if (!g)
+                        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                    memset(g + L->nsphere_groups, 0, sizeof *g * (mat + 1 - L->nsphere_groups));
+                    L->sphere_groups = g;
+                    L->nsphere_groups = mat + 1;
+                }
+                if (!L->sphere_groups[mat]) {
+                    static const float zero[3] = {0, 0, 0};
+                    if ((r = vbnl_scene_add_group(L->c.scene, &L->sphere_groups[mat], err)) != VBNL_OK ||
+                        (r = vbnl_scene_add_sphere(L->c.scene, zero, 1.0f, mat, L->sphere_groups[mat], NULL, err)) != VBNL_OK)
+                        break;
+                }
+                double local[16], xf[16];
+                pov_m4_scale((double[3]){pr->a[3], pr->a[3], pr->a[3]}, local);
+                local[3] = pr->a[0];
+                local[7] = pr->a[1];
+                local[11] = pr->a[2];
+                pov_m4_mul(pr->m, local, xf);
+                float xff[16];
+                m4f(xf, xff);
+                r = vbnl_scene_add_instance(L->c.scene, L->sphere_groups[mat], xff, NULL, err);
+            } else { /* emissive: emitters must be world geometry */
+                pov_mesh *m = pov_tess_sphere(pr->a, pr->a[3]);
+                if (!m)
+                    return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                r = emit_mesh(L, pr, m, err);
+                pov_mesh_unref(m);
+            }
+            break;
+        case POV_PRIM_PLANE: {
+            /* The patch is built in world space around the scene's centre. */
+            double inv[16], n[3], p0[3], pw[3], nw[3];
+            if (!pov_m4_invert(pr->m, inv))
+                return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "plane: singular transform");
+            double nl = pov_len3(pr->a);
+            for (int k = 0; k < 3; ++k) {
+                n[k] = pr->a[k] / nl;
+                p0[k] = n[k] * pr->a[3] / nl;
+            }
+            pov_m4_point(pr->m, p0, pw);
+            for (int k = 0; k < 3; ++k) /* normal: inverse transpose */
+                nw[k] = inv[k] * n[0] + inv[4 + k] * n[1] + inv[8 + k] * n[2];
+            pov_mesh *m = pov_tess_plane(nw, pov_dot3(nw, pw), centre, POV_PLANE_EXTENT * radius);
+            if (!m)
+                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+            pov_prim tmp = *pr;
+            memcpy(tmp.m, ident, sizeof ident);
+            r = emit_mesh(L, &tmp, m, err);
+            pov_mesh_unref(m);
+            break;
+        }
+        case POV_PRIM_MESH:
+            r = emit_mesh(L, pr, pr->mesh, err);
+            break;
+        case POV_PRIM_LIGHT:
+            r = pov_light_emit(L, pr, err);
+            break;
+        case POV_PRIM_SKIPPED:
+            break;
+        case POV_PRIM_IMPORT: {
+            float xf[16];
+            m4f(pr->m, xf);
+            vbnl_mesh_import_options o;
+            memset(&o, 0, sizeof o);
+            o.transform = xf;
+            o.group = VBNL_GROUP_WORLD;
+            o.two_sided_emission = 1; /* as POV-Ray's emission */
+            if (pr->app) { /* the scene gave an appearance: it overrides the file's materials */
+                o.override_material = 1;
+                if ((r = pov_appearance_material(&L->c, pr->app, ident, &o.material, err)) != VBNL_OK)
+                    break;
+            }
+            r = vbnl_mesh_import(L->c.scene, pr->path, &o, NULL, err);
+            break;
+        }
+        }
+    }
+    if (r != VBNL_OK)
+        return r;
+    if ((r = vbnl_scene_set_camera(L->c.scene, &cd, err)) != VBNL_OK)
+        return r;
+    if (L->have_env && (L->env[0] > 0 || L->env[1] > 0 || L->env[2] > 0)) {
+        float e[3] = {(float)L->env[0], (float)L->env[1], (float)L->env[2]};
+        if ((r = vbnl_scene_set_environment(L->c.scene, e, err)) != VBNL_OK)
+            return r;
+    }
+    return VBNL_OK;
+}

@@ -1,0 +1,225 @@
+/* vbnl object layer, texture part: finish { }. Its mapping onto a core material is in
+ * core_material.c (the table in scene_parser/README.md). */
+#include <string.h>
+
+#include "pov_texture.h"
+
+void pov_finish_init(pov_finish *f)
+{
+    memset(f, 0, sizeof(*f));
+    f->diffuse = 0.6;
+    f->roughness = 0.05;
+    f->phong_size = 40.0;
+}
+
+vbnl_result pov_parse_color3(pov_ctx *c, double out[3])
+{
+    double col[5];
+    if (vbnl_sdl_parse_color(c->parser, col) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    out[0] = col[0];
+    out[1] = col[1];
+    out[2] = col[2];
+    return VBNL_OK;
+}
+
+/* An optional float after a flag keyword (`metallic [amount]`, `fresnel [on]`): a value starts
+ * unless the next token ends the block or is another finish / reflection keyword. */
+static int optional_value_follows(const vbnl_sdl_token *n)
+{
+    static const char *const kws[] = {
+        "ambient", "diffuse", "specular", "emission", "roughness", "phong", "phong_size", "brilliance",
+        "crand", "reflection_exponent", "metallic", "reflection", "irid", "subsurface", "conserve_energy",
+        "fresnel", "falloff", "exponent", "color", "colour", "rgb", "rgbf", "rgbt", "rgbft", "srgb",
+        "srgbf", "srgbt", "srgbft", "albedo", NULL};
+    if (n->kind == VBNL_SDL_TOK_PUNCT)
+        return n->op == '(' || n->op == '-' || n->op == '+';
+    if (n->kind == VBNL_SDL_TOK_NUMBER)
+        return 1;
+    if (n->kind != VBNL_SDL_TOK_IDENT)
+        return 0;
+    for (int i = 0; kws[i]; ++i)
+        if (!strcmp(n->text, kws[i]))
+            return 0;
+    return 1;
+}
+
+/* ---- reflection { [min colour,] max colour [metallic] [fresnel] [falloff f] [exponent e] } ------ */
+
+typedef struct reflection_block {
+    pov_finish *f;
+    int have; /* a colour was given: the strongest is kept */
+} reflection_block;
+
+static vbnl_result refl_metallic(const pov_item *it)
+{
+    double v;
+    vbnl_sdl_next(it->p);
+    ((reflection_block *)it->target)->f->metallic = 1;
+    if (optional_value_follows(vbnl_sdl_peek(it->p)) && vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    return VBNL_OK;
+}
+
+static vbnl_result refl_ignored(const pov_item *it) /* fresnel [on], falloff f, exponent e */
+{
+    double v;
+    vbnl_sdl_next(it->p);
+    if ((strcmp(it->kw, "fresnel") || optional_value_follows(vbnl_sdl_peek(it->p))) &&
+        vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    vbnl_sdl_warning(it->p, &it->loc, "reflection '%s' is ignored (the lobe's own Fresnel term applies)", it->kw);
+    return VBNL_OK;
+}
+
+static int refl_color(const pov_item *it)
+{
+    reflection_block *b = it->target;
+    pov_finish *f = b->f;
+    double col[3];
+    if (pov_parse_color3(it->ctx, col) != VBNL_OK)
+        return -1;
+    vbnl_sdl_accept(it->p, ',');
+    if (!b->have || col[0] + col[1] + col[2] > f->reflection[0] + f->reflection[1] + f->reflection[2])
+        memcpy(f->reflection, col, sizeof(col));
+    b->have = 1;
+    return 1;
+}
+
+static const pov_row reflection_rows[] = {
+    {"metallic", refl_metallic, 0},
+    {"fresnel", refl_ignored, 0},
+    {"falloff", refl_ignored, 0},
+    {"exponent", refl_ignored, 0},
+    {NULL, NULL, 0},
+};
+static const pov_row *const reflection_tables[] = {reflection_rows, NULL};
+static const pov_block reflection_items = {.name = "reflection",
+                                           .tables = reflection_tables,
+                                           .after = refl_color,
+                                           .eof = "unexpected end of file in reflection"};
+
+/* ---- finish { } -------------------------------------------------------------------------------- */
+
+static vbnl_result ambient(const pov_item *it) /* ignored under global illumination */
+{
+    double col[3];
+    vbnl_sdl_next(it->p);
+    return pov_parse_color3(it->ctx, col);
+}
+
+/* diffuse [albedo] d [, back] and specular [albedo] s */
+static vbnl_result diffuse_specular(const pov_item *it)
+{
+    pov_finish *f = it->target;
+    vbnl_sdl_parser *p = it->p;
+    int diff = !strcmp(it->kw, "diffuse");
+    double v;
+    vbnl_sdl_next(p);
+    if (pov_is_word(vbnl_sdl_peek(p), "albedo"))
+        vbnl_sdl_next(p);
+    if (vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (diff && vbnl_sdl_accept(p, ',')) { /* diffuse front, back */
+        double back;
+        if (vbnl_sdl_parse_float(p, &back) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+    }
+    if (!(v >= 0.0))
+        return vbnl_sdl_error(p, &it->loc, "'%s' must be >= 0", diff ? "diffuse" : "specular");
+    *(diff ? &f->diffuse : &f->specular) = v;
+    return VBNL_OK;
+}
+
+static vbnl_result emission(const pov_item *it)
+{
+    vbnl_sdl_next(it->p);
+    return pov_parse_color3(it->ctx, ((pov_finish *)it->target)->emission);
+}
+
+/* keyword amount (metallic [amount]): roughness phong phong_size brilliance crand
+ * reflection_exponent metallic */
+static vbnl_result amount(const pov_item *it)
+{
+    pov_finish *f = it->target;
+    vbnl_sdl_parser *p = it->p;
+    const char *kw = it->kw;
+    vbnl_sdl_next(p);
+    int is_metal = !strcmp(kw, "metallic");
+    double v = 1.0;
+    if ((!is_metal || optional_value_follows(vbnl_sdl_peek(p))) && vbnl_sdl_parse_float(p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (!strcmp(kw, "roughness")) {
+        if (!(v > 0.0))
+            return vbnl_sdl_error(p, &it->loc, "roughness must be > 0");
+        f->roughness = v;
+    } else if (!strcmp(kw, "phong")) {
+        if (pov_is_word(vbnl_sdl_peek(p), "albedo"))
+            vbnl_sdl_next(p);
+        f->phong = v;
+    } else if (!strcmp(kw, "phong_size")) {
+        if (!(v >= 0.0))
+            return vbnl_sdl_error(p, &it->loc, "phong_size must be >= 0");
+        f->phong_size = v;
+    } else if (is_metal) {
+        f->metallic = v > 0.0;
+    } else if (!strcmp(kw, "brilliance") && v != 1.0) {
+        vbnl_sdl_warning(p, &it->loc, "'brilliance' is ignored (the diffuse lobe is Lambertian)");
+    }
+    return VBNL_OK;
+}
+
+/* reflection colour | reflection { ... } */
+static vbnl_result reflection(const pov_item *it)
+{
+    pov_finish *f = it->target;
+    vbnl_sdl_next(it->p);
+    if (vbnl_sdl_accept(it->p, '{')) {
+        reflection_block b = {f, 0};
+        return pov_block_parse(&reflection_items, it->p, it->ctx, &b, NULL);
+    }
+    return pov_parse_color3(it->ctx, f->reflection);
+}
+
+static vbnl_result unsupported(const pov_item *it) /* irid { }, subsurface { } */
+{
+    vbnl_sdl_next(it->p);
+    if (vbnl_sdl_skip_block(it->p) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    /* it->tok is the parser's look-ahead slot: it now holds the skipped block's '}', and the
+     * message names that token */
+    vbnl_sdl_warning(it->p, &it->loc, "finish '%s' is not supported: ignored", it->tok->text);
+    return VBNL_OK;
+}
+
+static const pov_row finish_rows[] = {
+    {"ambient", ambient, 0},
+    {"diffuse", diffuse_specular, 0},
+    {"specular", diffuse_specular, 0},
+    {"emission", emission, 0},
+    {"roughness", amount, 0},
+    {"phong", amount, 0},
+    {"phong_size", amount, 0},
+    {"brilliance", amount, 0},
+    {"crand", amount, 0},
+    {"reflection_exponent", amount, 0},
+    {"metallic", amount, 0},
+    {"reflection", reflection, 0},
+    {"irid", unsupported, 0},
+    {"subsurface", unsupported, 0},
+    {"conserve_energy", pov_item_word, 0},
+    {NULL, NULL, 0},
+};
+static const pov_row *const finish_tables[] = {finish_rows, NULL};
+static const pov_block finish_items = {.name = "finish",
+                                       .tables = finish_tables,
+                                       .unknown = pov_block_unexpected_word};
+
+vbnl_result pov_finish_parse(pov_ctx *c, pov_finish *f)
+{
+    if (vbnl_sdl_expect(c->parser, '{', "after 'finish'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (pov_take_ident(c, &pov_type_finish, f, sizeof *f) < 0)
+        return VBNL_ERR_PARSE;
+    return pov_block_parse(&finish_items, c->parser, c, f, NULL);
+}

@@ -1,0 +1,300 @@
+/* The object layer around the shapes: camera framing, light mapping, the integrator block,
+ * background, error messages of malformed inputs, and a small render of
+ * examples/cornell-box.pov. */
+#include "pov_test.h"
+#include "vbnl/integrator.h"
+
+/* ---- camera ----------------------------------------------------------------------------------- */
+
+static void test_camera(void **state)
+{
+    (void)state;
+    /* defaults: direction z, up y, right 1.33 x */
+    vbnl_pov_scene *s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <1, 2, 3> }");
+    const vbnl_camera_desc *c = &sc(s)->camera;
+    NEAR(c->position[0], 1.0f);
+    NEAR(c->forward[2], 1.0f);
+    NEAR(c->right[0], 1.33f);
+    NEAR(c->up[1], 1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* angle is the horizontal field of view: |direction| = |right| / 2 / tan(angle / 2) */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { right x * 1.5 angle 90 location <0, 0, -5> look_at <0, 0, 0> }");
+    c = &sc(s)->camera;
+    NEAR(c->forward[2], 0.75f);
+    NEAR(c->right[0], 1.5f);
+    NEAR(c->up[1], 1.0f);
+    /* the ray through the right edge's middle leaves at 45 degrees */
+    vec3 o, d;
+    vbnl_camera_ray(c, 300, 200, 300.0f, 100.0f, &o, &d);
+    NEAR(d.x, (float)sqrt(0.5));
+    NEAR(d.z, (float)sqrt(0.5));
+    vbnl_pov_scene_destroy(s);
+    /* looking along +x in left-handed coordinates: right is -z */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <0, 0, 0> look_at <10, 0, 0> }");
+    c = &sc(s)->camera;
+    NEAR(c->forward[0], 1.0f);
+    NEAR(c->right[2], -1.33f);
+    NEAR(c->up[1], 1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* a right-handed scene: negative right mirrors the image */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { right -x * 4 / 3 location <0, 0, -5> look_at 0 }");
+    NEAR(sc(s)->camera.right[0], -4.0f / 3.0f);
+    vbnl_pov_scene_destroy(s);
+    /* sky tilts up; transforms apply last */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { sky x location 0 look_at z up y right x translate <0, 7, 0> }");
+    c = &sc(s)->camera;
+    NEAR(c->up[0], 1.0f);
+    NEAR(c->right[1], -1.0f);
+    NEAR(c->position[1], 7.0f);
+    vbnl_pov_scene_destroy(s);
+    /* a declared camera reused */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\n#declare C = camera { location <0, 0, -3> look_at 0 }\ncamera { C rotate y * 90 }");
+    c = &sc(s)->camera;
+    NEAR(c->position[0], -3.0f);
+    NEAR(c->forward[0], 1.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { orthographic location -5 look_at 0 }");
+    assert_non_null(strstr(g_diags, "test.pov:2:10: warning: camera type 'orthographic' is not supported; rendering with a perspective camera"));
+    vbnl_pov_scene_destroy(s);
+}
+
+/* ---- lights ----------------------------------------------------------------------------------- */
+
+static const vbnl_light *light0(vbnl_pov_scene *s) { return &sc(s)->lights[0]; }
+
+static void test_lights(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok("light_source { <1, 2, 3> rgb <1, 2, 3> translate x }");
+    assert_int_equal(light0(s)->type, VBNL_LIGHT_POINT);
+    NEAR(light0(s)->p.x, 2.0f);
+    NEAR(light0(s)->L.y, 2.0f);
+    vbnl_pov_scene_destroy(s);
+    /* unfaded: POV-Ray's irradiance at the geometry's centre (distance 100 here), so a distant
+     * sun lights the scene; at least the colour itself (distance 1) */
+    s = ok("sphere { 0, 1 } light_source { <0, 100, 0> rgb <1, 2, 3> }");
+    NEAR(light0(s)->L.y / 2e4f, 1.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("sphere { 0, 1 } light_source { <0, 0.5, 0> rgb <1, 2, 3> }");
+    NEAR(light0(s)->L.y, 2.0f);
+    vbnl_pov_scene_destroy(s);
+    /* fade_power 2: 2 D^2 colour */
+    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
+    NEAR(light0(s)->L.x, 18.0f);
+    vbnl_pov_scene_destroy(s);
+    /* other fade powers: equal to POV-Ray's at fade_distance, with a warning */
+    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 1 }");
+    NEAR(light0(s)->L.x, 9.0f);
+    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: fade_power 1: light falls off as 1/d^2; its intensity matches POV-Ray's at fade_distance"));
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 2 spotlight point_at <0, 0, 0> radius 10 falloff 20 tightness 5 }");
+    assert_int_equal(light0(s)->type, VBNL_LIGHT_SPOT);
+    NEAR(light0(s)->cos_inner, (float)cos(10 * M_PI / 180));
+    NEAR(light0(s)->cos_outer, (float)cos(20 * M_PI / 180));
+    NEAR(light0(s)->exponent, 5.0f);
+    NEAR(light0(s)->n.y, -1.0f);
+    NEAR(light0(s)->L.x, 2.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 10, 0> rgb 3 parallel point_at <0, 0, 0> }");
+    assert_int_equal(light0(s)->type, VBNL_LIGHT_DIRECTIONAL);
+    NEAR(light0(s)->n.y, -1.0f);
+    NEAR(light0(s)->L.x, 3.0f);
+    vbnl_pov_scene_destroy(s);
+    /* area light: two-sided rectangle, radiance 2 I / A (the point light's power) */
+    s = ok("light_source { <0, 5, 0> rgb 1 area_light <2, 0, 0>, <0, 0, 1>, 4, 4 adaptive 1 jitter circular orient }");
+    assert_int_equal(light0(s)->type, VBNL_LIGHT_RECT);
+    NEAR(light0(s)->L.x, 1.0f);
+    NEAR(light0(s)->area, 2.0f);
+    NEAR(light0(s)->p.x, -1.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 shadowless media_interaction off looks_like { sphere { 0, 1 } } }");
+    assert_int_equal(info(s).sphere_count, 0);
+    assert_non_null(strstr(g_diags, "warning: looks_like"));
+    vbnl_pov_scene_destroy(s);
+    /* lights inside unions move with them */
+    s = ok("#declare L = union { light_source { <1, 0, 0> rgb 1 } sphere { <0, -5, 0>, 1 } }\nobject { L translate y * 4 }");
+    NEAR(light0(s)->p.y, 4.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_group { light_source { <1, 0, 0> rgb 1 } sphere { <0, -5, 0>, 1 } global_lights on translate x }");
+    NEAR(light0(s)->p.x, 2.0f);
+    assert_int_equal(info(s).sphere_count, 1);
+    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: light_group is rendered as a union: its lights illuminate the whole scene"));
+    vbnl_pov_scene_destroy(s);
+}
+
+/* ---- global settings, integrator block ---------------------------------------------------------- */
+
+static void test_integrator_block(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 }");
+    assert_string_equal(vbnl_pov_scene_integrator(s), "vbnl");
+    assert_int_equal(vbnl_params_count(vbnl_pov_scene_params(s)), 0);
+    vbnl_pov_scene_destroy(s);
+    s = ok(BASE "#ifdef (vbnl_version)\nglobal_settings { assumed_gamma 1 integrator { \"path\" max_depth 5 split_direct on } max_trace_level 5 }\n#end");
+    assert_string_equal(vbnl_pov_scene_integrator(s), "path");
+    const vbnl_params *p = vbnl_pov_scene_params(s);
+    assert_int_equal(vbnl_params_count(p), 2);
+    const char *name, *str, *where;
+    int is_string;
+    double num;
+    assert_int_equal(vbnl_params_get(p, 0, &name, &is_string, &num, &str, &where), VBNL_OK);
+    assert_string_equal(name, "max_depth");
+    assert_float_equal(num, 5, 0);
+    assert_string_equal(where, "test.pov:4:55");
+    vbnl_pov_scene_destroy(s);
+    s = ok(BASE "global_settings { radiosity { count 100 } ambient_light rgb 0 }");
+    assert_non_null(strstr(g_diags, "test.pov:3:19: note: radiosity: global illumination is always on in vbnl; the block's settings are ignored"));
+    vbnl_pov_scene_destroy(s);
+    {
+        /* the message lists every registered integrator, in registry order */
+        char want[512] = "test.pov:3:32: unknown integrator 'pathh' (registered: ";
+        for (uint32_t i = 0; i < vbnl_integrator_count(); ++i) {
+            strcat(want, i ? ", " : "");
+            strcat(want, vbnl_integrator_at(i)->name);
+        }
+        strcat(want, ")");
+        assert_non_null(strstr(want, "path, vbnl, "));
+        expect_error(BASE "global_settings { integrator { \"pathh\" } }", want);
+    }
+    expect_error(BASE "global_settings {\n  integrator { \"path\" max_dept 4 } }",
+                 "test.pov:4:23: unknown parameter 'max_dept' for integrator 'path'; did you mean 'max_depth'? (valid: max_depth, rr_depth, split_direct, indirect_only)");
+    expect_error(BASE "global_settings { integrator { \"path\" max_depth 2.5 } }",
+                 "test.pov:3:39: parameter 'max_depth' of integrator 'path' takes an integer, got 2.5");
+    expect_error(BASE "global_settings { integrator { \"path\" max_depth \"deep\" } }",
+                 "test.pov:3:39: parameter 'max_depth' of integrator 'path' takes an integer");
+    expect_error(BASE "global_settings { integrator { path } }",
+                 "test.pov:3:32: integrator block must start with the integrator's name as a string, e.g. \"vbnl\"");
+}
+
+static void test_background(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok("camera { location -5 look_at 0 }\nbackground { rgb <0.5, 0.25, 1> }\nsphere { 0, 1 }");
+    assert_true(sc(s)->env_light != VBNL_NO_LIGHT);
+    NEAR(sc(s)->env_radiance.y, 0.25f);
+    vbnl_pov_scene_destroy(s);
+    /* sky_sphere: a constant sky of the pigment's average colour times its emission */
+    s = ok("camera { location -5 look_at 0 }\nsphere { 0, 1 }\n"
+           "sky_sphere { pigment { gradient y color_map { [0 rgb <0, 0.2, 1>] [1 rgb <1, 0.6, 1>] } } emission 2 rotate x * 10 }");
+    assert_true(sc(s)->env_light != VBNL_NO_LIGHT);
+    NEAR(sc(s)->env_radiance.x, 1.0f);
+    NEAR(sc(s)->env_radiance.y, 0.8f);
+    NEAR(sc(s)->env_radiance.z, 2.0f);
+    assert_non_null(strstr(g_diags, "test.pov:3:1: warning: sky_sphere is rendered as a constant sky of its pigment's average colour (1 0.8 2)"));
+    vbnl_pov_scene_destroy(s);
+}
+
+/* ---- errors ------------------------------------------------------------------------------------- */
+
+static void test_errors(void **state)
+{
+    (void)state;
+    expect_error(BASE "sphere { <0, 0, 0> }", "test.pov:3:20: expected an expression, found '}'");
+    expect_error(BASE "sphere { 0, -1 }", "test.pov:3:1: sphere radius must be positive, got -1");
+    expect_error(BASE "box { 0, 1 frobnicate }", "test.pov:3:12: unexpected 'frobnicate' in 'box'");
+    expect_error(BASE "cylinder { 0, 0, 1 } cone { 0, 1, y, -1 }", "test.pov:3:22: cone radii must be >= 0 and not both 0");
+    expect_error(BASE "plane { 0, 1 }", "test.pov:3:1: plane normal must not be zero");
+    expect_error(BASE "polygon { 2, <0,0>, <1,0> }", "test.pov:3:1: polygon needs a whole number of at least 3 points, got 2");
+    expect_error(BASE "object { Nothing }", "test.pov:3:10: undeclared object identifier 'Nothing'");
+    expect_error(BASE "#declare F = 3;\nobject { F }", "test.pov:4:10: 'F' is a float, not an object");
+    expect_error(BASE "sphere { 0, 1 translate }", "test.pov:3:25: expected an expression, found '}'");
+    expect_error(BASE "mesh2 { vertex_vectors { 2, <0,0,0>, <1,0,0> } face_indices { 1, <0, 1, 2> } }",
+                 "test.pov:3:1: mesh2: face 0 uses vertex index 2; vertex_vectors has 2");
+    expect_error(BASE "mesh2 { vertex_vectors { 3, <0,0,0>, <1,0,0> } }",
+                 "test.pov:3:46: vertex_vectors: 2 items given, 3 declared");
+    expect_error(BASE "camera { angle 190 }", "test.pov:3:10: camera angle must lie in (0, 180) degrees, got 190");
+    expect_error(BASE "camera { location 0 look_at 0 }", "test.pov:3:1: camera look_at equals location");
+    expect_error(BASE "light_source { <0, 0, 0> rgb 1 spotlight point_at <0, 0, 0> }",
+                 "test.pov:3:1: light_source: spotlight point_at equals the location");
+    expect_error(BASE "union { sphere { 0, 1 } ", "test.pov:3:25: missing '}' at the end of 'union'");
+    expect_error(BASE "global_settings { max_trace_levle 5 }", "test.pov:3:19: unknown global_settings item 'max_trace_levle'");
+    expect_error(BASE "sphere { 0, 1 matrix <1,0,0, 0,0,0, 0,0,1, 0,0,0> }", "test.pov:3:15: matrix is singular");
+    {
+        /* nested CSG counts against the nesting limit (512) instead of exhausting the stack */
+        size_t n = 600, len = strlen(BASE) + n * 10 + 64;
+        char *deep = malloc(len);
+        assert_non_null(deep);
+        strcpy(deep, BASE);
+        for (size_t i = 0; i < n; ++i)
+            strcat(deep, "union { ");
+        vbnl_pov_scene *s = NULL;
+        vbnl_error err;
+        assert_int_equal(load(deep, &s, &err), VBNL_ERR_PARSE);
+        assert_string_equal(err.message, "test.pov:3:4097: nesting too deep (more than 512 levels of expressions, blocks or directives)");
+        free(deep);
+    }
+    expect_error(BASE "vbnl_mesh { \"no-such-file.obj\" }", "test.pov:3:13: vbnl_mesh: cannot open 'no-such-file.obj'");
+}
+
+/* ---- a render of the example ------------------------------------------------------------------- */
+
+static void test_render_cornell(void **state)
+{
+    (void)state;
+    const char *src = getenv("VBNL_SOURCE_DIR");
+    if (!src)
+        skip();
+    char path[1024];
+    snprintf(path, sizeof path, "%s/examples/cornell-box.pov", src);
+    vbnl_pov_options o;
+    vbnl_pov_options_init(&o);
+    o.width = o.height = 24;
+    vbnl_pov_scene *s = NULL;
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_pov_load_file(g_ctx, path, &o, &s, &err), VBNL_OK);
+    assert_string_equal(vbnl_pov_scene_integrator(s), "vbnl");
+    /* the light panel's winding faces down (for one-sided emitters) */
+    vbnl_hit h;
+    assert_true(hit(s, 0, 1, 0, 0, 1, 0, &h));
+    NEAR(h.p.y, 1.97374f);
+    assert_true(h.ng.y < -0.99f);
+    assert_true(h.light != VBNL_NO_LIGHT);
+    vbnl_render_settings rs;
+    vbnl_render_settings_init(&rs);
+    rs.width = rs.height = 24;
+    rs.spp = 16;
+    rs.integrator = "path";
+    vbnl_renderer *r = NULL;
+    assert_int_equal(vbnl_renderer_create(g_ctx, sc(s), &rs, &r, &err), VBNL_OK);
+    assert_int_equal(vbnl_renderer_prepare(r, NULL, NULL, &err), VBNL_OK);
+    assert_int_equal(vbnl_renderer_render(r, NULL, NULL, &err), VBNL_OK);
+    float px[24 * 24 * 4];
+    vbnl_layer_info li;
+    assert_int_equal(vbnl_film_layer(vbnl_renderer_film(r), 0, &li, NULL), VBNL_OK);
+    assert_int_equal(vbnl_film_read(vbnl_renderer_film(r), "", px, 24 * 24 * li.channels, NULL), VBNL_OK);
+    double mean[3] = {0, 0, 0}, left_red = 0, right_green = 0;
+    for (int y = 0; y < 24; ++y)
+        for (int x = 0; x < 24; ++x) {
+            const float *p = px + (y * 24 + x) * li.channels;
+            for (int c = 0; c < 3; ++c)
+                mean[c] += p[c] / (24.0 * 24.0);
+            if (x < 3 && y > 6 && y < 18)
+                left_red += p[0] - p[1];
+            if (x > 20 && y > 6 && y < 18)
+                right_green += p[1] - p[0];
+        }
+    print_message("# cornell-box.pov mean %.3f %.3f %.3f\n", mean[0], mean[1], mean[2]);
+    for (int c = 0; c < 3; ++c)
+        assert_true(mean[c] > 0.01);
+    double lum = 0.2126 * mean[0] + 0.7152 * mean[1] + 0.0722 * mean[2];
+    assert_true(lum > 0.05 && lum < 2.0);
+    /* framing: the red wall is on the left, the green one on the right */
+    assert_true(left_red > 0);
+    assert_true(right_green > 0);
+    vbnl_renderer_destroy(r);
+    vbnl_pov_scene_destroy(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_camera),
+        cmocka_unit_test(test_lights),
+        cmocka_unit_test(test_integrator_block),
+        cmocka_unit_test(test_background),
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_render_cornell),
+    };
+    return cmocka_run_group_tests(tests, pov_t_setup, pov_t_teardown);
+}
