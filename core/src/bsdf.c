@@ -446,6 +446,44 @@ int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample
     return 0;
 }
 
+/* ---- the microfacet lobe alone (bsdf.h) ---------------------------------------------------- */
+
+vec3 vbnl_bsdf_eval_microfacet(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+{
+    if ((b->type != VBNL_MATERIAL_CONDUCTOR && b->type != VBNL_MATERIAL_PLASTIC) || wo.z <= 0.0f || wi.z <= 0.0f)
+        return v3s(0.0f);
+    vec3 h = v3_add(wo, wi);
+    if (v3_len2(h) == 0.0f)
+        return v3s(0.0f);
+    h = v3_norm(h);
+    float dg = ggx_d(h, b->alpha) * ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
+    if (b->type == VBNL_MATERIAL_CONDUCTOR)
+        return v3_scale(conductor_fresnel(b, v3_dot(wo, h)), dg);
+    return v3s(vbnl_fresnel_dielectric(v3_dot(wo, h), b->ior) * dg);
+}
+
+int vbnl_bsdf_sample_microfacet(const vbnl_bsdf *b, vec3 wo, vec2 u, vec3 *wi, float *pdf)
+{
+    if ((b->type != VBNL_MATERIAL_CONDUCTOR && b->type != VBNL_MATERIAL_PLASTIC) || wo.z <= 0.0f)
+        return 0;
+    vec3 h = ggx_sample_vndf(wo, b->alpha, u);
+    *wi = reflect_about(wo, h);
+    *pdf = ggx_pdf_vndf_reflect(wo, h, b->alpha);
+    return wi->z > 0.0f && *pdf > 0.0f;
+}
+
+float vbnl_bsdf_pdf_diffuse(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+{
+    if (wo.z <= 0.0f || wi.z <= 0.0f)
+        return 0.0f;
+    if (b->type == VBNL_MATERIAL_LAMBERT)
+        return pdf_cosine_hemisphere(wi);
+    if (b->type != VBNL_MATERIAL_PLASTIC)
+        return 0.0f;
+    plastic_ctx c = plastic_setup(b, wo);
+    return (1.0f - c.p_spec) * pdf_cosine_hemisphere(wi);
+}
+
 uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b)
 {
     switch (b->type) {

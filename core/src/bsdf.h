@@ -97,6 +97,19 @@ static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsd
     return 1;
 }
 
+/* The microfacet (single-scattering GGX) lobe of a conductor or plastic alone, in eval's
+ * convention (f |cos theta_i|), and its sampler (the visible normals of wo, Heitz 2018) with the
+ * sampled direction's solid-angle pdf (returns 0 when the direction is unusable); zero / 0 for
+ * the other types. The rest of those BSDFs (a conductor's multiple scattering, a plastic's base)
+ * is smooth. Profile kernels integrate this lobe by sampling where it is narrower than their
+ * texels (profiles.c). */
+vec3 vbnl_bsdf_eval_microfacet(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+int vbnl_bsdf_sample_microfacet(const vbnl_bsdf *b, vec3 wo, vec2 u, vec3 *wi, float *pdf);
+
+/* The share of vbnl_bsdf_pdf(b, wo, wi) that comes from samples reported as VBNL_LOBE_DIFFUSE
+ * (a Lambertian's whole pdf, a plastic's base lobe times its probability; 0 for the others). */
+float vbnl_bsdf_pdf_diffuse(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+
 /* Union of the lobes this BSDF has. */
 uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b);
 /* True when every lobe is a delta (no point in next-event estimation). */

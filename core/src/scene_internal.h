@@ -280,6 +280,18 @@ static inline __attribute__((always_inline)) int vbnl_scene_occluded_inline(cons
     return ray.tfar == -INFINITY;
 }
 
+/* Distance to the closest hit along o + t d for t in (0, tfar), or tfar for a miss (the hit
+ * itself is not filled in). */
+static inline float vbnl_scene_hit_distance(const vbnl_scene *s, vec3 o, vec3 d, float tfar)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRayHit rh;
+    vbnl_rayhit_init(&rh, o, d, tfar);
+    rtcIntersect1(s->world, &ictx, &rh);
+    return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? tfar : rh.ray.tfar;
+}
+
 /* Closest hit along o + t d for t in (0, tfar). Returns 1 and fills *hit, or 0 for a miss. */
 int vbnl_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbnl_hit *hit);
 /* 1 when something blocks o + t d for t in (0, tfar). */

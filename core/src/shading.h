@@ -81,10 +81,24 @@ static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *b
     /* opaque: side_ok has just found ng on the side of wi */
     vec3 org = vbnl_bsdf_is_transmissive(bsdf) ? vbnl_offset_ray_origin(x, sf->ng, ls.wi)
                                                : vbnl_offset_ray_origin_along(x, sf->ng);
-    float tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
+    /* The shadow ray runs from org to the light's point offset off its own surface the same way,
+     * so that it ends short of the emitter whatever the distance: a margin taken from the
+     * distance alone (from x, not org) is eaten by the origin's offset, which grows with the
+     * coordinates (256 ulps), and a close light then shadows itself. */
+    vec3 dir = ls.wi;
+    float tmax = INFINITY;
+    if (!isinf(ls.dist)) {
+        vec3 end = ls.is_delta ? ls.p : vbnl_offset_ray_origin(ls.p, ls.n, v3_neg(ls.wi));
+        vec3 to = v3_sub(end, org);
+        float len = v3_len(to);
+        if (!(len > 0.0f))
+            return v3s(0.0f);
+        dir = v3_scale(to, 1.0f / len);
+        tmax = len * (1.0f - 1e-4f);
+    }
     stats->rays++;
     stats->shadow_rays++;
-    if (vbnl_scene_occluded_inline(sc, org, ls.wi, tmax))
+    if (vbnl_scene_occluded_inline(sc, org, dir, tmax))
         return v3s(0.0f);
     float w = ls.is_delta ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf->wo, wi));
     return v3_scale(v3_mul(f, ls.Li), w / (pmf * ls.pdf));

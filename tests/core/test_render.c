@@ -15,6 +15,8 @@
 #include "scenes.h"
 #include "vbnl/vbnl.h"
 
+#define VBNL_TEST_PI 3.14159265358979323846
+
 static vbnl_context *make_ctx(unsigned threads)
 {
     vbnl_context *ctx = NULL;
@@ -94,6 +96,63 @@ static void test_furnace(void **state)
     (void)state;
     furnace_case(0.5f, 1.0f, 8, 16384, 0.01, 0.002);
     furnace_case(0.8f, 0.5f, 4, 131072, 0.01, 0.002);
+}
+
+/* Irradiance at height h straight below the centre of a parallel a x b Lambertian panel of
+ * radiance 1: pi times the form factor, four corner rectangles of (a/2) x (b/2). */
+static double panel_irradiance(double a, double b, double h)
+{
+    double X = 0.5 * a / h, Y = 0.5 * b / h, sx = sqrt(1.0 + X * X), sy = sqrt(1.0 + Y * Y);
+    double F = (X / sx * atan(Y / sx) + Y / sy * atan(X / sy)) / (2.0 * VBNL_TEST_PI);
+    return VBNL_TEST_PI * 4.0 * F;
+}
+
+/* Direct light from a panel close above a floor, near the origin and far from it: the radiance
+ * of the floor below the panel's centre is rho E / pi (nothing else lights it). The shadow ray
+ * must end short of the emitter at any distance and any coordinate (the origin's offset off the
+ * floor grows with the coordinates; a close light must not shadow itself). */
+static void test_close_light(void **state)
+{
+    (void)state;
+    const float heights[3] = {0.0f, 5.0f, 60.0f};
+    const float gaps[2] = {0.3f, 0.05f};
+    for (int hk = 0; hk < 3; ++hk) {
+        for (int gk = 0; gk < 2; ++gk) {
+            const float y0 = heights[hk], g = gaps[gk], rho = 0.7f;
+            vbnl_context *ctx = make_ctx(0);
+            vbnl_scene *s = NULL;
+            assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
+            uint32_t floor_m = ts_material(s, VBNL_MATERIAL_LAMBERT, rho, rho, rho, 0.0f);
+            vbnl_material_desc d;
+            vbnl_material_desc_init(&d);
+            d.base_color[0] = d.base_color[1] = d.base_color[2] = 0.0f;
+            d.emission[0] = d.emission[1] = d.emission[2] = 1.0f;
+            d.two_sided = 1;
+            uint32_t light_m;
+            assert_int_equal(vbnl_scene_add_material(s, &d, &light_m, NULL), VBNL_OK);
+            const float fl[12] = {-10, y0, -10, -10, y0, 10, 10, y0, 10, 10, y0, -10};
+            const float yl = y0 + g;
+            const float pl[12] = {-0.4f, yl, -0.3f, 0.4f, yl, -0.3f, 0.4f, yl, 0.3f, -0.4f, yl, 0.3f};
+            ts_quad(s, fl, floor_m);
+            ts_quad(s, pl, light_m);
+            float pos[3] = {0.0f, y0 + 0.5f * g, -0.5f * g}, target[3] = {0.0f, y0, 0.0f}, up[3] = {0, 1, 0};
+            vbnl_camera_desc cam;
+            assert_int_equal(vbnl_camera_look_at(&cam, pos, target, up, 1.0f, 1.0f, NULL), VBNL_OK);
+            assert_int_equal(vbnl_scene_set_camera(s, &cam, NULL), VBNL_OK);
+            assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+            float *px = render_layer(ctx, s, 4, 4, 256, 3, "", 4, NULL);
+            double sum = 0.0;
+            for (int i = 0; i < 16; ++i)
+                sum += px[4 * i];
+            const double got = sum / 16.0, want = rho * panel_irradiance(0.8, 0.6, g) / VBNL_TEST_PI;
+            print_message("# close light at y %.0f, gap %.2f: %.5f, expected %.5f\n", (double)y0, (double)g, got,
+                          want);
+            assert_true(fabs(got / want - 1.0) < 0.01);
+            free(px);
+            vbnl_scene_destroy(s);
+            vbnl_context_destroy(ctx);
+        }
+    }
 }
 
 /* Same seed, same image for 1 and 2 worker threads, bit for bit (every layer). */
@@ -720,7 +779,8 @@ static void test_registry(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_furnace),       cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_furnace),       cmocka_unit_test(test_close_light),
+        cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_split_direct),  cmocka_unit_test(test_max_depth),
         cmocka_unit_test(test_camera_rays),   cmocka_unit_test(test_intersection),
         cmocka_unit_test(test_params),        cmocka_unit_test(test_pool),

@@ -14,6 +14,7 @@
 #include "sampling.h"
 #include "vbnl/mesh_import.h"
 #include "vbnl/vbnl.h"
+#include "ts_render.h"
 
 /* ---- emission tables ------------------------------------------------------------------------ */
 
@@ -309,33 +310,6 @@ static void test_relaxation(void **state)
 
 /* ---- renders -------------------------------------------------------------------------------- */
 
-static float *render(vbnl_context *ctx, const vbnl_scene *s, const char *integrator, uint32_t w, uint32_t h,
-                     uint32_t spp, uint64_t seed, const char *const *settings, const char *layer)
-{
-    vbnl_params *p;
-    vbnl_params_create(&p, NULL);
-    for (const char *const *kv = settings; kv && *kv; ++kv)
-        assert_int_equal(vbnl_params_set_text(p, *kv, NULL, NULL), VBNL_OK);
-    vbnl_render_settings rs;
-    vbnl_render_settings_init(&rs);
-    rs.width = w;
-    rs.height = h;
-    rs.spp = spp;
-    rs.seed = seed;
-    rs.integrator = integrator;
-    rs.params = p;
-    vbnl_renderer *r;
-    vbnl_error err = {0};
-    if (vbnl_renderer_create(ctx, s, &rs, &r, &err) != VBNL_OK || vbnl_renderer_render(r, NULL, NULL, &err) != VBNL_OK)
-        fail_msg("%s: %s", integrator, err.message);
-    int channels = layer[0] ? 3 : 4;
-    float *out = malloc(sizeof(float) * channels * w * h);
-    assert_int_equal(vbnl_film_read(vbnl_renderer_film(r), layer, out, (size_t)channels * w * h, NULL), VBNL_OK);
-    vbnl_renderer_destroy(r);
-    vbnl_params_destroy(p);
-    return out;
-}
-
 static double channel_mean(const float *img, uint32_t n, int channels)
 {
     double m = 0.0;
@@ -383,17 +357,17 @@ static void test_cornell_indirect_energy(void **state)
     vbnl_scene *s = cornell(ctx);
     const uint32_t W = 24, H = 24;
     const char *const ps[] = {"split_direct=1", NULL};
-    float *ref = render(ctx, s, "path", W, H, 2048, 1, ps, "indirect");
+    float *ref = ts_render_layer(ctx, s, "path", W, H, 2048, 1, ps, "indirect");
     const char *const rs[] = {"virtual_lights=3000", "indirect_only=1", "radius_scale=1", NULL};
     const char *const rp[] = {"virtual_lights=3000", "indirect_only=1", "radius_scale=0", NULL};
     double mr = channel_mean(ref, W * H, 3), mi = 0.0, mp = 0.0;
     float *pt = NULL;
     for (uint64_t seed = 2; seed < 6; ++seed) {
-        float *img = render(ctx, s, "richvsl", W, H, 4, seed, rs, "");
+        float *img = ts_render_layer(ctx, s, "richvsl", W, H, 4, seed, rs, "");
         mi += channel_mean(img, W * H, 4) / 4.0;
         free(img);
         free(pt); /* the last set's point image stays for the clamp test below */
-        pt = render(ctx, s, "richvsl", W, H, 4, seed, rp, "");
+        pt = ts_render_layer(ctx, s, "richvsl", W, H, 4, seed, rp, "");
         mp += channel_mean(pt, W * H, 4) / 4.0;
     }
     print_message("# cornell indirect mean over 4 light sets: path %.5f, richvsl (spheres) %.5f (%+.2f%%), richvsl "
@@ -403,7 +377,7 @@ static void test_cornell_indirect_energy(void **state)
     assert_true(fabs(mp / mr - 1.0) < 0.04);
     /* clamping only removes light */
     const char *const rc[] = {"virtual_lights=3000", "indirect_only=1", "radius_scale=0", "clamp=2", NULL};
-    float *cl = render(ctx, s, "richvsl", W, H, 4, 5, rc, ""); /* the light set of pt */
+    float *cl = ts_render_layer(ctx, s, "richvsl", W, H, 4, 5, rc, ""); /* the light set of pt */
     double mc = channel_mean(cl, W * H, 4), mp5 = channel_mean(pt, W * H, 4);
     print_message("# clamp=2: %.5f\n", mc);
     for (uint32_t i = 0; i < W * H; ++i)
@@ -448,12 +422,12 @@ static void test_door_ajar_indirect_energy(void **state)
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     const uint32_t W = 24, H = 24;
     const char *const ps[] = {"split_direct=1", NULL};
-    float *ref = render(ctx, s, "path", W, H, 2048, 1, ps, "indirect");
+    float *ref = ts_render_layer(ctx, s, "path", W, H, 2048, 1, ps, "indirect");
     const char *const rs[] = {"virtual_lights=3000", "indirect_only=1", NULL};
     uint64_t sd = getenv("RSEED") ? strtoull(getenv("RSEED"), 0, 10) : 2;
-    float *img = render(ctx, s, "richvsl", W, H, 4, sd, rs, "");
+    float *img = ts_render_layer(ctx, s, "richvsl", W, H, 4, sd, rs, "");
     const char *const rp[] = {"virtual_lights=3000", "indirect_only=1", "radius_scale=0", NULL};
-    float *pt = render(ctx, s, "richvsl", W, H, 4, sd, rp, "");
+    float *pt = ts_render_layer(ctx, s, "richvsl", W, H, 4, sd, rp, "");
     double mr = channel_mean(ref, W * H, 3), mi = channel_mean(img, W * H, 4), mp = channel_mean(pt, W * H, 4);
     print_message("# door-ajar indirect mean: path %.6f, richvsl (spheres) %.6f (%+.2f%%), richvsl (points) "
                   "%.6f (%+.2f%%)\n",
@@ -479,7 +453,7 @@ static void test_determinism(void **state)
         vbnl_context_create(&d, &ctx, NULL);
         vbnl_scene *s = cornell(ctx);
         const char *const settings[] = {"virtual_lights=600", NULL};
-        img[t] = render(ctx, s, "richvsl", 20, 20, 2, 17, settings, "");
+        img[t] = ts_render_layer(ctx, s, "richvsl", 20, 20, 2, 17, settings, "");
         vbnl_scene_destroy(s);
         vbnl_context_destroy(ctx);
     }

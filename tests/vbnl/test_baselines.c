@@ -14,32 +14,7 @@
 #include "vbnl/mesh_import.h"
 #include "vbnl/vbnl.h"
 #include "vpl_set.h"
-
-static float *render(vbnl_context *ctx, const vbnl_scene *s, const char *integrator, uint32_t w, uint32_t h,
-                     uint32_t spp, uint64_t seed, const char *const *settings)
-{
-    vbnl_params *p;
-    vbnl_params_create(&p, NULL);
-    for (const char *const *kv = settings; kv && *kv; ++kv)
-        assert_int_equal(vbnl_params_set_text(p, *kv, NULL, NULL), VBNL_OK);
-    vbnl_render_settings rs;
-    vbnl_render_settings_init(&rs);
-    rs.width = w;
-    rs.height = h;
-    rs.spp = spp;
-    rs.seed = seed;
-    rs.integrator = integrator;
-    rs.params = p;
-    vbnl_renderer *r;
-    vbnl_error err = {0};
-    if (vbnl_renderer_create(ctx, s, &rs, &r, &err) != VBNL_OK || vbnl_renderer_render(r, NULL, NULL, &err) != VBNL_OK)
-        fail_msg("%s: %s", integrator, err.message);
-    float *img = malloc(sizeof(float) * 4 * w * h);
-    assert_int_equal(vbnl_film_read(vbnl_renderer_film(r), "", img, (size_t)4 * w * h, NULL), VBNL_OK);
-    vbnl_renderer_destroy(r);
-    vbnl_params_destroy(p);
-    return img;
-}
+#include "ts_render.h"
 
 static vbnl_scene *cornell(vbnl_context *ctx)
 {
@@ -100,12 +75,12 @@ static void test_vpl_converges_to_path(void **state)
 {
     fixture *f = *state;
     const char *const pt[] = {"indirect_only=on", NULL};
-    float *ref = render(f->ctx, f->scene, "path", W, H, 4096, 99, pt);
+    float *ref = ts_render(f->ctx, f->scene, "path", W, H, 4096, 99, pt);
     const char *const vs[] = {"indirect_only=on", "light_paths=300", NULL};
     const int M = 32;
     double *acc = calloc((size_t)4 * W * H, sizeof(double));
     for (int m = 0; m < M; ++m) {
-        float *img = render(f->ctx, f->scene, "vpl", W, H, 4, 1000 + (uint64_t)m, vs);
+        float *img = ts_render(f->ctx, f->scene, "vpl", W, H, 4, 1000 + (uint64_t)m, vs);
         for (uint32_t i = 0; i < 4 * W * H; ++i)
             acc[i] += img[i] / M;
         free(img);
@@ -142,8 +117,8 @@ static void test_clamp_never_brightens(void **state)
     fixture *f = *state;
     const char *const un[] = {"indirect_only=on", "virtual_lights=400", NULL};
     const char *const cl[] = {"indirect_only=on", "virtual_lights=400", "clamp=1", NULL};
-    float *a = render(f->ctx, f->scene, "vpl", W, H, 2, 5, un);
-    float *b = render(f->ctx, f->scene, "vpl", W, H, 2, 5, cl);
+    float *a = ts_render(f->ctx, f->scene, "vpl", W, H, 2, 5, un);
+    float *b = ts_render(f->ctx, f->scene, "vpl", W, H, 2, 5, cl);
     for (uint32_t i = 0; i < W * H; ++i)
         for (int c = 0; c < 3; ++c)
             assert_true(b[4 * i + c] <= a[4 * i + c] * (1.0f + 1e-6f) + 1e-12f);
@@ -209,8 +184,8 @@ static void test_acceptance_unbiased(void **state)
     const int M = 24;
     double sp = 0.0, sg = 0.0;
     for (int m = 0; m < M; ++m) {
-        float *a = render(f->ctx, f->scene, "vpl", W, H, 1, 500 + (uint64_t)m, plain);
-        float *b = render(f->ctx, f->scene, "vpl", W, H, 1, 500 + (uint64_t)m, gs);
+        float *a = ts_render(f->ctx, f->scene, "vpl", W, H, 1, 500 + (uint64_t)m, plain);
+        float *b = ts_render(f->ctx, f->scene, "vpl", W, H, 1, 500 + (uint64_t)m, gs);
         sp += sum_of(a, W * H);
         sg += sum_of(b, W * H);
         free(a);
@@ -248,7 +223,7 @@ static void test_vpl_furnace(void **state)
     vbnl_scene_set_camera(s, &cam, NULL);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     const char *const st[] = {"indirect_only=on", "virtual_lights=20000", NULL};
-    float *img = render(ctx, s, "vpl", 16, 16, 4, 3, st);
+    float *img = ts_render(ctx, s, "vpl", 16, 16, 4, 3, st);
     double mean = sum_of(img, 256) / (3.0 * 256);
     print_message("# vpl furnace indirect: mean %.5f, expected 0.5 (%.2f%%)\n", mean, 100.0 * (mean / 0.5 - 1.0));
     assert_true(fabs(mean / 0.5 - 1.0) < 0.02);
@@ -267,12 +242,12 @@ static void test_vsl_preserves_energy(void **state)
 {
     fixture *f = *state;
     const char *const s[] = {"indirect_only=on", "virtual_lights=1500", NULL};
-    float *a = render(f->ctx, f->scene, "vpl", 32, 32, 8, 21, s);
+    float *a = ts_render(f->ctx, f->scene, "vpl", 32, 32, 8, 21, s);
     double sa = sum_of(a, 32 * 32), prev = 2.0;
     const char *ms[] = {"radius_scale=0.1", "radius_scale=1", "radius_scale=4"};
     for (int k = 0; k < 3; ++k) {
         const char *const s2[] = {"indirect_only=on", "virtual_lights=1500", ms[k], NULL};
-        float *b = render(f->ctx, f->scene, "vsl", 32, 32, 8, 21, s2);
+        float *b = ts_render(f->ctx, f->scene, "vsl", 32, 32, 8, 21, s2);
         double ratio = sum_of(b, 32 * 32) / sa;
         print_message("# %s: vsl / vpl indirect energy %.4f\n", ms[k], ratio);
         if (k == 0)
@@ -298,8 +273,8 @@ static void test_indirect_only_everywhere(void **state)
                                          {"indirect_only=on", "virtual_lights=200", NULL}};
     const char *const names[] = {"path", "vbnl", "vpl", "vsl"};
     for (int k = 0; k < 4; ++k) {
-        float *a = render(f->ctx, f->scene, names[k], 16, 16, 8, 3, off[k]);
-        float *b = render(f->ctx, f->scene, names[k], 16, 16, 8, 3, on[k]);
+        float *a = ts_render(f->ctx, f->scene, names[k], 16, 16, 8, 3, off[k]);
+        float *b = ts_render(f->ctx, f->scene, names[k], 16, 16, 8, 3, on[k]);
         double sa = sum_of(a, 256), sb = sum_of(b, 256);
         print_message("# %s: indirect / full = %.3f\n", names[k], sb / sa);
         assert_true(sb > 0.05 * sa && sb < 0.8 * sa);
@@ -322,8 +297,8 @@ static void test_determinism(void **state)
         const char *const st[] = {"virtual_lights=300", "acceptance=on", NULL};
         const char *const sv[] = {"virtual_lights=300", NULL};
         const char *const *ps = k == 0 ? st : sv;
-        float *a = render(c1, s1, names[k], 16, 16, 2, 4, ps);
-        float *b = render(c2, s2, names[k], 16, 16, 2, 4, ps);
+        float *a = ts_render(c1, s1, names[k], 16, 16, 2, 4, ps);
+        float *b = ts_render(c2, s2, names[k], 16, 16, 2, 4, ps);
         assert_memory_equal(a, b, sizeof(float) * 4 * 256);
         free(a);
         free(b);

@@ -321,12 +321,12 @@ static void test_wrong_version(void **state)
     uint32_t v;
     memcpy(&v, b + 8, 4);
     assert_int_equal(v, VBNL_VL_FILE_VERSION);
-    v = 3;
+    v = 2;
     memcpy(b + 8, &v, 4);
     uint64_t h = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, b, n - 8);
     memcpy(b + n - 8, &h, 8);
     write_all(path, b, n);
-    expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 3; this build reads version 2");
+    expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 2; this build reads version 3");
     free(b);
 }
 

@@ -104,7 +104,7 @@ static void test_records(void **state)
     fixture f;
     fixture_make(&f);
     vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
     assert_int_equal(t.n, N_LIGHTS);
     assert_int_equal(vbnl_vl_shade_bytes(&t), N_LIGHTS * (64u + 8u)); /* records and the alias table */
     assert_int_equal(sizeof(vbnl_vl_shade_rec), 64);
@@ -164,7 +164,7 @@ static void test_pick_frequencies(void **state)
     fixture f;
     fixture_make(&f);
     vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
     const int draws = 2000000;
     double *obs = calloc(N_LIGHTS, sizeof(double)), *exp_pmf = malloc(sizeof(double) * N_LIGHTS),
            *exp_uniform = malloc(sizeof(double) * N_LIGHTS);
@@ -251,7 +251,7 @@ static void test_candidates(void **state)
     fixture f;
     fixture_make(&f);
     vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
     vbnl_rng rng = vbnl_rng_make(8, 8);
     uint32_t nonempty = 0, rejected = 0;
     for (int q = 0; q < 20000; ++q) {
@@ -318,7 +318,7 @@ static void test_no_power(void **state)
     fixture_make(&f);
     memset(f.power, 0, sizeof(f.power));
     vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power), VBNL_OK);
+    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
     assert_int_equal(t.n, 0);
     assert_null(t.rec);
     assert_int_equal(vbnl_vl_shade_bytes(&t), 0);

@@ -93,8 +93,11 @@
  *
  * Quantisation (Section 5.3: "minor error due to quantization of the directional
  * information"): incident power is moved to texel centres by the bilinear splat and f is point-
- * sampled at centre pairs. For narrow lobes (GGX alpha below about 0.1 at 16 x 16) the profile
- * aliases; use 32 x 32 there (the paper does for caustics, Fig. 16).
+ * sampled at centre pairs, except the microfacet lobe of a BSDF whose GGX alpha is below
+ * 4.8 / R (0.3 at 16 x 16), which is projected onto the outgoing texels so that it keeps its
+ * energy however narrow it is (profiles.c, "Narrow lobes"); such kernels always keep the
+ * matrix, whatever cache_matrix says. A lobe narrower than a texel is blurred over one; use
+ * 32 x 32 where that matters (the paper does for caustics, Fig. 16).
  *
  * ---- Threads ---------------------------------------------------------------------------------
  *

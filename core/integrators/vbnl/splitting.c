@@ -108,7 +108,7 @@ typedef struct split_rec {
     vec3 wi;    /* unit, toward where the photon came from */
     vec3 power; /* flux arriving */
     float q[3]; /* cell_fast: p in the cell's quantisation frame (cell_frame) */
-    uint32_t pad;
+    uint32_t material; /* of the surface hit (the support test, vl_support.h) */
 } split_rec;
 _Static_assert(sizeof(split_rec) == 64, "split_rec: one cache line");
 
@@ -630,6 +630,50 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
     split_thread *t = cx->t;
     vbnl_split_stats *st = &t->s;
     const vbnl_vl_index *x = job->d->index;
+    /* The support test (vl_support.h): the material, then the rays for the VLs that are not
+     * clear. When a VL goes, the sum is that of the kept weights in order, as the candidate
+     * tests form it. */
+    const vbnl_vl_support *sup = job->d->support;
+    if (sup) {
+        uint32_t k = 0;
+        float s2 = 0.0f, tmax = 0.0f;
+        for (uint32_t i = 0; i < m; ++i) {
+            const vbnl_vl_support *v = &sup[rk[i]];
+            if (v->material != h->material)
+                continue;
+            tmax = v->tau > tmax ? v->tau : tmax;
+            w[k] = w[i];
+            rk[k] = rk[i];
+            s2 += w[i];
+            k++;
+        }
+        if (tmax > 0.0f) {
+            const vbnl_scene *sc = job->d->scene;
+            const float hp = vbnl_vl_support_height(sc, h->p, h->n, tmax);
+            uint32_t kk = 0;
+            s2 = 0.0f;
+            for (uint32_t i = 0; i < k; ++i) {
+                const vl_rec *e = x->rec + rk[i];
+                const float tau = sup[rk[i]].tau;
+                if (tau > 0.0f && !vbnl_vl_support_passes(sc, h->p, h->n, hp, v3(e->cx, e->cy, e->cz),
+                                                          v3(e->nx, e->ny, e->nz), tau))
+                    continue;
+                w[kk] = w[i];
+                rk[kk] = rk[i];
+                s2 += w[i];
+                kk++;
+            }
+            st->support_tests++;
+            k = kk;
+        }
+        st->support_rejects += m - k;
+        if (k == 0)
+            return;
+        if (k < m) {
+            m = k;
+            sum = s2;
+        }
+    }
     /* The max_vls largest weights (ties: smaller id); otherwise rank order. */
     if (m > job->max_vls) {
         sum = select_max_vls(x, w, rk, m, job->max_vls);
@@ -1190,7 +1234,7 @@ static inline __attribute__((always_inline)) uint32_t fast_cell(const grid_level
  * last work items or after the run: run_chunk): p, the geometric normal and wo facing the
  * arriving photon, its flux. */
 static inline __attribute__((always_inline)) void record_hit(const split_job *job, split_thread *t, vec3 p, vec3 ng,
-                                                             vec3 wo, vec3 beta)
+                                                             vec3 wo, vec3 beta, uint32_t material)
 {
     if (t->n == t->cap)
         flush_batch(job, t);
@@ -1203,7 +1247,7 @@ static inline __attribute__((always_inline)) void record_hit(const split_job *jo
         uint32_t c = fast_cell(g, p, c3);
         if (c == UINT32_MAX)
             return;
-        *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, 0};
+        *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, material};
         cell_frame(g, p, c3, h->q);
         t->cell[t->n] = c;
         const uint32_t sh = job->cell_shift, b = VBNL_SPLIT_BIN_BITS / 3u;
@@ -1211,7 +1255,7 @@ static inline __attribute__((always_inline)) void record_hit(const split_job *jo
                        vbnl_vl_key_spread_bits((uint32_t)c3[1] >> sh, b) << 1 |
                        vbnl_vl_key_spread_bits((uint32_t)c3[2] >> sh, b) << 2;
     } else {
-        *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, 0};
+        *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, material};
         /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
         t->bin[t->n] = vbnl_vl_key_bin(&job->key_grid, p, VBNL_SPLIT_BIN_BITS / 3u);
     }
@@ -1226,7 +1270,7 @@ typedef struct split_visit {
 static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
 {
     split_visit *sv = user;
-    record_hit(sv->job, sv->t, v->hit->p, v->ng, v->wo, v->beta);
+    record_hit(sv->job, sv->t, v->hit->p, v->ng, v->wo, v->beta, v->hit->material);
 }
 
 /* No VL at all: no hit can deposit. */
@@ -1349,6 +1393,7 @@ typedef struct fast_surf {
     _Alignas(32) float cr[8], cg[8], cb[8];
     _Alignas(32) float n[3][3][8]; /* [vertex][axis][lane] */
     const vbnl_bsdf *bsdf[8];
+    uint32_t material[8];
     unsigned shaded, other;
 } fast_surf;
 
@@ -1475,7 +1520,7 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
                 split_rec *h = &t->hits[t->n];
                 *h = (split_rec){v3(a[0][i], a[1][i], a[2][i]), v3(a[3][i], a[4][i], a[5][i]),
                                  v3(a[6][i], a[7][i], a[8][i]), v3(a[9][i], a[10][i], a[11][i]),
-                                 {a[12][i], a[13][i], a[14][i]}, 0};
+                                 {a[12][i], a[13][i], a[14][i]}, sf->material[i]};
                 t->cell[t->n] = cl[i];
                 t->bin[t->n] = vbnl_vl_key_spread_bits((uint32_t)ci[0][i] >> sh, bb) |
                                vbnl_vl_key_spread_bits((uint32_t)ci[1][i] >> sh, bb) << 1 |
@@ -1497,7 +1542,7 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
             unsigned i = (unsigned)__builtin_ctz(m);
             if (rec)
                 record_hit(job, t, v3(a[0][i], a[1][i], a[2][i]), v3(a[3][i], a[4][i], a[5][i]),
-                           v3(a[6][i], a[7][i], a[8][i]), v3(a[9][i], a[10][i], a[11][i]));
+                           v3(a[6][i], a[7][i], a[8][i]), v3(a[9][i], a[10][i], a[11][i]), sf->material[i]);
             ux[i] = vbnl_rng_next(&L->rng[i]);
             uy[i] = vbnl_rng_next(&L->rng[i]);
         }
@@ -1714,8 +1759,8 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
                 continue;
             }
             const scene_mesh *me = &g->u.mesh;
-            const scene_material *sm = &sc->materials[me->face_materials ? me->face_materials[r8.hit.primID[i]]
-                                                                          : me->material];
+            const uint32_t mi = me->face_materials ? me->face_materials[r8.hit.primID[i]] : me->material;
+            const scene_material *sm = &sc->materials[mi];
             if (sm->texture) {
                 general |= 1u << i;
                 continue;
@@ -1732,6 +1777,7 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
                 continue;
             }
             fast |= 1u << i;
+            sf.material[i] = mi;
             sf.cr[i] = sm->bsdf.color.x;
             sf.cg[i] = sm->bsdf.color.y;
             sf.cb[i] = sm->bsdf.color.z;
@@ -1985,6 +2031,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             stats->covered_hits += s->covered_hits;
             stats->deposits += s->deposits;
             stats->overflow += s->overflow;
+            stats->support_tests += s->support_tests;
+            stats->support_rejects += s->support_rejects;
             for (int c = 0; c < 3; ++c)
                 stats->covered_power[c] += job.threads[i].cov[c];
         }

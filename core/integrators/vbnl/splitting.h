@@ -27,8 +27,11 @@
  *
  * Which VLs share a hit at p with unit normal n (facing the arriving photon) arriving from wi:
  * the index (vl_index.h) gives every VL with d(p, y_j) < r_j; the authors' code then keeps those
- * with n_j . n > normal_cos (0.7) and, when require_facing, n_j . wi > 0; of those the max_vls
- * (8) with the largest weights 1 - (d/r)^2 (ties: smaller id) share the photon.
+ * with n_j . n > normal_cos (0.7) and, when require_facing, n_j . wi > 0; then, with `support`,
+ * the VLs that pass the support test (vl_support.h: no occluder between the hit and the VL at
+ * half its radius, which keeps the light trapped under a ceiling lamp or behind a thin wall out
+ * of the VLs beyond it); of those the max_vls (8) with the largest weights 1 - (d/r)^2 (ties:
+ * smaller id) share the photon.
  *
  * Determinism: photon k (a global index in [0, photon_paths)) draws only from
  * vbnl_rng_for(seed, k, 0); deposits are 64-bit fixed-point integer adds (profiles.h), so the
@@ -129,6 +132,7 @@
 #include "render_internal.h"
 #include "scene_internal.h"
 #include "vl_index.h"
+#include "vl_support.h"
 #include "photon_fast.h"
 
 #define VBNL_SPLIT_DEFAULT_CHUNK 16384u /* photon paths per work item (about 4 hits each here) */
@@ -163,6 +167,8 @@ typedef struct vbnl_split_desc {
                                      * happens beyond VBNL_SPLIT_MAX_SUM_BYTES; same bits) */
     int general_walk;               /* 1: every hit through the general walk, none through the SIMD
                                      * step (splitting.c, step_fast; same bits: tests compare) */
+    const vbnl_vl_support *support; /* by index rank: the support test's data (vl_support.h);
+                                     * NULL: no test (the paper's rule) */
 } vbnl_split_desc;
 
 /* Bytes of the private 32-bit incident maps photon splitting allocates for a set whose maps take
@@ -190,6 +196,8 @@ typedef struct vbnl_split_stats {
     uint64_t covered_hits;  /* hits that deposited into at least one VL */
     uint64_t deposits;      /* VL deposits (<= max_vls per covered hit) */
     uint64_t overflow;      /* hits with more than VBNL_SPLIT_QUERY_MAX containing spheres */
+    uint64_t support_tests; /* hits whose VLs took the support test's rays (vl_support.h) */
+    uint64_t support_rejects; /* VLs that a hit's support test removed */
     uint64_t covered_power[3]; /* sum of the quantised photon power of covered hits (fixed point) */
     uint64_t scratch_bytes; /* memory of the run beyond index and profiles: per-thread sums, batches */
     double seconds;

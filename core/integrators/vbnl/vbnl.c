@@ -36,6 +36,7 @@
 #include "vl_file.h"
 #include "vl_index.h"
 #include "vl_shade.h"
+#include "vl_support.h"
 
 static const char *const elim_modes[] = {"adaptive", "uniform", "none", NULL};
 static const char *const sampling_modes[] = {"mis", "power", "bsdf", NULL};
@@ -68,6 +69,9 @@ static const vbnl_param_spec vbnl_params_spec[] = {
     {"n_max", VBNL_PARAM_FLOAT, 80, NULL, 0, 1e9, NULL, "Eq. 9: above this many lights per footprint, use lights only"},
     {"disk_test", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL,
      "skip power samples whose ray misses the light's disk without tracing (§5)"},
+    {"support_test", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL,
+     "a light takes photons from, and lights, only the points of its sphere that share its air up to its "
+     "radius (vl_support.h); off: every point of the sphere, as Eq. 3. A loaded light set keeps its own"},
     {"max_depth", VBNL_PARAM_INT, -1, NULL, -1, 1e6, NULL, "longest camera path in bounces; -1 = unlimited"},
     {"rr_depth", VBNL_PARAM_INT, 3, NULL, 0, 1e6, NULL, "bounces before Russian roulette starts"},
     {"save_lights", VBNL_PARAM_STRING, 0, "", 0, 0, NULL,
@@ -108,7 +112,7 @@ typedef struct vbnl_state {
     float dot_scale;
     float log_rmin, log_rmax;            /* view=lights: the colour ramp's range */
     uint32_t profile_res;
-    int lazy, sampling, extension, disk_test, max_depth, rr_depth, indirect_only;
+    int lazy, sampling, extension, disk_test, support_test, max_depth, rr_depth, indirect_only;
     float n_min, n_max;
     uint32_t off_vl, off_wv, off_depth, stride;
     vec3 cam_forward;
@@ -119,6 +123,7 @@ typedef struct vbnl_state {
     vbnl_profile_set *profiles;
     vbnl_profile_kernel **kernels;   /* per scene material (NULL where no light sits) */
     vbnl_vl_shade shade;             /* what rendering reads per light, by rank (vl_shade.h) */
+    vbnl_vl_support *support;        /* by rank: the support test's data (vl_support.h), or NULL */
     int prepared;
 } vbnl_state;
 
@@ -160,6 +165,7 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     s->n_min = (float)param(env, "n_min");
     s->n_max = (float)param(env, "n_max");
     s->disk_test = param(env, "disk_test") != 0.0;
+    s->support_test = param(env, "support_test") != 0.0;
     s->max_depth = (int)param(env, "max_depth");
     s->rr_depth = (int)param(env, "rr_depth");
     s->indirect_only = param(env, "indirect_only") != 0.0;
@@ -254,6 +260,7 @@ static void vbnl_destroy(void *state)
     vbnl_vl_index_destroy(s->index);
     vbnl_vl_shade_free(&s->shade);
     vbnl_vl_set_free(&s->vls);
+    free(s->support);
     free(s->save_path);
     free(s->load_path);
     free(s);
@@ -317,6 +324,28 @@ static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
     return VBNL_OK;
 }
 
+/* Which lights take the support test (vl_support.h), a stage of its own after the set exists. */
+static vbnl_result build_support(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    if (!s->support_test || s->vls.count == 0)
+        return VBNL_OK;
+    uint32_t n = s->vls.count;
+    if (!(s->support = malloc(sizeof(*s->support) * n)))
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
+    if (stage)
+        vbnl_stage_begin(stage, "support", n, "lights");
+    vbnl_vl_support_stats st;
+    vbnl_result r = vbnl_vl_support_build(s->scene, &s->vls, s->index, stage, NULL, s->support, &st);
+    if (stage) {
+        vbnl_stage_set_work(stage, (double)st.rays, "rays");
+        vbnl_stage_end(stage);
+    }
+    if (r != VBNL_OK)
+        return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "the support probes were cancelled"
+                                                              : "out of memory for the support probes");
+    return VBNL_OK;
+}
+
 /* Stages 1-3: placement, elimination, photon splitting of this process's photon range. */
 static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
@@ -336,7 +365,7 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     free(glossy);
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
-    if ((r = setup_lights(s, err)) != VBNL_OK)
+    if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)
         return r;
 
     /* 3. photon splitting: paths [photon_first, photon_first + count) of the photon_paths that
@@ -355,6 +384,7 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     sd.path_count = count;
     sd.seed = s->pp.seed;
     sd.normal_cos = VL_NORMAL_COS;
+    sd.support = s->support;
     vbnl_split_stats sst;
     r = vbnl_split_photons(&sd, NULL, stage, &sst);
     if (stage) {
@@ -379,6 +409,7 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
         h.elimination = (uint32_t)s->pp.elimination;
         h.radius_scale = s->pp.radius_scale;
         h.material_count = sc->material_count;
+        h.flags = s->support ? VBNL_VL_FILE_SUPPORT_TEST : 0u;
         if ((r = vbnl_vl_file_save(s->save_path, &h, &s->vls, s->profiles, err)) != VBNL_OK)
             return r;
     }
@@ -406,7 +437,8 @@ static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_
     s->pp.seed = d.header.seed;
     s->pp.elimination = (vbnl_elim_mode)d.header.elimination;
     s->pp.radius_scale = d.header.radius_scale;
-    if ((r = setup_lights(s, err)) != VBNL_OK)
+    s->support_test = (d.header.flags & VBNL_VL_FILE_SUPPORT_TEST) != 0; /* as the photons were split */
+    if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)
         return r;
     if (s->save_path) { /* e.g. several photon ranges summed into one file */
         d.header.fingerprint = vbnl_scene_fingerprint(s->scene);
@@ -434,7 +466,8 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
         vbnl_stage_end(stage);
     /* the render records with the power alias table; when no light received any photon, only
      * path extension remains (shade.n = 0) */
-    r = rc == 0 ? vbnl_vl_shade_build(&s->shade, &s->vls, s->index, s->profiles, s->kernels, cj.power) : VBNL_OK;
+    r = rc == 0 ? vbnl_vl_shade_build(&s->shade, &s->vls, s->index, s->profiles, s->kernels, cj.power,
+                                            s->support) : VBNL_OK;
     free(cj.power);
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "profile conversion was cancelled");
@@ -454,6 +487,29 @@ static inline float vl_pdf(const vbnl_state *s, uint32_t j, vec3 x)
 {
     const vbnl_vl_shade_rec *e = &s->shade.rec[j];
     return e->pmf * pdf_uniform_cone(vbnl_vl_shade_cone_cos(e, x));
+}
+
+/* Which lobes of the BSDF at x gather virtual lights (the rest continue the camera path, §3.1):
+ * all of them, only the diffuse one (a near-specular coat or microfacet lobe), or none. */
+enum { GATHER_ALL = 0, GATHER_DIFFUSE = 1, GATHER_NONE = 2 };
+static inline int gather_lobes(const vbnl_state *s, const vbnl_bsdf *b)
+{
+    if (vbnl_bsdf_is_delta(b))
+        return GATHER_NONE;
+    if (!vbnl_lobe_is_near_specular(b, VBNL_LOBE_GLOSSY, s->pp.specular_roughness) ||
+        !(vbnl_bsdf_lobes(b) & VBNL_LOBE_GLOSSY))
+        return GATHER_ALL;
+    return b->type == VBNL_MATERIAL_PLASTIC ? GATHER_DIFFUSE : GATHER_NONE;
+}
+
+/* The density with which x's BSDF sampling gathers at direction wi: the BSDF pdf p_b, or the
+ * diffuse lobe's share of it when the other lobe continues the path. The virtual-light part of
+ * x's estimate is then the integral of f L_vl w_v (p_g / p_b): power samples carry the factor
+ * p_g / p_b and both strategies weigh each other with p_g (Eq. 5), so that the light a
+ * near-specular lobe's continued path brings is not counted by power samples a second time. */
+static inline float gather_pdf(int lobes, const vbnl_bsdf *b, vec3 wo, vec3 wi, float p_b)
+{
+    return lobes == GATHER_ALL ? p_b : lobes == GATHER_DIFFUSE ? vbnl_bsdf_pdf_diffuse(b, wo, wi) : 0.0f;
 }
 
 /* Eq. 9 with the footprint of Eq. 7. */
@@ -492,35 +548,62 @@ static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, co
     f.wi = v3_neg(w);
     f.normal_cos = VL_NORMAL_COS;
     f.facing = 1;
-    if (nc <= VL_CAND_MAX) {
-        uint32_t m = 0;
-        for (uint32_t k = 0; k < nc; ++k) {
-            const vbnl_vl_shade_rec *e = &s->shade.rec[cand[k]];
-            double d2;
-            if (vbnl_vl_contains(e->position, e->radius, y->p, &d2) && vbnl_vl_filter_passes(&f, e->normal)) {
-                if (m == VL_GATHER_MAX)
-                    goto capped;
+    uint32_t m = 0;
+    float tmax = 0.0f; /* the largest support test height among them */
+    int overflow = nc > VL_CAND_MAX;
+    for (uint32_t k = 0; k < nc && !overflow; ++k) {
+        const vbnl_vl_shade_rec *e = &s->shade.rec[cand[k]];
+        double d2;
+        if (vbnl_vl_contains(e->position, e->radius, y->p, &d2) && vbnl_vl_filter_passes(&f, e->normal) &&
+            (!s->support || e->material == y->material)) {
+            overflow = m == VL_GATHER_MAX;
+            if (!overflow) {
                 ranks[m++] = cand[k];
+                tmax = e->support > tmax ? e->support : tmax;
             }
         }
-        return m;
     }
-capped:;
-    vbnl_vl_found found[VL_GATHER_MAX];
-    uint32_t n = vbnl_vl_index_query_found(s->index, y->p, &f, VL_GATHER_MAX, found);
-    n = n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
-    for (uint32_t k = 0; k < n; ++k)
-        ranks[k] = found[k].rank;
-    return n;
+    if (overflow) {
+        vbnl_vl_found found[VL_GATHER_MAX];
+        uint32_t n = vbnl_vl_index_query_found(s->index, y->p, &f, VL_GATHER_MAX, found);
+        n = n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
+        m = 0;
+        tmax = 0.0f;
+        for (uint32_t k = 0; k < n; ++k) {
+            const vbnl_vl_shade_rec *e = &s->shade.rec[found[k].rank];
+            if (s->support && e->material != y->material)
+                continue;
+            ranks[m++] = found[k].rank;
+            tmax = e->support > tmax ? e->support : tmax;
+        }
+    }
+    if (!(tmax > 0.0f))
+        return m;
+    /* the support test (vl_support.h) of the lights that need it, one open height for all */
+    const float hy = vbnl_vl_support_height(s->scene, y->p, f.n, tmax);
+    uint32_t kept = 0;
+    for (uint32_t k = 0; k < m; ++k) {
+        const vbnl_vl_shade_rec *e = &s->shade.rec[ranks[k]];
+        if (e->support > 0.0f &&
+            !vbnl_vl_support_passes(s->scene, y->p, f.n, hy, e->position, e->normal, e->support))
+            continue;
+        ranks[kept++] = ranks[k];
+    }
+    return kept;
 }
 
-/* True when light e may shine at y toward x (same filter as gather). */
-static int accepts(const vbnl_vl_shade_rec *e, const vbnl_hit *y, vec3 w)
+/* True when light e may shine at y toward x (the filter and support test of gather). */
+static int accepts(const vbnl_state *s, const vbnl_vl_shade_rec *e, const vbnl_hit *y, vec3 w)
 {
     if (v3_len2(v3_sub(y->p, e->position)) >= e->radius * e->radius)
         return 0;
     vec3 n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng);
-    return v3_dot(e->normal, n) > VL_NORMAL_COS && v3_dot(e->normal, w) < 0.0f;
+    if (!(v3_dot(e->normal, n) > VL_NORMAL_COS && v3_dot(e->normal, w) < 0.0f) ||
+        (s->support && e->material != y->material))
+        return 0;
+    return !(e->support > 0.0f) ||
+           vbnl_vl_support_passes(s->scene, y->p, n, vbnl_vl_support_height(s->scene, y->p, n, e->support),
+                                  e->position, e->normal, e->support);
 }
 
 static inline void add_vl(float *out, const vbnl_state *s, vec3 c)
@@ -549,17 +632,18 @@ typedef struct power_sample {
     const vbnl_vl_shade_rec *e;
     vec3 w, wl, f;
     float p_j;
-    int usable;
+    int usable, lobes;
 } power_sample;
 
 static void power_draw(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 x,
-                       uint32_t pick, vbnl_sampler *sp, power_sample *ps)
+                       uint32_t pick, int lobes, vbnl_sampler *sp, power_sample *ps)
 {
     const vbnl_vl_shade_rec *e = &s->shade.rec[pick];
     vec2 uc = vbnl_sampler_next2(sp);
     vec3 to = v3_sub(e->position, x);
     ps->e = e;
     ps->usable = 0;
+    ps->lobes = lobes;
     /* Picks that cannot contribute, rejected before the cone is sampled (17% and 11% of them on
      * the glossy Cornell box): with the disk pre-test, x behind the light's plane (any ray
      * meeting the disk then arrives at its back, which emits nothing); at an opaque surface, a
@@ -614,14 +698,16 @@ static void power_trace(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_s
     float t_exit = disc > 0.0f ? (b + sqrtf(disc)) * 1.001f + 1e-4f * e->radius : INFINITY;
     vbnl_hit y;
     stats->rays++;
-    if (vbnl_scene_intersect_inline(s->scene, org, w, t_exit, &y) && accepts(e, &y, w)) {
+    if (vbnl_scene_intersect_inline(s->scene, org, w, t_exit, &y) && accepts(s, e, &y, w)) {
         float p_b = vbnl_bsdf_pdf(bsdf, sf->wo, ps->wl);
-        float mis = s->sampling == SAMPLE_MIS ? power_heuristic(ps->p_j, p_b) : 1.0f;
+        float p_g = gather_pdf(ps->lobes, bsdf, sf->wo, ps->wl, p_b);
+        float share = ps->lobes == GATHER_ALL ? 1.0f : p_b > 0.0f ? p_g / p_b : 0.0f;
+        float mis = s->sampling == SAMPLE_MIS ? power_heuristic(ps->p_j, p_g) : 1.0f;
         float wv = blend_weight(s, x, &y, w, p_b, e->density);
-        if (wv > 0.0f)
+        if (wv > 0.0f && share > 0.0f)
             add_vl(out, s,
                    v3_scale(v3_mul(v3_mul(beta, ps->f), vbnl_vl_shade_radiance(e, s->profiles, s->kernels, w)),
-                            mis * wv / ps->p_j));
+                            mis * wv * share / ps->p_j));
     }
 }
 
@@ -712,7 +798,8 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
                 vbnl_vl_index_lookup_begin(s->index, y.p, &lk);
         }
 
-        const int power_x = !delta && power_on;
+        const int lobes_x = gather_lobes(s, bsdf);
+        const int power_x = lobes_x != GATHER_NONE && power_on;
         uint32_t rank_x = power_x ? vbnl_vl_shade_pick_finish(&s->shade, pick_x) : 0;
         /* Direct light from the real lights: next-event estimation with MIS. */
         if (!delta && !drop_direct)
@@ -723,7 +810,7 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
          * its direction and its ray. */
         power_sample ps = {0};
         if (power_x)
-            power_draw(s, bsdf, &sf, x, rank_x, sp, &ps);
+            power_draw(s, bsdf, &sf, x, rank_x, lobes_x, sp, &ps);
         uint32_t cand[VL_CAND_MAX], nc = 0;
         if (gather_y)
             nc = gather_candidates(s, &lk, cand);
@@ -758,11 +845,13 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
                         lit[k] = (uint8_t)vbnl_vl_shade_radiance_begin(&s->shade.rec[ranks[k]], s->profiles, w,
                                                                        &looks[k]);
                     vec3 sum = v3s(0.0f);
+                    const float p_g =
+                        s->sampling == SAMPLE_MIS ? gather_pdf(lobes_x, bsdf, sf.wo, bs.wi, bs.pdf) : 0.0f;
                     for (uint32_t k = 0; k < n; ++k) {
                         if (!lit[k])
                             continue;
                         uint32_t j = ranks[k];
-                        float mis = s->sampling == SAMPLE_MIS ? power_heuristic(bs.pdf, vl_pdf(s, j, x)) : 1.0f;
+                        float mis = s->sampling == SAMPLE_MIS ? power_heuristic(p_g, vl_pdf(s, j, x)) : 1.0f;
                         vec3 L = vbnl_vl_shade_radiance_end(&s->shade.rec[j], s->profiles, s->kernels, &looks[k]);
                         sum = v3_add(sum, v3_scale(L, mis));
                     }

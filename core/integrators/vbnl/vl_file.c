@@ -67,6 +67,7 @@ static void header_encode(unsigned char b[VBNL_VL_FILE_HEADER_SIZE], const vbnl_
     put(b, 80, &h->elimination, 4);
     put(b, 84, &h->radius_scale, 4);
     put(b, 88, &h->material_count, 4);
+    put(b, 92, &h->flags, 4);
 }
 
 static void header_decode(const unsigned char *b, vbnl_vl_file_header *h, uint32_t *count, uint32_t *glossy)
@@ -86,6 +87,7 @@ static void header_decode(const unsigned char *b, vbnl_vl_file_header *h, uint32
     get(b, 80, &h->elimination, 4);
     get(b, 84, &h->radius_scale, 4);
     get(b, 88, &h->material_count, 4);
+    get(b, 92, &h->flags, 4);
 }
 
 /* ---- writing ------------------------------------------------------------------------------ */
@@ -358,7 +360,7 @@ static int same_set(const vbnl_vl_file_data *a, const vbnl_vl_file_data *b)
     size_t n = a->vls.count;
     if (x->fingerprint != y->fingerprint || x->virtual_lights != y->virtual_lights ||
         x->profile_resolution != y->profile_resolution || x->photon_paths != y->photon_paths ||
-        x->unit != y->unit || x->seed != y->seed || a->vls.count != b->vls.count)
+        x->unit != y->unit || x->seed != y->seed || x->flags != y->flags || a->vls.count != b->vls.count)
         return 0;
     return !memcmp(a->vls.position, b->vls.position, sizeof(vec3) * n) &&
            !memcmp(a->vls.normal, b->vls.normal, sizeof(vec3) * n) &&

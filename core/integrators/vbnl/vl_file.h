@@ -6,7 +6,7 @@
  * traces a disjoint range of the same total photon_paths; splitting.h) and summed exactly with
  * vbnl_profile_set_merge, because incident power is 64-bit fixed point.
  *
- * ---- Format, version 2 (byte offsets; numbers in the writer's byte order) -------------------
+ * ---- Format, version 3 (byte offsets; numbers in the writer's byte order) -------------------
  *
  *   0   8  magic "VBNLVLS\0"
  *   8   4  u32 format version (VBNL_VL_FILE_VERSION)
@@ -24,7 +24,8 @@
  *  80   4  u32 elimination mode (vbnl_elim_mode; informative)
  *  84   4  f32 radius_scale alpha_r (informative)
  *  88   4  u32 material_count of the scene
- *  92   4  u32 reserved, 0
+ *  92   4  u32 flags: bit 0 (VBNL_VL_FILE_SUPPORT_TEST) when splitting applied the support test
+ *          (vl_support.h; new in version 3, whose photon data differ from version 2's)
  *  96      arrays, each count long unless said otherwise:
  *          positions (3 x f32), normals (3 x f32), materials (u32), texture tints
  *          (3 x f32, vl_set.h; new in version 2), radii (f32),
@@ -66,9 +67,10 @@
 #include "vbnl/result.h"
 #include "vl_set.h"
 
-#define VBNL_VL_FILE_VERSION 2u
+#define VBNL_VL_FILE_VERSION 3u
 #define VBNL_VL_FILE_MAGIC "VBNLVLS"  /* 8 bytes with its terminating NUL */
 #define VBNL_VL_FILE_HEADER_SIZE 96u
+#define VBNL_VL_FILE_SUPPORT_TEST 1u /* flags: photons split with the support test */
 #define VBNL_VL_FILE_HASH_INIT 0xcbf29ce484222325ull
 
 /* The preparation parameters stored with a set. */
@@ -84,6 +86,7 @@ typedef struct vbnl_vl_file_header {
     uint32_t elimination;
     float radius_scale;
     uint32_t material_count;
+    uint32_t flags;               /* VBNL_VL_FILE_SUPPORT_TEST */
 } vbnl_vl_file_header;
 
 /* Writes the set (h, vls and the incident data of `profiles`, whose VL count and unit must match)

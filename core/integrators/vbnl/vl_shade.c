@@ -5,7 +5,7 @@
 
 vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, const vbnl_vl_index *index,
                                 vbnl_profile_set *profiles, vbnl_profile_kernel *const *kernels,
-                                const float *power)
+                                const float *power, const vbnl_vl_support *support)
 {
     memset(out, 0, sizeof(*out));
     uint32_t n = set->count;
@@ -43,6 +43,7 @@ vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, cons
         e->density = set->density[id];
         e->slot = vbnl_profile_slot(profiles, id);
         e->material = set->material[id];
+        e->support = support ? support[r].tau : 0.0f;
         if (e->slot != VBNL_PROFILE_NO_SLOT) {
             e->radiance = v3_scale(set->tint[id], inv_area);
         } else {

@@ -29,6 +29,7 @@
 #include "vbnl/result.h"
 #include "vl_index.h"
 #include "vl_set.h"
+#include "vl_support.h"
 #include "vmath.h"
 
 typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
@@ -40,7 +41,9 @@ typedef struct __attribute__((aligned(64))) vbnl_vl_shade_rec {
     float pmf;         /* probability of power-based selection */
     uint32_t slot;     /* glossy: its emission map (vbnl_profile_slot); Lambertian: VBNL_PROFILE_NO_SLOT */
     uint32_t material; /* its material (a glossy light's conversion kernel) */
+    float support;     /* the support test's height tau_j, 0 when clear (vl_support.h) */
 } vbnl_vl_shade_rec;
+_Static_assert(sizeof(vbnl_vl_shade_rec) == 64, "vbnl_vl_shade_rec: one cache line");
 
 /* One slot of the power-selection alias table: its acceptance probability and the other rank. */
 typedef struct vbnl_vl_alias {
@@ -58,12 +61,13 @@ typedef struct vbnl_vl_shade {
 } vbnl_vl_shade;
 
 /* Builds the records of the n = set->count lights: power[id] is each light's emitted power
- * (selection weight), kernels[material] its conversion kernel. Lambertian radiance is read from
+ * (selection weight), kernels[material] its conversion kernel, support[rank] its support test
+ * data (vl_support.h; NULL: no light takes the test). Lambertian radiance is read from
  * the profiles now (no conversion needed); glossy profiles are left as they are. When every power
  * is zero, out->n = 0 and VBNL_OK. Errors: VBNL_ERR_OUT_OF_MEMORY. */
 vbnl_result vbnl_vl_shade_build(vbnl_vl_shade *out, const vbnl_vl_set *set, const vbnl_vl_index *index,
                                 vbnl_profile_set *profiles, vbnl_profile_kernel *const *kernels,
-                                const float *power);
+                                const float *power, const vbnl_vl_support *support);
 void vbnl_vl_shade_free(vbnl_vl_shade *t);
 size_t vbnl_vl_shade_bytes(const vbnl_vl_shade *t);
 
