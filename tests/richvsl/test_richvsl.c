@@ -339,15 +339,13 @@ static vbnl_scene *cornell(vbnl_context *ctx)
 /* The Cornell box: the mean of the indirect-only image against the path tracer's 'indirect'
  * layer, averaged over four light sets (seeds 2..5): one light set samples the heavy tail near
  * the 1/d^2 singularity in the corners once, and its mean varies by several per cent from seed to
- * seed (spheres -2.8% to -8.9%, points -0.2% to -6.2% over seeds 2..7, before and after the
- * sampling change of stop 16). The P_RS-weighted
- * emission is energy-consistent in expectation, so the point form (radius_scale = 0, unclamped)
+ * seed (spheres -2.8% to -8.9%, points -0.2% to -6.2% over seeds 2..7), so a single seed
+ * says little: seed 2 alone gives -2.8% and -0.2%. The P_RS-weighted emission is energy-consistent in expectation, so the point form (radius_scale = 0, unclamped)
  * keeps the total up to that variance and the gathering bias at corners: within 4% (measured
  * over the four sets -3.1%). The sphere term removes light from receivers closer than r to a
  * light and adds a little farther out; the net loss grows with r: with r = the 10th-neighbour
  * distance (radius_scale = 1) within 8% (measured -6.3%); the default radius_scale = 4 loses
- * about 18% at 3000 lights (README). (Until the sampling change of stop 16 this test used seed 2
- * alone, a lucky set: -2.8% and -0.2%.) */
+ * about 18% at 3000 lights (README). */
 static void test_cornell_indirect_energy(void **state)
 {
     (void)state;

@@ -1,5 +1,6 @@
 /* `richvsl`: Rich-VPLs with importon-driven placement, relaxation and the spherical variant
- * (Simon, Hanika, Dachsbacher 2015; notes: shared/design/baselines-notes.md §2.5).
+ * (Simon, Hanika, Dachsbacher 2015, "Rich-VPLs for Improving the Versatility of Many-Light
+ * Methods").
  *
  * prepare: importon map (importons per pixel, §4.1) -> photon map (q photons per light) ->
  *          importance W at every photon (Epanechnikov K-NN estimate) -> one Bernoulli trial per

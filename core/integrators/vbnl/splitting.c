@@ -18,7 +18,7 @@
 /* Left-packing of 8 lanes by a mask (AVX2 has no compress): entry m holds, 4 bits per lane, the
  * indexes of the set bits of m in ascending order (then zeros). compress_idx turns it into the
  * vpermd index vector, so 8 lanes are packed with one permute and one store instead of a loop
- * over the set bits (its exits were mispredicted: the counts vary from hit to hit). */
+ * over the set bits (whose exits mispredict: the counts vary from hit to hit). */
 static const uint32_t compress_lut[256] = {
     0x00000000, 0x00000000, 0x00000001, 0x00000010, 0x00000002, 0x00000020, 0x00000021, 0x00000210,
     0x00000003, 0x00000030, 0x00000031, 0x00000310, 0x00000032, 0x00000320, 0x00000321, 0x00003210,
@@ -434,9 +434,8 @@ static inline __attribute__((always_inline)) void transpose8(__m256i r[8])
  * contraction) but across the lanes: the frame and the footprint in float lanes, the split of
  * each channel in two vectors of four 64-bit lanes, and the parts' low halves turned into each
  * lane's two rows (splat_rows) by 8 x 8 transposes. A lane whose parts reach 2^31 (two parts of
- * a row lane could then pass 2^32 together) takes the general form. Measured on the glossy box
- * (bench_splitting, 2 threads, alternated with one splat at a time): splitting 1.53-1.55 ->
- * 1.32-1.41 s; callgrind: ~170 instructions per splat with its apply, the whole run -5.5%. */
+ * a row lane could then pass 2^32 together) takes the general form. About 170 instructions per
+ * splat with its apply (callgrind, glossy box). */
 static __attribute__((noinline)) void splat_queue_run(const split_job *job, split_thread *t)
 {
     splat_queue *sq = &t->sq;
@@ -1284,13 +1283,10 @@ static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
  * hit, visit, bounce, trace again). With several paths in flight their rays go to Embree
  * together as one 8-wide packet (rtcIntersect8; independent directions, so Embree's hybrid
  * traversal), and the hits that are the common case (below) are set up, recorded and bounced
- * eight at a time in SIMD; the others one after another by the general walk. Measured on the
- * Cornell box (bench_splitting, 2 threads): photon tracing alone 0.73 -> 0.62 s per 2M paths
- * with packets, splitting 1.10 -> 1.01 s; the same eight paths traced with rtcIntersect1 one
- * after another gained nothing, and 16 or 24 paths in flight no more than 8; the SIMD step then
- * 0.60 -> 0.52 s tracing alone, 1.02 -> 0.91 s splitting (callgrind: the walk's own work 500 ->
- * 170 instructions per hit); plastic and conductor hits in the step too: glossy box tracing
- * alone 0.96-0.99 -> 0.89-0.92 s. Paths keep their
+ * eight at a time in SIMD; the others one after another by the general walk. The packet is what
+ * gains (eight paths in flight traced with rtcIntersect1 one ray after another are no faster
+ * than one path at a time), and 16 or 24 paths in flight are no faster than 8; in the SIMD step the walk's own
+ * work is ~170 instructions per hit (callgrind, Cornell box). Paths keep their
  * own streams, a ray's answer does not depend on its packet mates, the SIMD step computes the
  * general walk's values bit for bit (same operations in the same order; this file is compiled
  * without contracted multiply-adds), and the deposits are integer sums, so neither the order

@@ -48,9 +48,8 @@
  *   - A work item traces `chunk` photon paths and records every non-delta hit (position,
  *     facing normal, wi, flux; 64 bytes, one cache line) in its thread's batch
  *     (vbnl_split_batch_hits), which it deposits when full. A batch spans work items (a larger
- *     batch deposits more hits into each VL and glossy map while they are in cache: the glossy
- *     box 5-8% faster with four items' hits per batch than with one); the last `threads` work
- *     items deposit their thread's batch before they return, and what a thread still holds
+ *     batch deposits more hits into each VL and glossy map while they are in cache); the last
+ *     `threads` work items deposit their thread's batch before they return, and what a thread still holds
  *     after the run (its last item came earlier) is deposited by the caller.
  *   - Bins: when the index is one dense grid level (uniform radii, the common case) the hit's
  *     cell and its point in the cell's quantisation frame are computed when the hit is recorded
@@ -88,8 +87,8 @@
  *     (splat_queue_run): the frame, the footprint of vbnl_hemioct_footprint and the exact
  *     integer parts of vbnl_profile_splat_prepare_lo32 across the eight, then per row one 8-lane
  *     32-bit add over texels x0 and x0 + 1 (a row whose lane wraps past 2^32 is redone lane by
- *     lane with the carry; parts of 2^31 or more take the general form): the same bits, the
- *     glossy box's splitting 9-13% faster than one splat at a time.
+ *     lane with the carry; parts of 2^31 or more take the general form): the same bits as one
+ *     splat at a time.
  *   The VLs that share a hit and their weights are exactly those of the rules above; only the
  *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
  *   normalised weights may differ in the last bit from an id-ordered sum; either is a
@@ -102,26 +101,15 @@
  *   (slower, same bits); the 32-bit glossy maps add threads x half the set's incident maps
  *   (2 x 60 MB on the glossy-floor box with 2 threads).
  *   Each thread keeps eight paths in flight and traces their current rays as one rtcIntersect8
- *   packet (splitting.c, SPLIT_LANES). Packets of consecutive rays of one path, or of recorded
- *   photon rays, were no faster than rtcIntersect1 (an earlier measurement); packets of eight
- *   independent paths are: photon tracing alone 15% faster on the Cornell box, the same
- *   answers bit for bit.
- * Measured (tests/vbnl/bench_splitting.c: Cornell box, 100K VLs, uniform radii; callgrind,
- * 20K paths, 1 thread, per photon hit): ~2100 instructions, of which Embree ~730, the walk
- * ~700 (vector maths of the hit and bounce, the RNG, the batch record with its cell and bin)
- * and the deposit ~680 (the quantised pre-test of ~21 listings ~170, the exact test, filters
- * and weights ~100, the split and sums ~100, the pipeline and the sort). Loops whose trip counts
- * vary from hit to hit cost more than their arithmetic (presumably their mispredicted exits; the
- * VM it was measured on has no branch counters): prefetching four listing blocks and eight
- * candidates at once, whatever their counts, and storing every pre-test block packed made the
- * whole run 8-10% faster. Measured and not kept: depositing the previous batch one
- * pipeline step per traced hit (to overlap its misses with Embree), batches of 4K to 1M hits,
- * cells of 1 to 2 r, fixed 8-lane splits, prefetch distances of 3 to 8 hits, no sort (all
- * within noise on the Cornell box; the sort helps the glossy box), plain instead of atomic
- * adds into the glossy maps (within noise then; with the slot and normal reads gone, private
- * copies with plain adds and the slot in the sums' line took the glossy box's splitting from
- * 2.25 to 1.96 s, medians of four alternated pairs).
- * Half the raw Embree rate needs the walk and the deposit together below Embree's own cost. */
+ *   packet (splitting.c, SPLIT_LANES). Packets of eight independent paths are faster than
+ *   rtcIntersect1 one ray at a time (packets of consecutive rays of one path are not), with
+ *   the same answers bit for bit.
+ *   Loops whose trip counts vary from hit to hit cost more than their arithmetic (presumably
+ *   their mispredicted exits; the VM the benchmarks run on has no branch counters), so the
+ *   cell pipeline prefetches four listing blocks and eight candidates at once, whatever their
+ *   counts, and stores every pre-test block packed.
+ * Half the raw Embree rate needs the walk and the deposit together below Embree's own cost
+ * (tests/vbnl/bench_splitting.c; figures in docs/performance.md). */
 #ifndef VBNL_SPLITTING_H
 #define VBNL_SPLITTING_H
 

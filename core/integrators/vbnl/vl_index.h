@@ -13,25 +13,21 @@
  *                         every cell its bounding box overlaps (<= 8 cells per sphere for
  *                         cell_scale >= 2, <= 27 for 1). A query reads one cell per non-empty
  *                         class. Cells are a dense array when there are few enough, else an
- *                         open-addressing hash of the occupied cells. The default (faster; see
- *                         the benchmark tests/vbnl/bench_splitting.c: 2.7x the Embree variant
- *                         in photon splitting; cell_scale 1 was 11 % slower than 2 there, with
- *                         3x the memory).
+ *                         open-addressing hash of the occupied cells. The default (faster in
+ *                         photon splitting, tests/vbnl/bench_splitting.c; cell_scale 1 is
+ *                         slower than 2 there and takes 3x the memory).
  *   VBNL_VL_INDEX_EMBREE  an Embree BVH over the spheres' bounding boxes (user geometry) walked
  *                         by rtcPointQuery with a zero-radius query.
  *
  * Levels (grid): adaptive elimination (Eq. 2) gives radii over a few powers of two, and the
  * classes start at the smallest radius, so one outlier makes a class of its own: the Cornell
- * box's 75K VLs made 5 levels (1, 10K, 64K, 1.2K and 13 spheres), the door scene's 100K 7. A
- * query then reads a cell per level, and photon splitting, whose fast paths need one dense level
- * (splitting.h), fell back to plain queries. So by default (VBNL_VL_INDEX_LEVELS_AUTO) all
- * spheres go into one level with the cells of the most populated class (smaller spheres are
+ * box's 75K VLs fall into 5 classes (1, 10K, 64K, 1.2K and 13 spheres), the door scene's 100K
+ * into 7. With a level per class a query reads a cell per level, and photon splitting, whose
+ * fast paths need one dense level (splitting.h), takes plain queries. So by default
+ * (VBNL_VL_INDEX_LEVELS_AUTO) all spheres go into one level with the cells of the most populated class (smaller spheres are
  * listed in <= 8 of its cells, larger ones in more) when that level holds at most
  * VBNL_VLI_ONE_LEVEL_LISTINGS (2) times the listings of the classes; otherwise one level per
- * class. Measured (vbnl render, 4M photon paths, 100K VLs requested, 2 threads): photon
- * splitting 4.39 -> 2.44 s on the Cornell box, 6.86 -> 4.97 s on the glossy box, 9.72 ->
- * 6.56 s on the door scene; the render's gathers no slower; index 5.7 -> 7.7 MB (glossy),
- * 9.3 -> 8.9 MB (door). Answers are the same either way (only the order in which candidates are
+ * class. Answers are the same either way (only the order in which candidates are
  * met changes, which callers that sum in that order see in the last bit).
  *
  * Output order: ids ascending (never dependent on build or traversal details). When more than
@@ -45,14 +41,11 @@
  * 64-byte line (8 quantised spheres, then their 8 ranks: a candidate's rank arrives with the
  * line its pre-test read). Every cell's listings start on a block boundary and fill whole
  * blocks (padding listings that the pre-test rejects for every point of the cell), so a query
- * reads whole blocks without lane masks: Cornell box splitting ~2% faster (0.80 -> 0.78 s,
- * four alternated pairs), the glossy box ~2-3%, for the padding's memory (index 5.2 -> 5.6 MB
- * and 7.4 -> 8.5 MB there). A query pre-tests the
- * quantised copies, 8 at a time with AVX2, with a bound that only rejects spheres certainly not
+ * reads whole blocks without lane masks, at the cost of the padding's memory. A query
+ * pre-tests the quantised copies, 8 at a time with AVX2, with a bound that only rejects spheres certainly not
  * containing p (quantisation error and float rounding included), and runs the exact test of
  * vbnl_vl_contains on the few that remain, so answers are exact. A sphere costs
- * 36 + 8 x (cells it overlaps) bytes, plus the padding (<= 100 at the default cell size; the
- * earlier layout copied the 32-byte record into every cell: up to 284), and the spheres found
+ * 36 + 8 x (cells it overlaps) bytes, plus the padding (<= 100 at the default cell size), and the spheres found
  * by queries at nearby points lie next to each other in memory. Callers that keep per-sphere data (photon
  * splitting's sums) can index it by rank for the same locality, and can sort query points by
  * vbnl_vl_index_spatial_key, the Morton code the ranks come from. The Embree variant keeps id
