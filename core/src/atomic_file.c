@@ -165,10 +165,51 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
     f->fd = -1;
     f->slot = -1;
     f->path = path;
-    size_t n = strlen(path);
-    f->tmp_path = malloc(n + sizeof(".tmp-XXXXXX"));
-    if (!f->tmp_path)
+    f->target = NULL;
+    f->tmp_path = NULL;
+    /* What the rename will replace: a link's file, never the link; nothing but a regular file. */
+    struct stat st;
+    int replaces = 0;
+    mode_t keep_mode = 0;
+    if (lstat(path, &st) == 0) {
+        if (S_ISLNK(st.st_mode)) {
+            f->target = realpath(path, NULL);
+            if (!f->target) {
+                int e = errno;
+                return vbnl_error_set(err, e == ENOMEM ? VBNL_ERR_OUT_OF_MEMORY : VBNL_ERR_IO,
+                                      e == ENOENT ? "cannot write '%s': it is a symbolic link to a missing file"
+                                                  : "cannot write '%s': %s",
+                                      path, strerror(e));
+            }
+            if (stat(f->target, &st) != 0) {
+                int e = errno;
+                free(f->target);
+                f->target = NULL;
+                return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+            }
+        }
+        if (!S_ISREG(st.st_mode)) {
+            free(f->target);
+            f->target = NULL;
+            return vbnl_error_set(err, VBNL_ERR_IO,
+                                  S_ISDIR(st.st_mode) ? "cannot write '%s': it is a folder"
+                                                      : "cannot write '%s': not a regular file (a device, FIFO or "
+                                                        "socket is never replaced)",
+                                  path);
+        }
+        replaces = 1;
+        keep_mode = st.st_mode & 0777;
+    }
+    if (!f->target && !(f->target = strdup(path)))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot write '%s': out of memory", path);
+    const char *target = f->target;
+    size_t n = strlen(target);
+    f->tmp_path = malloc(n + sizeof(".tmp-XXXXXX"));
+    if (!f->tmp_path) {
+        free(f->target);
+        f->target = NULL;
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot write '%s': out of memory", path);
+    }
 
     /* Not mkstemp: it creates mode 0600, and restoring 0666 & ~umask would need the process-wide
      * umask() (racy between threads). O_EXCL with our own suffix applies the umask naturally. */
@@ -186,12 +227,14 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
         vbnl_restore_signals(&old);
         free(f->tmp_path);
         f->tmp_path = NULL;
+        free(f->target);
+        f->target = NULL;
         return vbnl_abandoned_error(err, path);
     }
     int e = EEXIST;
     for (int attempt = 0; attempt < 100 && e == EEXIST; attempt++) {
         uint64_t r = vbnl_mix64(seed + (uint64_t)attempt);
-        memcpy(f->tmp_path, path, n);
+        memcpy(f->tmp_path, target, n);
         memcpy(f->tmp_path + n, ".tmp-", 5);
         for (int i = 0; i < 6; i++, r /= 62)
             f->tmp_path[n + 5 + i] = digits[r % 62];
@@ -210,7 +253,15 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
     if (f->fd < 0) {
         free(f->tmp_path);
         f->tmp_path = NULL;
+        free(f->target);
+        f->target = NULL;
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+    }
+    /* A replaced file keeps its permission bits (the umask applies only to new files). */
+    if (replaces && fchmod(f->fd, keep_mode) != 0) {
+        int ce = errno;
+        vbnl_atomic_file_discard(f);
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(ce));
     }
     return VBNL_OK;
 }
@@ -241,12 +292,14 @@ vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err)
         f->slot = -1;
         free(f->tmp_path);
         f->tmp_path = NULL;
+        free(f->target);
+        f->target = NULL;
         return vbnl_abandoned_error(err, f->path);
     }
     int e = 0;
     if (atomic_load(&g_abandoned))
         e = -1; /* the walk started after we took the slot: nothing may be renamed into place now */
-    else if (rename(f->tmp_path, f->path) != 0)
+    else if (rename(f->tmp_path, f->target) != 0)
         e = errno;
     if (e != 0)
         unlink(f->tmp_path);
@@ -255,6 +308,8 @@ vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err)
     f->slot = -1;
     free(f->tmp_path);
     f->tmp_path = NULL;
+    free(f->target);
+    f->target = NULL;
     if (e < 0)
         return vbnl_abandoned_error(err, f->path);
     if (e > 0)
@@ -280,4 +335,6 @@ void vbnl_atomic_file_discard(vbnl_atomic_file *f)
         free(f->tmp_path);
         f->tmp_path = NULL;
     }
+    free(f->target);
+    f->target = NULL;
 }

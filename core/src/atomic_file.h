@@ -2,10 +2,14 @@
  * the core's virtual-light files (vl_file.c) and the plugin's EXR and PNG images alike, so that one
  * signal-safe table knows every temporary file in progress.
  *
- * A write creates "<path>.tmp-XXXXXX" next to `path` (same folder, so the rename is atomic) with
- * O_EXCL (concurrent writers never share one) and mode 0666 & ~umask; the caller writes through
- * `fd`; commit fsyncs, closes and renames it over `path`. On any failure the temporary is removed
- * and an existing file at `path` stays as it was: a reader never sees a half-written file.
+ * A write creates "<target>.tmp-XXXXXX" next to its target (same folder, so the rename is atomic)
+ * with O_EXCL (concurrent writers never share one); the caller writes through `fd`; commit fsyncs,
+ * closes and renames it over the target. On any failure the temporary is removed and an existing
+ * file stays as it was: a reader never sees a half-written file. The target is `path`, or, when
+ * `path` is a symbolic link, the file it names (the link stays a link). Only regular files are
+ * replaced: an existing directory, device, FIFO or socket at the target is refused before
+ * anything is created (an output never turns /dev/null into a file). A new file gets mode
+ * 0666 & ~umask; a replaced one keeps its permission bits (a 0600 file stays 0600).
  *
  * While it exists, a temporary is listed in a fixed table of at most 16 (more are written
  * untracked), so that vbnl_atomic_file_abandon_all can remove it from a signal handler (the
@@ -33,12 +37,14 @@ extern "C" {
 typedef struct vbnl_atomic_file {
     int fd;           /* -1 when not open */
     char *tmp_path;   /* malloc'ed */
-    const char *path; /* borrowed from the caller of open */
+    const char *path; /* borrowed from the caller of open: the name messages use */
+    char *target;     /* malloc'ed: the file the rename replaces (path, or what its link names) */
     int slot;         /* its entry in the table of temporaries, -1 when untracked */
 } vbnl_atomic_file;
 
 /* Creates the temporary file. On failure nothing needs discarding: VBNL_ERR_IO ("cannot write
- * '<path>': <errno text>"), VBNL_ERR_OUT_OF_MEMORY or VBNL_ERR_CANCELLED. */
+ * '<path>': <errno text>", "... not a regular file", "... a symbolic link to a missing file"),
+ * VBNL_ERR_OUT_OF_MEMORY or VBNL_ERR_CANCELLED. */
 vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_error *err);
 /* fsyncs, closes and renames the temporary file over `path`; on failure behaves like discard. */
 vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err);

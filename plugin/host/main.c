@@ -9,9 +9,10 @@
  * <executable>/../<libdir>/vbnl (an installed tree, wherever it was moved), in the configured
  * install directory.
  *
- * Ctrl-C during a render: the first stops it after the tiles in flight and the partial image is
- * written (exit 130); the second ends the process at once from the signal handler (exit 130),
- * after the module's abandon_writes has removed the temporary file of a write under way. */
+ * Ctrl-C (or SIGTERM, SIGHUP) during a render: the first stops it after the tiles in flight and
+ * the partial image is written (exit 130); the second ends the process at once from the signal
+ * handler (exit 130), after the module's abandon_writes has removed the temporary file of a write
+ * under way. An output never names the scene, a --load-lights file or another output. */
 #include <dlfcn.h>
 #include <errno.h>
 #include <getopt.h>
@@ -23,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -60,6 +62,77 @@ static void on_sigint(int sig)
             abandon();
         _exit(VBNL_EXIT_INTERRUPTED);
     }
+}
+
+/* ---- outputs that never replace an input or each other ----------------------------------------- */
+
+/* The file `p` names: its canonical path when it exists, else its folder's canonical path and its
+ * name (a file about to be created). -1 when the folder does not exist either. */
+static int canonical_path(const char *p, char *out, size_t n)
+{
+    char buf[PATH_MAX], a[PATH_MAX], b[PATH_MAX];
+    if (realpath(p, buf)) {
+        snprintf(out, n, "%s", buf);
+        return 0;
+    }
+    snprintf(a, sizeof(a), "%s", p);
+    snprintf(b, sizeof(b), "%s", p);
+    if (!realpath(dirname(a), buf))
+        return -1;
+    const char *base = basename(b);
+    size_t lb = strlen(buf), ln = strlen(base);
+    if (lb + 1 + ln >= n)
+        return -1;
+    memcpy(out, buf, lb);
+    out[lb] = '/';
+    memcpy(out + lb + 1, base, ln + 1);
+    return 0;
+}
+
+/* True when `a` and `b` name one file: the same inode when both exist (links and hard links
+ * included), else the same canonical path. */
+static int same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
+        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char ca[PATH_MAX], cb[PATH_MAX];
+    return canonical_path(a, ca, sizeof(ca)) == 0 && canonical_path(b, cb, sizeof(cb)) == 0 && !strcmp(ca, cb);
+}
+
+/* 0 when no output (name[i], path[i], NULL paths skipped) names the scene, one of the ':'-separated
+ * --load-lights files, or another output; else prints why and returns -1. */
+static int outputs_distinct(const char *const name[3], const char *const path[3], const char *scene,
+                            const char *load_lights)
+{
+    for (int i = 0; i < 3; ++i) {
+        if (!path[i])
+            continue;
+        if (same_file(path[i], scene)) {
+            fprintf(stderr, "vbnl render: %s '%s' is the scene file; an output never replaces an input\n", name[i],
+                    path[i]);
+            return -1;
+        }
+        if (load_lights) {
+            char list[PATH_MAX * 2];
+            snprintf(list, sizeof(list), "%s", load_lights);
+            for (char *save = NULL, *f = strtok_r(list, ":", &save); f; f = strtok_r(NULL, ":", &save))
+                if (same_file(path[i], f)) {
+                    fprintf(stderr,
+                            "vbnl render: %s '%s' is the --load-lights file '%s'; an output never replaces an "
+                            "input\n",
+                            name[i], path[i], f);
+                    return -1;
+                }
+        }
+        for (int j = 0; j < i; ++j)
+            if (path[j] && same_file(path[i], path[j])) {
+                fprintf(stderr, "vbnl render: %s '%s' and %s '%s' name the same file; give each output its own\n",
+                        name[j], path[j], name[i], path[i]);
+                return -1;
+            }
+    }
+    return 0;
 }
 
 /* ---- loading the plugin ------------------------------------------------------------------------ */
@@ -318,7 +391,7 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
         {"ocio", required_argument, 0, 'O'}, {"png-bits", required_argument, 0, 'b'},
         {"crop", required_argument, 0, 'C'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     const vbnl_plugin_api *api = pl->api;
-    const char *exr = NULL, *png = NULL, *save_lights = NULL;
+    const char *exr = NULL, *png = NULL, *save_lights = NULL, *load_lights = NULL;
     char *sets[MAX_SETS], lights_buf[2][PATH_MAX + 16];
     const char *set_where[MAX_SETS];
     int nsets = 0, half = 0, quiet = 0, spp_given = 0, time_given = 0;
@@ -355,6 +428,8 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
                      optarg);
             if (c == 'L')
                 save_lights = optarg;
+            else
+                load_lights = optarg;
             sets[nsets] = lights_buf[c == 'L'];
             set_where[nsets++] = c == 'L' ? "--save-lights" : "--load-lights";
             break;
@@ -460,6 +535,9 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     /* Refuse what cannot work before any heavy work: unwritable outputs first (within the first
      * second), then options, parameters, the scene, the colour view. */
     const char *outs[3] = {exr, png, save_lights};
+    const char *const out_names[3] = {"-o", "--png", "--save-lights"};
+    if (outputs_distinct(out_names, outs, scene_path, load_lights) != 0)
+        return VBNL_EXIT_USAGE;
     for (int i = 0; i < 3; ++i)
         if (outs[i] && api->check_writable(outs[i], msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
             fprintf(stderr, "vbnl render: %s\n", msg);
@@ -511,6 +589,8 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     memset(&sa, 0, sizeof(sa));
     sa.sa_handler = on_sigint;
     sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL); /* a host's stop button (Blender sends SIGTERM) */
+    sigaction(SIGHUP, &sa, NULL);  /* the terminal closed */
     const char *pause = getenv("VBNL_TEST_PAUSE");
     progress_state ps = {quiet, isatty(STDERR_FILENO), -1e9, "", 0, pause && !strcmp(pause, "interrupt")};
     res = api->prepare(r, on_progress, &ps, msg, sizeof(msg));

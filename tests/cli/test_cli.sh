@@ -95,6 +95,43 @@ cmp -s "$TMP/r1.png" "$TMP/r2.png" && ok "random sampler: 1 and 2 threads give i
 cmp -s "$TMP/t1.png" "$TMP/r1.png" && not_ok "the sampler changes the image" || ok "the sampler changes the image"
 $HDR "$TMP/r1.exr" | grep -qF "vbnl/sampler=random" && ok "EXR header has vbnl/sampler=random" || not_ok "EXR header has vbnl/sampler=random"
 
+# Outputs never replace an input or each other, never turn a device or FIFO into a file, write
+# through symbolic links and keep a replaced file's permissions.
+cp "$TMP/s.pov" "$TMP/keep.pov"
+expect "an output that is the scene is refused" 2 "-o '.*keep.pov' is the scene file" -- "$VBNL" render "$TMP/keep.pov" -o "$TMP/keep.pov" -q
+cmp -s "$TMP/s.pov" "$TMP/keep.pov" && ok "the scene is untouched" || not_ok "the scene is untouched"
+ln -sf keep.pov "$TMP/keep-link.exr"
+expect "an output linked to the scene is refused" 2 "is the scene file" -- "$VBNL" render "$TMP/keep.pov" -o "$TMP/keep-link.exr" -q
+expect "two outputs naming one file are refused" 2 "-o '.*same.out' and --png '.*same.out' name the same file" -- "$VBNL" render "$SCENE" -o "$TMP/same.out" --png "$TMP/./same.out" -q
+expect "an output that is a --load-lights file is refused" 2 "is the --load-lights file" -- "$VBNL" render "$SCENE" --integrator vbnl --load-lights "$TMP/a.vls:$TMP/b.vls" -o "$TMP/b.vls" -q
+mkfifo "$TMP/fifo"
+expect "a FIFO output is refused" 1 "not a regular file" -- "$VBNL" render "$SCENE" -o "$TMP/fifo" --spp 1 --width 8 --height 8 -q
+[ -p "$TMP/fifo" ] && ok "the FIFO stays a FIFO" || not_ok "the FIFO stays a FIFO"
+echo old > "$TMP/private.exr"
+chmod 600 "$TMP/private.exr"
+ln -sf private.exr "$TMP/private-link.exr"
+"$VBNL" render "$SCENE" -o "$TMP/private-link.exr" --spp 1 --width 8 --height 8 -q
+if [ -L "$TMP/private-link.exr" ] && [ "$(stat -c %a "$TMP/private.exr")" = 600 ] && $HDR "$TMP/private.exr" >/dev/null 2>&1; then
+    ok "writing through a link replaces its file, keeps the link and the file's mode"
+else
+    not_ok "writing through a link replaces its file, keeps the link and the file's mode" "$(ls -l "$TMP"/private*)"
+fi
+
+# SIGTERM (a host's stop button) and SIGHUP behave as Ctrl-C: the partial image is written.
+for sig in TERM HUP; do
+    "$VBNL" render "$SCENE" -o "$TMP/sig$sig.exr" --width 64 --height 64 --spp 1000000 -q &
+    pid=$!
+    sleep 1.5
+    kill -$sig $pid
+    wait $pid
+    rc=$?
+    if [ $rc -eq 130 ] && $HDR "$TMP/sig$sig.exr" | grep -q "vbnl/partial=1" && ! ls "$TMP" | grep -q "tmp-"; then
+        ok "SIG$sig writes a partial image and exits 130"
+    else
+        not_ok "SIG$sig writes a partial image and exits 130" "exit $rc" "$(ls "$TMP")"
+    fi
+done
+
 # Ctrl-C: stops, writes what it has with vbnl/partial=1, exits 130.
 "$VBNL" render "$SCENE" -o "$TMP/int.exr" --png "$TMP/int.png" --width 64 --height 64 --spp 1000000 -q &
 pid=$!
