@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pov_files.h"
 #include "pov_loader.h"
 #include "sdl_internal.h"
 #include "vbnl/integrator.h"
@@ -14,6 +15,50 @@ typedef struct integrator_block {
     const vbnl_integrator_class *cls;
     char owner[96]; /* "integrator 'name'" in messages */
 } integrator_block;
+
+/* `list` (one path, or load_lights' "a:b:...") with each path resolved next to the naming file;
+ * -1 after reporting the first refused one at `loc`. */
+static int path_list(const char *list, const vbnl_sdl_loc *loc, pov_file_use use, const char *kname,
+                     vbnl_sdl_parser *p, char **out)
+{
+    size_t cap = 1, len = 0;
+    char *acc = malloc(1);
+    if (!acc)
+        return vbnl_sdl_error(p, loc, "out of memory"), -1;
+    acc[0] = '\0';
+    for (const char *c = list;;) {
+        size_t n = use == POV_FILE_READ ? strcspn(c, ":") : strlen(c);
+        char *one = strndup(c, n);
+        const char *why = "out of memory";
+        char *r = one ? pov_file_resolve(loc, one, use, &why) : NULL;
+        if (!r) {
+            vbnl_sdl_error(p, loc, "%s '%s' is %s", kname, one ? one : "", why);
+            free(one);
+            free(acc);
+            return -1;
+        }
+        free(one);
+        size_t rl = strlen(r);
+        char *grown = realloc(acc, cap + rl + 1);
+        if (!grown) {
+            free(r);
+            free(acc);
+            return vbnl_sdl_error(p, loc, "out of memory"), -1;
+        }
+        acc = grown;
+        cap += rl + 1;
+        if (len)
+            acc[len++] = ':';
+        memcpy(acc + len, r, rl + 1);
+        len += rl;
+        free(r);
+        if (!c[n])
+            break;
+        c += n + 1;
+    }
+    *out = acc;
+    return 0;
+}
 
 /* One `key value` pair, validated on its own against the integrator's parameters so that an
  * error points at the pair; the kept setting carries the pair's file:line:col as its origin. */
@@ -33,11 +78,20 @@ static int integrator_pair(const pov_item *it)
         return -1;
     char where[512];
     snprintf(where, sizeof where, "%s:%d:%d", key.loc.file ? key.loc.file : "", key.loc.line, key.loc.col);
+    /* A scene's file parameters name files in its own folder (pov_files.h). */
+    char *resolved = NULL;
+    if (v.kind == VBNL_SDL_STRING && v.u.str.s[0] && (!strcmp(kname, "save_lights") || !strcmp(kname, "load_lights")) &&
+        path_list(v.u.str.s, &key.loc, !strcmp(kname, "save_lights") ? POV_FILE_WRITE : POV_FILE_READ, kname, p,
+                  &resolved) != 0) {
+        vbnl_sdl_value_clear(p, &v);
+        return -1;
+    }
+    const char *sval = v.kind == VBNL_SDL_STRING ? (resolved ? resolved : v.u.str.s) : NULL;
     vbnl_params *one = NULL;
     vbnl_result r = vbnl_params_create(&one, &e);
     if (r == VBNL_OK) {
         if (v.kind == VBNL_SDL_STRING)
-            r = vbnl_params_set_string(one, kname, v.u.str.s, NULL, &e);
+            r = vbnl_params_set_string(one, kname, sval, NULL, &e);
         else if (v.kind == VBNL_SDL_FLOAT)
             r = vbnl_params_set_number(one, kname, v.v[0], NULL, &e);
         else
@@ -47,10 +101,11 @@ static int integrator_pair(const pov_item *it)
     if (r == VBNL_OK)
         r = vbnl_params_validate(one, ib->cls->params, ib->cls->param_count, ib->owner, &e);
     if (r == VBNL_OK)
-        r = v.kind == VBNL_SDL_STRING ? vbnl_params_set_string(L->params, kname, v.u.str.s, where, &e)
+        r = v.kind == VBNL_SDL_STRING ? vbnl_params_set_string(L->params, kname, sval, where, &e)
                                       : vbnl_params_set_number(L->params, kname, v.v[0], where, &e);
     vbnl_params_destroy(one);
     vbnl_sdl_value_clear(p, &v);
+    free(resolved);
     if (r != VBNL_OK) {
         vbnl_sdl_error(p, &key.loc, "%s", e.message);
         return -1;

@@ -1,9 +1,11 @@
 /* vbnl object layer: vbnl_mesh { "file" [modifiers] }, a mesh file read through assimp when the
- * scene is built (a vbnl extension; the file is found next to the scene file that names it). */
+ * scene is built (a vbnl extension; the file is found next to the scene file that names it,
+ * never outside its folder: pov_files.h). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "pov_files.h"
 #include "pov_shape.h"
 
 vbnl_result pov_shape_vbnl_mesh(const pov_shape *s)
@@ -18,28 +20,14 @@ vbnl_result pov_shape_vbnl_mesh(const pov_shape *s)
         free(name);
         return vbnl_sdl_error(p, &sl, "vbnl_mesh: file access is disabled");
     }
-    char *path;
-    const char *slash = strrchr(sl.file ? sl.file : "", '/');
-    if (name[0] == '/' || !slash) {
-        path = strdup(name);
-    } else {
-        size_t dl = (size_t)(slash - sl.file) + 1;
-        path = malloc(dl + strlen(name) + 1);
-        if (path) {
-            memcpy(path, sl.file, dl);
-            strcpy(path + dl, name);
-        }
-    }
-    free(name);
-    if (!path)
-        return pov_oom(L);
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        vbnl_result r = vbnl_sdl_error(p, &sl, "vbnl_mesh: cannot open '%s'", path);
-        free(path);
+    const char *why = NULL;
+    char *path = pov_file_resolve(&sl, name, POV_FILE_READ, &why);
+    if (!path) {
+        vbnl_result r = vbnl_sdl_error(p, &sl, "vbnl_mesh: '%s' is %s", name, why);
+        free(name);
         return r;
     }
-    fclose(f);
+    free(name);
     pov_prim *pr = pov_obj_add(s->o, POV_PRIM_IMPORT, s->loc);
     if (!pr) {
         free(path);

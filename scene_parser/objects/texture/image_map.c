@@ -1,12 +1,13 @@
 /* vbnl object layer, texture part: image_map { [png] "file.png" [map_type 0|1|2] [once]
  * [interpolate n] }. The PNG is read with libpng (next to the file that names it, then in the
- * POV-Ray include folders, then as given), once per file, and its sRGB values made linear. */
+ * POV-Ray include folders), once per file, and its sRGB values made linear. */
 #include <math.h>
 #include <png.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "pov_files.h"
 #include "pov_texture.h"
 
 static float srgb_to_linear(float v)
@@ -14,28 +15,34 @@ static float srgb_to_linear(float v)
     return v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f);
 }
 
-/* Finds `name` next to the file that names it, then in the POV-Ray include folders, else as
- * given; loads it once. Returns its index in the state's images, -1 after an error. */
+/* Finds `name` next to the file that names it (pov_files.h: never outside that folder), then in
+ * the POV-Ray include folders; loads it once. Returns its index in the state's images, -1 after
+ * an error. */
 static int load_image(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc)
 {
     pov_texture_state *s = c->tex;
     char path[POV_PATH_MAX];
     path[0] = '\0';
-    if (name[0] != '/' && loc->file) {
-        const char *slash = strrchr(loc->file, '/');
-        if (slash) {
-            int n = snprintf(path, sizeof(path), "%.*s/%s", (int)(slash - loc->file), loc->file, name);
-            FILE *f = n > 0 && (size_t)n < sizeof(path) ? fopen(path, "rb") : NULL;
-            if (f)
-                fclose(f);
-            else
-                path[0] = '\0';
+    if (pov_file_name_escapes(name)) {
+        const char *why = NULL;
+        free(pov_file_resolve(loc, name, POV_FILE_READ, &why));
+        vbnl_sdl_error(c->parser, loc, "image_map: '%s' is %s", name, why ? why : "outside the scene's folder");
+        return -1;
+    }
+    const char *why = NULL;
+    char *near = pov_file_resolve(loc, name, POV_FILE_READ, &why);
+    if (near) {
+        int n = snprintf(path, sizeof(path), "%s", near);
+        free(near);
+        if (n < 0 || (size_t)n >= sizeof(path)) {
+            vbnl_sdl_error(c->parser, loc, "image file name too long");
+            return -1;
         }
     }
-    /* then the standard POV-Ray include folders (POV-Ray's library path) */
+    /* then the standard POV-Ray include folders (POV-Ray's library path, readable by any scene) */
     static const char *const libs[] = {"/usr/share/povray-3.7/include", "/usr/share/povray/include",
                                        "/usr/local/share/povray-3.7/include"};
-    for (size_t i = 0; !path[0] && name[0] != '/' && i < sizeof(libs) / sizeof(libs[0]); ++i) {
+    for (size_t i = 0; !path[0] && i < sizeof(libs) / sizeof(libs[0]); ++i) {
         int n = snprintf(path, sizeof(path), "%s/%s", libs[i], name);
         FILE *f = n > 0 && (size_t)n < sizeof(path) ? fopen(path, "rb") : NULL;
         if (f)
@@ -44,11 +51,8 @@ static int load_image(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc)
             path[0] = '\0';
     }
     if (!path[0]) {
-        if (strlen(name) >= sizeof(path)) {
-            vbnl_sdl_error(c->parser, loc, "image file name too long");
-            return -1;
-        }
-        strcpy(path, name);
+        vbnl_sdl_error(c->parser, loc, "image_map: '%s' is %s", name, why ? why : "a file that does not exist");
+        return -1;
     }
     for (uint32_t i = 0; i < s->image_count; ++i)
         if (!strcmp(s->images[i].path, path))

@@ -1,6 +1,8 @@
 /* The object layer around the shapes: camera framing, light mapping, the integrator block,
  * background, error messages of malformed inputs, and a small render of
  * examples/cornell-box.pov. */
+#include <unistd.h>
+
 #include "pov_test.h"
 #include "vbnl/integrator.h"
 
@@ -224,7 +226,46 @@ static void test_errors(void **state)
         assert_string_equal(err.message, "test.pov:3:4097: nesting too deep (more than 512 levels of expressions, blocks or directives)");
         free(deep);
     }
-    expect_error(BASE "vbnl_mesh { \"no-such-file.obj\" }", "test.pov:3:13: vbnl_mesh: cannot open 'no-such-file.obj'");
+    expect_error(BASE "vbnl_mesh { \"no-such-file.obj\" }",
+                 "test.pov:3:13: vbnl_mesh: 'no-such-file.obj' is a file that does not exist");
+}
+
+/* A scene is untrusted: the files it names (read or written) lie in its own folder. */
+static void test_scene_files(void **state)
+{
+    (void)state;
+    expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"/tmp/x.vls\" } }",
+                 "test.pov:3:39: save_lights '/tmp/x.vls' is an absolute path: a scene names files inside its own "
+                 "folder (give other paths on the command line)");
+    expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"a/../../x.vls\" } }",
+                 "test.pov:3:39: save_lights 'a/../../x.vls' is a path that leaves the scene's folder ('..'): a scene "
+                 "names files inside its own folder");
+    expect_error(BASE "global_settings { integrator { \"vbnl\" load_lights \"/etc/passwd:a.vls\" } }",
+                 "test.pov:3:39: load_lights '/etc/passwd' is an absolute path: a scene names files inside its own "
+                 "folder (give other paths on the command line)");
+    expect_error(BASE "vbnl_mesh { \"/etc/passwd\" }",
+                 "test.pov:3:13: vbnl_mesh: '/etc/passwd' is an absolute path: a scene names files inside its own "
+                 "folder (give other paths on the command line)");
+    expect_error(BASE "sphere { 0, 1 pigment { image_map { png \"../x.png\" } } }",
+                 "test.pov:3:41: image_map: '../x.png' is a path that leaves the scene's folder ('..'): a scene names "
+                 "files inside its own folder");
+    /* a link inside the folder that leads out of it */
+    char cwd[4096];
+    assert_non_null(getcwd(cwd, sizeof(cwd)));
+    char dir[] = "/tmp/vbnl_scene_files_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    assert_int_equal(chdir(dir), 0);
+    assert_int_equal(symlink("/etc/passwd", "mesh.obj"), 0);
+    expect_error(BASE "vbnl_mesh { \"mesh.obj\" }",
+                 "test.pov:3:13: vbnl_mesh: 'mesh.obj' is a path that a symbolic link carries out of the scene's folder");
+    assert_int_equal(symlink("/tmp/elsewhere.vls", "out.vls"), 0);
+    expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"out.vls\" } }",
+                 "test.pov:3:39: save_lights 'out.vls' is a symbolic link: a scene writes only plain files in its "
+                 "own folder");
+    unlink("mesh.obj");
+    unlink("out.vls");
+    assert_int_equal(chdir(cwd), 0);
+    rmdir(dir);
 }
 
 /* ---- a render of the example ------------------------------------------------------------------- */
@@ -294,6 +335,7 @@ int main(void)
         cmocka_unit_test(test_integrator_block),
         cmocka_unit_test(test_background),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_scene_files),
         cmocka_unit_test(test_render_cornell),
     };
     return cmocka_run_group_tests(tests, pov_t_setup, pov_t_teardown);
