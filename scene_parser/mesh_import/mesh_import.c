@@ -1,11 +1,21 @@
-/* Mesh import through assimp's C API. */
+/* Mesh import through assimp's C API. A mesh file is untrusted input: assimp reads only through
+ * the file functions below, which open nothing outside the mesh file's folder (an OBJ's mtllib,
+ * a glTF's buffers and images), the imported data are validated before any other step uses
+ * them, and a PLY file must be large enough for the elements its header declares. */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE
+#endif
+#include <assimp/cfileio.h>
 #include <assimp/cimport.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <limits.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "vbnl/mesh_import.h"
 
@@ -84,6 +94,117 @@ static void map_material(const struct aiMaterial *m, int two_sided, vbnl_materia
     *emissive = max3(d->emission) > 0.0f;
 }
 
+/* ---- files: what assimp may open ---------------------------------------------------------------- */
+
+typedef struct mesh_io {
+    char dir[PATH_MAX];      /* the canonical folder of the mesh file */
+    char refused[PATH_MAX];  /* the first file asked for outside it, or "" */
+} mesh_io;
+
+static FILE *io_fp(struct aiFile *f) { return (FILE *)(void *)f->UserData; }
+static size_t io_read(struct aiFile *f, char *buf, size_t size, size_t count) { return fread(buf, size, count, io_fp(f)); }
+static size_t io_write(struct aiFile *f, const char *buf, size_t size, size_t count)
+{
+    (void)f;
+    (void)buf;
+    (void)size;
+    (void)count;
+    return 0; /* import never writes */
+}
+static size_t io_tell(struct aiFile *f)
+{
+    long t = ftell(io_fp(f));
+    return t < 0 ? 0 : (size_t)t;
+}
+static size_t io_size(struct aiFile *f)
+{
+    struct stat st;
+    return fstat(fileno(io_fp(f)), &st) == 0 ? (size_t)st.st_size : 0;
+}
+static enum aiReturn io_seek(struct aiFile *f, size_t off, enum aiOrigin origin)
+{
+    int whence = origin == aiOrigin_SET ? SEEK_SET : origin == aiOrigin_CUR ? SEEK_CUR : SEEK_END;
+    return fseek(io_fp(f), (long)off, whence) == 0 ? aiReturn_SUCCESS : aiReturn_FAILURE;
+}
+static void io_flush(struct aiFile *f) { (void)f; }
+
+static int io_inside(const char *dir, const char *path)
+{
+    size_t n = strlen(dir);
+    return !strncmp(path, dir, n) && (path[n] == '/' || (n == 1 && dir[0] == '/'));
+}
+
+static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char *mode)
+{
+    mesh_io *m = (mesh_io *)(void *)io->UserData;
+    if (strpbrk(mode, "wa+"))
+        return NULL;
+    char real[PATH_MAX];
+    if (!realpath(name, real))
+        return NULL; /* absent: the importer says what it missed */
+    if (!io_inside(m->dir, real)) {
+        if (!m->refused[0])
+            snprintf(m->refused, sizeof(m->refused), "%s", name);
+        return NULL;
+    }
+    FILE *fp = fopen(real, "rb");
+    struct aiFile *f = fp ? calloc(1, sizeof(*f)) : NULL;
+    if (!f) {
+        if (fp)
+            fclose(fp);
+        return NULL;
+    }
+    f->ReadProc = io_read;
+    f->WriteProc = io_write;
+    f->TellProc = io_tell;
+    f->FileSizeProc = io_size;
+    f->SeekProc = io_seek;
+    f->FlushProc = io_flush;
+    f->UserData = (aiUserData)(void *)fp;
+    return f;
+}
+
+static void io_close(struct aiFileIO *io, struct aiFile *f)
+{
+    (void)io;
+    if (f) {
+        fclose(io_fp(f));
+        free(f);
+    }
+}
+
+/* A PLY header's element counts against the file's size: every element takes at least one byte
+ * in a binary file and two ("0\n") in an ASCII one, so a header that declares more elements than
+ * the file can hold is refused before assimp reserves memory for them. 0 when the file is not a
+ * PLY file or its counts fit. */
+static int ply_too_large(const char *path, unsigned long long *declared, unsigned long long *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    struct stat st;
+    char line[512];
+    int ply = fstat(fileno(f), &st) == 0 && fgets(line, sizeof(line), f) && !strncmp(line, "ply", 3);
+    unsigned long long total = 0;
+    int ascii = 0;
+    for (int k = 0; ply && k < 10000 && fgets(line, sizeof(line), f); ++k) {
+        unsigned long long n;
+        char name[128];
+        if (!strncmp(line, "format ascii", 12))
+            ascii = 1;
+        else if (sscanf(line, "element %127s %llu", name, &n) == 2)
+            total = total + n < total ? ~0ull : total + n;
+        else if (!strncmp(line, "end_header", 10))
+            break;
+    }
+    fclose(f);
+    if (!ply)
+        return 0;
+    *declared = total;
+    *size = (unsigned long long)st.st_size;
+    return total > *size / (ascii ? 2u : 1u);
+}
+
 vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mesh_import_options *opt,
                              vbnl_mesh_import_stats *stats, vbnl_error *err)
 {
@@ -93,9 +214,38 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
     memset(&defaults, 0, sizeof(defaults));
     if (!opt)
         opt = &defaults;
-    const struct aiScene *ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                                                      aiProcess_PreTransformVertices |
-                                                      aiProcess_SortByPType);
+    unsigned long long declared = 0, size = 0;
+    if (ply_too_large(path, &declared, &size))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "cannot import '%s': its header declares %llu elements, more than its %llu bytes hold",
+                              path, declared, size);
+    mesh_io m;
+    m.refused[0] = '\0';
+    {
+        char dir[PATH_MAX];
+        snprintf(dir, sizeof(dir), "%s", path);
+        char *slash = strrchr(dir, '/');
+        if (slash)
+            *(slash == dir ? slash + 1 : slash) = '\0';
+        if (!realpath(slash ? dir : ".", m.dir))
+            return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': its folder cannot be read", path);
+    }
+    struct aiFileIO io = {io_open, io_close, (aiUserData)(void *)&m};
+    /* ValidateDataStructure runs first: an index past the vertices is an error, not a read
+     * outside the arrays by the steps after it. */
+    const struct aiScene *ai =
+        aiImportFileEx(path,
+                       aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                           aiProcess_PreTransformVertices | aiProcess_SortByPType,
+                       &io);
+    if (m.refused[0]) {
+        if (ai)
+            aiReleaseImport(ai);
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "cannot import '%s': it names '%s', outside its folder (a mesh file reads only the "
+                              "files beside it)",
+                              path, m.refused);
+    }
     if (!ai)
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': %s", path, aiGetErrorString());
     vbnl_result r = VBNL_OK;

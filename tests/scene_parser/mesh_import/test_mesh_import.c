@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "scene_internal.h"
@@ -159,6 +160,60 @@ static void test_errors(void **state)
     vbnl_context_destroy(ctx);
 }
 
+/* Mesh files are untrusted: bad indices are errors, headers cannot ask for unbounded memory, and a
+ * mesh file reads nothing outside its folder. */
+static void write_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+static void test_untrusted(void **state)
+{
+    (void)state;
+    vbnl_context *ctx;
+    vbnl_context_desc d = {1};
+    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_scene *s;
+    vbnl_scene_create(ctx, &s, NULL);
+    vbnl_error err = {0};
+    char p[700], sub[600];
+    static const char head[] = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                               "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                               "end_header\n0 0 0\n1 0 0\n0 1 0\n";
+    char text[512];
+    snprintf(p, sizeof(p), "%s/index.ply", g_dir);
+    snprintf(text, sizeof(text), "%s3 0 1 7\n", head);
+    write_file(p, text);
+    assert_int_not_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_OK);
+    assert_non_null(strstr(err.message, "out of range"));
+    snprintf(p, sizeof(p), "%s/huge.ply", g_dir);
+    write_file(p, "ply\nformat ascii 1.0\nelement vertex 1000000000\nproperty float x\nproperty float y\n"
+                  "property float z\nend_header\n0 0 0\n");
+    assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "declares 1000000000 elements"));
+    snprintf(p, sizeof(p), "%s/secret.mtl", g_dir);
+    write_file(p, "newmtl a\nKd 1 0 0\n");
+    snprintf(sub, sizeof(sub), "%s/sub", g_dir);
+    assert_int_equal(mkdir(sub, 0700), 0);
+    snprintf(p, sizeof(p), "%s/up.obj", sub);
+    write_file(p, "mtllib ../secret.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
+    assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "outside its folder"));
+    unlink(p);
+    snprintf(p, sizeof(p), "%s/secret.mtl", g_dir);
+    unlink(p);
+    snprintf(p, sizeof(p), "%s/index.ply", g_dir);
+    unlink(p);
+    snprintf(p, sizeof(p), "%s/huge.ply", g_dir);
+    unlink(p);
+    rmdir(sub);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
 int main(void)
 {
     snprintf(g_dir, sizeof(g_dir), "/tmp/vbnl-mesh-XXXXXX");
@@ -169,6 +224,7 @@ int main(void)
         cmocka_unit_test(test_cornell_original),
         cmocka_unit_test(test_material_mapping),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_untrusted),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     rmdir(g_dir);
