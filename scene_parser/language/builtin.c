@@ -224,16 +224,17 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         if (kw == VBNL_KW_strlen) { r = (double)len; break; }
         if (kw == VBNL_KW_val) { r = strtod(s, NULL); break; }
         if (kw == VBNL_KW_file_exists) {
+            /* only files a scene may read exist for it (sdl_path_readable) */
             struct stat st;
             char path[4096];
-            r = stat(s, &st) == 0;
+            r = stat(s, &st) == 0 && sdl_path_readable(p, s);
             if (!r && s[0] != '/' && p->scene_dir) {
                 snprintf(path, sizeof path, "%s/%s", p->scene_dir, s);
-                r = stat(path, &st) == 0;
+                r = stat(path, &st) == 0 && sdl_path_readable(p, path);
             }
             if (!r && s[0] != '/' && p->system_dir) {
                 snprintf(path, sizeof path, "%s/%s", p->system_dir, s);
-                r = stat(path, &st) == 0;
+                r = stat(path, &st) == 0 && sdl_path_readable(p, path);
             }
             break;
         }

@@ -263,6 +263,10 @@ void sdl_unread(vbnl_sdl_parser *p, const vbnl_sdl_token *tok);
 sdl_cond *sdl_cond_push(vbnl_sdl_parser *p, sdl_cond_kind kind, const vbnl_sdl_loc *loc);
 void sdl_cond_pop(vbnl_sdl_parser *p);
 sdl_file *sdl_find_include(vbnl_sdl_parser *p, const char *name, const vbnl_sdl_loc *loc);
+/* True when `path` lies in a folder a scene may read: the scene's own, an include folder given
+ * to the parser, or POV-Ray's (the system include folder), followed through links; a scene is
+ * untrusted input, kept to these as POV-Ray's default read restriction keeps it. */
+bool sdl_path_readable(const vbnl_sdl_parser *p, const char *path);
 int sdl_macro_depth(vbnl_sdl_parser *p);
 
 /* directive.c */

@@ -7,6 +7,7 @@
  * Nothing here recurses per macro level: depth costs C stack only through the expression parser,
  * which is bounded by limits.max_nesting. */
 #include <errno.h>
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -390,16 +391,44 @@ static void dirname_of(const char *path, char *out, size_t n)
         snprintf(out, n, "%.*s", (int)(slash - path), path);
 }
 
-/* Include search: the scene's folder, the including file's folder, user dirs, POV-Ray's. */
+static bool path_inside(const char *dir, const char *path)
+{
+    size_t n = strlen(dir);
+    return !strncmp(path, dir, n) && (path[n] == '/' || path[n] == '\0' || (n == 1 && dir[0] == '/'));
+}
+
+bool sdl_path_readable(const vbnl_sdl_parser *p, const char *path)
+{
+    char real[PATH_MAX], dir[PATH_MAX];
+    if (!realpath(path, real))
+        return false;
+    if (realpath(p->scene_dir ? p->scene_dir : ".", dir) && path_inside(dir, real))
+        return true;
+    for (int i = 0; i < p->nuser_dirs; i++)
+        if (realpath(p->user_dirs[i], dir) && path_inside(dir, real))
+            return true;
+    return p->system_dir && realpath(p->system_dir, dir) && path_inside(dir, real);
+}
+
+static const char outside_text[] =
+    "include file '%s' is outside the folders a scene may read (its own, the include path, POV-Ray's)";
+
+/* Include search: the scene's folder, the including file's folder, user dirs, POV-Ray's; only
+ * files inside the folders sdl_path_readable allows. */
 sdl_file *sdl_find_include(vbnl_sdl_parser *p, const char *name, const vbnl_sdl_loc *loc)
 {
     char path[4096], dirs[8][1024], list[2048] = "";
     int nd = 0;
     if (name[0] == '/') {
-        if (is_file(name))
-            return sdl_load_file(p, name, name);
-        sdl_errorf(p, loc, "cannot open include file '%s'", name);
-        return NULL;
+        if (!is_file(name)) {
+            sdl_errorf(p, loc, "cannot open include file '%s'", name);
+            return NULL;
+        }
+        if (!sdl_path_readable(p, name)) {
+            sdl_errorf(p, loc, outside_text, name);
+            return NULL;
+        }
+        return sdl_load_file(p, name, name);
     }
     const char *cand[64];
     int nc = 0;
@@ -425,8 +454,13 @@ sdl_file *sdl_find_include(vbnl_sdl_parser *p, const char *name, const vbnl_sdl_
             snprintf(path, sizeof path, "%s", name);
         else
             snprintf(path, sizeof path, "%s/%s", cand[i], name);
-        if (is_file(path))
+        if (is_file(path)) {
+            if (!sdl_path_readable(p, path)) {
+                sdl_errorf(p, loc, outside_text, name);
+                return NULL;
+            }
             return sdl_load_file(p, path, name);
+        }
         if (nd < 8)
             snprintf(dirs[nd++], sizeof dirs[0], "%s", cand[i]);
         size_t l = strlen(list);

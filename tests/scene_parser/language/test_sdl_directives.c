@@ -278,6 +278,20 @@ static void test_vbnl_version(void **state)
     vbnl_sdl_parser_destroy(p);
 }
 
+/* A scene reads only its own folder, the include path and POV-Ray's folder: an include outside is
+ * refused without reading it (its text never reaches a message), and file_exists does not see
+ * outside files. */
+static void test_reads_confined(void **state)
+{
+    (void)state;
+    sdl_t_expect_error("#include \"/etc/passwd\"\n",
+                       "test.pov:1:1: error: include file '/etc/passwd' is outside the folders a scene may read (its "
+                       "own, the include path, POV-Ray's)\n#include \"/etc/passwd\"\n^\n");
+    vbnl_sdl_parser *p = sdl_t_ok("#declare E = file_exists(\"/etc/passwd\");\n");
+    assert_float_equal(sdl_t_float(p, "E"), 0.0, 0.0);
+    vbnl_sdl_parser_destroy(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -287,6 +301,7 @@ int main(void)
         cmocka_unit_test(test_macros),              cmocka_unit_test(test_macro_scoping),
         cmocka_unit_test(test_macro_statement_text), cmocka_unit_test(test_include_and_search_path),
         cmocka_unit_test(test_standard_includes),   cmocka_unit_test(test_vbnl_version),
+        cmocka_unit_test(test_reads_confined),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

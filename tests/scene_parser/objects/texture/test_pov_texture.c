@@ -422,11 +422,14 @@ static void test_image_map(void **state)
     char png[256], text[1024];
     snprintf(png, sizeof(png), "%s/tex.png", dir);
     write_png(png);
+    /* the scene ("test.pov", in the working folder) names the image beside it */
+    char cwd[4096];
+    assert_non_null(getcwd(cwd, sizeof(cwd)));
+    assert_int_equal(chdir(dir), 0);
     snprintf(text, sizeof(text),
-             "object_test { pigment { image_map { png \"%s\" map_type 1 interpolate 2 once } } finish { diffuse 1 } }\n"
-             "object_test { pigment { image_map { \"%s\" } scale 2 } }\n"
-             "object_test { texture { uv_mapping pigment { image_map { png \"%s\" } } } }\n",
-             png, png, png);
+             "object_test { pigment { image_map { png \"tex.png\" map_type 1 interpolate 2 once } } finish { diffuse 1 } }\n"
+             "object_test { pigment { image_map { \"tex.png\" } scale 2 } }\n"
+             "object_test { texture { uv_mapping pigment { image_map { png \"tex.png\" } } } }\n");
     harness *h = run_ok(text);
     const vbnl_texture_desc *t = pov_texture_texture_desc(&h->c, h->mats[0]);
     assert_int_equal(t->kind, VBNL_TEXTURE_IMAGE);
@@ -452,10 +455,11 @@ static void test_image_map(void **state)
     assert_int_equal(h->c.tex ? 1 : 0, 1);
     done(h);
     /* a missing file */
-    snprintf(text, sizeof(text), "object_test { pigment { image_map { png \"%s/none.png\" } } }\n", dir);
+    snprintf(text, sizeof(text), "object_test { pigment { image_map { png \"none.png\" } } }\n");
     h = run(text);
     assert_int_equal(h->result, VBNL_ERR_PARSE);
     done(h);
+    assert_int_equal(chdir(cwd), 0);
     unlink(png);
     rmdir(dir);
 }
