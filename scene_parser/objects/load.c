@@ -42,7 +42,7 @@ static vbnl_result place_object(pov_loader *L)
         r = pov_oom(L);
     for (size_t i = 0; r == VBNL_OK && i < o.n; ++i)
         if (o.v[i].kind != POV_PRIM_LIGHT && o.v[i].kind != POV_PRIM_IMPORT && o.v[i].kind != POV_PRIM_SKIPPED && !o.v[i].app &&
-            !(o.v[i].app = pov_appearance_default(&L->c)))
+            !(o.v[i].app = pov_appearance_default_shared(&L->c)))
             r = pov_oom(L);
     for (size_t i = 0; r == VBNL_OK && i < o.n; ++i)
         if (o.v[i].kind == POV_PRIM_SKIPPED)

@@ -67,6 +67,10 @@ int pov_appearance_default_block(pov_ctx *c);
 pov_appearance *pov_appearance_copy(const pov_appearance *a);
 void pov_appearance_free(pov_appearance *a);
 pov_appearance *pov_appearance_default(pov_ctx *c);
+/* The #default appearance as it is now, shared (one reference more; release with
+ * pov_appearance_free): for objects placed in the world without one, which nothing changes
+ * afterwards. A scene of a million untextured spheres holds one appearance, not a million. */
+pov_appearance *pov_appearance_default_shared(pov_ctx *c);
 
 /* An object transform given after the appearance moves its patterns with the object. */
 void pov_appearance_transform(pov_appearance *a, const double m[16]);

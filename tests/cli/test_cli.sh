@@ -117,6 +117,17 @@ else
     not_ok "writing through a link replaces its file, keeps the link and the file's mode" "$(ls -l "$TMP"/private*)"
 fi
 
+# Memory follows what a scene holds: 100,000 untextured spheres share one default appearance
+# (each primitive's own copy would take ~1.4 GB; shared, ~130 MB; the bound leaves room for ASan).
+printf 'camera { location <0,0,-50> look_at 0 }\nlight_source { <0,50,-50> rgb 1 }\n#for (I, 0, 99999)\nsphere { <mod(I,100), div(I,100)/10, 0>, 0.1 }\n#end\n' > "$TMP/many.pov"
+kb=$(python3 -c 'import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, stderr=subprocess.DEVNULL); print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)' \
+    "$VBNL" render "$TMP/many.pov" --integrator path -o "$TMP/many.exr" --spp 1 --width 16 --height 16 -q 2>&1)
+if [ -n "$kb" ] && [ "$kb" -lt 1000000 ] 2>/dev/null; then
+    ok "100,000 untextured spheres stay under 1 GB ($((kb / 1024)) MB)"
+else
+    not_ok "100,000 untextured spheres stay under 1 GB" "$kb"
+fi
+
 # SIGTERM (a host's stop button) and SIGHUP behave as Ctrl-C: the partial image is written.
 for sig in TERM HUP; do
     "$VBNL" render "$SCENE" -o "$TMP/sig$sig.exr" --width 64 --height 64 --spp 1000000 -q &

@@ -254,6 +254,9 @@ int pov_appearance_default_block(pov_ctx *c)
 {
     if (vbnl_sdl_expect(c->parser, '{', "after '#default'") != VBNL_OK)
         return -1;
+    /* objects placed from here on start from the new default */
+    pov_appearance_free(c->tex->deflt_shared);
+    c->tex->deflt_shared = NULL;
     return pov_block_parse(&default_items, c->parser, c, &c->tex->deflt.tex, NULL) == VBNL_OK ? 1 : -1;
 }
 
@@ -285,6 +288,7 @@ void pov_texture_state_destroy(pov_ctx *c)
     for (uint32_t i = 0; i < c->tex->cache_count; ++i)
         free(c->tex->cache[i]);
     free(c->tex->cache);
+    pov_appearance_free(c->tex->deflt_shared);
     free(c->tex);
     c->tex = NULL;
 }
@@ -313,12 +317,26 @@ pov_appearance *pov_appearance_copy(const pov_appearance *a)
     if (!a)
         return NULL;
     pov_appearance *b = malloc(sizeof(*b));
-    if (b)
+    if (b) {
         *b = *a;
+        b->refs = 1;
+    }
     return b;
 }
 
-void pov_appearance_free(pov_appearance *a) { free(a); }
+void pov_appearance_free(pov_appearance *a)
+{
+    if (a && --a->refs <= 0)
+        free(a);
+}
+
+pov_appearance *pov_appearance_default_shared(pov_ctx *c)
+{
+    if (!c->tex->deflt_shared && !(c->tex->deflt_shared = pov_appearance_default(c)))
+        return NULL;
+    c->tex->deflt_shared->refs++;
+    return c->tex->deflt_shared;
+}
 
 pov_appearance *pov_appearance_default(pov_ctx *c)
 {

@@ -64,6 +64,7 @@ struct pov_appearance {
     pov_interior interior;
     vbnl_sdl_loc loc;     /* where the object's appearance was first given (warnings) */
     int own_texture;      /* a texture { } was given on this object: another one is a layer */
+    int refs;             /* holders of this heap copy (pov_appearance_free drops one) */
 };
 
 /* A declared normal carries nothing: normals are not rendered. */
@@ -81,6 +82,8 @@ typedef struct pov_material_entry pov_material_entry; /* core_material.c */
 
 struct pov_texture_state {
     pov_appearance deflt; /* what #default makes new objects start from */
+    pov_appearance *deflt_shared; /* one heap copy of deflt shared by the placed objects that have no
+                                     appearance of their own (dropped when #default changes) */
     pov_image *images;
     uint32_t image_count;
     pov_material_entry **cache;
