@@ -208,6 +208,9 @@ struct vbnl_sdl_parser {
 const char *sdl_intern(vbnl_sdl_parser *p, const char *s, size_t len, int *kw);
 const char *sdl_intern_keyword(vbnl_sdl_parser *p, const char *s, int kw);
 void *sdl_alloc(vbnl_sdl_parser *p, size_t n);    /* zeroed; reports OOM/limit, NULL on failure */
+/* Counts n bytes the object layer holds for the scene (placed objects, their meshes) against
+ * limits.max_memory, as sdl_alloc does for strings and arrays; false (error reported) past it. */
+bool sdl_charge(vbnl_sdl_parser *p, size_t n);
 void *sdl_realloc(vbnl_sdl_parser *p, void *ptr, size_t old, size_t n);
 void sdl_free(vbnl_sdl_parser *p, void *ptr, size_t n);
 char *sdl_strdup(vbnl_sdl_parser *p, const char *s, size_t len);

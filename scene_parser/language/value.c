@@ -9,7 +9,7 @@
 void *sdl_alloc(vbnl_sdl_parser *p, size_t n)
 {
     if (n > p->limits.max_memory || p->memory > p->limits.max_memory - n) {
-        sdl_errorf(p, NULL, "memory limit exceeded (%zu bytes for strings and arrays)", p->limits.max_memory);
+        sdl_errorf(p, NULL, "memory limit exceeded (%zu bytes for the scene's strings, arrays and objects)", p->limits.max_memory);
         return NULL;
     }
     void *q = calloc(1, n ? n : 1);
@@ -22,10 +22,21 @@ void *sdl_alloc(vbnl_sdl_parser *p, size_t n)
     return q;
 }
 
+bool sdl_charge(vbnl_sdl_parser *p, size_t n)
+{
+    if (n > p->limits.max_memory || p->memory > p->limits.max_memory - n) {
+        sdl_errorf(p, NULL, "memory limit exceeded (%zu bytes for the scene's strings, arrays and objects)",
+                   p->limits.max_memory);
+        return false;
+    }
+    p->memory += n;
+    return true;
+}
+
 void *sdl_realloc(vbnl_sdl_parser *p, void *ptr, size_t old, size_t n)
 {
     if (n > old && (n - old > p->limits.max_memory || p->memory > p->limits.max_memory - (n - old))) {
-        sdl_errorf(p, NULL, "memory limit exceeded (%zu bytes for strings and arrays)", p->limits.max_memory);
+        sdl_errorf(p, NULL, "memory limit exceeded (%zu bytes for the scene's strings, arrays and objects)", p->limits.max_memory);
         return NULL;
     }
     void *q = realloc(ptr, n ? n : 1);

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "pov_loader.h"
+#include "sdl_internal.h"
 
 struct vbnl_pov_scene {
     vbnl_scene *scene;
@@ -47,6 +48,16 @@ static vbnl_result place_object(pov_loader *L)
     for (size_t i = 0; r == VBNL_OK && i < o.n; ++i)
         if (o.v[i].kind == POV_PRIM_SKIPPED)
             warn_skipped(L, &o.v[i]);
+    /* what the placed primitives hold counts against the parser's memory limit, so that a loop
+     * of objects ends with an error instead of exhausting the machine */
+    size_t bytes = 0;
+    for (size_t i = 0; i < o.n; ++i) {
+        const pov_mesh *m = o.v[i].mesh;
+        /* a mesh shared with a declaration (an instance) holds no new data */
+        bytes += sizeof(pov_prim) + (m && m->refs == 1 ? (size_t)m->nv * 32u + (size_t)m->nt * 16u : 0u);
+    }
+    if (r == VBNL_OK && !sdl_charge(L->c.parser, bytes))
+        r = VBNL_ERR_PARSE;
     if (r == VBNL_OK && !pov_obj_move(&L->world, &o))
         r = pov_oom(L);
     pov_obj_clear(&o);

@@ -53,7 +53,7 @@ typedef struct vbnl_sdl_limits {
     int max_nesting;              /* nested expressions/blocks/directives (default 512) */
     uint64_t max_loop_iterations; /* total #while/#for iterations (default 10 000 000) */
     uint64_t max_tokens;          /* total tokens read (default 500 000 000) */
-    size_t max_memory;            /* bytes of strings, arrays and files (default 1 GiB) */
+    size_t max_memory;            /* bytes of strings, arrays, files and placed objects (default 1 GiB) */
     size_t stack_bytes;           /* stack of the parse thread (default 256 MiB, virtual) */
 } vbnl_sdl_limits;
 

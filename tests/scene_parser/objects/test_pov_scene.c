@@ -268,6 +268,28 @@ static void test_scene_files(void **state)
     rmdir(dir);
 }
 
+/* Placed objects count against the parser's memory limit: a loop of spheres ends with the
+ * limit's error, not with the machine's memory. */
+static void test_object_memory_limit(void **state)
+{
+    (void)state;
+    vbnl_sdl_limits lim;
+    vbnl_sdl_limits_default(&lim);
+    lim.max_memory = 4u << 20; /* 4 MiB */
+    vbnl_pov_options o;
+    vbnl_pov_options_init(&o);
+    o.limits = &lim;
+    const char *t = BASE "#for (I, 0, 999999)\nsphere { <I, 0, 0>, 0.1 }\n#end\n";
+    vbnl_pov_scene *s = NULL;
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_pov_load_text(g_ctx, "test.pov", t, strlen(t), &o, &s, &err), VBNL_ERR_PARSE);
+    assert_non_null(strstr(err.message, "memory limit exceeded (4194304 bytes for the scene's strings, arrays and objects)"));
+    /* a few thousand fit */
+    const char *few = BASE "#for (I, 0, 999)\nsphere { <I, 0, 0>, 0.1 }\n#end\n";
+    assert_int_equal(vbnl_pov_load_text(g_ctx, "test.pov", few, strlen(few), &o, &s, &err), VBNL_OK);
+    vbnl_pov_scene_destroy(s);
+}
+
 /* ---- a render of the example ------------------------------------------------------------------- */
 
 static void test_render_cornell(void **state)
@@ -336,6 +358,7 @@ int main(void)
         cmocka_unit_test(test_background),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_scene_files),
+        cmocka_unit_test(test_object_memory_limit),
         cmocka_unit_test(test_render_cornell),
     };
     return cmocka_run_group_tests(tests, pov_t_setup, pov_t_teardown);
