@@ -173,36 +173,51 @@ static void io_close(struct aiFileIO *io, struct aiFile *f)
     }
 }
 
-/* A PLY header's element counts against the file's size: every element takes at least one byte
- * in a binary file and two ("0\n") in an ASCII one, so a header that declares more elements than
- * the file can hold is refused before assimp reserves memory for them. 0 when the file is not a
- * PLY file or its counts fit. */
-static int ply_too_large(const char *path, unsigned long long *declared, unsigned long long *size)
+/* A PLY file's header, checked before assimp reads it: every line one of PLY's own (format,
+ * element, property, comment, obj_info) up to end_header, and element counts the file can hold
+ * (every element takes at least one byte in a binary file and two, "0\n", in an ASCII one), so
+ * that a header declaring more than the file holds cannot make assimp reserve memory for it, and
+ * a malformed one does not reach assimp's PLY reader (which can loop on one). NULL when the file
+ * is not a PLY file or passes; else the reason, written into why. */
+static const char *ply_check(const char *path, char *why, size_t n)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
-        return 0;
+        return NULL;
     struct stat st;
     char line[512];
-    int ply = fstat(fileno(f), &st) == 0 && fgets(line, sizeof(line), f) && !strncmp(line, "ply", 3);
+    int ply = fstat(fileno(f), &st) == 0 && fgets(line, sizeof(line), f) && !strncmp(line, "ply", 3) &&
+              (line[3] == '\n' || line[3] == '\r');
     unsigned long long total = 0;
-    int ascii = 0;
-    for (int k = 0; ply && k < 10000 && fgets(line, sizeof(line), f); ++k) {
-        unsigned long long n;
+    int ascii = 0, ended = 0, bad = 0;
+    for (int k = 2; ply && !ended && !bad && k < 10000 && fgets(line, sizeof(line), f); ++k) {
+        unsigned long long count;
         char name[128];
-        if (!strncmp(line, "format ascii", 12))
-            ascii = 1;
-        else if (sscanf(line, "element %127s %llu", name, &n) == 2)
-            total = total + n < total ? ~0ull : total + n;
+        if (!strncmp(line, "format ", 7))
+            ascii = !strncmp(line, "format ascii", 12);
+        else if (!strncmp(line, "element ", 8) && sscanf(line, "element %127s %llu", name, &count) == 2)
+            total = total + count < total ? ~0ull : total + count;
         else if (!strncmp(line, "end_header", 10))
-            break;
+            ended = 1;
+        else if (strncmp(line, "property ", 9) && strncmp(line, "comment", 7) && strncmp(line, "obj_info", 8))
+            bad = k;
     }
     fclose(f);
     if (!ply)
-        return 0;
-    *declared = total;
-    *size = (unsigned long long)st.st_size;
-    return total > *size / (ascii ? 2u : 1u);
+        return NULL;
+    if (bad || !ended) {
+        if (bad)
+            snprintf(why, n, "its PLY header has a line that is no PLY header line (line %d)", bad);
+        else
+            snprintf(why, n, "its PLY header has no end_header");
+        return why;
+    }
+    if (total > (unsigned long long)st.st_size / (ascii ? 2u : 1u)) {
+        snprintf(why, n, "its header declares %llu elements, more than its %llu bytes hold", total,
+                 (unsigned long long)st.st_size);
+        return why;
+    }
+    return NULL;
 }
 
 vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mesh_import_options *opt,
@@ -214,11 +229,9 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
     memset(&defaults, 0, sizeof(defaults));
     if (!opt)
         opt = &defaults;
-    unsigned long long declared = 0, size = 0;
-    if (ply_too_large(path, &declared, &size))
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                              "cannot import '%s': its header declares %llu elements, more than its %llu bytes hold",
-                              path, declared, size);
+    char why[160];
+    if (ply_check(path, why, sizeof(why)))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, why);
     mesh_io m;
     m.refused[0] = '\0';
     {

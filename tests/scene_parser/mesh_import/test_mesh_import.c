@@ -194,6 +194,12 @@ static void test_untrusted(void **state)
                   "property float z\nend_header\n0 0 0\n");
     assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "declares 1000000000 elements"));
+    /* a malformed header line (fuzzer-found: assimp's PLY reader loops on it) */
+    snprintf(p, sizeof(p), "%s/loop.ply", g_dir);
+    write_file(p, "ply\nformat ascii 1.0\nelement vertex 3\npropernd_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1\"2\n");
+    assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "no PLY header line (line 4)"));
+    unlink(p);
     snprintf(p, sizeof(p), "%s/secret.mtl", g_dir);
     write_file(p, "newmtl a\nKd 1 0 0\n");
     snprintf(sub, sizeof(sub), "%s/sub", g_dir);
