@@ -408,14 +408,15 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
                        BENCH_SEED, BENCH_SEED + runs - 1);
             printf("  %-26s", "method \\ budget");
             for (int b = 0; b < nb; ++b)
-                printf(" %8gs rMAE   spp", budgets[b]);
+                printf(" %8gs rMAE   spp prep", budgets[b]);
             printf("\n");
             for (unsigned m = 0; m < N_METHODS; ++m) {
                 if (!method_available(&methods[m], o->methods))
                     continue;
                 printf("  %-26s", methods[m].label);
-                for (int b = 0; b < nb; ++b)
-                    printf(" %14.4f %5u", res[m][b].rmae, res[m][b].spp);
+                for (int b = 0; b < nb; ++b) /* prep: preparation's share of the budget */
+                    printf(" %14.4f %5u %3.0f%%", res[m][b].rmae, res[m][b].spp,
+                           100.0 * res[m][b].stats.prepare_seconds / budgets[b]);
                 printf("\n");
             }
             fflush(stdout);
