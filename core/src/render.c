@@ -222,20 +222,13 @@ void vbnl_budget_choose(vbnl_budget *b, const char *name, double value, const ch
     b->choices[i] = (vbnl_budget_choice){b->names[i], value, b->why[i]};
 }
 
-/* Records a stage's time from outside an integrator's stage context (the calibrations). */
-void vbnl_budget_record_stage(vbnl_budget *b, const char *name, double seconds)
-{
-    if (b)
-        record_stage(b->renderer, name, seconds, 0.0, NULL);
-}
-
 vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fallback, double spp_target,
                                     double cost, double lo, double hi, uint32_t *out, vbnl_error *err)
 {
-    vbnl_renderer *r = b->renderer;
     *out = (uint32_t)fallback;
-    if (!(b->seconds > 0.0))
+    if (!b || !(b->seconds > 0.0))
         return VBNL_OK;
+    vbnl_renderer *r = b->renderer;
     const int explicit_count = vbnl_params_has(r->params, name);
     /* the scene's shadow-ray rate on every worker: a short calibration (median of three runs of
      * 8192 rays of each kind, about 10 ms on the bench scenes) */
@@ -247,7 +240,7 @@ vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fal
     if (res != VBNL_OK)
         return res;
     double rate = rates.shadow > 0.0 ? rates.shadow : rates.closest;
-    /* rendering's share: what the budget leaves after preparation's bound and the time spent */
+    /* rendering's share: the budget less the preparation's bound */
     double render = b->seconds * (1.0 - VBNL_BUDGET_PREPARE_SHARE);
     double per_light_pass = b->pixels * cost / (rate > 0.0 ? rate : 1.0); /* seconds per light per spp */
     if (explicit_count) {

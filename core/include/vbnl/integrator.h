@@ -70,19 +70,17 @@ double vbnl_budget_pixels(const vbnl_budget *b);
  * "sized: ..."); a later call for the same name replaces the record. */
 void vbnl_budget_choose(vbnl_budget *b, const char *name, double value, const char *why_fmt, ...)
     __attribute__((format(printf, 4, 5)));
-/* Adds `seconds` to the stage `name` of the render's statistics (a calibration run outside the
- * integrator's stage context). */
-void vbnl_budget_record_stage(vbnl_budget *b, const char *name, double seconds);
 
 /* Light count of a many-light baseline (`vpl`, `vsl`, `richvsl`), whose shading costs about one
  * shadow ray per light per camera vertex: the count with which `spp_target` samples per pixel
- * fit the budget's rendering share, at the scene's shadow-ray rate measured here (a short
- * calibration, vbnl_scene_measure_ray_rates), `cost` shadow rays' time per light evaluation,
- * clamped to [lo, hi]. The parameter `name` set by the user is kept (and checked against the
- * same estimate: VBNL_ERR_INVALID_ARGUMENT when even one pass would not fit). Without a budget, returns
- * `fallback` (the parameter's value). Records the choice. */
-vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fallback, double spp_target, double cost, double lo, double hi,
-                                    uint32_t *out, vbnl_error *err);
+ * fit the budget's rendering share (1 - VBNL_BUDGET_PREPARE_SHARE) at the scene's shadow-ray
+ * rate measured here (a short calibration, vbnl_scene_measure_ray_rates, recorded as the stage
+ * "calibrate"), a light evaluation costing `cost` shadow rays, clamped to [lo, hi]. A count the
+ * user set (the parameter `name`) is kept, and refused (VBNL_ERR_INVALID_ARGUMENT) when one pass
+ * alone would not fit the time left. Without a budget, *out = `fallback` (the parameter's
+ * value) and nothing is measured. Records the choice. */
+vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fallback, double spp_target,
+                                    double cost, double lo, double hi, uint32_t *out, vbnl_error *err);
 
 typedef struct vbnl_integrator_class {
     uint32_t abi_major, abi_minor;

@@ -14,7 +14,8 @@ void vbnl_size_to_budget(const vbnl_sizing_in *in, vbnl_sizing_out *out)
 {
     const double cl = in->seconds_per_light > 0.0 ? in->seconds_per_light : 1e-9;
     const double cp = in->seconds_per_path > 0.0 ? in->seconds_per_path : 1e-9;
-    const double left = fmax(0.0, in->prepare_limit - in->elapsed);
+    const double left =
+        fmax(0.0, VBNL_SIZING_AIM * in->prepare_limit - in->elapsed - in->fixed_seconds * VBNL_SIZING_MARGIN);
     if (in->lights_set) {
         out->lights = in->lights;
         snprintf(out->lights_why, sizeof(out->lights_why), "set explicitly, kept (%.3g s estimated)",
@@ -41,6 +42,6 @@ void vbnl_size_to_budget(const vbnl_sizing_in *in, vbnl_sizing_out *out)
                  t < VBNL_SIZING_PHOTON_SHARE * in->budget ? ", less: what the preparation bound leaves" : "",
                  cp * 1e6);
     }
-    out->estimate = in->elapsed + t_lights + out->paths * cp;
+    out->estimate = in->elapsed + in->fixed_seconds + t_lights + out->paths * cp;
     out->fits = out->estimate <= in->prepare_limit || (!in->lights_set && !in->paths_set);
 }

@@ -131,7 +131,10 @@ typedef struct vbnl_state {
     /* time budget (sizing.h) */
     vbnl_budget *budget;             /* NULL for the calibration's own state */
     int lights_set, paths_set;       /* virtual_lights / photon_paths set by the user */
-    double t_photons;                /* seconds the last photon splitting took */
+    /* what the calibration measures (size_to_budget): seconds of the work that grows with the
+     * light count, and of photon splitting, whose first cal_split paths are timed apart */
+    double t_lights, t_photons, t_photons_first;
+    uint64_t cal_split;
 } vbnl_state;
 
 static double param(const vbnl_integrator_env *env, const char *name)
@@ -322,7 +325,9 @@ static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
     id.normals = s->vls.normal;
     id.count = n;
     id.kind = VBNL_VL_INDEX_GRID;
+    double t0 = vbnl_now();
     vbnl_result r = vbnl_vl_index_create(&id, &s->index);
+    s->t_lights += vbnl_now() - t0;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the virtual-light index (%s)", vbnl_result_name(r));
     s->kernels = calloc(sc->material_count, sizeof(*s->kernels));
@@ -352,6 +357,7 @@ static vbnl_result build_support(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_erro
     uint32_t n = s->vls.count;
     if (!(s->support = malloc(sizeof(*s->support) * n)))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
+    double t0 = vbnl_now();
     if (stage)
         vbnl_stage_begin(stage, "support", n, "lights");
     vbnl_vl_support_stats st;
@@ -360,6 +366,7 @@ static vbnl_result build_support(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_erro
         vbnl_stage_set_work(stage, (double)st.rays, "rays");
         vbnl_stage_end(stage);
     }
+    s->t_lights += vbnl_now() - t0;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "the support probes were cancelled"
                                                               : "out of memory for the support probes");
@@ -393,14 +400,27 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
     uint32_t n_cal = s->pp.virtual_lights < VBNL_SIZING_CAL_LIGHTS ? s->pp.virtual_lights : VBNL_SIZING_CAL_LIGHTS;
     cal->pp.virtual_lights = n_cal;
     cal->pp.candidates = (uint32_t)ceil(ratio * n_cal);
-    cal->photon_paths = VBNL_SIZING_CAL_PATHS;
+    cal->photon_paths = VBNL_SIZING_CAL_PATHS_FIRST + VBNL_SIZING_CAL_PATHS;
+    cal->cal_split = VBNL_SIZING_CAL_PATHS_FIRST;
     cal->photon_first = cal->photon_count = 0;
+    cal->t_lights = cal->t_photons = cal->t_photons_first = 0.0;
     const char *record_as = stage ? stage->record_as : NULL;
     if (stage)
         stage->record_as = "calibrate";
     double t0 = vbnl_now();
     vbnl_result r = vbnl_prepare(cal, stage, err);
-    double total = vbnl_now() - t0, t_paths = cal->t_photons;
+    /* Fixed costs (the conversion kernels of each material, the maps, the splitting's set-up)
+     * are paid again by the real preparation whatever its counts: apart from the costs per light
+     * and per path. Splitting's: from its two runs of VBNL_SIZING_CAL_PATHS_FIRST and
+     * VBNL_SIZING_CAL_PATHS paths. */
+    const double total = vbnl_now() - t0, t_a = cal->t_photons_first, t_b = cal->t_photons;
+    const double na = VBNL_SIZING_CAL_PATHS_FIRST, nb = VBNL_SIZING_CAL_PATHS;
+    double per_path = (t_b - t_a) / (nb - na);
+    if (!(per_path > 0.0))
+        per_path = t_b / nb;
+    const double fixed_paths = fmax(0.0, t_b - per_path * nb);
+    const double per_light = cal->t_lights / n_cal;
+    const double fixed = fmax(0.0, total - cal->t_lights - t_a - t_b) + fixed_paths;
     if (stage)
         stage->record_as = record_as;
     vbnl_destroy(cal);
@@ -413,8 +433,9 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
     in.prepare_limit = vbnl_budget_prepare_limit(s->budget);
     in.pixels = vbnl_budget_pixels(s->budget);
     in.elapsed = vbnl_budget_elapsed(s->budget);
-    in.seconds_per_light = (total - t_paths) / n_cal;
-    in.seconds_per_path = t_paths / VBNL_SIZING_CAL_PATHS;
+    in.seconds_per_light = per_light;
+    in.seconds_per_path = per_path;
+    in.fixed_seconds = fixed;
     in.lights_set = s->lights_set;
     in.lights = s->pp.virtual_lights;
     in.paths_set = s->paths_set;
@@ -425,13 +446,13 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "integrator 'vbnl': with %s set explicitly (virtual_lights=%.0f, photon_paths=%.0f) "
                               "preparation needs about %.1f s (calibrated on this scene: %.3g us per light, %.3g us "
-                              "per photon path), more than its bound of %.2f s (%g%% of the %g s time budget); "
+                              "per photon path, %.3g s fixed), more than its bound of %.2f s (%g%% of the %g s time budget); "
                               "lower them, raise --time, or leave them unset so that the budget sizes them",
                               s->lights_set && s->paths_set ? "virtual_lights and photon_paths"
                               : s->lights_set              ? "virtual_lights"
                                                            : "photon_paths",
                               out.lights, out.paths, out.estimate, in.seconds_per_light * 1e6,
-                              in.seconds_per_path * 1e6, in.prepare_limit, 100.0 * VBNL_BUDGET_PREPARE_SHARE,
+                              in.seconds_per_path * 1e6, in.fixed_seconds, in.prepare_limit, 100.0 * VBNL_BUDGET_PREPARE_SHARE,
                               in.budget);
     s->pp.virtual_lights = (uint32_t)out.lights;
     if (!s->lights_set)
@@ -440,9 +461,9 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
     vbnl_budget_choose(s->budget, "virtual_lights", out.lights, "%s", out.lights_why);
     vbnl_budget_choose(s->budget, "photon_paths", out.paths, "%s", out.paths_why);
     vbnl_budget_choose(s->budget, "prepare_estimate", out.estimate,
-                       "seconds of preparation estimated (calibration %.3f s included) against the bound of %.2f s "
-                       "(%g%% of %g s)",
-                       in.elapsed, in.prepare_limit, 100.0 * VBNL_BUDGET_PREPARE_SHARE, in.budget);
+                       "seconds of preparation estimated (calibration %.3f s and %.3f s fixed included) against the "
+                       "bound of %.2f s (%g%% of %g s)",
+                       in.elapsed, in.fixed_seconds, in.prepare_limit, 100.0 * VBNL_BUDGET_PREPARE_SHARE, in.budget);
     return VBNL_OK;
 }
 
@@ -453,7 +474,9 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     vbnl_result r = VBNL_OK;
     if (s->budget && vbnl_budget_seconds(s->budget) > 0.0 && (r = size_to_budget(s, stage, err)) != VBNL_OK)
         return r;
+    double t_prep = vbnl_now();
     r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, NULL, err);
+    s->t_lights += vbnl_now() - t_prep;
     if (r != VBNL_OK)
         return r;
     uint32_t n = s->vls.count;
@@ -490,7 +513,17 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     sd.support = s->support;
     vbnl_split_stats sst;
     double t_split = vbnl_now();
-    r = vbnl_split_photons(&sd, NULL, stage, &sst);
+    r = VBNL_OK;
+    if (s->cal_split > 0 && s->cal_split < count) { /* the calibration: two runs, see size_to_budget */
+        sd.path_count = s->cal_split;
+        r = vbnl_split_photons(&sd, NULL, stage, &sst);
+        s->t_photons_first = vbnl_now() - t_split;
+        t_split = vbnl_now();
+        sd.first_path += s->cal_split;
+        sd.path_count = count - s->cal_split;
+    }
+    if (r == VBNL_OK)
+        r = vbnl_split_photons(&sd, NULL, stage, &sst);
     s->t_photons = vbnl_now() - t_split;
     if (stage) {
         vbnl_stage_set_work(stage, (double)sst.rays, "rays");
@@ -563,6 +596,7 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     uint32_t n = s->vls.count;
 
     /* 4. profiles: power table (and the eager conversion) */
+    double t4 = vbnl_now();
     if (stage)
         vbnl_stage_begin(stage, "profiles", n, "lights");
     convert_job cj = {s, malloc(sizeof(float) * n)};
@@ -576,6 +610,7 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     r = rc == 0 ? vbnl_vl_shade_build(&s->shade, &s->vls, s->index, s->profiles, s->kernels, cj.power,
                                             s->support) : VBNL_OK;
     free(cj.power);
+    s->t_lights += vbnl_now() - t4;
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "profile conversion was cancelled");
     if (r != VBNL_OK)
