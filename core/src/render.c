@@ -247,10 +247,11 @@ vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fal
         double one_pass = fallback * per_light_pass;
         if (one_pass > b->seconds - vbnl_budget_elapsed(b))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                  "%s=%.0f set explicitly cannot fit the %g s time budget: one sample per pixel "
+                                  "integrator '%s': %s=%.0f set explicitly cannot fit the %g s time budget: one "
+                                  "sample per pixel "
                                   "of %.0f pixels needs about %.1f s (%.3g shadow rays/s measured on this scene); "
                                   "lower %s, raise --time or leave %s unset so that the budget sizes it",
-                                  name, fallback, b->seconds, b->pixels, one_pass, rate, name, name);
+                                  r->cls->name, name, fallback, b->seconds, b->pixels, one_pass, rate, name, name);
         vbnl_budget_choose(b, name, fallback,
                            "set explicitly, kept: about %.1f s per sample per pixel (%.3g shadow rays/s)", one_pass,
                            rate);

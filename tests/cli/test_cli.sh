@@ -126,7 +126,7 @@ t0=$(now)
 expect "vbnl: explicit photon_paths that cannot fit are refused with the estimate" 1 "photon_paths set explicitly .* preparation needs about [0-9.]+ s .* more than its bound of 0.50 s \(25% of the 2 s time budget\)" -- "$VBNL" render "$SCENE" -o "$TMP/no.exr" --width 64 --height 64 --time 2 -q --integrator vbnl --set photon_paths=1e9
 awk -v a="$t0" -v b="$(now)" -v o="$outside" 'BEGIN { exit !(b - a <= 2 + 2 * o) }' && ok "the refusal comes before the work" || not_ok "the refusal comes before the work"
 [ ! -e "$TMP/no.exr" ] && ok "no image for a refused budget" || not_ok "no image for a refused budget"
-expect "vpl: explicit virtual_lights that cannot fit are refused" 1 "virtual_lights=5000000 set explicitly cannot fit the 1 s time budget" -- "$VBNL" render "$SCENE" -o "$TMP/no.exr" --width 64 --height 64 --time 1 -q --integrator vpl --set virtual_lights=5000000
+expect "vpl: explicit virtual_lights that cannot fit are refused" 1 "integrator .vpl.: virtual_lights=5000000 set explicitly cannot fit the 1 s time budget" -- "$VBNL" render "$SCENE" -o "$TMP/no.exr" --width 64 --height 64 --time 1 -q --integrator vpl --set virtual_lights=5000000
 
 # Same seed, any thread count: identical images (the EXR headers differ only in timings, so
 # compare the PNGs; test_render compares the float films bit for bit).
