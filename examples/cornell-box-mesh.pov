@@ -5,7 +5,7 @@
 #version 3.7;
 
 #ifdef (vbnl_version)
-global_settings { integrator { "vbnl" virtual_lights 100000 } }
+global_settings { integrator { "vbnl" } }
 camera {
   perspective
   location <0, 0.98195, -3.88317>

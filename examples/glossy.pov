@@ -5,7 +5,7 @@
 #version 3.7;
 
 #ifdef (vbnl_version)
-global_settings { integrator { "vbnl" virtual_lights 100000 } }
+global_settings { integrator { "vbnl" } }
 #else
 global_settings { assumed_gamma 1.0 radiosity { count 200 recursion_limit 2 } }
 #end

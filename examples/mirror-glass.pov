@@ -3,7 +3,7 @@
 #version 3.7;
 
 #ifdef (vbnl_version)
-global_settings { integrator { "vbnl" virtual_lights 100000 } }
+global_settings { integrator { "vbnl" } }
 #else
 global_settings { assumed_gamma 1.0 max_trace_level 10 radiosity { count 200 recursion_limit 3 } }
 #end

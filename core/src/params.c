@@ -138,6 +138,14 @@ vbnl_result vbnl_params_set_text(vbnl_params *p, const char *kv, const char *whe
 
 uint32_t vbnl_params_count(const vbnl_params *p) { return p ? p->count : 0; }
 
+int vbnl_params_has(const vbnl_params *p, const char *name)
+{
+    for (uint32_t i = 0; p && name && i < p->count; ++i)
+        if (strcmp(p->items[i].name, name) == 0)
+            return 1;
+    return 0;
+}
+
 vbnl_result vbnl_params_get(const vbnl_params *p, uint32_t i, const char **name, int *is_string,
                             double *number, const char **string, const char **where)
 {

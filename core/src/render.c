@@ -1,5 +1,6 @@
 /* Renderer: integrator life cycle, progressive passes over tiles, time budget, statistics. */
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -8,6 +9,16 @@
 #include "render_internal.h"
 
 #define MAX_STAGES 32
+#define MAX_CHOICES 8
+
+struct vbnl_budget {
+    vbnl_renderer *renderer;
+    double seconds, pixels;
+    uint32_t count;
+    vbnl_budget_choice choices[MAX_CHOICES];
+    char names[MAX_CHOICES][48];
+    char why[MAX_CHOICES][320];
+};
 
 struct vbnl_renderer {
     vbnl_context *ctx;
@@ -26,7 +37,9 @@ struct vbnl_renderer {
     uint32_t stage_count;
     vbnl_thread_stats *tstats;
     int cancelled;
+    int budget_cut;
     uint64_t storage_bytes;
+    vbnl_budget budget;
 };
 
 void vbnl_render_settings_init(vbnl_render_settings *s)
@@ -117,6 +130,8 @@ vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
         return r;
     }
     rd->settings.params = rd->params;
+    rd->budget.renderer = rd;
+    rd->budget.seconds = settings->time_budget;
     rd->tstats = calloc(ctx->threads, sizeof(vbnl_thread_stats));
     if (!rd->tstats) {
         vbnl_renderer_destroy(rd);
@@ -126,7 +141,8 @@ vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
         vbnl_renderer_destroy(rd);
         return r;
     }
-    vbnl_integrator_env env = {ctx, scene, rd->params, &rd->settings, rd->film};
+    rd->budget.pixels = (double)(rd->film->crop[2] - rd->film->crop[0]) * (rd->film->crop[3] - rd->film->crop[1]);
+    vbnl_integrator_env env = {ctx, scene, rd->params, &rd->settings, rd->film, &rd->budget};
     if ((r = cls->create(&env, &rd->state, err)) != VBNL_OK) {
         rd->state = NULL;
         vbnl_renderer_destroy(rd);
@@ -169,6 +185,86 @@ static void record_stage(vbnl_renderer *r, const char *name, double seconds, dou
         r->stages[r->stage_count] = (vbnl_stage_time){name, seconds, work, unit};
         r->stage_count++;
     }
+}
+
+/* ---- time budget -------------------------------------------------------------------------- */
+
+double vbnl_budget_seconds(const vbnl_budget *b) { return b ? b->seconds : 0.0; }
+
+double vbnl_budget_prepare_limit(const vbnl_budget *b)
+{
+    return b && b->seconds > 0.0 ? VBNL_BUDGET_PREPARE_SHARE * b->seconds : 0.0;
+}
+
+double vbnl_budget_elapsed(const vbnl_budget *b)
+{
+    return b && b->renderer->t_start > 0.0 ? vbnl_now() - b->renderer->t_start : 0.0;
+}
+
+double vbnl_budget_pixels(const vbnl_budget *b) { return b ? b->pixels : 0.0; }
+
+void vbnl_budget_choose(vbnl_budget *b, const char *name, double value, const char *why_fmt, ...)
+{
+    if (!b || !name)
+        return;
+    uint32_t i = 0;
+    while (i < b->count && strcmp(b->names[i], name) != 0)
+        ++i;
+    if (i == MAX_CHOICES)
+        return;
+    if (i == b->count)
+        b->count++;
+    snprintf(b->names[i], sizeof(b->names[i]), "%s", name);
+    va_list ap;
+    va_start(ap, why_fmt);
+    vsnprintf(b->why[i], sizeof(b->why[i]), why_fmt ? why_fmt : "", ap);
+    va_end(ap);
+    b->choices[i] = (vbnl_budget_choice){b->names[i], value, b->why[i]};
+}
+
+vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fallback, double spp_target,
+                                    double cost, double lo, double hi, uint32_t *out, vbnl_error *err)
+{
+    *out = (uint32_t)fallback;
+    if (!b || !(b->seconds > 0.0))
+        return VBNL_OK;
+    vbnl_renderer *r = b->renderer;
+    const int explicit_count = vbnl_params_has(r->params, name);
+    /* the scene's shadow-ray rate on every worker: a short calibration (median of three runs of
+     * 8192 rays of each kind, about 10 ms on the bench scenes) */
+    double t0 = vbnl_now();
+    vbnl_ray_rates rates;
+    uint32_t w = r->settings.width, h = r->settings.height;
+    vbnl_result res = vbnl_scene_measure_ray_rates(r->ctx, r->scene, 8192, w, h, &rates, err);
+    record_stage(r, "calibrate", vbnl_now() - t0, 0.0, NULL);
+    if (res != VBNL_OK)
+        return res;
+    double rate = rates.shadow > 0.0 ? rates.shadow : rates.closest;
+    /* rendering's share: the budget less the preparation's bound */
+    double render = b->seconds * (1.0 - VBNL_BUDGET_PREPARE_SHARE);
+    double per_light_pass = b->pixels * cost / (rate > 0.0 ? rate : 1.0); /* seconds per light per spp */
+    if (explicit_count) {
+        double one_pass = fallback * per_light_pass;
+        if (one_pass > b->seconds - vbnl_budget_elapsed(b))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                  "integrator '%s': %s=%.0f set explicitly cannot fit the %g s time budget: one "
+                                  "sample per pixel "
+                                  "of %.0f pixels needs about %.1f s (%.3g shadow rays/s measured on this scene); "
+                                  "lower %s, raise --time or leave %s unset so that the budget sizes it",
+                                  r->cls->name, name, fallback, b->seconds, b->pixels, one_pass, rate, name, name);
+        vbnl_budget_choose(b, name, fallback,
+                           "set explicitly, kept: about %.1f s per sample per pixel (%.3g shadow rays/s)", one_pass,
+                           rate);
+        return VBNL_OK;
+    }
+    double n = floor(render / (spp_target * per_light_pass));
+    n = fmax(lo, fmin(hi, n));
+    *out = (uint32_t)n;
+    vbnl_budget_choose(b, name, n,
+                       "sized: %g spp x %.0f pixels x %g shadow-ray costs per light in %.2f s of rendering at "
+                       "%.3g shadow rays/s (measured), clamped to [%g, %g]",
+                       spp_target, b->pixels, cost, render, rate, lo, hi);
+    return VBNL_OK;
 }
 
 /* ---- stages ------------------------------------------------------------------------------- */
@@ -214,7 +310,10 @@ int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *us
 
 void vbnl_stage_end(vbnl_stage_ctx *st)
 {
-    record_stage(st->renderer, st->name, vbnl_now() - st->start, st->work, st->work_unit);
+    if (st->record_as)
+        record_stage(st->renderer, st->record_as, vbnl_now() - st->start, 0.0, NULL);
+    else
+        record_stage(st->renderer, st->name, vbnl_now() - st->start, st->work, st->work_unit);
 }
 
 void vbnl_stage_set_work(vbnl_stage_ctx *st, double work, const char *unit)
@@ -293,6 +392,8 @@ typedef struct pass_ctx {
     void *user;
     double t_pass_start, t_render_start;
     uint64_t tile_count;
+    double deadline;                  /* > 0: tiles that would start after it are left out */
+    int cut;                          /* a tile was left out (set by workers) */
     int cancelled;
 } pass_ctx;
 
@@ -301,6 +402,10 @@ static void run_tile(void *user, uint64_t item, unsigned thread)
     pass_ctx *pc = user;
     vbnl_renderer *r = pc->r;
     const vbnl_film *f = r->film;
+    if (pc->deadline > 0.0 && vbnl_now() >= pc->deadline) {
+        __atomic_store_n(&pc->cut, 1, __ATOMIC_RELAXED);
+        return;
+    }
     uint32_t tx = pc->tile_x0 + (uint32_t)(item % pc->tiles_x);
     uint32_t ty = pc->tile_y0 + (uint32_t)(item / pc->tiles_x);
     vbnl_tile_job job;
@@ -409,12 +514,19 @@ vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, vo
             pass_spp = target - r->spp_done;
         pc.sample_begin = r->spp_done;
         pc.sample_end = r->spp_done + pass_spp;
+        /* The budget's wall clock: after the first pass (an image needs every pixel), a tile that
+         * would start after the budget is left out; the tiles in flight finish. */
+        pc.deadline = budget > 0.0 && r->spp_done > 0 ? r->t_start + budget : 0.0;
         double t0 = vbnl_now();
         uint64_t ran = vbnl_pool_run(r->ctx->pool, pc.tile_count, run_tile, &pc, pass_poll, &pc, interval);
         double dt = vbnl_now() - t0;
         r->passes++;
         if (ran < pc.tile_count)
             break; /* cancelled mid-pass: finished tiles keep their samples */
+        if (__atomic_load_n(&pc.cut, __ATOMIC_RELAXED)) {
+            r->budget_cut = 1; /* the rendered tiles keep their samples; spp counts whole passes */
+            break;
+        }
         r->spp_done = pc.sample_end;
         sec_per_spp = dt / pass_spp;
         if (pass_spp < 64 && dt < 2.0)
@@ -450,5 +562,9 @@ vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *o
     out->stages = r->stages;
     out->cancelled = r->cancelled;
     out->storage_bytes = r->storage_bytes;
+    out->choice_count = r->budget.count;
+    out->choices = r->budget.choices;
+    out->prepare_limit = vbnl_budget_prepare_limit(&r->budget);
+    out->budget_cut = r->budget_cut;
     return VBNL_OK;
 }

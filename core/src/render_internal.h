@@ -53,6 +53,7 @@ struct vbnl_stage_ctx {
     double start;
     double work;           /* vbnl_stage_set_work, recorded by vbnl_stage_end */
     const char *work_unit;
+    const char *record_as; /* non-NULL: vbnl_stage_end records every stage under this name */
     int cancelled;
 };
 

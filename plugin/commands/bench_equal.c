@@ -21,8 +21,9 @@ typedef struct bench_scene {
     const char *name, *file, *camera;
 } bench_scene;
 
-/* The methods, one line each. `lights` marks a virtual-light method: its `virtual_lights` is set
- * from the budget (equal time) or to N (equal count, when `count` is also set). A method whose
+/* The methods, one line each. `lights` marks a virtual-light method: at equal time it sizes its
+ * `virtual_lights` to the budget itself; in the equal-count run it is set to N (when `count` is
+ * also set). A method whose
  * integrator is not registered is skipped with a note. The clamp bound of the VPL-type methods is
  * the same for all of them (the notes §7.4): 2 in the units of the bench scenes (boxes about 2
  * units wide), i.e. G is bounded for VPLs closer than about 0.7 units. */
@@ -75,31 +76,6 @@ static int method_available(const bench_method *m, const char *list)
 }
 
 static double rmae(const float *img, const float *ref, size_t n) { return cmd_rmae(img, ref, n); }
-
-/* The preparation of `vbnl` under a budget on a 2-core CPU (the paper's defaults, 130K lights and
- * 20M photon paths, are sized for a GPU). Photon paths grow with the budget. Lights do not, up to
- * 50 s: a render's cost per sample grows with the light count (every light touched is a cache
- * miss, and the arrays outgrow the caches) while its error at equal samples does not fall below
- * ~20K lights. Measured at 512 x 512, rMAE at equal time against 5K-130K lights (README): 20K is
- * best or within 2% of best at 10 and 30 s on the three bench scenes; at 100 s 20K and 40K are
- * within 5% of each other (glossy box 0.0182 / 0.0187, door 0.147 / 0.140), both far ahead of
- * 130K. */
-static void vbnl_budget_params(vbnl_params *p, double budget)
-{
-    double lights = fmin(130000.0, fmax(20000.0, 400.0 * budget));
-    double photons = fmin(2e7, 40000.0 * budget);
-    vbnl_params_set_number(p, "virtual_lights", floor(lights), "bench", NULL);
-    vbnl_params_set_number(p, "photon_paths", floor(photons), "bench", NULL);
-}
-
-/* Virtual lights of the brute-force many-light baselines under a time budget: their shading cost
- * is lights x pixels x samples shadow rays, so the count grows with the budget and shrinks with
- * the image (about one sample per pixel fits the budget on 2 cores at 512 x 512). */
-static double baseline_budget_lights(double budget, uint32_t size)
-{
-    double scale = (512.0 * 512.0) / ((double)size * size);
-    return fmax(16.0, fmin(12000.0, floor(25.0 * budget * scale)));
-}
 
 /* Sets the space-separated key=value list `extra`. */
 static void set_extra(vbnl_params *p, const char *extra)
@@ -158,12 +134,9 @@ static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_metho
 {
     vbnl_params *p;
     vbnl_params_create(&p, NULL);
-    if (budget > 0.0) {
-        if (!strcmp(m->integrator, "vbnl"))
-            vbnl_budget_params(p, budget);
-        else if (m->lights)
-            vbnl_params_set_number(p, "virtual_lights", baseline_budget_lights(budget, size), "bench", NULL);
-    } else if (m->lights) {
+    /* Under a time budget every method sizes its own work, exactly as `vbnl render --time` does
+     * (docs/time-budget.md): nothing is set here but the method's own settings. */
+    if (!(budget > 0.0) && m->lights) {
         vbnl_params_set_number(p, "virtual_lights", count, "bench", NULL);
         if (!strcmp(m->integrator, "vbnl")) /* the paper's ratio: 20M photons for 130K lights */
             vbnl_params_set_number(p, "photon_paths", fmin(2e7, fmax(1e5, 150.0 * count)), "bench", NULL);
@@ -435,14 +408,15 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
                        BENCH_SEED, BENCH_SEED + runs - 1);
             printf("  %-26s", "method \\ budget");
             for (int b = 0; b < nb; ++b)
-                printf(" %8gs rMAE   spp", budgets[b]);
+                printf(" %8gs rMAE   spp prep", budgets[b]);
             printf("\n");
             for (unsigned m = 0; m < N_METHODS; ++m) {
                 if (!method_available(&methods[m], o->methods))
                     continue;
                 printf("  %-26s", methods[m].label);
-                for (int b = 0; b < nb; ++b)
-                    printf(" %14.4f %5u", res[m][b].rmae, res[m][b].spp);
+                for (int b = 0; b < nb; ++b) /* prep: preparation's share of the budget */
+                    printf(" %14.4f %5u %3.0f%%", res[m][b].rmae, res[m][b].spp,
+                           100.0 * res[m][b].stats.prepare_seconds / budgets[b]);
                 printf("\n");
             }
             fflush(stdout);

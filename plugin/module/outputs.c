@@ -78,6 +78,19 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
         attrs[na++] = (vbnl_image_attr){"vbnl/partial", VBNL_IMAGE_ATTR_INT, {.i = partial ? 1 : 0}};
         attrs[na++] = (vbnl_image_attr){"vbnl/time_budget", VBNL_IMAGE_ATTR_DOUBLE, {.d = s->time_budget}};
         attrs[na++] = (vbnl_image_attr){"vbnl/time/prepare", VBNL_IMAGE_ATTR_DOUBLE, {.d = st.prepare_seconds}};
+        /* under a budget: the preparation's bound, what the integrator chose and why, and whether
+         * the last pass was cut at the budget (docs/time-budget.md) */
+        char choice_names[8][2][96];
+        if (s->time_budget > 0.0) {
+            attrs[na++] = (vbnl_image_attr){"vbnl/budget/prepare_limit", VBNL_IMAGE_ATTR_DOUBLE, {.d = st.prepare_limit}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/budget/cut", VBNL_IMAGE_ATTR_INT, {.i = st.budget_cut ? 1 : 0}};
+            for (uint32_t i = 0; i < st.choice_count && i < 8 && na + 2 <= MAX_ATTRS; ++i) {
+                snprintf(choice_names[i][0], sizeof(choice_names[i][0]), "vbnl/budget/%s", st.choices[i].name);
+                snprintf(choice_names[i][1], sizeof(choice_names[i][1]), "vbnl/budget/%s/why", st.choices[i].name);
+                attrs[na++] = (vbnl_image_attr){choice_names[i][0], VBNL_IMAGE_ATTR_DOUBLE, {.d = st.choices[i].value}};
+                attrs[na++] = (vbnl_image_attr){choice_names[i][1], VBNL_IMAGE_ATTR_STRING, {.s = st.choices[i].why}};
+            }
+        }
         for (uint32_t i = 0; i < st.stage_count && na < MAX_ATTRS && i < 32; ++i) {
             snprintf(stage_names[i], sizeof(stage_names[i]), "vbnl/time/%s", st.stages[i].name);
             attrs[na++] = (vbnl_image_attr){stage_names[i], VBNL_IMAGE_ATTR_DOUBLE, {.d = st.stages[i].seconds}};

@@ -419,6 +419,17 @@ static vbnl_plugin_result p_prepare(vbnl_plugin_renderer *r, vbnl_plugin_progres
     progress_bridge b = {fn, user};
     res = vbnl_renderer_prepare(r->core, fn ? bridge_progress : NULL, &b, &e);
     r->partial = res == VBNL_ERR_CANCELLED;
+    vbnl_render_stats st;
+    if (res == VBNL_OK && r->message && r->settings.time_budget > 0.0 &&
+        vbnl_renderer_get_stats(r->core, &st, NULL) == VBNL_OK) {
+        /* what the integrator chose for the budget, before rendering starts */
+        for (uint32_t i = 0; i < st.choice_count; ++i) {
+            char note[512];
+            snprintf(note, sizeof(note), "budget %g s: %s = %.6g (%s)", r->settings.time_budget, st.choices[i].name,
+                     st.choices[i].value, st.choices[i].why);
+            r->message(r->message_user, VBNL_PLUGIN_NOTE, note);
+        }
+    }
     return to_msg(res, &e, msg, n);
 }
 

@@ -84,6 +84,50 @@ for want in "vbnl/integrator=path" "vbnl/seed=9" "vbnl/sampler=sobol" "vbnl/spp=
 done
 [ -z "$(ls "$TMP" | grep tmp-)" ] && ok "no temporary files left" || not_ok "no temporary files left" "$(ls "$TMP")"
 
+# Time budgets (docs/time-budget.md). Every integrator ends within --time plus the documented
+# overshoot: the tiles in flight, and what lies outside the budget (starting, loading the scene,
+# writing the files). That outside part is measured here by a 1-spp render with the same outputs,
+# so the slack scales with the build (sanitizers run everything several times slower).
+now() { date +%s.%N; }
+t0=$(now)
+"$VBNL" render "$SCENE" -o "$TMP/cal.exr" --width 64 --height 64 --spp 1 -q --integrator vbnl --set virtual_lights=64 --set photon_paths=1000 2>/dev/null
+outside=$(awk -v a="$t0" -v b="$(now)" 'BEGIN { print b - a }')
+for integ in path vbnl vpl vsl richvsl; do
+    t0=$(now)
+    out=$("$VBNL" render "$SCENE" -o "$TMP/budget-$integ.exr" --width 64 --height 64 --time 2 -q --integrator $integ 2>&1)
+    rc=$?
+    wall=$(awk -v a="$t0" -v b="$(now)" 'BEGIN { print b - a }')
+    allowed=$(awk -v o="$outside" 'BEGIN { print 2 + 2 * o + 0.25 }')
+    if [ $rc -eq 0 ] && awk -v w="$wall" -v m="$allowed" 'BEGIN { exit !(w <= m) }'; then
+        ok "--time 2 $integ ends in ${wall}s (allowed ${allowed}s)"
+    else
+        not_ok "--time 2 $integ ends in ${wall}s (allowed ${allowed}s)" "exit $rc" "$out"
+    fi
+    # richvsl's fixed preparation (importons, importance) is not sized: its light count alone is
+    [ $integ = richvsl ] && continue
+    hdr=$($HDR "$TMP/budget-$integ.exr" 2>&1)
+    prep=$(sed -n 's|^vbnl/time/prepare=||p' <<<"$hdr")
+    limit=$(sed -n 's|^vbnl/budget/prepare_limit=||p' <<<"$hdr")
+    if [ -n "$prep" ] && [ -n "$limit" ] && awk -v p="$prep" -v l="$limit" 'BEGIN { exit !(l == 0.5 && p <= l) }'; then
+        ok "--time 2 $integ: preparation ${prep}s within its bound ${limit}s"
+    else
+        not_ok "--time 2 $integ: preparation within its bound" "prepare '$prep', bound '$limit'" "$hdr"
+    fi
+done
+hdr=$($HDR "$TMP/budget-vbnl.exr" 2>&1)
+for want in "vbnl/time_budget=2.0" "vbnl/budget/virtual_lights=" "vbnl/budget/virtual_lights/why=sized" "vbnl/budget/photon_paths/why=sized" "vbnl/budget/prepare_estimate=" "vbnl/time/calibrate="; do
+    grep -qF -- "$want" <<<"$hdr" && ok "budget EXR header has $want" || not_ok "budget EXR header has $want" "$hdr"
+done
+grep -qF "vbnl/budget/virtual_lights/why=sized" <<<"$($HDR "$TMP/budget-vpl.exr" 2>&1)" && ok "vpl sizes its lights to the budget" || not_ok "vpl sizes its lights to the budget" "$($HDR "$TMP/budget-vpl.exr" 2>&1)"
+# Counts set explicitly are kept, and refused before the work when they cannot fit.
+expect "explicit count that fits is kept" 0 "" -- "$VBNL" render "$SCENE" -o "$TMP/keep.exr" --width 64 --height 64 --time 2 -q --integrator vbnl --set virtual_lights=1500
+grep -qF "vbnl/budget/virtual_lights/why=set explicitly, kept" <<<"$($HDR "$TMP/keep.exr" 2>&1)" && ok "the EXR says the count was kept" || not_ok "the EXR says the count was kept" "$($HDR "$TMP/keep.exr" 2>&1)"
+t0=$(now)
+expect "vbnl: explicit photon_paths that cannot fit are refused with the estimate" 1 "photon_paths set explicitly .* preparation needs about [0-9.]+ s .* more than its bound of 0.50 s \(25% of the 2 s time budget\)" -- "$VBNL" render "$SCENE" -o "$TMP/no.exr" --width 64 --height 64 --time 2 -q --integrator vbnl --set photon_paths=1e9
+awk -v a="$t0" -v b="$(now)" -v o="$outside" 'BEGIN { exit !(b - a <= 2 + 2 * o) }' && ok "the refusal comes before the work" || not_ok "the refusal comes before the work"
+[ ! -e "$TMP/no.exr" ] && ok "no image for a refused budget" || not_ok "no image for a refused budget"
+expect "vpl: explicit virtual_lights that cannot fit are refused" 1 "integrator .vpl.: virtual_lights=5000000 set explicitly cannot fit the 1 s time budget" -- "$VBNL" render "$SCENE" -o "$TMP/no.exr" --width 64 --height 64 --time 1 -q --integrator vpl --set virtual_lights=5000000
+
 # Same seed, any thread count: identical images (the EXR headers differ only in timings, so
 # compare the PNGs; test_render compares the float films bit for bit).
 "$VBNL" render "$SCENE" --png "$TMP/t1.png" --width 33 --height 17 --spp 3 --threads 1 -q

@@ -8,10 +8,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "rng.h"
 #include "sampling.h"
 #include "scenes.h"
+#include "sizing.h"
 #include "vbnl/mesh_import.h"
 #include "vbnl/vbnl.h"
 
@@ -276,6 +278,137 @@ static void test_determinism(void **state)
     free(img[1]);
 }
 
+/* The sizing rule (sizing.h) on made-up rates: the sized plan's estimate (with its margin) stays
+ * within the preparation's bound, the light count follows the image and the budget, counts set
+ * by the user are kept, and a plan of set counts that cannot fit says so. */
+static void test_sizing_rule(void **state)
+{
+    (void)state;
+    vbnl_sizing_in in;
+    memset(&in, 0, sizeof(in));
+    in.budget = 10.0;
+    in.prepare_limit = VBNL_BUDGET_PREPARE_SHARE * in.budget;
+    in.pixels = 512.0 * 512.0;
+    in.elapsed = 0.05;
+    in.seconds_per_light = 20e-6;
+    in.seconds_per_path = 2e-6;
+    vbnl_sizing_out out;
+    vbnl_size_to_budget(&in, &out);
+    assert_true(out.fits);
+    assert_true(fabs(out.lights - 20000.0) < 0.5);
+    assert_true(fabs(out.paths - floor(VBNL_SIZING_PHOTON_SHARE * 10.0 / (2e-6 * VBNL_SIZING_MARGIN))) < 1.0);
+    assert_true(out.estimate <= in.prepare_limit);
+    /* a quarter of the pixels: a quarter of the lights (above the minimum) */
+    in.pixels = 256.0 * 256.0;
+    vbnl_size_to_budget(&in, &out);
+    assert_true(fabs(out.lights - 5000.0) < 0.5);
+    /* slow placement: lights lowered so that they take at most half of what the bound leaves */
+    in.pixels = 512.0 * 512.0;
+    in.seconds_per_light = 1e-3;
+    vbnl_size_to_budget(&in, &out);
+    assert_true(out.lights < 20000.0);
+    assert_true(out.lights * in.seconds_per_light * VBNL_SIZING_MARGIN <= 0.5 * (in.prepare_limit - in.elapsed) + 1e-9);
+    assert_true(out.estimate <= in.prepare_limit);
+    assert_true(strstr(out.lights_why, "lowered") != NULL);
+    /* a long budget: more lights, photons capped */
+    in.seconds_per_light = 20e-6;
+    in.budget = 1000.0;
+    in.prepare_limit = VBNL_BUDGET_PREPARE_SHARE * in.budget;
+    vbnl_size_to_budget(&in, &out);
+    assert_true(fabs(out.lights - 130000.0) < 0.5);
+    assert_true(out.paths <= VBNL_SIZING_PATHS_MAX);
+    /* set counts are kept; when they cannot fit, the plan says so */
+    in.budget = 10.0;
+    in.prepare_limit = VBNL_BUDGET_PREPARE_SHARE * in.budget;
+    in.paths_set = 1;
+    in.paths = 2e7; /* 40 s at 2 us per path */
+    vbnl_size_to_budget(&in, &out);
+    assert_true(out.paths == 2e7);
+    assert_false(out.fits);
+    assert_true(out.estimate > 40.0);
+    in.paths = 1e5;
+    in.lights_set = 1;
+    in.lights = 3000;
+    vbnl_size_to_budget(&in, &out);
+    assert_true(out.fits && out.lights == 3000 && out.paths == 1e5);
+    assert_true(strstr(out.lights_why, "explicitly") != NULL);
+}
+
+static vbnl_result render_budget(vbnl_context *ctx, const vbnl_scene *s, const char *integrator, double budget,
+                                 uint32_t size, const char *const *settings, vbnl_render_stats *st, double *wall,
+                                 vbnl_error *err)
+{
+    vbnl_params *p;
+    vbnl_params_create(&p, NULL);
+    for (const char *const *kv = settings; kv && *kv; ++kv)
+        assert_int_equal(vbnl_params_set_text(p, *kv, NULL, NULL), VBNL_OK);
+    vbnl_render_settings rs;
+    vbnl_render_settings_init(&rs);
+    rs.width = rs.height = size;
+    rs.spp = 0;
+    rs.time_budget = budget;
+    rs.integrator = integrator;
+    rs.params = p;
+    vbnl_renderer *r = NULL;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    vbnl_result res = vbnl_renderer_create(ctx, s, &rs, &r, err);
+    if (res == VBNL_OK)
+        res = vbnl_renderer_render(r, NULL, NULL, err);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    *wall = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    if (res == VBNL_OK) {
+        vbnl_renderer_get_stats(r, st, NULL);
+        st->stages = NULL; /* owned by the renderer */
+        st->choices = NULL;
+    }
+    vbnl_renderer_destroy(r);
+    vbnl_params_destroy(p);
+    return res;
+}
+
+/* Under a time budget: `vbnl` sizes itself (its choices recorded), preparation stays within its
+ * bound, the render ends at the budget (plus the tiles in flight: 0.3 s here, far more than a
+ * 16x16 tile of 64x64 pixels takes); explicit counts that cannot fit are refused before the work
+ * they size, with the estimate and the bound in the message. */
+static void test_time_budget(void **state)
+{
+    (void)state;
+    vbnl_context *ctx;
+    vbnl_context_desc d = {0};
+    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_scene *s = cornell(ctx);
+    vbnl_render_stats st;
+    vbnl_error err = {0};
+    double wall;
+    const double budget = 2.0;
+    if (render_budget(ctx, s, "vbnl", budget, 64, NULL, &st, &wall, &err) != VBNL_OK)
+        fail_msg("vbnl: %s", err.message);
+    printf("# vbnl --time %g at 64x64: prepare %.3f s (bound %.3f s), render %.3f s, wall %.3f s, %u spp, %u choices\n",
+           budget, st.prepare_seconds, st.prepare_limit, st.render_seconds, wall, st.spp, st.choice_count);
+    assert_true(st.choice_count >= 2);
+    assert_true(fabs(st.prepare_limit - VBNL_BUDGET_PREPARE_SHARE * budget) < 1e-9);
+    assert_true(st.prepare_seconds <= st.prepare_limit);
+    assert_true(st.spp >= 1);
+    assert_true(st.prepare_seconds + st.render_seconds <= budget + 0.3);
+    assert_true(wall <= budget + 0.3);
+
+    /* 1e9 photon paths cannot fit 2 s: refused after the calibration, long before they would end */
+    const char *const too_many[] = {"photon_paths=1e9", NULL};
+    vbnl_result r = render_budget(ctx, s, "vbnl", budget, 64, too_many, &st, &wall, &err);
+    assert_int_equal(r, VBNL_ERR_INVALID_ARGUMENT);
+    if (!strstr(err.message, "photon_paths set explicitly") || !strstr(err.message, "more than its bound"))
+        fail_msg("%s", err.message);
+    assert_true(wall < budget);
+    /* a count that fits is kept */
+    const char *const fits[] = {"virtual_lights=1500", NULL};
+    if (render_budget(ctx, s, "vbnl", budget, 64, fits, &st, &wall, &err) != VBNL_OK)
+        fail_msg("vbnl: %s", err.message);
+    assert_true(st.prepare_seconds <= st.prepare_limit);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -283,6 +416,8 @@ int main(void)
         cmocka_unit_test(test_refused),
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_sizing_rule),
+        cmocka_unit_test(test_time_budget),
         cmocka_unit_test(test_cornell_against_path),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

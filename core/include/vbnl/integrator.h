@@ -28,10 +28,12 @@ extern "C" {
 #endif
 
 #define VBNL_INTEGRATOR_ABI_MAJOR 1u
-#define VBNL_INTEGRATOR_ABI_MINOR 0u
+#define VBNL_INTEGRATOR_ABI_MINOR 1u
 
 typedef struct vbnl_tile_job vbnl_tile_job;     /* one tile of one pass (internal) */
 typedef struct vbnl_stage_ctx vbnl_stage_ctx;   /* progress, timing and workers for prepare */
+
+typedef struct vbnl_budget vbnl_budget;         /* the render's time budget (below) */
 
 typedef struct vbnl_integrator_env {
     vbnl_context *ctx;
@@ -39,7 +41,46 @@ typedef struct vbnl_integrator_env {
     const vbnl_params *params;         /* already validated against the class's spec table */
     const vbnl_render_settings *settings;
     vbnl_film *film;                   /* add AOV layers here with vbnl_film_add_layer (internal) */
+    /* ABI minor 1 */
+    vbnl_budget *budget;               /* never NULL; vbnl_budget_seconds is 0 without a budget */
 } vbnl_integrator_env;
+
+/* ---- time budget (ABI minor 1) -------------------------------------------------------------
+ *
+ * A render with settings.time_budget > 0 belongs to its integrators: each sizes its own work to
+ * the budget (docs/time-budget.md). The renderer ends rendering at the budget (the tiles in
+ * flight finish, and the first pass is always whole); preparation must keep itself within
+ * vbnl_budget_prepare_limit. A parameter the user set (vbnl_params_has) is kept; when it cannot
+ * fit, the integrator refuses (VBNL_ERR_INVALID_ARGUMENT) before the work it sizes starts, naming the
+ * estimate and the limit. What an integrator chose is recorded with vbnl_budget_choose and
+ * reported by vbnl_renderer_get_stats (and in the EXR header). */
+
+/* The preparation's bound: at most this share of the budget (calibration included). */
+#define VBNL_BUDGET_PREPARE_SHARE 0.25
+
+/* Seconds of the budget; 0 = no budget. */
+double vbnl_budget_seconds(const vbnl_budget *b);
+/* Seconds preparation may take: VBNL_BUDGET_PREPARE_SHARE x the budget (0 without a budget). */
+double vbnl_budget_prepare_limit(const vbnl_budget *b);
+/* Seconds since the budget started (the first prepare or render call; 0 before). */
+double vbnl_budget_elapsed(const vbnl_budget *b);
+/* Pixels each pass renders (the crop, or the whole image). */
+double vbnl_budget_pixels(const vbnl_budget *b);
+/* Records a value the integrator chose (or kept) and why, e.g. ("virtual_lights", 20000,
+ * "sized: ..."); a later call for the same name replaces the record. */
+void vbnl_budget_choose(vbnl_budget *b, const char *name, double value, const char *why_fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+
+/* Light count of a many-light baseline (`vpl`, `vsl`, `richvsl`), whose shading costs about one
+ * shadow ray per light per camera vertex: the count with which `spp_target` samples per pixel
+ * fit the budget's rendering share (1 - VBNL_BUDGET_PREPARE_SHARE) at the scene's shadow-ray
+ * rate measured here (a short calibration, vbnl_scene_measure_ray_rates, recorded as the stage
+ * "calibrate"), a light evaluation costing `cost` shadow rays, clamped to [lo, hi]. A count the
+ * user set (the parameter `name`) is kept, and refused (VBNL_ERR_INVALID_ARGUMENT) when one pass
+ * alone would not fit the time left. Without a budget, *out = `fallback` (the parameter's
+ * value) and nothing is measured. Records the choice. */
+vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fallback, double spp_target,
+                                    double cost, double lo, double hi, uint32_t *out, vbnl_error *err);
 
 typedef struct vbnl_integrator_class {
     uint32_t abi_major, abi_minor;

@@ -54,6 +54,9 @@ vbnl_result vbnl_params_set_text(vbnl_params *p, const char *key_equals_value, c
                                  vbnl_error *err);
 
 uint32_t vbnl_params_count(const vbnl_params *p);
+/* Whether `name` is set in the list (by a scene's integrator block, a command line's --set or a
+ * caller), as opposed to left at its spec's default. p may be NULL (nothing is set). */
+int vbnl_params_has(const vbnl_params *p, const char *name);
 /* Reads setting i: its name, whether it is a string, its number or string, and its origin. */
 vbnl_result vbnl_params_get(const vbnl_params *p, uint32_t i, const char **name, int *is_string,
                             double *number, const char **string, const char **where);

@@ -57,7 +57,9 @@ vbnl_result vbnl_sampler_find(const char *name, vbnl_sampler_kind *out, vbnl_err
 typedef struct vbnl_render_settings {
     uint32_t width, height;     /* image size in pixels, 1 .. 65536 */
     uint32_t spp;               /* samples per pixel to reach; 0 = until the time budget ends */
-    double time_budget;         /* seconds for prepare + render; 0 = no limit (spp must be > 0) */
+    double time_budget;         /* seconds for prepare + render; 0 = no limit (spp must be > 0).
+                                   The integrator sizes its work to it (docs/time-budget.md);
+                                   rendering stops at it, the tiles in flight finishing */
     uint64_t seed;
     const char *integrator;     /* registered name; NULL means "path" */
     const vbnl_params *params;  /* integrator parameters, or NULL for every default */
@@ -105,6 +107,13 @@ typedef struct vbnl_stage_time {
     const char *work_unit;  /* its unit ("rays"), NULL when work is 0 */
 } vbnl_stage_time;
 
+/* A value an integrator chose for a time budget, or kept because the user set it. */
+typedef struct vbnl_budget_choice {
+    const char *name;   /* a parameter, e.g. "virtual_lights" */
+    double value;
+    const char *why;    /* one line: the rule and the figures it used */
+} vbnl_budget_choice;
+
 typedef struct vbnl_render_stats {
     uint32_t passes;
     uint32_t spp;                /* samples per pixel finished in every pixel of the crop */
@@ -121,6 +130,14 @@ typedef struct vbnl_render_stats {
      * counted as closest-hit rays by vbnl_ray_rates_mix, though an integrator's own occlusion
      * rays (virtual lights) are among them. */
     uint64_t camera_rays, shadow_rays;
+    /* Under a time budget (docs/time-budget.md): what the integrator chose and why, owned by the
+     * renderer (valid until it is destroyed); the preparation's bound in seconds; and whether the
+     * last pass was cut at the budget (its tiles not yet started were left out, so some pixels
+     * have spp + that pass's samples and the rest spp). */
+    uint32_t choice_count;
+    const vbnl_budget_choice *choices;
+    double prepare_limit;
+    int budget_cut;
 } vbnl_render_stats;
 vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *out, vbnl_error *err);
 

@@ -32,9 +32,9 @@
 #include "shading.h"
 
 static const vbnl_param_spec rv_params[] = {
-    {"virtual_lights", VBNL_PARAM_INT, 12000, NULL, 1, 5e7, NULL,
-     "N: the photon map holds q N photons, so about N lights (at most) are placed; the VBNL paper "
-     "compares at 12K"},
+    {"virtual_lights", VBNL_PARAM_INT, 1000, NULL, 1, 5e7, NULL,
+     "N: the photon map holds q N photons, so about N lights (at most) are placed (the VBNL paper "
+     "compares at 12K); under --time sized to the budget unless set"},
     {"importon_paths", VBNL_PARAM_INT, 32, NULL, 1, 4096, NULL, "camera (importon) paths per pixel (§7: 32)"},
     {"photons_per_light", VBNL_PARAM_FLOAT, 100, NULL, 1, 1e6, NULL, "q: photons per light (§7: 100)"},
     {"importance_neighbours", VBNL_PARAM_INT, 16, NULL, 2, 1024, NULL,
@@ -79,7 +79,13 @@ typedef struct rv_state {
     uint32_t importons, photons;
     uint64_t photon_paths;
     int prepared;
+    vbnl_budget *budget;
 } rv_state;
+
+/* Under a time budget the light count is sized by vbnl_budget_size_lights (docs/time-budget.md):
+ * two samples per pixel in the budget's rendering share, a light evaluation costing about 3
+ * shadow rays (measured on the Cornell box: docs/time-budget.md). */
+#define RV_LIGHT_COST 3.0
 
 static double param(const vbnl_integrator_env *env, const char *name)
 {
@@ -96,6 +102,7 @@ static vbnl_result rv_create(const vbnl_integrator_env *env, void **out, vbnl_er
     s->height = env->settings->height;
     s->seed = env->settings->seed;
     s->virtual_lights = (uint32_t)param(env, "virtual_lights");
+    s->budget = env->budget;
     s->importon_paths = (uint32_t)param(env, "importon_paths");
     s->q = param(env, "photons_per_light");
     s->k_importance = (uint32_t)param(env, "importance_neighbours");
@@ -211,6 +218,10 @@ static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *er
 {
     rv_state *s = state;
     const vbnl_scene *sc = s->scene;
+    vbnl_result r0 = vbnl_budget_size_lights(s->budget, "virtual_lights", s->virtual_lights, 2.0, RV_LIGHT_COST, 16,
+                                             12000, &s->virtual_lights, err);
+    if (r0 != VBNL_OK)
+        return r0;
     rv_maps m;
     memset(&m, 0, sizeof(m));
     float *W = NULL, *p_rs = NULL;

@@ -32,6 +32,7 @@
 #include "profiles.h"
 #include "render_internal.h"
 #include "shading.h"
+#include "sizing.h"
 #include "splitting.h"
 #include "vl_file.h"
 #include "vl_index.h"
@@ -43,8 +44,9 @@ static const char *const sampling_modes[] = {"mis", "power", "bsdf", NULL};
 static const char *const view_modes[] = {"shaded", "lights", NULL};
 
 static const vbnl_param_spec vbnl_params_spec[] = {
-    {"virtual_lights", VBNL_PARAM_INT, 130000, NULL, 1, 5e7, NULL,
-     "N, the number of virtual lights (paper: 130K-140K)"},
+    {"virtual_lights", VBNL_PARAM_INT, 20000, NULL, 1, 5e7, NULL,
+     "N, the number of virtual lights (paper, on a GPU: 130K-140K); under --time sized to the budget "
+     "unless set"},
     {"candidates", VBNL_PARAM_FLOAT, 0.1, NULL, 1e-6, 5e8, NULL,
      "M, camera sub-paths placing candidates; a value <= 1 is the ratio N/M (paper: 0.1)"},
     {"tile_size", VBNL_PARAM_INT, 4, NULL, 1, 256, NULL, "screen tile side (pixels) stratifying placement"},
@@ -57,7 +59,8 @@ static const vbnl_param_spec vbnl_params_spec[] = {
     {"early_stop", VBNL_PARAM_FLOAT, 0.8, NULL, 0.01, 1, NULL,
      "fraction of each box's excess eliminated before joining boxes (§3.2)"},
     {"radius_scale", VBNL_PARAM_FLOAT, 2, NULL, 0.1, 16, NULL, "alpha: r_i = alpha r_i,max (§3.2)"},
-    {"photon_paths", VBNL_PARAM_FLOAT, 2e7, NULL, 1, 1e11, NULL, "photon paths traced for splitting (paper: 20M)"},
+    {"photon_paths", VBNL_PARAM_FLOAT, 1e6, NULL, 1, 1e11, NULL,
+     "photon paths traced for splitting (paper, on a GPU: 20M); under --time sized to the budget unless set"},
     {"profile_resolution", VBNL_PARAM_INT, 16, NULL, 8, 32, NULL,
      "hemi-octahedral emission map side for glossy lights: 8, 16 or 32"},
     {"lazy_profiles", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL,
@@ -125,6 +128,13 @@ typedef struct vbnl_state {
     vbnl_vl_shade shade;             /* what rendering reads per light, by rank (vl_shade.h) */
     vbnl_vl_support *support;        /* by rank: the support test's data (vl_support.h), or NULL */
     int prepared;
+    /* time budget (sizing.h) */
+    vbnl_budget *budget;             /* NULL for the calibration's own state */
+    int lights_set, paths_set;       /* virtual_lights / photon_paths set by the user */
+    /* what the calibration measures (size_to_budget): seconds of the work that grows with the
+     * light count, and of photon splitting, whose first cal_split paths are timed apart */
+    double t_lights, t_photons, t_photons_first;
+    uint64_t cal_split;
 } vbnl_state;
 
 static double param(const vbnl_integrator_env *env, const char *name)
@@ -141,6 +151,15 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     s->ctx = env->ctx;
     vbnl_prepare_params *pp = &s->pp;
     pp->virtual_lights = (uint32_t)param(env, "virtual_lights");
+    s->budget = env->budget;
+    s->lights_set = vbnl_params_has(env->params, "virtual_lights");
+    s->paths_set = vbnl_params_has(env->params, "photon_paths");
+    const int sized = vbnl_budget_seconds(env->budget) > 0.0 && !vbnl_params_has(env->params, "load_lights");
+    /* under a budget the count is chosen in prepare (sizing.h), at most the rule's wish: that
+     * bound is what the checks below see */
+    if (sized && !s->lights_set)
+        pp->virtual_lights = (uint32_t)vbnl_sizing_lights_wanted(vbnl_budget_seconds(env->budget),
+                                                                 vbnl_budget_pixels(env->budget));
     double cand = param(env, "candidates");
     double m = cand <= 1.0 ? pp->virtual_lights / cand : cand;
     pp->tile_size = (uint32_t)param(env, "tile_size");
@@ -201,6 +220,10 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
                            "lie inside the %llu photon_paths",
                            (unsigned long long)s->photon_first, (unsigned long long)s->photon_count,
                            (unsigned long long)s->photon_paths);
+    else if (sized && !s->paths_set && (s->photon_first || s->photon_count))
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': photon_first/photon_count split a photon_paths that is the same in "
+                           "every process: set photon_paths explicitly under a time budget");
     else if (s->load_path && (s->photon_first || s->photon_count))
         r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                            "integrator 'vbnl': photon_first/photon_count select photons to trace, but with "
@@ -302,7 +325,9 @@ static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
     id.normals = s->vls.normal;
     id.count = n;
     id.kind = VBNL_VL_INDEX_GRID;
+    double t0 = vbnl_now();
     vbnl_result r = vbnl_vl_index_create(&id, &s->index);
+    s->t_lights += vbnl_now() - t0;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the virtual-light index (%s)", vbnl_result_name(r));
     s->kernels = calloc(sc->material_count, sizeof(*s->kernels));
@@ -332,6 +357,7 @@ static vbnl_result build_support(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_erro
     uint32_t n = s->vls.count;
     if (!(s->support = malloc(sizeof(*s->support) * n)))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
+    double t0 = vbnl_now();
     if (stage)
         vbnl_stage_begin(stage, "support", n, "lights");
     vbnl_vl_support_stats st;
@@ -340,9 +366,104 @@ static vbnl_result build_support(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_erro
         vbnl_stage_set_work(stage, (double)st.rays, "rays");
         vbnl_stage_end(stage);
     }
+    s->t_lights += vbnl_now() - t0;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "the support probes were cancelled"
                                                               : "out of memory for the support probes");
+    return VBNL_OK;
+}
+
+static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err);
+
+/* The light count and photon paths for the time budget (sizing.h): a calibration (a whole
+ * preparation of a small set, recorded as the stage "calibrate" and thrown away) measures the
+ * seconds per light and per photon path on this scene, then the rule sizes what the user did
+ * not set. Counts set by the user that cannot fit the preparation's bound are refused here,
+ * before any of the sized work. */
+static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    vbnl_state *cal = malloc(sizeof(*cal));
+    if (!cal)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    *cal = *s;
+    memset(&cal->vls, 0, sizeof(cal->vls));
+    memset(&cal->shade, 0, sizeof(cal->shade));
+    cal->index = NULL;
+    cal->map = NULL;
+    cal->profiles = NULL;
+    cal->kernels = NULL;
+    cal->support = NULL;
+    cal->prepared = 0;
+    cal->save_path = cal->load_path = NULL;
+    cal->budget = NULL;
+    const double ratio = (double)s->pp.candidates / (double)s->pp.virtual_lights; /* M / N */
+    uint32_t n_cal = s->pp.virtual_lights < VBNL_SIZING_CAL_LIGHTS ? s->pp.virtual_lights : VBNL_SIZING_CAL_LIGHTS;
+    cal->pp.virtual_lights = n_cal;
+    cal->pp.candidates = (uint32_t)ceil(ratio * n_cal);
+    cal->photon_paths = VBNL_SIZING_CAL_PATHS_FIRST + VBNL_SIZING_CAL_PATHS;
+    cal->cal_split = VBNL_SIZING_CAL_PATHS_FIRST;
+    cal->photon_first = cal->photon_count = 0;
+    cal->t_lights = cal->t_photons = cal->t_photons_first = 0.0;
+    const char *record_as = stage ? stage->record_as : NULL;
+    if (stage)
+        stage->record_as = "calibrate";
+    double t0 = vbnl_now();
+    vbnl_result r = vbnl_prepare(cal, stage, err);
+    /* Fixed costs (the conversion kernels of each material, the maps, the splitting's set-up)
+     * are paid again by the real preparation whatever its counts: apart from the costs per light
+     * and per path. Splitting's: from its two runs of VBNL_SIZING_CAL_PATHS_FIRST and
+     * VBNL_SIZING_CAL_PATHS paths. */
+    const double total = vbnl_now() - t0, t_a = cal->t_photons_first, t_b = cal->t_photons;
+    const double na = VBNL_SIZING_CAL_PATHS_FIRST, nb = VBNL_SIZING_CAL_PATHS;
+    double per_path = (t_b - t_a) / (nb - na);
+    if (!(per_path > 0.0))
+        per_path = t_b / nb;
+    const double fixed_paths = fmax(0.0, t_b - per_path * nb);
+    const double per_light = cal->t_lights / n_cal;
+    const double fixed = fmax(0.0, total - cal->t_lights - t_a - t_b) + fixed_paths;
+    if (stage)
+        stage->record_as = record_as;
+    vbnl_destroy(cal);
+    if (r != VBNL_OK)
+        return r;
+
+    vbnl_sizing_in in;
+    memset(&in, 0, sizeof(in));
+    in.budget = vbnl_budget_seconds(s->budget);
+    in.prepare_limit = vbnl_budget_prepare_limit(s->budget);
+    in.pixels = vbnl_budget_pixels(s->budget);
+    in.elapsed = vbnl_budget_elapsed(s->budget);
+    in.seconds_per_light = per_light;
+    in.seconds_per_path = per_path;
+    in.fixed_seconds = fixed;
+    in.lights_set = s->lights_set;
+    in.lights = s->pp.virtual_lights;
+    in.paths_set = s->paths_set;
+    in.paths = (double)s->photon_paths;
+    vbnl_sizing_out out;
+    vbnl_size_to_budget(&in, &out);
+    if (!out.fits)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "integrator 'vbnl': with %s set explicitly (virtual_lights=%.0f, photon_paths=%.0f) "
+                              "preparation needs about %.1f s (calibrated on this scene: %.3g us per light, %.3g us "
+                              "per photon path, %.3g s fixed), more than its bound of %.2f s (%g%% of the %g s time budget); "
+                              "lower them, raise --time, or leave them unset so that the budget sizes them",
+                              s->lights_set && s->paths_set ? "virtual_lights and photon_paths"
+                              : s->lights_set              ? "virtual_lights"
+                                                           : "photon_paths",
+                              out.lights, out.paths, out.estimate, in.seconds_per_light * 1e6,
+                              in.seconds_per_path * 1e6, in.fixed_seconds, in.prepare_limit, 100.0 * VBNL_BUDGET_PREPARE_SHARE,
+                              in.budget);
+    s->pp.virtual_lights = (uint32_t)out.lights;
+    if (!s->lights_set)
+        s->pp.candidates = (uint32_t)ceil(ratio * out.lights);
+    s->photon_paths = (uint64_t)out.paths;
+    vbnl_budget_choose(s->budget, "virtual_lights", out.lights, "%s", out.lights_why);
+    vbnl_budget_choose(s->budget, "photon_paths", out.paths, "%s", out.paths_why);
+    vbnl_budget_choose(s->budget, "prepare_estimate", out.estimate,
+                       "seconds of preparation estimated (calibration %.3f s and %.3f s fixed included) against the "
+                       "bound of %.2f s (%g%% of %g s)",
+                       in.elapsed, in.fixed_seconds, in.prepare_limit, 100.0 * VBNL_BUDGET_PREPARE_SHARE, in.budget);
     return VBNL_OK;
 }
 
@@ -350,7 +471,12 @@ static vbnl_result build_support(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_erro
 static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     const vbnl_scene *sc = s->scene;
-    vbnl_result r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, NULL, err);
+    vbnl_result r = VBNL_OK;
+    if (s->budget && vbnl_budget_seconds(s->budget) > 0.0 && (r = size_to_budget(s, stage, err)) != VBNL_OK)
+        return r;
+    double t_prep = vbnl_now();
+    r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, NULL, err);
+    s->t_lights += vbnl_now() - t_prep;
     if (r != VBNL_OK)
         return r;
     uint32_t n = s->vls.count;
@@ -386,7 +512,19 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     sd.normal_cos = VL_NORMAL_COS;
     sd.support = s->support;
     vbnl_split_stats sst;
-    r = vbnl_split_photons(&sd, NULL, stage, &sst);
+    double t_split = vbnl_now();
+    r = VBNL_OK;
+    if (s->cal_split > 0 && s->cal_split < count) { /* the calibration: two runs, see size_to_budget */
+        sd.path_count = s->cal_split;
+        r = vbnl_split_photons(&sd, NULL, stage, &sst);
+        s->t_photons_first = vbnl_now() - t_split;
+        t_split = vbnl_now();
+        sd.first_path += s->cal_split;
+        sd.path_count = count - s->cal_split;
+    }
+    if (r == VBNL_OK)
+        r = vbnl_split_photons(&sd, NULL, stage, &sst);
+    s->t_photons = vbnl_now() - t_split;
     if (stage) {
         vbnl_stage_set_work(stage, (double)sst.rays, "rays");
         vbnl_stage_end(stage);
@@ -419,6 +557,8 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
 /* Instead of stages 1-3: the set and its photon data from load_lights (vl_file.h). */
 static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
+    if (s->budget && vbnl_budget_seconds(s->budget) > 0.0)
+        vbnl_budget_choose(s->budget, "virtual_lights", 0, "load_lights: the counts of the file, not sized");
     if (stage)
         vbnl_stage_begin(stage, "load", 0, "files");
     vbnl_vl_file_data d;
@@ -456,6 +596,7 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     uint32_t n = s->vls.count;
 
     /* 4. profiles: power table (and the eager conversion) */
+    double t4 = vbnl_now();
     if (stage)
         vbnl_stage_begin(stage, "profiles", n, "lights");
     convert_job cj = {s, malloc(sizeof(float) * n)};
@@ -469,6 +610,7 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     r = rc == 0 ? vbnl_vl_shade_build(&s->shade, &s->vls, s->index, s->profiles, s->kernels, cj.power,
                                             s->support) : VBNL_OK;
     free(cj.power);
+    s->t_lights += vbnl_now() - t4;
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "profile conversion was cancelled");
     if (r != VBNL_OK)

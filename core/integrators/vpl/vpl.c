@@ -13,8 +13,9 @@
 #include "vpl_set.h"
 
 static const vbnl_param_spec vpl_params[] = {
-    {"virtual_lights", VBNL_PARAM_INT, 12000, NULL, 1, 5e7, NULL,
-     "VPLs to generate (accepted ones with acceptance); the VBNL paper compares at 12K"},
+    {"virtual_lights", VBNL_PARAM_INT, 1000, NULL, 1, 5e7, NULL,
+     "VPLs to generate (accepted ones with acceptance; the VBNL paper compares at 12K); under --time "
+     "sized to the budget unless set"},
     {"light_paths", VBNL_PARAM_INT, 0, NULL, 0, 1e10, NULL,
      "fixed number N of light paths instead (0 = trace until virtual_lights are stored)"},
     {"clamp", VBNL_PARAM_FLOAT, 0, NULL, 0, 1e30, NULL,
@@ -38,7 +39,13 @@ typedef struct vpl_state {
     uint32_t stride;
     vec3 cam_forward;
     vbnl_vpl_set set;
+    vbnl_budget *budget;
 } vpl_state;
+
+/* Under a time budget the light count is sized by vbnl_budget_size_lights (docs/time-budget.md):
+ * two samples per pixel in the budget's rendering share, a light evaluation costing about 4
+ * shadow rays (measured on the Cornell box: docs/time-budget.md). */
+#define VPL_LIGHT_COST 4.0
 
 static double param(const vbnl_integrator_env *env, const char *name)
 {
@@ -51,6 +58,7 @@ static vbnl_result vpl_create(const vbnl_integrator_env *env, void **out, vbnl_e
     if (!s)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     s->scene = env->scene;
+    s->budget = env->budget;
     vbnl_vpl_params *vp = &s->vp;
     vp->target = (uint32_t)param(env, "virtual_lights");
     vp->light_paths = (uint64_t)param(env, "light_paths");
@@ -87,7 +95,11 @@ static void vpl_destroy(void *state)
 static vbnl_result vpl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     vpl_state *s = state;
-    vbnl_result r = vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
+    vbnl_result r = vbnl_budget_size_lights(s->budget, "virtual_lights", s->vp.target, 2.0, VPL_LIGHT_COST, 16,
+                                            12000, &s->vp.target, err);
+    if (r != VBNL_OK)
+        return r;
+    r = vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
     if (r == VBNL_OK)
         vbnl_stage_set_storage(stage, (uint64_t)s->set.count * sizeof(vbnl_vpl));
     return r;

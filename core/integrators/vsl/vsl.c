@@ -23,8 +23,8 @@
 #include "vpl_set.h"
 
 static const vbnl_param_spec vsl_params[] = {
-    {"virtual_lights", VBNL_PARAM_INT, 12000, NULL, 1, 5e7, NULL,
-     "lights to generate; the VBNL paper compares at 12K"},
+    {"virtual_lights", VBNL_PARAM_INT, 1000, NULL, 1, 5e7, NULL,
+     "lights to generate (the VBNL paper compares at 12K); under --time sized to the budget unless set"},
     {"light_paths", VBNL_PARAM_INT, 0, NULL, 0, 1e10, NULL,
      "fixed number N of light paths instead (0 = trace until virtual_lights are stored)"},
     {"rr_depth", VBNL_PARAM_INT, 0, NULL, 0, 1e6, NULL, "light-walk bounces before Russian roulette"},
@@ -47,7 +47,13 @@ typedef struct vsl_state {
     vbnl_vpl_set set;
     float *radius;
     float *inv_area; /* 1 / (pi r^2) */
+    vbnl_budget *budget;
 } vsl_state;
+
+/* Under a time budget the light count is sized by vbnl_budget_size_lights (docs/time-budget.md):
+ * two samples per pixel in the budget's rendering share, a light evaluation costing about 4
+ * shadow rays (measured on the Cornell box: docs/time-budget.md). */
+#define VSL_LIGHT_COST 4.0
 
 static double param(const vbnl_integrator_env *env, const char *name)
 {
@@ -60,6 +66,7 @@ static vbnl_result vsl_create(const vbnl_integrator_env *env, void **out, vbnl_e
     if (!s)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     s->scene = env->scene;
+    s->budget = env->budget;
     vbnl_vpl_params *vp = &s->vp;
     vp->target = (uint32_t)param(env, "virtual_lights");
     vp->light_paths = (uint64_t)param(env, "light_paths");
@@ -120,7 +127,11 @@ static void radius_chunk(void *user, uint64_t item, unsigned thread)
 static vbnl_result vsl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     vsl_state *s = state;
-    vbnl_result r = vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
+    vbnl_result r = vbnl_budget_size_lights(s->budget, "virtual_lights", s->vp.target, 2.0, VSL_LIGHT_COST, 16,
+                                            12000, &s->vp.target, err);
+    if (r != VBNL_OK)
+        return r;
+    r = vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
     if (r != VBNL_OK)
         return r;
     const uint32_t n = s->set.count;
