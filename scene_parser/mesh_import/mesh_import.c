@@ -10,6 +10,7 @@
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <errno.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
@@ -234,15 +235,10 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, why);
     mesh_io m;
     m.refused[0] = '\0';
-    {
-        char dir[PATH_MAX];
-        snprintf(dir, sizeof(dir), "%s", path);
-        char *slash = strrchr(dir, '/');
-        if (slash)
-            *(slash == dir ? slash + 1 : slash) = '\0';
-        if (!realpath(slash ? dir : ".", m.dir))
-            return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': its folder cannot be read", path);
-    }
+    /* the folder of the file itself (a link named by the user leads to its file's folder) */
+    if (!realpath(path, m.dir))
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': %s", path, strerror(errno));
+    *(strrchr(m.dir, '/') == m.dir ? m.dir + 1 : strrchr(m.dir, '/')) = '\0';
     struct aiFileIO io = {io_open, io_close, (aiUserData)(void *)&m};
     /* ValidateDataStructure runs first: an index past the vertices is an error, not a read
      * outside the arrays by the steps after it. */
