@@ -572,7 +572,7 @@ static void test_placement_then_photons(void **state)
                                       {"photon_first=70001", "photon_count=0"}};
     snprintf(load, sizeof(load), "load_lights=%s", place);
     for (int k = 0; k < 3; ++k) {
-        char name[32], sk[420];
+        char name[32], sk[1300];
         snprintf(name, sizeof(name), "part%d.vls", k);
         path_in(f, name, part[k], sizeof(part[k]));
         snprintf(sk, sizeof(sk), "save_lights=%s", part[k]);
