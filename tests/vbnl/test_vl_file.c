@@ -249,7 +249,7 @@ static void test_round_trip_arrays(void **state)
     assert_int_equal(d.header.glossy_count, n / 2); /* the odd lights */
     /* the header alone reads back the same, with the set fingerprint the save computed */
     vbnl_vl_file_header only;
-    assert_int_equal(vbnl_vl_file_read_header(path, &only, &err), VBNL_OK);
+    assert_int_equal(vbnl_vl_file_read_header(path, 1, &only, &err), VBNL_OK);
     assert_int_equal(only.count, n);
     assert_true(only.set == d.header.set && only.set != 0);
     assert_true(only.camera == h.camera && only.photon_count == 1000);
@@ -555,8 +555,8 @@ static void test_placement_then_photons(void **state)
     free(run_ok(f, 0, pl));
     vbnl_vl_file_header hp, hf;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_vl_file_read_header(place, &hp, &err), VBNL_OK);
-    assert_int_equal(vbnl_vl_file_read_header(full, &hf, &err), VBNL_OK);
+    assert_int_equal(vbnl_vl_file_read_header(place, 1, &hp, &err), VBNL_OK);
+    assert_int_equal(vbnl_vl_file_read_header(full, 0, &hf, &err), VBNL_OK);
     assert_int_equal(hp.photon_first, 0);
     assert_int_equal(hp.photon_count, 0);
     assert_int_equal(hp.photon_paths, 100000);

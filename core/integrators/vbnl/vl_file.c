@@ -318,7 +318,7 @@ static vbnl_result open_file(const char *path, reader *r, uint64_t *size, vbnl_e
     return VBNL_OK;
 }
 
-vbnl_result vbnl_vl_file_read_header(const char *path, vbnl_vl_file_header *out, vbnl_error *err)
+vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_header *out, vbnl_error *err)
 {
     if (!path || !out)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_read_header: NULL argument");
@@ -328,8 +328,22 @@ vbnl_result vbnl_vl_file_read_header(const char *path, vbnl_vl_file_header *out,
     vbnl_result res = open_file(path, &r, &size, err);
     if (res != VBNL_OK)
         return res;
-    uint32_t n, glossy;
-    res = check_file(&r, size, out, &n, &glossy);
+    uint32_t n = 0, glossy = 0;
+    if (verify) {
+        res = check_file(&r, size, out, &n, &glossy);
+    } else {
+        unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
+        uint32_t mark = 0;
+        if (fread(hb, 1, sizeof(hb), r.f) != sizeof(hb) || memcmp(hb, VBNL_VL_FILE_MAGIC, 8) != 0)
+            res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is not a virtual-light file", path);
+        if (res == VBNL_OK) {
+            get(hb, 12, &mark, 4);
+            header_decode(hb, out, &n, &glossy);
+            if (mark != BYTE_ORDER_MARK || out->version != VBNL_VL_FILE_VERSION ||
+                file_size(n, glossy, out->profile_resolution) != size)
+                res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged or of another version", path);
+        }
+    }
     fclose(r.f);
     if (res != VBNL_OK)
         memset(out, 0, sizeof(*out));

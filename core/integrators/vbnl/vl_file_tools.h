@@ -47,9 +47,10 @@ typedef struct vbnl_vl_file_header {
     uint32_t glossy_count;        /* lights with an incident map (filled by reads) */
 } vbnl_vl_file_header;
 
-/* Reads `path`'s header after verifying its checksum over the whole file (so a damaged file is
- * named as damaged, not misread); the arrays are not decoded. */
-vbnl_result vbnl_vl_file_read_header(const char *path, vbnl_vl_file_header *out, vbnl_error *err);
+/* Reads `path`'s header; the arrays are not decoded. With `verify`, after the checksum over the
+ * whole file (a damaged file is named as damaged, not misread); without, only the header is read
+ * and checked (magic, byte order, version, size), for a file this process has loaded already. */
+vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_header *out, vbnl_error *err);
 
 /* Sums the photon data of `n` files of one preparation (same scene, parameters and set, bit for
  * bit; their photon ranges disjoint) into `out_path`, written atomically; the sum equals one run
