@@ -436,7 +436,7 @@ static int check_and_resolve(farm *f)
                 a->o.width, a->o.height);
         return VBNL_EXIT_USAGE;
     }
-    if ((f->animated || a->clock_given) && !render_takes_clock(f)) {
+    if ((f->animated || a->clock_given) && !f->dry_run && !render_takes_clock(f)) {
         fprintf(stderr, "vbnl farm: this build's `vbnl render` takes no --clock, which the tiles of an animation "
                         "need; render a scene that sets its own clock, one frame per submission\n");
         return VBNL_EXIT_USAGE;
@@ -745,7 +745,8 @@ static int wait_jobs(const farm *f, const job *jobs, uint32_t n)
         fprintf(m, "%s%s", i ? "," : "", jobs[i].id);
     fclose(m);
     char cmd[8192], last[4096] = "";
-    snprintf(cmd, sizeof(cmd), "%s -h -j %s -o '%%j %%T' 2>/dev/null", f->squeue ? f->squeue : "squeue", ids);
+    /* one line per array element (-r), so that the counts are of elements */
+    snprintf(cmd, sizeof(cmd), "%s -h -r -j %s -o '%%j %%T' 2>/dev/null", f->squeue ? f->squeue : "squeue", ids);
     for (;;) {
         FILE *p = popen(cmd, "r");
         if (!p)
@@ -767,14 +768,17 @@ static int wait_jobs(const farm *f, const job *jobs, uint32_t n)
         if (!any)
             break;
         size_t l = 0;
-        for (uint32_t i = 0; i < n && l < sizeof(now); ++i)
-            if (count[i][0] || count[i][1])
-                l += (size_t)snprintf(now + l, sizeof(now) - l, "%s%s %u running, %u waiting", l ? "; " : "",
-                                      jobs[i].st->name, count[i][1], count[i][0]);
+        for (uint32_t i = 0; i < n && l < sizeof(now); ++i) {
+            uint32_t left = count[i][0] + count[i][1];
+            l += (size_t)snprintf(now + l, sizeof(now) - l, "%s%s %u/%u", l ? ", " : "", jobs[i].st->name,
+                                  jobs[i].elements > left ? jobs[i].elements - left : 0, jobs[i].elements);
+            if (count[i][1] && l < sizeof(now))
+                l += (size_t)snprintf(now + l, sizeof(now) - l, " (%u running)", count[i][1]);
+        }
         if (strcmp(now, last) && !f->a.quiet)
-            fprintf(stderr, "vbnl farm: %s\n", now);
+            fprintf(stderr, "vbnl farm: done %s\n", now);
         snprintf(last, sizeof(last), "%s", now);
-        sleep(1);
+        usleep(250000);
     }
     free(ids);
     /* every element of every job: COMPLETED */
@@ -787,10 +791,13 @@ static int wait_jobs(const farm *f, const job *jobs, uint32_t n)
             const char *st = strstr(line, "JobState="), *id = strstr(line, "JobId=");
             if (st && strncmp(st + 9, "COMPLETED", 9)) {
                 const char *task = strstr(line, "ArrayTaskId=");
-                fprintf(stderr, "vbnl farm: %s element %.*s: %.*s (log: %s/logs/%s-%s_%.*s.log)\n", jobs[i].st->name,
-                        task ? (int)strcspn(task + 12, " ") : 1, task ? task + 12 : "?", (int)strcspn(st, " \n"), st,
-                        f->work, jobs[i].st->name, jobs[i].id, task ? (int)strcspn(task + 12, " ") : 1,
-                        task ? task + 12 : "?");
+                char element[32], log[PATH_MAX + 128];
+                snprintf(element, sizeof(element), "%.*s", task ? (int)strcspn(task + 12, " ") : 1,
+                         task ? task + 12 : "0");
+                snprintf(log, sizeof(log), "%s/logs/%s-%s_%s.log", f->work, jobs[i].st->name, jobs[i].id, element);
+                fprintf(stderr, "vbnl farm: %s element %s: %.*s (%s%s)\n", jobs[i].st->name, element,
+                        (int)strcspn(st, " \n"), st, access(log, F_OK) == 0 ? "log: " : "never ran",
+                        access(log, F_OK) == 0 ? log : "");
                 failed = 1;
             }
             (void)id;

@@ -110,10 +110,10 @@ int cmd_merge_lights(int argc, char **argv)
 
 /* Attributes every tile of one image must agree on (the rest are summed or are the tile's own). */
 static const char *const same_attrs[] = {
-    "vbnl/version",           "vbnl/integrator",         "vbnl/parameters",        "vbnl/seed",
-    "vbnl/sampler",           "vbnl/spp",                "vbnl/time_budget",       "vbnl/scene/fingerprint",
-    "vbnl/camera/fingerprint", "vbnl/lights/fingerprint", "vbnl/lights/preparation", "vbnl/lights/photons",
-    "vbnl/lights/files",
+    "vbnl/version",          "vbnl/integrator",         "vbnl/seed",
+    "vbnl/sampler",          "vbnl/spp",                "vbnl/time_budget",
+    "vbnl/scene/fingerprint", "vbnl/camera/fingerprint", "vbnl/lights/fingerprint",
+    "vbnl/lights/preparation", "vbnl/lights/photons",   "vbnl/parameters",
 };
 #define N_SAME (sizeof(same_attrs) / sizeof(same_attrs[0]))
 
@@ -212,6 +212,33 @@ static void add_stage_figures(tile_set *t, const vbnl_exr_image *img)
     }
 }
 
+/* The parameters text of a tile without the light file it loaded (vbnl/lights/files): what the
+ * same render on one machine writes. */
+static void single_parameters(const vbnl_exr_image *first, char *out, size_t n)
+{
+    const vbnl_image_attr *p = vbnl_exr_image_attr(first, "vbnl/parameters");
+    const vbnl_image_attr *f = vbnl_exr_image_attr(first, "vbnl/lights/files");
+    snprintf(out, n, "%s", p && p->type == VBNL_IMAGE_ATTR_STRING ? p->value.s : "");
+    if (!f || f->type != VBNL_IMAGE_ATTR_STRING)
+        return;
+    char token[4200];
+    snprintf(token, sizeof(token), "load_lights=%s", f->value.s);
+    size_t len = strlen(token);
+    char *at = out;
+    while ((at = strstr(at, token))) {
+        int starts = at == out || at[-1] == ' ', ends = at[len] == ' ' || at[len] == '\0';
+        if (!starts || !ends) {
+            at += len;
+            continue;
+        }
+        char *rest = at + len + (at[len] == ' ');
+        memmove(at, rest, strlen(rest) + 1);
+    }
+    size_t l = strlen(out);
+    while (l && out[l - 1] == ' ')
+        out[--l] = '\0';
+}
+
 /* Adds one tile (read from `path`) to the set, checking it against the first. 0, or prints why. */
 static int add_tile(tile_set *t, const char *path, const char *first_path, uint32_t index)
 {
@@ -236,6 +263,19 @@ static int add_tile(tile_set *t, const char *path, const char *first_path, uint3
     }
     for (size_t k = 0; !is_first && k < N_SAME; ++k) {
         const vbnl_image_attr *x = vbnl_exr_image_attr(ref, same_attrs[k]), *y = vbnl_exr_image_attr(&img, same_attrs[k]);
+        /* the parameters without the light file's name: the lights are compared by fingerprint */
+        vbnl_image_attr px, py;
+        char sx[4096], sy[4096];
+        if (x && y && !strcmp(same_attrs[k], "vbnl/parameters")) {
+            single_parameters(ref, sx, sizeof(sx));
+            single_parameters(&img, sy, sizeof(sy));
+            px = *x;
+            py = *y;
+            px.value.s = sx;
+            py.value.s = sy;
+            x = &px;
+            y = &py;
+        }
         if (!attr_equal(x, y)) {
             char tx[256], ty[256];
             attr_text(x, tx, sizeof(tx));
@@ -316,33 +356,6 @@ done:
     else
         vbnl_exr_image_free(&img);
     return rc;
-}
-
-/* The parameters text of the tiles without the light file the farm had them load: what the same
- * render on one machine writes. */
-static void single_parameters(const vbnl_exr_image *first, char *out, size_t n)
-{
-    const vbnl_image_attr *p = vbnl_exr_image_attr(first, "vbnl/parameters");
-    const vbnl_image_attr *f = vbnl_exr_image_attr(first, "vbnl/lights/files");
-    snprintf(out, n, "%s", p && p->type == VBNL_IMAGE_ATTR_STRING ? p->value.s : "");
-    if (!f || f->type != VBNL_IMAGE_ATTR_STRING)
-        return;
-    char token[4200];
-    snprintf(token, sizeof(token), "load_lights=%s", f->value.s);
-    size_t len = strlen(token);
-    char *at = out;
-    while ((at = strstr(at, token))) {
-        int starts = at == out || at[-1] == ' ', ends = at[len] == ' ' || at[len] == '\0';
-        if (!starts || !ends) {
-            at += len;
-            continue;
-        }
-        char *rest = at + len + (at[len] == ' ');
-        memmove(at, rest, strlen(rest) + 1);
-    }
-    size_t l = strlen(out);
-    while (l && out[l - 1] == ' ')
-        out[--l] = '\0';
 }
 
 /* The header of the joined image: a single render's attributes (deterministic ones from the

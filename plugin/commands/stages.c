@@ -50,7 +50,8 @@ static const farm_option stage_options[] = {
 static const char scene_options_help[] =
     "scene options, as `vbnl render` takes them (every job of a frame must get the same ones):\n"
     "  --integrator NAME  --set KEY=VALUE  --width W  --height H  --seed S  --threads N\n"
-    "  --camera px,py,pz,tx,ty,tz,fov  --clock C (the scene's clock)  -q, --quiet\n";
+    "  --camera px,py,pz,tx,ty,tz,fov  --clock C (the scene's clock)  -q, --quiet\n"
+    "  (--spp and --sampler are taken too, and change nothing here)\n";
 
 /* Runs the preparation of a configured renderer; prints what it took. */
 static int run_prepare(vbnl_plugin_renderer *r, const char *cmd, int quiet)
@@ -72,8 +73,10 @@ static int run_prepare(vbnl_plugin_renderer *r, const char *cmd, int quiet)
 /* Parses the options common to both stages; 0 or an exit code (-1: help printed, exit 0). */
 static int stage_parse(farm_args *a, stage_opts *so, int argc, char **argv, const char *usage)
 {
-    int rc = farm_args_parse(a, argc, argv, so->cmd, FARM_OPT_SCENE | FARM_OPT_QUIET, stage_options, on_stage_option,
-                             so);
+    /* the options that shade only (--spp, --sampler) are taken and change nothing here, so that
+     * every stage of a frame can be given one list of options */
+    int rc = farm_args_parse(a, argc, argv, so->cmd, FARM_OPT_SCENE | FARM_OPT_RENDER | FARM_OPT_QUIET, stage_options,
+                             on_stage_option, so);
     if (rc)
         return rc;
     if (so->help) {
@@ -96,17 +99,38 @@ static int stage_parse(farm_args *a, stage_opts *so, int argc, char **argv, cons
     return 0;
 }
 
-/* 0 when the configured renderer's integrator is vbnl, else prints why. */
-static int needs_vbnl(vbnl_plugin_renderer *r, const char *cmd)
+/* The renderer of a stage: the scene loaded with the options, the integrator checked to be vbnl,
+ * then configured again with the stage's own parameters `extra`. 0, or an exit code after
+ * printing why. */
+static int stage_renderer(const farm_args *a, const char *cmd, const char *const *extra, uint32_t n,
+                          vbnl_plugin_renderer **out)
 {
-    const vbnl_render_settings *s = module_renderer_settings(r);
-    if (s && s->integrator && !strcmp(s->integrator, "vbnl"))
-        return 0;
-    fprintf(stderr,
-            "%s: the integrator is '%s': only 'vbnl' prepares virtual lights (choose it with --integrator vbnl, "
-            "or render the other integrators' tiles directly)\n",
-            cmd, s && s->integrator ? s->integrator : "?");
-    return VBNL_EXIT_USAGE;
+    int rc = farm_args_renderer(a, cmd, NULL, 0, NULL, out);
+    if (rc)
+        return rc;
+    const vbnl_render_settings *s = module_renderer_settings(*out);
+    if (!s || !s->integrator || strcmp(s->integrator, "vbnl")) {
+        fprintf(stderr,
+                "%s: the integrator is '%s': only 'vbnl' prepares virtual lights (choose it with --integrator vbnl; "
+                "the tiles of the other integrators need no preparation)\n",
+                cmd, s && s->integrator ? s->integrator : "?");
+        rc = VBNL_EXIT_USAGE;
+    }
+    char msg[2048];
+    for (uint32_t i = 0; !rc && i < n; ++i)
+        if (module_api()->set_param(*out, extra[i], cmd, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
+            fprintf(stderr, "%s: %s\n", cmd, msg);
+            rc = VBNL_EXIT_USAGE;
+        }
+    if (!rc && module_api()->configure(*out, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
+        fprintf(stderr, "%s: %s\n", cmd, msg);
+        rc = VBNL_EXIT_USAGE;
+    }
+    if (rc) {
+        module_api()->renderer_destroy(*out);
+        *out = NULL;
+    }
+    return rc;
 }
 
 int cmd_prepare(int argc, char **argv)
@@ -128,11 +152,9 @@ int cmd_prepare(int argc, char **argv)
     snprintf(save, sizeof(save), "save_lights=%s", so.out);
     const char *extra[] = {"placement_only=on", save};
     vbnl_plugin_renderer *r;
-    if ((rc = farm_args_renderer(&a, so.cmd, extra, 2, "vbnl prepare", &r)) != 0)
+    if ((rc = stage_renderer(&a, so.cmd, extra, 2, &r)) != 0)
         return rc;
-    rc = needs_vbnl(r, so.cmd);
-    if (!rc)
-        rc = run_prepare(r, so.cmd, a.quiet);
+    rc = run_prepare(r, so.cmd, a.quiet);
     module_api()->renderer_destroy(r);
     if (!rc && !a.quiet) {
         vbnl_vl_file_header h;
@@ -214,11 +236,9 @@ int cmd_photons(int argc, char **argv)
     snprintf(pc, sizeof(pc), "photon_count=%" PRIu64, count);
     const char *extra[] = {load, save, pf, pc};
     vbnl_plugin_renderer *r;
-    if ((rc = farm_args_renderer(&a, so.cmd, extra, 4, "vbnl photons", &r)) != 0)
+    if ((rc = stage_renderer(&a, so.cmd, extra, 4, &r)) != 0)
         return rc;
-    rc = needs_vbnl(r, so.cmd);
-    if (!rc)
-        rc = run_prepare(r, so.cmd, a.quiet);
+    rc = run_prepare(r, so.cmd, a.quiet);
     module_api()->renderer_destroy(r);
     if (!rc && !a.quiet)
         fprintf(stderr, "vbnl photons: paths [%" PRIu64 ", %" PRIu64 ") of %" PRIu64 " -> %s\n", first, first + count,
