@@ -2,7 +2,8 @@
 # A one-machine Slurm cluster for tests and trials, without systemd: munged, slurmctld and N slurmd
 # (fake nodes n1..nN on this host) started by hand, everything in one folder.
 #
-#   tools/slurm/local_cluster.sh start DIR [NODES]   # NODES default 2; then: export SLURM_CONF=DIR/etc/slurm.conf
+#   tools/slurm/local_cluster.sh start DIR [NODES [CPUS]]   # 2 nodes of 1 CPU by default; prints
+#                                                            # the line to eval: export SLURM_CONF=...
 #   tools/slurm/local_cluster.sh stop DIR            # stops every daemon it started, by PID
 #
 # DIR must be an empty folder of its own (mktemp -d). Needs root (slurmd starts jobs as their
@@ -20,7 +21,7 @@
 set -euo pipefail
 
 usage() {
-    echo "usage: $0 start DIR [NODES] | stop DIR" >&2
+    echo "usage: $0 start DIR [NODES [CPUS]] | stop DIR" >&2
     exit 2
 }
 
@@ -69,7 +70,8 @@ if [ "$cmd" = stop ]; then
 fi
 [ "$cmd" = start ] || usage
 nodes=${3:-2}
-[[ "$nodes" =~ ^[1-9][0-9]?$ ]] || usage
+cpus=${4:-1}
+[[ "$nodes" =~ ^[1-9][0-9]?$ ]] && [[ "$cpus" =~ ^[1-9][0-9]?$ ]] || usage
 
 for p in munged slurmctld slurmd sbatch squeue scontrol sinfo scancel python3; do
     command -v "$p" >/dev/null || unavailable "'$p' is not installed (apt-get install slurmctld slurmd slurm-client munge)"
@@ -77,6 +79,13 @@ done
 [ "$(id -u)" -eq 0 ] || unavailable "slurmd needs root to start jobs"
 [ -d "$dir" ] && [ -z "$(ls -A "$dir")" ] || { echo "local_cluster: '$dir' must be an empty folder" >&2; exit 2; }
 dir=$(cd "$dir" && pwd)
+# munged serves its socket to every user: each folder above it must be open to all (o+x)
+d=$dir
+while [ "$d" != / ]; do
+    d=$(dirname "$d")
+    [ "$(( 0$(stat -c %a "$d") & 1 ))" -eq 1 ] ||
+        { echo "local_cluster: '$d' is closed to other users (chmod o+x it, or put DIR elsewhere): munged needs its socket reachable" >&2; exit 2; }
+done
 trap 'stop_cluster' ERR
 
 chmod 755 "$dir"
@@ -137,13 +146,13 @@ conf="$dir/etc/slurm.conf"
     echo "ReturnToService=2"
     echo "MinJobAge=600"
     for i in $(seq "$nodes"); do
-        echo "NodeName=n$i NodeHostname=localhost NodeAddr=127.0.0.1 Port=${ports[$i]} CPUs=1 State=UNKNOWN"
+        echo "NodeName=n$i NodeHostname=localhost NodeAddr=127.0.0.1 Port=${ports[$i]} CPUs=$cpus State=UNKNOWN"
     done
     echo "PartitionName=local Nodes=ALL Default=YES MaxTime=INFINITE State=UP"
 } > "$conf"
 
 for _ in $(seq 50); do [ -S "$socket" ] && break; sleep 0.1; done
-[ -S "$socket" ] || { stop_cluster; unavailable "munged did not start ($(tail -2 "$dir/log/munged.log" 2>/dev/null))"; }
+[ -S "$socket" ] || { stop_cluster; unavailable "munged did not start ($(tail -2 "$dir/log/munged.out" 2>/dev/null | tr '\n' ' '))"; }
 
 slurmctld -D -f "$conf" > "$dir/log/slurmctld.out" 2>&1 &
 echo $! > "$dir/run/slurmctld.pid"
