@@ -41,6 +41,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "cli.h"
 #include "commands.h"
 #include "farm_args.h"
 #include "module.h"
@@ -383,11 +384,11 @@ static int check_and_resolve(farm *f)
         frame_path(f, f->exr, i, p1, sizeof(p1));
         if (a->png)
             frame_path(f, f->png, i, p2, sizeof(p2));
-        if (farm_same_file(p1, f->scene) || (a->png && farm_same_file(p2, f->scene))) {
+        if (cli_same_file(p1, f->scene) || (a->png && cli_same_file(p2, f->scene))) {
             fprintf(stderr, "vbnl farm: an output is the scene file; an output never replaces an input\n");
             return VBNL_EXIT_USAGE;
         }
-        if (a->png && farm_same_file(p1, p2)) {
+        if (a->png && cli_same_file(p1, p2)) {
             fprintf(stderr, "vbnl farm: -o and --png name the same file '%s'; give each output its own\n", p1);
             return VBNL_EXIT_USAGE;
         }
@@ -550,6 +551,19 @@ static void script_head(const farm *f, FILE *s, const stage *st)
             f->retries, f->retries + 1, st->name, f->retries + 1);
 }
 
+/* A shell array `name` of `path` numbered for each frame. */
+static void frame_paths(const farm *f, FILE *s, const char *name, const char *path)
+{
+    char out[PATH_MAX + 32];
+    fprintf(s, "%s=(", name);
+    for (uint32_t i = 0; i < f->frames; ++i) {
+        frame_path(f, path, i, out, sizeof(out));
+        fputs(i ? " " : "", s);
+        farm_shell_word(s, out);
+    }
+    fprintf(s, ")\n");
+}
+
 static int write_script(const farm *f, const stage *st, char *path, size_t n)
 {
     snprintf(path, n, "%s/jobs/%s.sh", f->work, st->name);
@@ -591,23 +605,9 @@ static int write_script(const farm *f, const stage *st, char *path, size_t n)
         fprintf(s, " \"${threads[@]}\" \"${clock[@]}\" \"${lights[@]}\" --crop \"${crops[k]}\" "
                    "-o \"$dir/tiles/tile-$k.exr\"\n");
     } else { /* merge */
-        char out[PATH_MAX + 32];
-        fprintf(s, "exrs=(");
-        for (uint32_t i = 0; i < f->frames; ++i) {
-            frame_path(f, f->exr, i, out, sizeof(out));
-            fputs(i ? " " : "", s);
-            farm_shell_word(s, out);
-        }
-        fprintf(s, ")\npngs=()\n");
-        if (a->png) {
-            fprintf(s, "pngs=(");
-            for (uint32_t i = 0; i < f->frames; ++i) {
-                frame_path(f, f->png, i, out, sizeof(out));
-                fputs(i ? " " : "", s);
-                farm_shell_word(s, out);
-            }
-            fprintf(s, ")\n");
-        }
+        frame_paths(f, s, "exrs", f->exr);
+        if (a->png)
+            frame_paths(f, s, "pngs", f->png);
         fprintf(s, "png=()\n");
         if (a->png)
             fprintf(s, "png=(--png \"${pngs[f]}\")\n");

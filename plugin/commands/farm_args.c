@@ -3,8 +3,6 @@
 #include "farm_args.h"
 
 #include <errno.h>
-#include <libgen.h>
-#include <limits.h>
 #include <math.h>
 #include <signal.h>
 #include <stdlib.h>
@@ -56,17 +54,6 @@ static const render_option render_options[] = {
 };
 #define N_RENDER_OPTIONS (sizeof(render_options) / sizeof(render_options[0]))
 
-static int parse_u32(const char *s, uint32_t *out, uint32_t min, uint32_t max)
-{
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || *end || end == s || v < min || v > max || s[0] == '-')
-        return -1;
-    *out = (uint32_t)v;
-    return 0;
-}
-
 /* One render option's value into `a`; 0, or VBNL_EXIT_USAGE after printing why. */
 static int take(farm_args *a, const char *cmd, const render_option *ro, const char *v)
 {
@@ -103,7 +90,7 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         return 0;
     case OPT_WIDTH:
     case OPT_HEIGHT:
-        if (parse_u32(v, ro->id == OPT_WIDTH ? &o->width : &o->height, 1, 65536)) {
+        if (cli_parse_u32(v, ro->id == OPT_WIDTH ? &o->width : &o->height, 1, 65536)) {
             fprintf(stderr, "%s: %s takes 1..65536, got '%s'\n", cmd, ro->name, v);
             return VBNL_EXIT_USAGE;
         }
@@ -117,14 +104,14 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         }
         return 0;
     case OPT_THREADS:
-        if (parse_u32(v, &o->threads, 0, 1024)) {
+        if (cli_parse_u32(v, &o->threads, 0, 1024)) {
             fprintf(stderr, "%s: --threads takes 0..1024, got '%s'\n", cmd, v);
             return VBNL_EXIT_USAGE;
         }
         a->threads_given = 1;
         return 0;
     case OPT_SPP:
-        if (parse_u32(v, &o->spp, 1, 1u << 30)) {
+        if (cli_parse_u32(v, &o->spp, 1, 1u << 30)) {
             fprintf(stderr, "%s: --spp takes a whole number >= 1, got '%s'\n", cmd, v);
             return VBNL_EXIT_USAGE;
         }
@@ -152,7 +139,7 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         }
         return 0;
     case OPT_PNG_BITS:
-        if (parse_u32(v, &a->view.png_bits, 8, 16) || (a->view.png_bits != 8 && a->view.png_bits != 16)) {
+        if (cli_parse_u32(v, &a->view.png_bits, 8, 16) || (a->view.png_bits != 8 && a->view.png_bits != 16)) {
             fprintf(stderr, "%s: --png-bits takes 8 or 16, got '%s'\n", cmd, v);
             return VBNL_EXIT_USAGE;
         }
@@ -333,31 +320,6 @@ void farm_args_write(const farm_args *a, unsigned classes, FILE *f)
             farm_shell_word(f, a->value[i]);
         }
     }
-}
-
-/* The file `p` names: its canonical path when it exists, else its folder's and its name. */
-static int canonical_path(const char *p, char *out, size_t n)
-{
-    char buf[PATH_MAX], a[PATH_MAX], b[PATH_MAX];
-    if (realpath(p, buf)) {
-        snprintf(out, n, "%s", buf);
-        return 0;
-    }
-    snprintf(a, sizeof(a), "%s", p);
-    snprintf(b, sizeof(b), "%s", p);
-    if (!realpath(dirname(a), buf))
-        return -1;
-    int len = snprintf(out, n, "%s/%s", buf, basename(b));
-    return len < 0 || (size_t)len >= n ? -1 : 0;
-}
-
-int farm_same_file(const char *a, const char *b)
-{
-    struct stat sa, sb;
-    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
-        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-    char ca[PATH_MAX + 256], cb[PATH_MAX + 256];
-    return canonical_path(a, ca, sizeof(ca)) == 0 && canonical_path(b, cb, sizeof(cb)) == 0 && !strcmp(ca, cb);
 }
 
 static void on_signal(int sig)

@@ -77,9 +77,6 @@ void farm_args_write(const farm_args *a, unsigned classes, FILE *f);
 /* Writes `s` to `f` as one single-quoted shell word. */
 void farm_shell_word(FILE *f, const char *s);
 
-/* 1 when `a` and `b` name one file (the same inode when both exist, else the same canonical
- * path of the folder and name). */
-int farm_same_file(const char *a, const char *b);
 
 /* Seconds of a monotonic clock. */
 double farm_now(void);

@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cli.h"
 #include "commands.h"
 #include "farm_args.h"
 #include "image_io.h"
@@ -78,7 +79,7 @@ int cmd_merge_lights(int argc, char **argv)
         rc = VBNL_EXIT_USAGE;
     }
     for (uint32_t i = 0; !rc && i < n; ++i)
-        if (farm_same_file(o.out, in[i])) {
+        if (cli_same_file(o.out, in[i])) {
             fprintf(stderr, "vbnl merge-lights: -o '%s' is the input '%s'; an output never replaces an input\n",
                     o.out, in[i]);
             rc = VBNL_EXIT_USAGE;
@@ -513,12 +514,12 @@ int cmd_merge_tiles(int argc, char **argv)
     const char *outs[2] = {a.exr, a.png};
     for (int o = 0; o < 2; ++o)
         for (uint32_t i = 0; outs[o] && i < nt; ++i)
-            if (farm_same_file(outs[o], tiles[i])) {
+            if (cli_same_file(outs[o], tiles[i])) {
                 fprintf(stderr, "vbnl merge-tiles: '%s' is the tile '%s'; an output never replaces an input\n",
                         outs[o], tiles[i]);
                 goto out;
             }
-    if (a.png && farm_same_file(a.exr, a.png)) {
+    if (a.png && cli_same_file(a.exr, a.png)) {
         fprintf(stderr, "vbnl merge-tiles: -o and --png name the same file '%s'\n", a.png);
         goto out;
     }

@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cli.h"
 #include "commands.h"
 #include "farm_args.h"
 #include "module.h"
@@ -53,21 +54,23 @@ static const char scene_options_help[] =
     "  --camera px,py,pz,tx,ty,tz,fov  --clock C (the scene's clock)  -q, --quiet\n"
     "  (--spp and --sampler are taken too, and change nothing here)\n";
 
-/* Runs the preparation of a configured renderer; prints what it took. */
+/* Runs the preparation of a configured renderer, which it destroys; prints what it took. */
 static int run_prepare(vbnl_plugin_renderer *r, const char *cmd, int quiet)
 {
     const vbnl_plugin_api *api = module_api();
     char msg[2048];
+    int rc = VBNL_EXIT_OK;
     farm_on_signals(); /* a cancelled job leaves no half-written light file */
     vbnl_plugin_result res = api->prepare(r, NULL, NULL, msg, sizeof(msg));
+    vbnl_plugin_stats st = {.size = sizeof(st)};
     if (res != VBNL_PLUGIN_OK) {
         fprintf(stderr, "%s: %s\n", cmd, msg);
-        return VBNL_EXIT_FAILURE;
-    }
-    vbnl_plugin_stats st = {.size = sizeof(st)};
-    if (!quiet && api->get_stats(r, &st, msg, sizeof(msg)) == VBNL_PLUGIN_OK)
+        rc = VBNL_EXIT_FAILURE;
+    } else if (!quiet && api->get_stats(r, &st, msg, sizeof(msg)) == VBNL_PLUGIN_OK) {
         fprintf(stderr, "%s: prepared in %.2f s on %u threads\n", cmd, st.prepare_seconds, st.threads);
-    return VBNL_EXIT_OK;
+    }
+    api->renderer_destroy(r);
+    return rc;
 }
 
 /* Parses the options common to both stages; 0 or an exit code (-1: help printed, exit 0). */
@@ -87,7 +90,7 @@ static int stage_parse(farm_args *a, stage_opts *so, int argc, char **argv, cons
         fprintf(stderr, "%s: give a scene FILE and -o OUT.vls\n%s\n", so->cmd, usage);
         return VBNL_EXIT_USAGE;
     }
-    if (farm_same_file(so->out, a->scene)) {
+    if (cli_same_file(so->out, a->scene)) {
         fprintf(stderr, "%s: -o '%s' is the scene file; an output never replaces an input\n", so->cmd, so->out);
         return VBNL_EXIT_USAGE;
     }
@@ -155,7 +158,6 @@ int cmd_prepare(int argc, char **argv)
     if ((rc = stage_renderer(&a, so.cmd, extra, 2, &r)) != 0)
         return rc;
     rc = run_prepare(r, so.cmd, a.quiet);
-    module_api()->renderer_destroy(r);
     if (!rc && !a.quiet) {
         vbnl_vl_file_header h;
         if (vbnl_vl_file_read_header(so.out, 0, &h, NULL) == VBNL_OK)
@@ -216,7 +218,7 @@ int cmd_photons(int argc, char **argv)
         fprintf(stderr, "vbnl photons: give --placement FILE and one of --part K/N or --range FIRST,COUNT\n%s\n", usage);
         return VBNL_EXIT_USAGE;
     }
-    if (farm_same_file(so.out, so.placement)) {
+    if (cli_same_file(so.out, so.placement)) {
         fprintf(stderr, "vbnl photons: -o '%s' is the placement; an output never replaces an input\n", so.out);
         return VBNL_EXIT_USAGE;
     }
@@ -239,7 +241,6 @@ int cmd_photons(int argc, char **argv)
     if ((rc = stage_renderer(&a, so.cmd, extra, 4, &r)) != 0)
         return rc;
     rc = run_prepare(r, so.cmd, a.quiet);
-    module_api()->renderer_destroy(r);
     if (!rc && !a.quiet)
         fprintf(stderr, "vbnl photons: paths [%" PRIu64 ", %" PRIu64 ") of %" PRIu64 " -> %s\n", first, first + count,
                 h.photon_paths, so.out);

@@ -11,36 +11,8 @@ SAME=$3
 SCENE=$SRC/examples/cornell-box.pov
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
-n=0
-failed=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "# $l"; done; }
-# expect NAME STATUS PATTERN -- COMMAND...: exit status and a pattern in stdout+stderr
-expect() {
-    local name=$1 status=$2 pattern=$3
-    shift 4
-    local out rc
-    out=$("$@" 2>&1)
-    rc=$?
-    if [ "$rc" -eq "$status" ] && grep -qE -- "$pattern" <<<"$out"; then
-        ok "$name"
-    else
-        not_ok "$name" "exit $rc (want $status), output:" "$out"
-    fi
-}
-# The attributes a merged header must share with the single render's: everything that does not
-# depend on timing (the rays, too: every pixel's paths are the same).
-DET=vbnl/version,vbnl/integrator,vbnl/parameters,vbnl/seed,vbnl/sampler,vbnl/spp,vbnl/rays,vbnl/partial
-DET=$DET,vbnl/time_budget,vbnl/scene/fingerprint,vbnl/camera/fingerprint
-# same NAME SINGLE.exr MERGED.exr [SINGLE.png MERGED.png]: pixels, header and PNG bytes
-same() {
-    local name=$1 out
-    if out=$("$SAME" "$2" "$3" --attrs "$DET" --has-all 2>&1) && { [ $# -lt 5 ] || cmp "$4" "$5" >/dev/null 2>&1; }; then
-        ok "$name"
-    else
-        not_ok "$name" "$out" "$( [ $# -ge 5 ] && cmp "$4" "$5" 2>&1)"
-    fi
-}
+source "$SRC/tests/common/tap.sh"
+source "$SRC/tests/plugin/commands/farm_tap.sh"
 
 OPTS=(--width 40 --height 32 --spp 4 --seed 3 --set virtual_lights=2000 --set photon_paths=50000 -q)
 cd "$TMP"

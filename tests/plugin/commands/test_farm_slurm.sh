@@ -19,10 +19,8 @@ cleanup() {
     rm -rf "$TMP"
 }
 trap cleanup EXIT
-n=0
-failed=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "# $l"; done; }
+source "$SRC/tests/common/tap.sh"
+source "$SRC/tests/plugin/commands/farm_tap.sh"
 
 t0=$(date +%s.%N)
 if ! out=$(bash "$SRC/tools/slurm/local_cluster.sh" start "$CLUSTER" 2 2 2>&1); then
@@ -37,8 +35,6 @@ eval "$out" # export SLURM_CONF=...
 echo "# cluster of 2 nodes up in $(echo "$(date +%s.%N) - $t0" | bc) s"
 jobs_known() { scontrol -o show jobs 2>/dev/null | grep -c JobId=; }
 
-DET=vbnl/version,vbnl/integrator,vbnl/parameters,vbnl/seed,vbnl/sampler,vbnl/spp,vbnl/rays,vbnl/partial
-DET=$DET,vbnl/time_budget,vbnl/scene/fingerprint,vbnl/camera/fingerprint
 OPTS=(--width 40 --height 32 --spp 4 --seed 3 --set virtual_lights=2000 --set photon_paths=50000 -q)
 cd "$TMP"
 "$VBNL" render "$SCENE" "${OPTS[@]}" -o single.exr --png single.png
@@ -48,16 +44,13 @@ for pt in 1:1 3:4 7:9; do
     p=${pt%:*}
     t=${pt#*:}
     s=$(date +%s.%N)
-    out=$("$VBNL" farm "$SCENE" "${OPTS[@]}" -o "slurm-$p-$t.exr" --png "slurm-$p-$t.png" --photon-jobs "$p" --tiles "$t" --wait 2>&1)
-    rc=$?
-    echo "# $p photon jobs, $t tiles: $(echo "$(date +%s.%N) - $s" | bc) s on the cluster"
-    cmp_out=$("$SAME" single.exr "slurm-$p-$t.exr" --attrs "$DET" --has-all 2>&1)
-    same_rc=$?
-    if [ $rc -eq 0 ] && [ $same_rc -eq 0 ] && cmp -s single.png "slurm-$p-$t.png"; then
-        ok "Slurm, $p photon jobs, $t tiles: the single render bit for bit (EXR, header, PNG)"
+    if out=$("$VBNL" farm "$SCENE" "${OPTS[@]}" -o "slurm-$p-$t.exr" --png "slurm-$p-$t.png" --photon-jobs "$p" --tiles "$t" --wait 2>&1); then
+        same "Slurm, $p photon jobs, $t tiles: the single render bit for bit (EXR, header, PNG)" \
+            single.exr "slurm-$p-$t.exr" single.png "slurm-$p-$t.png"
     else
-        not_ok "Slurm, $p photon jobs, $t tiles: the single render bit for bit" "farm exit $rc: $out" "$cmp_out"
+        not_ok "Slurm, $p photon jobs, $t tiles" "$out"
     fi
+    echo "# $p photon jobs, $t tiles: $(echo "$(date +%s.%N) - $s" | bc) s on the cluster"
 done
 # names and logs a user can find
 logs=$(ls slurm-7-9.farm/logs | grep -c '^tiles-[0-9]*_[0-8]\.log$')
