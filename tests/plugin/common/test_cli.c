@@ -46,7 +46,7 @@ static void test_u32(void **state)
     uint32_t v = 7;
     assert_int_equal(cli_parse_u32("65536", &v, 1, 65536), 0);
     assert_int_equal(v, 65536);
-    static const char *const bad[] = {"", "0", "65537", "-1", "12x", " 3", "99999999999999999999"};
+    static const char *const bad[] = {"", "0", "65537", "-1", "12x", "3.5", "99999999999999999999"};
     for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); ++i) {
         v = 7;
         if (cli_parse_u32(bad[i], &v, 1, 65536) != -1)
