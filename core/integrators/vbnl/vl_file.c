@@ -29,16 +29,18 @@ uint64_t vbnl_vl_file_hash(uint64_t h, const void *data, size_t n)
 
 static size_t pad8(size_t n) { return (8 - n % 8) % 8; }
 
-/* Bytes of a file of this version with these counts (0 on overflow). */
-static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res)
+/* Bytes of a file of this version with these counts (0 on overflow); a placement (no photon
+ * path) stores no incident data. */
+static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res, uint64_t photons)
 {
     if (count > UINT32_MAX || glossy > count || res > 64)
         return 0;
     uint64_t per = 12 + 12 + 4 + 12 + 4 + 4 + 1;
     uint64_t n = VBNL_VL_FILE_HEADER_SIZE + count * per;
     n += pad8((size_t)(count % 8));
-    n += count * 24 + glossy * res * res * 24 + 8;
-    return n;
+    if (photons)
+        n += count * 24 + glossy * res * res * 24;
+    return n + 8;
 }
 
 /* ---- header (explicit offsets, no struct padding in the file) ---------------------------------- */
@@ -197,9 +199,9 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     w_bytes(&w, vls->radius, sizeof(float) * (size_t)n);
     w_bytes(&w, vls->density, sizeof(float) * (size_t)n);
     w_bytes(&w, glossy, (size_t)n + pad8(n));
-    for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t j = 0; h->photon_count && j < n; ++j) /* a placement has none yet */
         w_bytes(&w, vbnl_profile_incident_power_fixed(profiles, j), 3 * sizeof(uint64_t));
-    for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t j = 0; h->photon_count && j < n; ++j)
         if (glossy[j])
             w_bytes(&w, vbnl_profile_incident_map_fixed(profiles, j), 3 * texels * sizeof(uint64_t));
     uint64_t sum = w.hash;
@@ -281,7 +283,7 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
     header_decode(hb, h, count, glossy);
     if (stored != hash) {
         uint64_t want = got == sizeof(hb) && h->version == VBNL_VL_FILE_VERSION
-                            ? file_size(*count, *glossy, h->profile_resolution)
+                            ? file_size(*count, *glossy, h->profile_resolution, h->photon_count)
                             : 0;
         if (want > size)
             return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (truncated: %llu of %llu bytes)",
@@ -292,7 +294,8 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
         return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' was written by format version %u; this build reads version %u",
                               r->path, h->version, VBNL_VL_FILE_VERSION);
     int e;
-    if (got != sizeof(hb) || file_size(*count, *glossy, h->profile_resolution) != size || *count == 0 ||
+    if (got != sizeof(hb) || file_size(*count, *glossy, h->profile_resolution, h->photon_count) != size ||
+        *count == 0 ||
         (h->profile_resolution != 8 && h->profile_resolution != 16 && h->profile_resolution != 32) ||
         !(h->unit > 0.0) || frexp(h->unit, &e) != 0.5 || h->photon_paths == 0 ||
         h->photon_first > h->photon_paths || h->photon_count > h->photon_paths - h->photon_first)
@@ -340,7 +343,7 @@ vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_
             get(hb, 12, &mark, 4);
             header_decode(hb, out, &n, &glossy);
             if (mark != BYTE_ORDER_MARK || out->version != VBNL_VL_FILE_VERSION ||
-                file_size(n, glossy, out->profile_resolution) != size)
+                file_size(n, glossy, out->profile_resolution, out->photon_count) != size)
                 res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged or of another version", path);
         }
     }
@@ -397,7 +400,7 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
         (res = r_bytes(&r, d->vls.tint, sizeof(vec3) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.radius, sizeof(float) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.density, sizeof(float) * (size_t)n)) == VBNL_OK &&
-        (res = r_bytes(&r, glossy, (size_t)n + pad8(n))) == VBNL_OK)
+        (res = r_bytes(&r, glossy, (size_t)n + pad8(n))) == VBNL_OK && h->photon_count)
         res = r_bytes(&r, phi, 3 * sizeof(uint64_t) * (size_t)n);
     if (res == VBNL_OK) {
         uint32_t g = 0;
@@ -417,7 +420,7 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
     if (res == VBNL_OK &&
         vbnl_profile_set_create_fixed(d->map, n, glossy, h->unit, &d->profiles) != VBNL_OK)
         res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory for %u profiles", path, n);
-    for (uint32_t j = 0; j < n && res == VBNL_OK; ++j) {
+    for (uint32_t j = 0; j < n && res == VBNL_OK && h->photon_count; ++j) { /* a placement: all zero */
         if (glossy[j])
             res = r_bytes(&r, map, 3 * sizeof(uint64_t) * texels);
         if (res == VBNL_OK && vbnl_profile_set_import_fixed(d->profiles, j, phi + 3 * (size_t)j,

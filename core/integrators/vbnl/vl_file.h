@@ -41,7 +41,8 @@
  *          positions (3 x f32), normals (3 x f32), materials (u32), texture tints
  *          (3 x f32, vl_set.h), radii (f32),
  *          densities (f32), glossy flags (u8, then 0-bytes up to a multiple of 8),
- *          incident power Phi_in (3 x u64 fixed point),
+ *          then, unless the file is a placement (photon_count 0, whose incident data are all
+ *          zero and not stored): incident power Phi_in (3 x u64 fixed point),
  *          incident maps of the glossy lights in light order (glossy_count x R^2 x 3 x u64,
  *          texel order of vbnl_profile_incident_map_fixed)
  * end-8 8  u64 checksum: FNV-1a 64 of every byte before it
