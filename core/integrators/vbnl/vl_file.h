@@ -4,7 +4,9 @@
  * value that can be written to a file and read back for the same scene: preparation and shading
  * can run in different processes, and photon splitting can be split across processes (each
  * traces a disjoint range of the same total photon_paths; splitting.h) and summed exactly with
- * vbnl_profile_set_merge, because incident power is 64-bit fixed point.
+ * vbnl_profile_set_merge, because incident power is 64-bit fixed point. A placement (stages 1-2
+ * without photons) is saved once and the processes that load it trace the ranges, and
+ * vl_file_tools.h sums their files without the scene: a farm (docs/farm.md).
  *
  * ---- Format, version 4 (byte offsets; numbers in the writer's byte order) -------------------
  *
