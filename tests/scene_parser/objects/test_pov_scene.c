@@ -55,8 +55,63 @@ static void test_camera(void **state)
     NEAR(c->position[0], -3.0f);
     NEAR(c->forward[0], 1.0f);
     vbnl_pov_scene_destroy(s);
-    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { orthographic location -5 look_at 0 }");
-    assert_non_null(strstr(g_diags, "test.pov:2:10: warning: camera type 'orthographic' is not supported; rendering with a perspective camera"));
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { omnimax location -5 look_at 0 }");
+    assert_non_null(strstr(g_diags, "test.pov:2:10: warning: camera type 'omnimax' is not supported; rendering with a perspective camera"));
+    vbnl_pov_scene_destroy(s);
+}
+
+/* The other camera types, with POV-Ray's defaults and angle rules, and focal blur. */
+static void test_camera_types(void **state)
+{
+    (void)state;
+    /* orthographic without up or right: right and up grow to what the perspective camera sees at
+     * the look_at distance (5 / |direction| 1); the rays are parallel */
+    vbnl_pov_scene *s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { orthographic location <0, 0, -5> look_at 0 }");
+    const vbnl_camera_desc *c = &sc(s)->camera;
+    assert_int_equal(c->projection, VBNL_CAMERA_ORTHOGRAPHIC);
+    NEAR(c->right[0], 1.33f * 5.0f);
+    NEAR(c->up[1], 5.0f);
+    vec3 o, d;
+    vbnl_camera_ray(c, 100, 100, 100.0f, 50.0f, &o, &d); /* right edge */
+    NEAR(o.x, 1.33f * 5.0f * 0.5f);
+    NEAR(d.z, 1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* the exporter's form: `angle` without a number, explicit right and up kept (look_at 1 away) */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { orthographic angle right <-4, 0, 0> location 0 look_at <0, 0, -1> up <0, 3, 0> }");
+    c = &sc(s)->camera;
+    NEAR(fabsf(c->right[0]), 4.0f);
+    NEAR(c->up[1], 3.0f);
+    NEAR(c->forward[2], -1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* fisheye: 90 degrees unless given; the spherical camera: 360 by half of the horizontal angle */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { fisheye location 0 look_at z }");
+    assert_int_equal(sc(s)->camera.projection, VBNL_CAMERA_FISHEYE);
+    NEAR(sc(s)->camera.angle[0], 90.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { spherical location 0 look_at z angle 200 }");
+    NEAR(sc(s)->camera.angle[0], 200.0f);
+    NEAR(sc(s)->camera.angle[1], 100.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\n#declare V = 30;\ncamera { spherical angle 120, V }");
+    NEAR(sc(s)->camera.angle[1], 30.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { cylinder 3 angle 200 }");
+    assert_int_equal(sc(s)->camera.projection, VBNL_CAMERA_CYLINDER_3);
+    NEAR(sc(s)->camera.angle[0], 200.0f);
+    vbnl_pov_scene_destroy(s);
+    /* focal blur: the lens radius is a quarter of the aperture (POV-Ray's eye points spread over a
+     * disc of half the aperture's half), the focus at |focal_point - location|; `blur_samples a b`
+     * without a comma, as Blender's exporter writes it */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <0, 0, -5> look_at 0 focal_point <0, 3, 0> aperture 0.4 blur_samples 3 9 }");
+    c = &sc(s)->camera;
+    NEAR(c->lens_radius, 0.1f);
+    NEAR(c->focal_distance, (float)sqrt(34.0));
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <0, 0, -5> look_at 0 aperture 0.4 }");
+    NEAR(sc(s)->camera.lens_radius, 0.0f); /* no blur_samples: no focal blur, as in POV-Ray */
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <0, 0, -5> look_at 0 aperture 1 blur_samples 4, 20 }");
+    NEAR(sc(s)->camera.focal_distance, 1.0f); /* the default focus: |direction| */
     vbnl_pov_scene_destroy(s);
 }
 
@@ -80,14 +135,23 @@ static void test_lights(void **state)
     s = ok("sphere { 0, 1 } light_source { <0, 0.5, 0> rgb <1, 2, 3> }");
     NEAR(light0(s)->L.y, 2.0f);
     vbnl_pov_scene_destroy(s);
-    /* fade_power 2: 2 D^2 colour */
-    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
-    NEAR(light0(s)->L.x, 18.0f);
+    /* faded: POV-Ray's 2 / (1 + (d / fade_distance)^fade_power) at the geometry's centre, times
+     * d^2: here d = 4 from the centre of the unit sphere */
+    s = ok("sphere { 0, 1 } light_source { <0, 4, 0> rgb 1 fade_distance 2 fade_power 2 }");
+    NEAR(light0(s)->L.x, 16.0f * 2.0f / (1.0f + 4.0f));
     vbnl_pov_scene_destroy(s);
-    /* other fade powers: equal to POV-Ray's at fade_distance, with a warning */
-    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 1 }");
+    s = ok("sphere { 0, 1 } light_source { <0, 4, 0> rgb 1 fade_distance 2 fade_power 1 }");
+    NEAR(light0(s)->L.x, 16.0f * 2.0f / (1.0f + 2.0f));
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    /* Blender's exported lamp: fade_distance 50 for a box a few units across is almost unfaded
+     * (about twice the colour), not 2 * 50^2 */
+    s = ok("box { -1, 1 } light_source { <0, 3, 0> rgb 1 fade_distance 50 fade_power 2 }");
+    NEAR(light0(s)->L.x, 9.0f * 2.0f / (1.0f + 9.0f / 2500.0f));
+    vbnl_pov_scene_destroy(s);
+    /* no finite geometry: the irradiance at the fade distance */
+    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
     NEAR(light0(s)->L.x, 9.0f);
-    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: fade_power 1: light falls off as 1/d^2; its intensity matches POV-Ray's at fade_distance"));
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 5, 0> rgb 2 spotlight point_at <0, 0, 0> radius 10 falloff 20 tightness 5 }");
     assert_int_equal(light0(s)->type, VBNL_LIGHT_SPOT);
@@ -205,7 +269,10 @@ static void test_errors(void **state)
                  "test.pov:3:1: mesh2: face 0 uses vertex index 2; vertex_vectors has 2");
     expect_error(BASE "mesh2 { vertex_vectors { 3, <0,0,0>, <1,0,0> } }",
                  "test.pov:3:46: vertex_vectors: 2 items given, 3 declared");
-    expect_error(BASE "camera { angle 190 }", "test.pov:3:10: camera angle must lie in (0, 180) degrees, got 190");
+    expect_error(BASE "camera { angle 190 }", "test.pov:3:10: camera angle must be smaller than 180 degrees, got 190");
+    expect_error(BASE "camera { cylinder 5 }", "test.pov:3:10: cylinder camera type 5: valid types are 1 to 4");
+    expect_error(BASE "camera { blur_samples 9, 3 }", "test.pov:3:10: blur_samples: the minimum 9 exceeds the maximum 3");
+    expect_error(BASE "camera { fisheye angle -5 }", "test.pov:3:18: negative camera angle -5");
     expect_error(BASE "camera { location 0 look_at 0 }", "test.pov:3:1: camera look_at equals location");
     expect_error(BASE "light_source { <0, 0, 0> rgb 1 spotlight point_at <0, 0, 0> }",
                  "test.pov:3:1: light_source: spotlight point_at equals the location");
@@ -353,6 +420,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_camera),
+        cmocka_unit_test(test_camera_types),
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_integrator_block),
         cmocka_unit_test(test_background),
