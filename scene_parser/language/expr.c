@@ -558,8 +558,8 @@ static bool primary(vbnl_sdl_parser *p, vbnl_sdl_value *out)
         case VBNL_KW_initial_clock: vbnl_sdl_next(p); sdl_set_float(out, p->initial_clock); return true;
         case VBNL_KW_final_clock: vbnl_sdl_next(p); sdl_set_float(out, p->final_clock); return true;
         case VBNL_KW_frame_number: vbnl_sdl_next(p); sdl_set_float(out, p->frame_number); return true;
-        case VBNL_KW_initial_frame: vbnl_sdl_next(p); sdl_set_float(out, 0); return true;
-        case VBNL_KW_final_frame: vbnl_sdl_next(p); sdl_set_float(out, 0); return true;
+        case VBNL_KW_initial_frame: vbnl_sdl_next(p); sdl_set_float(out, p->initial_frame); return true;
+        case VBNL_KW_final_frame: vbnl_sdl_next(p); sdl_set_float(out, p->final_frame); return true;
         case VBNL_KW_image_width: vbnl_sdl_next(p); sdl_set_float(out, p->image_width); return true;
         case VBNL_KW_image_height: vbnl_sdl_next(p); sdl_set_float(out, p->image_height); return true;
         case VBNL_KW_version: vbnl_sdl_next(p); sdl_set_float(out, p->language_version); return true;

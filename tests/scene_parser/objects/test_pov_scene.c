@@ -1,6 +1,7 @@
 /* The object layer around the shapes: camera framing, light mapping, the integrator block,
  * background, error messages of malformed inputs, and a small render of
  * examples/cornell-box.pov. */
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "pov_test.h"
@@ -302,20 +303,20 @@ static void test_scene_files(void **state)
 {
     (void)state;
     expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"/tmp/x.vls\" } }",
-                 "test.pov:3:39: save_lights '/tmp/x.vls' is an absolute path: a scene names files inside its own "
-                 "folder (give other paths on the command line)");
+                 "test.pov:3:39: save_lights '/tmp/x.vls' is an absolute path: a scene writes inside its own folder and "
+                 "the folders opened to it with --write-dir (give other paths on the command line)");
     expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"a/../../x.vls\" } }",
                  "test.pov:3:39: save_lights 'a/../../x.vls' is a path that leaves the scene's folder ('..'): a scene "
-                 "names files inside its own folder");
+                 "writes inside its own folder and the folders opened to it with --write-dir");
     expect_error(BASE "global_settings { integrator { \"vbnl\" load_lights \"/etc/passwd:a.vls\" } }",
                  "test.pov:3:39: load_lights '/etc/passwd' is an absolute path: a scene names files inside its own "
-                 "folder (give other paths on the command line)");
+                 "folder and the folders opened to it with --read-dir (give other paths on the command line)");
     expect_error(BASE "vbnl_mesh { \"/etc/passwd\" }",
                  "test.pov:3:13: vbnl_mesh: '/etc/passwd' is an absolute path: a scene names files inside its own "
-                 "folder (give other paths on the command line)");
+                 "folder and the folders opened to it with --read-dir (give other paths on the command line)");
     expect_error(BASE "sphere { 0, 1 pigment { image_map { png \"../x.png\" } } }",
                  "test.pov:3:41: image_map: '../x.png' is a path that leaves the scene's folder ('..'): a scene names "
-                 "files inside its own folder");
+                 "files inside its own folder and the folders opened to it with --read-dir");
     /* a link inside the folder that leads out of it */
     char cwd[4096];
     assert_non_null(getcwd(cwd, sizeof(cwd)));
@@ -328,11 +329,99 @@ static void test_scene_files(void **state)
     assert_int_equal(symlink("/tmp/elsewhere.vls", "out.vls"), 0);
     expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"out.vls\" } }",
                  "test.pov:3:39: save_lights 'out.vls' is a symbolic link: a scene writes only plain files in its "
-                 "own folder");
+                 "own folder and the folders opened to it");
     unlink("mesh.obj");
     unlink("out.vls");
     assert_int_equal(chdir(cwd), 0);
     rmdir(dir);
+}
+
+/* Loads `text` as <root>/scene/test.pov with the folders given opened to it; the error message
+ * or "" in `msg`. */
+static vbnl_result load_opened(const char *root, const char *text, const char *read_dir, const char *write_dir,
+                               char *msg, size_t n)
+{
+    char name[512];
+    snprintf(name, sizeof name, "%s/scene/test.pov", root);
+    vbnl_pov_options o;
+    vbnl_pov_options_init(&o);
+    o.diag = collect;
+    o.no_commit = 1;
+    o.read_dirs = &read_dir;
+    o.read_dir_count = read_dir ? 1 : 0;
+    o.write_dirs = &write_dir;
+    o.write_dir_count = write_dir ? 1 : 0;
+    g_diags[0] = 0;
+    vbnl_error err = {0};
+    vbnl_pov_scene *s = NULL;
+    vbnl_result r = vbnl_pov_load_text(g_ctx, name, text, strlen(text), &o, &s, &err);
+    snprintf(msg, n, "%s", r == VBNL_OK ? "" : err.message);
+    vbnl_pov_scene_destroy(s);
+    return r;
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* The folders a user opens to the scene (--read-dir, --write-dir, as POV-Ray's I/O restriction
+ * settings): reads and writes there are accepted, and only there; a read folder is not a write
+ * folder. */
+static void test_opened_folders(void **state)
+{
+    (void)state;
+    char root[] = "/tmp/vbnl_opened_XXXXXX", path[256], data[64], out[64], msg[1024], text[2048];
+    assert_non_null(mkdtemp(root));
+    const char *sub[] = {"scene", "data", "out"};
+    for (int i = 0; i < 3; ++i) {
+        snprintf(path, sizeof path, "%s/%s", root, sub[i]);
+        assert_int_equal(mkdir(path, 0700), 0);
+    }
+    snprintf(data, sizeof data, "%s/data", root);
+    snprintf(out, sizeof out, "%s/out", root);
+    snprintf(path, sizeof path, "%s/inc.inc", data);
+    write_text(path, "#declare FromData = 7;\n");
+    snprintf(path, sizeof path, "%s/m.obj", data);
+    write_text(path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    snprintf(path, sizeof path, "%s/lights.vls", data);
+    write_text(path, "x");
+    /* an include, file_exists, vbnl_mesh through '..' and load_lights by an absolute name */
+    snprintf(text, sizeof text,
+             BASE "#include \"%s/inc.inc\"\n#if (!file_exists(\"%s/m.obj\")) #error \"unseen\" #end\n"
+                  "vbnl_mesh { \"../data/m.obj\" }\n"
+                  "global_settings { integrator { \"vbnl\" load_lights \"%s/lights.vls\" } }\n",
+             data, data, data);
+    assert_int_equal(load_opened(root, text, NULL, NULL, msg, sizeof msg), VBNL_ERR_PARSE);
+    assert_non_null(strstr(msg, "is outside the folders a scene may read"));
+    assert_int_equal(load_opened(root, text, data, NULL, msg, sizeof msg), VBNL_OK);
+    /* a write folder may be read too */
+    assert_int_equal(load_opened(root, text, NULL, data, msg, sizeof msg), VBNL_OK);
+    /* writing: only into a write folder */
+    snprintf(text, sizeof text, BASE "global_settings { integrator { \"vbnl\" save_lights \"%s/x.vls\" } }\n", out);
+    assert_int_equal(load_opened(root, text, out, NULL, msg, sizeof msg), VBNL_ERR_PARSE);
+    assert_non_null(strstr(msg, "is an absolute path: a scene writes inside its own folder"));
+    assert_int_equal(load_opened(root, text, NULL, out, msg, sizeof msg), VBNL_OK);
+    snprintf(text, sizeof text, BASE "global_settings { integrator { \"vbnl\" save_lights \"../out/x.vls\" } }\n");
+    assert_int_equal(load_opened(root, text, NULL, out, msg, sizeof msg), VBNL_OK);
+    assert_int_equal(load_opened(root, text, NULL, data, msg, sizeof msg), VBNL_ERR_PARSE);
+    /* reading elsewhere stays refused with a folder opened */
+    assert_int_equal(load_opened(root, BASE "vbnl_mesh { \"/etc/passwd\" }", data, out, msg, sizeof msg),
+                     VBNL_ERR_PARSE);
+    assert_non_null(strstr(msg, "is an absolute path"));
+    /* a folder that does not exist cannot be opened */
+    snprintf(path, sizeof path, "%s/nowhere", root);
+    assert_int_equal(load_opened(root, BASE, path, NULL, msg, sizeof msg), VBNL_ERR_IO);
+    assert_non_null(strstr(msg, "is not a folder that can be opened to the scene"));
+    const char *files[] = {"data/inc.inc", "data/m.obj", "data/lights.vls", "scene", "data", "out"};
+    for (int i = 0; i < 6; ++i) {
+        snprintf(path, sizeof path, "%s/%s", root, files[i]);
+        assert_int_equal(i < 3 ? unlink(path) : rmdir(path), 0);
+    }
+    rmdir(root);
 }
 
 /* Placed objects count against the parser's memory limit: a loop of spheres ends with the
@@ -426,6 +515,7 @@ int main(void)
         cmocka_unit_test(test_background),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_scene_files),
+        cmocka_unit_test(test_opened_folders),
         cmocka_unit_test(test_object_memory_limit),
         cmocka_unit_test(test_render_cornell),
     };
