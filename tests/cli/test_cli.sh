@@ -28,7 +28,7 @@ expect() {
 
 expect "help" 0 "usage: vbnl" -- "$VBNL" --help
 expect "help lists the plugin commands" 0 "bench +path tracer speed" -- "$VBNL" --help
-expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.2\)" -- "$VBNL" --version
+expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.3\)" -- "$VBNL" --version
 expect "no command" 2 "usage: vbnl" -- "$VBNL"
 expect "unknown command" 2 "unknown command 'frobnicate'" -- "$VBNL" frobnicate
 expect "render help" 0 "--spp N" -- "$VBNL" render --help
