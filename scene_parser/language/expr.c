@@ -321,7 +321,10 @@ static bool vector_literal(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_s
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
         if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == ',') {
             vbnl_sdl_next(p);
-            continue;
+            /* POV-Ray accepts a comma before the closing '>': <0.2, 0.1, 0.5,> */
+            t = vbnl_sdl_peek(p);
+            if (!(t->kind == VBNL_SDL_TOK_PUNCT && t->op == '>'))
+                continue;
         }
         if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '>') {
             vbnl_sdl_next(p);

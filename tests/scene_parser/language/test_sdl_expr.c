@@ -37,6 +37,7 @@ static void test_vectors(void **state)
     vbnl_sdl_parser *p = sdl_t_ok("#declare V = <1, 2, 3>;\n"
                                   "#declare W = V * 2 + 1;\n"
                                   "#declare N = <1 2 3>;\n" /* POV-Ray tolerates missing commas */
+                                  "#declare T = <1, 2, 3,>;\n" /* and a comma before '>' (float4.pov) */
                                   "#declare U = <1, 2>;\n"
                                   "#declare P = U + <1,1,1>;\n" /* shorter vector padded */
                                   "#declare X = x + 2*y - z;\n"
@@ -48,6 +49,7 @@ static void test_vectors(void **state)
     sdl_t_vec(p, "V", 3, 1, 2, 3);
     sdl_t_vec(p, "W", 3, 3, 5, 7);
     sdl_t_vec(p, "N", 3, 1, 2, 3);
+    sdl_t_vec(p, "T", 3, 1, 2, 3);
     sdl_t_vec(p, "U", 2, 1, 2, 0);
     sdl_t_vec(p, "P", 3, 2, 3, 1);
     sdl_t_vec(p, "X", 3, 1, 2, -1);
