@@ -1,12 +1,18 @@
 """A small Cornell box built in Blender, rendered with Cycles and with Blender's POV-Ray add-on
 (render_povray) pointed at vbnl. Run by tests/blender/test_blender.sh:
 
-    blender -b --factory-startup --python cornell_box.py -- VBNL OUTDIR SIZE SWITCHES LAMP
+    blender -b --factory-startup --python cornell_box.py -- VBNL OUTDIR SIZE SWITCHES LAMP [ADDON]
 
 LAMP is "point" or "area". Writes OUTDIR/cycles-LAMP.png, OUTDIR/povray-LAMP.png (the add-on's
 render result, saved by Blender through the same Standard view) and OUTDIR/times-LAMP.txt (seconds
 from the render call to the image, per engine). The box is 2 units wide with Lambertian walls
 (white 0.8, red, green) and the add-on's default phong 0.1 on every material.
+
+With ADDON (the folder holding vbnl_render, plugin/blender), the box is rendered a third time with
+vbnl's own Blender engine into OUTDIR/vbnl-LAMP.png, from what a Blender user makes: Principled
+BSDF node materials (roughness 1, no specular: Lambertian in both renderers) and a lamp of a
+power in watts (40 W point, 15 W area; Blender's defaults, 1000 W and 100 W, saturate this small
+box), no calibration.
 
 The exporter writes a lamp's colour only, never its power, and a fade: a point lamp gets
 fade_distance sqrt(distance / 2), an area lamp distance / 2, with fade_power 2. vbnl gives such a
@@ -28,6 +34,7 @@ import bpy
 args = sys.argv[sys.argv.index("--") + 1:]
 VBNL, OUT = args[0], args[1]
 SIZE, SWITCHES, LAMP = int(args[2]), args[3], args[4]
+ADDON = args[5] if len(args) > 5 else None
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 addon_utils.enable("render_povray", default_set=True)
@@ -127,6 +134,26 @@ prefs.filepath_povray = VBNL
 scene.pov.command_line_switches = SWITCHES
 scene.pov.tempfiles_enable = True
 render('POVRAY_RENDER', os.path.join(OUT, f"povray-{LAMP}.png"))
+
+if ADDON:
+    sys.path.insert(0, ADDON)
+    import vbnl_render
+    vbnl_render.register()
+    bpy.context.preferences.addons.new().module = "vbnl_render"  # its preferences, as when enabled
+    bpy.context.preferences.addons["vbnl_render"].preferences.binary = VBNL
+    # what a user makes: Principled BSDF materials of the same colours, Blender's default power
+    for m in (white, red, green):
+        m.use_nodes = True
+        bsdf = m.node_tree.nodes["Principled BSDF"]
+        bsdf.inputs["Base Color"].default_value = m.diffuse_color
+        bsdf.inputs["Roughness"].default_value = 1.0
+        bsdf.inputs["Specular"].default_value = 0.0
+    light.energy = 40.0 if LAMP == "point" else 15.0
+    scene.vbnl.integrator = "vbnl"
+    scene.vbnl.spp = 32
+    scene.vbnl.switches = "--seed 5"
+    render('VBNL_RENDER', os.path.join(OUT, f"vbnl-{LAMP}.png"))
+    render('CYCLES', os.path.join(OUT, f"cycles-nodes-{LAMP}.png"))
 
 with open(os.path.join(OUT, f"times-{LAMP}.txt"), "w") as f:
     for engine, seconds in times.items():
