@@ -17,10 +17,7 @@ fi
 PNG="python3 $SRC/tests/cli/png_info.py"
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
-n=0
-failed=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "# $l"; done; }
+source "$SRC/tests/cli/tap.sh"
 
 SIZE=64
 # lamp, tolerance on mean(vbnl) / mean(Cycles) - 1 in display values (Standard view): measured +4%
@@ -67,5 +64,4 @@ for case in "point 0.10" "area 0.20"; do
     fi
     echo "# $lamp lamp: seconds from the render call to the image: $(tr '\n' ' ' <"$TMP/times-$lamp.txt")"
 done
-echo "1..$n"
-[ $failed -eq 0 ]
+tap_end

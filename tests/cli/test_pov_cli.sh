@@ -11,23 +11,7 @@ SRC=$2
 PNG="python3 $SRC/tests/cli/png_info.py"
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
-n=0
-failed=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "# $l"; done; }
-# expect NAME STATUS PATTERN -- COMMAND...: exit status and a pattern in stdout+stderr
-expect() {
-    local name=$1 status=$2 pattern=$3
-    shift 4
-    local out rc
-    out=$("$@" 2>&1)
-    rc=$?
-    if [ "$rc" -eq "$status" ] && grep -qE -- "$pattern" <<<"$out"; then
-        ok "$name"
-    else
-        not_ok "$name" "exit $rc (want $status), output:" "$out"
-    fi
-}
+source "$SRC/tests/cli/tap.sh"
 # size FILE W H CHANNELS: the PNG's size and channels
 size_is() {
     local name=$1 file=$2 want=$3 got
@@ -207,5 +191,4 @@ expect "the same among POV-Ray's switches" 0 "" -- "$VBNL" +Iscene/open.pov +W8 
 [ -s out/l.vls ] && ok "POV-Ray's command line: the lights in the write folder" || not_ok "POV-Ray's command line: the lights in the write folder"
 expect "a folder that does not exist is refused" 2 "read_dir '.*nowhere' is not an existing folder" -- "$VBNL" render scene/open.pov -o x.exr -q --read-dir "$TMP/nowhere"
 
-echo "1..$n"
-[ $failed -eq 0 ]
+tap_end
