@@ -18,7 +18,7 @@ camera {
 }
 
 background { rgb <0.05, 0.06, 0.08> }
-// fade_power 2: physical 1/d^2 fall-off in both renderers (vbnl: intensity 2 D^2 colour)
+// fade_power 2: POV-Ray's fade; vbnl falls off as 1/d^2 with POV-Ray's brightness at the scene's centre
 light_source { <-2, 6, -3>, rgb 1 fade_distance 4 fade_power 2
   area_light <2, 0, 0>, <0, 0, 2>, 5, 5 adaptive 1 jitter }
 

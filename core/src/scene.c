@@ -650,6 +650,7 @@ vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3], 
     r = v3_norm(r);
     vec3 uu = v3_cross(r, f);
     float h = 2.0f * tanf(fov_y_degrees * (float)M_PI / 360.0f);
+    memset(out, 0, sizeof(*out));
     v3_store(out->position, p);
     v3_store(out->forward, f);
     v3_store(out->right, v3_scale(r, h * aspect));
@@ -668,18 +669,120 @@ vbnl_result vbnl_scene_set_camera(vbnl_scene *s, const vbnl_camera_desc *c, vbnl
     if (!(fabsf(v3_dot(f, v3_cross(rt, up))) > 1e-12f))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "camera forward, right and up vectors must be linearly independent");
+    if ((unsigned)c->projection > (unsigned)VBNL_CAMERA_CYLINDER_4)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "camera projection %d is unknown", (int)c->projection);
+    if (!(c->angle[0] >= 0.0f && c->angle[0] <= 360.0f) || !(c->angle[1] >= 0.0f && c->angle[1] <= 360.0f))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "camera angles must lie in [0, 360] degrees");
+    if (!(c->lens_radius >= 0.0f) || !isfinite(c->lens_radius) ||
+        (c->lens_radius > 0.0f && !(c->focal_distance > 0.0f && isfinite(c->focal_distance))))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "camera lens radius must be >= 0 and, with a lens, the focal distance > 0");
     s->camera = *c;
     s->has_camera = 1;
     return VBNL_OK;
 }
 
-void vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py,
-                     vec3 *o, vec3 *d)
+/* v rotated by `angle` radians about the unit axis k (Rodrigues' formula), the rotation POV-Ray's
+ * spherical camera applies. */
+static vec3 rotate_about(vec3 v, vec3 k, float angle)
 {
-    float sx = px / (float)width - 0.5f;
-    float sy = 0.5f - py / (float)height;
-    vec3 dir = v3_add(v3_load(c->forward),
-                      v3_add(v3_scale(v3_load(c->right), sx), v3_scale(v3_load(c->up), sy)));
+    float c = cosf(angle), s = sinf(angle);
+    return v3_add(v3_add(v3_scale(v, c), v3_scale(v3_cross(k, v), s)), v3_scale(k, v3_dot(k, v) * (1.0f - c)));
+}
+
+/* The pinhole ray of the camera's projection through the normalised image point (sx, sy): its
+ * origin and unnormalised direction, as POV-Ray 3.7 builds its primary rays (the formulas of the
+ * reference's "Camera Types"). 0 where the projection has no ray (outside the fisheye's circle). */
+static int camera_pinhole(const vbnl_camera_desc *c, float sx, float sy, vec3 *o, vec3 *d)
+{
+    const vec3 f = v3_load(c->forward), r = v3_load(c->right), u = v3_load(c->up);
     *o = v3_load(c->position);
+    if (c->projection == VBNL_CAMERA_PERSPECTIVE) {
+        *d = v3_add(f, v3_add(v3_scale(r, sx), v3_scale(u, sy)));
+        return 1;
+    }
+    const float lr = v3_len(r), lu = v3_len(u), rad = (float)M_PI / 180.0f;
+    const vec3 fn = v3_norm(f), rn = v3_norm(r), un = v3_norm(u);
+    switch (c->projection) {
+    case VBNL_CAMERA_ORTHOGRAPHIC:
+        *o = v3_add(*o, v3_add(v3_scale(r, sx), v3_scale(u, sy)));
+        *d = f;
+        return 1;
+    case VBNL_CAMERA_FISHEYE: {
+        /* the circle of radius 1 in (2 sx |right|, 2 sy |up|) spans angle[0]; its centre is forward */
+        float x = 2.0f * sx * lr, y = 2.0f * sy * lu, rho = sqrtf(x * x + y * y);
+        float phi = rho > 0.0f ? atan2f(y, x) : 0.0f, theta = rho * 0.5f * c->angle[0] * rad;
+        *d = v3_add(v3_add(v3_scale(rn, cosf(phi) * sinf(theta)), v3_scale(un, sinf(phi) * sinf(theta))),
+                    v3_scale(fn, cosf(theta)));
+        return rho <= 1.0f;
+    }
+    case VBNL_CAMERA_ULTRA_WIDE_ANGLE: {
+        float x = sx * c->angle[0] * rad, y = sy * c->angle[0] * rad * (lu / lr);
+        *d = v3_add(v3_add(v3_scale(rn, sinf(x)), v3_scale(un, sinf(y))), v3_scale(fn, cosf(x) * cosf(y)));
+        return 1;
+    }
+    case VBNL_CAMERA_PANORAMIC: {
+        /* 180 degrees across the width, from -right at the left edge to +right at the right one */
+        float x = (0.5f - sx) * (float)M_PI, y = sy * (float)M_PI;
+        float t = fabsf(fabsf(y) - 0.5f * (float)M_PI) < 1e-6f ? copysignf(1e30f, y) : tanf(y);
+        *d = v3_add(v3_add(v3_scale(r, cosf(x)), v3_scale(u, t)), v3_scale(f, sinf(x)));
+        return 1;
+    }
+    case VBNL_CAMERA_SPHERICAL: {
+        /* latitude about right, then longitude about up */
+        vec3 v = rotate_about(f, rn, -sy * c->angle[1] * rad);
+        *d = rotate_about(v, un, sx * c->angle[0] * rad);
+        return 1;
+    }
+    case VBNL_CAMERA_CYLINDER_1:
+    case VBNL_CAMERA_CYLINDER_3: {
+        float a = sx * c->angle[0] * rad, h = sy * lu;
+        *d = v3_add(v3_scale(rn, sinf(a)), v3_scale(fn, cosf(a)));
+        if (c->projection == VBNL_CAMERA_CYLINDER_1)
+            *d = v3_add(*d, v3_scale(un, h));
+        else
+            *o = v3_add(*o, v3_scale(un, h));
+        return 1;
+    }
+    case VBNL_CAMERA_CYLINDER_2:
+    case VBNL_CAMERA_CYLINDER_4: {
+        float a = sy * c->angle[0] * rad, w = sx * lr;
+        *d = v3_add(v3_scale(un, sinf(a)), v3_scale(fn, cosf(a)));
+        if (c->projection == VBNL_CAMERA_CYLINDER_2)
+            *d = v3_add(*d, v3_scale(rn, w));
+        else
+            *o = v3_add(*o, v3_scale(rn, w));
+        return 1;
+    }
+    default:
+        *d = v3_add(f, v3_add(v3_scale(r, sx), v3_scale(u, sy)));
+        return 1;
+    }
+}
+
+int vbnl_camera_ray_lens(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec2 lens,
+                         vec3 *o, vec3 *d)
+{
+    const float sx = px / (float)width - 0.5f, sy = 0.5f - py / (float)height;
+    vec3 dir;
+    int ok = camera_pinhole(c, sx, sy, o, &dir);
+    if (!ok)
+        dir = v3_load(c->forward); /* a direction all the same, for callers that ignore the answer */
+    if (c->lens_radius > 0.0f) {
+        /* thin lens: the origin moves within the lens disc, the ray still meets the pinhole ray's
+         * point at the focal distance */
+        const vec3 f = v3_load(c->forward);
+        const vec3 focus = v3_add(*o, v3_scale(dir, c->focal_distance / v3_len(f)));
+        const vec3 ex = v3_norm(v3_cross(v3_load(c->up), f)), ey = v3_norm(v3_cross(f, ex));
+        const vec2 p = sample_concentric_disk(lens);
+        *o = v3_add(*o, v3_scale(v3_add(v3_scale(ex, p.x), v3_scale(ey, p.y)), c->lens_radius));
+        dir = v3_sub(focus, *o);
+    }
     *d = v3_norm(dir);
+    return ok;
+}
+
+int vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec3 *o, vec3 *d)
+{
+    return vbnl_camera_ray_lens(c, width, height, px, py, (vec2){0.5f, 0.5f}, o, d);
 }

@@ -376,9 +376,14 @@ static inline vec3 vbnl_offset_ray_origin(vec3 p, vec3 n, vec3 w)
     return vbnl_offset_ray_origin_along(p, n);
 }
 
-/* Camera ray through image point (px, py) in pixels (continuous; row 0 at the top). */
-void vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py,
-                     vec3 *o, vec3 *d);
+/* Camera ray through image point (px, py) in pixels (continuous; row 0 at the top), through the
+ * point `lens` of the unit square mapped onto the lens disc (vbnl_camera_desc). Returns 0 where the
+ * projection has no ray (the fisheye's corners): the sample then sees nothing and is transparent
+ * black; o and d still hold a valid ray for callers that only need one. */
+int vbnl_camera_ray_lens(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec2 lens,
+                         vec3 *o, vec3 *d);
+/* The same through the centre of the lens (the pinhole ray). */
+int vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec3 *o, vec3 *d);
 
 /* Picks a light by power; *pmf receives its selection probability. */
 /* 64-bit FNV-1a fingerprint of a committed scene: geometry (positions, normals, uvs, indices,

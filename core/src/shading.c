@@ -13,7 +13,7 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
         /* pixel of the packet's first lane, stepped along the tile's rows (no divisions) */
         uint32_t x = job->x0, y = job->y0;
         for (uint32_t base = 0; base < npix; base += 8) {
-            int active[8], hit_mask[8];
+            int active[8], hit_mask[8], seen[8];
             vec3 o[8], d[8];
             vbnl_hit hits[8];
             vbnl_sampler sp[8];
@@ -33,15 +33,20 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                 }
                 sp[i] = vbnl_pixel_sampler(job, px[i], py[i], smp);
                 vec2 u = vbnl_sampler_next2(&sp[i]);
-                vbnl_camera_ray(&sc->camera, job->width, job->height, (float)px[i] + u.x, (float)py[i] + u.y,
-                                &o[i], &d[i]);
+                /* a thin lens takes the sample's second pair of numbers (a pinhole camera none) */
+                vec2 lens = sc->camera.lens_radius > 0.0f ? vbnl_sampler_next2(&sp[i]) : (vec2){0.5f, 0.5f};
+                seen[i] = vbnl_camera_ray_lens(&sc->camera, job->width, job->height, (float)px[i] + u.x,
+                                               (float)py[i] + u.y, lens, &o[i], &d[i]);
+                active[i] = seen[i];
             }
             vbnl_scene_intersect8(sc, active, o, d, hits, hit_mask);
             job->stats->rays += lanes;
             job->stats->camera_rays += lanes;
             for (uint32_t i = 0; i < lanes; ++i) {
                 memset(values[i], 0, sizeof(float) * stride);
-                fn(state, &sp[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
+                /* where the projection has no ray the sample stays transparent black */
+                if (seen[i])
+                    fn(state, &sp[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
                 vbnl_film_add(film, px[i], py[i], values[i]);
             }
         }

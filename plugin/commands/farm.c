@@ -18,13 +18,15 @@
  * deterministic function of the scene, the options and the seed (docs/farm.md, "Exactness").
  *
  * Animations follow POV-Ray 3.7's frame options (Initial_Frame, Final_Frame, Initial_Clock,
- * Final_Clock, Cyclic_Animation, Subset_Start_Frame, Subset_End_Frame): frame f has the clock
- *   clock = initial_clock + (final_clock - initial_clock) (f - initial_frame) / d,
- *   d = final_frame - initial_frame (+ 1 when cyclic),
- * the outputs carry the frame number before their extension, zero-padded to the digits of the
- * final frame (out.exr -> out07.exr), and the frames are elements of the same arrays. Every
- * stage of a frame gets its clock as `--clock C`, which `vbnl render` (the tiles) must take:
- * the front end checks that it does before submitting an animation. */
+ * Final_Clock, Cyclic_Animation, Subset_Start_Frame, Subset_End_Frame) as `vbnl`'s POV-Ray
+ * command line reads them (plugin/host/pov_cli.c), so that a frame is the one
+ * `vbnl scene.pov +KFI.. +KFF..` renders: frame f has
+ *   clock = initial_clock + clock_delta (f - initial_frame),
+ *   clock_delta = (final_clock - initial_clock) / (final_frame - initial_frame),
+ * a cyclic animation counts one frame more (final_frame + 1) and renders up to final_frame, the
+ * outputs carry the frame number before their extension, zero-padded to the digits of the last
+ * counted frame (out.exr -> out07.exr), and the frames are elements of the same arrays. Every
+ * stage of a frame gets POV-Ray's eight animation identifiers as `--builtin NAME=VALUE`. */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
@@ -52,7 +54,7 @@
 enum {
     F_PHOTON_JOBS, F_TILES, F_WORK, F_NAME, F_PARTITION, F_CPUS, F_RETRIES, F_SBATCH_ARG, F_INITIAL_FRAME,
     F_FINAL_FRAME, F_INITIAL_CLOCK, F_FINAL_CLOCK, F_CYCLIC, F_SUBSET_START, F_SUBSET_END, F_DRY_RUN, F_LOCAL,
-    F_WAIT, F_VBNL, F_SBATCH, F_SQUEUE, F_SCONTROL, F_HELP
+    F_WAIT, F_VBNL, F_SBATCH, F_SQUEUE, F_SCONTROL, F_CLOCK, F_HELP
 };
 
 static const farm_option farm_options[] = {
@@ -67,6 +69,7 @@ static const farm_option farm_options[] = {
     {"--local", 0, F_LOCAL},              {"--wait", 0, F_WAIT},
     {"--vbnl", 1, F_VBNL},                {"--sbatch", 1, F_SBATCH},
     {"--squeue", 1, F_SQUEUE},            {"--scontrol", 1, F_SCONTROL},
+    {"--clock", 1, F_CLOCK},
     {"--help", 0, F_HELP},                {"-h", 0, F_HELP},
     {NULL, 0, 0}};
 
@@ -86,6 +89,7 @@ static const char farm_usage[] =
     "  --retries N            runs again a failed job element up to N times (default 2)\n"
     "  --initial-frame N --final-frame N --initial-clock C --final-clock C --cyclic\n"
     "  --subset-start N --subset-end N    an animation, as POV-Ray's frame options\n"
+    "  --clock C              the clock of a still image (POV-Ray's +K)\n"
     "  --wait                 wait for the jobs, reporting progress; exit 0 when the image is written\n"
     "  --dry-run              write the job scripts and print the sbatch commands, submit nothing\n"
     "  --local                run the job scripts here, one after another, without Slurm\n"
@@ -99,8 +103,8 @@ typedef struct farm {
     const char *sbatch_args[64];
     uint32_t n_sbatch_args;
     int64_t initial_frame, final_frame, subset_start, subset_end;
-    double initial_clock, final_clock;
-    int cyclic, animated, dry_run, local, wait, help;
+    double initial_clock, final_clock, still_clock;
+    int frames_given, subset_end_given, cyclic, animated, still_clock_given, dry_run, local, wait, help;
     const char *vbnl_arg, *sbatch, *squeue, *scontrol;
     /* resolved */
     char vbnl[PATH_MAX], plugin[PATH_MAX], scene[PATH_MAX], exr[PATH_MAX], png[PATH_MAX], work[PATH_MAX];
@@ -108,8 +112,10 @@ typedef struct farm {
     int lights; /* the vbnl integrator: prepare, photons, merge-lights */
     uint64_t photon_paths;
     uint32_t frames;
-    int64_t *frame; /* frame numbers */
+    int64_t *frame;       /* frame numbers */
     double *clock;
+    int64_t counted_final; /* final_frame as the identifiers say it (+ 1 when cyclic) */
+    double clock_delta;
     int digits;
 } farm;
 
@@ -196,14 +202,15 @@ static int on_farm_option(void *user, int id, const char *v)
                        : id == F_FINAL_FRAME ? &f->final_frame
                        : id == F_SUBSET_START ? &f->subset_start
                                               : &f->subset_end;
-        if (parse_i64(v, dst) || *dst < -1000000000 || *dst > 1000000000) {
+        if (parse_i64(v, dst) || *dst < 0 || *dst > 1000000000) {
             fprintf(stderr,
-                    "vbnl farm: frame numbers are whole numbers (POV-Ray's fractional subsets are not taken), got "
-                    "'%s'\n",
+                    "vbnl farm: frame numbers are whole numbers >= 0 (POV-Ray's fractional subsets are not taken), "
+                    "got '%s'\n",
                     v);
             return VBNL_EXIT_USAGE;
         }
-        f->animated = 1;
+        f->frames_given |= id == F_INITIAL_FRAME || id == F_FINAL_FRAME;
+        f->subset_end_given |= id == F_SUBSET_END;
         return 0;
     }
     case F_INITIAL_CLOCK:
@@ -214,10 +221,17 @@ static int on_farm_option(void *user, int id, const char *v)
             return VBNL_EXIT_USAGE;
         }
         *(id == F_INITIAL_CLOCK ? &f->initial_clock : &f->final_clock) = c;
-        f->animated = 1;
         return 0;
     }
-    case F_CYCLIC: f->cyclic = f->animated = 1; return 0;
+    case F_CLOCK:
+        f->still_clock = strtod(v, &end);
+        if (*end || end == v || !isfinite(f->still_clock)) {
+            fprintf(stderr, "vbnl farm: --clock takes a number, got '%s'\n", v);
+            return VBNL_EXIT_USAGE;
+        }
+        f->still_clock_given = 1;
+        return 0;
+    case F_CYCLIC: f->cyclic = 1; return 0;
     case F_DRY_RUN: f->dry_run = 1; return 0;
     case F_LOCAL: f->local = 1; return 0;
     case F_WAIT: f->wait = 1; return 0;
@@ -255,9 +269,12 @@ static void frame_path(const farm *f, const char *path, uint32_t i, char *out, s
     snprintf(out, n, "%.*s%0*" PRId64 "%s", (int)(dot - path), path, f->digits, f->frame[i], dot);
 }
 
-/* The frames to render and their clocks (POV-Ray 3.7's formula, see the file comment). */
+/* The frames to render and their clocks, as `vbnl`'s POV-Ray command line plans them (see the file
+ * comment): an animation unless the frames are left unset or 1 to 1. */
 static int plan_frames(farm *f)
 {
+    const int64_t i0 = f->frames_given ? f->initial_frame : 0, f0 = f->frames_given ? f->final_frame : 0;
+    f->animated = !((i0 == 0 && f0 == 0) || (i0 == 1 && f0 == 1));
     if (!f->animated) {
         f->frames = 1;
         f->frame = malloc(sizeof(int64_t));
@@ -265,27 +282,23 @@ static int plan_frames(farm *f)
         if (!f->frame || !f->clock)
             return VBNL_EXIT_FAILURE;
         f->frame[0] = 1;
-        f->clock[0] = f->a.clock;
+        f->clock[0] = f->still_clock;
         f->digits = 1;
         return 0;
     }
-    if (f->a.clock_given) {
-        fprintf(stderr, "vbnl farm: --clock sets one frame's clock; an animation's come from --initial-clock and "
+    if (f->still_clock_given || f->a.clock_given) {
+        fprintf(stderr, "vbnl farm: --clock sets a still image's clock; an animation's come from --initial-clock and "
                         "--final-clock\n");
         return VBNL_EXIT_USAGE;
     }
-    if (f->final_frame < f->initial_frame) {
-        fprintf(stderr, "vbnl farm: --final-frame (%" PRId64 ") is before --initial-frame (%" PRId64 ")\n",
-                f->final_frame, f->initial_frame);
-        return VBNL_EXIT_USAGE;
-    }
-    int64_t first = f->subset_start > f->initial_frame ? f->subset_start : f->initial_frame;
-    int64_t last = f->subset_end && f->subset_end < f->final_frame ? f->subset_end : f->final_frame;
-    if (first > last) {
-        fprintf(stderr, "vbnl farm: the subset [%" PRId64 ", %" PRId64 "] holds no frame of [%" PRId64 ", %" PRId64 "]\n",
-                f->subset_start, f->subset_end, f->initial_frame, f->final_frame);
-        return VBNL_EXIT_USAGE;
-    }
+    const int64_t initial = f->initial_frame;
+    int64_t final = f->final_frame < initial ? initial : f->final_frame;
+    if (f->cyclic)
+        final++; /* one frame more for the clock, one less rendered */
+    int64_t first = f->subset_start >= initial ? f->subset_start : initial;
+    int64_t last = f->subset_end_given ? f->subset_end : f->cyclic ? final - 1 : final;
+    if (last < first)
+        last = first;
     if (last - first + 1 > MAX_FRAMES) {
         fprintf(stderr, "vbnl farm: %" PRId64 " frames; at most %d per submission (use --subset-start/--subset-end)\n",
                 last - first + 1, MAX_FRAMES);
@@ -296,20 +309,43 @@ static int plan_frames(farm *f)
     f->clock = malloc(sizeof(double) * f->frames);
     if (!f->frame || !f->clock)
         return VBNL_EXIT_FAILURE;
-    const double span = (double)(f->final_frame - f->initial_frame) + (f->cyclic ? 1.0 : 0.0);
+    f->counted_final = final;
+    /* one frame from initial to final: no step of the clock */
+    f->clock_delta = final > initial ? (f->final_clock - f->initial_clock) / (double)(final - initial) : 0.0;
     for (uint32_t i = 0; i < f->frames; ++i) {
         f->frame[i] = first + i;
-        f->clock[i] = span > 0.0 ? f->initial_clock + (f->final_clock - f->initial_clock) *
-                                                          (double)(f->frame[i] - f->initial_frame) / span
-                                 : f->initial_clock;
+        f->clock[i] = f->initial_clock + f->clock_delta * (double)(f->frame[i] - initial);
     }
-    char digits[32];
-    f->digits = snprintf(digits, sizeof(digits), "%" PRId64, f->final_frame < 0 ? -f->final_frame : f->final_frame);
+    f->digits = 1;
+    for (int64_t v = final; v >= 10; v /= 10)
+        f->digits++;
     return 0;
 }
 
-/* 1 when `vbnl render --help` lists --clock (the tiles of an animation need it). */
-static int render_takes_clock(const farm *f)
+/* POV-Ray's eight animation identifiers of frame i, "NAME=VALUE" (farm_builtins' order); the
+ * number of them set (0 for a still image without a clock: all stay 0). */
+static int frame_builtins(const farm *f, uint32_t i, char out[8][64])
+{
+    if (!f->animated && !f->still_clock_given)
+        return 0;
+    double v[8] = {0};
+    v[0] = f->clock[i];
+    v[2] = 1.0; /* clock_on */
+    if (f->animated) {
+        v[1] = f->clock_delta;
+        v[3] = (double)f->frame[i];
+        v[4] = f->initial_clock;
+        v[5] = f->final_clock;
+        v[6] = (double)f->initial_frame;
+        v[7] = (double)f->counted_final;
+    }
+    for (int k = 0; k < 8; ++k)
+        snprintf(out[k], 64, "%s=%.17g", farm_builtins[k], v[k]);
+    return 8;
+}
+
+/* 1 when `vbnl render --help` lists --builtin (the tiles of an animation need it). */
+static int render_takes_builtins(const farm *f)
 {
     char *cmd = NULL;
     size_t len = 0;
@@ -328,7 +364,7 @@ static int render_takes_clock(const farm *f)
     char line[512];
     int found = 0;
     while (fgets(line, sizeof(line), p))
-        found |= strstr(line, "--clock") != NULL;
+        found |= strstr(line, "--builtin") != NULL;
     pclose(p);
     return found;
 }
@@ -398,9 +434,14 @@ static int check_and_resolve(farm *f)
             return VBNL_EXIT_FAILURE;
         }
     }
-    /* the scene, with the first frame's clock, and the options: what every job will load */
+    /* the scene, with the first frame's identifiers, and the options: what every job will load */
     farm_args first = *a;
-    first.clock = f->clock[0];
+    char builtins[8][64];
+    for (int k = 0, nb = frame_builtins(f, 0, builtins); k < nb && first.nscene < FARM_MAX_SETS; ++k) {
+        const char *eq = strchr(builtins[k], '=');
+        first.scene_key[first.nscene] = farm_builtins[k];
+        first.scene_value[first.nscene++] = eq + 1;
+    }
     vbnl_plugin_renderer *r;
     if ((rc = farm_args_renderer(&first, "vbnl farm", NULL, 0, NULL, &r)) != 0)
         return rc;
@@ -437,9 +478,9 @@ static int check_and_resolve(farm *f)
                 a->o.width, a->o.height);
         return VBNL_EXIT_USAGE;
     }
-    if ((f->animated || a->clock_given) && !f->dry_run && !render_takes_clock(f)) {
-        fprintf(stderr, "vbnl farm: this build's `vbnl render` takes no --clock, which the tiles of an animation "
-                        "need; render a scene that sets its own clock, one frame per submission\n");
+    if ((f->animated || f->still_clock_given) && !f->dry_run && !render_takes_builtins(f)) {
+        fprintf(stderr, "vbnl farm: the program '%s' takes no --builtin, which the tiles of an animation need\n",
+                f->vbnl);
         return VBNL_EXIT_USAGE;
     }
     /* names and the work folder */
@@ -514,9 +555,6 @@ static void script_head(const farm *f, FILE *s, const stage *st)
     fprintf(s, "frames=(");
     for (uint32_t i = 0; i < f->frames; ++i)
         fprintf(s, "%s%" PRId64, i ? " " : "", f->frame[i]);
-    fprintf(s, ")\nclocks=(");
-    for (uint32_t i = 0; i < f->frames; ++i)
-        fprintf(s, "%s%.17g", i ? " " : "", f->clock[i]);
     fprintf(s, ")\ndirs=(");
     char dir[PATH_MAX + 64];
     for (uint32_t i = 0; i < f->frames; ++i) {
@@ -525,10 +563,17 @@ static void script_head(const farm *f, FILE *s, const stage *st)
         farm_shell_word(s, dir);
     }
     fprintf(s, ")\ndir=${dirs[f]}\n");
-    /* the scene's clock reaches every stage of an animated frame */
-    fprintf(s, "clock=()\n");
-    if (f->animated || f->a.clock_given)
-        fprintf(s, "clock=(--clock \"${clocks[f]}\")\n");
+    /* POV-Ray's animation identifiers reach every stage of a frame */
+    fprintf(s, "builtins=(");
+    for (uint32_t i = 0; i < f->frames; ++i) {
+        char b[8][64];
+        int nb = frame_builtins(f, i, b);
+        fputs(i ? " '" : "'", s);
+        for (int k = 0; k < nb; ++k)
+            fprintf(s, "%s%s", k ? " " : "", b[k]);
+        fputc('\'', s);
+    }
+    fprintf(s, ")\nclock=()\nfor kv in ${builtins[f]}; do clock+=(--builtin \"$kv\"); done\n");
     /* the threads Slurm gave this element, unless the options chose */
     fprintf(s, "threads=()\n");
     if (!f->a.threads_given)

@@ -16,10 +16,14 @@
 #include "module.h"
 
 enum {
-    OPT_INTEGRATOR, OPT_SET, OPT_WIDTH, OPT_HEIGHT, OPT_SEED, OPT_THREADS, OPT_CAMERA, OPT_CLOCK,
-    OPT_SPP, OPT_SAMPLER, OPT_HALF, OPT_PNG_BITS, OPT_DISPLAY, OPT_VIEW, OPT_OCIO, OPT_EXPOSURE,
-    OPT_OUTPUT, OPT_PNG, OPT_CROP, OPT_TIME, OPT_SAVE_LIGHTS, OPT_LOAD_LIGHTS, OPT_QUIET
+    OPT_INTEGRATOR, OPT_SET, OPT_WIDTH, OPT_HEIGHT, OPT_SEED, OPT_THREADS, OPT_CAMERA, OPT_DECLARE,
+    OPT_INCLUDE_DIR, OPT_READ_DIR, OPT_WRITE_DIR, OPT_BUILTIN, OPT_SPP, OPT_SAMPLER, OPT_HALF, OPT_PNG_BITS,
+    OPT_PNG_ALPHA, OPT_DISPLAY, OPT_VIEW, OPT_OCIO, OPT_EXPOSURE, OPT_OUTPUT, OPT_PNG, OPT_CROP, OPT_TIME,
+    OPT_SAVE_LIGHTS, OPT_LOAD_LIGHTS, OPT_QUIET
 };
+
+const char *const farm_builtins[8] = {"clock",         "clock_delta", "clock_on",      "frame_number",
+                                      "initial_clock", "final_clock", "initial_frame", "final_frame"};
 
 typedef struct render_option {
     const char *name, *alias;
@@ -35,11 +39,16 @@ static const render_option render_options[] = {
     {"--seed", NULL, 1, OPT_SEED, FARM_OPT_SCENE},
     {"--threads", NULL, 1, OPT_THREADS, FARM_OPT_SCENE},
     {"--camera", NULL, 1, OPT_CAMERA, FARM_OPT_SCENE},
-    {"--clock", NULL, 1, OPT_CLOCK, FARM_OPT_SCENE},
+    {"--declare", NULL, 1, OPT_DECLARE, FARM_OPT_SCENE},
+    {"--include-dir", NULL, 1, OPT_INCLUDE_DIR, FARM_OPT_SCENE},
+    {"--read-dir", NULL, 1, OPT_READ_DIR, FARM_OPT_SCENE},
+    {"--write-dir", NULL, 1, OPT_WRITE_DIR, FARM_OPT_SCENE},
+    {"--builtin", NULL, 1, OPT_BUILTIN, FARM_OPT_SCENE},
     {"--spp", NULL, 1, OPT_SPP, FARM_OPT_RENDER},
     {"--sampler", NULL, 1, OPT_SAMPLER, FARM_OPT_RENDER},
     {"--half", NULL, 0, OPT_HALF, FARM_OPT_VIEW},
     {"--png-bits", NULL, 1, OPT_PNG_BITS, FARM_OPT_VIEW},
+    {"--png-alpha", NULL, 0, OPT_PNG_ALPHA, FARM_OPT_VIEW},
     {"--display", NULL, 1, OPT_DISPLAY, FARM_OPT_VIEW},
     {"--view", NULL, 1, OPT_VIEW, FARM_OPT_VIEW},
     {"--ocio", NULL, 1, OPT_OCIO, FARM_OPT_VIEW},
@@ -123,14 +132,37 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         }
         o->camera_given = 1;
         return 0;
-    case OPT_CLOCK:
-        a->clock = strtod(v, &end);
-        if (*end || end == v || !isfinite(a->clock)) {
-            fprintf(stderr, "%s: --clock takes a number, got '%s'\n", cmd, v);
+    case OPT_DECLARE:
+    case OPT_INCLUDE_DIR:
+    case OPT_READ_DIR:
+    case OPT_WRITE_DIR:
+    case OPT_BUILTIN: {
+        /* settings of the .pov load (the plugin's set_scene_option), checked when it is made */
+        static const char *const keys[] = {"declare", "include_dir", "read_dir", "write_dir"};
+        const char *key = ro->id != OPT_BUILTIN ? keys[ro->id - OPT_DECLARE] : NULL;
+        if (ro->id == OPT_BUILTIN) {
+            const char *eq = strchr(v, '=');
+            for (size_t k = 0; eq && k < sizeof(farm_builtins) / sizeof(farm_builtins[0]) && !key; ++k)
+                if (strlen(farm_builtins[k]) == (size_t)(eq - v) && !strncmp(v, farm_builtins[k], (size_t)(eq - v)))
+                    key = farm_builtins[k];
+            if (!key) {
+                fprintf(stderr, "%s: --builtin takes NAME=VALUE with NAME one of POV-Ray's animation identifiers, "
+                                "got '%s'\n", cmd, v);
+                return VBNL_EXIT_USAGE;
+            }
+            if (!strcmp(key, "clock"))
+                a->clock_given = 1;
+            v = eq + 1;
+        }
+        if (a->nscene == FARM_MAX_SETS) {
+            fprintf(stderr, "%s: more than %d scene settings\n", cmd, FARM_MAX_SETS);
             return VBNL_EXIT_USAGE;
         }
-        a->clock_given = 1;
+        a->scene_key[a->nscene] = key;
+        a->scene_value[a->nscene++] = v;
         return 0;
+    }
+    case OPT_PNG_ALPHA: a->view.alpha = 1; return 0;
     case OPT_EXPOSURE:
         a->view.exposure = strtof(v, &end);
         if (*end || end == v || !(a->view.exposure > -64.0f && a->view.exposure < 64.0f)) {
@@ -272,7 +304,9 @@ int farm_args_renderer(const farm_args *a, const char *cmd, const char *const *e
     if (res != VBNL_PLUGIN_OK)
         goto fail;
     api->set_message_callback(r, on_message, NULL, msg, sizeof(msg));
-    module_renderer_set_clock(r, a->clock);
+    for (uint32_t i = 0; i < a->nscene; ++i)
+        if ((res = api->set_scene_option(r, a->scene_key[i], a->scene_value[i], msg, sizeof(msg))) != VBNL_PLUGIN_OK)
+            goto fail;
     for (uint32_t i = 0; i < a->nsets; ++i)
         if ((res = api->set_param(r, a->sets[i], a->set_where[i], msg, sizeof(msg))) != VBNL_PLUGIN_OK)
             goto fail;

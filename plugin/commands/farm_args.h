@@ -15,10 +15,11 @@
 /* Which stages an option matters to. */
 enum {
     FARM_OPT_SCENE = 1,   /* the scene and its preparation: --integrator --set --width --height --seed
-                             --threads --camera --clock; every stage that loads the scene */
+                             --threads --camera --declare --include-dir --read-dir --write-dir
+                             --builtin; every stage that loads the scene */
     FARM_OPT_RENDER = 2,  /* shading only: --spp --sampler; the tiles */
-    FARM_OPT_VIEW = 4,    /* how the image is written: --half --png-bits --display --view --ocio
-                             --exposure; the final merge */
+    FARM_OPT_VIEW = 4,    /* how the image is written: --half --png-bits --png-alpha --display --view
+                             --ocio --exposure; the final merge */
     FARM_OPT_OUTPUT = 8,  /* -o --png */
     FARM_OPT_SINGLE = 16, /* --crop --time --save-lights --load-lights: one render's own */
     FARM_OPT_QUIET = 32,  /* -q --quiet */
@@ -26,6 +27,9 @@ enum {
 
 #define FARM_MAX_SETS 256
 #define FARM_MAX_ARGS 1024
+
+/* POV-Ray's animation identifiers, the names `--builtin NAME=VALUE` takes (set_scene_option's). */
+extern const char *const farm_builtins[8];
 
 typedef struct farm_args {
     const char *scene;           /* the one positional argument (NULL when none was given) */
@@ -35,8 +39,11 @@ typedef struct farm_args {
     const char *sets[FARM_MAX_SETS]; /* "key=value" of --set, --save-lights, --load-lights, in order */
     const char *set_where[FARM_MAX_SETS];
     uint32_t nsets;
-    int half, quiet, threads_given, clock_given;
-    double clock;
+    const char *scene_key[FARM_MAX_SETS]; /* settings of the .pov load (set_scene_option), in order */
+    const char *scene_value[FARM_MAX_SETS];
+    uint32_t nscene;
+    int half, quiet, threads_given;
+    int clock_given;             /* --builtin clock=... was given */
     const char *single;          /* the first FARM_OPT_SINGLE option given ("--crop"), or NULL */
     /* the options as given: name ("--width") and value (NULL for a flag), with their class */
     const char *name[FARM_MAX_ARGS], *value[FARM_MAX_ARGS];
@@ -63,8 +70,8 @@ typedef int (*farm_own_fn)(void *user, int id, const char *value);
 int farm_args_parse(farm_args *a, int argc, char **argv, const char *cmd, unsigned accept, const farm_option *own,
                     farm_own_fn on_own, void *user);
 
-/* Creates a renderer with the options and parameters of `a` (plus `extra`, n "key=value" settings
- * from `where`), loads the scene with `a`'s clock and configures it, printing scene messages to
+/* Creates a renderer with the options, scene settings and parameters of `a` (plus `extra`, n
+ * "key=value" settings from `where`), loads the scene and configures it, printing scene messages to
  * stderr. Returns 0 with *out set, or an exit code after printing "<cmd>: <why>": the scene
  * (VBNL_EXIT_SCENE), a bad option or parameter (VBNL_EXIT_USAGE), anything else
  * (VBNL_EXIT_FAILURE). */

@@ -37,8 +37,6 @@ vbnl_result module_check_writable(const char *path, vbnl_error *err);
 /* The function table vbnl_plugin_entry hands to hosts: the commands drive renderers through it
  * as a host does. */
 const vbnl_plugin_api *module_api(void);
-/* The scene language's `clock` for the scenes the renderer loads from now on (default 0). */
-void module_renderer_set_clock(vbnl_plugin_renderer *r, double clock);
 /* The settings of a configured renderer (the resolved integrator, the merged parameters), NULL
  * before configure. Owned by the renderer. */
 const vbnl_render_settings *module_renderer_settings(const vbnl_plugin_renderer *r);

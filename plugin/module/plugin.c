@@ -2,10 +2,12 @@
  * core's public API (render.h, integrator.h, params.h), the scene loaders (POV-Ray language,
  * mesh import), the EXR/PNG writers and the OpenColorIO shim. The developer commands that
  * command_at / run_command reach are in plugin/commands/. */
+#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "atomic_file.h"
 #include "commands.h"
@@ -18,8 +20,8 @@
 
 #define VBNL_PLUGIN_EXPORT __attribute__((visibility("default")))
 /* VBNL_PLUGIN_ABI_MAJOR.MINOR as text, for messages */
-#define VBNL_PLUGIN_ABI_STR "1.2"
-_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 2u, "update VBNL_PLUGIN_ABI_STR");
+#define VBNL_PLUGIN_ABI_STR "1.3"
+_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 3u, "update VBNL_PLUGIN_ABI_STR");
 
 /* The plugin's result codes are the core's. */
 _Static_assert(VBNL_PLUGIN_ERR_CORRUPT == (int)VBNL_ERR_CORRUPT, "result codes must match");
@@ -27,6 +29,22 @@ _Static_assert(VBNL_PLUGIN_ERR_CANCELLED == (int)VBNL_ERR_CANCELLED, "result cod
 _Static_assert(VBNL_PLUGIN_PARAM_STRING == (int)VBNL_PARAM_STRING, "parameter types must match");
 _Static_assert(VBNL_PLUGIN_ERROR == (int)VBNL_SDL_ERROR && VBNL_PLUGIN_NOTE == (int)VBNL_SDL_NOTE,
                "severities must match");
+
+/* A list of strings the renderer owns. */
+typedef struct string_list {
+    char **v;
+    size_t n;
+} string_list;
+
+/* set_scene_option's settings of the POV-Ray scenes a renderer loads. */
+typedef struct scene_settings {
+    double clock, clock_delta, initial_clock, final_clock;
+    int frame_number, initial_frame, final_frame, clock_on;
+    vbnl_pov_declare *declares;   /* names and strings point into declare_text */
+    string_list declare_text;     /* per declare: "NAME\0VALUE" */
+    size_t ndeclares;
+    string_list include_dirs, read_dirs, write_dirs;
+} scene_settings;
 
 struct vbnl_plugin_renderer {
     vbnl_plugin_options opt;
@@ -44,7 +62,7 @@ struct vbnl_plugin_renderer {
     int partial;
     vbnl_plugin_message_fn message;
     void *message_user;
-    double clock;                 /* module_renderer_set_clock: the scene language's clock */
+    scene_settings pov;           /* set_scene_option: what the next .pov load reads */
 };
 
 static vbnl_result to_msg(vbnl_result r, const vbnl_error *e, char *msg, size_t n)
@@ -150,10 +168,37 @@ static vbnl_plugin_result p_renderer_create(vbnl_plugin_renderer **out, char *ms
     return VBNL_OK;
 }
 
+static void string_list_free(string_list *l)
+{
+    for (size_t i = 0; i < l->n; ++i)
+        free(l->v[i]);
+    free(l->v);
+    l->v = NULL;
+    l->n = 0;
+}
+
+static int string_list_add(string_list *l, const char *text, size_t len)
+{
+    char **v = realloc(l->v, (l->n + 1) * sizeof(*v));
+    if (!v)
+        return -1;
+    l->v = v;
+    if (!(v[l->n] = malloc(len + 1)))
+        return -1;
+    memcpy(v[l->n], text, len);
+    v[l->n++][len] = '\0';
+    return 0;
+}
+
 static void p_renderer_destroy(vbnl_plugin_renderer *r)
 {
     if (!r)
         return;
+    string_list_free(&r->pov.declare_text);
+    string_list_free(&r->pov.include_dirs);
+    string_list_free(&r->pov.read_dirs);
+    string_list_free(&r->pov.write_dirs);
+    free(r->pov.declares);
     drop_configuration(r);
     vbnl_params_destroy(r->scene_params);
     vbnl_params_destroy(r->host_params);
@@ -279,7 +324,23 @@ static void pov_options(vbnl_plugin_renderer *r, vbnl_pov_options *po)
     vbnl_pov_options_init(po);
     po->width = (int)r->opt.width;
     po->height = (int)r->opt.height;
-    po->clock = r->clock;
+    const scene_settings *ss = &r->pov;
+    po->clock = ss->clock;
+    po->clock_delta = ss->clock_delta;
+    po->initial_clock = ss->initial_clock;
+    po->final_clock = ss->final_clock;
+    po->frame_number = ss->frame_number;
+    po->initial_frame = ss->initial_frame;
+    po->final_frame = ss->final_frame;
+    po->clock_on = ss->clock_on;
+    po->declares = ss->declares;
+    po->declare_count = ss->ndeclares;
+    po->include_dirs = (const char *const *)ss->include_dirs.v;
+    po->include_dir_count = ss->include_dirs.n;
+    po->read_dirs = (const char *const *)ss->read_dirs.v;
+    po->read_dir_count = ss->read_dirs.n;
+    po->write_dirs = (const char *const *)ss->write_dirs.v;
+    po->write_dir_count = ss->write_dirs.n;
     if (r->message) {
         po->diag = forward_diag;
         po->diag_user = r;
@@ -294,6 +355,113 @@ static vbnl_plugin_result p_set_message_callback(vbnl_plugin_renderer *r, vbnl_p
     r->message = fn;
     r->message_user = user;
     return VBNL_OK;
+}
+
+/* Reads a whole number or a finite number; -1 when `text` is not one. */
+static int scene_number(const char *text, double *out)
+{
+    char *end;
+    double v = strtod(text, &end);
+    if (end == text || *end || !isfinite(v))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* A declare's value: a float, or a string in double quotes (POV-Ray's Declare=NAME="text"). */
+static vbnl_plugin_result add_declare(scene_settings *ss, const char *value, char *msg, size_t n)
+{
+    const char *eq = strchr(value, '=');
+    char text[512];
+    if (!eq || eq == value) {
+        snprintf(text, sizeof(text), "declare '%.400s': give NAME=VALUE", value);
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, text);
+    }
+    const char *v = eq + 1;
+    size_t vl = strlen(v);
+    int quoted = vl >= 2 && v[0] == '"' && v[vl - 1] == '"';
+    double number = 0;
+    if (!quoted && scene_number(v, &number) != 0) {
+        snprintf(text, sizeof(text), "declare '%.400s': the value is neither a number nor a string in double quotes",
+                 value);
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, text);
+    }
+    /* the name is checked by the parser (an identifier, no reserved word); a quick check here
+     * reports it at once */
+    for (const char *c = value; c < eq; ++c)
+        if (!(isalnum((unsigned char)*c) || *c == '_') || (c == value && isdigit((unsigned char)*c))) {
+            snprintf(text, sizeof(text), "declare '%.400s': the name is not an identifier", value);
+            return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, text);
+        }
+    /* "NAME\0VALUE" in one string the renderer keeps; the array of declares is rebuilt */
+    char buf[4096];
+    size_t nl = (size_t)(eq - value), sl = quoted ? vl - 2 : 0;
+    if (nl + 1 + sl + 1 > sizeof(buf))
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "declare: the text is too long");
+    memcpy(buf, value, nl);
+    buf[nl] = '\0';
+    memcpy(buf + nl + 1, v + 1, sl);
+    vbnl_pov_declare *d = realloc(ss->declares, (ss->ndeclares + 1) * sizeof(*d));
+    if (!d)
+        return fail(msg, n, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    ss->declares = d;
+    if (string_list_add(&ss->declare_text, buf, nl + 1 + sl) != 0)
+        return fail(msg, n, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    const char *kept = ss->declare_text.v[ss->declare_text.n - 1];
+    d[ss->ndeclares++] = (vbnl_pov_declare){kept, quoted ? kept + nl + 1 : NULL, number};
+    return VBNL_OK;
+}
+
+static vbnl_plugin_result p_set_scene_option(vbnl_plugin_renderer *r, const char *key, const char *value, char *msg,
+                                             size_t n)
+{
+    if (!r || !key || !value)
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "set_scene_option: NULL renderer, key or value");
+    scene_settings *ss = &r->pov;
+    char text[512];
+    static const char *const numbers[] = {"clock",        "clock_delta",   "initial_clock", "final_clock",
+                                          "frame_number", "initial_frame", "final_frame",   "clock_on"};
+    for (size_t i = 0; i < sizeof(numbers) / sizeof(numbers[0]); ++i) {
+        if (strcmp(key, numbers[i]))
+            continue;
+        double v;
+        if (scene_number(value, &v) != 0 || (i >= 4 && (v != floor(v) || fabs(v) > 2e9))) {
+            snprintf(text, sizeof(text), "%s takes a %s, got '%.300s'", key, i >= 4 ? "whole number" : "number",
+                     value);
+            return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, text);
+        }
+        double *f[4] = {&ss->clock, &ss->clock_delta, &ss->initial_clock, &ss->final_clock};
+        int *k[4] = {&ss->frame_number, &ss->initial_frame, &ss->final_frame, &ss->clock_on};
+        if (i < 4)
+            *f[i] = v;
+        else
+            *k[i - 4] = (int)v;
+        return VBNL_OK;
+    }
+    if (!strcmp(key, "declare"))
+        return add_declare(ss, value, msg, n);
+    string_list *dirs = !strcmp(key, "include_dir") ? &ss->include_dirs
+                        : !strcmp(key, "read_dir")  ? &ss->read_dirs
+                        : !strcmp(key, "write_dir") ? &ss->write_dirs
+                                                    : NULL;
+    if (!dirs) {
+        snprintf(text, sizeof(text),
+                 "unknown scene option '%.200s' (known: clock clock_delta initial_clock final_clock frame_number "
+                 "initial_frame final_frame clock_on declare include_dir read_dir write_dir)",
+                 key);
+        return fail(msg, n, VBNL_ERR_UNKNOWN_NAME, text);
+    }
+    struct stat st;
+    if (dirs != &ss->include_dirs && (stat(value, &st) != 0 || !S_ISDIR(st.st_mode))) {
+        snprintf(text, sizeof(text), "%s '%.300s' is not an existing folder", key, value);
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, text);
+    }
+    if (!value[0]) {
+        snprintf(text, sizeof(text), "%s takes a folder", key);
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, text);
+    }
+    return string_list_add(dirs, value, strlen(value)) == 0 ? VBNL_OK
+                                                           : fail(msg, n, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
 }
 
 static vbnl_plugin_result p_load_scene_file(vbnl_plugin_renderer *r, const char *path, char *msg, size_t n)
@@ -580,7 +748,8 @@ vbnl_result module_write_png(const char *path, float *rgba, uint32_t w, uint32_t
     p_view_init(&v);
     if (view)
         memcpy(&v, view, view->size);
-    void *q = malloc((size_t)w * h * 3 * (v.png_bits / 8));
+    const uint32_t channels = v.alpha ? 4 : 3; /* view.alpha (ABI 1.3): RGBA */
+    void *q = malloc((size_t)w * h * channels * (v.png_bits / 8));
     if (!q)
         return fail(msg, n, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     vbnl_result res = view_in_place(&v, rgba, w, h, msg, n);
@@ -592,9 +761,9 @@ vbnl_result module_write_png(const char *path, float *rgba, uint32_t w, uint32_t
     /* Views may leave [0, 1] (Standard passes values above 1, ACES gives negatives for saturated
      * colours): vbnl_display_quantise clamps before quantising. */
     if (res == VBNL_OK) {
-        res = vbnl_display_quantise(rgba, w, h, 4, v.png_bits, v.dither, q, 3, &e);
+        res = vbnl_display_quantise(rgba, w, h, 4, v.png_bits, v.dither, q, channels, &e);
         if (res == VBNL_OK)
-            res = vbnl_png_write(path, w, h, 3, v.png_bits, q, &e);
+            res = vbnl_png_write(path, w, h, channels, v.png_bits, q, &e);
         to_msg(res, &e, msg, n);
     }
     free(q);
@@ -627,12 +796,6 @@ static vbnl_plugin_result p_write_png(const vbnl_plugin_renderer *r, const char 
 static void p_abandon_writes(void) { vbnl_atomic_file_abandon_all(); }
 
 /* ---- what the module's commands see of a renderer (module.h) ---------------------------------- */
-
-void module_renderer_set_clock(vbnl_plugin_renderer *r, double clock)
-{
-    if (r)
-        r->clock = clock;
-}
 
 const vbnl_render_settings *module_renderer_settings(const vbnl_plugin_renderer *r)
 {
@@ -707,6 +870,7 @@ static const vbnl_plugin_api api = {
     .command_at = p_command_at,
     .run_command = p_run_command,
     .abandon_writes = p_abandon_writes,
+    .set_scene_option = p_set_scene_option,
 };
 
 const vbnl_plugin_api *module_api(void) { return &api; }

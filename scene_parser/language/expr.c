@@ -321,7 +321,10 @@ static bool vector_literal(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_s
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
         if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == ',') {
             vbnl_sdl_next(p);
-            continue;
+            /* POV-Ray accepts a comma before the closing '>': <0.2, 0.1, 0.5,> */
+            t = vbnl_sdl_peek(p);
+            if (!(t->kind == VBNL_SDL_TOK_PUNCT && t->op == '>'))
+                continue;
         }
         if (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '>') {
             vbnl_sdl_next(p);
@@ -558,8 +561,8 @@ static bool primary(vbnl_sdl_parser *p, vbnl_sdl_value *out)
         case VBNL_KW_initial_clock: vbnl_sdl_next(p); sdl_set_float(out, p->initial_clock); return true;
         case VBNL_KW_final_clock: vbnl_sdl_next(p); sdl_set_float(out, p->final_clock); return true;
         case VBNL_KW_frame_number: vbnl_sdl_next(p); sdl_set_float(out, p->frame_number); return true;
-        case VBNL_KW_initial_frame: vbnl_sdl_next(p); sdl_set_float(out, 0); return true;
-        case VBNL_KW_final_frame: vbnl_sdl_next(p); sdl_set_float(out, 0); return true;
+        case VBNL_KW_initial_frame: vbnl_sdl_next(p); sdl_set_float(out, p->initial_frame); return true;
+        case VBNL_KW_final_frame: vbnl_sdl_next(p); sdl_set_float(out, p->final_frame); return true;
         case VBNL_KW_image_width: vbnl_sdl_next(p); sdl_set_float(out, p->image_width); return true;
         case VBNL_KW_image_height: vbnl_sdl_next(p); sdl_set_float(out, p->image_height); return true;
         case VBNL_KW_version: vbnl_sdl_next(p); sdl_set_float(out, p->language_version); return true;

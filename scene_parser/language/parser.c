@@ -1,4 +1,6 @@
 /* vbnl scene parser: parser lifecycle, configuration, the statement loop and the skip fallback. */
+#include <ctype.h>
+#include <limits.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -144,6 +146,12 @@ void vbnl_sdl_parser_destroy(vbnl_sdl_parser *p)
     for (int i = 0; i < p->nuser_dirs; i++)
         free(p->user_dirs[i]);
     free(p->user_dirs);
+    for (int i = 0; i < p->nread_dirs; i++)
+        free(p->read_dirs[i]);
+    free(p->read_dirs);
+    for (int i = 0; i < p->nwrite_dirs; i++)
+        free(p->write_dirs[i]);
+    free(p->write_dirs);
     free(p->system_dir);
     free(p->scene_dir);
     free(p->rngs);
@@ -161,22 +169,40 @@ vbnl_result vbnl_sdl_set_limits(vbnl_sdl_parser *p, const vbnl_sdl_limits *l)
     return VBNL_OK;
 }
 
+/* Appends a copy of `dir` (without trailing slashes) to a list of folders. */
+static vbnl_result append_dir(char ***list, int *n, const char *dir)
+{
+    char **q = realloc(*list, (size_t)(*n + 1) * sizeof *q);
+    if (!q)
+        return VBNL_ERR_OUT_OF_MEMORY;
+    *list = q;
+    size_t len = strlen(dir);
+    while (len > 1 && dir[len - 1] == '/')
+        len--;
+    q[*n] = strndup(dir, len);
+    if (!q[*n])
+        return VBNL_ERR_OUT_OF_MEMORY;
+    (*n)++;
+    return VBNL_OK;
+}
+
 vbnl_result vbnl_sdl_add_include_dir(vbnl_sdl_parser *p, const char *dir)
 {
     if (!p || !dir || !dir[0])
         return VBNL_ERR_INVALID_ARGUMENT;
-    char **q = realloc(p->user_dirs, (size_t)(p->nuser_dirs + 1) * sizeof *q);
-    if (!q)
-        return VBNL_ERR_OUT_OF_MEMORY;
-    p->user_dirs = q;
-    size_t n = strlen(dir);
-    while (n > 1 && dir[n - 1] == '/')
-        n--;
-    q[p->nuser_dirs] = strndup(dir, n);
-    if (!q[p->nuser_dirs])
-        return VBNL_ERR_OUT_OF_MEMORY;
-    p->nuser_dirs++;
-    return VBNL_OK;
+    return append_dir(&p->user_dirs, &p->nuser_dirs, dir);
+}
+
+vbnl_result vbnl_sdl_permit_dir(vbnl_sdl_parser *p, const char *dir, int writable)
+{
+    if (!p || !dir || !dir[0])
+        return VBNL_ERR_INVALID_ARGUMENT;
+    char real[PATH_MAX];
+    struct stat st;
+    if (!realpath(dir, real) || stat(real, &st) != 0 || !S_ISDIR(st.st_mode))
+        return VBNL_ERR_IO;
+    return writable ? append_dir(&p->write_dirs, &p->nwrite_dirs, real)
+                    : append_dir(&p->read_dirs, &p->nread_dirs, real);
 }
 
 vbnl_result vbnl_sdl_set_system_include_dir(vbnl_sdl_parser *p, const char *dir)
@@ -215,6 +241,39 @@ void vbnl_sdl_set_clock(vbnl_sdl_parser *p, double clock, double delta, double i
     p->final_clock = final_clock;
     p->frame_number = frame_number;
     p->clock_on = clock_on;
+}
+
+void vbnl_sdl_set_frames(vbnl_sdl_parser *p, int initial_frame, int final_frame)
+{
+    if (!p)
+        return;
+    p->initial_frame = initial_frame;
+    p->final_frame = final_frame;
+}
+
+vbnl_result vbnl_sdl_declare_constant(vbnl_sdl_parser *p, const char *name, const char *string, double number)
+{
+    if (!p || !name)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    size_t len = strlen(name);
+    int ident = len > 0 && (isalpha((unsigned char)name[0]) || name[0] == '_');
+    for (size_t i = 1; ident && i < len; ++i)
+        ident = isalnum((unsigned char)name[i]) || name[i] == '_';
+    int kw = 0;
+    const char *n = ident ? sdl_intern(p, name, len, &kw) : NULL;
+    if (!ident || kw)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    if (!n)
+        return VBNL_ERR_OUT_OF_MEMORY;
+    sdl_sym *sym = sdl_table_insert(p, &p->globals, n);
+    if (!sym)
+        return VBNL_ERR_OUT_OF_MEMORY;
+    vbnl_sdl_value_clear(p, &sym->val);
+    if (!string) {
+        sdl_set_float(&sym->val, number);
+        return VBNL_OK;
+    }
+    return sdl_set_string(p, &sym->val, string, strlen(string)) ? VBNL_OK : VBNL_ERR_OUT_OF_MEMORY;
 }
 
 void vbnl_sdl_set_vbnl_version(vbnl_sdl_parser *p, double version)

@@ -162,6 +162,8 @@ struct vbnl_sdl_parser {
     sdl_file *files;
     char **user_dirs;
     int nuser_dirs;
+    char **read_dirs, **write_dirs; /* canonical folders the user opened to the scene (vbnl_sdl_permit_dir) */
+    int nread_dirs, nwrite_dirs;
     char *system_dir;
     char *scene_dir;
     bool includes_enabled;
@@ -186,7 +188,7 @@ struct vbnl_sdl_parser {
     double vbnl_version;
     int image_width, image_height;
     double clock, clock_delta, initial_clock, final_clock;
-    int frame_number, clock_on;
+    int frame_number, clock_on, initial_frame, final_frame;
     sdl_rng *rngs;
     int nrngs, caprngs;
     vbnl_sdl_value *defaults;
@@ -267,9 +269,13 @@ sdl_cond *sdl_cond_push(vbnl_sdl_parser *p, sdl_cond_kind kind, const vbnl_sdl_l
 void sdl_cond_pop(vbnl_sdl_parser *p);
 sdl_file *sdl_find_include(vbnl_sdl_parser *p, const char *name, const vbnl_sdl_loc *loc);
 /* True when `path` lies in a folder a scene may read: the scene's own, an include folder given
- * to the parser, or POV-Ray's (the system include folder), followed through links; a scene is
- * untrusted input, kept to these as POV-Ray's default read restriction keeps it. */
+ * to the parser, POV-Ray's (the system include folder), or one the user opened with
+ * vbnl_sdl_permit_dir, followed through links; a scene is untrusted input, kept to these as
+ * POV-Ray's default I/O restriction keeps it. */
 bool sdl_path_readable(const vbnl_sdl_parser *p, const char *path);
+/* True when the canonical `real` lies in a folder the user opened to the scene with
+ * vbnl_sdl_permit_dir: for reading (any of them) or for writing (writable ones). */
+bool sdl_path_permitted(const vbnl_sdl_parser *p, const char *real, bool write);
 int sdl_macro_depth(vbnl_sdl_parser *p);
 
 /* directive.c */

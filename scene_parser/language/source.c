@@ -397,11 +397,24 @@ static bool path_inside(const char *dir, const char *path)
     return !strncmp(path, dir, n) && (path[n] == '/' || path[n] == '\0' || (n == 1 && dir[0] == '/'));
 }
 
+bool sdl_path_permitted(const vbnl_sdl_parser *p, const char *real, bool write)
+{
+    for (int i = 0; i < p->nwrite_dirs; i++)
+        if (path_inside(p->write_dirs[i], real))
+            return true;
+    for (int i = 0; !write && i < p->nread_dirs; i++)
+        if (path_inside(p->read_dirs[i], real))
+            return true;
+    return false;
+}
+
 bool sdl_path_readable(const vbnl_sdl_parser *p, const char *path)
 {
     char real[PATH_MAX], dir[PATH_MAX];
     if (!realpath(path, real))
         return false;
+    if (sdl_path_permitted(p, real, false))
+        return true;
     if (realpath(p->scene_dir ? p->scene_dir : ".", dir) && path_inside(dir, real))
         return true;
     for (int i = 0; i < p->nuser_dirs; i++)

@@ -1,7 +1,7 @@
 /* Mesh import through assimp's C API. A mesh file is untrusted input: assimp reads only through
  * the file functions below, which open nothing outside the mesh file's folder (an OBJ's mtllib,
  * a glTF's buffers and images), the imported data are validated before any other step uses
- * them, and a PLY file must be large enough for the elements its header declares. */
+ * them, and a PLY file must hold exactly the elements its header declares (ply_check.h). */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
@@ -19,6 +19,7 @@
 #include <sys/stat.h>
 
 #include "vbnl/mesh_import.h"
+#include "ply_check.h"
 
 float vbnl_phong_exponent_to_alpha(float ns)
 {
@@ -174,53 +175,6 @@ static void io_close(struct aiFileIO *io, struct aiFile *f)
     }
 }
 
-/* A PLY file's header, checked before assimp reads it: every line one of PLY's own (format,
- * element, property, comment, obj_info) up to end_header, and element counts the file can hold
- * (every element takes at least one byte in a binary file and two, "0\n", in an ASCII one), so
- * that a header declaring more than the file holds cannot make assimp reserve memory for it, and
- * a malformed one does not reach assimp's PLY reader (which can loop on one). NULL when the file
- * is not a PLY file or passes; else the reason, written into why. */
-static const char *ply_check(const char *path, char *why, size_t n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    struct stat st;
-    char line[512];
-    int ply = fstat(fileno(f), &st) == 0 && fgets(line, sizeof(line), f) && !strncmp(line, "ply", 3) &&
-              (line[3] == '\n' || line[3] == '\r');
-    unsigned long long total = 0;
-    int ascii = 0, ended = 0, bad = 0;
-    for (int k = 2; ply && !ended && !bad && k < 10000 && fgets(line, sizeof(line), f); ++k) {
-        unsigned long long count;
-        char name[128];
-        if (!strncmp(line, "format ", 7))
-            ascii = !strncmp(line, "format ascii", 12);
-        else if (!strncmp(line, "element ", 8) && sscanf(line, "element %127s %llu", name, &count) == 2)
-            total = total + count < total ? ~0ull : total + count;
-        else if (!strncmp(line, "end_header", 10))
-            ended = 1;
-        else if (strncmp(line, "property ", 9) && strncmp(line, "comment", 7) && strncmp(line, "obj_info", 8))
-            bad = k;
-    }
-    fclose(f);
-    if (!ply)
-        return NULL;
-    if (bad || !ended) {
-        if (bad)
-            snprintf(why, n, "its PLY header has a line that is no PLY header line (line %d)", bad);
-        else
-            snprintf(why, n, "its PLY header has no end_header");
-        return why;
-    }
-    if (total > (unsigned long long)st.st_size / (ascii ? 2u : 1u)) {
-        snprintf(why, n, "its header declares %llu elements, more than its %llu bytes hold", total,
-                 (unsigned long long)st.st_size);
-        return why;
-    }
-    return NULL;
-}
-
 vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mesh_import_options *opt,
                              vbnl_mesh_import_stats *stats, vbnl_error *err)
 {
@@ -231,7 +185,7 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
     if (!opt)
         opt = &defaults;
     char why[160];
-    if (ply_check(path, why, sizeof(why)))
+    if (mesh_ply_check(path, why, sizeof(why)))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, why);
     mesh_io m;
     m.refused[0] = '\0';

@@ -1,4 +1,7 @@
-/* vbnl object layer: camera { } and POV-Ray 3.7's camera set-up onto the core camera. */
+/* vbnl object layer: camera { } and POV-Ray 3.7's camera set-up onto the core camera: the camera
+ * types of the reference's "Camera Types" (mesh_camera and omnimax excepted) and focal blur as a
+ * thin lens. */
+#include <math.h>
 #include <string.h>
 
 #include "pov_loader.h"
@@ -12,6 +15,11 @@ void pov_camera_default(pov_cam *c)
     pov_set3(c->up, 0, 1, 0);
     pov_set3(c->right, 1.33, 0, 0);
     pov_set3(c->sky, 0, 1, 0);
+    pov_set3(c->look_at, 0, 0, 1);
+    c->angle = 90;  /* what the fisheye, ultra_wide_angle and cylinder cameras see without `angle` */
+    c->angle_v = 0; /* spherical: half the horizontal angle unless given */
+    c->focal_distance = -1;
+    c->projection = VBNL_CAMERA_PERSPECTIVE;
     pov_m4_identity(c->m);
 }
 
@@ -21,19 +29,37 @@ static void camera_transform(const pov_item *it, const double m[16])
     pov_m4_mul(m, c->m, c->m);
 }
 
-/* orthographic fisheye ...: rendered with the perspective camera. */
-static vbnl_result other_type(const pov_item *it)
+static const struct {
+    const char *kw;
+    vbnl_camera_projection projection;
+} projections[] = {
+    {"perspective", VBNL_CAMERA_PERSPECTIVE}, {"orthographic", VBNL_CAMERA_ORTHOGRAPHIC},
+    {"fisheye", VBNL_CAMERA_FISHEYE},         {"ultra_wide_angle", VBNL_CAMERA_ULTRA_WIDE_ANGLE},
+    {"panoramic", VBNL_CAMERA_PANORAMIC},     {"spherical", VBNL_CAMERA_SPHERICAL},
+};
+
+static vbnl_result camera_type(const pov_item *it)
 {
     pov_cam *c = it->target;
-    double f;
     vbnl_sdl_next(it->p);
+    for (size_t i = 0; i < sizeof projections / sizeof projections[0]; ++i)
+        if (!strcmp(it->kw, projections[i].kw)) {
+            c->projection = projections[i].projection;
+            return VBNL_OK;
+        }
+    if (!strcmp(it->kw, "cylinder")) {
+        double f;
+        if (vbnl_sdl_parse_float(it->p, &f) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (!(f == 1 || f == 2 || f == 3 || f == 4))
+            return vbnl_sdl_error(it->p, &it->loc, "cylinder camera type %g: valid types are 1 to 4", f);
+        c->projection = (vbnl_camera_projection)(VBNL_CAMERA_CYLINDER_1 + (int)f - 1);
+        return VBNL_OK;
+    }
+    /* omnimax, mesh_camera */
     vbnl_sdl_warning(it->p, &it->loc, "camera type '%s' is not supported; rendering with a perspective camera", it->kw);
-    c->other_type = 1;
-    if (strcmp(it->kw, "cylinder") == 0)
-        return vbnl_sdl_parse_float(it->p, &f);
-    if (strcmp(it->kw, "mesh_camera") == 0)
-        return vbnl_sdl_skip_block(it->p);
-    return VBNL_OK;
+    c->projection = VBNL_CAMERA_PERSPECTIVE;
+    return !strcmp(it->kw, "mesh_camera") ? vbnl_sdl_skip_block(it->p) : VBNL_OK;
 }
 
 static vbnl_result look_at(const pov_item *it)
@@ -44,43 +70,99 @@ static vbnl_result look_at(const pov_item *it)
     return vbnl_sdl_parse_vector(it->p, 3, c->look_at);
 }
 
+static vbnl_result up_right(const pov_item *it)
+{
+    pov_cam *c = it->target;
+    vbnl_sdl_next(it->p);
+    int up = !strcmp(it->kw, "up");
+    *(up ? &c->have_up : &c->have_right) = 1;
+    return vbnl_sdl_parse_vector(it->p, 3, up ? c->up : c->right);
+}
+
+/* 1 when the next token may start a number (an optional float follows). */
+static int number_follows(vbnl_sdl_parser *p)
+{
+    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+    if (t->kind == VBNL_SDL_TOK_IDENT && !t->keyword) {
+        const vbnl_sdl_value *v = vbnl_sdl_lookup(p, t->text);
+        return v && v->kind == VBNL_SDL_FLOAT;
+    }
+    return t->kind == VBNL_SDL_TOK_NUMBER || (t->kind == VBNL_SDL_TOK_PUNCT && (t->op == '-' || t->op == '(')) ||
+           t->kind == VBNL_SDL_TOK_IDENT;
+}
+
+/* angle: the perspective camera's horizontal field of view in (0, 180) (an optional second number
+ * is ignored, as POV-Ray does); optional for the orthographic camera, where 0 leaves the vectors
+ * alone; "angle H [, V]" for the spherical camera; the field of the other types. */
 static vbnl_result angle(const pov_item *it)
 {
     pov_cam *c = it->target;
-    double f;
     vbnl_sdl_next(it->p);
-    if (vbnl_sdl_parse_float(it->p, &c->angle) != VBNL_OK)
+    double a = 0, f;
+    int given = c->projection != VBNL_CAMERA_ORTHOGRAPHIC || number_follows(it->p);
+    if (given && vbnl_sdl_parse_float(it->p, &a) != VBNL_OK)
         return VBNL_ERR_PARSE;
+    if (a < 0)
+        return vbnl_sdl_error(it->p, &it->loc, "negative camera angle %g", a);
+    c->angle = a;
     c->have_angle = 1;
-    if (c->other_type && c->angle >= 170 && c->angle < 360.0001) {
-        vbnl_sdl_warning(it->p, &it->loc, "camera angle %g does not fit a perspective camera; using 170", c->angle);
-        c->angle = 170;
+    if (c->projection == VBNL_CAMERA_SPHERICAL) {
+        int comma = vbnl_sdl_accept(it->p, ',');
+        if (comma || number_follows(it->p)) {
+            if (vbnl_sdl_parse_float(it->p, &c->angle_v) != VBNL_OK)
+                return VBNL_ERR_PARSE;
+            if (c->angle_v < 0)
+                return vbnl_sdl_error(it->p, &it->loc, "negative vertical camera angle %g", c->angle_v);
+            c->have_angle_v = 1;
+        }
+        return VBNL_OK;
     }
-    if (!(c->angle > 0 && c->angle < 180))
-        return vbnl_sdl_error(it->p, &it->loc, "camera angle must lie in (0, 180) degrees, got %g", c->angle);
-    if (vbnl_sdl_peek(it->p)->kind == VBNL_SDL_TOK_NUMBER) /* optional vertical angle: ignored, as in perspective */
+    if ((c->projection == VBNL_CAMERA_PERSPECTIVE || c->projection == VBNL_CAMERA_ORTHOGRAPHIC) && a >= 180)
+        return vbnl_sdl_error(it->p, &it->loc, "camera angle must be smaller than 180 degrees, got %g", a);
+    if (c->projection == VBNL_CAMERA_PERSPECTIVE && vbnl_sdl_peek(it->p)->kind == VBNL_SDL_TOK_NUMBER)
         return vbnl_sdl_parse_float(it->p, &f);
+    if (a > 360)
+        return vbnl_sdl_error(it->p, &it->loc, "camera angle must not exceed 360 degrees, got %g", a);
     return VBNL_OK;
 }
 
 static vbnl_result aperture(const pov_item *it)
 {
-    double f;
+    pov_cam *c = it->target;
     vbnl_sdl_next(it->p);
-    if (vbnl_sdl_parse_float(it->p, &f) != VBNL_OK)
+    return vbnl_sdl_parse_float(it->p, &c->aperture);
+}
+
+/* blur_samples [MIN ,] MAX: the comma is optional, as in POV-Ray. The count only enables focal
+ * blur: vbnl samples the lens with every camera sample. */
+static vbnl_result blur_samples(const pov_item *it)
+{
+    pov_cam *c = it->target;
+    vbnl_sdl_next(it->p);
+    double n, m = 0;
+    if (vbnl_sdl_parse_float(it->p, &n) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (f > 0)
-        vbnl_sdl_warning(it->p, &it->loc, "focal blur (aperture) is not supported; the camera is a pinhole");
+    if (!(n > 0))
+        return vbnl_sdl_error(it->p, &it->loc, "blur_samples must be > 0, got %g", n);
+    if ((vbnl_sdl_accept(it->p, ',') || vbnl_sdl_peek(it->p)->kind == VBNL_SDL_TOK_NUMBER) &&
+        vbnl_sdl_parse_float(it->p, &m) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (m > 0 && n > m)
+        return vbnl_sdl_error(it->p, &it->loc, "blur_samples: the minimum %g exceeds the maximum %g", n, m);
+    c->blur_samples = m > 0 ? m : n;
     return VBNL_OK;
 }
 
-static vbnl_result blur_samples(const pov_item *it)
+static vbnl_result focal_point(const pov_item *it)
 {
-    double f;
+    pov_cam *c = it->target;
+    double fp[3];
     vbnl_sdl_next(it->p);
-    if (vbnl_sdl_parse_float(it->p, &f) != VBNL_OK)
+    if (vbnl_sdl_parse_vector(it->p, 3, fp) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    return vbnl_sdl_accept(it->p, ',') ? vbnl_sdl_parse_float(it->p, &f) : VBNL_OK;
+    double d[3] = {fp[0] - c->loc[0], fp[1] - c->loc[1], fp[2] - c->loc[2]};
+    c->focal_distance = pov_len3(d);
+    return VBNL_OK;
 }
 
 static vbnl_result camera_normal(const pov_item *it)
@@ -91,23 +173,23 @@ static vbnl_result camera_normal(const pov_item *it)
 }
 
 static const pov_row camera_rows[] = {
-    {"perspective", pov_item_word, 0},
-    {"orthographic", other_type, 0},
-    {"fisheye", other_type, 0},
-    {"ultra_wide_angle", other_type, 0},
-    {"omnimax", other_type, 0},
-    {"panoramic", other_type, 0},
-    {"spherical", other_type, 0},
-    {"cylinder", other_type, 0},
-    {"mesh_camera", other_type, 0},
+    {"perspective", camera_type, 0},
+    {"orthographic", camera_type, 0},
+    {"fisheye", camera_type, 0},
+    {"ultra_wide_angle", camera_type, 0},
+    {"omnimax", camera_type, 0},
+    {"panoramic", camera_type, 0},
+    {"spherical", camera_type, 0},
+    {"cylinder", camera_type, 0},
+    {"mesh_camera", camera_type, 0},
     {"location", pov_item_vec3, CAM_FIELD(loc)},
     {"look_at", look_at, 0},
-    {"right", pov_item_vec3, CAM_FIELD(right)},
-    {"up", pov_item_vec3, CAM_FIELD(up)},
+    {"right", up_right, 0},
+    {"up", up_right, 0},
     {"direction", pov_item_vec3, CAM_FIELD(dir)},
     {"sky", pov_item_vec3, CAM_FIELD(sky)},
     {"angle", angle, 0},
-    {"focal_point", pov_item_any_vec3, 0},
+    {"focal_point", focal_point, 0},
     {"aperture", aperture, 0},
     {"confidence", pov_item_any_float, 0},
     {"variance", pov_item_any_float, 0},
@@ -141,7 +223,8 @@ vbnl_result pov_camera_resolve(pov_loader *L, const pov_cam *c, vbnl_sdl_loc loc
     memcpy(dir, c->dir, sizeof dir);
     memcpy(right, c->right, sizeof right);
     memcpy(up, c->up, sizeof up);
-    if (c->have_angle) {
+    const int flat = c->projection == VBNL_CAMERA_PERSPECTIVE || c->projection == VBNL_CAMERA_ORTHOGRAPHIC;
+    if (c->have_angle && flat && c->angle > 0) {
         double dl = pov_len3(dir);
         if (!(dl > 0))
             return vbnl_sdl_error(L->c.parser, &loc, "camera direction must not be zero");
@@ -170,18 +253,40 @@ vbnl_result pov_camera_resolve(pov_loader *L, const pov_cam *c, vbnl_sdl_loc loc
         pov_scale3(right, handed > 0 ? rlen : -rlen);
         pov_scale3(up, ulen);
     }
+    if (c->projection == VBNL_CAMERA_ORTHOGRAPHIC && ((!c->have_up && !c->have_right) || c->have_angle)) {
+        /* right and up grow to the area the perspective camera sees at the look_at distance */
+        double to[3] = {c->look_at[0] - loc_[0], c->look_at[1] - loc_[1], c->look_at[2] - loc_[2]};
+        double k1 = pov_len3(to), k2 = pov_len3(dir);
+        if (k1 > 1e-10 && k2 > 1e-10) {
+            pov_scale3(right, k1 / k2);
+            pov_scale3(up, k1 / k2);
+        }
+    }
+    double focal = c->focal_distance < 0 ? pov_len3(dir) : c->focal_distance;
     pov_m4_point(c->m, loc_, loc_);
     pov_m4_dir(c->m, dir, dir);
     pov_m4_dir(c->m, right, right);
     pov_m4_dir(c->m, up, up);
     if (!(pov_len3(dir) > 0) || !(pov_len3(right) > 0) || !(pov_len3(up) > 0))
         return vbnl_sdl_error(L->c.parser, &loc, "camera direction, right and up must not be zero");
+    memset(out, 0, sizeof *out);
     for (int i = 0; i < 3; ++i) {
         out->position[i] = (float)loc_[i];
         out->forward[i] = (float)dir[i];
         out->right[i] = (float)right[i];
         out->up[i] = (float)up[i];
     }
+    out->projection = c->projection;
+    out->angle[0] = (float)c->angle;
+    if (c->projection == VBNL_CAMERA_SPHERICAL) {
+        out->angle[0] = c->have_angle ? (float)c->angle : 360.0f;
+        out->angle[1] = c->have_angle_v ? (float)c->angle_v : out->angle[0] * 0.5f;
+    }
+    if (c->aperture != 0 && c->blur_samples > 0) {
+        /* POV-Ray spreads its eye points over a disc of radius 0.5 scaled by half the aperture
+         * (the measurement against povray is in docs/scene-language.md, "Focal blur") */
+        out->lens_radius = (float)(0.25 * fabs(c->aperture));
+        out->focal_distance = (float)(focal > 0 ? focal : 1.0);
+    }
     return VBNL_OK;
 }
-

@@ -155,28 +155,18 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
     pov_m4_point(pr->m, l->point_at, at);
     pov_m4_dir(pr->m, l->axis1, a1);
     pov_m4_dir(pr->m, l->axis2, a2);
-    /* An unfaded POV-Ray light gives the same irradiance at any distance. Radiant intensity
-     * I = colour D^2 (W/sr) matches it at distance D, the distance from the light to the centre
-     * of the scene's geometry (at least 1): a distant "sun" lights the scene as in POV-Ray. With
-     * fade_power 2, POV-Ray's 2/(1 + (d/D)^2) tends to 2 D^2 / d^2: I = 2 D^2 colour. */
-    double s = 1;
-    if (L->have_geo && !(l->fade_distance > 0 && l->fade_power > 0)) {
+    /* POV-Ray's light gives the irradiance colour * a(d) at distance d, with a = 1 unfaded and
+     * a = 2 / (1 + (d / fade_distance)^fade_power) faded (reference "Light Fading"). The core's
+     * lights fall off physically, as 1/d^2: the radiant intensity I = colour a(D) D^2 (W/sr)
+     * gives POV-Ray's irradiance at D, the distance from the light to the centre of the scene's
+     * geometry (at least 1; the fade distance when the scene has no finite geometry). */
+    const int faded = l->fade_distance > 0 && l->fade_power > 0;
+    double D = faded ? l->fade_distance : 1;
+    if (L->have_geo) {
         double d[3] = {pos[0] - L->geo_centre[0], pos[1] - L->geo_centre[1], pos[2] - L->geo_centre[2]};
-        double D = fmax(1.0, pov_len3(d));
-        s = D * D;
+        D = fmax(1.0, pov_len3(d));
     }
-    if (l->fade_distance > 0 && l->fade_power > 0) {
-        if (fabs(l->fade_power - 2) < 1e-9) {
-            s = 2 * l->fade_distance * l->fade_distance;
-        } else {
-            s = l->fade_distance * l->fade_distance;
-            if (!L->warned_fade++) {
-                char msg[256];
-                snprintf(msg, sizeof msg, "fade_power %g: light falls off as 1/d^2; its intensity matches POV-Ray's at fade_distance", l->fade_power);
-                sdl_diag_emit(L->c.parser, VBNL_SDL_WARNING, &pr->loc, msg);
-            }
-        }
-    }
+    double s = D * D * (faded ? 2.0 / (1.0 + pow(D / l->fade_distance, l->fade_power)) : 1.0);
     float I[3];
     for (int i = 0; i < 3; ++i)
         I[i] = (float)(fmax(l->color[i], 0) * s);

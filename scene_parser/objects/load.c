@@ -266,7 +266,28 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
     if (opt->system_include_dir && (r = vbnl_sdl_set_system_include_dir(p, opt->system_include_dir)) != VBNL_OK)
         goto done;
     vbnl_sdl_set_image_size(p, opt->width, opt->height);
-    vbnl_sdl_set_clock(p, opt->clock, 0, 0, 0, 0, 0);
+    vbnl_sdl_set_clock(p, opt->clock, opt->clock_delta, opt->initial_clock, opt->final_clock, opt->frame_number,
+                       opt->clock_on);
+    vbnl_sdl_set_frames(p, opt->initial_frame, opt->final_frame);
+    for (size_t i = 0; i < opt->declare_count; ++i) {
+        const vbnl_pov_declare *d = &opt->declares[i];
+        if ((r = vbnl_sdl_declare_constant(p, d->name, d->string, d->number)) != VBNL_OK) {
+            vbnl_error_set(err, r, r == VBNL_ERR_INVALID_ARGUMENT
+                                       ? "Declare=%s: not an identifier, or a reserved word of the scene language"
+                                       : "out of memory declaring %s",
+                           d->name ? d->name : "(null)");
+            goto done;
+        }
+    }
+    for (size_t i = 0; i < opt->read_dir_count + opt->write_dir_count; ++i) {
+        int w = i >= opt->read_dir_count;
+        const char *dir = w ? opt->write_dirs[i - opt->read_dir_count] : opt->read_dirs[i];
+        if ((r = vbnl_sdl_permit_dir(p, dir, w)) != VBNL_OK) {
+            vbnl_error_set(err, r, "%s '%s' is not a folder that can be opened to the scene",
+                           w ? "write folder" : "read folder", dir ? dir : "(null)");
+            goto done;
+        }
+    }
     if (opt->includes_disabled) {
         vbnl_sdl_set_includes_enabled(p, 0);
         L->files_disabled = 1;

@@ -1,4 +1,5 @@
-/* Files a scene names, kept to the naming file's folder (pov_files.h). */
+/* Files a scene names, kept to the naming file's folder and the folders the user opened
+ * (pov_files.h). */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
@@ -33,20 +34,39 @@ static int inside(const char *dir, const char *path)
 
 int pov_file_name_escapes(const char *name) { return name[0] == '/' || climbs(name); }
 
-char *pov_file_resolve(const vbnl_sdl_loc *loc, const char *name, pov_file_use use, const char **why)
+/* The reason a name that leads to `real` (canonical; NULL when it does not resolve) is refused,
+ * or NULL when it is allowed: inside the naming folder `cdir` by a name that stays there, or in a
+ * folder the user opened to the scene. */
+static const char *refusal(const vbnl_sdl_parser *p, const char *cdir, const char *real, const char *name,
+                           pov_file_use use)
 {
+    int write = use == POV_FILE_WRITE;
+    if (real && sdl_path_permitted(p, real, write))
+        return NULL;
+    if (name[0] == '/')
+        return write ? "an absolute path: a scene writes inside its own folder and the folders opened to it with "
+                       "--write-dir (give other paths on the command line)"
+                     : "an absolute path: a scene names files inside its own folder and the folders opened to it "
+                       "with --read-dir (give other paths on the command line)";
+    if (climbs(name))
+        return write ? "a path that leaves the scene's folder ('..'): a scene writes inside its own folder and the "
+                       "folders opened to it with --write-dir"
+                     : "a path that leaves the scene's folder ('..'): a scene names files inside its own folder and "
+                       "the folders opened to it with --read-dir";
+    if (real && (inside(cdir, real) || !strcmp(cdir, real)))
+        return NULL;
+    return "a path that a symbolic link carries out of the scene's folder";
+}
+
+char *pov_file_resolve(const vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *name, pov_file_use use,
+                       const char **why)
+{
+    *why = NULL;
     if (!name[0]) {
         *why = "an empty file name";
         return NULL;
     }
-    if (name[0] == '/') {
-        *why = "an absolute path: a scene names files inside its own folder (give other paths on the command line)";
-        return NULL;
-    }
-    if (climbs(name)) {
-        *why = "a path that leaves the scene's folder ('..'): a scene names files inside its own folder";
-        return NULL;
-    }
+    /* the naming file's folder, and the path as it names it */
     const char *file = loc && loc->file ? loc->file : "";
     const char *slash = strrchr(file, '/');
     size_t dl = slash ? (size_t)(slash - file) : 0;
@@ -61,39 +81,46 @@ char *pov_file_resolve(const vbnl_sdl_loc *loc, const char *name, pov_file_use u
     if (slash) {
         memcpy(dir, file, dl ? dl : 1);
         dir[dl ? dl : 1] = '\0';
+    } else {
+        strcpy(dir, ".");
+    }
+    if (name[0] == '/')
+        strcpy(path, name);
+    else if (slash) {
         memcpy(path, file, dl + 1);
         strcpy(path + dl + 1, name);
     } else {
-        strcpy(dir, ".");
         strcpy(path, name);
     }
     char cdir[PATH_MAX], cpath[PATH_MAX];
-    *why = NULL;
     if (!realpath(dir, cdir)) {
         *why = "a file in a folder that cannot be read";
     } else if (use == POV_FILE_WRITE) {
         struct stat st;
         if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode))
-            *why = "a symbolic link: a scene writes only plain files in its own folder";
+            *why = "a symbolic link: a scene writes only plain files in its own folder and the folders opened to it";
         else {
-            /* the folder the file goes into must itself stay inside (a linked subfolder) */
+            /* the folder the file goes into decides (a linked subfolder may lead out) */
             char *sub = strdup(path), *cut = sub ? strrchr(sub, '/') : NULL;
             if (!sub)
                 *why = "out of memory";
             else {
                 if (cut)
                     *cut = '\0';
-                if (!realpath(cut ? sub : ".", cpath))
-                    *why = "a file in a folder that does not exist";
-                else if (strcmp(cpath, cdir) != 0 && !inside(cdir, cpath))
-                    *why = "a path that a symbolic link carries out of the scene's folder";
+                if (!realpath(cut ? (sub[0] ? sub : "/") : ".", cpath))
+                    *why = pov_file_name_escapes(name) ? refusal(p, cdir, NULL, name, use)
+                                                       : "a file in a folder that does not exist";
+                else
+                    *why = refusal(p, cdir, cpath, name, use);
                 free(sub);
             }
         }
     } else if (!realpath(path, cpath)) {
-        *why = errno == ENOENT ? "a file that does not exist" : "a file that cannot be read";
-    } else if (!inside(cdir, cpath)) {
-        *why = "a path that a symbolic link carries out of the scene's folder";
+        *why = pov_file_name_escapes(name) ? refusal(p, cdir, NULL, name, use)
+               : errno == ENOENT           ? "a file that does not exist"
+                                           : "a file that cannot be read";
+    } else {
+        *why = refusal(p, cdir, cpath, name, use);
     }
     free(dir);
     if (*why) {

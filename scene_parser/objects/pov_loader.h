@@ -19,8 +19,11 @@
 /* A camera as written: POV-Ray's vectors, resolved onto the core camera by pov_camera_resolve. */
 typedef struct pov_cam {
     double loc[3], dir[3], right[3], up[3], sky[3], look_at[3];
-    double angle;
-    int have_look_at, have_angle, other_type;
+    double angle, angle_v;         /* angle_v: the spherical camera's vertical angle */
+    int have_look_at, have_angle, have_up, have_right, have_angle_v;
+    vbnl_camera_projection projection;
+    double aperture, blur_samples; /* focal blur when both are non-zero */
+    double focal_distance;         /* |focal_point - location| as written; < 0: |direction| */
     double m[16];
 } pov_cam;
 
@@ -39,7 +42,7 @@ typedef struct pov_loader {
     size_t ndiags;
     vbnl_sdl_diag_fn user_diag;
     void *user_diag_user;
-    int warned_shadowless, warned_no_shadow, warned_fade;
+    int warned_shadowless, warned_no_shadow;
     int files_disabled;      /* includes disabled: vbnl_mesh is refused too */
     vbnl_sdl_loc *warned;    /* skipped shapes already warned about */
     size_t nwarned;

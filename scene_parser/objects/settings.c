@@ -30,7 +30,7 @@ static int path_list(const char *list, const vbnl_sdl_loc *loc, pov_file_use use
         size_t n = use == POV_FILE_READ ? strcspn(c, ":") : strlen(c);
         char *one = strndup(c, n);
         const char *why = "out of memory";
-        char *r = one ? pov_file_resolve(loc, one, use, &why) : NULL;
+        char *r = one ? pov_file_resolve(p, loc, one, use, &why) : NULL;
         if (!r) {
             vbnl_sdl_error(p, loc, "%s '%s' is %s", kname, one ? one : "", why);
             free(one);

@@ -8,27 +8,11 @@ HDR="python3 $SRC/tests/cli/exr_header.py"
 SCENE=$SRC/examples/cornell-box.obj
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
-n=0
-failed=0
-ok() { n=$((n + 1)); echo "ok $n - $1"; }
-not_ok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $1"; shift; for l in "$@"; do echo "# $l"; done; }
-# expect NAME STATUS PATTERN -- COMMAND...: exit status and a pattern in stdout+stderr
-expect() {
-    local name=$1 status=$2 pattern=$3
-    shift 4
-    local out rc
-    out=$("$@" 2>&1)
-    rc=$?
-    if [ "$rc" -eq "$status" ] && grep -qE -- "$pattern" <<<"$out"; then
-        ok "$name"
-    else
-        not_ok "$name" "exit $rc (want $status), output:" "$out"
-    fi
-}
+source "$SRC/tests/cli/tap.sh"
 
 expect "help" 0 "usage: vbnl" -- "$VBNL" --help
 expect "help lists the plugin commands" 0 "bench +path tracer speed" -- "$VBNL" --help
-expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.2\)" -- "$VBNL" --version
+expect "version names the plugin and its ABI" 0 "vbnl 0.1.0 \(plugin .*vbnl_plugin.so, ABI 1.3\)" -- "$VBNL" --version
 expect "no command" 2 "usage: vbnl" -- "$VBNL"
 expect "unknown command" 2 "unknown command 'frobnicate'" -- "$VBNL" frobnicate
 expect "render help" 0 "--spp N" -- "$VBNL" render --help
@@ -378,5 +362,4 @@ expect "bench equal-time --repeat refuses 0" 2 "--repeat takes 1..99" -- "$VBNL"
 # Three rounds: each cell is the median run, and the ratio line lists the three rounds' ratios.
 expect "bench equal-time --repeat reports the median of the rounds" 0 "run of median rMAE of 3 \(seeds 7..9.*path/vbnl rMAE ratio at 0.2s: [0-9.]+ \(rounds: [0-9.]+ [0-9.]+ [0-9.]+\)" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --methods path,vbnl --repeat 3 --out '$TMP/bench' 2>/dev/null | tr '\n' ' '"
 
-echo "1..$n"
-[ $failed -eq 0 ]
+tap_end

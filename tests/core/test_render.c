@@ -269,6 +269,79 @@ static void test_camera_rays(void **state)
     assert_int_equal(vbnl_camera_look_at(&c, pos, target, up, 180.0f, 1.0f, &err), VBNL_ERR_INVALID_ARGUMENT);
 }
 
+/* POV-Ray's other projections at points whose rays are known, and the thin lens: every lens
+ * point's ray meets the pinhole ray at the focal distance. */
+static void test_camera_projections(void **state)
+{
+    (void)state;
+    vbnl_camera_desc c = {.position = {0, 0, 0}, .forward = {0, 0, 2}, .right = {1, 0, 0}, .up = {0, 1, 0}};
+    vec3 o, d;
+    c.projection = VBNL_CAMERA_ORTHOGRAPHIC;
+    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 75.0f, 25.0f, &o, &d), 1);
+    assert_float_equal(o.x, 0.25f, 1e-6f);
+    assert_float_equal(o.y, 0.25f, 1e-6f);
+    assert_float_equal(d.z, 1.0f, 1e-6f);
+    /* fisheye of 180 degrees: the centre looks forward, the edge's middle along right, the corner
+     * lies outside the circle and has no ray */
+    c.projection = VBNL_CAMERA_FISHEYE;
+    c.angle[0] = 180.0f;
+    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 50.0f, 50.0f, &o, &d), 1);
+    assert_float_equal(d.z, 1.0f, 1e-6f);
+    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 100.0f, 50.0f, &o, &d), 1);
+    assert_float_equal(d.x, 1.0f, 1e-5f);
+    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 99.0f, 1.0f, &o, &d), 0);
+    /* panoramic: the left edge looks along -right, the centre forward */
+    c.projection = VBNL_CAMERA_PANORAMIC;
+    vbnl_camera_ray(&c, 100, 100, 0.0f, 50.0f, &o, &d);
+    assert_float_equal(d.x, -1.0f, 1e-5f);
+    vbnl_camera_ray(&c, 100, 100, 50.0f, 50.0f, &o, &d);
+    assert_float_equal(d.z, 1.0f, 1e-5f);
+    /* spherical 360 x 180: the right edge is 180 degrees around (behind), the top straight up */
+    c.projection = VBNL_CAMERA_SPHERICAL;
+    c.angle[0] = 360.0f;
+    c.angle[1] = 180.0f;
+    vbnl_camera_ray(&c, 100, 100, 75.0f, 50.0f, &o, &d);
+    assert_float_equal(d.x, 1.0f, 1e-5f);
+    vbnl_camera_ray(&c, 100, 100, 50.0f, 0.0f, &o, &d);
+    assert_float_equal(d.y, 1.0f, 1e-5f);
+    /* cylinder 3: orthographic along up, 90 degrees around it across the width */
+    c.projection = VBNL_CAMERA_CYLINDER_3;
+    c.angle[0] = 90.0f;
+    vbnl_camera_ray(&c, 100, 100, 100.0f, 0.0f, &o, &d);
+    assert_float_equal(o.y, 0.5f, 1e-6f);
+    assert_float_equal(atan2f(d.x, d.z), (float)M_PI / 4.0f, 1e-5f);
+    /* thin lens: rays from across the lens meet at the pinhole ray's point at the focal distance */
+    c.projection = VBNL_CAMERA_PERSPECTIVE;
+    c.lens_radius = 0.5f;
+    c.focal_distance = 4.0f;
+    vec3 focus = v3(0.25f * 2.0f, 0.0f, 4.0f); /* (forward + 0.25 right) * 4 / |forward| */
+    float spread = 0.0f;
+    for (int i = 0; i < 16; ++i) {
+        vec2 lens = {(float)(i % 4) / 4.0f + 0.1f, (float)(i / 4) / 4.0f + 0.1f};
+        assert_int_equal(vbnl_camera_ray_lens(&c, 100, 100, 75.0f, 50.0f, lens, &o, &d), 1);
+        vec3 to = v3_sub(focus, o);
+        float t = v3_len(to);
+        assert_float_equal(v3_dot(v3_scale(to, 1.0f / t), d), 1.0f, 1e-5f);
+        assert_float_equal(o.z, 0.0f, 1e-6f); /* on the lens plane, perpendicular to forward */
+        assert_true(o.x * o.x + o.y * o.y <= 0.25f * 1.0001f);
+        spread = fmaxf(spread, sqrtf(o.x * o.x + o.y * o.y));
+    }
+    assert_true(spread > 0.3f); /* the samples reach across the lens */
+    vbnl_error err = {0};
+    vbnl_scene *s = NULL;
+    vbnl_context *ctx = NULL;
+    vbnl_context_desc cd = {1};
+    assert_int_equal(vbnl_context_create(&cd, &ctx, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
+    c.focal_distance = 0.0f;
+    assert_int_equal(vbnl_scene_set_camera(s, &c, &err), VBNL_ERR_INVALID_ARGUMENT);
+    c.focal_distance = 1.0f;
+    c.projection = (vbnl_camera_projection)42;
+    assert_int_equal(vbnl_scene_set_camera(s, &c, &err), VBNL_ERR_INVALID_ARGUMENT);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
 /* Embree answers known geometry: a sphere (outside and inside), a quad, an instance. */
 static void test_intersection(void **state)
 {
@@ -705,7 +778,7 @@ static void test_bad_arguments(void **state)
     assert_int_equal(vbnl_scene_add_directional_light(s, v3a, one, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_set_environment(s, neg, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_set_camera(s, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_camera_desc flat = {{0, 0, 0}, {0, 0, -1}, {1, 0, 0}, {1, 0, 0}};
+    vbnl_camera_desc flat = {.position = {0, 0, 0}, .forward = {0, 0, -1}, .right = {1, 0, 0}, .up = {1, 0, 0}};
     assert_int_equal(vbnl_scene_set_camera(s, &flat, &err), VBNL_ERR_INVALID_ARGUMENT);
     /* commit needs a camera and a light */
     assert_int_equal(vbnl_scene_commit(s, &err), VBNL_ERR_INVALID_ARGUMENT);
@@ -797,7 +870,8 @@ int main(void)
         cmocka_unit_test(test_furnace),       cmocka_unit_test(test_close_light),
         cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_split_direct),  cmocka_unit_test(test_max_depth),
-        cmocka_unit_test(test_camera_rays),   cmocka_unit_test(test_intersection),
+        cmocka_unit_test(test_camera_rays),
+        cmocka_unit_test(test_camera_projections),   cmocka_unit_test(test_intersection),
         cmocka_unit_test(test_params),        cmocka_unit_test(test_pool),
         cmocka_unit_test(test_cancel),        cmocka_unit_test(test_time_budget),
         cmocka_unit_test(test_crop),          cmocka_unit_test(test_bad_arguments),

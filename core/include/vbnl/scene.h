@@ -222,15 +222,50 @@ vbnl_result vbnl_scene_set_environment(vbnl_scene *scene, const float radiance[3
 
 /* ---- camera ------------------------------------------------------------------------------- */
 
-/* Pinhole camera in POV-Ray's general form: the primary ray through the normalised image point
- * (sx, sy), sx in [-0.5, 0.5] from the left to the right edge and sy in [-0.5, 0.5] from the
- * bottom to the top edge, has direction forward + sx*right + sy*up (then normalised). The lengths
- * of right and up set the field of view and the aspect ratio; mirrored cameras are allowed. */
+/* The camera's projection: POV-Ray 3.7's camera types (reference section "Camera", "Camera
+ * Types"), each from its position and its forward, right and up vectors. (sx, sy) is the
+ * normalised image point, sx in [-0.5, 0.5] from the left to the right edge and sy in [-0.5, 0.5]
+ * from the bottom to the top edge. */
+typedef enum vbnl_camera_projection {
+    /* direction forward + sx*right + sy*up */
+    VBNL_CAMERA_PERSPECTIVE = 0,
+    /* parallel rays along forward from position + sx*right + sy*up */
+    VBNL_CAMERA_ORTHOGRAPHIC = 1,
+    /* angle[0] degrees across the circle of radius 1 in (2 sx |right|, 2 sy |up|); nothing outside */
+    VBNL_CAMERA_FISHEYE = 2,
+    /* angle[0] degrees across the width, angle[0] * |up| / |right| across the height */
+    VBNL_CAMERA_ULTRA_WIDE_ANGLE = 3,
+    /* 180 degrees across the width (cylindrical), the tangent of up to 90 degrees across the height */
+    VBNL_CAMERA_PANORAMIC = 4,
+    /* angle[0] degrees of longitude across the width, angle[1] of latitude across the height */
+    VBNL_CAMERA_SPHERICAL = 5,
+    /* cylinder 1..4: the axis along up (1, 3) or right (2, 4), angle[0] degrees around it, |up|
+     * (1, 3) or |right| (2, 4) along it; 3 and 4 are orthographic along the axis */
+    VBNL_CAMERA_CYLINDER_1 = 6,
+    VBNL_CAMERA_CYLINDER_2 = 7,
+    VBNL_CAMERA_CYLINDER_3 = 8,
+    VBNL_CAMERA_CYLINDER_4 = 9,
+} vbnl_camera_projection;
+
+/* A camera in POV-Ray's general form. The lengths of right and up set the field of view and the
+ * aspect ratio; mirrored cameras are allowed. The fields after `up` are zero for the pinhole
+ * perspective camera (a zero-initialised struct, or vbnl_camera_look_at).
+ *
+ * Thin lens (POV-Ray's focal blur): with lens_radius > 0 each camera sample's ray starts at a
+ * point of the disc of that radius around the pinhole ray's origin, perpendicular to forward,
+ * and passes through the pinhole ray's point at focal_distance: the point origin + D *
+ * focal_distance / |forward|, where D is the projection's unnormalised direction (for the
+ * perspective camera, forward + sx*right + sy*up: the plane at focal_distance along forward is
+ * sharp). The disc is sampled with each sample's second pair of random numbers. */
 typedef struct vbnl_camera_desc {
     float position[3];
     float forward[3];
     float right[3];
     float up[3];
+    vbnl_camera_projection projection;
+    float angle[2];       /* degrees, for the projections that name them above */
+    float lens_radius;    /* 0: pinhole */
+    float focal_distance; /* > 0 when lens_radius > 0 */
 } vbnl_camera_desc;
 
 /* Convenience: camera at `position` looking at `target` with `up` roughly up, vertical field of

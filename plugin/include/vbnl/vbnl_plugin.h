@@ -59,7 +59,7 @@ extern "C" {
 #endif
 
 #define VBNL_PLUGIN_ABI_MAJOR 1u
-#define VBNL_PLUGIN_ABI_MINOR 2u
+#define VBNL_PLUGIN_ABI_MINOR 3u
 #define VBNL_PLUGIN_ENTRY_NAME "vbnl_plugin_entry"
 
 /* True when the table has `field` (it was built with at least that minor version's layout). */
@@ -181,6 +181,8 @@ typedef struct vbnl_plugin_view {
     float exposure;              /* stops applied before the view */
     uint32_t png_bits;           /* write_png: 8 (default) or 16 */
     int dither;                  /* write_png: triangular dither before quantising (default 1) */
+    /* ---- ABI 1.3 (a 1.2 host's shorter struct leaves this at its default) ---- */
+    int alpha;                   /* write_png: 1 writes RGBA with the beauty image's alpha (default 0: RGB) */
 } vbnl_plugin_view;
 
 /* ---- the table ------------------------------------------------------------------------------- */
@@ -291,6 +293,24 @@ typedef struct vbnl_plugin_api {
      * thread blocks signals for those calls only). At most 16 writes at a time are tracked; more
      * are written untracked. Hosts built for 1.0 modules check VBNL_PLUGIN_HAS(api, abandon_writes). */
     void (*abandon_writes)(void);
+
+    /* ---- ABI 1.3 ---- */
+
+    /* One setting of the POV-Ray scene the next load_scene_file / load_scene_text reads, as
+     * POV-Ray's front end passes them to its parser. Kept until the renderer is destroyed; a key
+     * set again replaces its value, except the lists (declare, include_dir, read_dir, write_dir),
+     * which grow. Keys:
+     *   clock, clock_delta, initial_clock, final_clock           numbers (the identifiers of the
+     *   frame_number, initial_frame, final_frame, clock_on       same names; all 0 by default)
+     *   declare      "NAME=VALUE": a float, or a string in double quotes (POV-Ray's Declare=)
+     *   include_dir  a folder searched for #include after the scene's own (POV-Ray's Library_Path)
+     *   read_dir     a folder (and below) the scene may read          (POV-Ray's I/O restriction
+     *   write_dir    a folder (and below) the scene may read and write  settings; the folder must exist)
+     * Errors: VBNL_PLUGIN_ERR_UNKNOWN_NAME for another key; VBNL_PLUGIN_ERR_INVALID_ARGUMENT for a
+     * value that is not a number, a declare that is not NAME=VALUE with NAME an identifier that
+     * is no reserved word, or a folder that does not exist. Mesh files ignore these settings. */
+    vbnl_plugin_result (*set_scene_option)(vbnl_plugin_renderer *r, const char *key, const char *value, char *msg,
+                                           size_t msg_size);
 } vbnl_plugin_api;
 
 /* The one exported symbol. Returns the table when host_abi_major equals the module's ABI major,

@@ -32,12 +32,30 @@ extern "C" {
 
 typedef struct vbnl_pov_scene vbnl_pov_scene;
 
+/* A constant declared before the parse (POV-Ray's Declare=NAME=VALUE): a string when `string` is
+ * non-NULL, else the float `number`. */
+typedef struct vbnl_pov_declare {
+    const char *name;
+    const char *string;
+    double number;
+} vbnl_pov_declare;
+
 typedef struct vbnl_pov_options {
     const char *const *include_dirs; /* searched after the scene's folder, before the system dir */
     size_t include_dir_count;
     const char *system_include_dir;  /* NULL: the detected POV-Ray include directory */
     int width, height;               /* image_width / image_height as the scene sees them */
     double clock;                    /* clock (0) */
+    /* the other animation identifiers as POV-Ray's front end sets them (all 0 for a still) */
+    double clock_delta, initial_clock, final_clock;
+    int frame_number, initial_frame, final_frame, clock_on;
+    const vbnl_pov_declare *declares; /* declared in order before the parse */
+    size_t declare_count;
+    /* folders opened to the scene (vbnl_sdl_permit_dir): read, and read and write */
+    const char *const *read_dirs;
+    size_t read_dir_count;
+    const char *const *write_dirs;
+    size_t write_dir_count;
     const vbnl_sdl_limits *limits;   /* NULL: vbnl_sdl_limits_default */
     vbnl_sdl_diag_fn diag;           /* every warning, note and error (may be NULL) */
     int no_commit;                   /* 1: build the scene but do not commit it (parser tests) */
@@ -45,7 +63,8 @@ typedef struct vbnl_pov_options {
     void *diag_user;
 } vbnl_pov_options;
 
-/* Zero include dirs, 640x480, clock 0, default limits, no callback, commit, includes on. */
+/* Zero include dirs, 640x480, every animation identifier 0, no declares, no opened folders,
+ * default limits, no callback, commit, includes on. */
 void vbnl_pov_options_init(vbnl_pov_options *o);
 
 /* Parses `path` and builds a committed scene in `ctx`. */

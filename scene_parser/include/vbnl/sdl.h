@@ -206,6 +206,12 @@ void vbnl_sdl_parser_destroy(vbnl_sdl_parser *p); /* accepts NULL */
 vbnl_result vbnl_sdl_set_limits(vbnl_sdl_parser *p, const vbnl_sdl_limits *limits);
 /* Appends a directory to the user include path (searched after the scene's folder). */
 vbnl_result vbnl_sdl_add_include_dir(vbnl_sdl_parser *p, const char *dir);
+/* Opens the folder `dir` and everything below it to the scene, as POV-Ray's I/O restriction
+ * settings ("read*" and "read+write*" permitted paths) do: the scene may then read files there
+ * (#include by an absolute or '..' name, file_exists, image_map, vbnl_mesh, load_lights) and, when
+ * `writable`, also write them (save_lights). The folder is not searched for includes (that is
+ * vbnl_sdl_add_include_dir). Errors: VBNL_ERR_IO when `dir` is not an existing folder. */
+vbnl_result vbnl_sdl_permit_dir(vbnl_sdl_parser *p, const char *dir, int writable);
 /* Overrides the detected POV-Ray standard include directory (NULL: none). */
 vbnl_result vbnl_sdl_set_system_include_dir(vbnl_sdl_parser *p, const char *dir);
 /* Disables #include entirely (fuzzing, untrusted input). */
@@ -214,6 +220,13 @@ void vbnl_sdl_set_image_size(vbnl_sdl_parser *p, int width, int height);
 /* clock, clock_delta, initial_clock, final_clock, frame_number, clock_on */
 void vbnl_sdl_set_clock(vbnl_sdl_parser *p, double clock, double delta, double initial,
                         double final_clock, int frame_number, int clock_on);
+/* initial_frame, final_frame (0 and 0, POV-Ray's values for a still image) */
+void vbnl_sdl_set_frames(vbnl_sdl_parser *p, int initial_frame, int final_frame);
+/* Declares the global identifier `name` before the parse, as POV-Ray's Declare=NAME=VALUE option
+ * does: a string when `string` is non-NULL (copied), else the float `number`. Errors:
+ * VBNL_ERR_INVALID_ARGUMENT when `name` is not an identifier or is a reserved word of the
+ * language (clock, pi, ...), VBNL_ERR_OUT_OF_MEMORY. */
+vbnl_result vbnl_sdl_declare_constant(vbnl_sdl_parser *p, const char *name, const char *string, double number);
 /* Value of the predefined identifier vbnl_version (default 0.1). */
 void vbnl_sdl_set_vbnl_version(vbnl_sdl_parser *p, double version);
 void vbnl_sdl_set_diag_callback(vbnl_sdl_parser *p, vbnl_sdl_diag_fn fn, void *user);

@@ -21,7 +21,7 @@ vbnl_result pov_shape_vbnl_mesh(const pov_shape *s)
         return vbnl_sdl_error(p, &sl, "vbnl_mesh: file access is disabled");
     }
     const char *why = NULL;
-    char *path = pov_file_resolve(&sl, name, POV_FILE_READ, &why);
+    char *path = pov_file_resolve(p, &sl, name, POV_FILE_READ, &why);
     if (!path) {
         vbnl_result r = vbnl_sdl_error(p, &sl, "vbnl_mesh: '%s' is %s", name, why);
         free(name);

@@ -24,13 +24,17 @@ static int load_image(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc)
     char path[POV_PATH_MAX];
     path[0] = '\0';
     if (pov_file_name_escapes(name)) {
+        /* allowed only into a folder the user opened to the scene */
         const char *why = NULL;
-        free(pov_file_resolve(loc, name, POV_FILE_READ, &why));
-        vbnl_sdl_error(c->parser, loc, "image_map: '%s' is %s", name, why ? why : "outside the scene's folder");
-        return -1;
+        char *opened = pov_file_resolve(c->parser, loc, name, POV_FILE_READ, &why);
+        if (!opened) {
+            vbnl_sdl_error(c->parser, loc, "image_map: '%s' is %s", name, why ? why : "outside the scene's folder");
+            return -1;
+        }
+        free(opened);
     }
     const char *why = NULL;
-    char *near = pov_file_resolve(loc, name, POV_FILE_READ, &why);
+    char *near = pov_file_resolve(c->parser, loc, name, POV_FILE_READ, &why);
     if (near) {
         int n = snprintf(path, sizeof(path), "%s", near);
         free(near);

@@ -1,5 +1,5 @@
 # What the farm tests share (sourced by test_farm.sh and test_farm_slurm.sh after
-# tests/common/tap.sh): the comparison of a merged image with the single render's. Needs $SAME,
+# tests/cli/tap.sh): the comparison of a merged image with the single render's. Needs $SAME,
 # the exr_same program.
 # The attributes a merged header must share with the single render's: everything that does not
 # depend on timing (the rays too: every pixel's paths are the same).

@@ -11,7 +11,7 @@ SAME=$3
 SCENE=$SRC/examples/cornell-box.pov
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
-source "$SRC/tests/common/tap.sh"
+source "$SRC/tests/cli/tap.sh"
 source "$SRC/tests/plugin/commands/farm_tap.sh"
 
 OPTS=(--width 40 --height 32 --spp 4 --seed 3 --set virtual_lights=2000 --set photon_paths=50000 -q)
@@ -116,24 +116,38 @@ else
 fi
 expect "a work folder is used once" 2 "holds the farm of an earlier submission" -- "$VBNL" farm "$SCENE" "${OPTS[@]}" -o sub.exr --dry-run
 
-# Animations: POV-Ray's frame numbers, clocks and file names (frames 3..12, subset 5..7; cyclic).
+# Animations: every frame is the one `vbnl`'s POV-Ray command line renders (+KFI.. +KFF..), with
+# POV-Ray's identifiers: a sphere moves with the clock and grows with the frame number.
+{ cat "$SCENE"; echo 'sphere { <-0.6 + clock, 0.3, -0.2>, 0.1 + 0.04 * frame_number texture { White } }'; } > anim.pov
+AOPTS=(--width 40 --height 32 --spp 4 --seed 3 --set virtual_lights=2000 --set photon_paths=50000 -q)
+"$VBNL" anim.pov +W40 +H32 +KFI2 +KFF4 +KI0.25 +KF1.25 +FE +Opov.exr --spp 4 --seed 3 --set virtual_lights=2000 --set photon_paths=50000 --quiet >/dev/null 2>&1
+if out=$("$VBNL" farm anim.pov "${AOPTS[@]}" -o farm.exr --initial-frame 2 --final-frame 4 --initial-clock 0.25 --final-clock 1.25 --photon-jobs 2 --tiles 2 --local 2>&1); then
+    for fr in 2 3 4; do
+        o=$("$SAME" "pov$fr.exr" "farm$fr.exr" 2>&1) && ok "animation frame $fr: the POV-Ray command line's frame bit for bit" ||
+            not_ok "animation frame $fr: the POV-Ray command line's frame bit for bit" "$o"
+    done
+    o=$("$SAME" pov2.exr pov3.exr 2>&1) && not_ok "the frames differ (the clock reaches the scene)" || ok "the frames differ (the clock reaches the scene)"
+else
+    not_ok "farm --local of an animation" "$out"
+fi
+# POV-Ray's clocks, frame numbers and file names (frames 3..12, subset 5..7; cyclic: one frame more)
 "$VBNL" farm "$SCENE" "${OPTS[@]}" -o anim.exr --initial-frame 3 --final-frame 12 --subset-start 5 --subset-end 7 --dry-run >/dev/null 2>&1
 s=anim.farm/jobs/merge.sh
-if grep -q "^frames=(5 6 7)$" "$s" && grep -q "^clocks=(0.22222222222222221 0.33333333333333331 0.44444444444444442)$" "$s" &&
+if grep -q "^frames=(5 6 7)$" "$s" && grep -q "'clock=0.22222222222222221 clock_delta=0.1111111111111111 clock_on=1 frame_number=5 initial_clock=0 final_clock=1 initial_frame=3 final_frame=12'" "$s" &&
     grep -q "^exrs=('$TMP/anim05.exr' '$TMP/anim06.exr' '$TMP/anim07.exr')$" "$s" && [ -d anim.farm/frame05/tiles ]; then
-    ok "animation: POV-Ray's clocks and frame-numbered outputs"
+    ok "animation: POV-Ray's identifiers and frame-numbered outputs"
 else
-    not_ok "animation: POV-Ray's clocks and frame-numbered outputs" "$(head -20 "$s")"
+    not_ok "animation: POV-Ray's identifiers and frame-numbered outputs" "$(head -20 "$s")"
 fi
 "$VBNL" farm "$SCENE" "${OPTS[@]}" -o cyc.exr --initial-frame 3 --final-frame 12 --subset-start 11 --cyclic --dry-run >/dev/null 2>&1
-grep -q "^clocks=(0.80000000000000004 0.90000000000000002)$" cyc.farm/jobs/tiles.sh && grep -q -- '--clock' cyc.farm/jobs/tiles.sh &&
-    ok "cyclic animation: clock = (frame - initial) / (frames + 1)" || not_ok "cyclic animation" "$(head -20 cyc.farm/jobs/tiles.sh)"
-if "$VBNL" render --help | grep -q -- --clock; then
-    ok "vbnl render takes --clock: animations can be submitted"
+if grep -q "^frames=(11 12)$" cyc.farm/jobs/tiles.sh && grep -q "'clock=0.80000000000000004 .* final_frame=13'" cyc.farm/jobs/tiles.sh; then
+    ok "cyclic animation: one frame more for the clock"
 else
-    expect "an animation is refused while vbnl render takes no --clock" 2 "takes no --clock" -- \
-        "$VBNL" farm "$SCENE" "${OPTS[@]}" -o anim2.exr --final-frame 3 --sbatch ./fake-sbatch
+    not_ok "cyclic animation: one frame more for the clock" "$(head -20 cyc.farm/jobs/tiles.sh)"
 fi
+expect "vbnl render refuses an identifier POV-Ray has not" 2 "--builtin takes NAME=VALUE with NAME one of clock" -- \
+    "$VBNL" render anim.pov "${AOPTS[@]}" --builtin clocks=1 -o x.exr
+expect "an animation's clock comes from its frame options" 2 "--clock sets a still image's clock" -- \
+    "$VBNL" farm "$SCENE" "${OPTS[@]}" -o c.exr --final-frame 3 --clock 0.5 --dry-run
 
-echo "1..$n"
-[ $failed -eq 0 ]
+tap_end

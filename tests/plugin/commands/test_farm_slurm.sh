@@ -19,7 +19,7 @@ cleanup() {
     rm -rf "$TMP"
 }
 trap cleanup EXIT
-source "$SRC/tests/common/tap.sh"
+source "$SRC/tests/cli/tap.sh"
 source "$SRC/tests/plugin/commands/farm_tap.sh"
 
 t0=$(date +%s.%N)
@@ -107,5 +107,4 @@ else
     not_ok "an unloadable scene is refused and nothing is submitted" "exit $rc: $out" "jobs $before -> $(jobs_known)"
 fi
 
-echo "1..$n"
-[ $failed -eq 0 ]
+tap_end

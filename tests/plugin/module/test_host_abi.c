@@ -351,6 +351,103 @@ static void test_outputs_round_trip(void **state)
     api->renderer_destroy(r);
 }
 
+/* view.alpha (ABI 1.3): an RGBA PNG whose alpha is the beauty image's, full size around a crop
+ * window (outside it transparent, as POV-Ray writes a partial render); a 1.2 host's shorter view
+ * gets RGB. */
+static void test_png_alpha(void **state)
+{
+    (void)state;
+    vbnl_plugin_renderer *r = NULL;
+    char msg[1024] = "", png[128];
+    assert_int_equal(api->renderer_create(&r, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    vbnl_plugin_options o;
+    api->options_init(&o);
+    o.width = W;
+    o.height = H;
+    o.spp = 1;
+    o.integrator = "path";
+    uint32_t crop[4] = {4, 2, 12, 10};
+    memcpy(o.crop, crop, sizeof(crop));
+    assert_int_equal(api->set_options(r, &o, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->load_scene_file(r, g_scene, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->prepare(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->render(r, NULL, NULL, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    vbnl_plugin_view v;
+    api->view_init(&v);
+    assert_int_equal(v.alpha, 0);
+    v.alpha = 1;
+    snprintf(png, sizeof(png), "%s/alpha.png", g_dir);
+    assert_int_equal(api->write_png(r, png, &v, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    vbnl_png_image p;
+    assert_int_equal(vbnl_png_read(png, &p, NULL), VBNL_OK);
+    assert_int_equal(p.width, W);
+    assert_int_equal(p.height, H);
+    assert_int_equal(p.channels, 4);
+    for (uint32_t y = 0; y < H; ++y)
+        for (uint32_t x = 0; x < W; ++x) {
+            int in = x >= crop[0] && x < crop[2] && y >= crop[1] && y < crop[3];
+            assert_int_equal(((uint8_t *)p.pixels)[4 * (y * W + x) + 3], in ? 255 : 0);
+        }
+    vbnl_png_image_free(&p);
+    v.size = offsetof(vbnl_plugin_view, alpha);
+    assert_int_equal(api->write_png(r, png, &v, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(vbnl_png_read(png, &p, NULL), VBNL_OK);
+    assert_int_equal(p.channels, 3);
+    vbnl_png_image_free(&p);
+    api->renderer_destroy(r);
+}
+
+/* set_scene_option (ABI 1.3): the animation identifiers, declared constants and include folders
+ * reach the scene (it stops with #error unless each has the value set); bad keys and values are
+ * refused by name. */
+static void test_scene_options(void **state)
+{
+    (void)state;
+    vbnl_plugin_renderer *r = NULL;
+    char msg[1024] = "", inc[160];
+    assert_true(VBNL_PLUGIN_HAS(api, set_scene_option));
+    assert_int_equal(api->renderer_create(&r, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    snprintf(inc, sizeof(inc), "%s/lib", g_dir);
+    char cmd[512];
+    snprintf(cmd, sizeof(cmd), "mkdir -p '%s' && echo '#declare FromLib = 5;' > '%s/lib.inc'", inc, inc);
+    assert_int_equal(system(cmd), 0);
+    const char *kv[][2] = {{"clock", "0.25"},        {"clock_delta", "0.05"}, {"initial_clock", "0"},
+                           {"final_clock", "1"},     {"frame_number", "6"},   {"initial_frame", "1"},
+                           {"final_frame", "21"},    {"clock_on", "1"},       {"declare", "Size=2.5"},
+                           {"declare", "Name=\"ab\""}, {"include_dir", inc}};
+    for (size_t i = 0; i < sizeof(kv) / sizeof(kv[0]); ++i)
+        assert_int_equal(api->set_scene_option(r, kv[i][0], kv[i][1], msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    static const char scene[] =
+        "#include \"lib.inc\"\n"
+        "#if (clock != 0.25 | clock_delta != 0.05 | final_clock != 1 | frame_number != 6) #error \"clock\" #end\n"
+        "#if (initial_frame != 1 | final_frame != 21 | !clock_on | Size != 2.5 | FromLib != 5) #error \"frames\" #end\n"
+        "#if (strcmp(Name, \"ab\")) #error \"name\" #end\n"
+        "camera { location <0, 0, -3> look_at 0 } light_source { <0, 5, -5> rgb 1 } sphere { 0, 1 }\n";
+    assert_int_equal(api->load_scene_text(r, "anim.pov", scene, sizeof(scene) - 1, msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    /* another value is seen: the scene stops at its check */
+    assert_int_equal(api->set_scene_option(r, "clock", "0.5", msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_equal(api->load_scene_text(r, "anim.pov", scene, sizeof(scene) - 1, msg, sizeof(msg)),
+                     VBNL_PLUGIN_ERR_PARSE);
+    assert_non_null(strstr(msg, "clock"));
+    assert_int_equal(api->set_scene_option(r, "clocks", "1", msg, sizeof(msg)), VBNL_PLUGIN_ERR_UNKNOWN_NAME);
+    assert_non_null(strstr(msg, "unknown scene option 'clocks'"));
+    assert_int_equal(api->set_scene_option(r, "frame_number", "1.5", msg, sizeof(msg)),
+                     VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
+    assert_int_equal(api->set_scene_option(r, "clock", "soon", msg, sizeof(msg)), VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
+    assert_int_equal(api->set_scene_option(r, "declare", "3x=1", msg, sizeof(msg)), VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
+    assert_int_equal(api->set_scene_option(r, "declare", "X=abc", msg, sizeof(msg)),
+                     VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
+    assert_int_equal(api->set_scene_option(r, "read_dir", "/no/such/folder", msg, sizeof(msg)),
+                     VBNL_PLUGIN_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(msg, "is not an existing folder"));
+    /* a reserved word is refused when the scene is read */
+    assert_int_equal(api->set_scene_option(r, "declare", "clock=1", msg, sizeof(msg)), VBNL_PLUGIN_OK);
+    assert_int_not_equal(api->load_scene_text(r, "anim.pov", scene, sizeof(scene) - 1, msg, sizeof(msg)),
+                         VBNL_PLUGIN_OK);
+    assert_non_null(strstr(msg, "Declare=clock"));
+    api->renderer_destroy(r);
+}
+
 static void test_cancel_writes_partial(void **state)
 {
     (void)state;
@@ -476,7 +573,8 @@ int main(void)
         cmocka_unit_test(test_integrators),         cmocka_unit_test(test_render_and_framebuffer),
         cmocka_unit_test(test_outputs_round_trip),  cmocka_unit_test(test_cancel_writes_partial),
         cmocka_unit_test(test_sampler_option),      cmocka_unit_test(test_bad_arguments),
-        cmocka_unit_test(test_abandon_writes),
+        cmocka_unit_test(test_png_alpha),           cmocka_unit_test(test_scene_options),
+        cmocka_unit_test(test_abandon_writes), /* last: writes fail after it */
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }

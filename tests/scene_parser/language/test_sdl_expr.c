@@ -37,6 +37,7 @@ static void test_vectors(void **state)
     vbnl_sdl_parser *p = sdl_t_ok("#declare V = <1, 2, 3>;\n"
                                   "#declare W = V * 2 + 1;\n"
                                   "#declare N = <1 2 3>;\n" /* POV-Ray tolerates missing commas */
+                                  "#declare T = <1, 2, 3,>;\n" /* and a comma before '>' (float4.pov) */
                                   "#declare U = <1, 2>;\n"
                                   "#declare P = U + <1,1,1>;\n" /* shorter vector padded */
                                   "#declare X = x + 2*y - z;\n"
@@ -48,6 +49,7 @@ static void test_vectors(void **state)
     sdl_t_vec(p, "V", 3, 1, 2, 3);
     sdl_t_vec(p, "W", 3, 3, 5, 7);
     sdl_t_vec(p, "N", 3, 1, 2, 3);
+    sdl_t_vec(p, "T", 3, 1, 2, 3);
     sdl_t_vec(p, "U", 2, 1, 2, 0);
     sdl_t_vec(p, "P", 3, 2, 3, 1);
     sdl_t_vec(p, "X", 3, 1, 2, -1);
@@ -277,15 +279,26 @@ static void test_builtin_identifiers(void **state)
     vbnl_sdl_parser *p = NULL;
     assert_int_equal(vbnl_sdl_parser_create(&p, NULL), VBNL_OK);
     vbnl_sdl_set_image_size(p, 640, 480);
-    vbnl_sdl_set_clock(p, 0.5, 0.1, 0, 1, 5, 1);
+    vbnl_sdl_set_clock(p, 0.5, 0.1, 0.25, 2, 5, 1);
+    vbnl_sdl_set_frames(p, 3, 12);
+    /* Declare=Size=2.5 and Declare=Name="x" of POV-Ray's command line */
+    assert_int_equal(vbnl_sdl_declare_constant(p, "Size", NULL, 2.5), VBNL_OK);
+    assert_int_equal(vbnl_sdl_declare_constant(p, "Name", "x", 0), VBNL_OK);
+    assert_int_equal(vbnl_sdl_declare_constant(p, "clock", NULL, 1), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbnl_sdl_declare_constant(p, "2a", NULL, 1), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbnl_sdl_declare_constant(p, "", NULL, 1), VBNL_ERR_INVALID_ARGUMENT);
     const char *src = "#declare W = image_width * 1000 + image_height;\n"
                       "#declare Cl = clock + clock_delta * 10 + frame_number * 100 + clock_on * 1000;\n"
+                      "#declare Fr = initial_frame * 100 + final_frame + initial_clock * 10000 + final_clock * 1e5;\n"
+                      "#declare Dc = Size + strlen(Name);\n"
                       "#declare Ver = version;\n"
                       "#declare Now = now > 8000;\n"
                       "#declare Tv = t;\n#declare Uv = u + v;\n";
     assert_int_equal(vbnl_sdl_parse_text(p, "t.pov", src, strlen(src), NULL), VBNL_OK);
     SDL_T_NEAR(sdl_t_float(p, "W"), 640480);
     SDL_T_NEAR(sdl_t_float(p, "Cl"), 0.5 + 1 + 500 + 1000);
+    SDL_T_NEAR(sdl_t_float(p, "Fr"), 312 + 2500 + 2e5);
+    SDL_T_NEAR(sdl_t_float(p, "Dc"), 3.5);
     SDL_T_NEAR(sdl_t_float(p, "Ver"), 3.7);
     SDL_T_NEAR(sdl_t_float(p, "Now"), 1);
     const vbnl_sdl_value *tv = sdl_t_value(p, "Tv", VBNL_SDL_VECTOR);

@@ -200,6 +200,46 @@ static void test_untrusted(void **state)
     assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "no PLY header line (line 4)"));
     unlink(p);
+    /* a face claiming more indices than it gives (read on, it would swallow the lines after it) */
+    snprintf(p, sizeof(p), "%s/lying.ply", g_dir);
+    snprintf(text, sizeof(text), "%s255 0 1 2\n", head);
+    write_file(p, text);
+    assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "face 0 (line 13) declares a list of 255 numbers but gives 3"));
+    snprintf(text, sizeof(text), "%s3 0 1 2 2\n", head);
+    write_file(p, text);
+    assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "face 0 (line 13) has more numbers than its properties take"));
+    snprintf(text, sizeof(text), "%s", head);
+    write_file(p, text);
+    assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "it ends before face 0 of its 1"));
+    /* binary: the same face, its list running past the end of the file; then exactly right */
+    static const char bhead[] = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+                                "property float y\nproperty float z\nelement face 1\n"
+                                "property list uchar int vertex_indices\nend_header\n";
+    unsigned char body[36 + 13];
+    float verts[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    int32_t tri[3] = {0, 1, 2};
+    memcpy(body, verts, 36);
+    body[36] = 255;
+    memcpy(body + 37, tri, 12);
+    for (int claim = 255; claim >= 3; claim -= 252) {
+        body[36] = (unsigned char)claim;
+        FILE *bf = fopen(p, "wb");
+        assert_non_null(bf);
+        fwrite(bhead, 1, sizeof(bhead) - 1, bf);
+        fwrite(body, 1, sizeof(body), bf);
+        fclose(bf);
+        vbnl_result br = vbnl_mesh_import(s, p, NULL, NULL, &err);
+        if (claim == 255) {
+            assert_int_equal(br, VBNL_ERR_INVALID_ARGUMENT);
+            assert_non_null(strstr(err.message, "it ends inside face 0 of its 1"));
+        } else {
+            assert_int_equal(br, VBNL_OK);
+        }
+    }
+    unlink(p);
     snprintf(p, sizeof(p), "%s/secret.mtl", g_dir);
     write_file(p, "newmtl a\nKd 1 0 0\n");
     snprintf(sub, sizeof(sub), "%s/sub", g_dir);

@@ -1,6 +1,7 @@
 /* The object layer around the shapes: camera framing, light mapping, the integrator block,
  * background, error messages of malformed inputs, and a small render of
  * examples/cornell-box.pov. */
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "pov_test.h"
@@ -55,8 +56,63 @@ static void test_camera(void **state)
     NEAR(c->position[0], -3.0f);
     NEAR(c->forward[0], 1.0f);
     vbnl_pov_scene_destroy(s);
-    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { orthographic location -5 look_at 0 }");
-    assert_non_null(strstr(g_diags, "test.pov:2:10: warning: camera type 'orthographic' is not supported; rendering with a perspective camera"));
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { omnimax location -5 look_at 0 }");
+    assert_non_null(strstr(g_diags, "test.pov:2:10: warning: camera type 'omnimax' is not supported; rendering with a perspective camera"));
+    vbnl_pov_scene_destroy(s);
+}
+
+/* The other camera types, with POV-Ray's defaults and angle rules, and focal blur. */
+static void test_camera_types(void **state)
+{
+    (void)state;
+    /* orthographic without up or right: right and up grow to what the perspective camera sees at
+     * the look_at distance (5 / |direction| 1); the rays are parallel */
+    vbnl_pov_scene *s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { orthographic location <0, 0, -5> look_at 0 }");
+    const vbnl_camera_desc *c = &sc(s)->camera;
+    assert_int_equal(c->projection, VBNL_CAMERA_ORTHOGRAPHIC);
+    NEAR(c->right[0], 1.33f * 5.0f);
+    NEAR(c->up[1], 5.0f);
+    vec3 o, d;
+    vbnl_camera_ray(c, 100, 100, 100.0f, 50.0f, &o, &d); /* right edge */
+    NEAR(o.x, 1.33f * 5.0f * 0.5f);
+    NEAR(d.z, 1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* the exporter's form: `angle` without a number, explicit right and up kept (look_at 1 away) */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { orthographic angle right <-4, 0, 0> location 0 look_at <0, 0, -1> up <0, 3, 0> }");
+    c = &sc(s)->camera;
+    NEAR(fabsf(c->right[0]), 4.0f);
+    NEAR(c->up[1], 3.0f);
+    NEAR(c->forward[2], -1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* fisheye: 90 degrees unless given; the spherical camera: 360 by half of the horizontal angle */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { fisheye location 0 look_at z }");
+    assert_int_equal(sc(s)->camera.projection, VBNL_CAMERA_FISHEYE);
+    NEAR(sc(s)->camera.angle[0], 90.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { spherical location 0 look_at z angle 200 }");
+    NEAR(sc(s)->camera.angle[0], 200.0f);
+    NEAR(sc(s)->camera.angle[1], 100.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\n#declare V = 30;\ncamera { spherical angle 120, V }");
+    NEAR(sc(s)->camera.angle[1], 30.0f);
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { cylinder 3 angle 200 }");
+    assert_int_equal(sc(s)->camera.projection, VBNL_CAMERA_CYLINDER_3);
+    NEAR(sc(s)->camera.angle[0], 200.0f);
+    vbnl_pov_scene_destroy(s);
+    /* focal blur: the lens radius is a quarter of the aperture (POV-Ray's eye points spread over a
+     * disc of half the aperture's half), the focus at |focal_point - location|; `blur_samples a b`
+     * without a comma, as Blender's exporter writes it */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <0, 0, -5> look_at 0 focal_point <0, 3, 0> aperture 0.4 blur_samples 3 9 }");
+    c = &sc(s)->camera;
+    NEAR(c->lens_radius, 0.1f);
+    NEAR(c->focal_distance, (float)sqrt(34.0));
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <0, 0, -5> look_at 0 aperture 0.4 }");
+    NEAR(sc(s)->camera.lens_radius, 0.0f); /* no blur_samples: no focal blur, as in POV-Ray */
+    vbnl_pov_scene_destroy(s);
+    s = ok("light_source { <0, 5, 0> rgb 1 }\ncamera { location <0, 0, -5> look_at 0 aperture 1 blur_samples 4, 20 }");
+    NEAR(sc(s)->camera.focal_distance, 1.0f); /* the default focus: |direction| */
     vbnl_pov_scene_destroy(s);
 }
 
@@ -80,14 +136,23 @@ static void test_lights(void **state)
     s = ok("sphere { 0, 1 } light_source { <0, 0.5, 0> rgb <1, 2, 3> }");
     NEAR(light0(s)->L.y, 2.0f);
     vbnl_pov_scene_destroy(s);
-    /* fade_power 2: 2 D^2 colour */
-    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
-    NEAR(light0(s)->L.x, 18.0f);
+    /* faded: POV-Ray's 2 / (1 + (d / fade_distance)^fade_power) at the geometry's centre, times
+     * d^2: here d = 4 from the centre of the unit sphere */
+    s = ok("sphere { 0, 1 } light_source { <0, 4, 0> rgb 1 fade_distance 2 fade_power 2 }");
+    NEAR(light0(s)->L.x, 16.0f * 2.0f / (1.0f + 4.0f));
     vbnl_pov_scene_destroy(s);
-    /* other fade powers: equal to POV-Ray's at fade_distance, with a warning */
-    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 1 }");
+    s = ok("sphere { 0, 1 } light_source { <0, 4, 0> rgb 1 fade_distance 2 fade_power 1 }");
+    NEAR(light0(s)->L.x, 16.0f * 2.0f / (1.0f + 2.0f));
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    /* Blender's exported lamp: fade_distance 50 for a box a few units across is almost unfaded
+     * (about twice the colour), not 2 * 50^2 */
+    s = ok("box { -1, 1 } light_source { <0, 3, 0> rgb 1 fade_distance 50 fade_power 2 }");
+    NEAR(light0(s)->L.x, 9.0f * 2.0f / (1.0f + 9.0f / 2500.0f));
+    vbnl_pov_scene_destroy(s);
+    /* no finite geometry: the irradiance at the fade distance */
+    s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
     NEAR(light0(s)->L.x, 9.0f);
-    assert_non_null(strstr(g_diags, "test.pov:1:1: warning: fade_power 1: light falls off as 1/d^2; its intensity matches POV-Ray's at fade_distance"));
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 5, 0> rgb 2 spotlight point_at <0, 0, 0> radius 10 falloff 20 tightness 5 }");
     assert_int_equal(light0(s)->type, VBNL_LIGHT_SPOT);
@@ -205,7 +270,10 @@ static void test_errors(void **state)
                  "test.pov:3:1: mesh2: face 0 uses vertex index 2; vertex_vectors has 2");
     expect_error(BASE "mesh2 { vertex_vectors { 3, <0,0,0>, <1,0,0> } }",
                  "test.pov:3:46: vertex_vectors: 2 items given, 3 declared");
-    expect_error(BASE "camera { angle 190 }", "test.pov:3:10: camera angle must lie in (0, 180) degrees, got 190");
+    expect_error(BASE "camera { angle 190 }", "test.pov:3:10: camera angle must be smaller than 180 degrees, got 190");
+    expect_error(BASE "camera { cylinder 5 }", "test.pov:3:10: cylinder camera type 5: valid types are 1 to 4");
+    expect_error(BASE "camera { blur_samples 9, 3 }", "test.pov:3:10: blur_samples: the minimum 9 exceeds the maximum 3");
+    expect_error(BASE "camera { fisheye angle -5 }", "test.pov:3:18: negative camera angle -5");
     expect_error(BASE "camera { location 0 look_at 0 }", "test.pov:3:1: camera look_at equals location");
     expect_error(BASE "light_source { <0, 0, 0> rgb 1 spotlight point_at <0, 0, 0> }",
                  "test.pov:3:1: light_source: spotlight point_at equals the location");
@@ -235,20 +303,20 @@ static void test_scene_files(void **state)
 {
     (void)state;
     expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"/tmp/x.vls\" } }",
-                 "test.pov:3:39: save_lights '/tmp/x.vls' is an absolute path: a scene names files inside its own "
-                 "folder (give other paths on the command line)");
+                 "test.pov:3:39: save_lights '/tmp/x.vls' is an absolute path: a scene writes inside its own folder and "
+                 "the folders opened to it with --write-dir (give other paths on the command line)");
     expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"a/../../x.vls\" } }",
                  "test.pov:3:39: save_lights 'a/../../x.vls' is a path that leaves the scene's folder ('..'): a scene "
-                 "names files inside its own folder");
+                 "writes inside its own folder and the folders opened to it with --write-dir");
     expect_error(BASE "global_settings { integrator { \"vbnl\" load_lights \"/etc/passwd:a.vls\" } }",
                  "test.pov:3:39: load_lights '/etc/passwd' is an absolute path: a scene names files inside its own "
-                 "folder (give other paths on the command line)");
+                 "folder and the folders opened to it with --read-dir (give other paths on the command line)");
     expect_error(BASE "vbnl_mesh { \"/etc/passwd\" }",
                  "test.pov:3:13: vbnl_mesh: '/etc/passwd' is an absolute path: a scene names files inside its own "
-                 "folder (give other paths on the command line)");
+                 "folder and the folders opened to it with --read-dir (give other paths on the command line)");
     expect_error(BASE "sphere { 0, 1 pigment { image_map { png \"../x.png\" } } }",
                  "test.pov:3:41: image_map: '../x.png' is a path that leaves the scene's folder ('..'): a scene names "
-                 "files inside its own folder");
+                 "files inside its own folder and the folders opened to it with --read-dir");
     /* a link inside the folder that leads out of it */
     char cwd[4096];
     assert_non_null(getcwd(cwd, sizeof(cwd)));
@@ -261,11 +329,99 @@ static void test_scene_files(void **state)
     assert_int_equal(symlink("/tmp/elsewhere.vls", "out.vls"), 0);
     expect_error(BASE "global_settings { integrator { \"vbnl\" save_lights \"out.vls\" } }",
                  "test.pov:3:39: save_lights 'out.vls' is a symbolic link: a scene writes only plain files in its "
-                 "own folder");
+                 "own folder and the folders opened to it");
     unlink("mesh.obj");
     unlink("out.vls");
     assert_int_equal(chdir(cwd), 0);
     rmdir(dir);
+}
+
+/* Loads `text` as <root>/scene/test.pov with the folders given opened to it; the error message
+ * or "" in `msg`. */
+static vbnl_result load_opened(const char *root, const char *text, const char *read_dir, const char *write_dir,
+                               char *msg, size_t n)
+{
+    char name[512];
+    snprintf(name, sizeof name, "%s/scene/test.pov", root);
+    vbnl_pov_options o;
+    vbnl_pov_options_init(&o);
+    o.diag = collect;
+    o.no_commit = 1;
+    o.read_dirs = &read_dir;
+    o.read_dir_count = read_dir ? 1 : 0;
+    o.write_dirs = &write_dir;
+    o.write_dir_count = write_dir ? 1 : 0;
+    g_diags[0] = 0;
+    vbnl_error err = {0};
+    vbnl_pov_scene *s = NULL;
+    vbnl_result r = vbnl_pov_load_text(g_ctx, name, text, strlen(text), &o, &s, &err);
+    snprintf(msg, n, "%s", r == VBNL_OK ? "" : err.message);
+    vbnl_pov_scene_destroy(s);
+    return r;
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* The folders a user opens to the scene (--read-dir, --write-dir, as POV-Ray's I/O restriction
+ * settings): reads and writes there are accepted, and only there; a read folder is not a write
+ * folder. */
+static void test_opened_folders(void **state)
+{
+    (void)state;
+    char root[] = "/tmp/vbnl_opened_XXXXXX", path[256], data[64], out[64], msg[1024], text[2048];
+    assert_non_null(mkdtemp(root));
+    const char *sub[] = {"scene", "data", "out"};
+    for (int i = 0; i < 3; ++i) {
+        snprintf(path, sizeof path, "%s/%s", root, sub[i]);
+        assert_int_equal(mkdir(path, 0700), 0);
+    }
+    snprintf(data, sizeof data, "%s/data", root);
+    snprintf(out, sizeof out, "%s/out", root);
+    snprintf(path, sizeof path, "%s/inc.inc", data);
+    write_text(path, "#declare FromData = 7;\n");
+    snprintf(path, sizeof path, "%s/m.obj", data);
+    write_text(path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    snprintf(path, sizeof path, "%s/lights.vls", data);
+    write_text(path, "x");
+    /* an include, file_exists, vbnl_mesh through '..' and load_lights by an absolute name */
+    snprintf(text, sizeof text,
+             BASE "#include \"%s/inc.inc\"\n#if (!file_exists(\"%s/m.obj\")) #error \"unseen\" #end\n"
+                  "vbnl_mesh { \"../data/m.obj\" }\n"
+                  "global_settings { integrator { \"vbnl\" load_lights \"%s/lights.vls\" } }\n",
+             data, data, data);
+    assert_int_equal(load_opened(root, text, NULL, NULL, msg, sizeof msg), VBNL_ERR_PARSE);
+    assert_non_null(strstr(msg, "is outside the folders a scene may read"));
+    assert_int_equal(load_opened(root, text, data, NULL, msg, sizeof msg), VBNL_OK);
+    /* a write folder may be read too */
+    assert_int_equal(load_opened(root, text, NULL, data, msg, sizeof msg), VBNL_OK);
+    /* writing: only into a write folder */
+    snprintf(text, sizeof text, BASE "global_settings { integrator { \"vbnl\" save_lights \"%s/x.vls\" } }\n", out);
+    assert_int_equal(load_opened(root, text, out, NULL, msg, sizeof msg), VBNL_ERR_PARSE);
+    assert_non_null(strstr(msg, "is an absolute path: a scene writes inside its own folder"));
+    assert_int_equal(load_opened(root, text, NULL, out, msg, sizeof msg), VBNL_OK);
+    snprintf(text, sizeof text, BASE "global_settings { integrator { \"vbnl\" save_lights \"../out/x.vls\" } }\n");
+    assert_int_equal(load_opened(root, text, NULL, out, msg, sizeof msg), VBNL_OK);
+    assert_int_equal(load_opened(root, text, NULL, data, msg, sizeof msg), VBNL_ERR_PARSE);
+    /* reading elsewhere stays refused with a folder opened */
+    assert_int_equal(load_opened(root, BASE "vbnl_mesh { \"/etc/passwd\" }", data, out, msg, sizeof msg),
+                     VBNL_ERR_PARSE);
+    assert_non_null(strstr(msg, "is an absolute path"));
+    /* a folder that does not exist cannot be opened */
+    snprintf(path, sizeof path, "%s/nowhere", root);
+    assert_int_equal(load_opened(root, BASE, path, NULL, msg, sizeof msg), VBNL_ERR_IO);
+    assert_non_null(strstr(msg, "is not a folder that can be opened to the scene"));
+    const char *files[] = {"data/inc.inc", "data/m.obj", "data/lights.vls", "scene", "data", "out"};
+    for (int i = 0; i < 6; ++i) {
+        snprintf(path, sizeof path, "%s/%s", root, files[i]);
+        assert_int_equal(i < 3 ? unlink(path) : rmdir(path), 0);
+    }
+    rmdir(root);
 }
 
 /* Placed objects count against the parser's memory limit: a loop of spheres ends with the
@@ -353,11 +509,13 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_camera),
+        cmocka_unit_test(test_camera_types),
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_integrator_block),
         cmocka_unit_test(test_background),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_scene_files),
+        cmocka_unit_test(test_opened_folders),
         cmocka_unit_test(test_object_memory_limit),
         cmocka_unit_test(test_render_cornell),
     };
