@@ -2,14 +2,12 @@
  * command line (pov_cli.c): the signal handling of a render, the identity of files, the options
  * of `vbnl render` and the sequence of plugin calls (host.h). */
 #include <errno.h>
-#include <libgen.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -65,38 +63,6 @@ void host_test_pause(void)
 
 /* ---- outputs that never replace an input or each other ----------------------------------------- */
 
-/* The file `p` names: its canonical path when it exists, else its folder's canonical path and its
- * name (a file about to be created). -1 when the folder does not exist either. */
-static int canonical_path(const char *p, char *out, size_t n)
-{
-    char buf[PATH_MAX], a[PATH_MAX], b[PATH_MAX];
-    if (realpath(p, buf)) {
-        snprintf(out, n, "%s", buf);
-        return 0;
-    }
-    snprintf(a, sizeof(a), "%s", p);
-    snprintf(b, sizeof(b), "%s", p);
-    if (!realpath(dirname(a), buf))
-        return -1;
-    const char *base = basename(b);
-    size_t lb = strlen(buf), ln = strlen(base);
-    if (lb + 1 + ln >= n)
-        return -1;
-    memcpy(out, buf, lb);
-    out[lb] = '/';
-    memcpy(out + lb + 1, base, ln + 1);
-    return 0;
-}
-
-int host_same_file(const char *a, const char *b)
-{
-    struct stat sa, sb;
-    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
-        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-    char ca[PATH_MAX], cb[PATH_MAX];
-    return canonical_path(a, ca, sizeof(ca)) == 0 && canonical_path(b, cb, sizeof(cb)) == 0 && !strcmp(ca, cb);
-}
-
 void host_say(const host_render_job *job, const char *fmt, ...)
 {
     char line[HOST_MSG_SIZE + 512];
@@ -118,7 +84,7 @@ static int outputs_distinct(const host_render_job *job, const char *const name[3
     for (int i = 0; i < 3; ++i) {
         if (!path[i])
             continue;
-        if (host_same_file(path[i], job->scene)) {
+        if (cli_same_file(path[i], job->scene)) {
             host_say(job, "%s '%s' is the scene file; an output never replaces an input", name[i], path[i]);
             return -1;
         }
@@ -126,14 +92,14 @@ static int outputs_distinct(const host_render_job *job, const char *const name[3
             char list[PATH_MAX * 2];
             snprintf(list, sizeof(list), "%s", job->load_lights);
             for (char *save = NULL, *f = strtok_r(list, ":", &save); f; f = strtok_r(NULL, ":", &save))
-                if (host_same_file(path[i], f)) {
+                if (cli_same_file(path[i], f)) {
                     host_say(job, "%s '%s' is the --load-lights file '%s'; an output never replaces an input",
                              name[i], path[i], f);
                     return -1;
                 }
         }
         for (int j = 0; j < i; ++j)
-            if (path[j] && host_same_file(path[i], path[j])) {
+            if (path[j] && cli_same_file(path[i], path[j])) {
                 host_say(job, "%s '%s' and %s '%s' name the same file; give each output its own", name[j], path[j],
                          name[i], path[i]);
                 return -1;
@@ -202,17 +168,6 @@ void host_render_job_init(host_render_job *job, const vbnl_plugin_api *api, cons
     api->view_init(&job->view);
 }
 
-static int parse_u32(const char *s, uint32_t *out, uint32_t min, uint32_t max)
-{
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || *end || end == s || v < min || v > max || s[0] == '-')
-        return -1;
-    *out = (uint32_t)v;
-    return 0;
-}
-
 int host_render_scene_option(host_render_job *job, const char *key, const char *value)
 {
     if (job->nscene == HOST_MAX_SCENE_OPTIONS) {
@@ -259,7 +214,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         job->set_where[job->nsets++] = c == 'L' ? "--save-lights" : "--load-lights";
         break;
     case 'n':
-        if (parse_u32(arg, &o->spp, 1, 1u << 30)) {
+        if (cli_parse_u32(arg, &o->spp, 1, 1u << 30)) {
             host_say(job, "--spp takes a whole number >= 1, got '%s'", arg);
             return VBNL_EXIT_USAGE;
         }
@@ -277,7 +232,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     }
     case 'W':
     case 'H':
-        if (parse_u32(arg, c == 'W' ? &o->width : &o->height, 1, 65536)) {
+        if (cli_parse_u32(arg, c == 'W' ? &o->width : &o->height, 1, 65536)) {
             host_say(job, "--%s takes 1..65536, got '%s'", c == 'W' ? "width" : "height", arg);
             return VBNL_EXIT_USAGE;
         }
@@ -293,7 +248,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         break;
     }
     case 'T':
-        if (parse_u32(arg, &o->threads, 0, 1024)) {
+        if (cli_parse_u32(arg, &o->threads, 0, 1024)) {
             host_say(job, "--threads takes 0..1024, got '%s'", arg);
             return VBNL_EXIT_USAGE;
         }
@@ -329,7 +284,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     case 'v': view->view = arg; break;
     case 'O': view->config = arg; break;
     case 'b':
-        if (parse_u32(arg, &view->png_bits, 8, 16) || (view->png_bits != 8 && view->png_bits != 16)) {
+        if (cli_parse_u32(arg, &view->png_bits, 8, 16) || (view->png_bits != 8 && view->png_bits != 16)) {
             host_say(job, "--png-bits takes 8 or 16, got '%s'", arg);
             return VBNL_EXIT_USAGE;
         }
