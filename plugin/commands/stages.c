@@ -51,7 +51,8 @@ static const farm_option stage_options[] = {
 static const char scene_options_help[] =
     "scene options, as `vbnl render` takes them (every job of a frame must get the same ones):\n"
     "  --integrator NAME  --set KEY=VALUE  --width W  --height H  --seed S  --threads N\n"
-    "  --camera px,py,pz,tx,ty,tz,fov  --clock C (the scene's clock)  -q, --quiet\n"
+    "  --camera px,py,pz,tx,ty,tz,fov  --declare NAME=VALUE  --include-dir DIR  --read-dir DIR\n"
+    "  --write-dir DIR  --builtin NAME=VALUE (POV-Ray's animation identifiers)  -q, --quiet\n"
     "  (--spp and --sampler are taken too, and change nothing here)\n";
 
 /* Runs the preparation of a configured renderer, which it destroys; prints what it took. */
