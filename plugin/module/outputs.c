@@ -154,8 +154,12 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
         attrs[na++] = (vbnl_image_attr){"vbnl/partial", VBNL_IMAGE_ATTR_INT, {.i = partial ? 1 : 0}};
         attrs[na++] = (vbnl_image_attr){"vbnl/time_budget", VBNL_IMAGE_ATTR_DOUBLE, {.d = s->time_budget}};
         attrs[na++] = (vbnl_image_attr){"vbnl/time/prepare", VBNL_IMAGE_ATTR_DOUBLE, {.d = st.prepare_seconds}};
-        /* what the image belongs to (docs/farm.md: `vbnl merge-tiles` joins only parts that agree) */
-        if (scene) {
+        lights_info li;
+        const int lights = read_lights_info(p, &li);
+        /* what a part of an image belongs to (docs/farm.md: `vbnl merge-tiles` joins only parts
+         * that agree); a whole image rendered here needs no such check, and the scene's
+         * fingerprint reads all its geometry */
+        if (scene && (cropped || lights)) {
             snprintf(scene_fp, sizeof(scene_fp), "%016llx", (unsigned long long)vbnl_vl_file_scene_fingerprint(scene));
             snprintf(camera_fp, sizeof(camera_fp), "%016llx",
                      (unsigned long long)vbnl_vl_file_camera_fingerprint(scene));
@@ -166,8 +170,7 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
             snprintf(crop, sizeof(crop), "%u,%u,%u,%u", win[0], win[1], win[2], win[3]);
             attrs[na++] = (vbnl_image_attr){"vbnl/crop", VBNL_IMAGE_ATTR_STRING, {.s = crop}};
         }
-        lights_info li;
-        if (read_lights_info(p, &li)) {
+        if (lights) {
             attrs[na++] = (vbnl_image_attr){"vbnl/lights/fingerprint", VBNL_IMAGE_ATTR_STRING, {.s = li.set}};
             attrs[na++] = (vbnl_image_attr){"vbnl/lights/preparation", VBNL_IMAGE_ATTR_STRING, {.s = li.preparation}};
             attrs[na++] = (vbnl_image_attr){"vbnl/lights/photons", VBNL_IMAGE_ATTR_STRING, {.s = li.photons}};

@@ -604,8 +604,10 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     free(glossy);
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
-    vbnl_vl_file_header h;
-    header_of_state(s, &h);
+    vbnl_vl_file_header h; /* only a saved set needs it (the scene's fingerprint reads all its geometry) */
+    memset(&h, 0, sizeof(h));
+    if (s->save_path)
+        header_of_state(s, &h);
     if (s->placement_only) /* photon range [0, 0): other processes trace the photons */
         return vbnl_vl_file_save(s->save_path, &h, &s->vls, s->profiles, err);
     if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)

@@ -4,7 +4,7 @@
 # The attributes a merged header must share with the single render's: everything that does not
 # depend on timing (the rays too: every pixel's paths are the same).
 DET=vbnl/version,vbnl/integrator,vbnl/parameters,vbnl/seed,vbnl/sampler,vbnl/spp,vbnl/rays,vbnl/partial
-DET=$DET,vbnl/time_budget,vbnl/scene/fingerprint,vbnl/camera/fingerprint
+DET=$DET,vbnl/time_budget
 # same NAME SINGLE.exr MERGED.exr [SINGLE.png MERGED.png] [-- WHY...]: pixels bit for bit, the
 # header's attributes (every one of the single render's, the deterministic ones equal), PNG bytes
 same() {
