@@ -364,7 +364,7 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
             vbnl_renderer_get_stats(r, &st, NULL);
             ref_spp = st.spp;
             printf("scene %s: reference rendered, %u spp in %.0f s\n", bs->name, st.spp, st.render_seconds);
-            module_write_outputs(r, &s, ref_path, NULL, 0.0f, 0, 0, NULL);
+            module_write_outputs(r, &s, scene, ref_path, NULL, 0.0f, 0, 0, NULL);
             vbnl_renderer_destroy(r);
         }
         printf("scene %s (%s): reference `path` %u spp (%s)\n", bs->name, bs->file, ref_spp, ref_path);

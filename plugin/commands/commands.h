@@ -1,4 +1,4 @@
-/* The developer commands that run inside the module (`vbnl bench`, `vbnl compare`), reached
+/* The commands that run inside the module (`vbnl bench`, `vbnl compare`, the farm's), reached
  * through the plugin ABI's command_at / run_command: they need the core's API beyond that ABI.
  * Each takes its arguments with argv[0] the command's name and returns a `vbnl` exit code
  * (common/cli.h). Internal to the module: nothing here is exported. */
@@ -45,5 +45,14 @@ double cmd_rmae_eps(const float *ref, size_t n);
 
 /* `vbnl compare` (compare.c). */
 int cmd_compare(int argc, char **argv);
+
+/* A frame over many machines (docs/farm.md): `vbnl farm` (farm.c) submits the job graph to
+ * Slurm; its stages are `vbnl prepare` and `vbnl photons` (stages.c), `vbnl render --crop` and
+ * `vbnl merge-lights`, `vbnl merge-tiles` (merge.c), each usable on its own. */
+int cmd_farm(int argc, char **argv);
+int cmd_prepare(int argc, char **argv);
+int cmd_photons(int argc, char **argv);
+int cmd_merge_lights(int argc, char **argv);
+int cmd_merge_tiles(int argc, char **argv);
 
 #endif

@@ -1,8 +1,10 @@
 /* The command line's conventions, shared by the `vbnl` executable (plugin/host/) and the commands
- * that run inside the module (plugin/commands/): exit codes and the --camera argument. The
- * executable links no module code, so cli.c is compiled into both. */
+ * that run inside the module (plugin/commands/): exit codes, the --camera argument, whether two
+ * paths name one file. The executable links no module code, so cli.c is compiled into both. */
 #ifndef VBNL_CLI_H
 #define VBNL_CLI_H
+
+#include <stdint.h>
 
 /* Exit codes of the `vbnl` command (documented in `vbnl --help` and the README). */
 enum {
@@ -18,5 +20,13 @@ enum {
  * Returns 0 on success; -1, leaving the outputs unchanged, unless the text is exactly seven
  * comma-separated finite numbers. */
 int cli_parse_camera(const char *text, float position[3], float target[3], float *fov_y);
+
+/* Parses a whole number in [min, max] (decimal, no sign) into *out: 0, or -1 leaving it unchanged. */
+int cli_parse_u32(const char *s, uint32_t *out, uint32_t min, uint32_t max);
+
+/* 1 when `a` and `b` name one file: the same inode when both exist (links and hard links
+ * included), else the same canonical path of the folder and name (a file about to be created).
+ * An output is never an input or another output. */
+int cli_same_file(const char *a, const char *b);
 
 #endif

@@ -39,9 +39,6 @@ void host_test_pause(void);
 
 /* ---- files ----------------------------------------------------------------------------------- */
 
-/* True when `a` and `b` name one file: the same inode when both exist (links and hard links
- * included), else the same canonical path (a file about to be created). */
-int host_same_file(const char *a, const char *b);
 
 /* ---- one render ------------------------------------------------------------------------------ */
 

@@ -2,14 +2,12 @@
  * command line (pov_cli.c): the signal handling of a render, the identity of files, the options
  * of `vbnl render` and the sequence of plugin calls (host.h). */
 #include <errno.h>
-#include <libgen.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -65,38 +63,6 @@ void host_test_pause(void)
 
 /* ---- outputs that never replace an input or each other ----------------------------------------- */
 
-/* The file `p` names: its canonical path when it exists, else its folder's canonical path and its
- * name (a file about to be created). -1 when the folder does not exist either. */
-static int canonical_path(const char *p, char *out, size_t n)
-{
-    char buf[PATH_MAX], a[PATH_MAX], b[PATH_MAX];
-    if (realpath(p, buf)) {
-        snprintf(out, n, "%s", buf);
-        return 0;
-    }
-    snprintf(a, sizeof(a), "%s", p);
-    snprintf(b, sizeof(b), "%s", p);
-    if (!realpath(dirname(a), buf))
-        return -1;
-    const char *base = basename(b);
-    size_t lb = strlen(buf), ln = strlen(base);
-    if (lb + 1 + ln >= n)
-        return -1;
-    memcpy(out, buf, lb);
-    out[lb] = '/';
-    memcpy(out + lb + 1, base, ln + 1);
-    return 0;
-}
-
-int host_same_file(const char *a, const char *b)
-{
-    struct stat sa, sb;
-    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
-        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-    char ca[PATH_MAX], cb[PATH_MAX];
-    return canonical_path(a, ca, sizeof(ca)) == 0 && canonical_path(b, cb, sizeof(cb)) == 0 && !strcmp(ca, cb);
-}
-
 void host_say(const host_render_job *job, const char *fmt, ...)
 {
     char line[HOST_MSG_SIZE + 512];
@@ -118,7 +84,7 @@ static int outputs_distinct(const host_render_job *job, const char *const name[3
     for (int i = 0; i < 3; ++i) {
         if (!path[i])
             continue;
-        if (host_same_file(path[i], job->scene)) {
+        if (cli_same_file(path[i], job->scene)) {
             host_say(job, "%s '%s' is the scene file; an output never replaces an input", name[i], path[i]);
             return -1;
         }
@@ -126,14 +92,14 @@ static int outputs_distinct(const host_render_job *job, const char *const name[3
             char list[PATH_MAX * 2];
             snprintf(list, sizeof(list), "%s", job->load_lights);
             for (char *save = NULL, *f = strtok_r(list, ":", &save); f; f = strtok_r(NULL, ":", &save))
-                if (host_same_file(path[i], f)) {
+                if (cli_same_file(path[i], f)) {
                     host_say(job, "%s '%s' is the --load-lights file '%s'; an output never replaces an input",
                              name[i], path[i], f);
                     return -1;
                 }
         }
         for (int j = 0; j < i; ++j)
-            if (path[j] && host_same_file(path[i], path[j])) {
+            if (path[j] && cli_same_file(path[i], path[j])) {
                 host_say(job, "%s '%s' and %s '%s' name the same file; give each output its own", name[j], path[j],
                          name[i], path[i]);
                 return -1;
@@ -158,7 +124,8 @@ const struct option host_render_options[] = {
     {"png-bits", required_argument, 0, 'b'},     {"png-alpha", no_argument, 0, 'a'},
     {"crop", required_argument, 0, 'C'},         {"declare", required_argument, 0, 'D'},
     {"include-dir", required_argument, 0, 'I'},  {"read-dir", required_argument, 0, 'R'},
-    {"write-dir", required_argument, 0, 'X'},    {0, 0, 0, 0}};
+    {"write-dir", required_argument, 0, 'X'},    {"builtin", required_argument, 0, 'B'},
+    {0, 0, 0, 0}};
 
 const char host_render_options_help[] =
     "  -o, --output PATH        EXR output (scene-linear Rec.709, every layer, settings in the header)\n"
@@ -188,6 +155,9 @@ const char host_render_options_help[] =
     "      --include-dir DIR    .pov scenes: search DIR for #include after the scene's folder (repeatable)\n"
     "      --read-dir DIR       .pov scenes: the scene may also read files in DIR and below (repeatable)\n"
     "      --write-dir DIR      .pov scenes: the scene may also read and write files in DIR and below\n"
+    "      --builtin NAME=VALUE .pov scenes: one of POV-Ray's animation identifiers (clock, clock_delta,\n"
+    "                           clock_on, frame_number, initial_clock, final_clock, initial_frame,\n"
+    "                           final_frame) as POV-Ray's front end sets it for a frame (vbnl farm)\n"
     "  -q, --quiet              no progress output\n";
 
 void host_render_job_init(host_render_job *job, const vbnl_plugin_api *api, const char *who)
@@ -196,17 +166,6 @@ void host_render_job_init(host_render_job *job, const vbnl_plugin_api *api, cons
     job->who = who;
     api->options_init(&job->opt);
     api->view_init(&job->view);
-}
-
-static int parse_u32(const char *s, uint32_t *out, uint32_t min, uint32_t max)
-{
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || *end || end == s || v < min || v > max || s[0] == '-')
-        return -1;
-    *out = (uint32_t)v;
-    return 0;
 }
 
 int host_render_scene_option(host_render_job *job, const char *key, const char *value)
@@ -255,7 +214,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         job->set_where[job->nsets++] = c == 'L' ? "--save-lights" : "--load-lights";
         break;
     case 'n':
-        if (parse_u32(arg, &o->spp, 1, 1u << 30)) {
+        if (cli_parse_u32(arg, &o->spp, 1, 1u << 30)) {
             host_say(job, "--spp takes a whole number >= 1, got '%s'", arg);
             return VBNL_EXIT_USAGE;
         }
@@ -273,7 +232,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     }
     case 'W':
     case 'H':
-        if (parse_u32(arg, c == 'W' ? &o->width : &o->height, 1, 65536)) {
+        if (cli_parse_u32(arg, c == 'W' ? &o->width : &o->height, 1, 65536)) {
             host_say(job, "--%s takes 1..65536, got '%s'", c == 'W' ? "width" : "height", arg);
             return VBNL_EXIT_USAGE;
         }
@@ -289,7 +248,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         break;
     }
     case 'T':
-        if (parse_u32(arg, &o->threads, 0, 1024)) {
+        if (cli_parse_u32(arg, &o->threads, 0, 1024)) {
             host_say(job, "--threads takes 0..1024, got '%s'", arg);
             return VBNL_EXIT_USAGE;
         }
@@ -325,7 +284,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     case 'v': view->view = arg; break;
     case 'O': view->config = arg; break;
     case 'b':
-        if (parse_u32(arg, &view->png_bits, 8, 16) || (view->png_bits != 8 && view->png_bits != 16)) {
+        if (cli_parse_u32(arg, &view->png_bits, 8, 16) || (view->png_bits != 8 && view->png_bits != 16)) {
             host_say(job, "--png-bits takes 8 or 16, got '%s'", arg);
             return VBNL_EXIT_USAGE;
         }
@@ -337,6 +296,18 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     case 'I': return host_render_scene_option(job, "include_dir", arg);
     case 'R': return host_render_scene_option(job, "read_dir", arg);
     case 'X': return host_render_scene_option(job, "write_dir", arg);
+    case 'B': {
+        /* the key is one of the plugin's set_scene_option names: kept as that constant string */
+        static const char *const builtins[] = {"clock",         "clock_delta", "clock_on",      "frame_number",
+                                               "initial_clock", "final_clock", "initial_frame", "final_frame"};
+        const char *eq = strchr(arg, '=');
+        for (size_t k = 0; eq && k < sizeof(builtins) / sizeof(builtins[0]); ++k)
+            if (strlen(builtins[k]) == (size_t)(eq - arg) && !strncmp(arg, builtins[k], (size_t)(eq - arg)))
+                return host_render_scene_option(job, builtins[k], eq + 1);
+        host_say(job, "--builtin takes NAME=VALUE with NAME one of clock, clock_delta, clock_on, frame_number, "
+                      "initial_clock, final_clock, initial_frame, final_frame; got '%s'", arg);
+        return VBNL_EXIT_USAGE;
+    }
     default: return VBNL_EXIT_USAGE;
     }
     return 0;

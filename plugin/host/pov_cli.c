@@ -25,6 +25,7 @@ static const char *const pov_owned[][2] = {
     {"height", "+H or Height"},
     {"crop", "+SC +EC +SR +ER or Start_Column, End_Column, Start_Row, End_Row"},
     {"camera", "the scene's camera"},
+    {"builtin", "+K, +KFI, +KFF, +KI, +KF, +KC, +SF, +EF (the animation options)"},
 };
 
 enum { MAX_VBNL_OPTIONS = 256 };
@@ -440,9 +441,9 @@ static int pov_open_all_file(pov_run *r, const char *first_output)
     char path[4096];
     const char *slash = s->output_to_file ? strrchr(first_output, '/') : NULL;
     snprintf(path, sizeof(path), "%.*s%s", slash ? (int)(slash - first_output + 1) : 0, first_output, s->all_file);
-    int clash = host_same_file(path, s->input) || (s->output_to_file && host_same_file(path, first_output));
+    int clash = cli_same_file(path, s->input) || (s->output_to_file && cli_same_file(path, first_output));
     for (size_t i = 0; !clash && i < s->ini_files.n; ++i)
-        clash = host_same_file(path, s->ini_files.v[i]);
+        clash = cli_same_file(path, s->ini_files.v[i]);
     if (clash) {
         fprintf(stderr, "vbnl: All_File '%s' is an input or the image; an output never replaces either\n", path);
         return -1;
@@ -488,7 +489,7 @@ int pov_cli_main(const plugin *pl, int argc, char **argv)
         goto done;
     }
     for (size_t i = 0; s->output_to_file && i < s->ini_files.n; ++i)
-        if (host_same_file(first, s->ini_files.v[i])) {
+        if (cli_same_file(first, s->ini_files.v[i])) {
             fprintf(stderr, "vbnl: the image '%s' is the INI file '%s'; an output never replaces an input\n", first,
                     s->ini_files.v[i]);
             goto done;

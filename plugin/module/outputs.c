@@ -1,4 +1,7 @@
-/* Writing a render's film: EXR with every layer and the settings, plus a display PNG. */
+/* Writing a render's film: EXR with every layer and the settings, plus a display PNG. A crop
+ * render's EXR holds its window as the data window, and every EXR names the scene and camera it
+ * was rendered from (and the virtual lights it loaded), so that parts rendered apart can be
+ * checked and joined (`vbnl merge-tiles`, docs/farm.md). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -6,6 +9,7 @@
 #include "atomic_file.h"
 #include "image_io.h"
 #include "module.h"
+#include "vl_file_tools.h"
 
 vbnl_result module_check_writable(const char *path, vbnl_error *err)
 {
@@ -18,7 +22,69 @@ vbnl_result module_check_writable(const char *path, vbnl_error *err)
 
 #define MAX_ATTRS 64
 
-vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_settings *s,
+/* What a render that loaded virtual lights says about them (vl_file_tools.h): the set and
+ * preparation fingerprints, the photon paths summed over its files, what preparing them took.
+ * The render has read and verified the files already, so their headers are read without the
+ * checksum pass. 0 when the parameters load none or a header cannot be read. */
+typedef struct lights_info {
+    char set[24], preparation[24], photons[96];
+    const char *files;
+    double placement, elimination, photon_seconds, photon_rays;
+} lights_info;
+
+static int read_lights_info(const vbnl_params *p, lights_info *li)
+{
+    const char *load = NULL;
+    for (uint32_t i = 0; p && i < vbnl_params_count(p); ++i) {
+        const char *name, *str;
+        int is_string;
+        double num;
+        vbnl_params_get(p, i, &name, &is_string, &num, &str, NULL);
+        if (is_string && !strcmp(name, "load_lights"))
+            load = str; /* the last setting wins */
+    }
+    if (!load || !*load)
+        return 0;
+    char list[4096];
+    snprintf(list, sizeof(list), "%s", load);
+    memset(li, 0, sizeof(*li));
+    li->files = load;
+    uint64_t first = UINT64_MAX, count = 0, paths = 0, set = 0, prep = 0;
+    int n = 0;
+    for (char *save = NULL, *f = strtok_r(list, ":", &save); f; f = strtok_r(NULL, ":", &save), ++n) {
+        vbnl_vl_file_header h;
+        if (vbnl_vl_file_read_header(f, 0, &h, NULL) != VBNL_OK)
+            return 0;
+        first = h.photon_count && h.photon_first < first ? h.photon_first : first;
+        count += h.photon_count;
+        paths = h.photon_paths;
+        set = h.set;
+        prep = h.preparation;
+        li->placement = h.placement_seconds;
+        li->elimination = h.elimination_seconds;
+        li->photon_seconds += h.photon_seconds;
+        li->photon_rays += h.photon_rays;
+    }
+    if (n == 0)
+        return 0;
+    snprintf(li->set, sizeof(li->set), "%016llx", (unsigned long long)set);
+    snprintf(li->preparation, sizeof(li->preparation), "%016llx", (unsigned long long)prep);
+    snprintf(li->photons, sizeof(li->photons), "%llu,%llu,%llu", (unsigned long long)(count ? first : 0),
+             (unsigned long long)count, (unsigned long long)paths);
+    return 1;
+}
+
+/* The window rows of a width-wide layer of `channels` floats, packed. */
+static float *window_of(const float *full, uint32_t width, uint32_t channels, const uint32_t win[4])
+{
+    const size_t row = (size_t)(win[2] - win[0]) * channels;
+    float *out = malloc(sizeof(float) * row * (win[3] - win[1]));
+    for (uint32_t y = win[1]; out && y < win[3]; ++y)
+        memcpy(out + (y - win[1]) * row, full + ((size_t)y * width + win[0]) * channels, sizeof(float) * row);
+    return out;
+}
+
+vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_settings *s, const vbnl_scene *scene,
                                  const char *exr_path, const char *png_path, float exposure, int half,
                                  int partial, vbnl_error *err)
 {
@@ -26,8 +92,13 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
     uint32_t w = vbnl_film_width(film), h = vbnl_film_height(film);
     uint32_t nl = vbnl_film_layer_count(film);
     vbnl_image_layer layers[16];
-    float *data[16] = {0};
+    float *data[16] = {0}, *part[16] = {0};
     vbnl_result res = VBNL_OK;
+    /* a crop render writes its window as the EXR's data window (the display window is the image) */
+    const int cropped = (s->crop[0] | s->crop[1] | s->crop[2] | s->crop[3]) != 0 &&
+                        (s->crop[0] > 0 || s->crop[1] > 0 || s->crop[2] < w || s->crop[3] < h);
+    const uint32_t whole[4] = {0, 0, w, h};
+    const uint32_t *win = cropped ? s->crop : whole;
     if (nl > 16)
         nl = 16;
     for (uint32_t i = 0; i < nl; ++i) {
@@ -42,10 +113,14 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
         }
         if ((res = vbnl_film_read(film, info.name, data[i], n, err)) != VBNL_OK)
             goto done;
+        if (cropped && !(part[i] = window_of(data[i], w, info.channels, win))) {
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+            goto done;
+        }
         layers[i].name = info.name;
         layers[i].channels = info.channels;
         layers[i].channel_names = info.channel_names;
-        layers[i].data = data[i];
+        layers[i].data = cropped ? part[i] : data[i];
     }
     if (exr_path) {
         vbnl_render_stats st;
@@ -53,6 +128,7 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
         vbnl_image_attr attrs[MAX_ATTRS];
         uint32_t na = 0;
         char params[2048] = "", seed[32], stage_names[32][64], work_names[8][2][96];
+        char scene_fp[24], camera_fp[24], crop[64];
         const vbnl_params *p = s->params;
         for (uint32_t i = 0; p && i < vbnl_params_count(p); ++i) {
             const char *name, *str;
@@ -78,6 +154,34 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
         attrs[na++] = (vbnl_image_attr){"vbnl/partial", VBNL_IMAGE_ATTR_INT, {.i = partial ? 1 : 0}};
         attrs[na++] = (vbnl_image_attr){"vbnl/time_budget", VBNL_IMAGE_ATTR_DOUBLE, {.d = s->time_budget}};
         attrs[na++] = (vbnl_image_attr){"vbnl/time/prepare", VBNL_IMAGE_ATTR_DOUBLE, {.d = st.prepare_seconds}};
+        lights_info li;
+        const int lights = read_lights_info(p, &li);
+        /* what a part of an image belongs to (docs/farm.md: `vbnl merge-tiles` joins only parts
+         * that agree); a whole image rendered here needs no such check, and the scene's
+         * fingerprint reads all its geometry */
+        if (scene && (cropped || lights)) {
+            snprintf(scene_fp, sizeof(scene_fp), "%016llx", (unsigned long long)vbnl_vl_file_scene_fingerprint(scene));
+            snprintf(camera_fp, sizeof(camera_fp), "%016llx",
+                     (unsigned long long)vbnl_vl_file_camera_fingerprint(scene));
+            attrs[na++] = (vbnl_image_attr){"vbnl/scene/fingerprint", VBNL_IMAGE_ATTR_STRING, {.s = scene_fp}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/camera/fingerprint", VBNL_IMAGE_ATTR_STRING, {.s = camera_fp}};
+        }
+        if (cropped) {
+            snprintf(crop, sizeof(crop), "%u,%u,%u,%u", win[0], win[1], win[2], win[3]);
+            attrs[na++] = (vbnl_image_attr){"vbnl/crop", VBNL_IMAGE_ATTR_STRING, {.s = crop}};
+        }
+        if (lights) {
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/fingerprint", VBNL_IMAGE_ATTR_STRING, {.s = li.set}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/preparation", VBNL_IMAGE_ATTR_STRING, {.s = li.preparation}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/photons", VBNL_IMAGE_ATTR_STRING, {.s = li.photons}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/files", VBNL_IMAGE_ATTR_STRING, {.s = li.files}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/time/placement", VBNL_IMAGE_ATTR_DOUBLE, {.d = li.placement}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/time/elimination", VBNL_IMAGE_ATTR_DOUBLE,
+                                            {.d = li.elimination}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/time/photons", VBNL_IMAGE_ATTR_DOUBLE,
+                                            {.d = li.photon_seconds}};
+            attrs[na++] = (vbnl_image_attr){"vbnl/lights/rays/photons", VBNL_IMAGE_ATTR_DOUBLE, {.d = li.photon_rays}};
+        }
         /* under a budget: the preparation's bound, what the integrator chose and why, and whether
          * the last pass was cut at the budget (docs/time-budget.md) */
         char choice_names[8][2][96];
@@ -108,7 +212,7 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
                                             {.d = sg->seconds > 0.0 ? sg->work / sg->seconds : 0.0}};
             ++k;
         }
-        if ((res = vbnl_exr_write(exr_path, w, h, layers, nl, attrs, na, half, err)) != VBNL_OK)
+        if ((res = vbnl_exr_write_window(exr_path, w, h, win, layers, nl, attrs, na, half, err)) != VBNL_OK)
             goto done;
     }
     if (png_path) {
@@ -123,7 +227,9 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
         free(px);
     }
 done:
-    for (uint32_t i = 0; i < 16; ++i)
+    for (uint32_t i = 0; i < 16; ++i) {
         free(data[i]);
+        free(part[i]);
+    }
     return res;
 }

@@ -685,7 +685,7 @@ static vbnl_plugin_result p_write_exr(const vbnl_plugin_renderer *r, const char 
         return fail(msg, n, !r || !path ? VBNL_ERR_INVALID_ARGUMENT : VBNL_ERR_STATE,
                     "write_exr: NULL argument or nothing rendered");
     vbnl_error e = {0};
-    return to_msg(module_write_outputs(r->core, &r->settings, path, NULL, 0.0f, half, r->partial, &e), &e, msg, n);
+    return to_msg(module_write_outputs(r->core, &r->settings, r->scene, path, NULL, 0.0f, half, r->partial, &e), &e, msg, n);
 }
 
 static int view_valid(const vbnl_plugin_view *v, char *msg, size_t n)
@@ -707,6 +707,16 @@ static int view_valid(const vbnl_plugin_view *v, char *msg, size_t n)
     return 1;
 }
 
+/* Exposure, then the OpenColorIO display/view, in place on w x h RGBA floats. */
+static vbnl_result view_in_place(const vbnl_plugin_view *v, float *rgba, uint32_t w, uint32_t h, char *msg, size_t n)
+{
+    const float scale = exp2f(v->exposure);
+    for (size_t i = 0; i < (size_t)w * h; ++i)
+        for (int c = 0; c < 3; ++c)
+            rgba[4 * i + c] *= scale;
+    return (vbnl_result)vbnl_ocio_apply(v->config, v->display, v->view, rgba, w, h, 4, msg, n);
+}
+
 static vbnl_plugin_result p_apply_view(const vbnl_plugin_renderer *r, const vbnl_plugin_view *view, float *dst,
                                 size_t count, char *msg, size_t n)
 {
@@ -720,16 +730,44 @@ static vbnl_plugin_result p_apply_view(const vbnl_plugin_renderer *r, const vbnl
     p_view_init(&v);
     if (view)
         memcpy(&v, view, view->size);
-    uint32_t w = r->opt.width, h = r->opt.height;
     vbnl_error e = {0};
     vbnl_result res = vbnl_film_read(vbnl_renderer_film(r->core), "", dst, count, &e);
     if (res != VBNL_OK)
         return to_msg(res, &e, msg, n);
-    const float scale = exp2f(v.exposure);
-    for (size_t i = 0; i < (size_t)w * h; ++i)
-        for (int c = 0; c < 3; ++c)
-            dst[4 * i + c] *= scale;
-    return (vbnl_result)vbnl_ocio_apply(v.config, v.display, v.view, dst, w, h, 4, msg, n);
+    return view_in_place(&v, dst, r->opt.width, r->opt.height, msg, n);
+}
+
+vbnl_result module_write_png(const char *path, float *rgba, uint32_t w, uint32_t h, const vbnl_plugin_view *view,
+                             char *msg, size_t n)
+{
+    if (!rgba)
+        return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "write_png: NULL pixels");
+    if (!view_valid(view, msg, n))
+        return VBNL_ERR_INVALID_ARGUMENT;
+    vbnl_plugin_view v;
+    p_view_init(&v);
+    if (view)
+        memcpy(&v, view, view->size);
+    const uint32_t channels = v.alpha ? 4 : 3; /* view.alpha (ABI 1.3): RGBA */
+    void *q = malloc((size_t)w * h * channels * (v.png_bits / 8));
+    if (!q)
+        return fail(msg, n, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    vbnl_result res = view_in_place(&v, rgba, w, h, msg, n);
+    vbnl_error e = {0};
+    if (res == VBNL_OK && !path) { /* a check of the view only */
+        free(q);
+        return VBNL_OK;
+    }
+    /* Views may leave [0, 1] (Standard passes values above 1, ACES gives negatives for saturated
+     * colours): vbnl_display_quantise clamps before quantising. */
+    if (res == VBNL_OK) {
+        res = vbnl_display_quantise(rgba, w, h, 4, v.png_bits, v.dither, q, channels, &e);
+        if (res == VBNL_OK)
+            res = vbnl_png_write(path, w, h, channels, v.png_bits, q, &e);
+        to_msg(res, &e, msg, n);
+    }
+    free(q);
+    return res;
 }
 
 static vbnl_plugin_result p_write_png(const vbnl_plugin_renderer *r, const char *path, const vbnl_plugin_view *view,
@@ -739,39 +777,30 @@ static vbnl_plugin_result p_write_png(const vbnl_plugin_renderer *r, const char 
         return fail(msg, n, VBNL_ERR_INVALID_ARGUMENT, "write_png: NULL renderer or path");
     if (!r->core)
         return fail(msg, n, VBNL_ERR_STATE, "write_png: nothing rendered");
-    if (!view_valid(view, msg, n))
-        return VBNL_ERR_INVALID_ARGUMENT;
-    vbnl_plugin_view v;
-    p_view_init(&v);
-    if (view)
-        memcpy(&v, view, view->size);
-    uint32_t w = r->opt.width, h = r->opt.height, channels = v.alpha ? 4 : 3;
-    size_t px = (size_t)w * h;
-    float *rgba = malloc(sizeof(float) * 4 * px);
-    void *q = malloc(px * channels * (v.png_bits / 8));
-    vbnl_result res;
+    uint32_t w = r->opt.width, h = r->opt.height;
+    float *rgba = malloc(sizeof(float) * 4 * (size_t)w * h);
+    if (!rgba)
+        return fail(msg, n, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     vbnl_error e = {0};
-    if (!rgba || !q) {
-        res = fail(msg, n, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-        goto done;
-    }
-    if ((res = p_apply_view(r, &v, rgba, 4 * px, msg, n)) != VBNL_OK)
-        goto done;
-    /* Views may leave [0, 1] (Standard passes values above 1, ACES gives negatives for saturated
-     * colours): vbnl_display_quantise clamps before quantising. */
-    res = vbnl_display_quantise(rgba, w, h, 4, v.png_bits, v.dither, q, channels, &e);
-    if (res == VBNL_OK)
-        res = vbnl_png_write(path, w, h, channels, v.png_bits, q, &e);
-    to_msg(res, &e, msg, n);
-done:
+    vbnl_result res = vbnl_film_read(vbnl_renderer_film(r->core), "", rgba, 4 * (size_t)w * h, &e);
+    if (res != VBNL_OK)
+        to_msg(res, &e, msg, n);
+    else
+        res = module_write_png(path, rgba, w, h, view, msg, n);
     free(rgba);
-    free(q);
     return res;
 }
 
 /* Async-signal-safe (see vbnl_plugin.h): the registry of temporaries lives in the core
  * (core/src/atomic_file.c) and lists every file the module writes, the save_lights file included. */
 static void p_abandon_writes(void) { vbnl_atomic_file_abandon_all(); }
+
+/* ---- what the module's commands see of a renderer (module.h) ---------------------------------- */
+
+const vbnl_render_settings *module_renderer_settings(const vbnl_plugin_renderer *r)
+{
+    return r && r->core ? &r->settings : NULL;
+}
 
 /* ---- developer commands that need the core beyond this ABI ------------------------------------ */
 
@@ -783,6 +812,11 @@ typedef struct plugin_command {
 static const plugin_command commands[] = {
     {"bench", "path tracer speed against the raw Embree ray rate; --equal-time / --equal-count: every method", cmd_bench},
     {"compare", "error of images against a reference: table, error maps, montage", cmd_compare},
+    {"farm", "render a frame or an animation over a Slurm cluster (docs/farm.md)", cmd_farm},
+    {"prepare", "vbnl: placement and elimination only, saved as a placement for photon jobs", cmd_prepare},
+    {"photons", "vbnl: trace one photon range on a placement and save it", cmd_photons},
+    {"merge-lights", "sum the photon ranges of light files into one", cmd_merge_lights},
+    {"merge-tiles", "join the tiles of crop renders into the whole image (EXR, PNG)", cmd_merge_tiles},
 };
 
 static const char *p_command_at(uint32_t i, const char **summary)
@@ -838,6 +872,8 @@ static const vbnl_plugin_api api = {
     .abandon_writes = p_abandon_writes,
     .set_scene_option = p_set_scene_option,
 };
+
+const vbnl_plugin_api *module_api(void) { return &api; }
 
 VBNL_PLUGIN_EXPORT const vbnl_plugin_api *vbnl_plugin_entry(uint32_t host_abi_major, const char **why);
 

@@ -268,7 +268,7 @@ static vbnl_result vbnl_exr_plan_channels(const char *path, const vbnl_image_lay
 }
 
 /* Writes every scanline chunk. `src[k]` is the base of output channel k's layer (float or half). */
-static exr_result_t vbnl_exr_write_chunks(exr_context_t ctxt, uint32_t width, uint32_t height,
+static exr_result_t vbnl_exr_write_chunks(exr_context_t ctxt, uint32_t width, int32_t y0, uint32_t height,
                                           const vbnl_exr_out_channel *ch, uint32_t n,
                                           const vbnl_image_layer *layers,
                                           const uint8_t *const *layer_base, int half_float)
@@ -278,9 +278,10 @@ static exr_result_t vbnl_exr_write_chunks(exr_context_t ctxt, uint32_t width, ui
     exr_result_t rv = exr_get_scanlines_per_chunk(ctxt, 0, &lines);
     const int32_t elem = half_float ? 2 : 4;
     int initialised = 0;
+    /* y counts rows of the data window; chunks start at its first row, `lines` apart */
     for (int32_t y = 0; rv == EXR_ERR_SUCCESS && y < (int32_t)height; y += lines) {
         exr_chunk_info_t cinfo;
-        rv = exr_write_scanline_chunk_info(ctxt, 0, y, &cinfo);
+        rv = exr_write_scanline_chunk_info(ctxt, 0, y0 + y, &cinfo);
         if (rv != EXR_ERR_SUCCESS)
             break;
         rv = initialised ? exr_encoding_update(ctxt, 0, &cinfo, &enc)
@@ -335,6 +336,22 @@ vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
                            const vbnl_image_attr *attrs, uint32_t attr_count, int half_float,
                            vbnl_error *err)
 {
+    const uint32_t whole[4] = {0, 0, width, height};
+    return vbnl_exr_write_window(path, width, height, whole, layers, layer_count, attrs, attr_count,
+                                 half_float, err);
+}
+
+vbnl_result vbnl_exr_write_window(const char *path, uint32_t display_width, uint32_t display_height,
+                                  const uint32_t window[4], const vbnl_image_layer *layers,
+                                  uint32_t layer_count, const vbnl_image_attr *attrs,
+                                  uint32_t attr_count, int half_float, vbnl_error *err)
+{
+    if (!window || window[0] >= window[2] || window[1] >= window[3] || window[2] > display_width ||
+        window[3] > display_height || display_width > INT32_MAX || display_height > INT32_MAX)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "cannot write '%s': the data window must be a non-empty part of the "
+                              "%ux%u image", path ? path : "(null)", display_width, display_height);
+    const uint32_t width = window[2] - window[0], height = window[3] - window[1];
     vbnl_result r =
         vbnl_exr_check_write_args(path, width, height, layers, layer_count, attrs, attr_count, err);
     if (r != VBNL_OK)
@@ -393,9 +410,20 @@ vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
     exr_result_t rv = exr_start_write(&ctxt, path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_add_part(ctxt, NULL, EXR_STORAGE_SCANLINE, &part);
+    exr_attr_box2i_t display, data;
+    display.min.x = 0;
+    display.min.y = 0;
+    display.max.x = (int32_t)display_width - 1;
+    display.max.y = (int32_t)display_height - 1;
+    data.min.x = (int32_t)window[0];
+    data.min.y = (int32_t)window[1];
+    data.max.x = (int32_t)window[2] - 1;
+    data.max.y = (int32_t)window[3] - 1;
+    exr_attr_v2f_t centre;
+    centre.x = centre.y = 0.0f;
     if (rv == EXR_ERR_SUCCESS)
-        rv = exr_initialize_required_attr_simple(ctxt, part, (int32_t)width, (int32_t)height,
-                                                 EXR_COMPRESSION_ZIP);
+        rv = exr_initialize_required_attr(ctxt, part, &display, &data, 1.0f, &centre, 1.0f,
+                                          EXR_LINEORDER_INCREASING_Y, EXR_COMPRESSION_ZIP);
     if (rv == EXR_ERR_SUCCESS && long_names)
         rv = exr_set_longname_support(ctxt, 1);
     for (uint32_t k = 0; rv == EXR_ERR_SUCCESS && k < n; k++)
@@ -413,7 +441,8 @@ vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_write_header(ctxt);
     if (rv == EXR_ERR_SUCCESS)
-        rv = vbnl_exr_write_chunks(ctxt, width, height, ch, n, layers, base, half_float);
+        rv = vbnl_exr_write_chunks(ctxt, width, (int32_t)window[1], height, ch, n, layers, base,
+                                   half_float);
     /* exr_finish writes the chunk offset table: it must run (and succeed) before the rename, and
      * must run on failure too, to free the context. */
     exr_result_t frv = exr_finish(&ctxt);
@@ -690,8 +719,11 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
     exr_attr_box2i_t dw;
     const exr_attr_chlist_t *chl = NULL;
     rv = exr_get_storage(ctxt, 0, &storage);
+    exr_attr_box2i_t disp;
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_get_data_window(ctxt, 0, &dw);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_get_display_window(ctxt, 0, &disp);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_get_channels(ctxt, 0, &chl);
     if (rv != EXR_ERR_SUCCESS || !chl) {
@@ -714,6 +746,15 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
     img.height = (uint32_t)h;
     img.data_x = dw.min.x;
     img.data_y = dw.min.y;
+    int64_t dsw = (int64_t)disp.max.x - disp.min.x + 1, dsh = (int64_t)disp.max.y - disp.min.y + 1;
+    if (dsw <= 0 || dsh <= 0 || dsw > INT32_MAX || dsh > INT32_MAX) {
+        r = vbnl_error_set(err, VBNL_ERR_CORRUPT, "cannot read '%s': bad display window", path);
+        goto done;
+    }
+    img.display_x = disp.min.x;
+    img.display_y = disp.min.y;
+    img.display_width = (uint32_t)dsw;
+    img.display_height = (uint32_t)dsh;
     if ((size_t)w > SIZE_MAX / sizeof(float) / (size_t)h) {
         r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': image too large", path);
         goto done;

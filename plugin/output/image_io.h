@@ -101,6 +101,17 @@ vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
                            const vbnl_image_attr *attrs, uint32_t attr_count, int half_float,
                            vbnl_error *err);
 
+/* The same for a part of an image: the display window is (0,0)-(display_width-1,
+ * display_height-1), the data window the pixels [window[0], window[2]) x [window[1], window[3])
+ * (x0, y0, x1, y1; ends exclusive), which the layers hold: (x1-x0) * (y1-y0) pixels each, row 0
+ * the window's top row. A window outside the image or empty fails with
+ * VBNL_ERR_INVALID_ARGUMENT. (A crop render writes its window so; `vbnl merge-tiles` joins such
+ * parts.) */
+vbnl_result vbnl_exr_write_window(const char *path, uint32_t display_width, uint32_t display_height,
+                                  const uint32_t window[4], const vbnl_image_layer *layers,
+                                  uint32_t layer_count, const vbnl_image_attr *attrs,
+                                  uint32_t attr_count, int half_float, vbnl_error *err);
+
 /* Where a channel's pixels came from in the file. */
 typedef enum vbnl_exr_pixel_type {
     VBNL_EXR_PIXEL_UINT = 0,  /* converted to float exactly up to 2^24 */
@@ -119,13 +130,15 @@ typedef struct vbnl_exr_channel {
  * them up by name with vbnl_exr_image_channel, never by index. */
 typedef struct vbnl_exr_image {
     uint32_t width, height;         /* of the data window */
-    int32_t data_x, data_y;         /* data window origin (0,0 for files this module writes) */
+    int32_t data_x, data_y;         /* data window origin (0,0 for whole images this module writes) */
     uint32_t channel_count;
     vbnl_exr_channel *channels;
     uint32_t attr_count;
     vbnl_image_attr *attrs;         /* string, int, float and double attributes, file order */
     int has_chromaticities;
     float chromaticities[8];        /* red xy, green xy, blue xy, white xy */
+    int32_t display_x, display_y;   /* display window: origin and size (the whole image, of */
+    uint32_t display_width, display_height; /* which the data window may be a part) */
 } vbnl_exr_image;
 
 /* Reads the first part of `path` (scanline or tiled; for tiled files the full-resolution level).

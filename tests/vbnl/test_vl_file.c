@@ -76,10 +76,11 @@ static void path_in(const fixture *f, const char *name, char *out, size_t n)
     snprintf(out, n, "%s/%s", f->dir, name);
 }
 
-/* Renders with the vbnl integrator and the given settings; returns the beauty RGBA (or NULL
- * with *res and err filled when create/prepare/render fails). spp 0: prepare only. */
-static float *run(const fixture *f, const vbnl_scene *scene, uint32_t spp, const char *const *settings,
-                  vbnl_result *res, vbnl_error *err)
+/* Renders with the vbnl integrator and the given settings at `width` x H with `seed`; returns the
+ * beauty RGBA (or NULL with *res and err filled when create/prepare/render fails). spp 0: prepare
+ * only. */
+static float *run_as(const fixture *f, const vbnl_scene *scene, uint32_t spp, const char *const *settings,
+                     uint32_t width, uint64_t seed, vbnl_result *res, vbnl_error *err)
 {
     vbnl_params *p;
     vbnl_params_create(&p, NULL);
@@ -87,10 +88,10 @@ static float *run(const fixture *f, const vbnl_scene *scene, uint32_t spp, const
         assert_int_equal(vbnl_params_set_text(p, *kv, NULL, NULL), VBNL_OK);
     vbnl_render_settings rs;
     vbnl_render_settings_init(&rs);
-    rs.width = W;
+    rs.width = width;
     rs.height = H;
     rs.spp = spp ? spp : 1;
-    rs.seed = 5;
+    rs.seed = seed;
     rs.integrator = "vbnl";
     rs.params = p;
     vbnl_renderer *r = NULL;
@@ -101,12 +102,32 @@ static float *run(const fixture *f, const vbnl_scene *scene, uint32_t spp, const
     if (*res == VBNL_OK && spp)
         *res = vbnl_renderer_render(r, NULL, NULL, err);
     if (*res == VBNL_OK) {
-        rgba = malloc(sizeof(float) * 4 * W * H);
-        assert_int_equal(vbnl_film_read(vbnl_renderer_film(r), "", rgba, (size_t)4 * W * H, NULL), VBNL_OK);
+        rgba = malloc(sizeof(float) * 4 * width * H);
+        assert_int_equal(vbnl_film_read(vbnl_renderer_film(r), "", rgba, (size_t)4 * width * H, NULL), VBNL_OK);
     }
     vbnl_renderer_destroy(r);
     vbnl_params_destroy(p);
     return rgba;
+}
+
+static float *run(const fixture *f, const vbnl_scene *scene, uint32_t spp, const char *const *settings,
+                  vbnl_result *res, vbnl_error *err)
+{
+    return run_as(f, scene, spp, settings, W, 5, res, err);
+}
+
+/* A run expected to fail at create, prepare or render with `code` and `pattern` in the message. */
+static void expect_run_error(const fixture *f, const vbnl_scene *scene, const char *const *settings, uint32_t width,
+                             uint64_t seed, vbnl_result code, const char *pattern)
+{
+    vbnl_result res;
+    vbnl_error err = {0};
+    float *img = run_as(f, scene ? scene : f->scene, 1, settings, width, seed, &res, &err);
+    print_message("# -> %s: %s\n", vbnl_result_name(res), err.message);
+    assert_null(img);
+    assert_int_equal(res, code);
+    if (!strstr(err.message, pattern))
+        fail_msg("message '%s' lacks '%s'", err.message, pattern);
 }
 
 static float *run_ok(const fixture *f, uint32_t spp, const char *const *settings)
@@ -195,6 +216,14 @@ static void test_round_trip_arrays(void **state)
     h.elimination = 2;
     h.radius_scale = 2.0f;
     h.material_count = f->scene->material_count;
+    h.width = 640;
+    h.height = 360;
+    h.camera = 0x0123456789abcdefull;
+    h.preparation = 0xfedcba9876543210ull;
+    h.placement_seconds = 1.5;
+    h.elimination_seconds = 0.25;
+    h.photon_seconds = 3.0;
+    h.photon_rays = 12345.0;
     char path[400];
     path_in(f, "set.vls", path, sizeof(path));
     vbnl_error err = {0};
@@ -210,6 +239,20 @@ static void test_round_trip_arrays(void **state)
     assert_int_equal(d.header.photon_paths, 1000);
     assert_true(d.header.unit == 0x1p-30);
     assert_true(d.header.radius_scale == 2.0f);
+    assert_int_equal(d.header.width, 640);
+    assert_int_equal(d.header.height, 360);
+    assert_true(d.header.camera == 0x0123456789abcdefull);
+    assert_true(d.header.preparation == 0xfedcba9876543210ull);
+    assert_true(d.header.placement_seconds == 1.5 && d.header.elimination_seconds == 0.25);
+    assert_true(d.header.photon_seconds == 3.0 && d.header.photon_rays == 12345.0);
+    assert_int_equal(d.header.count, n);
+    assert_int_equal(d.header.glossy_count, n / 2); /* the odd lights */
+    /* the header alone reads back the same, with the set fingerprint the save computed */
+    vbnl_vl_file_header only;
+    assert_int_equal(vbnl_vl_file_read_header(path, 1, &only, &err), VBNL_OK);
+    assert_int_equal(only.count, n);
+    assert_true(only.set == d.header.set && only.set != 0);
+    assert_true(only.camera == h.camera && only.photon_count == 1000);
     assert_memory_equal(d.vls.position, vls.position, sizeof(vec3) * n);
     assert_memory_equal(d.vls.normal, vls.normal, sizeof(vec3) * n);
     assert_memory_equal(d.vls.material, vls.material, sizeof(uint32_t) * n);
@@ -244,9 +287,20 @@ static void test_round_trip_render(void **state)
     snprintf(load, sizeof(load), "load_lights=%s", path);
     const char *const save_settings[] = {LIGHTS, PHOTONS, set, NULL};
     float *a = run_ok(f, 2, save_settings);
-    /* different preparation parameters are ignored: the file's set is used */
-    const char *const load_settings[] = {load, "virtual_lights=50", "photon_paths=7", NULL};
+    /* the file's set is used whatever the unset preparation parameters (their defaults differ) */
+    const char *const load_settings[] = {load, NULL};
     float *b = run_ok(f, 2, load_settings);
+    /* counts set to other values than the file's are refused; reuse_lights accepts them */
+    const char *const other_counts[] = {load, "virtual_lights=50", NULL};
+    expect_run_error(f, NULL, other_counts, W, 5, VBNL_ERR_INVALID_ARGUMENT,
+                     "was prepared with virtual_lights=2000, this render sets 50");
+    const char *const other_paths[] = {load, "photon_paths=7", NULL};
+    expect_run_error(f, NULL, other_paths, W, 5, VBNL_ERR_INVALID_ARGUMENT,
+                     "was prepared with photon_paths=100000, this render sets 7");
+    const char *const reuse[] = {load, "virtual_lights=50", "photon_paths=7", "reuse_lights=on", NULL};
+    float *b2 = run_ok(f, 2, reuse);
+    assert_memory_equal(a, b2, sizeof(float) * 4 * W * H);
+    free(b2);
     double sum = 0.0;
     for (uint32_t i = 0; i < 4 * W * H; ++i)
         sum += a[i];
@@ -321,12 +375,12 @@ static void test_wrong_version(void **state)
     uint32_t v;
     memcpy(&v, b + 8, 4);
     assert_int_equal(v, VBNL_VL_FILE_VERSION);
-    v = 2;
+    v = VBNL_VL_FILE_VERSION - 1;
     memcpy(b + 8, &v, 4);
     uint64_t h = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, b, n - 8);
     memcpy(b + n - 8, &h, 8);
     write_all(path, b, n);
-    expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 2; this build reads version 3");
+    expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 3; this build reads version 4");
     free(b);
 }
 
@@ -363,7 +417,8 @@ static void test_other_scene(void **state)
     expect_load_error(f, other, path, VBNL_ERR_INVALID_ARGUMENT, "was prepared for another scene");
     vbnl_scene_destroy(other);
 
-    /* same scene, another viewpoint: accepted */
+    /* same scene, another viewpoint: the file loads (the set describes the scene's light), but a
+     * render refuses it, as it does another image size or seed, unless reuse_lights */
     other = ts_box_scene(f->ctx, 1.0f);
     float pos[3] = {0.5f, 1.5f, 0.5f}, target[3] = {0, 0, -1}, up[3] = {0, 1, 0};
     vbnl_camera_desc cam;
@@ -375,6 +430,22 @@ static void test_other_scene(void **state)
     vbnl_error err = {0};
     assert_int_equal(vbnl_vl_file_load(path, other, &d, &err), VBNL_OK);
     vbnl_vl_file_data_free(&d);
+    char load[420];
+    snprintf(load, sizeof(load), "load_lights=%s", path);
+    const char *const plain[] = {load, NULL};
+    const char *const reuse[] = {load, "reuse_lights=on", NULL};
+    expect_run_error(f, other, plain, W, 5, VBNL_ERR_INVALID_ARGUMENT, "was prepared for another camera");
+    vbnl_result res;
+    float *img = run_as(f, other, 1, reuse, W, 5, &res, &err);
+    assert_int_equal(res, VBNL_OK);
+    free(img);
+    expect_run_error(f, NULL, plain, W / 2, 5, VBNL_ERR_INVALID_ARGUMENT,
+                     "was prepared for a 16x16 image, this render is 8x16");
+    expect_run_error(f, NULL, plain, W, 6, VBNL_ERR_INVALID_ARGUMENT,
+                     "was prepared with seed 5, this render has seed 6");
+    img = run_as(f, f->scene, 1, reuse, W / 2, 6, &res, &err);
+    assert_int_equal(res, VBNL_OK);
+    free(img);
     vbnl_scene_destroy(other);
 }
 
@@ -453,16 +524,150 @@ static void test_photon_ranges_merge(void **state)
     free(run_ok(f, 0, o));
     snprintf(list, sizeof(list), "%s:%s", p1, other);
     expect_load_error(f, NULL, list, VBNL_ERR_INVALID_ARGUMENT, "holds another virtual-light set");
-    /* the integrator refuses ranges outside photon_paths and ranges with load_lights */
+    /* the integrator refuses ranges outside photon_paths, and ranges on a set that has its photons */
     const char *const bad1[] = {LIGHTS, PHOTONS, "photon_first=100000", NULL};
     const char *const bad2[] = {load, "photon_count=5", NULL};
-    vbnl_result res;
-    assert_null(run(f, f->scene, 0, bad1, &res, &err));
-    assert_int_equal(res, VBNL_ERR_INVALID_ARGUMENT);
-    assert_null(run(f, f->scene, 0, bad2, &res, &err));
-    assert_int_equal(res, VBNL_ERR_INVALID_ARGUMENT);
+    expect_run_error(f, NULL, bad1, W, 5, VBNL_ERR_INVALID_ARGUMENT, "must lie inside the 100000 photon_paths");
+    expect_run_error(f, NULL, bad2, W, 5, VBNL_ERR_INVALID_ARGUMENT, "holds photon paths [0, 100000) already");
     free(img_full);
     free(img_sum);
+}
+
+/* Prepare once, trace photons apart: a placement (placement_only) holds the set and no photon;
+ * processes that load it trace disjoint photon ranges; vbnl_vl_file_merge sums their files
+ * without the scene. The sum, and a render from it, equal one run bit for bit. Files of another
+ * scene or preparation, missing and overlapping ranges are refused by the merge. */
+static void test_placement_then_photons(void **state)
+{
+    fixture *f = *state;
+    char place[400], full[400], part[3][400], merged[400], set[420], load[420];
+    path_in(f, "placement.vls", place, sizeof(place));
+    path_in(f, "full.vls", full, sizeof(full));
+    path_in(f, "merged.vls", merged, sizeof(merged));
+    /* the whole preparation in one run */
+    snprintf(set, sizeof(set), "save_lights=%s", full);
+    const char *const one[] = {LIGHTS, PHOTONS, set, NULL};
+    float *img_one = run_ok(f, 2, one);
+
+    /* a placement: no photon, and it does not render */
+    snprintf(set, sizeof(set), "save_lights=%s", place);
+    const char *const pl[] = {LIGHTS, PHOTONS, set, "placement_only=on", NULL};
+    free(run_ok(f, 0, pl));
+    vbnl_vl_file_header hp, hf;
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_vl_file_read_header(place, 1, &hp, &err), VBNL_OK);
+    assert_int_equal(vbnl_vl_file_read_header(full, 0, &hf, &err), VBNL_OK);
+    assert_int_equal(hp.photon_first, 0);
+    assert_int_equal(hp.photon_count, 0);
+    assert_int_equal(hp.photon_paths, 100000);
+    assert_true(hp.set == hf.set && hp.preparation == hf.preparation); /* the same lights as the full run */
+    assert_int_equal(hp.width, W);
+    assert_true(hp.camera == vbnl_vl_file_camera_fingerprint(f->scene) && hp.camera != 0);
+    assert_true(hp.placement_seconds > 0.0 && hp.photon_seconds == 0.0);
+    assert_true(hf.photon_rays > 0.0 && hf.photon_seconds > 0.0);
+
+    /* three photon jobs on the placement, of unequal ranges (not multiples of the 4096-path chunk) */
+    const char *const ranges[3][2] = {{"photon_first=0", "photon_count=20001"},
+                                      {"photon_first=20001", "photon_count=50000"},
+                                      {"photon_first=70001", "photon_count=0"}};
+    snprintf(load, sizeof(load), "load_lights=%s", place);
+    for (int k = 0; k < 3; ++k) {
+        char name[32], sk[1300];
+        snprintf(name, sizeof(name), "part%d.vls", k);
+        path_in(f, name, part[k], sizeof(part[k]));
+        snprintf(sk, sizeof(sk), "save_lights=%s", part[k]);
+        const char *const job[] = {load, ranges[k][0], ranges[k][1], sk, NULL};
+        free(run_ok(f, 0, job));
+    }
+    const char *const list[] = {part[2], part[0], place, part[1]}; /* any order; the placement adds nothing */
+    vbnl_vl_file_header hm;
+    if (vbnl_vl_file_merge(list, 4, merged, 0, &hm, &err) != VBNL_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(hm.photon_first, 0);
+    assert_int_equal(hm.photon_count, 100000);
+    assert_true(hm.set == hf.set);
+    assert_true(hm.photon_rays > 0.0);
+
+    /* the merged file holds the full run's photon data bit for bit */
+    vbnl_vl_file_data a, b;
+    assert_int_equal(vbnl_vl_file_load(full, f->scene, &a, &err), VBNL_OK);
+    assert_int_equal(vbnl_vl_file_load(merged, f->scene, &b, &err), VBNL_OK);
+    assert_int_equal(a.vls.count, b.vls.count);
+    uint64_t total = 0;
+    for (uint32_t j = 0; j < a.vls.count; ++j) {
+        assert_memory_equal(vbnl_profile_incident_power_fixed(a.profiles, j),
+                            vbnl_profile_incident_power_fixed(b.profiles, j), 3 * sizeof(uint64_t));
+        total += vbnl_profile_incident_power_fixed(a.profiles, j)[0];
+        if (vbnl_profile_is_glossy(a.profiles, j))
+            assert_memory_equal(vbnl_profile_incident_map_fixed(a.profiles, j),
+                                vbnl_profile_incident_map_fixed(b.profiles, j),
+                                3 * vbnl_hemioct_texel_count(a.map) * sizeof(uint64_t));
+    }
+    assert_true(total > 0);
+    vbnl_vl_file_data_free(&a);
+    vbnl_vl_file_data_free(&b);
+    /* and renders the same image */
+    snprintf(load, sizeof(load), "load_lights=%s", merged);
+    const char *const from_merged[] = {load, NULL};
+    float *img_merged = run_ok(f, 2, from_merged);
+    assert_memory_equal(img_one, img_merged, sizeof(float) * 4 * W * H);
+    /* so does a placement loaded alone: its whole photon range is traced on it */
+    snprintf(load, sizeof(load), "load_lights=%s", place);
+    const char *const from_place[] = {load, NULL};
+    float *img_place = run_ok(f, 2, from_place);
+    assert_memory_equal(img_one, img_place, sizeof(float) * 4 * W * H);
+
+    /* a missing range, overlaps, files of another scene or preparation, only placements */
+    const char *const missing[] = {part[0], part[2]};
+    assert_int_equal(vbnl_vl_file_merge(missing, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "leave [20001, 70001)"));
+    assert_int_equal(vbnl_vl_file_merge(missing, 2, merged, 1, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "a file of that range is missing"));
+    const char *const first_two[] = {part[1], part[0]};
+    assert_int_equal(vbnl_vl_file_merge(first_two, 2, merged, 1, &hm, &err), VBNL_OK); /* partial: [0, 70001) */
+    assert_int_equal(hm.photon_count, 70001);
+    const char *const twice[] = {part[0], full};
+    assert_int_equal(vbnl_vl_file_merge(twice, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "count those photons twice"));
+    const char *const places[] = {place, place};
+    assert_int_equal(vbnl_vl_file_merge(places, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "placement without photons"));
+
+    vbnl_scene *other = ts_box_scene(f->ctx, 1.0f);
+    float c[3] = {-0.5f, 0.3f, 0.2f};
+    vbnl_scene_add_sphere(other, c, 0.2f, 0, VBNL_GROUP_WORLD, NULL, NULL);
+    assert_int_equal(vbnl_scene_commit(other, NULL), VBNL_OK);
+    char foreign[400], sk[420];
+    path_in(f, "foreign.vls", foreign, sizeof(foreign));
+    snprintf(sk, sizeof(sk), "save_lights=%s", foreign);
+    const char *const fo[] = {LIGHTS, PHOTONS, "photon_first=20001", "photon_count=50000", sk, NULL};
+    vbnl_result res;
+    free(run(f, other, 0, fo, &res, &err));
+    assert_int_equal(res, VBNL_OK);
+    vbnl_scene_destroy(other);
+    const char *const mixed[] = {part[0], foreign, part[2]};
+    assert_int_equal(vbnl_vl_file_merge(mixed, 3, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "was prepared for another scene than"));
+    /* another seed of the same scene: another preparation */
+    char seeded[400];
+    path_in(f, "seeded.vls", seeded, sizeof(seeded));
+    snprintf(sk, sizeof(sk), "save_lights=%s", seeded);
+    const char *const se[] = {LIGHTS, PHOTONS, "photon_first=20001", "photon_count=50000", sk, NULL};
+    free(run_as(f, f->scene, 0, se, W, 9, &res, &err));
+    assert_int_equal(res, VBNL_OK);
+    const char *const reseeded[] = {part[0], seeded, part[2]};
+    assert_int_equal(vbnl_vl_file_merge(reseeded, 3, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "another seed"));
+
+    /* rendering loads a placement alone, not in a list; placement_only needs save_lights */
+    char listed[1300];
+    snprintf(listed, sizeof(listed), "%s:%s", place, part[0]);
+    expect_load_error(f, NULL, listed, VBNL_ERR_INVALID_ARGUMENT, "it loads alone");
+    const char *const no_save[] = {LIGHTS, PHOTONS, "placement_only=on", NULL};
+    expect_run_error(f, NULL, no_save, W, 5, VBNL_ERR_INVALID_ARGUMENT, "save_lights is not set");
+    free(img_one);
+    free(img_merged);
+    free(img_place);
 }
 
 static int count_entries(const char *dir)
@@ -713,6 +918,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_wrong_version, setup, teardown),
         cmocka_unit_test_setup_teardown(test_other_scene, setup, teardown),
         cmocka_unit_test_setup_teardown(test_photon_ranges_merge, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_placement_then_photons, setup, teardown),
         cmocka_unit_test_setup_teardown(test_unwritable, setup, teardown),
         cmocka_unit_test_setup_teardown(test_abandoned_saves, setup_dir, teardown),
     };

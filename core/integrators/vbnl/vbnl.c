@@ -20,7 +20,11 @@
  * Saved sets (vl_file.h): save_lights writes the set and its photon data after stage 3;
  * load_lights replaces stages 1-3 by reading one file, or several of disjoint photon ranges
  * (photon_first / photon_count of the same photon_paths) whose fixed-point data are summed, which
- * equals one run bit for bit. The file's preparation parameters then replace the given ones.
+ * equals one run bit for bit. The file's preparation parameters then replace the given ones; its
+ * image size, camera and seed, and the counts the user set, must be this render's (unless
+ * reuse_lights). placement_only stops after stage 2 and saves a placement, a set without photons;
+ * loading a placement traces this process's photon range on it (stage 3), so that a farm
+ * prepares once and splits only the photons (docs/farm.md).
  * view=lights renders the set itself instead of the image (paper Figs. 7 and 13). */
 #include <stdlib.h>
 #include <string.h>
@@ -81,7 +85,14 @@ static const vbnl_param_spec vbnl_params_spec[] = {
      "write the prepared virtual-light set (lights and photon data) to this file (vl_file.h)"},
     {"load_lights", VBNL_PARAM_STRING, 0, "", 0, 0, NULL,
      "skip placement, elimination and splitting: read the set from this file, or sum the photons of "
-     "several files of disjoint photon ranges separated by ':'"},
+     "several files of disjoint photon ranges separated by ':'; a placement (placement_only) loads alone "
+     "and has its photon range traced"},
+    {"reuse_lights", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
+     "load_lights: accept a set prepared for another image size, camera or seed, or with other counts "
+     "than the ones set (refused otherwise: the image would not be this render's)"},
+    {"placement_only", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
+     "stop after placement and elimination: trace no photon and save the set to save_lights as a "
+     "placement, on which processes trace photon ranges (load_lights with photon_first/photon_count)"},
     {"photon_first", VBNL_PARAM_INT, 0, NULL, 0, 1e15, NULL,
      "first photon path this process traces (of photon_paths), to split photons across processes"},
     {"photon_count", VBNL_PARAM_INT, 0, NULL, 0, 1e15, NULL,
@@ -111,6 +122,8 @@ typedef struct vbnl_state {
     uint64_t photon_paths;
     uint64_t photon_first, photon_count; /* the range this process traces (count 0: the rest) */
     char *save_path, *load_path;         /* NULL when not given */
+    int placement_only, reuse_lights;
+    double placement_seconds, elimination_seconds; /* of stages 1-2, for the saved file */
     int view;
     float dot_scale;
     float log_rmin, log_rmax;            /* view=lights: the colour ramp's range */
@@ -190,6 +203,8 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     s->indirect_only = param(env, "indirect_only") != 0.0;
     s->photon_first = (uint64_t)param(env, "photon_first");
     s->photon_count = (uint64_t)param(env, "photon_count");
+    s->placement_only = param(env, "placement_only") != 0.0;
+    s->reuse_lights = param(env, "reuse_lights") != 0.0;
     s->view = !strcmp(vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "view"), "lights") ? VIEW_LIGHTS
                                                                                                      : VIEW_SHADED;
     s->dot_scale = (float)param(env, "dot_scale");
@@ -214,7 +229,8 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
                            "integrator 'vbnl': n_max (%g) must be greater than n_min (%g)", s->n_max, s->n_min);
     else if ((save && *save && !s->save_path) || (load && *load && !s->load_path))
         r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    else if (s->photon_first >= s->photon_paths || s->photon_count > s->photon_paths - s->photon_first)
+    else if (!s->load_path && (s->photon_first >= s->photon_paths ||
+                               s->photon_count > s->photon_paths - s->photon_first))
         r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                            "integrator 'vbnl': the photon range [photon_first = %llu, + photon_count = %llu) must "
                            "lie inside the %llu photon_paths",
@@ -224,10 +240,14 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
         r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                            "integrator 'vbnl': photon_first/photon_count split a photon_paths that is the same in "
                            "every process: set photon_paths explicitly under a time budget");
-    else if (s->load_path && (s->photon_first || s->photon_count))
+    else if (s->placement_only && (!s->save_path || s->load_path || s->photon_first || s->photon_count || sized))
         r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                           "integrator 'vbnl': photon_first/photon_count select photons to trace, but with "
-                           "load_lights none are traced");
+                           "integrator 'vbnl': placement_only saves a placement for other processes: it needs "
+                           "save_lights and takes no load_lights, photon range or time budget (%s)",
+                           !s->save_path ? "save_lights is not set"
+                           : s->load_path ? "load_lights is set"
+                           : sized        ? "a time budget is set"
+                                          : "a photon range is set");
     if (r == VBNL_OK && s->load_path) {
         pp->candidates = (uint32_t)m; /* unused: the file holds the set */
     } else if (r == VBNL_OK) {
@@ -467,41 +487,57 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
     return VBNL_OK;
 }
 
-/* Stages 1-3: placement, elimination, photon splitting of this process's photon range. */
-static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+/* FNV-1a of every parameter that shaped a set prepared here and its photons (the file's
+ * preparation fingerprint, vl_file.h): files to sum must agree on it. */
+static uint64_t preparation_fingerprint(const vbnl_state *s)
+{
+    const vbnl_prepare_params *p = &s->pp;
+    uint32_t bits[3];
+    memcpy(&bits[0], &p->specular_roughness, 4);
+    memcpy(&bits[1], &p->early_stop, 4);
+    memcpy(&bits[2], &p->radius_scale, 4);
+    const uint64_t v[] = {p->virtual_lights, p->candidates, p->tile_size, bits[0], p->max_specular_chain,
+                          (uint64_t)p->elimination, (uint64_t)(p->parallel_elimination != 0), p->neighbours,
+                          bits[1], bits[2], p->width, p->height, p->seed, s->photon_paths, s->profile_res,
+                          (uint64_t)(s->support_test != 0)};
+    return vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, v, sizeof(v));
+}
+
+/* The file header of a set prepared here from the scene (stages 1-2), before its photons. */
+static void header_of_state(const vbnl_state *s, vbnl_vl_file_header *h)
 {
     const vbnl_scene *sc = s->scene;
-    vbnl_result r = VBNL_OK;
-    if (s->budget && vbnl_budget_seconds(s->budget) > 0.0 && (r = size_to_budget(s, stage, err)) != VBNL_OK)
-        return r;
-    double t_prep = vbnl_now();
-    r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, NULL, err);
-    s->t_lights += vbnl_now() - t_prep;
-    if (r != VBNL_OK)
-        return r;
-    uint32_t n = s->vls.count;
-    uint8_t *glossy = malloc(n);
-    if (!glossy)
-        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
-    for (uint32_t j = 0; j < n; ++j)
-        glossy[j] = sc->materials[s->vls.material[j]].desc.type != VBNL_MATERIAL_LAMBERT;
-    if ((r = vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
-        r = vbnl_profile_set_create_fixed(s->map, n, glossy, vbnl_split_photon_unit(sc, s->photon_paths),
-                                          &s->profiles);
-    free(glossy);
-    if (r != VBNL_OK)
-        return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
-    if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)
-        return r;
+    memset(h, 0, sizeof(*h));
+    h->fingerprint = vbnl_scene_fingerprint(sc);
+    h->virtual_lights = s->pp.virtual_lights;
+    h->profile_resolution = s->profile_res;
+    h->photon_paths = s->photon_paths;
+    h->unit = vbnl_profile_set_unit(s->profiles);
+    h->seed = s->pp.seed;
+    h->elimination = (uint32_t)s->pp.elimination;
+    h->radius_scale = s->pp.radius_scale;
+    h->material_count = sc->material_count;
+    h->flags = s->support_test ? VBNL_VL_FILE_SUPPORT_TEST : 0u;
+    h->width = s->pp.width;
+    h->height = s->pp.height;
+    h->camera = vbnl_vl_file_camera_fingerprint(sc);
+    h->preparation = preparation_fingerprint(s);
+    h->placement_seconds = s->placement_seconds;
+    h->elimination_seconds = s->elimination_seconds;
+}
 
-    /* 3. photon splitting: paths [photon_first, photon_first + count) of the photon_paths that
-     * normalise the flux, so that the files of disjoint ranges sum to one run (splitting.h) */
+/* Stage 3: photon splitting of paths [photon_first, photon_first + count) of the photon_paths
+ * that normalise the flux, so that the files of disjoint ranges sum to one run (splitting.h);
+ * then save_lights with header `h` (its range and photon figures filled here). The set, its
+ * index and support data exist. */
+static vbnl_result split_and_save(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_vl_file_header *h, vbnl_error *err)
+{
     uint64_t count = s->photon_count ? s->photon_count : s->photon_paths - s->photon_first;
     if (stage)
         vbnl_stage_begin(stage, "photons", (double)count, "paths");
     vbnl_split_desc sd;
     vbnl_split_desc_init(&sd);
-    sd.scene = sc;
+    sd.scene = s->scene;
     sd.index = s->index;
     sd.vl_normals = s->vls.normal;
     sd.profiles = s->profiles;
@@ -513,7 +549,7 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
     sd.support = s->support;
     vbnl_split_stats sst;
     double t_split = vbnl_now();
-    r = VBNL_OK;
+    vbnl_result r = VBNL_OK;
     if (s->cal_split > 0 && s->cal_split < count) { /* the calibration: two runs, see size_to_budget */
         sd.path_count = s->cal_split;
         r = vbnl_split_photons(&sd, NULL, stage, &sst);
@@ -533,28 +569,87 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
         return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "photon splitting was cancelled"
                                                               : "photon splitting failed (%s)",
                               vbnl_result_name(r));
-    if (s->save_path) {
-        vbnl_vl_file_header h;
-        memset(&h, 0, sizeof(h));
-        h.fingerprint = vbnl_scene_fingerprint(sc);
-        h.virtual_lights = s->pp.virtual_lights;
-        h.profile_resolution = s->profile_res;
-        h.photon_paths = s->photon_paths;
-        h.photon_first = s->photon_first;
-        h.photon_count = count;
-        h.unit = vbnl_profile_set_unit(s->profiles);
-        h.seed = s->pp.seed;
-        h.elimination = (uint32_t)s->pp.elimination;
-        h.radius_scale = s->pp.radius_scale;
-        h.material_count = sc->material_count;
-        h.flags = s->support ? VBNL_VL_FILE_SUPPORT_TEST : 0u;
-        if ((r = vbnl_vl_file_save(s->save_path, &h, &s->vls, s->profiles, err)) != VBNL_OK)
-            return r;
-    }
+    h->photon_first = s->photon_first;
+    h->photon_count = count;
+    h->photon_seconds = s->t_photons;
+    h->photon_rays = (double)sst.rays;
+    return s->save_path ? vbnl_vl_file_save(s->save_path, h, &s->vls, s->profiles, err) : VBNL_OK;
+}
+
+/* Stages 1-3: placement, elimination, photon splitting of this process's photon range; with
+ * placement_only, stages 1-2 saved as a placement. */
+static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    const vbnl_scene *sc = s->scene;
+    vbnl_result r = VBNL_OK;
+    if (s->budget && vbnl_budget_seconds(s->budget) > 0.0 && (r = size_to_budget(s, stage, err)) != VBNL_OK)
+        return r;
+    double t_prep = vbnl_now();
+    vbnl_prepare_stats ps;
+    r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, &ps, err);
+    s->t_lights += vbnl_now() - t_prep;
+    s->placement_seconds = ps.seconds[0];
+    s->elimination_seconds = ps.seconds[1];
+    if (r != VBNL_OK)
+        return r;
+    uint32_t n = s->vls.count;
+    uint8_t *glossy = malloc(n);
+    if (!glossy)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
+    for (uint32_t j = 0; j < n; ++j)
+        glossy[j] = sc->materials[s->vls.material[j]].desc.type != VBNL_MATERIAL_LAMBERT;
+    if ((r = vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
+        r = vbnl_profile_set_create_fixed(s->map, n, glossy, vbnl_split_photon_unit(sc, s->photon_paths),
+                                          &s->profiles);
+    free(glossy);
+    if (r != VBNL_OK)
+        return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
+    vbnl_vl_file_header h; /* only a saved set needs it (the scene's fingerprint reads all its geometry) */
+    memset(&h, 0, sizeof(h));
+    if (s->save_path)
+        header_of_state(s, &h);
+    if (s->placement_only) /* photon range [0, 0): other processes trace the photons */
+        return vbnl_vl_file_save(s->save_path, &h, &s->vls, s->profiles, err);
+    if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)
+        return r;
+    return split_and_save(s, stage, &h, err);
+}
+
+/* A loaded set must have been prepared for this render: the same image size, camera and seed,
+ * and the counts the user set (unless reuse_lights). The file's other preparation parameters
+ * replace the given ones. */
+static vbnl_result check_loaded(const vbnl_state *s, const vbnl_vl_file_header *h, vbnl_error *err)
+{
+    const char *fix = "prepare the lights for this render, or set reuse_lights=on to render them anyway";
+    if (h->width != s->pp.width || h->height != s->pp.height)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "load_lights: '%s' was prepared for a %ux%u image, this render is %ux%u: %s",
+                              s->load_path, h->width, h->height, s->pp.width, s->pp.height, fix);
+    if (h->camera != vbnl_vl_file_camera_fingerprint(s->scene))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "load_lights: '%s' was prepared for another camera (fingerprint %016llx, this "
+                              "render's %016llx): %s",
+                              s->load_path, (unsigned long long)h->camera,
+                              (unsigned long long)vbnl_vl_file_camera_fingerprint(s->scene), fix);
+    if (h->seed != s->pp.seed)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "load_lights: '%s' was prepared with seed %llu, this render has seed %llu: %s",
+                              s->load_path, (unsigned long long)h->seed, (unsigned long long)s->pp.seed, fix);
+    if (s->lights_set && h->virtual_lights != s->pp.virtual_lights)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "load_lights: '%s' was prepared with virtual_lights=%u, this render sets %u: %s",
+                              s->load_path, h->virtual_lights, s->pp.virtual_lights, fix);
+    if (s->paths_set && h->photon_paths != s->photon_paths)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "load_lights: '%s' was prepared with photon_paths=%llu, this render sets %llu: %s",
+                              s->load_path, (unsigned long long)h->photon_paths,
+                              (unsigned long long)s->photon_paths, fix);
     return VBNL_OK;
 }
 
-/* Instead of stages 1-3: the set and its photon data from load_lights (vl_file.h). */
+/* Instead of stages 1-3: the set and its photon data from load_lights (vl_file.h). A placement
+ * has the photon range [photon_first, + photon_count) traced on it (stage 3), and is saved with
+ * it when save_lights is set. */
 static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     if (s->budget && vbnl_budget_seconds(s->budget) > 0.0)
@@ -567,6 +662,26 @@ static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_
         vbnl_stage_end(stage);
     if (r != VBNL_OK)
         return r;
+    const int placement = d.header.photon_count == 0;
+    if (r == VBNL_OK && !s->reuse_lights)
+        r = check_loaded(s, &d.header, err);
+    if (r == VBNL_OK && !placement && (s->photon_first || s->photon_count))
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': photon_first/photon_count trace photons on a placement "
+                           "(placement_only), but '%s' holds photon paths [%llu, %llu) already",
+                           s->load_path, (unsigned long long)d.header.photon_first,
+                           (unsigned long long)(d.header.photon_first + d.header.photon_count));
+    if (r == VBNL_OK && placement &&
+        (s->photon_first >= d.header.photon_paths || s->photon_count > d.header.photon_paths - s->photon_first))
+        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                           "integrator 'vbnl': the photon range [photon_first = %llu, + photon_count = %llu) must "
+                           "lie inside the %llu photon_paths of the placement '%s'",
+                           (unsigned long long)s->photon_first, (unsigned long long)s->photon_count,
+                           (unsigned long long)d.header.photon_paths, s->load_path);
+    if (r != VBNL_OK) {
+        vbnl_vl_file_data_free(&d);
+        return r;
+    }
     /* the file's preparation parameters replace the ones given */
     s->vls = d.vls;
     s->map = d.map;
@@ -580,6 +695,8 @@ static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_
     s->support_test = (d.header.flags & VBNL_VL_FILE_SUPPORT_TEST) != 0; /* as the photons were split */
     if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)
         return r;
+    if (placement)
+        return split_and_save(s, stage, &d.header, err);
     if (s->save_path) { /* e.g. several photon ranges summed into one file */
         d.header.fingerprint = vbnl_scene_fingerprint(s->scene);
         r = vbnl_vl_file_save(s->save_path, &d.header, &s->vls, s->profiles, err);
@@ -591,8 +708,8 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
 {
     vbnl_state *s = state;
     vbnl_result r = s->load_path ? prepare_from_file(s, stage, err) : prepare_from_scene(s, stage, err);
-    if (r != VBNL_OK)
-        return r;
+    if (r != VBNL_OK || s->placement_only)
+        return r; /* a placement is saved, not rendered: no light has any power yet */
     uint32_t n = s->vls.count;
 
     /* 4. profiles: power table (and the eager conversion) */

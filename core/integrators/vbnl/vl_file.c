@@ -29,16 +29,18 @@ uint64_t vbnl_vl_file_hash(uint64_t h, const void *data, size_t n)
 
 static size_t pad8(size_t n) { return (8 - n % 8) % 8; }
 
-/* Bytes of a file of this version with these counts (0 on overflow). */
-static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res)
+/* Bytes of a file of this version with these counts (0 on overflow); a placement (no photon
+ * path) stores no incident data. */
+static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res, uint64_t photons)
 {
     if (count > UINT32_MAX || glossy > count || res > 64)
         return 0;
     uint64_t per = 12 + 12 + 4 + 12 + 4 + 4 + 1;
     uint64_t n = VBNL_VL_FILE_HEADER_SIZE + count * per;
     n += pad8((size_t)(count % 8));
-    n += count * 24 + glossy * res * res * 24 + 8;
-    return n;
+    if (photons)
+        n += count * 24 + glossy * res * res * 24;
+    return n + 8;
 }
 
 /* ---- header (explicit offsets, no struct padding in the file) ---------------------------------- */
@@ -68,6 +70,15 @@ static void header_encode(unsigned char b[VBNL_VL_FILE_HEADER_SIZE], const vbnl_
     put(b, 84, &h->radius_scale, 4);
     put(b, 88, &h->material_count, 4);
     put(b, 92, &h->flags, 4);
+    put(b, 96, &h->width, 4);
+    put(b, 100, &h->height, 4);
+    put(b, 104, &h->camera, 8);
+    put(b, 112, &h->preparation, 8);
+    put(b, 120, &h->set, 8);
+    put(b, 128, &h->placement_seconds, 8);
+    put(b, 136, &h->elimination_seconds, 8);
+    put(b, 144, &h->photon_seconds, 8);
+    put(b, 152, &h->photon_rays, 8);
 }
 
 static void header_decode(const unsigned char *b, vbnl_vl_file_header *h, uint32_t *count, uint32_t *glossy)
@@ -88,6 +99,31 @@ static void header_decode(const unsigned char *b, vbnl_vl_file_header *h, uint32
     get(b, 84, &h->radius_scale, 4);
     get(b, 88, &h->material_count, 4);
     get(b, 92, &h->flags, 4);
+    get(b, 96, &h->width, 4);
+    get(b, 100, &h->height, 4);
+    get(b, 104, &h->camera, 8);
+    get(b, 112, &h->preparation, 8);
+    get(b, 120, &h->set, 8);
+    get(b, 128, &h->placement_seconds, 8);
+    get(b, 136, &h->elimination_seconds, 8);
+    get(b, 144, &h->photon_seconds, 8);
+    get(b, 152, &h->photon_rays, 8);
+    h->count = *count;
+    h->glossy_count = *glossy;
+}
+
+/* The set fingerprint: the arrays as the file stores them, up to the glossy flags. */
+static uint64_t set_fingerprint(const vbnl_vl_set *vls, const uint8_t *glossy)
+{
+    const size_t n = vls->count;
+    uint64_t h = VBNL_VL_FILE_HASH_INIT;
+    h = vbnl_vl_file_hash(h, vls->position, sizeof(vec3) * n);
+    h = vbnl_vl_file_hash(h, vls->normal, sizeof(vec3) * n);
+    h = vbnl_vl_file_hash(h, vls->material, sizeof(uint32_t) * n);
+    h = vbnl_vl_file_hash(h, vls->tint, sizeof(vec3) * n);
+    h = vbnl_vl_file_hash(h, vls->radius, sizeof(float) * n);
+    h = vbnl_vl_file_hash(h, vls->density, sizeof(float) * n);
+    return vbnl_vl_file_hash(h, glossy, n);
 }
 
 /* ---- writing ------------------------------------------------------------------------------ */
@@ -151,8 +187,10 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
         free(glossy);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
     }
+    vbnl_vl_file_header hw = *h;
+    hw.set = set_fingerprint(vls, glossy);
     unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
-    header_encode(hb, h, n, n_glossy);
+    header_encode(hb, &hw, n, n_glossy);
     w_bytes(&w, hb, sizeof(hb));
     w_bytes(&w, vls->position, sizeof(vec3) * (size_t)n);
     w_bytes(&w, vls->normal, sizeof(vec3) * (size_t)n);
@@ -161,9 +199,9 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     w_bytes(&w, vls->radius, sizeof(float) * (size_t)n);
     w_bytes(&w, vls->density, sizeof(float) * (size_t)n);
     w_bytes(&w, glossy, (size_t)n + pad8(n));
-    for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t j = 0; h->photon_count && j < n; ++j) /* a placement has none yet */
         w_bytes(&w, vbnl_profile_incident_power_fixed(profiles, j), 3 * sizeof(uint64_t));
-    for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t j = 0; h->photon_count && j < n; ++j)
         if (glossy[j])
             w_bytes(&w, vbnl_profile_incident_map_fixed(profiles, j), 3 * texels * sizeof(uint64_t));
     uint64_t sum = w.hash;
@@ -245,7 +283,7 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
     header_decode(hb, h, count, glossy);
     if (stored != hash) {
         uint64_t want = got == sizeof(hb) && h->version == VBNL_VL_FILE_VERSION
-                            ? file_size(*count, *glossy, h->profile_resolution)
+                            ? file_size(*count, *glossy, h->profile_resolution, h->photon_count)
                             : 0;
         if (want > size)
             return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (truncated: %llu of %llu bytes)",
@@ -256,7 +294,8 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
         return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' was written by format version %u; this build reads version %u",
                               r->path, h->version, VBNL_VL_FILE_VERSION);
     int e;
-    if (got != sizeof(hb) || file_size(*count, *glossy, h->profile_resolution) != size || *count == 0 ||
+    if (got != sizeof(hb) || file_size(*count, *glossy, h->profile_resolution, h->photon_count) != size ||
+        *count == 0 ||
         (h->profile_resolution != 8 && h->profile_resolution != 16 && h->profile_resolution != 32) ||
         !(h->unit > 0.0) || frexp(h->unit, &e) != 0.5 || h->photon_paths == 0 ||
         h->photon_first > h->photon_paths || h->photon_count > h->photon_paths - h->photon_first)
@@ -264,28 +303,78 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
     return VBNL_OK;
 }
 
-/* Reads one file into `d` (creating d->map when NULL, else requiring its resolution). */
-static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_file_data *d, vbnl_error *err)
+/* Opens `path` for reading: a regular file, its size in *size. */
+static vbnl_result open_file(const char *path, reader *r, uint64_t *size, vbnl_error *err)
 {
-    reader r = {fopen(path, "rb"), path, err};
-    if (!r.f)
+    r->f = fopen(path, "rb");
+    r->path = path;
+    r->err = err;
+    if (!r->f)
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
     struct stat st;
-    if (fstat(fileno(r.f), &st) != 0 || !S_ISREG(st.st_mode)) {
-        fclose(r.f);
+    if (fstat(fileno(r->f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        fclose(r->f);
+        r->f = NULL;
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': not a regular file", path);
     }
+    *size = (uint64_t)st.st_size;
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_header *out, vbnl_error *err)
+{
+    if (!path || !out)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_read_header: NULL argument");
+    memset(out, 0, sizeof(*out));
+    reader r;
+    uint64_t size;
+    vbnl_result res = open_file(path, &r, &size, err);
+    if (res != VBNL_OK)
+        return res;
+    uint32_t n = 0, glossy = 0;
+    if (verify) {
+        res = check_file(&r, size, out, &n, &glossy);
+    } else {
+        unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
+        uint32_t mark = 0;
+        if (fread(hb, 1, sizeof(hb), r.f) != sizeof(hb) || memcmp(hb, VBNL_VL_FILE_MAGIC, 8) != 0)
+            res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is not a virtual-light file", path);
+        if (res == VBNL_OK) {
+            get(hb, 12, &mark, 4);
+            header_decode(hb, out, &n, &glossy);
+            if (mark != BYTE_ORDER_MARK || out->version != VBNL_VL_FILE_VERSION ||
+                file_size(n, glossy, out->profile_resolution, out->photon_count) != size)
+                res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged or of another version", path);
+        }
+    }
+    fclose(r.f);
+    if (res != VBNL_OK)
+        memset(out, 0, sizeof(*out));
+    return res;
+}
+
+/* Reads one file into `d` (creating d->map when NULL, else requiring its resolution). With a
+ * scene, the file must belong to it; without one (merging files), its own material count bounds
+ * the lights' materials and the callers compare the files with each other. */
+static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_file_data *d, vbnl_error *err)
+{
+    reader r;
+    uint64_t size;
+    vbnl_result res = open_file(path, &r, &size, err);
+    if (res != VBNL_OK)
+        return res;
     uint32_t n = 0, n_glossy = 0;
     vbnl_vl_file_header *h = &d->header;
-    vbnl_result res = check_file(&r, (uint64_t)st.st_size, h, &n, &n_glossy);
-    uint64_t fp = vbnl_scene_fingerprint(scene);
+    res = check_file(&r, size, h, &n, &n_glossy);
+    uint64_t fp = scene ? vbnl_scene_fingerprint(scene) : h->fingerprint;
+    const uint32_t materials = scene ? scene->material_count : h->material_count;
     if (res == VBNL_OK && h->fingerprint != fp)
         res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                              "'%s' was prepared for another scene (fingerprint %016llx, this scene %016llx)", path,
                              (unsigned long long)h->fingerprint, (unsigned long long)fp);
-    if (res == VBNL_OK && h->material_count != scene->material_count)
+    if (res == VBNL_OK && h->material_count != materials)
         res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (material count %u, the scene has %u)", path,
-                             h->material_count, scene->material_count);
+                             h->material_count, materials);
     if (res == VBNL_OK && fseeko(r.f, VBNL_VL_FILE_HEADER_SIZE, SEEK_SET) != 0)
         res = vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
     if (res == VBNL_OK && !d->map && vbnl_hemioct_create(h->profile_resolution, &d->map) != VBNL_OK)
@@ -311,13 +400,13 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
         (res = r_bytes(&r, d->vls.tint, sizeof(vec3) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.radius, sizeof(float) * (size_t)n)) == VBNL_OK &&
         (res = r_bytes(&r, d->vls.density, sizeof(float) * (size_t)n)) == VBNL_OK &&
-        (res = r_bytes(&r, glossy, (size_t)n + pad8(n))) == VBNL_OK)
+        (res = r_bytes(&r, glossy, (size_t)n + pad8(n))) == VBNL_OK && h->photon_count)
         res = r_bytes(&r, phi, 3 * sizeof(uint64_t) * (size_t)n);
     if (res == VBNL_OK) {
         uint32_t g = 0;
         for (uint32_t j = 0; j < n && res == VBNL_OK; ++j) {
             g += glossy[j] != 0;
-            if (d->vls.material[j] >= scene->material_count || glossy[j] > 1 || !(d->vls.radius[j] > 0.0f) ||
+            if (d->vls.material[j] >= materials || glossy[j] > 1 || !(d->vls.radius[j] > 0.0f) ||
                 !(d->vls.tint[j].x >= 0.0f && d->vls.tint[j].y >= 0.0f && d->vls.tint[j].z >= 0.0f) ||
                 !v3_is_finite(d->vls.tint[j]) ||
                 !isfinite(d->vls.position[j].x + d->vls.position[j].y + d->vls.position[j].z))
@@ -325,11 +414,13 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
         }
         if (res == VBNL_OK && g != n_glossy)
             res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (glossy count)", path);
+        if (res == VBNL_OK && set_fingerprint(&d->vls, glossy) != h->set)
+            res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (set fingerprint)", path);
     }
     if (res == VBNL_OK &&
         vbnl_profile_set_create_fixed(d->map, n, glossy, h->unit, &d->profiles) != VBNL_OK)
         res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory for %u profiles", path, n);
-    for (uint32_t j = 0; j < n && res == VBNL_OK; ++j) {
+    for (uint32_t j = 0; j < n && res == VBNL_OK && h->photon_count; ++j) { /* a placement: all zero */
         if (glossy[j])
             res = r_bytes(&r, map, 3 * sizeof(uint64_t) * texels);
         if (res == VBNL_OK && vbnl_profile_set_import_fixed(d->profiles, j, phi + 3 * (size_t)j,
@@ -353,21 +444,30 @@ void vbnl_vl_file_data_free(vbnl_vl_file_data *d)
     memset(d, 0, sizeof(*d));
 }
 
-/* Two files hold the same set: same preparation and identical arrays, bit for bit. */
-static int same_set(const vbnl_vl_file_data *a, const vbnl_vl_file_data *b)
+/* Why two files cannot be summed, or NULL when they hold the same set: the same scene,
+ * preparation and arrays, bit for bit. */
+static const char *set_difference(const vbnl_vl_file_data *a, const vbnl_vl_file_data *b)
 {
     const vbnl_vl_file_header *x = &a->header, *y = &b->header;
     size_t n = a->vls.count;
-    if (x->fingerprint != y->fingerprint || x->virtual_lights != y->virtual_lights ||
+    if (x->fingerprint != y->fingerprint || x->material_count != y->material_count)
+        return "another scene";
+    if (x->width != y->width || x->height != y->height || x->camera != y->camera)
+        return "another image size or camera";
+    if (x->seed != y->seed)
+        return "another seed";
+    if (x->preparation != y->preparation || x->virtual_lights != y->virtual_lights ||
         x->profile_resolution != y->profile_resolution || x->photon_paths != y->photon_paths ||
-        x->unit != y->unit || x->seed != y->seed || x->flags != y->flags || a->vls.count != b->vls.count)
-        return 0;
-    return !memcmp(a->vls.position, b->vls.position, sizeof(vec3) * n) &&
-           !memcmp(a->vls.normal, b->vls.normal, sizeof(vec3) * n) &&
-           !memcmp(a->vls.material, b->vls.material, sizeof(uint32_t) * n) &&
-           !memcmp(a->vls.tint, b->vls.tint, sizeof(vec3) * n) &&
-           !memcmp(a->vls.radius, b->vls.radius, sizeof(float) * n) &&
-           !memcmp(a->vls.density, b->vls.density, sizeof(float) * n);
+        x->unit != y->unit || x->flags != y->flags)
+        return "other preparation parameters";
+    if (a->vls.count != b->vls.count || x->set != y->set ||
+        memcmp(a->vls.position, b->vls.position, sizeof(vec3) * n) ||
+        memcmp(a->vls.normal, b->vls.normal, sizeof(vec3) * n) ||
+        memcmp(a->vls.material, b->vls.material, sizeof(uint32_t) * n) ||
+        memcmp(a->vls.tint, b->vls.tint, sizeof(vec3) * n) || memcmp(a->vls.radius, b->vls.radius, sizeof(float) * n) ||
+        memcmp(a->vls.density, b->vls.density, sizeof(float) * n))
+        return "other lights from the same parameters";
+    return NULL;
 }
 
 typedef struct range {
@@ -381,6 +481,124 @@ static int range_cmp(const void *pa, const void *pb)
     return a->first < b->first ? -1 : a->first > b->first;
 }
 
+/* How the photon ranges of a list must fit together. */
+typedef enum cover_mode {
+    COVER_RENDER,    /* [0, photon_paths) exactly once; a placement only alone (it is returned as is) */
+    COVER_ALL,       /* [0, photon_paths) exactly once; placements add nothing */
+    COVER_CONTIGUOUS /* one contiguous part of it, at least one path; placements add nothing */
+} cover_mode;
+
+/* Loads and sums `n` files (a scene checks each against itself; without one they are compared with
+ * the first). On success out->header holds the union range and the photon figures summed. */
+static vbnl_result load_list(const char *const *paths, uint32_t n, const vbnl_scene *scene, cover_mode mode,
+                             vbnl_vl_file_data *out, vbnl_error *err)
+{
+    memset(out, 0, sizeof(*out));
+    if (n == 0)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "no virtual-light file given");
+    range *ranges = malloc(sizeof(range) * n);
+    if (!ranges)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    vbnl_result res = load_one(paths[0], scene, out, err);
+    size_t files = 0;
+    if (res == VBNL_OK)
+        ranges[files++] = (range){out->header.photon_first, out->header.photon_count, paths[0]};
+    if (res == VBNL_OK && mode == COVER_RENDER && n == 1 && out->header.photon_count == 0) {
+        free(ranges); /* a placement, loaded as it is: its loader traces the photons */
+        return VBNL_OK;
+    }
+    for (uint32_t i = 1; i < n && res == VBNL_OK; ++i) {
+        vbnl_vl_file_data more;
+        memset(&more, 0, sizeof(more));
+        more.map = out->map; /* borrowed: the same resolution is required */
+        res = load_one(paths[i], scene, &more, err);
+        const char *why = res == VBNL_OK ? set_difference(out, &more) : NULL;
+        if (why && !strcmp(why, "another scene"))
+            res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                 "'%s' was prepared for another scene than '%s' (scene fingerprint %016llx, not "
+                                 "%016llx): files to sum must come from one preparation",
+                                 paths[i], paths[0], (unsigned long long)more.header.fingerprint,
+                                 (unsigned long long)out->header.fingerprint);
+        else if (why)
+            res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                 "'%s' holds another virtual-light set than '%s' (%s): files to sum must come from "
+                                 "one preparation (same scene, parameters, seed, image size and camera)",
+                                 paths[i], paths[0], why);
+        if (res == VBNL_OK) {
+            vbnl_result m = vbnl_profile_set_merge(out->profiles, more.profiles);
+            if (m != VBNL_OK)
+                res = vbnl_error_set(err, m, "cannot sum the photons of '%s' and '%s' (%s)", paths[0], paths[i],
+                                     vbnl_result_name(m));
+        }
+        if (res == VBNL_OK) {
+            ranges[files++] = (range){more.header.photon_first, more.header.photon_count, paths[i]};
+            out->header.photon_seconds += more.header.photon_seconds;
+            out->header.photon_rays += more.header.photon_rays;
+        }
+        more.map = NULL;
+        vbnl_vl_file_data_free(&more);
+    }
+    /* The fluxes were divided by photon_paths (all ranges together, splitting.h): only ranges
+     * that cover [0, photon_paths) exactly once give the right normalisation. Placements (empty
+     * ranges) add nothing. */
+    uint64_t begin = 0, end = 0, total = out->header.photon_paths, gap_end = total;
+    int any = 0;
+    if (res == VBNL_OK) {
+        qsort(ranges, files, sizeof(range), range_cmp);
+        const char *last = NULL;
+        for (size_t k = 0; k < files && res == VBNL_OK; ++k) {
+            if (ranges[k].count == 0) {
+                if (mode == COVER_RENDER)
+                    res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                         "'%s' is a placement without photons: it loads alone (its photons are then "
+                                         "traced), not in a list of photon ranges",
+                                         ranges[k].path);
+                continue;
+            }
+            if (!any && mode == COVER_CONTIGUOUS)
+                begin = end = ranges[k].first;
+            any = 1;
+            if (ranges[k].first < end) {
+                res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                     "'%s' and '%s' both hold photon paths from %llu on: summing them would count "
+                                     "those photons twice",
+                                     last, ranges[k].path, (unsigned long long)ranges[k].first);
+            } else if (ranges[k].first > end) {
+                if (mode != COVER_CONTIGUOUS) {
+                    gap_end = ranges[k].first;
+                    break;
+                }
+                res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                     "the photon ranges leave [%llu, %llu) out between '%s' and '%s': a file of that "
+                                     "range is missing",
+                                     (unsigned long long)end, (unsigned long long)ranges[k].first, last,
+                                     ranges[k].path);
+            } else {
+                end = ranges[k].first + ranges[k].count;
+                last = ranges[k].path;
+            }
+        }
+    }
+    if (res == VBNL_OK && !any)
+        res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                             "'%s'%s a placement without photons: trace photon ranges on it first (`vbnl photons`)",
+                             paths[0], n > 1 ? " and the other files are" : " is");
+    if (res == VBNL_OK && mode != COVER_CONTIGUOUS && end != total) {
+        res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                             "the photon paths of these files leave [%llu, %llu) of the %llu paths of the "
+                             "normalisation untraced: give the files of all photon ranges together",
+                             (unsigned long long)end, (unsigned long long)gap_end, (unsigned long long)total);
+    }
+    if (res == VBNL_OK) {
+        out->header.photon_first = begin;
+        out->header.photon_count = end - begin;
+    }
+    free(ranges);
+    if (res != VBNL_OK)
+        vbnl_vl_file_data_free(out);
+    return res;
+}
+
 vbnl_result vbnl_vl_file_load(const char *paths, const vbnl_scene *scene, vbnl_vl_file_data *out, vbnl_error *err)
 {
     if (out)
@@ -391,73 +609,53 @@ vbnl_result vbnl_vl_file_load(const char *paths, const vbnl_scene *scene, vbnl_v
     size_t cap = 1;
     for (const char *c = paths; *c; ++c)
         cap += *c == ':';
-    range *ranges = malloc(sizeof(range) * cap);
-    if (!list || !ranges) {
+    const char **names = malloc(sizeof(*names) * cap);
+    if (!list || !names) {
         free(list);
-        free(ranges);
+        free(names);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     }
-    vbnl_result res = VBNL_OK;
-    size_t files = 0;
+    uint32_t n = 0;
     char *save = NULL;
-    for (char *path = strtok_r(list, ":", &save); path && res == VBNL_OK; path = strtok_r(NULL, ":", &save)) {
-        if (files == 0) {
-            if ((res = load_one(path, scene, out, err)) == VBNL_OK)
-                ranges[files++] = (range){out->header.photon_first, out->header.photon_count, path};
-            continue;
-        }
-        vbnl_vl_file_data more;
-        memset(&more, 0, sizeof(more));
-        more.map = out->map; /* borrowed: the same resolution is required */
-        res = load_one(path, scene, &more, err);
-        if (res == VBNL_OK && !same_set(out, &more))
-            res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                 "'%s' holds another virtual-light set than '%s' (files to sum must come from one "
-                                 "preparation: same scene, parameters and seed)",
-                                 path, ranges[0].path);
-        if (res == VBNL_OK) {
-            vbnl_result m = vbnl_profile_set_merge(out->profiles, more.profiles);
-            if (m != VBNL_OK)
-                res = vbnl_error_set(err, m, "cannot sum the photons of '%s' and '%s' (%s)", ranges[0].path, path,
-                                     vbnl_result_name(m));
-        }
-        if (res == VBNL_OK)
-            ranges[files++] = (range){more.header.photon_first, more.header.photon_count, path};
-        more.map = NULL;
-        vbnl_vl_file_data_free(&more);
-    }
-    if (res == VBNL_OK && files == 0)
-        res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "load_lights: no file in '%s'", paths);
-    if (res == VBNL_OK) {
-        /* The fluxes were divided by photon_paths (all ranges together, splitting.h): only ranges
-         * that cover [0, photon_paths) exactly once give the right normalisation. */
-        qsort(ranges, files, sizeof(range), range_cmp);
-        uint64_t end = 0, total = out->header.photon_paths, gap_end = total;
-        for (size_t k = 0; k < files && res == VBNL_OK; ++k) {
-            if (ranges[k].first < end)
-                res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                     "'%s' and '%s' both hold photon paths from %llu on: summing them would count "
-                                     "those photons twice",
-                                     ranges[k - 1].path, ranges[k].path, (unsigned long long)ranges[k].first);
-            else if (ranges[k].first > end) {
-                gap_end = ranges[k].first;
-                break;
-            }
-            else
-                end = ranges[k].first + ranges[k].count;
-        }
-        if (res == VBNL_OK && end != total)
-            res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                 "the photon paths of '%s' leave [%llu, %llu) of the %llu paths of the "
-                                 "normalisation untraced: load the files of all photon ranges together",
-                                 paths, (unsigned long long)end, (unsigned long long)gap_end,
-                                 (unsigned long long)total);
-        out->header.photon_first = 0;
-        out->header.photon_count = end;
-    }
-    free(ranges);
+    for (char *path = strtok_r(list, ":", &save); path; path = strtok_r(NULL, ":", &save))
+        names[n++] = path;
+    vbnl_result res = n ? load_list(names, n, scene, COVER_RENDER, out, err)
+                        : vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "load_lights: no file in '%s'", paths);
+    free(names);
     free(list);
-    if (res != VBNL_OK)
-        vbnl_vl_file_data_free(out);
     return res;
+}
+
+vbnl_result vbnl_vl_file_merge(const char *const *paths, uint32_t n, const char *out_path, int partial,
+                               vbnl_vl_file_header *merged, vbnl_error *err)
+{
+    if (merged)
+        memset(merged, 0, sizeof(*merged));
+    if (!paths || !out_path || !*out_path)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_merge: NULL argument");
+    vbnl_vl_file_data d;
+    vbnl_result res = load_list(paths, n, NULL, partial ? COVER_CONTIGUOUS : COVER_ALL, &d, err);
+    if (res != VBNL_OK)
+        return res;
+    res = vbnl_vl_file_save(out_path, &d.header, &d.vls, d.profiles, err);
+    if (res == VBNL_OK && merged)
+        *merged = d.header;
+    vbnl_vl_file_data_free(&d);
+    return res;
+}
+
+/* ---- fingerprints ----------------------------------------------------------------------------- */
+
+uint64_t vbnl_vl_file_scene_fingerprint(const vbnl_scene *scene) { return vbnl_scene_fingerprint(scene); }
+
+uint64_t vbnl_vl_file_camera_fingerprint(const vbnl_scene *scene)
+{
+    if (!scene || !scene->committed)
+        return 0;
+    const vbnl_camera_desc *c = &scene->camera;
+    uint64_t h = VBNL_VL_FILE_HASH_INIT;
+    h = vbnl_vl_file_hash(h, c->position, sizeof(c->position));
+    h = vbnl_vl_file_hash(h, c->forward, sizeof(c->forward));
+    h = vbnl_vl_file_hash(h, c->right, sizeof(c->right));
+    return vbnl_vl_file_hash(h, c->up, sizeof(c->up));
 }

@@ -203,6 +203,64 @@ static void test_float_roundtrip_layers_and_attrs(void **state)
     free(depth);
 }
 
+/* ---- a part of an image: data window inside the display window ---- */
+
+static void test_data_window(void **state)
+{
+    fixture *f = *state;
+    /* the window starts at row 17 (not a multiple of ZIP's 16 lines) and ends inside a chunk */
+    const uint32_t DW = 20, DH = 60, win[4] = {3, 17, 11, 50};
+    const uint32_t w = win[2] - win[0], h = win[3] - win[1];
+    float *beauty = make_data(w, h, 4, 0.25f);
+    float *depth = make_data(w, h, 1, 7.0f);
+    static const char *const z[] = {"Z"};
+    const vbnl_image_layer layers[] = {{"", 4, NULL, beauty}, {"depth", 1, z, depth}};
+    const vbnl_image_attr attr = {.name = "vbnl/crop", .type = VBNL_IMAGE_ATTR_STRING, .value.s = "3,17,11,50"};
+    TMP_PATH(p, "part.exr");
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_exr_write_window(p, DW, DH, win, layers, 2, &attr, 1, 0, &err), VBNL_OK);
+    vbnl_exr_image img;
+    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
+    assert_int_equal(img.width, w);
+    assert_int_equal(img.height, h);
+    assert_int_equal(img.data_x, 3);
+    assert_int_equal(img.data_y, 17);
+    assert_int_equal(img.display_x, 0);
+    assert_int_equal(img.display_y, 0);
+    assert_int_equal(img.display_width, DW);
+    assert_int_equal(img.display_height, DH);
+    static const char *const names[] = {"R", "G", "B", "A"};
+    for (uint32_t c = 0; c < 4; c++) {
+        const vbnl_exr_channel *ch = vbnl_exr_image_channel(&img, names[c]);
+        assert_non_null(ch);
+        for (uint32_t i = 0; i < w * h; i++)
+            assert_true(same_bits(ch->data[i], beauty[i * 4 + c]));
+    }
+    const vbnl_exr_channel *zc = vbnl_exr_image_channel(&img, "depth.Z");
+    assert_non_null(zc);
+    for (uint32_t i = 0; i < w * h; i++)
+        assert_true(same_bits(zc->data[i], depth[i]));
+    assert_string_equal(vbnl_exr_image_attr(&img, "vbnl/crop")->value.s, "3,17,11,50");
+    vbnl_exr_image_free(&img);
+    /* a whole image reads back with its display window equal to the data window */
+    assert_int_equal(vbnl_exr_write(p, w, h, layers, 2, NULL, 0, 0, &err), VBNL_OK);
+    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
+    assert_int_equal(img.display_width, w);
+    assert_int_equal(img.display_height, h);
+    vbnl_exr_image_free(&img);
+    /* windows that are empty or reach outside */
+    const uint32_t outside[4] = {3, 17, 21, 50}, empty[4] = {3, 17, 3, 50};
+    TMP_PATH(q, "bad.exr");
+    assert_int_equal(vbnl_exr_write_window(q, DW, DH, outside, layers, 2, NULL, 0, 0, &err),
+                     VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "data window"));
+    assert_int_equal(vbnl_exr_write_window(q, DW, DH, empty, layers, 2, NULL, 0, 0, &err),
+                     VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(count_entries(f->dir), 1);
+    free(beauty);
+    free(depth);
+}
+
 /* ---- HALF: within half precision ---- */
 
 static void test_half_roundtrip(void **state)
@@ -777,6 +835,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_float_roundtrip_layers_and_attrs, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_data_window, setup, teardown),
         cmocka_unit_test_setup_teardown(test_half_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_half_rgba_channel_order, setup, teardown),
         cmocka_unit_test_setup_teardown(test_read_foreign_tiled, setup, teardown),
