@@ -33,6 +33,7 @@ struct vbnl_sdl_function {
     bool block;       /* pattern/pigment function: not evaluable here */
     bool internal;    /* POV-Ray internal(N) */
     bool warned;
+    bool detached;    /* a standalone copy (vbnl_sdl_function_detach): plain malloc, no parser */
     vbnl_sdl_loc loc;
 };
 
@@ -440,7 +441,7 @@ static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, 
 static double call_user(fn_eval *e, vbnl_sdl_function *g, const double *args, int nargs)
 {
     if (g->block || g->internal || g->root < 0) {
-        if (!g->warned) {
+        if (e->p && !g->warned) {
             g->warned = true;
             sdl_warnf(e->p, &g->loc, "%s function evaluated as 0 (needs the object layer)",
                       g->internal ? "internal" : "pattern");
@@ -455,7 +456,8 @@ static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, 
     if (e->failed)
         return 0;
     if (++e->steps > 200000000ull || ++e->depth > 20000) {
-        sdl_errorf(e->p, &f->loc, "function evaluation too deep or too long");
+        if (e->p)
+            sdl_errorf(e->p, &f->loc, "function evaluation too deep or too long");
         e->failed = true;
         return 0;
     }
@@ -604,4 +606,65 @@ bool sdl_call_function(vbnl_sdl_parser *p, const vbnl_sdl_function *f, const vbn
         return false;
     sdl_set_float(out, r);
     return true;
+}
+
+/* ---- detached copies (evaluated while rendering) ------------------------------------------------ */
+
+vbnl_sdl_function *vbnl_sdl_function_detach(const vbnl_sdl_function *f)
+{
+    if (!f)
+        return NULL;
+    vbnl_sdl_function *d = malloc(sizeof *d);
+    if (!d)
+        return NULL;
+    *d = *f;
+    d->refs = 1;
+    d->detached = true;
+    d->nodes = d->nnodes ? malloc((size_t)d->nnodes * sizeof *d->nodes) : NULL;
+    d->argv = d->nargv ? malloc((size_t)d->nargv * sizeof *d->argv) : NULL;
+    d->capnodes = d->nnodes;
+    d->capargv = d->nargv;
+    if ((d->nnodes && !d->nodes) || (d->nargv && !d->argv)) {
+        free(d->nodes);
+        free(d->argv);
+        free(d);
+        return NULL;
+    }
+    if (d->nnodes)
+        memcpy(d->nodes, f->nodes, (size_t)d->nnodes * sizeof *d->nodes);
+    if (d->nargv)
+        memcpy(d->argv, f->argv, (size_t)d->nargv * sizeof *d->argv);
+    for (int i = 0; i < d->nnodes; i++) {
+        if (d->nodes[i].kind != FN_USER)
+            continue;
+        d->nodes[i].callee = vbnl_sdl_function_detach(f->nodes[i].callee);
+        if (!d->nodes[i].callee) {
+            d->nnodes = i; /* free what was copied */
+            vbnl_sdl_function_free_detached(d);
+            return NULL;
+        }
+    }
+    return d;
+}
+
+void vbnl_sdl_function_free_detached(vbnl_sdl_function *f)
+{
+    if (!f || !f->detached || --f->refs > 0)
+        return;
+    for (int i = 0; i < f->nnodes; i++)
+        if (f->nodes[i].kind == FN_USER)
+            vbnl_sdl_function_free_detached(f->nodes[i].callee);
+    free(f->nodes);
+    free(f->argv);
+    free(f);
+}
+
+double vbnl_sdl_function_eval_detached(const vbnl_sdl_function *f, const double *args, int n)
+{
+    fn_eval e = { NULL, 0, 0, false };
+    double av[64] = { 0 };
+    for (int i = 0; i < n && i < 64; i++)
+        av[i] = args[i];
+    double r = call_user(&e, (vbnl_sdl_function *)f, av, n < 64 ? n : 64);
+    return e.failed ? 0.0 : r;
 }

@@ -19,6 +19,7 @@
 
 #include <stdint.h>
 
+#include "pov_block.h"
 #include "vbnl/scene.h"
 #include "vbnl/sdl.h"
 
@@ -74,6 +75,10 @@ pov_appearance *pov_appearance_default_shared(pov_ctx *c);
 
 /* An object transform given after the appearance moves its patterns with the object. */
 void pov_appearance_transform(pov_appearance *a, const double m[16]);
+
+/* global_settings items of the texture part (noise_generator, number_of_waves); the block's
+ * context must start with the pov_ctx (the loader does). */
+extern const pov_row pov_texture_global_rows[];
 
 /* ---- texture part: mapping onto the core --------------------------------------------------- */
 

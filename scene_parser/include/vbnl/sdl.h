@@ -164,6 +164,14 @@ vbnl_sdl_loc vbnl_sdl_block_loc(const vbnl_sdl_block *b);
 vbnl_result vbnl_sdl_function_call(vbnl_sdl_parser *p, const vbnl_sdl_function *f,
                                    const double *args, int n, double *out);
 int vbnl_sdl_function_arity(const vbnl_sdl_function *f);
+/* A standalone copy of a user function and the functions it calls, for evaluation outside the
+ * parse (patterns evaluated while rendering): it needs no parser and outlives it; free it with
+ * vbnl_sdl_function_free_detached. NULL when out of memory. */
+vbnl_sdl_function *vbnl_sdl_function_detach(const vbnl_sdl_function *f);
+void vbnl_sdl_function_free_detached(vbnl_sdl_function *f);
+/* Evaluates a detached function: thread-safe, no diagnostics; 0 where evaluation fails (too deep
+ * or too long, as vbnl_sdl_function_call reports) and for pattern and internal functions. */
+double vbnl_sdl_function_eval_detached(const vbnl_sdl_function *f, const double *args, int n);
 
 /* ---- diagnostics ------------------------------------------------------------------------- */
 

@@ -215,11 +215,17 @@ static const pov_block finish_items = {.name = "finish",
                                        .tables = finish_tables,
                                        .unknown = pov_block_unexpected_word};
 
+static int copy_finish(void *dst, const void *src)
+{
+    memcpy(dst, src, sizeof(pov_finish));
+    return 1;
+}
+
 vbnl_result pov_finish_parse(pov_ctx *c, pov_finish *f)
 {
     if (vbnl_sdl_expect(c->parser, '{', "after 'finish'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (pov_take_ident(c, &pov_type_finish, f, sizeof *f) < 0)
+    if (pov_take_ident(c, &pov_type_finish, f, copy_finish) < 0)
         return VBNL_ERR_PARSE;
     return pov_block_parse(&finish_items, c->parser, c, f, NULL);
 }
