@@ -63,6 +63,10 @@ void pov_appearance_average_color(pov_ctx *c, const pov_appearance *a, double rg
 /* The default_block hook: `#default { texture/pigment/finish/normal { ... } }`. */
 int pov_appearance_default_block(pov_ctx *c);
 
+/* The function_block hook (vbnl_sdl_set_function_block_hook): `function { pattern { ... } }` and
+ * `function { pigment { ... } }` (texture/function.c). */
+int pov_function_block(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_fn_block *out);
+
 /* Copies / frees (NULL accepted). An object without its own appearance inherits its parent's
  * (CSG) or the #default one, which the object part asks for with pov_appearance_default. */
 pov_appearance *pov_appearance_copy(const pov_appearance *a);

@@ -503,6 +503,36 @@ void vbnl_texture_desc_init(vbnl_texture_desc *d);
 vbnl_result vbnl_scene_add_texture(vbnl_scene *scene, const vbnl_texture_desc *desc,
                                    uint32_t *out_id, vbnl_error *err);
 
+/* ---- patterns and pigments outside a scene ---- */
+
+/* A set of images, patterns and pigments evaluated on their own, without a scene or a hit:
+ * POV-Ray's pattern and pigment functions (`function { pattern { ... } }`, `function { pigment
+ * { ... } }`). Nodes are added as to a scene (the same descriptors, checks and id spaces within
+ * the set); evaluation reads the set only, so once built it may be evaluated from any number of
+ * threads. Patterns that depend on a surface see none, as in POV-Ray's functions: aoi and slope
+ * give 0, uv-mapped lookups read (u, v) = (0, 0). */
+typedef struct vbnl_pattern_set vbnl_pattern_set;
+
+vbnl_result vbnl_pattern_set_create(vbnl_pattern_set **out, vbnl_error *err);
+/* Frees the set and calls the destroy callbacks of its FUNCTION and OBJECT patterns. NULL is
+ * accepted. */
+void vbnl_pattern_set_destroy(vbnl_pattern_set *set);
+vbnl_result vbnl_pattern_set_add_image(vbnl_pattern_set *set, const vbnl_image_desc *desc, uint32_t *out_id,
+                                       vbnl_error *err);
+vbnl_result vbnl_pattern_set_add_pattern(vbnl_pattern_set *set, const vbnl_pattern_desc *desc, uint32_t *out_id,
+                                         vbnl_error *err);
+vbnl_result vbnl_pattern_set_add_pigment(vbnl_pattern_set *set, const vbnl_pigment_desc *desc, uint32_t *out_id,
+                                         vbnl_error *err);
+/* The value of pattern `pattern` at p (what a map would look up; 0 for an unknown id). */
+double vbnl_pattern_set_value(const vbnl_pattern_set *set, uint32_t pattern, const double p[3]);
+/* The colour (r, g, b, filter, transmit) of pigment `pigment` at p (zero for an unknown id). */
+void vbnl_pattern_set_color(const vbnl_pattern_set *set, uint32_t pigment, const double p[3], float out[5]);
+
+/* POV-Ray's vector turbulence at p (its vturbulence(lambda, omega, octaves, p)): the noise
+ * gradient summed over octaves 1..10 (clamped), each at `lambda` times the frequency and `omega`
+ * times the weight of the one before. */
+void vbnl_vturbulence(double lambda, double omega, int octaves, const double p[3], double out[3]);
+
 /* ---- geometry ----------------------------------------------------------------------------- */
 
 /* Group 0 is the world. Geometry added to another group is only visible through instances. */

@@ -244,13 +244,11 @@ static vbnl_result check_size(uint32_t got, size_t want, const char *what, vbnl_
 
 /* ---- images -------------------------------------------------------------------------------- */
 
-vbnl_result vbnl_scene_add_image(vbnl_scene *s, const vbnl_image_desc *d, uint32_t *out_id, vbnl_error *err)
+static vbnl_result add_image(vbnl_texture_set *ts, const vbnl_image_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_image", err);
-    if (r != VBNL_OK)
-        return r;
+    vbnl_result r = VBNL_OK;
     if (!d)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_image: desc is NULL");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "desc is NULL");
     if ((r = check_size(d->size, sizeof(*d), "vbnl_image_desc", err)) != VBNL_OK)
         return r;
     if (!d->texels || d->width == 0 || d->height == 0 || d->width > (1u << 16) || d->height > (1u << 16))
@@ -262,7 +260,6 @@ vbnl_result vbnl_scene_add_image(vbnl_scene *s, const vbnl_image_desc *d, uint32
     for (size_t i = 0; i < n; ++i)
         if (!isfinite(d->texels[i]))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "image texels must be finite");
-    vbnl_texture_set *ts = &s->tex;
     if (!VBNL_RESERVE(ts, images, image_count, image_cap, 1))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     vbnl_image im = {d->width, d->height, d->channels, malloc(n * sizeof(float)), NULL, d->channels == 1 || d->channels == 3};
@@ -281,6 +278,16 @@ vbnl_result vbnl_scene_add_image(vbnl_scene *s, const vbnl_image_desc *d, uint32
         *out_id = ts->image_count;
     ts->image_count++;
     return VBNL_OK;
+}
+
+vbnl_result vbnl_scene_add_image(vbnl_scene *s, const vbnl_image_desc *d, uint32_t *out_id, vbnl_error *err)
+{
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_image", err);
+    if (r != VBNL_OK)
+        return r;
+    if (!d)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_image: desc is NULL");
+    return add_image(&s->tex, d, out_id, err);
 }
 
 /* ---- patterns ------------------------------------------------------------------------------ */
@@ -538,13 +545,11 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
     return VBNL_OK;
 }
 
-vbnl_result vbnl_scene_add_pattern(vbnl_scene *s, const vbnl_pattern_desc *d, uint32_t *out_id, vbnl_error *err)
+static vbnl_result add_pattern(vbnl_texture_set *ts, const vbnl_pattern_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_pattern", err);
-    if (r != VBNL_OK)
-        return r;
+    vbnl_result r = VBNL_OK;
     if (!d)
-        VBNL_BAD("vbnl_scene_add_pattern: desc is NULL");
+        VBNL_BAD("desc is NULL");
     if ((r = check_size(d->size, sizeof(*d), "vbnl_pattern_desc", err)) != VBNL_OK)
         return r;
     if ((unsigned)d->kind >= VBNL_PATTERN_KIND_COUNT)
@@ -555,7 +560,6 @@ vbnl_result vbnl_scene_add_pattern(vbnl_scene *s, const vbnl_pattern_desc *d, ui
         VBNL_BAD("noise_generator must be 1, 2 or 3 (got %d)", d->noise_generator);
     if ((unsigned)d->wave > VBNL_WAVE_POLY || !isfinite(d->frequency) || !isfinite(d->phase) || !isfinite(d->exponent))
         VBNL_BAD("pattern wave must be known and frequency, phase and exponent finite");
-    vbnl_texture_set *ts = &s->tex;
     vbnl_pattern p;
     memset(&p, 0, sizeof(p));
     p.kind = d->kind;
@@ -591,6 +595,16 @@ vbnl_result vbnl_scene_add_pattern(vbnl_scene *s, const vbnl_pattern_desc *d, ui
     return VBNL_OK;
 }
 
+vbnl_result vbnl_scene_add_pattern(vbnl_scene *s, const vbnl_pattern_desc *d, uint32_t *out_id, vbnl_error *err)
+{
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_pattern", err);
+    if (r != VBNL_OK)
+        return r;
+    if (!d)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_pattern: desc is NULL");
+    return add_pattern(&s->tex, d, out_id, err);
+}
+
 /* ---- pigments ------------------------------------------------------------------------------ */
 
 static vbnl_result check_pattern_ref(const vbnl_texture_set *ts, uint32_t id_plus1, int required, int image,
@@ -621,16 +635,13 @@ static vbnl_result check_values(const float *values, size_t stride, uint32_t n, 
     return VBNL_OK;
 }
 
-vbnl_result vbnl_scene_add_pigment(vbnl_scene *s, const vbnl_pigment_desc *d, uint32_t *out_id, vbnl_error *err)
+static vbnl_result add_pigment(vbnl_texture_set *ts, const vbnl_pigment_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_pigment", err);
-    if (r != VBNL_OK)
-        return r;
+    vbnl_result r = VBNL_OK;
     if (!d)
-        VBNL_BAD("vbnl_scene_add_pigment: desc is NULL");
+        VBNL_BAD("desc is NULL");
     if ((r = check_size(d->size, sizeof(*d), "vbnl_pigment_desc", err)) != VBNL_OK)
         return r;
-    vbnl_texture_set *ts = &s->tex;
     vbnl_pigment pg;
     memset(&pg, 0, sizeof(pg));
     pg.kind = d->kind;
@@ -690,6 +701,16 @@ vbnl_result vbnl_scene_add_pigment(vbnl_scene *s, const vbnl_pigment_desc *d, ui
         *out_id = ts->pigment_count;
     ts->pigment_count++;
     return VBNL_OK;
+}
+
+vbnl_result vbnl_scene_add_pigment(vbnl_scene *s, const vbnl_pigment_desc *d, uint32_t *out_id, vbnl_error *err)
+{
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_pigment", err);
+    if (r != VBNL_OK)
+        return r;
+    if (!d)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_pigment: desc is NULL");
+    return add_pigment(&s->tex, d, out_id, err);
 }
 
 /* ---- normals ------------------------------------------------------------------------------- */
@@ -1183,4 +1204,92 @@ vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, ui
     }
     gd.pattern = pattern + 1;
     return vbnl_scene_add_pigment(s, &gd, out_id, err);
+}
+
+/* ---- sets outside a scene ------------------------------------------------------------------ */
+
+struct vbnl_pattern_set {
+    vbnl_texture_set ts;
+};
+
+vbnl_result vbnl_pattern_set_create(vbnl_pattern_set **out, vbnl_error *err)
+{
+    if (!out)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_pattern_set_create: out is NULL");
+    vbnl_pattern_set *set = malloc(sizeof(*set));
+    if (!set)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    vbnl_texture_set_init(&set->ts);
+    *out = set;
+    return VBNL_OK;
+}
+
+void vbnl_pattern_set_destroy(vbnl_pattern_set *set)
+{
+    if (!set)
+        return;
+    vbnl_texture_set_free(&set->ts);
+    free(set);
+}
+
+vbnl_result vbnl_pattern_set_add_image(vbnl_pattern_set *set, const vbnl_image_desc *d, uint32_t *out_id,
+                                       vbnl_error *err)
+{
+    if (!set)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_pattern_set_add_image: set is NULL");
+    return add_image(&set->ts, d, out_id, err);
+}
+
+vbnl_result vbnl_pattern_set_add_pattern(vbnl_pattern_set *set, const vbnl_pattern_desc *d, uint32_t *out_id,
+                                         vbnl_error *err)
+{
+    if (!set)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_pattern_set_add_pattern: set is NULL");
+    return add_pattern(&set->ts, d, out_id, err);
+}
+
+vbnl_result vbnl_pattern_set_add_pigment(vbnl_pattern_set *set, const vbnl_pigment_desc *d, uint32_t *out_id,
+                                         vbnl_error *err)
+{
+    if (!set)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_pattern_set_add_pigment: set is NULL");
+    return add_pigment(&set->ts, d, out_id, err);
+}
+
+/* Evaluation without a hit: no shade point (aoi and slope give 0, uv lookups (0, 0)). */
+double vbnl_pattern_set_value(const vbnl_pattern_set *set, uint32_t pattern, const double p[3])
+{
+    if (!set || !p || pattern >= set->ts.pattern_count)
+        return 0.0;
+    dvec3 w;
+    return vbnl_pattern_value(&set->ts, &set->ts.patterns[pattern], d3(p[0], p[1], p[2]), NULL, &w);
+}
+
+void vbnl_pattern_set_color(const vbnl_pattern_set *set, uint32_t pigment, const double p[3], float out[5])
+{
+    if (!out)
+        return;
+    memset(out, 0, 5 * sizeof(float));
+    if (!set || !p || pigment >= set->ts.pigment_count)
+        return;
+    vbnl_pigment_eval(&set->ts, pigment, d3(p[0], p[1], p[2]), NULL, out);
+}
+
+void vbnl_vturbulence(double lambda, double omega, int octaves, const double p[3], double out[3])
+{
+    if (!out)
+        return;
+    out[0] = out[1] = out[2] = 0.0;
+    if (!p)
+        return;
+    vbnl_turb t;
+    memset(&t, 0, sizeof(t));
+    t.amount = d3(1.0, 1.0, 1.0);
+    t.octaves = octaves < 1 ? 1 : (octaves > 10 ? 10 : octaves);
+    t.omega = omega;
+    t.lambda = lambda;
+    dvec3 v = vbnl_dturbulence(vbnl_noise_tables_get(), d3(p[0], p[1], p[2]), &t);
+    out[0] = v.x;
+    out[1] = v.y;
+    out[2] = v.z;
 }

@@ -192,6 +192,19 @@ typedef void (*vbnl_sdl_diag_fn)(const vbnl_sdl_diag *d, void *user);
 
 /* ---- hooks for the object layer ---------------------------------------------------------- */
 
+/* What the object layer makes of a function body that is a block (`function { pattern { ... } }`,
+ * `function { pigment { ... } }`): an evaluator of the point (x, y, z). `eval` must be
+ * thread-safe and deterministic (detached functions call it while rendering); it fills `dims`
+ * values: 1 for a pattern, 5 (r, g, b, filter, transmit) for a pigment. `retain` takes one more
+ * reference to `user` and `release` drops one (the last frees it). */
+typedef struct vbnl_sdl_fn_block {
+    void *user;
+    int dims;
+    void (*eval)(void *user, const double p[3], double out[5]);
+    void (*retain)(void *user);
+    void (*release)(void *user);
+} vbnl_sdl_fn_block;
+
 typedef struct vbnl_sdl_hooks {
     void *user;
     /* Statement level: `tok` (peeked, not consumed) is an identifier the language layer does
@@ -226,6 +239,13 @@ void vbnl_sdl_set_clock(vbnl_sdl_parser *p, double clock, double delta, double i
 void vbnl_sdl_set_vbnl_version(vbnl_sdl_parser *p, double version);
 void vbnl_sdl_set_diag_callback(vbnl_sdl_parser *p, vbnl_sdl_diag_fn fn, void *user);
 void vbnl_sdl_set_hooks(vbnl_sdl_parser *p, const vbnl_sdl_hooks *hooks);
+/* A function body that is identifier `tok` (consumed) followed by a block: the parser is
+ * positioned on the block's '{'; the hook reads the block and fills *out. Same return convention
+ * as the hooks above; on 0 (reading nothing) or without this hook the block is skipped and the
+ * function evaluates as 0 with a warning. NULL removes the hook. */
+typedef int (*vbnl_sdl_function_block_fn)(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, vbnl_sdl_fn_block *out,
+                                          void *user);
+void vbnl_sdl_set_function_block_hook(vbnl_sdl_parser *p, vbnl_sdl_function_block_fn fn, void *user);
 
 /* Parse a whole scene. `name` labels the text in messages and gives the folder searched first
  * for includes ("scene.pov" -> "."). On failure `err` holds the first line of the error

@@ -4,6 +4,7 @@
  * `[v1, v2 colour1 colour2]`, `[v pigment body]`, `[v normal body]`, `[v texture body]`,
  * `[v, <height, slope>]`; an average's entries may leave out the value (weight 1). */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "pov_texture.h"

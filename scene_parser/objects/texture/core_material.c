@@ -27,6 +27,7 @@ typedef struct map_notes {
 
 typedef struct build {
     pov_ctx *c;
+    vbnl_pattern_set *set;   /* patterns and pigments go here instead of the scene (functions) */
     map_notes notes;
     vbnl_error *err;
     int uv;                  /* the appearance's textures are uv-mapped */
@@ -119,17 +120,22 @@ static void report_notes(pov_ctx *c, const pov_appearance *a, const map_notes *n
 
 /* ---- patterns, pigments, normals ----------------------------------------------------------------- */
 
+static void image_desc(const pov_image *im, vbnl_image_desc *d)
+{
+    vbnl_image_desc_init(d);
+    d->width = im->width;
+    d->height = im->height;
+    d->channels = im->channels;
+    d->texels = im->texels;
+    d->indices = im->indices;
+}
+
 vbnl_result pov_image_core_id(pov_ctx *c, int i, uint32_t *out, vbnl_error *err)
 {
     pov_image *im = &c->tex->images[i];
     if (!im->core_id) {
         vbnl_image_desc d;
-        vbnl_image_desc_init(&d);
-        d.width = im->width;
-        d.height = im->height;
-        d.channels = im->channels;
-        d.texels = im->texels;
-        d.indices = im->indices;
+        image_desc(im, &d);
         uint32_t id;
         vbnl_result r = vbnl_scene_add_image(c->scene, &d, &id, err);
         if (r != VBNL_OK)
@@ -141,6 +147,16 @@ vbnl_result pov_image_core_id(pov_ctx *c, int i, uint32_t *out, vbnl_error *err)
 }
 
 static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32_t *out);
+
+static vbnl_result add_pattern(build *b, const vbnl_pattern_desc *d, uint32_t *out)
+{
+    return b->set ? vbnl_pattern_set_add_pattern(b->set, d, out, b->err) : vbnl_scene_add_pattern(b->c->scene, d, out, b->err);
+}
+
+static vbnl_result add_pigment(build *b, const vbnl_pigment_desc *d, uint32_t *out)
+{
+    return b->set ? vbnl_pattern_set_add_pigment(b->set, d, out, b->err) : vbnl_scene_add_pigment(b->c->scene, d, out, b->err);
+}
 
 /* A pattern for the core: `pre` (a point map applied first, NULL for none) and the scene's noise
  * generator and number of waves where the pattern has none of its own. */
@@ -158,7 +174,10 @@ static vbnl_result build_pattern(build *b, const pov_pattern *pat, const double 
     vbnl_result r;
     if (d.kind == VBNL_PATTERN_IMAGE) {
         uint32_t id;
-        if ((r = pov_image_core_id(c, pat->image, &id, b->err)) != VBNL_OK)
+        vbnl_image_desc id_desc;
+        image_desc(&c->tex->images[pat->image], &id_desc);
+        if ((r = b->set ? vbnl_pattern_set_add_image(b->set, &id_desc, &id, b->err)
+                        : pov_image_core_id(c, pat->image, &id, b->err)) != VBNL_OK)
             return r;
         d.image.image = id + 1;
     }
@@ -186,7 +205,7 @@ static vbnl_result build_pattern(build *b, const pov_pattern *pat, const double 
         d.transform[7] = 1e9; /* y far away: planar's value 0 */
         d.warp_count = 0;
     }
-    r = vbnl_scene_add_pattern(c->scene, &d, out, b->err);
+    r = add_pattern(b, &d, out);
     if (r != VBNL_OK && d.kind == VBNL_PATTERN_FUNCTION)
         pov_fn_release(pat->fn);
     return r;
@@ -194,14 +213,13 @@ static vbnl_result build_pattern(build *b, const pov_pattern *pat, const double 
 
 static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32_t *out)
 {
-    pov_ctx *c = b->c;
     vbnl_pigment_desc d;
     vbnl_pigment_desc_init(&d);
     d.uv = g->uv_mapping || (top && b->uv);
     vbnl_result r;
     if (g->kind == POV_PIG_SOLID) {
         color5(&b->notes, g->color, d.color);
-        return vbnl_scene_add_pigment(c->scene, &d, out, b->err);
+        return add_pigment(b, &d, out);
     }
     uint32_t pattern;
     if ((r = build_pattern(b, &g->pat, top ? b->pre : NULL, &pattern)) != VBNL_OK)
@@ -209,7 +227,7 @@ static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32
     d.pattern = pattern + 1;
     if (g->kind == POV_PIG_IMAGE) {
         d.kind = VBNL_PIGMENT_IMAGE;
-        return vbnl_scene_add_pigment(c->scene, &d, out, b->err);
+        return add_pigment(b, &d, out);
     }
     d.kind = g->kind == POV_PIG_AVERAGE ? VBNL_PIGMENT_AVERAGE : VBNL_PIGMENT_MAP;
     pov_map def = {POV_MAP_COLOR, 0, NULL};
@@ -237,7 +255,7 @@ static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32
     if (r == VBNL_OK) {
         d.map = e;
         d.map_count = m->count;
-        r = vbnl_scene_add_pigment(c->scene, &d, out, b->err);
+        r = add_pigment(b, &d, out);
     }
     free(e);
     pov_map_free(&def);
@@ -627,6 +645,71 @@ void pov_material_cache_free(pov_ctx *c)
     free(c->tex->cache);
     c->tex->cache = NULL;
     c->tex->cache_count = c->tex->cache_cap = 0;
+}
+
+/* ---- pattern and pigment functions --------------------------------------------------------------- */
+
+/* The evaluator of a function { pattern { } } or function { pigment { } }: its own pattern set. */
+typedef struct fn_block {
+    int refs;
+    vbnl_pattern_set *set;
+    uint32_t id;
+    int pigment;
+} fn_block;
+
+static void fn_block_eval(void *user, const double p[3], double out[5])
+{
+    const fn_block *f = user;
+    if (f->pigment) {
+        float c[5];
+        vbnl_pattern_set_color(f->set, f->id, p, c);
+        for (int k = 0; k < 5; ++k)
+            out[k] = c[k];
+        return;
+    }
+    out[0] = vbnl_pattern_set_value(f->set, f->id, p);
+}
+
+static void fn_block_retain(void *user) { ((fn_block *)user)->refs++; }
+
+static void fn_block_release(void *user)
+{
+    fn_block *f = user;
+    if (--f->refs > 0)
+        return;
+    vbnl_pattern_set_destroy(f->set);
+    free(f);
+}
+
+vbnl_result pov_function_block_build(pov_ctx *c, const pov_pigment *g, int pigment, vbnl_sdl_fn_block *out,
+                                     vbnl_error *err)
+{
+    fn_block *f = calloc(1, sizeof(*f));
+    if (!f)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    f->refs = 1;
+    f->pigment = pigment;
+    vbnl_result r = vbnl_pattern_set_create(&f->set, err);
+    if (r != VBNL_OK) {
+        free(f);
+        return r;
+    }
+    build b;
+    memset(&b, 0, sizeof(b));
+    b.c = c;
+    b.set = f->set;
+    b.err = err;
+    r = pigment ? build_pigment(&b, g, 0, &f->id) : build_pattern(&b, &g->pat, NULL, &f->id);
+    if (r != VBNL_OK) {
+        fn_block_release(f);
+        return r;
+    }
+    out->user = f;
+    out->dims = pigment ? 5 : 1;
+    out->eval = fn_block_eval;
+    out->retain = fn_block_retain;
+    out->release = fn_block_release;
+    return VBNL_OK;
 }
 
 /* ---- test accessors (pov_texture.h) ---------------------------------------------------------- */

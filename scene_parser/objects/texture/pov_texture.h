@@ -286,6 +286,11 @@ extern const pov_row pov_pattern_transform_rows[];
 /* The core image id of state image i (added to the scene on first use). */
 vbnl_result pov_image_core_id(pov_ctx *c, int i, uint32_t *out, vbnl_error *err);
 
+/* The evaluator of a pattern function (pigment 0: g's pattern) or a pigment function (1: g) for
+ * the language layer (function.c). */
+vbnl_result pov_function_block_build(pov_ctx *c, const pov_pigment *g, int pigment, vbnl_sdl_fn_block *out,
+                                     vbnl_error *err);
+
 /* ---- test accessors (core_material.c) ---------------------------------------------------------- */
 
 /* The description of the plain core material an appearance made (for a textured one, its top

@@ -96,6 +96,12 @@ static int hook_default(vbnl_sdl_parser *p, void *user)
     return pov_appearance_default_block(&h->c);
 }
 
+static int hook_function_block(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, vbnl_sdl_fn_block *out, void *user)
+{
+    (void)p;
+    return pov_function_block(&((harness *)user)->c, tok, out);
+}
+
 static harness *run(const char *text)
 {
     harness *h = calloc(1, sizeof(*h));
@@ -107,6 +113,7 @@ static harness *run(const char *text)
     assert_int_equal(pov_texture_state_create(&h->c, NULL), VBNL_OK);
     vbnl_sdl_hooks hooks = {h, hook_statement, hook_rvalue, hook_default};
     vbnl_sdl_set_hooks(h->c.parser, &hooks);
+    vbnl_sdl_set_function_block_hook(h->c.parser, hook_function_block, h);
     vbnl_error err = {0};
     h->result = vbnl_sdl_parse_text(h->c.parser, "test.pov", text, strlen(text), &err);
     return h;
@@ -602,6 +609,39 @@ static void test_bumps(void **state)
     done(h);
 }
 
+/* Pattern and pigment functions and vturbulence: values POV-Ray 3.7.0 prints for the same
+ * script (#debug with str(..., 0, 9)). */
+static void test_functions(void **state)
+{
+    (void)state;
+    harness *h = run_ok("#declare F = function { pattern { bozo scale 0.5 } }\n"
+                        "#declare G = function { pigment { gradient x color_map { [0 rgb <1,0,0>] [1 rgb <0,0,1>] } } }\n"
+                        "#declare H = function { F(x, y, z) * 2 + G(x, y, z).blue }\n"
+                        "#declare V = vturbulence(2, 0.5, 6, <0.3, 0.7, 1.1>);\n"
+                        "#declare C = G(0.25, 0, 0);\n"
+                        "#declare FV = F(0.3, 0.7, 1.1);\n"
+                        "#declare HV = H(0.25, 0, 0);\n"
+                        "object_test { pigment { function { F(x, y, z) } color_map { [0 rgb 0] [1 rgb 1] } } finish { diffuse 1 } }\n");
+    const vbnl_sdl_value *v = vbnl_sdl_lookup(h->c.parser, "FV");
+    assert_non_null(v);
+    assert_float_equal(v->v[0], 0.496352071, 1e-9);
+    v = vbnl_sdl_lookup(h->c.parser, "HV");
+    assert_float_equal(v->v[0], 1.052319417, 1e-9);
+    v = vbnl_sdl_lookup(h->c.parser, "V");
+    assert_int_equal(v->kind, VBNL_SDL_VECTOR);
+    assert_float_equal(v->v[0], 0.344564480, 1e-9);
+    assert_float_equal(v->v[1], -0.261186792, 1e-9);
+    assert_float_equal(v->v[2], -0.078804351, 1e-9);
+    v = vbnl_sdl_lookup(h->c.parser, "C");
+    assert_int_equal(v->kind, VBNL_SDL_COLOR);
+    assert_float_equal(v->v[0], 0.75, 1e-6);
+    assert_float_equal(v->v[2], 0.25, 1e-6);
+    /* a pattern function inside a pigment, evaluated while rendering (a detached copy) */
+    expect_color(color_at(h, 0, 0.3, 0.7, 1.1, 1), 0.496352071, 0.496352071, 0.496352071, 1e-6);
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 0);
+    done(h);
+}
+
 static void test_layers_and_ext(void **state)
 {
     (void)state;
@@ -764,6 +804,7 @@ int main(void)
         cmocka_unit_test(test_image_map),
         cmocka_unit_test(test_texture_blends),
         cmocka_unit_test(test_bumps),
+        cmocka_unit_test(test_functions),
         cmocka_unit_test(test_layers_and_ext),
         cmocka_unit_test(test_deferred_warnings),
         cmocka_unit_test(test_errors),
