@@ -90,6 +90,8 @@ extern "C" int pov_image_read(const char *path, pov_image_data *out, char *why, 
         out->texels = t;
         out->indices = nullptr;
         encoding_of(spec, out);
+        const int bits = spec.get_int_attribute("oiio:BitsPerSample", (int)spec.format.size() * 8);
+        out->grey8_png = std::strcmp(in->format_name(), "png") == 0 && keep <= 2 && bits <= 8;
         in->close();
         return 0;
     } catch (const std::exception &e) {

@@ -29,6 +29,8 @@ typedef struct pov_image_data {
     uint8_t *indices;                 /* palette indices, or NULL (always NULL through OpenImageIO) */
     pov_image_encoding encoding;
     double gamma;                     /* POV_IMAGE_GAMMA: the decoding exponent */
+    int grey8_png;                    /* a greyscale PNG of at most 8 bits: POV-Ray keeps its decoded
+                                       * values in 8 bits (image_map.c) */
 } pov_image_data;
 
 /* Reads the image at `path` (already resolved and allowed by the caller). Returns 0, or -1 with

@@ -292,6 +292,9 @@ vbnl_result vbnl_sdl_expect(vbnl_sdl_parser *p, int op, const char *context);
 /* Expression parsing; on error they report it, return VBNL_ERR_PARSE and leave *out NONE/0. */
 vbnl_result vbnl_sdl_parse_expression(vbnl_sdl_parser *p, vbnl_sdl_value *out);
 vbnl_result vbnl_sdl_parse_float(vbnl_sdl_parser *p, double *out);
+/* A float as POV-Ray's Parse_Float reads one: sums and differences of terms; a comparison must be
+ * in parentheses, so `[0 <0, 1>]` (a slope_map entry) reads 0 and leaves the vector. */
+vbnl_result vbnl_sdl_parse_float_sum(vbnl_sdl_parser *p, double *out);
 /* A vector of `dim` components (2..5); floats are promoted (<f,f,f>). */
 vbnl_result vbnl_sdl_parse_vector(vbnl_sdl_parser *p, int dim, double *out);
 /* [color|colour] followed by rgb/rgbf/rgbt/rgbft/red/green/blue/filter/transmit/expression. */

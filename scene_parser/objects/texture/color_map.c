@@ -83,13 +83,13 @@ static int entry(const pov_item *it)
         return -1;
     double v0 = 1.0, v1 = 0.0;
     int two = 0;
-    if ((!b->average || next_is_float(p)) && vbnl_sdl_parse_float(p, &v0) != VBNL_OK)
+    if ((!b->average || next_is_float(p)) && vbnl_sdl_parse_float_sum(p, &v0) != VBNL_OK)
         return -1;
     vbnl_sdl_accept(p, ',');
     if (m->kind == POV_MAP_COLOR) {
         /* [v1, v2 colour1 colour2] (the comma is optional): a second value follows */
         two = next_is_float(p);
-        if (two && vbnl_sdl_parse_float(p, &v1) != VBNL_OK)
+        if (two && vbnl_sdl_parse_float_sum(p, &v1) != VBNL_OK)
             return -1;
     }
     pov_map_entry *e = pov_map_add(m);

@@ -86,12 +86,22 @@ static int load_image(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc, int
         float v = img.texels[i];
         if (!isfinite(v))
             v = 0.0f; /* a float format's NaN or infinity: no light */
+        if (img.grey8_png)
+            v = (float)lrintf(v * 255.0f) / 255.0f; /* POV-Ray's float(v) / 255 */
         if (gamma > 0.0)
             v = v > 0.0f ? (float)pow(v, gamma) : 0.0f;
         else if (!raw && img.encoding == POV_IMAGE_SRGB)
             v = v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f);
         else if (!raw && img.encoding == POV_IMAGE_GAMMA && img.gamma > 0.0)
             v = v > 0.0f ? (float)pow(v, img.gamma) : 0.0f;
+        if (img.grey8_png) {
+            /* POV-Ray 3.7 stores a greyscale PNG of up to 8 bits as 8-bit grey after decoding:
+             * its grey (0.297 r + 0.589 g + 0.114 b of the decoded value, in single precision)
+             * truncated to an integer out of 255 */
+            volatile float r = v * 0.297f, gr = v * 0.589f, b = v * 0.114f; /* rounded: no fused multiply-add */
+            volatile float g = r + gr + b;
+            v = (float)(unsigned char)(g * 255.0f) / 255.0f;
+        }
         img.texels[i] = v;
     }
     pov_image *grown = realloc(s->images, sizeof(*grown) * (s->image_count + 1));

@@ -188,20 +188,26 @@ static void commit_textures(harness *h)
     h->committed = 1;
 }
 
-/* The BSDF object i has at p (normal +z, uv (u, v)), for the hit seed `seed`. */
-static vbnl_bsdf bsdf_at(harness *h, int i, double x, double y, double z, uint32_t seed)
+/* The BSDF object i has at p with normal n, for the hit seed `seed`. */
+static vbnl_bsdf bsdf_at_n(harness *h, int i, double x, double y, double z, vec3 n, uint32_t seed)
 {
     commit_textures(h);
     assert_true(i < h->nmats);
     vbnl_hit hit;
     memset(&hit, 0, sizeof(hit));
     hit.p = v3((float)x, (float)y, (float)z);
-    hit.ng = hit.ns = v3(0, 0, 1);
+    hit.ng = hit.ns = n;
     hit.uv = (vec2){(float)x, (float)y};
     hit.material = h->mats[i];
     hit.prim = seed;
     vbnl_bsdf storage;
     return *vbnl_surface_bsdf(h->c.scene, &hit, &storage);
+}
+
+/* The BSDF object i has at p (normal +z, uv (x, y)), for the hit seed `seed`. */
+static vbnl_bsdf bsdf_at(harness *h, int i, double x, double y, double z, uint32_t seed)
+{
+    return bsdf_at_n(h, i, x, y, z, v3(0, 0, 1), seed);
 }
 
 /* Its colour; the mean over n hit seeds where the material is chosen per hit. */
@@ -534,6 +540,39 @@ static void test_image_map(void **state)
      * applies to every texel instead) */
     expect_color(color_at(h, 7, 0.5, 0.5, 0, 1), 1, 0, 0, 1e-6);
     done(h);
+    /* bump_map from a 4 x 4 grey image, against POV-Ray 3.7.0 (the normals measured as in
+     * test_bumps_against_povray, with lights on both sides of the plane's normal) */
+    /* the file POV-Ray read: 8-bit grey, no gamma chunk, texel (x, y) = (60 x + 17 y) mod 256 */
+    static const unsigned char bump_png[85] = {
+        0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44, 0x52, 0x00,
+        0x00, 0x00, 0x04, 0x00, 0x00, 0x00, 0x04, 0x08, 0x00, 0x00, 0x00, 0x00, 0x8c, 0x9a, 0xc1, 0xa2, 0x00,
+        0x00, 0x00, 0x1c, 0x49, 0x44, 0x41, 0x54, 0x78, 0x9c, 0x63, 0x60, 0xb0, 0xa9, 0xd8, 0xc2, 0x20, 0xe8,
+        0xdb, 0x79, 0x94, 0x41, 0x29, 0x6e, 0xd6, 0x35, 0x06, 0xe3, 0xfc, 0xd5, 0xcf, 0x01, 0x3c, 0xf0, 0x07,
+        0x39, 0x61, 0x5d, 0x62, 0xca, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+    f = fopen("bump.png", "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(bump_png, 1, sizeof(bump_png), f), sizeof(bump_png));
+    fclose(f);
+    h = run_ok("object_test { pigment { rgb 1 } normal { bump_map { png \"bump.png\" bump_size 2 } rotate x*90 } }\n"
+               "object_test { pigment { rgb 1 } normal { bump_map { png \"bump.png\" bump_size 1 interpolate 2 } rotate x*90 } }\n"
+               "object_test { pigment { rgb 1 } normal { bump_map { png \"bump.png\" once use_color } rotate x*90 scale 0.5 } }\n");
+    static const double bump_ref[3][2][3] = {
+        {{-0.425789, 0.897337, 0.116123}, {0.271722, 0.577432, -0.769885}},
+        {{-0.111199, 0.976776, 0.183145}, {0.086289, 0.908980, -0.407824}},
+        {{-0.115809, 0.992752, 0.032124}, {0.000005, 1.000000, 0.000005}},
+    };
+    const double bump_pts[2][3] = {{0.31, 0, 0.47}, {0.8, 0, 0.2}};
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 2; ++k) {
+            vbnl_bsdf b = bsdf_at_n(h, i, bump_pts[k][0], bump_pts[k][1], bump_pts[k][2], v3(0, 1, 0), 0);
+            const float got[3] = {b.bumped ? b.ns.x : 0.0f, b.bumped ? b.ns.y : 1.0f, b.bumped ? b.ns.z : 0.0f};
+            for (int c = 0; c < 3; ++c)
+                if (fabs(got[c] - bump_ref[i][k][c]) > 1e-4)
+                    fail_msg("bump_map %d at point %d: (%.6f %.6f %.6f), POV-Ray (%.6f %.6f %.6f)", i, k, got[0], got[1],
+                             got[2], bump_ref[i][k][0], bump_ref[i][k][1], bump_ref[i][k][2]);
+        }
+    done(h);
+    unlink("bump.png");
     /* a missing file, a file that is no image */
     h = run("object_test { pigment { image_map { png \"none.png\" } } }\n");
     assert_int_equal(h->result, VBNL_ERR_PARSE);
@@ -611,6 +650,55 @@ static void test_bumps(void **state)
 
 /* Pattern and pigment functions and vturbulence: values POV-Ray 3.7.0 prints for the same
  * script (#debug with str(..., 0, 9)). */
+/* Perturbed normals against POV-Ray 3.7.0: a plane y = 0 (normal +y) rendered with ambient 0,
+ * diffuse 1 and one distant light along (1, 1, 0), (0, 1, 0) or (0, 1, 1), one 16-bit linear
+ * pixel at each point: n . l gives the three components of POV-Ray's perturbed normal there. */
+static void test_bumps_against_povray(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *normal;
+        double n[2][3]; /* at (0.31, 0, 0.47) and (1.23, 0, -0.77) */
+    } ref[] = {
+        {"gradient x 1", {{-0.132167, 0.991226, 0.000007}, {-0.132167, 0.991226, 0.000007}}},
+        {"gradient x 1 scale 2", {{-0.132167, 0.991226, 0.000007}, {-0.132167, 0.991226, 0.000007}}},
+        {"gradient x 1 scale 2 no_bump_scale", {{-0.066523, 0.997787, 0.000006}, {-0.066523, 0.997787, 0.000006}}},
+        {"bumps 0.5", {{-0.043491, 0.999054, -0.002210}, {-0.136154, 0.984207, 0.113133}}},
+        {"dents 0.8", {{-0.006011, 0.999985, -0.000314}, {-0.012076, 0.999878, 0.010022}}},
+        {"ripples 0.6", {{0.008562, 0.993332, 0.114992}, {-0.049864, 0.998672, -0.013114}}},
+        {"waves 0.6", {{0.011645, 0.890120, 0.455579}, {0.199637, 0.959701, -0.197815}}},
+        {"wrinkles 0.7", {{0.200473, 0.967971, 0.151142}, {0.220739, 0.929686, 0.294886}}},
+        {"quilted 0.8", {{-0.260722, 0.964538, -0.041172}, {-0.361981, 0.859022, -0.361981}}},
+        {"granite 0.5", {{0.047465, 0.991028, -0.124934}, {0.191254, 0.981506, 0.007677}}},
+        {"marble 0.5 slope_map { [0 <0, 1>] [0.5 <1, 0>] [1 <0, -1>] }",
+         {{0.218255, 0.975891, -0.000000}, {-0.062087, 0.998077, -0.000003}}},
+        {"bumps 0.5 rotate <20, 30, 40> scale <1, 2, 0.5>", {{0.188974, 0.795743, -0.575416}, {-0.482799, 0.645487, -0.591840}}},
+        {"agate 0.5 turbulence 0.3", {{0.044375, 0.993103, -0.108580}, {-0.163220, 0.977890, -0.130656}}},
+    };
+    const double pts[2][3] = {{0.31, 0, 0.47}, {1.23, 0, -0.77}};
+    const int n = (int)(sizeof(ref) / sizeof(ref[0]));
+    char text[8192];
+    size_t o = 0;
+    for (int i = 0; i < n; ++i)
+        o += (size_t)snprintf(text + o, sizeof(text) - o, "object_test { pigment { rgb 1 } normal { %s } }\n", ref[i].normal);
+    harness *h = run_ok(text);
+    double worst = 0;
+    for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 2; ++k) {
+            vbnl_bsdf b = bsdf_at_n(h, i, pts[k][0], pts[k][1], pts[k][2], v3(0, 1, 0), 0);
+            assert_true(b.bumped);
+            const float got[3] = {b.ns.x, b.ns.y, b.ns.z};
+            for (int c = 0; c < 3; ++c)
+                worst = fmax(worst, fabs(got[c] - ref[i].n[k][c]));
+            if (fabs(got[0] - ref[i].n[k][0]) > 1e-4 || fabs(got[1] - ref[i].n[k][1]) > 1e-4 ||
+                fabs(got[2] - ref[i].n[k][2]) > 1e-4)
+                fail_msg("normal { %s } at point %d: (%.6f %.6f %.6f), POV-Ray (%.6f %.6f %.6f)", ref[i].normal, k,
+                         got[0], got[1], got[2], ref[i].n[k][0], ref[i].n[k][1], ref[i].n[k][2]);
+        }
+    print_message("# %d normals at 2 points: largest difference from POV-Ray %.2g\n", n, worst);
+    done(h);
+}
+
 static void test_functions(void **state)
 {
     (void)state;
@@ -804,6 +892,7 @@ int main(void)
         cmocka_unit_test(test_image_map),
         cmocka_unit_test(test_texture_blends),
         cmocka_unit_test(test_bumps),
+        cmocka_unit_test(test_bumps_against_povray),
         cmocka_unit_test(test_functions),
         cmocka_unit_test(test_layers_and_ext),
         cmocka_unit_test(test_deferred_warnings),
