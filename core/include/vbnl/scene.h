@@ -114,7 +114,8 @@ vbnl_result vbnl_scene_add_image(vbnl_scene *scene, const vbnl_image_desc *desc,
 
 /* ---- patterns ---- */
 
-/* Every pattern of POV-Ray 3.7 (reference manual, "Patterns"). Pattern and warp parameters have
+/* The patterns of POV-Ray 3.7 (reference manual, "Patterns"; pavement and the Penrose tilings are
+ * not implemented). Pattern and warp parameters have
  * POV-Ray's own precision (double, or float where POV-Ray keeps a float: frequency, phase,
  * exponent, agate_turb, mortar, quilted controls, turbulence omega and lambda, repeat width):
  * patterns whose raw values are large (fractal exteriors, gradients far from the origin) wrap
@@ -148,7 +149,7 @@ typedef enum vbnl_pattern_kind {
     VBNL_PATTERN_MARBLE,
     VBNL_PATTERN_OBJECT,       /* a callback returning 1 inside, 0 outside */
     VBNL_PATTERN_ONION,
-    VBNL_PATTERN_PAVEMENT,
+    VBNL_PATTERN_PAVEMENT,     /* not implemented: refused */
     VBNL_PATTERN_PIGMENT,      /* pigment_pattern: the greyscale of a pigment */
     VBNL_PATTERN_PLANAR,
     VBNL_PATTERN_QUILTED,
@@ -261,8 +262,9 @@ typedef struct vbnl_pattern_desc {
         double interior_factor, exterior_factor; /* 1 */
     } fractal;
     struct { double size, coords, metric; } facets;        /* 0.1, 0, 2 */
-    int tiling;                                            /* TILING: 1..27 */
-    struct { int sides, tiles, pattern, form, interior, exterior; } pavement; /* 3, 1, 1, 0, 0, 0 */
+    int tiling;                                            /* TILING: 1..24 (not the Penrose 25..27) */
+    struct { int sides, tiles, pattern, form, interior, exterior; } pavement; /* 3, 1, 1, 0, 0, 0; kept for a
+                                                                              * later PAVEMENT */
     struct {
         double direction[3];           /* or the point with point_at */
         double low, high;              /* slope range (0, 0: whole) */

@@ -445,24 +445,13 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
         p->u.facets.metric = d->facets.metric;
         break;
     case VBNL_PATTERN_TILING:
-        if (d->tiling < 1 || d->tiling > 27)
-            VBNL_BAD("tiling type must be 1..27 (got %d)", d->tiling);
+        if (d->tiling < 1 || d->tiling > 24)
+            VBNL_BAD("tiling type must be 1..24 (got %d; POV-Ray's Penrose tilings 25..27 are not implemented)",
+                     d->tiling);
         p->u.tiling = d->tiling;
         break;
     case VBNL_PATTERN_PAVEMENT:
-        if (d->pavement.sides != 3 && d->pavement.sides != 4 && d->pavement.sides != 6)
-            VBNL_BAD("pavement number_of_sides must be 3, 4 or 6 (got %d)", d->pavement.sides);
-        if (d->pavement.tiles < 1 || d->pavement.tiles > 6 || d->pavement.pattern < 1 || d->pavement.form < 0 ||
-            d->pavement.form > 3 || d->pavement.interior < 0 || d->pavement.interior > 2 || d->pavement.exterior < 0 ||
-            d->pavement.exterior > 2)
-            VBNL_BAD("pavement needs number_of_tiles 1..6, pattern >= 1, form 0..3, interior and exterior 0..2");
-        p->u.pavement.sides = d->pavement.sides;
-        p->u.pavement.tiles = d->pavement.tiles;
-        p->u.pavement.pattern = d->pavement.pattern;
-        p->u.pavement.form = d->pavement.form;
-        p->u.pavement.interior = d->pavement.interior;
-        p->u.pavement.exterior = d->pavement.exterior;
-        break;
+        VBNL_BAD("pavement is not implemented");
     case VBNL_PATTERN_SLOPE: {
         if (!finite_d(d->slope.direction, 3) || !finite_d(d->slope.altitude, 3) || !isfinite(d->slope.low) ||
             !isfinite(d->slope.high) || !isfinite(d->slope.alt_low) || !isfinite(d->slope.alt_high))

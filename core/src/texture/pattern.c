@@ -1,7 +1,7 @@
 /* The patterns of POV-Ray 3.7 (reference manual, "Patterns"): the value of each kind at its
  * warped point, and the frequency / phase / wave step every pattern ends with. Formulas and
  * constants follow POV-Ray 3.7's pattern.cpp (read, not copied); each function names the
- * definition it implements. The fractals, tiling and pavement live in their own files. */
+ * definition it implements. The fractals and the tilings live in their own files. */
 #include <stdlib.h>
 
 #include "texture.h"
@@ -494,8 +494,6 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
     }
     case VBNL_PATTERN_ONION:
         return fmod(d3_len(p), 1.0);
-    case VBNL_PATTERN_PAVEMENT:
-        return vbnl_pattern_pavement(pt, p);
     case VBNL_PATTERN_PIGMENT: {
         float c[5];
         if (!sp || !vbnl_pigment_eval(ts, pt->u.pigment, p, sp, c))
@@ -522,6 +520,8 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
         return square(p);
     case VBNL_PATTERN_TILING:
         return vbnl_pattern_tiling(pt->u.tiling, p);
+    case VBNL_PATTERN_PAVEMENT: /* refused by vbnl_scene_add_pattern */
+        return 0.0;
     case VBNL_PATTERN_TRIANGULAR:
         return triangular(p);
     case VBNL_PATTERN_WAVES:

@@ -4,7 +4,7 @@
  *   noise.c     POV-Ray's noise, turbulence and tables            (noise.h)
  *   warp.c      warps and the point mapping of a pattern
  *   pattern.c   the value of each pattern kind; fractal.c the fractal patterns; tiling.c and
- *               pavement.c the tiling and pavement patterns
+ *               tiling_table.h the tiling pattern
  *   image.c     image lookups (POV-Ray's map types, interpolations, once)
  *   pigment.c   pigments and maps
  *   normal.c    normal perturbation
@@ -78,7 +78,6 @@ typedef struct vbnl_pattern {
         } fractal;
         struct { double size, coords, metric; } facets;
         int tiling;
-        struct { int sides, tiles, pattern, form, interior, exterior; } pavement;
         struct {
             dvec3 dir, alt;  /* unit (dir: the point with point_at) */
             double low, span, alt_low, alt_span; /* span 0: no range */
@@ -183,7 +182,6 @@ dvec3 vbnl_pattern_normal_out(const vbnl_texture_set *ts, const vbnl_pattern *pt
 /* Pattern kinds computed in their own files. */
 double vbnl_pattern_fractal(const vbnl_pattern *pt, dvec3 p);
 double vbnl_pattern_tiling(int type, dvec3 p);
-double vbnl_pattern_pavement(const vbnl_pattern *pt, dvec3 p);
 /* The quilted offset (its value and its normal perturbation use it). */
 dvec3 vbnl_pattern_quilted_offset(const vbnl_pattern *pt, dvec3 p);
 

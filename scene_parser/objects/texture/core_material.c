@@ -198,6 +198,10 @@ static vbnl_result build_pattern(build *b, const pov_pattern *pat, const double 
         d.function.user = pov_fn_retain(pat->fn);
         d.function.destroy = fn_destroy;
     }
+    if (d.kind == VBNL_PATTERN_PAVEMENT) { /* not implemented: the tiling of its cells */
+        d.tiling = d.pavement.sides == 4 ? 1 : d.pavement.sides == 6 ? 2 : 3;
+        d.kind = VBNL_PATTERN_TILING;
+    }
     if (d.kind == VBNL_PATTERN_OBJECT) { /* not read: every point is outside */
         d.kind = VBNL_PATTERN_PLANAR;
         d.transform[0] = d.transform[5] = d.transform[10] = 1.0;

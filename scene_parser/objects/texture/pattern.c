@@ -314,8 +314,17 @@ static vbnl_result args(pov_ctx *c, const pat_kw *k, const pov_pattern_target *t
         if (!(n >= 1.0 && n <= 27.0))
             return vbnl_sdl_error(p, loc, "tiling type must lie in 1..27 (got %g)", n);
         pat->d.tiling = (int)n;
+        if (pat->d.tiling >= 25) {
+            vbnl_sdl_warning(p, loc, "tiling %d (a Penrose tiling) is not supported: tiling 1 (squares) is used",
+                             pat->d.tiling);
+            pat->d.tiling = 1;
+        }
         return VBNL_OK;
     }
+    case VBNL_PATTERN_PAVEMENT:
+        vbnl_sdl_warning(p, loc, "pattern 'pavement' is not supported: rendered as the tiling of its cells "
+                                 "(triangles, squares or hexagons)");
+        return VBNL_OK;
     case VBNL_PATTERN_SLOPE:
         return slope_args(c, pat);
     case VBNL_PATTERN_DENSITY:

@@ -730,6 +730,22 @@ static void test_functions(void **state)
     done(h);
 }
 
+/* tiling 1..24 render; the Penrose tilings and pavement are not implemented and say so. */
+static void test_tilings(void **state)
+{
+    (void)state;
+    harness *h = run_ok("object_test { pigment { tiling 3 color_map { [0 rgb 0] [1 rgb 1] } } finish { diffuse 1 } }\n"
+                        "object_test { pigment { tiling 26 } }\n"
+                        "object_test { pigment { pavement number_of_sides 4 number_of_tiles 2 } }\n");
+    /* POV-Ray 3.7.0's tiling 3 at (0.5875, 0, 2.5625) (the render of tests/core/test_patterns.c) */
+    vec3 c = color_at(h, 0, 0.5875, 0, 2.5625, 1);
+    expect_color(c, 0.938384, 0.938384, 0.938384, 1e-5);
+    assert_non_null(warning_text(h, "tiling 26 (a Penrose tiling) is not supported"));
+    assert_non_null(warning_text(h, "pattern 'pavement' is not supported"));
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 2);
+    done(h);
+}
+
 static void test_layers_and_ext(void **state)
 {
     (void)state;
@@ -894,6 +910,7 @@ int main(void)
         cmocka_unit_test(test_bumps),
         cmocka_unit_test(test_bumps_against_povray),
         cmocka_unit_test(test_functions),
+        cmocka_unit_test(test_tilings),
         cmocka_unit_test(test_layers_and_ext),
         cmocka_unit_test(test_deferred_warnings),
         cmocka_unit_test(test_errors),
