@@ -263,7 +263,7 @@ static int f_primary(fn_ctx *c)
             return -1;
         c->f->nodes[n].args = first;
         c->f->nodes[n].nargs = na;
-        if (vbnl_sdl_accept(p, '.')) { /* a pigment function's component */
+        if (vbnl_sdl_accept(p, '.')) { /* a component of a pigment (or spline) function's value */
             const vbnl_sdl_token *cn = vbnl_sdl_next(p);
             static const struct { int kw, idx; } comps[] = {
                 { VBNL_KW_x, 0 }, { VBNL_KW_y, 1 }, { VBNL_KW_z, 2 }, { VBNL_KW_t, 4 }, { VBNL_KW_red, 0 },
@@ -275,8 +275,9 @@ static int f_primary(fn_ctx *c)
                     idx = comps[i].idx;
             if (cn->keyword == VBNL_KW_gray)
                 idx = 5;
-            if (idx < 0 || !callee->has_ext || callee->ext.dims < 5) {
-                sdl_errorf(p, &cn->loc, "'.%s': only a pigment function's colour has components", cn->text);
+            /* a block function (pigment, spline) gives a colour or a vector; a float function none */
+            if (idx < 0 || !callee->block || (callee->has_ext && callee->ext.dims < 5)) {
+                sdl_errorf(p, &cn->loc, "'.%s': only a pigment or spline function's value has components", cn->text);
                 return -1;
             }
             c->f->nodes[n].op = idx;

@@ -1,5 +1,7 @@
-// Image files through OpenImageIO behind the C interface of pov_image.h. Every entry point
-// catches every exception and turns it into a result and a sentence.
+// Image files other than PNG through OpenImageIO: a module of its own (vbnl_image_oiio.so),
+// loaded by image_read.c the first time a scene names such a file, so that OpenImageIO and the
+// libraries it needs are not loaded by every run. Its one entry point (pov_image.h's reader
+// contract) catches every exception and turns it into a result and a sentence.
 #include "pov_image.h"
 
 #include <cstdio>
@@ -44,7 +46,8 @@ void encoding_of(const OIIO::ImageSpec &spec, pov_image_data *out)
 
 } // namespace
 
-extern "C" int pov_image_read(const char *path, pov_image_data *out, char *why, size_t why_size)
+extern "C" __attribute__((visibility("default"))) int vbnl_oiio_image_read(const char *path, pov_image_data *out,
+                                                                           char *why, size_t why_size)
 {
     std::memset(out, 0, sizeof(*out));
     try {
@@ -90,8 +93,6 @@ extern "C" int pov_image_read(const char *path, pov_image_data *out, char *why, 
         out->texels = t;
         out->indices = nullptr;
         encoding_of(spec, out);
-        const int bits = spec.get_int_attribute("oiio:BitsPerSample", (int)spec.format.size() * 8);
-        out->grey8_png = std::strcmp(in->format_name(), "png") == 0 && keep <= 2 && bits <= 8;
         in->close();
         return 0;
     } catch (const std::exception &e) {
@@ -99,16 +100,7 @@ extern "C" int pov_image_read(const char *path, pov_image_data *out, char *why, 
     } catch (...) {
         say(why, why_size, "OpenImageIO failed");
     }
-    pov_image_data_free(out);
+    std::free(out->texels);
+    out->texels = nullptr;
     return -1;
-}
-
-extern "C" void pov_image_data_free(pov_image_data *d)
-{
-    if (!d)
-        return;
-    std::free(d->texels);
-    std::free(d->indices);
-    d->texels = nullptr;
-    d->indices = nullptr;
 }
