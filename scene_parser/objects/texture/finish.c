@@ -186,9 +186,7 @@ static vbnl_result unsupported(const pov_item *it) /* irid { }, subsurface { } *
     vbnl_sdl_next(it->p);
     if (vbnl_sdl_skip_block(it->p) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    /* it->tok is the parser's look-ahead slot: it now holds the skipped block's '}', and the
-     * message names that token */
-    vbnl_sdl_warning(it->p, &it->loc, "finish '%s' is not supported: ignored", it->tok->text);
+    vbnl_sdl_warning(it->p, &it->loc, "finish '%s' is not supported: ignored", it->kw);
     return VBNL_OK;
 }
 
