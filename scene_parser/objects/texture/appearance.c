@@ -274,14 +274,12 @@ int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value 
 
 /* ---- appearance modifiers of objects ---------------------------------------------------------- */
 
-/* texture { }: the first one is the object's; each later one is a layer over it. */
-static vbnl_result mod_texture(const pov_item *it)
+vbnl_result pov_appearance_texture_item(const pov_item *it)
 {
-    pov_ctx *c = it->ctx;
     pov_appearance *a = it->target;
     vbnl_sdl_next(it->p);
     pov_texture *t = NULL;
-    vbnl_result r = pov_texture_parse(c, &t);
+    vbnl_result r = pov_texture_parse(it->ctx, &t);
     if (r != VBNL_OK) {
         pov_texture_free(t);
         return r;
@@ -317,7 +315,7 @@ static vbnl_result mod_interior_texture(const pov_item *it)
 
 /* The modifiers beside the texture items (pov_texture_item_rows). */
 static const pov_row modifier_rows[] = {
-    {"texture", mod_texture, 0},
+    {"texture", pov_appearance_texture_item, 0},
     {"interior", mod_interior, 0},
     {"material", mod_material, 0},
     {"interior_texture", mod_interior_texture, 0},

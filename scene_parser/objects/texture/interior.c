@@ -70,26 +70,6 @@ vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
 
 /* ---- material { } ------------------------------------------------------------------------------ */
 
-/* texture { }: the first replaces the material's texture, later ones are layers over it. */
-static vbnl_result mat_texture(const pov_item *it)
-{
-    pov_appearance *a = it->target;
-    vbnl_sdl_next(it->p);
-    pov_texture *t = NULL;
-    if (pov_texture_parse(it->ctx, &t) != VBNL_OK) {
-        pov_texture_free(t);
-        return VBNL_ERR_PARSE;
-    }
-    if (!a->own_texture) {
-        pov_texture_free(a->tex);
-        a->tex = t;
-        a->own_texture = 1;
-    } else {
-        pov_texture_put_layer(&a->tex, t);
-    }
-    return VBNL_OK;
-}
-
 static vbnl_result mat_interior(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
@@ -111,7 +91,7 @@ static void mat_transform(const pov_item *it, const double m[16])
 }
 
 static const pov_row material_rows[] = {
-    {"texture", mat_texture, 0},
+    {"texture", pov_appearance_texture_item, 0},
     {"interior", mat_interior, 0},
     {"vbnl_bsdf", mat_bsdf, 0},
     {NULL, NULL, 0},

@@ -211,6 +211,9 @@ extern const vbnl_sdl_opaque_type pov_type_texture, pov_type_pigment, pov_type_f
  * when the next token is not such a value, -1 on a parse error. */
 int pov_take_ident(pov_ctx *c, const vbnl_sdl_opaque_type *type, void *dst, int (*copy)(void *dst, const void *src));
 void pov_appearance_init(pov_appearance *a);
+/* A `texture { }` item of an object or a material (target: its pov_appearance): the first one
+ * replaces the texture it started from, each later one is a layer over it. */
+vbnl_result pov_appearance_texture_item(const pov_item *it);
 void pov_appearance_clear(pov_appearance *a);
 
 /* ---- the blocks; each is called after its keyword and reads from its '{' ------------------------ */
