@@ -15,12 +15,12 @@ mkdir -p "$out/corpus" "$out/seeds"
 integrator_dirs=$(for d in "$here"/core/integrators/*/; do printf -- '-I %s ' "${d%/}"; done)
 build() { # TARGET_SOURCE OUTPUT
     clang -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -D_GNU_SOURCE \
-        -I "$here/core/include" -I "$here/core/src" $integrator_dirs \
+        -I "$here/core/include" -I "$here/core/src" -I "$here/core/src/texture" $integrator_dirs \
         -I "$here/scene_parser/include" -I "$here/scene_parser/language" -I "$here/scene_parser/objects" \
-        -I "$here/scene_parser/objects/shapes" -I "$here/scene_parser/objects/texture" \
-        $(find "$here/scene_parser" -name '*.c' | sort) "$here"/core/src/*.c \
+        -I "$here/scene_parser/objects/shapes" -I "$here/scene_parser/objects/texture" -I "$here/scene_parser/image" \
+        $(find "$here/scene_parser" -name '*.c' | sort) "$here"/core/src/*.c "$here"/core/src/texture/*.c \
         "$here"/core/integrators/registry.c "$here"/core/integrators/*/*.c \
-        "$1" -lembree3 -lassimp -lpng -lm -lpthread -o "$2"
+        "$1" -lembree3 -lassimp -lpng -lm -lpthread -ldl -o "$2"
 }
 build "$here/tests/scene_parser/fuzz_parser.c" "$out/fuzz_parser"
 build "$here/tests/scene_parser/fuzz_mesh.c" "$out/fuzz_mesh"

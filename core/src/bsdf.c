@@ -156,10 +156,12 @@ void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m)
     b->type = m->type;
     b->color = v3_min(v3_max(v3_load(m->base_color), v3s(0.0f)), v3s(1.0f));
     b->alpha = clampf(isfinite(m->alpha) ? m->alpha : 1.0f, VBNL_GGX_ALPHA_MIN, 1.0f);
-    b->ior = isfinite(m->ior) && m->ior > 1.0f ? m->ior : 1.5f;
+    b->ior = isfinite(m->ior) && m->ior >= 1.0f ? m->ior : 1.5f;
     b->use_ior = m->conductor_use_ior;
     b->eta = v3_max(v3_load(m->eta), v3s(1e-3f));
     b->k = v3_max(v3_load(m->k), v3s(0.0f));
+    b->bumped = 0;
+    b->ns = v3(0.0f, 0.0f, 1.0f);
 }
 
 /* ---- Lambert ------------------------------------------------------------------------------ */

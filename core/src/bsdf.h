@@ -26,7 +26,8 @@ enum {
     VBNL_LOBE_SPECULAR = 1u << 4, /* a delta distribution */
 };
 
-/* A material resolved at a hit point (textures, once they exist, are applied here). */
+/* A material resolved at a hit point: its pigment's colour applied, and, where a normal
+ * perturbs it, the shading normal there (vbnl_surface_bsdf). */
 typedef struct vbnl_bsdf {
     vbnl_material_type type;
     vec3 color;       /* Lambert / plastic base albedo; conductor F0; mirror / glass tint */
@@ -34,7 +35,13 @@ typedef struct vbnl_bsdf {
     float ior;        /* dielectric / plastic coat */
     int use_ior;      /* conductor: eta/k instead of F0 */
     vec3 eta, k;
+    int bumped;       /* 1: ns replaces the hit's shading normal */
+    vec3 ns;          /* the perturbed unit shading normal, on the hit's geometric side */
 } vbnl_bsdf;
+
+/* The shading normal to build the frame on: the perturbed one where a normal perturbs the
+ * surface, else the hit's. */
+static inline vec3 vbnl_bsdf_shading_normal(const vbnl_bsdf *b, vec3 hit_ns) { return b->bumped ? b->ns : hit_ns; }
 
 typedef struct vbnl_bsdf_sample_rec {
     vec3 wi;

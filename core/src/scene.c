@@ -33,37 +33,9 @@ void vbnl_material_desc_init(vbnl_material_desc *d)
     d->eta[0] = d->eta[1] = d->eta[2] = 1.0f;
 }
 
-static void *dup_array_early(const void *src, size_t bytes)
-{
-    void *p = malloc(bytes ? bytes : 1);
-    if (p && bytes)
-        memcpy(p, src, bytes);
-    return p;
-}
-
-void vbnl_texture_desc_init(vbnl_texture_desc *d)
-{
-    if (!d)
-        return;
-    memset(d, 0, sizeof(*d));
-    d->kind = VBNL_TEXTURE_CHECKER;
-    d->pattern_from_world[0] = d->pattern_from_world[5] = d->pattern_from_world[10] =
-        d->pattern_from_world[15] = 1.0f;
-    d->projection = VBNL_PROJECTION_UV;
-    d->wrap = VBNL_WRAP_REPEAT;
-    d->interpolate = 1;
-    d->gradient[0] = 1.0f;
-    d->brick_size[0] = 8.0f;
-    d->brick_size[1] = 3.0f;
-    d->brick_size[2] = 4.5f;
-    d->mortar = 0.5f;
-    d->frequency = 1.0f;
-    d->wave = VBNL_WAVE_RAMP;
-}
-
 static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
 
-static vbnl_result check_open(const vbnl_scene *s, const char *fn, vbnl_error *err)
+vbnl_result vbnl_scene_check_open(const vbnl_scene *s, const char *fn, vbnl_error *err)
 {
     if (!s)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "%s: scene is NULL", fn);
@@ -83,6 +55,7 @@ vbnl_result vbnl_scene_create(vbnl_context *ctx, vbnl_scene **out, vbnl_error *e
     s->device = ctx->device;
     s->group_count = 1; /* the world */
     s->env_light = VBNL_NO_LIGHT;
+    vbnl_texture_set_init(&s->tex);
     *out = s;
     return VBNL_OK;
 }
@@ -114,11 +87,7 @@ void vbnl_scene_destroy(vbnl_scene *s)
     vbnl_alias_table_free(&s->light_table);
     free(s->geoms);
     free(s->materials);
-    for (uint32_t i = 0; i < s->texture_count; ++i) {
-        free(s->textures[i].texels);
-        free(s->textures[i].map);
-    }
-    free(s->textures);
+    vbnl_texture_set_free(&s->tex);
     free(s->lights);
     free(s);
 }
@@ -126,7 +95,7 @@ void vbnl_scene_destroy(vbnl_scene *s)
 vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, uint32_t *out_id,
                                     vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_material", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_material", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
@@ -146,128 +115,35 @@ vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, 
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                   "conductor eta must be > 0 and k >= 0");
     }
-    if (d->base_texture > s->texture_count)
+    if (d->base_texture > s->tex.pigment_count)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                              "material base_texture %u names no texture (%u added; it is id + 1)",
-                              d->base_texture, s->texture_count);
+                              "material base_texture %u names no pigment (%u added; it is id + 1)",
+                              d->base_texture, s->tex.pigment_count);
     if ((d->type == VBNL_MATERIAL_CONDUCTOR || d->type == VBNL_MATERIAL_PLASTIC) &&
         !(d->alpha >= 0.0f && d->alpha <= 1.0f))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "material alpha (GGX roughness) must lie in [0, 1] (got %g)", d->alpha);
-    if ((d->type == VBNL_MATERIAL_DIELECTRIC || d->type == VBNL_MATERIAL_PLASTIC) &&
-        !(d->ior > 1.0f && d->ior < 10.0f))
+    if ((d->type == VBNL_MATERIAL_PLASTIC && !(d->ior > 1.0f && d->ior < 10.0f)) ||
+        (d->type == VBNL_MATERIAL_DIELECTRIC && !(d->ior >= 1.0f && d->ior < 10.0f)))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                              "material ior must lie in (1, 10) (got %g)", d->ior);
+                              "material ior must lie in %s, 10) (got %g)",
+                              d->type == VBNL_MATERIAL_PLASTIC ? "(1" : "[1", d->ior);
     GROW(s->materials, s->material_count, s->material_capacity, scene_material);
     scene_material *m = &s->materials[s->material_count];
     m->desc = *d;
     vbnl_bsdf_from_material(&m->bsdf, d);
     m->emissive = d->emission[0] > 0.0f || d->emission[1] > 0.0f || d->emission[2] > 0.0f;
-    m->texture = NULL;
+    m->varies = d->base_texture != 0;
+    m->is_node = 0;
+    memset(&m->node, 0, sizeof(m->node));
+    m->surface = m->origin = s->material_count;
+    m->hidden_begin = m->hidden_count = 0;
     if (out_id)
         *out_id = s->material_count;
     s->material_count++;
     return VBNL_OK;
 }
 
-vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, uint32_t *out_id,
-                                   vbnl_error *err)
-{
-    vbnl_result r = check_open(s, "vbnl_scene_add_texture", err);
-    if (r != VBNL_OK)
-        return r;
-    if (!d)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_texture: desc is NULL");
-    if ((unsigned)d->kind > VBNL_TEXTURE_BRICK)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown texture kind %d", (int)d->kind);
-    vbnl_texture t;
-    memset(&t, 0, sizeof(t));
-    t.kind = d->kind;
-    for (int i = 0; i < 16; ++i) {
-        if (!isfinite(d->pattern_from_world[i]))
-            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "texture matrix is not finite");
-        t.xf.m[i / 4][i % 4] = d->pattern_from_world[i];
-    }
-    if (!(fabsf(mat4_det3(&t.xf)) > 1e-20f))
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "texture matrix is singular");
-    if (d->kind == VBNL_TEXTURE_IMAGE) {
-        if (!d->texels || d->width == 0 || d->height == 0 || d->width > (1u << 16) ||
-            d->height > (1u << 16))
-            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                  "image texture needs texels and a size in [1, 65536]^2 (got %u x %u)",
-                                  d->width, d->height);
-        if ((unsigned)d->projection > VBNL_PROJECTION_CYLINDRICAL || (unsigned)d->wrap > VBNL_WRAP_CLAMP)
-            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown image projection or wrap mode");
-        size_t n = 3 * (size_t)d->width * d->height;
-        for (size_t i = 0; i < n; ++i)
-            if (!(d->texels[i] >= 0.0f) || !isfinite(d->texels[i]))
-                return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                      "image texel values must be finite and >= 0 (got %g)", d->texels[i]);
-        t.width = d->width;
-        t.height = d->height;
-        t.projection = d->projection;
-        t.wrap = d->wrap;
-        t.interpolate = d->interpolate != 0;
-        t.texels = dup_array_early(d->texels, n * sizeof(float));
-        if (!t.texels)
-            return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    } else {
-        if (!d->color_map || d->color_map_count == 0 || d->color_map_count > VBNL_COLOR_MAP_MAX)
-            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                  "pattern texture needs a colour map of 1..%u entries", VBNL_COLOR_MAP_MAX);
-        for (uint32_t i = 0; i < d->color_map_count; ++i) {
-            const vbnl_color_map_entry *e = &d->color_map[i];
-            if (!isfinite(e->value) || (i > 0 && e->value < d->color_map[i - 1].value))
-                return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                      "colour map values must be finite and sorted (entry %u)", i);
-            for (int c = 0; c < 3; ++c)
-                if (!(e->color[c] >= 0.0f) || !isfinite(e->color[c]))
-                    return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                          "colour map colours must be finite and >= 0 (entry %u)", i);
-        }
-        vec3 g = v3_load(d->gradient);
-        if (d->kind == VBNL_TEXTURE_GRADIENT) {
-            if (!v3_is_finite(g) || !(v3_len2(g) > 0.0f))
-                return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "gradient axis must be non-zero");
-            if (!isfinite(d->frequency) || !isfinite(d->phase) || (unsigned)d->wave > VBNL_WAVE_SCALLOP)
-                return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                      "gradient frequency / phase must be finite and the wave known");
-            t.gradient = v3_norm(g);
-        }
-        if (d->kind == VBNL_TEXTURE_BRICK) {
-            for (int c = 0; c < 3; ++c)
-                if (!(d->brick_size[c] > 0.0f) || !isfinite(d->brick_size[c]))
-                    return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "brick_size components must be > 0");
-            if (!(d->mortar >= 0.0f) || !isfinite(d->mortar))
-                return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "mortar must be >= 0");
-            t.brick_size = v3_load(d->brick_size);
-            t.mortar = d->mortar;
-        }
-        t.frequency = d->frequency;
-        t.phase = d->phase;
-        t.wave = d->wave;
-        t.map_count = d->color_map_count;
-        t.map = dup_array_early(d->color_map, sizeof(vbnl_color_map_entry) * d->color_map_count);
-        if (!t.map)
-            return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    }
-    if (s->texture_count == s->texture_capacity) {
-        uint32_t ncap = s->texture_capacity ? s->texture_capacity * 2 : 16;
-        vbnl_texture *n = realloc(s->textures, sizeof(*n) * ncap);
-        if (!n) {
-            free(t.texels);
-            free(t.map);
-            return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-        }
-        s->textures = n;
-        s->texture_capacity = ncap;
-    }
-    s->textures[s->texture_count] = t;
-    if (out_id)
-        *out_id = s->texture_count;
-    s->texture_count++;
-    return VBNL_OK;
-}
 
 static void *dup_array(const void *src, size_t bytes)
 {
@@ -323,7 +199,7 @@ static vbnl_result check_transform(const float *m, mat4 *out, mat4 *inv, vbnl_er
 vbnl_result vbnl_scene_add_mesh(vbnl_scene *s, const vbnl_mesh_desc *d, uint32_t *out_id,
                                 vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_mesh", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_mesh", err);
     if (r != VBNL_OK)
         return r;
     if (!d || !d->positions || !d->indices)
@@ -409,7 +285,7 @@ vbnl_result vbnl_scene_add_sphere(vbnl_scene *s, const float center[3], float ra
                                   uint32_t material, uint32_t group, uint32_t *out_id,
                                   vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_sphere", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_sphere", err);
     if (r != VBNL_OK)
         return r;
     if (!center || !finite3(center) || !(radius > 0.0f) || !isfinite(radius))
@@ -439,7 +315,7 @@ vbnl_result vbnl_scene_add_sphere(vbnl_scene *s, const float center[3], float ra
 
 vbnl_result vbnl_scene_add_group(vbnl_scene *s, uint32_t *out_group, vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_group", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_group", err);
     if (r != VBNL_OK)
         return r;
     if (!out_group)
@@ -451,7 +327,7 @@ vbnl_result vbnl_scene_add_group(vbnl_scene *s, uint32_t *out_group, vbnl_error 
 vbnl_result vbnl_scene_add_instance(vbnl_scene *s, uint32_t group, const float transform[16],
                                     uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_instance", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_instance", err);
     if (r != VBNL_OK)
         return r;
     if (!transform)
@@ -497,7 +373,7 @@ static vbnl_result check_color(const float *c, const char *what, vbnl_error *err
 vbnl_result vbnl_scene_add_point_light(vbnl_scene *s, const float position[3],
                                        const float intensity[3], uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_point_light", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_point_light", err);
     if (r != VBNL_OK)
         return r;
     if (!position || !finite3(position))
@@ -517,7 +393,7 @@ vbnl_result vbnl_scene_add_point_light(vbnl_scene *s, const float position[3],
 vbnl_result vbnl_scene_add_spot_light(vbnl_scene *s, const vbnl_spot_light_desc *d, uint32_t *out_id,
                                       vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_spot_light", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_spot_light", err);
     if (r != VBNL_OK)
         return r;
     if (!d || !finite3(d->position) || !finite3(d->direction) || v3_len(v3_load(d->direction)) == 0.0f)
@@ -546,7 +422,7 @@ vbnl_result vbnl_scene_add_spot_light(vbnl_scene *s, const vbnl_spot_light_desc 
 vbnl_result vbnl_scene_add_area_light(vbnl_scene *s, const vbnl_area_light_desc *d, uint32_t *out_id,
                                       vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_area_light", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_area_light", err);
     if (r != VBNL_OK)
         return r;
     if (!d || !finite3(d->corner) || !finite3(d->edge_u) || !finite3(d->edge_v))
@@ -602,7 +478,7 @@ vbnl_result vbnl_scene_add_directional_light(vbnl_scene *s, const float directio
                                              const float irradiance[3], uint32_t *out_id,
                                              vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_add_directional_light", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_directional_light", err);
     if (r != VBNL_OK)
         return r;
     if (!direction || !finite3(direction) || v3_len(v3_load(direction)) == 0.0f)
@@ -622,7 +498,7 @@ vbnl_result vbnl_scene_add_directional_light(vbnl_scene *s, const float directio
 
 vbnl_result vbnl_scene_set_environment(vbnl_scene *s, const float radiance[3], vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_set_environment", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_environment", err);
     if (r != VBNL_OK)
         return r;
     if ((r = check_color(radiance, "environment radiance", err)) != VBNL_OK)
@@ -660,7 +536,7 @@ vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3], 
 
 vbnl_result vbnl_scene_set_camera(vbnl_scene *s, const vbnl_camera_desc *c, vbnl_error *err)
 {
-    vbnl_result r = check_open(s, "vbnl_scene_set_camera", err);
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_camera", err);
     if (r != VBNL_OK)
         return r;
     if (!c || !finite3(c->position) || !finite3(c->forward) || !finite3(c->right) || !finite3(c->up))

@@ -189,11 +189,11 @@ vbnl_result vbnl_scene_commit(vbnl_scene *s, vbnl_error *err)
     if (!s->has_camera)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "the scene has no camera");
     s->ctx->embree_error[0] = '\0';
-    /* textures are final now: materials point at them directly (vbnl_surface_bsdf) */
-    for (uint32_t i = 0; i < s->material_count; ++i) {
-        uint32_t t = s->materials[i].desc.base_texture;
-        s->materials[i].texture = t ? &s->textures[t - 1] : NULL;
-    }
+    /* textures are final now: which materials vary per hit, and the hidden leaf copies of nodes */
+    s->user_material_count = s->material_count;
+    vbnl_result tr = vbnl_texture_commit(s, err);
+    if (tr != VBNL_OK)
+        return tr;
     s->group_rtc = calloc(s->group_count, sizeof(RTCScene));
     if (!s->group_rtc)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
@@ -288,7 +288,7 @@ vbnl_result vbnl_scene_get_info(const vbnl_scene *s, vbnl_scene_info *out, vbnl_
         else if (s->geoms[i].kind == SCENE_GEOM_INSTANCE)
             out->instance_count++;
     }
-    out->material_count = s->material_count;
+    out->material_count = s->committed ? s->user_material_count : s->material_count;
     out->light_count = s->light_count;
     if (s->committed) {
         out->triangle_count = s->triangle_count;
@@ -478,22 +478,7 @@ uint64_t vbnl_scene_fingerprint(const vbnl_scene *s)
         h = fp_u32(h, (uint32_t)d->two_sided);
         h = fp_u32(h, d->base_texture);
     }
-    h = fp_u32(h, s->texture_count);
-    for (uint32_t i = 0; i < s->texture_count; ++i) {
-        const vbnl_texture *t = &s->textures[i];
-        h = fp_u32(h, (uint32_t)t->kind);
-        for (int r = 0; r < 4; ++r)
-            for (int c = 0; c < 4; ++c)
-                h = fp_f32(h, t->xf.m[r][c]);
-        h = fp_u32(fp_u32(h, t->width), t->height);
-        h = fp_array(h, t->texels, sizeof(float) * 3 * (size_t)t->width * t->height);
-        h = fp_u32(fp_u32(fp_u32(h, (uint32_t)t->projection), (uint32_t)t->wrap), (uint32_t)t->interpolate);
-        h = fp_v3(fp_v3(fp_f32(h, t->mortar), t->gradient), t->brick_size);
-        h = fp_u32(h, t->map_count);
-        for (uint32_t j = 0; j < t->map_count; ++j)
-            h = fp_bytes(fp_f32(h, t->map[j].value), t->map[j].color, sizeof(t->map[j].color));
-        h = fp_u32(fp_f32(fp_f32(h, t->frequency), t->phase), (uint32_t)t->wave);
-    }
+    h = vbnl_texture_fingerprint(s, h);
     h = fp_u32(h, s->light_count);
     for (uint32_t i = 0; i < s->light_count; ++i) {
         /* not the whole struct: its padding is not defined */

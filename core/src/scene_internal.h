@@ -16,7 +16,7 @@
 #include "bsdf.h"
 #include "lights.h"
 #include "sampling.h"
-#include "texture.h"
+#include "texture/texture.h"
 #include "vbnl/scene.h"
 #include "vmath.h"
 
@@ -62,7 +62,16 @@ typedef struct scene_material {
     vbnl_material_desc desc;
     vbnl_bsdf bsdf;
     int emissive;
-    const vbnl_texture *texture; /* desc.base_texture resolved (NULL: none); set at commit */
+    int varies;       /* the BSDF depends on the hit (a node, or a pigment): vbnl_surface_bsdf
+                       * resolves it there */
+    int is_node;      /* a material node (vbnl_scene_add_material_node) */
+    vbnl_mnode node;
+    uint32_t surface; /* the material whose hits this BSDF stands for: itself, or for the hidden
+                       * copy of a node's leaf (made at commit) the node. VBNL lights store the
+                       * material resolved at their point, and take photons from the hits of its
+                       * surface (vl_support.h) */
+    uint32_t origin;  /* hidden copies: the leaf material copied; others: itself */
+    uint32_t hidden_begin, hidden_count; /* nodes: their hidden leaf copies in `materials` */
 } scene_material;
 
 struct vbnl_scene {
@@ -75,8 +84,10 @@ struct vbnl_scene {
     uint32_t geom_count, geom_capacity;
     scene_material *materials;
     uint32_t material_count, material_capacity;
-    vbnl_texture *textures;
-    uint32_t texture_count, texture_capacity;
+    uint32_t user_material_count; /* at commit: the materials added, before the hidden copies */
+    vbnl_texture_set tex;      /* images, patterns, pigments, normals (texture/texture.h) */
+    uint32_t pass_material;    /* id + 1 of the material that lets light through unchanged (made
+                                * for the nodes that need it) */
     vbnl_light *lights;        /* user lights first, then emitters found at commit */
     uint32_t light_count, light_capacity, user_light_count;
     vbnl_alias_table light_table; /* power-based selection */
@@ -88,6 +99,16 @@ struct vbnl_scene {
     vec3 bounds_min, bounds_max;
     uint64_t triangle_count;
 };
+
+/* add_* calls that need an open scene: VBNL_OK, or the error naming `fn`. */
+vbnl_result vbnl_scene_check_open(const vbnl_scene *s, const char *fn, vbnl_error *err);
+/* Commit's texture step (texture/nodes.c): which plain materials vary per hit, and each node's
+ * hidden copies of the plain materials it may resolve to (appended to `materials`). */
+vbnl_result vbnl_texture_commit(vbnl_scene *s, vbnl_error *err);
+/* The hidden copy of `leaf` that node `node` resolves to (the node itself when none). */
+uint32_t vbnl_material_hidden(const vbnl_scene *s, uint32_t node, uint32_t leaf);
+/* The texture nodes' share of vbnl_scene_fingerprint (FNV-1a continued from h). */
+uint64_t vbnl_texture_fingerprint(const vbnl_scene *s, uint64_t h);
 
 /* A surface point found by a ray. */
 typedef struct vbnl_hit {
@@ -302,26 +323,26 @@ void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 
                            const vec3 d[8], vbnl_hit hits[8], int hit_mask[8]);
 
 /* The BSDF at a surface hit. Every integrator asks for the BSDF at a hit through this one
- * function: today it is the material's BSDF; a material whose parameters vary over the surface
- * (textures) writes the BSDF resolved at the hit into *storage and returns storage. */
+ * function: a plain material's BSDF; for a material that varies over the surface (a pigment, a
+ * material node) the BSDF resolved at the hit (texture/material.c: the material chosen there,
+ * its colour, its perturbed shading normal), written into *storage. */
+void vbnl_surface_bsdf_resolve(const vbnl_scene *s, const vbnl_hit *hit, vbnl_bsdf *storage);
 static inline const vbnl_bsdf *vbnl_surface_bsdf(const vbnl_scene *s, const vbnl_hit *hit,
                                                  vbnl_bsdf *storage)
 {
     const scene_material *m = &s->materials[hit->material];
-    if (!m->texture)
+    if (!m->varies)
         return &m->bsdf;
-    *storage = m->bsdf;
-    storage->color = v3_mul(m->bsdf.color, vbnl_texture_eval(m->texture, hit->p, hit->uv));
+    vbnl_surface_bsdf_resolve(s, hit, storage);
     return storage;
 }
 
-/* The colour factor a material's texture gives at a hit (1 for untextured materials): what a
- * virtual light on that surface must remember (its BSDF is the material's with this factor). */
-static inline vec3 vbnl_surface_tint(const vbnl_scene *s, const vbnl_hit *hit)
-{
-    const scene_material *m = &s->materials[hit->material];
-    return m->texture ? vbnl_texture_eval(m->texture, hit->p, hit->uv) : v3s(1.0f);
-}
+/* What a virtual light on the surface at a hit must remember: the material whose BSDF it uses
+ * (for a node, the hidden copy of the leaf chosen there, whose `surface` is the node) and the
+ * colour factor its BSDF carries there (1 for plain materials). */
+uint32_t vbnl_surface_light_material(const vbnl_scene *s, const vbnl_hit *hit, vec3 *tint);
+/* The material whose hits a BSDF of material m stands for (scene_material.surface). */
+static inline uint32_t vbnl_material_surface(const vbnl_scene *s, uint32_t m) { return s->materials[m].surface; }
 
 static inline float vbnl_int_as_float(int32_t i)
 {

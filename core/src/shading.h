@@ -31,8 +31,9 @@ static inline int vbnl_is_black(vec3 a)
 }
 static inline int vbnl_is_finite(vec3 a) { return a.x * 0.0f + a.y * 0.0f + a.z * 0.0f == 0.0f; }
 
-/* Shading frame at a hit seen along d. Opaque surfaces are two-sided: ng and the shading normal
- * are flipped to face the viewer, and a shading normal that faces away falls back to ng; the
+/* Shading frame at a hit seen along d, on the BSDF's shading normal (the hit's, or the one a
+ * normal perturbation gives there). Opaque surfaces are two-sided: ng and the shading normal are
+ * flipped to face the viewer, and a shading normal that faces away falls back to ng; the
  * dielectric keeps its orientation. */
 typedef struct vbnl_shading_frame {
     frame fr;  /* z = shading normal */
@@ -42,7 +43,7 @@ typedef struct vbnl_shading_frame {
 static inline void vbnl_shading_frame_make(const vbnl_bsdf *bsdf, const vbnl_hit *hit, vec3 d,
                                            vbnl_shading_frame *sf)
 {
-    vec3 wo_w = v3_neg(d), ng = hit->ng, ns = hit->ns;
+    vec3 wo_w = v3_neg(d), ng = hit->ng, ns = vbnl_bsdf_shading_normal(bsdf, hit->ns);
     if (!vbnl_bsdf_is_transmissive(bsdf)) {
         if (v3_dot(ng, wo_w) < 0.0f) {
             ng = v3_neg(ng);

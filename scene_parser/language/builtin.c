@@ -7,6 +7,7 @@
 #include <time.h>
 
 #include "sdl_internal.h"
+#include "vbnl/scene.h"
 
 typedef struct builtin {
     int kw;
@@ -363,13 +364,12 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         sdl_set_vector(out, 3, o);
         return true;
     }
-    case VBNL_KW_vturbulence: {
-        double z[3] = { 0, 0, 0 };
-        if (!(p->warned & 8u)) {
-            p->warned |= 8u;
-            sdl_warnf(p, &fn->loc, "vturbulence() is not implemented; returning <0,0,0> (reported once)");
-        }
-        sdl_set_vector(out, 3, z);
+    case VBNL_KW_vturbulence: { /* POV-Ray's DTurbulence, octaves clamped to 1..10 */
+        double q[3], o[3];
+        if (!sdl_to_vector(p, &a[3], 3, q, &al[3], "vturbulence()"))
+            return false;
+        vbnl_vturbulence(a[0].v[0], a[1].v[0], (int)fmax(-1e9, fmin(1e9, a[2].v[0])), q, o);
+        sdl_set_vector(out, 3, o);
         return true;
     }
     case VBNL_KW_inside:

@@ -178,10 +178,10 @@ bool sdl_parse_rvalue(vbnl_sdl_parser *p, vbnl_sdl_value *out)
                 if (fi < p->nframes)
                     p->frames[fi].in_directive = saved;
                 /* Layered textures, `texture { A } texture { B }`: combined by the value's type
-                 * (else the last layer replaces the others). The layers' deferred warnings
-                 * and the note on layering are reported where the result is used. */
+                 * (else the last layer replaces the others). The layers' deferred warnings are
+                 * reported where the result is used. */
                 const char *kw = copy.text;
-                for (bool noted = false; r > 0 && !p->failed && strcmp(kw, "texture") == 0;) {
+                while (r > 0 && !p->failed && strcmp(kw, "texture") == 0) {
                     const vbnl_sdl_token *n = vbnl_sdl_peek(p);
                     if (!(n->kind == VBNL_SDL_TOK_IDENT && strcmp(n->text, "texture") == 0))
                         break;
@@ -202,13 +202,6 @@ bool sdl_parse_rvalue(vbnl_sdl_parser *p, vbnl_sdl_value *out)
                     int group = out->kind == VBNL_SDL_OBJECT ? out->u.obj.deferred : 0;
                     if (!group && (group = vbnl_sdl_defer_begin(p)))
                         vbnl_sdl_defer_end(p, group);
-                    if (!noted) {
-                        int note = vbnl_sdl_defer_begin(p);
-                        sdl_warnf(p, &layer.loc, "layered textures are rendered as one layer (the top opaque one)");
-                        vbnl_sdl_defer_end(p, note);
-                        sdl_defer_link(p, group, note);
-                        noted = true;
-                    }
                     if (top.kind == VBNL_SDL_OBJECT)
                         sdl_defer_link(p, group, top.u.obj.deferred);
                     if (out->kind == VBNL_SDL_OBJECT && top.kind == VBNL_SDL_OBJECT &&

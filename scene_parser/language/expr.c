@@ -859,6 +859,24 @@ vbnl_result vbnl_sdl_parse_float(vbnl_sdl_parser *p, double *out)
     return sdl_expr_float(p, out, "a float value") ? VBNL_OK : VBNL_ERR_PARSE;
 }
 
+vbnl_result vbnl_sdl_parse_float_sum(vbnl_sdl_parser *p, double *out)
+{
+    if (!p || !out)
+        return VBNL_ERR_INVALID_ARGUMENT;
+    vbnl_sdl_value v;
+    vbnl_sdl_loc loc = vbnl_sdl_peek(p)->loc;
+    *out = 0;
+    if (!additive(p, &v))
+        return VBNL_ERR_PARSE;
+    if (v.kind != VBNL_SDL_FLOAT) {
+        sdl_errorf(p, &loc, "expected a float for a float value, found a %s", kind_of(&v));
+        vbnl_sdl_value_clear(p, &v);
+        return VBNL_ERR_PARSE;
+    }
+    *out = v.v[0];
+    return VBNL_OK;
+}
+
 vbnl_result vbnl_sdl_parse_vector(vbnl_sdl_parser *p, int dim, double *out)
 {
     if (!p || !out)

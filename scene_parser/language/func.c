@@ -3,8 +3,11 @@
  * A function body compiles to a small expression tree over its parameters (x, y, z by default)
  * with the same operators and maths built-ins as SDL expressions. Declared floats are captured as
  * constants when the function is defined, declared functions are called (shared reference), so
- * the call graph is acyclic. Bodies that are patterns/pigments ("function { pigment { ... } }")
- * and POV-Ray's internal(N) functions are kept but evaluate to 0 with a warning. */
+ * the call graph is acyclic. Bodies that are patterns or pigments ("function { pattern { ... } }")
+ * are read by the object layer's function_block hook, which hands back an evaluator; without the
+ * hook they, and POV-Ray's internal(N) functions, are kept but evaluate to 0 with a warning. A
+ * pigment function's value is its red component unless a member names another:
+ * F(x, y, z).green. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,9 +33,12 @@ struct vbnl_sdl_function {
     int *argv;
     int nargv, capargv;
     int root;
-    bool block;       /* pattern/pigment function: not evaluable here */
+    bool block;       /* pattern/pigment function */
+    bool has_ext;     /* ... evaluated by the object layer through ext */
+    vbnl_sdl_fn_block ext;
     bool internal;    /* POV-Ray internal(N) */
     bool warned;
+    bool detached;    /* a standalone copy (vbnl_sdl_function_detach): plain malloc, no parser */
     vbnl_sdl_loc loc;
 };
 
@@ -55,6 +61,8 @@ void sdl_function_release(vbnl_sdl_parser *p, vbnl_sdl_function *f)
     for (int i = 0; i < f->nnodes; i++)
         if (f->nodes[i].kind == FN_USER)
             sdl_function_release(p, f->nodes[i].callee);
+    if (f->has_ext && f->ext.release)
+        f->ext.release(f->ext.user);
     sdl_free(p, f->nodes, (size_t)f->capnodes * sizeof *f->nodes);
     sdl_free(p, f->argv, (size_t)f->capargv * sizeof *f->argv);
     sdl_free(p, f, sizeof *f);
@@ -255,6 +263,25 @@ static int f_primary(fn_ctx *c)
             return -1;
         c->f->nodes[n].args = first;
         c->f->nodes[n].nargs = na;
+        if (vbnl_sdl_accept(p, '.')) { /* a component of a pigment (or spline) function's value */
+            const vbnl_sdl_token *cn = vbnl_sdl_next(p);
+            static const struct { int kw, idx; } comps[] = {
+                { VBNL_KW_x, 0 }, { VBNL_KW_y, 1 }, { VBNL_KW_z, 2 }, { VBNL_KW_t, 4 }, { VBNL_KW_red, 0 },
+                { VBNL_KW_green, 1 }, { VBNL_KW_blue, 2 }, { VBNL_KW_filter, 3 }, { VBNL_KW_transmit, 4 },
+            };
+            int idx = -1;
+            for (size_t i = 0; i < sizeof comps / sizeof comps[0]; i++)
+                if (cn->keyword == comps[i].kw)
+                    idx = comps[i].idx;
+            if (cn->keyword == VBNL_KW_gray)
+                idx = 5;
+            /* a block function (pigment, spline) gives a colour or a vector; a float function none */
+            if (idx < 0 || !callee->block || (callee->has_ext && callee->ext.dims < 5)) {
+                sdl_errorf(p, &cn->loc, "'.%s': only a pigment or spline function's value has components", cn->text);
+                return -1;
+            }
+            c->f->nodes[n].op = idx;
+        }
         return n;
     }
     sdl_errorf(p, &tok.loc, "'%s' is a %s; a function body can use floats and functions", tok.text,
@@ -396,9 +423,28 @@ bool sdl_parse_function(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_
     for (int i = 0; i < f->arity; i++)
         is_param |= t->kind == VBNL_SDL_TOK_IDENT && f->params[i] == t->text;
     if (t->kind == VBNL_SDL_TOK_IDENT && !t->keyword && !is_param && !sdl_lookup(p, t->text)) {
-        /* function { pattern { ... } } and friends: keep as an unevaluated block */
+        /* function { pattern { ... } } and friends: the object layer's evaluator, or an
+         * unevaluated block */
         vbnl_sdl_token kw = *vbnl_sdl_next(p);
         const vbnl_sdl_token *b = vbnl_sdl_peek(p);
+        if (b->kind == VBNL_SDL_TOK_PUNCT && b->op == '{' && p->function_block) {
+            vbnl_sdl_fn_block ext;
+            memset(&ext, 0, sizeof ext);
+            int r = p->function_block(p, &kw, &ext, p->function_block_user);
+            if (r < 0)
+                goto fail;
+            if (r > 0) {
+                f->block = true;
+                f->has_ext = ext.eval != NULL;
+                f->ext = ext;
+                if (!f->has_ext && ext.release)
+                    ext.release(ext.user);
+                if (!sdl_expect_op(p, '}', "to close the function body"))
+                    goto fail;
+                goto done;
+            }
+            b = vbnl_sdl_peek(p);
+        }
         if (b->kind == VBNL_SDL_TOK_PUNCT && b->op == '{') {
             if (vbnl_sdl_skip_block(p) != VBNL_OK)
                 goto fail;
@@ -437,10 +483,27 @@ typedef struct fn_eval {
 
 static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, int nargs);
 
+/* A block function's value: component `comp` of what the object layer's evaluator gives at
+ * (x, y, z) (5: a colour's grey, POV-Ray's 0.297 r + 0.589 g + 0.114 b). */
+static double call_ext(const vbnl_sdl_function *g, const double *args, int nargs, int comp, double col[5])
+{
+    double q[3] = { 0, 0, 0 }, v[5] = { 0, 0, 0, 0, 0 };
+    for (int i = 0; i < 3 && i < nargs; i++)
+        q[i] = args[i];
+    g->ext.eval(g->ext.user, q, v);
+    if (col)
+        memcpy(col, v, sizeof v);
+    if (comp == 5)
+        return 0.297 * v[0] + 0.589 * v[1] + 0.114 * v[2];
+    return comp >= 0 && comp < 5 ? v[comp] : v[0];
+}
+
 static double call_user(fn_eval *e, vbnl_sdl_function *g, const double *args, int nargs)
 {
+    if (g->has_ext)
+        return call_ext(g, args, nargs, 0, NULL);
     if (g->block || g->internal || g->root < 0) {
-        if (!g->warned) {
+        if (e->p && !g->warned) {
             g->warned = true;
             sdl_warnf(e->p, &g->loc, "%s function evaluated as 0 (needs the object layer)",
                       g->internal ? "internal" : "pattern");
@@ -455,7 +518,8 @@ static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, 
     if (e->failed)
         return 0;
     if (++e->steps > 200000000ull || ++e->depth > 20000) {
-        sdl_errorf(e->p, &f->loc, "function evaluation too deep or too long");
+        if (e->p)
+            sdl_errorf(e->p, &f->loc, "function evaluation too deep or too long");
         e->failed = true;
         return 0;
     }
@@ -491,7 +555,8 @@ static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, 
         double av[64];
         for (int i = 0; i < nd->nargs; i++)
             av[i] = eval(e, f, f->argv[nd->args + i], args, nargs);
-        r = call_user(e, nd->callee, av, nd->nargs);
+        r = nd->callee->has_ext ? call_ext(nd->callee, av, nd->nargs, nd->op, NULL)
+                                : call_user(e, nd->callee, av, nd->nargs);
         break;
     }
     case FN_BUILTIN: {
@@ -599,9 +664,82 @@ bool sdl_call_function(vbnl_sdl_parser *p, const vbnl_sdl_function *f, const vbn
         sdl_errorf(p, loc, "function expects %d argument%s, got %d", f->arity, f->arity == 1 ? "" : "s", n);
         return false;
     }
+    if (f->has_ext && f->ext.dims >= 5) { /* a pigment function gives its colour */
+        double col[5];
+        call_ext(f, av, n, 0, col);
+        out->kind = VBNL_SDL_COLOR;
+        out->dim = 5;
+        memcpy(out->v, col, sizeof col);
+        return true;
+    }
     double r;
     if (vbnl_sdl_function_call(p, f, av, n, &r) != VBNL_OK)
         return false;
     sdl_set_float(out, r);
     return true;
+}
+
+/* ---- detached copies (evaluated while rendering) ------------------------------------------------ */
+
+vbnl_sdl_function *vbnl_sdl_function_detach(const vbnl_sdl_function *f)
+{
+    if (!f)
+        return NULL;
+    vbnl_sdl_function *d = malloc(sizeof *d);
+    if (!d)
+        return NULL;
+    *d = *f;
+    d->refs = 1;
+    d->detached = true;
+    if (d->has_ext && d->ext.retain)
+        d->ext.retain(d->ext.user);
+    d->nodes = d->nnodes ? malloc((size_t)d->nnodes * sizeof *d->nodes) : NULL;
+    d->argv = d->nargv ? malloc((size_t)d->nargv * sizeof *d->argv) : NULL;
+    d->capnodes = d->nnodes;
+    d->capargv = d->nargv;
+    if ((d->nnodes && !d->nodes) || (d->nargv && !d->argv)) {
+        free(d->nodes);
+        free(d->argv);
+        free(d);
+        return NULL;
+    }
+    if (d->nnodes)
+        memcpy(d->nodes, f->nodes, (size_t)d->nnodes * sizeof *d->nodes);
+    if (d->nargv)
+        memcpy(d->argv, f->argv, (size_t)d->nargv * sizeof *d->argv);
+    for (int i = 0; i < d->nnodes; i++) {
+        if (d->nodes[i].kind != FN_USER)
+            continue;
+        d->nodes[i].callee = vbnl_sdl_function_detach(f->nodes[i].callee);
+        if (!d->nodes[i].callee) {
+            d->nnodes = i; /* free what was copied */
+            vbnl_sdl_function_free_detached(d);
+            return NULL;
+        }
+    }
+    return d;
+}
+
+void vbnl_sdl_function_free_detached(vbnl_sdl_function *f)
+{
+    if (!f || !f->detached || --f->refs > 0)
+        return;
+    for (int i = 0; i < f->nnodes; i++)
+        if (f->nodes[i].kind == FN_USER)
+            vbnl_sdl_function_free_detached(f->nodes[i].callee);
+    if (f->has_ext && f->ext.release)
+        f->ext.release(f->ext.user);
+    free(f->nodes);
+    free(f->argv);
+    free(f);
+}
+
+double vbnl_sdl_function_eval_detached(const vbnl_sdl_function *f, const double *args, int n)
+{
+    fn_eval e = { NULL, 0, 0, false };
+    double av[64] = { 0 };
+    for (int i = 0; i < n && i < 64; i++)
+        av[i] = args[i];
+    double r = call_user(&e, (vbnl_sdl_function *)f, av, n < 64 ? n : 64);
+    return e.failed ? 0.0 : r;
 }

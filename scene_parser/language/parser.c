@@ -292,6 +292,14 @@ void vbnl_sdl_set_diag_callback(vbnl_sdl_parser *p, vbnl_sdl_diag_fn fn, void *u
     }
 }
 
+void vbnl_sdl_set_function_block_hook(vbnl_sdl_parser *p, vbnl_sdl_function_block_fn fn, void *user)
+{
+    if (p) {
+        p->function_block = fn;
+        p->function_block_user = user;
+    }
+}
+
 void vbnl_sdl_set_hooks(vbnl_sdl_parser *p, const vbnl_sdl_hooks *hooks)
 {
     if (p) {

@@ -207,6 +207,12 @@ static int hook_default(vbnl_sdl_parser *p, void *user)
     return pov_appearance_default_block(&((pov_loader *)user)->c);
 }
 
+static int hook_function_block(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, vbnl_sdl_fn_block *out, void *user)
+{
+    (void)p;
+    return pov_function_block(&((pov_loader *)user)->c, tok, out);
+}
+
 static void on_diag(const vbnl_sdl_diag *d, void *user)
 {
     pov_loader *L = user;
@@ -295,6 +301,7 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
     vbnl_sdl_set_diag_callback(p, on_diag, L);
     vbnl_sdl_hooks h = {L, hook_statement, hook_rvalue, hook_default};
     vbnl_sdl_set_hooks(p, &h);
+    vbnl_sdl_set_function_block_hook(p, hook_function_block, L);
     r = text ? vbnl_sdl_parse_text(p, name, text, len, err) : vbnl_sdl_parse_file(p, name, err);
     if (r != VBNL_OK)
         goto done;

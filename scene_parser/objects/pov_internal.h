@@ -19,6 +19,7 @@
 
 #include <stdint.h>
 
+#include "pov_block.h"
 #include "vbnl/scene.h"
 #include "vbnl/sdl.h"
 
@@ -62,6 +63,10 @@ void pov_appearance_average_color(pov_ctx *c, const pov_appearance *a, double rg
 /* The default_block hook: `#default { texture/pigment/finish/normal { ... } }`. */
 int pov_appearance_default_block(pov_ctx *c);
 
+/* The function_block hook (vbnl_sdl_set_function_block_hook): `function { pattern { ... } }` and
+ * `function { pigment { ... } }` (texture/function.c). */
+int pov_function_block(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_fn_block *out);
+
 /* Copies / frees (NULL accepted). An object without its own appearance inherits its parent's
  * (CSG) or the #default one, which the object part asks for with pov_appearance_default. */
 pov_appearance *pov_appearance_copy(const pov_appearance *a);
@@ -74,6 +79,10 @@ pov_appearance *pov_appearance_default_shared(pov_ctx *c);
 
 /* An object transform given after the appearance moves its patterns with the object. */
 void pov_appearance_transform(pov_appearance *a, const double m[16]);
+
+/* global_settings items of the texture part (noise_generator, number_of_waves); the block's
+ * context must start with the pov_ctx (the loader does). */
+extern const pov_row pov_texture_global_rows[];
 
 /* ---- texture part: mapping onto the core --------------------------------------------------- */
 

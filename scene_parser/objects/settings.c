@@ -190,8 +190,6 @@ static const pov_row settings_rows[] = {
     {"assumed_gamma", pov_item_any_float, 0},
     {"max_trace_level", pov_item_any_float, 0},
     {"adc_bailout", pov_item_any_float, 0},
-    {"number_of_waves", pov_item_any_float, 0},
-    {"noise_generator", pov_item_any_float, 0},
     {"max_intersections", pov_item_any_float, 0},
     {"mm_per_unit", pov_item_any_float, 0},
     {"ambient_light", any_color, 0},
@@ -201,7 +199,7 @@ static const pov_row settings_rows[] = {
     {NULL, NULL, 0},
 };
 
-static const pov_row *const settings_tables[] = {settings_rows, NULL};
+static const pov_row *const settings_tables[] = {settings_rows, pov_texture_global_rows, NULL};
 static const pov_block settings_block = {.name = "global_settings",
                                          .tables = settings_tables,
                                          .unknown = unknown_setting};

@@ -35,6 +35,32 @@ static inline void ts_quad(vbnl_scene *s, const float p[12], uint32_t material)
     vbnl_scene_add_mesh(s, &m, NULL, NULL);
 }
 
+/* The six walls of the box [-1,1]x[0,2]x[-1,1], with materials m: floor, ceiling, back (z = -1),
+ * front, left (x = -1), right. */
+static inline void ts_room_walls(vbnl_scene *s, const uint32_t m[6])
+{
+    static const float walls[6][12] = {
+        {-1, 0, -1, -1, 0, 1, 1, 0, 1, 1, 0, -1}, {-1, 2, -1, 1, 2, -1, 1, 2, 1, -1, 2, 1},
+        {-1, 0, -1, 1, 0, -1, 1, 2, -1, -1, 2, -1}, {-1, 0, 1, -1, 2, 1, 1, 2, 1, 1, 0, 1},
+        {-1, 0, -1, -1, 2, -1, -1, 2, 1, -1, 0, 1}, {1, 0, -1, 1, 0, 1, 1, 2, 1, 1, 2, -1},
+    };
+    for (int i = 0; i < 6; ++i)
+        ts_quad(s, walls[i], m[i]);
+}
+
+/* A 0.5 x 0.5 light just under the ceiling of that box, of radiance le. */
+static inline void ts_room_light(vbnl_scene *s, const float le[3])
+{
+    vbnl_area_light_desc al;
+    memset(&al, 0, sizeof(al));
+    const float corner[3] = {-0.25f, 1.98f, -0.25f}, eu[3] = {0.5f, 0, 0}, ev[3] = {0, 0, 0.5f};
+    memcpy(al.corner, corner, sizeof(corner));
+    memcpy(al.edge_u, eu, sizeof(eu));
+    memcpy(al.edge_v, ev, sizeof(ev));
+    memcpy(al.radiance, le, sizeof(al.radiance));
+    vbnl_scene_add_area_light(s, &al, NULL, NULL);
+}
+
 /* A closed Cornell-like box [-1,1]x[0,2]x[-1,1] (open side closed too) with a ceiling light of
  * radiance `Le`, camera at (0,1,0.9) looking at -z. Not committed. */
 static inline vbnl_scene *ts_box_scene(vbnl_context *ctx, float aspect)
@@ -52,18 +78,8 @@ static inline vbnl_scene *ts_box_scene(vbnl_context *ctx, float aspect)
         d.alpha = 0.2f;
         vbnl_scene_add_material(s, &d, &glossy, NULL);
     }
-    const float floor_[12] = {-1, 0, -1, -1, 0, 1, 1, 0, 1, 1, 0, -1};
-    const float ceil_[12] = {-1, 2, -1, 1, 2, -1, 1, 2, 1, -1, 2, 1};
-    const float back[12] = {-1, 0, -1, 1, 0, -1, 1, 2, -1, -1, 2, -1};
-    const float front[12] = {-1, 0, 1, -1, 2, 1, 1, 2, 1, 1, 0, 1};
-    const float left[12] = {-1, 0, -1, -1, 2, -1, -1, 2, 1, -1, 0, 1};
-    const float right[12] = {1, 0, -1, 1, 0, 1, 1, 2, 1, 1, 2, -1};
-    ts_quad(s, floor_, glossy);
-    ts_quad(s, ceil_, white);
-    ts_quad(s, back, white);
-    ts_quad(s, front, white);
-    ts_quad(s, left, red);
-    ts_quad(s, right, green);
+    const uint32_t walls[6] = {glossy, white, white, white, red, green};
+    ts_room_walls(s, walls);
     const float c[3] = {0.3f, 0.4f, -0.3f};
     uint32_t metal;
     {
@@ -74,16 +90,8 @@ static inline vbnl_scene *ts_box_scene(vbnl_context *ctx, float aspect)
         vbnl_scene_add_material(s, &d, &metal, NULL);
     }
     vbnl_scene_add_sphere(s, c, 0.4f, metal, VBNL_GROUP_WORLD, NULL, NULL);
-    vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
-    float corner[3] = {-0.25f, 1.98f, -0.25f}, eu[3] = {0.5f, 0, 0}, ev[3] = {0, 0, 0.5f};
-    memcpy(al.corner, corner, sizeof(corner));
-    memcpy(al.edge_u, eu, sizeof(eu));
-    memcpy(al.edge_v, ev, sizeof(ev));
-    al.radiance[0] = 17.0f;
-    al.radiance[1] = 12.0f;
-    al.radiance[2] = 4.0f;
-    vbnl_scene_add_area_light(s, &al, NULL, NULL);
+    const float le[3] = {17.0f, 12.0f, 4.0f};
+    ts_room_light(s, le);
     float pos[3] = {0, 1, 0.9f}, target[3] = {0, 1, -1}, up[3] = {0, 1, 0};
     vbnl_camera_desc cam;
     vbnl_camera_look_at(&cam, pos, target, up, 70.0f, aspect, NULL);

@@ -1,7 +1,7 @@
-/* Textures: pattern values at known points (checker parity, gradient ramp and waves, brick
- * mortar), colour maps, bilinear / nearest image lookup with repeat and clamp, projections,
- * validation, the fingerprint, the BSDF at a textured hit, and a render whose albedo AOV shows
- * the pattern of a textured plane. */
+/* Simple textures (vbnl_scene_add_texture, pigments underneath): pattern values at known points
+ * (checker parity, gradient ramp and waves, brick mortar), colour maps, bilinear / nearest image
+ * lookup with repeat and clamp, projections, validation, the fingerprint, the BSDF at a textured
+ * hit, and a render whose albedo AOV shows the pattern of a textured plane. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -42,15 +42,36 @@ static int teardown(void **state)
 static const vbnl_color_map_entry two_colors[2] = {{0.0f, {1.0f, 0.0f, 0.0f}}, {1.0f, {0.0f, 0.0f, 1.0f}}};
 static const vbnl_color_map_entry ramp[2] = {{0.0f, {0.0f, 0.0f, 0.0f}}, {1.0f, {1.0f, 1.0f, 1.0f}}};
 
-static const vbnl_texture *add(fixture *f, const vbnl_texture_desc *d)
+/* Adds a texture and returns its pigment id. */
+static uint32_t add(fixture *f, const vbnl_texture_desc *d)
 {
     uint32_t id = 99;
     vbnl_error err = {0};
     if (vbnl_scene_add_texture(f->scene, d, &id, &err) != VBNL_OK)
         fail_msg("%s", err.message);
-    assert_int_equal(id, f->scene->texture_count - 1);
-    return &f->scene->textures[id];
+    assert_int_equal(id, f->scene->tex.pigment_count - 1);
+    return id;
 }
+
+/* The pigment's colour at world point p with mesh coordinates uv. */
+static vec3 eval_at(const fixture *f, uint32_t id, vec3 p, vec2 uv)
+{
+    vbnl_shade_point sp = {d3(p.x, p.y, p.z), d3(0, 0, 1), uv.x, uv.y, d3(0, 0, 10)};
+    float c[5];
+    vbnl_pigment_at(&f->scene->tex, id, &sp, c);
+    return v3(c[0], c[1], c[2]);
+}
+
+/* The raw value of the pigment's pattern at world point p. */
+static float pattern_at(const fixture *f, uint32_t id, vec3 p)
+{
+    const vbnl_texture_set *ts = &f->scene->tex;
+    const vbnl_pattern *pt = &ts->patterns[ts->pigments[id].pattern - 1];
+    return (float)vbnl_pattern_raw(ts, pt, vbnl_pattern_point(ts, pt, d3(p.x, p.y, p.z)), NULL);
+}
+
+/* An image texture's colour at (u, v). */
+static vec3 image_at(const fixture *f, uint32_t id, float u, float v) { return eval_at(f, id, v3(0, 0, 0), (vec2){u, v}); }
 
 static void expect_color(vec3 c, float r, float g, float b, float tol)
 {
@@ -66,22 +87,22 @@ static void test_checker(void **state)
     d.kind = VBNL_TEXTURE_CHECKER;
     d.color_map = two_colors;
     d.color_map_count = 2;
-    const vbnl_texture *t = add(f, &d);
+    uint32_t t = add(f, &d);
     const float pts[][4] = {{0.5f, 0.5f, 0.5f, 0}, {1.5f, 0.5f, 0.5f, 1}, {-0.5f, 0.5f, 0.5f, 1},
                             {1.5f, 1.5f, 0.5f, 0}, {-0.5f, -0.5f, -0.5f, 1}, {2.5f, -3.5f, 7.5f, 1}, {2.5f, -3.5f, 6.5f, 0},
                             {0.5f, 0.0f, 0.5f, 0}, {0.5f, -1e-6f, 0.5f, 0}};
     for (size_t i = 0; i < sizeof(pts) / sizeof(pts[0]); ++i) {
-        float v = vbnl_texture_pattern(t, v3(pts[i][0], pts[i][1], pts[i][2]));
+        float v = pattern_at(f, t, v3(pts[i][0], pts[i][1], pts[i][2]));
         if (v != pts[i][3])
             fail_msg("checker at (%g %g %g) = %g, expected %g", pts[i][0], pts[i][1], pts[i][2], v, pts[i][3]);
     }
-    expect_color(vbnl_texture_eval(t, v3(0.5f, 0.5f, 0.5f), (vec2){0, 0}), 1, 0, 0, 0);
-    expect_color(vbnl_texture_eval(t, v3(1.5f, 0.5f, 0.5f), (vec2){0, 0}), 0, 0, 1, 0);
+    expect_color(eval_at(f, t, v3(0.5f, 0.5f, 0.5f), (vec2){0, 0}), 1, 0, 0, 0);
+    expect_color(eval_at(f, t, v3(1.5f, 0.5f, 0.5f), (vec2){0, 0}), 0, 0, 1, 0);
     /* pattern_from_world scales the cells: world x in [0, 0.5) is the first cell */
     d.pattern_from_world[0] = d.pattern_from_world[5] = d.pattern_from_world[10] = 2.0f;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0.3f, 0.2f, 0.2f), (vec2){0, 0}), 1, 0, 0, 0);
-    expect_color(vbnl_texture_eval(t, v3(0.7f, 0.2f, 0.2f), (vec2){0, 0}), 0, 0, 1, 0);
+    expect_color(eval_at(f, t, v3(0.3f, 0.2f, 0.2f), (vec2){0, 0}), 1, 0, 0, 0);
+    expect_color(eval_at(f, t, v3(0.7f, 0.2f, 0.2f), (vec2){0, 0}), 0, 0, 1, 0);
 }
 
 static void test_gradient(void **state)
@@ -94,31 +115,35 @@ static void test_gradient(void **state)
     d.gradient[1] = 3.0f; /* length ignored */
     d.color_map = ramp;
     d.color_map_count = 2;
-    const vbnl_texture *t = add(f, &d);
+    uint32_t t = add(f, &d);
     const vec2 uv = {0, 0};
-    expect_color(vbnl_texture_eval(t, v3(5, 0.25f, 9), uv), 0.25f, 0.25f, 0.25f, 1e-5f);
-    expect_color(vbnl_texture_eval(t, v3(0, 1.75f, 0), uv), 0.75f, 0.75f, 0.75f, 1e-5f);
-    expect_color(vbnl_texture_eval(t, v3(0, -0.25f, 0), uv), 0.75f, 0.75f, 0.75f, 1e-5f);
+    expect_color(eval_at(f, t, v3(5, 0.25f, 9), uv), 0.25f, 0.25f, 0.25f, 1e-5f);
+    expect_color(eval_at(f, t, v3(0, 1.75f, 0), uv), 0.75f, 0.75f, 0.75f, 1e-5f);
+    expect_color(eval_at(f, t, v3(0, -0.25f, 0), uv), 0.75f, 0.75f, 0.75f, 1e-5f);
     d.frequency = 2.0f;
     d.phase = 0.1f;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0, 0.2f, 0), uv), 0.5f, 0.5f, 0.5f, 1e-5f);
+    expect_color(eval_at(f, t, v3(0, 0.2f, 0), uv), 0.5f, 0.5f, 0.5f, 1e-5f);
     d.frequency = 1.0f;
     d.phase = 0.0f;
     d.wave = VBNL_WAVE_TRIANGLE;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0, 0.75f, 0), uv), 0.5f, 0.5f, 0.5f, 1e-5f);
-    expect_color(vbnl_texture_eval(t, v3(0, 0.5f, 0), uv), 1, 1, 1, 1e-5f);
+    expect_color(eval_at(f, t, v3(0, 0.75f, 0), uv), 0.5f, 0.5f, 0.5f, 1e-5f);
+    expect_color(eval_at(f, t, v3(0, 0.5f, 0), uv), 1, 1, 1, 1e-5f);
     d.wave = VBNL_WAVE_SINE;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0, 0.25f, 0), uv), 1, 1, 1, 1e-5f);
-    expect_color(vbnl_texture_eval(t, v3(0, 0.75f, 0), uv), 0, 0, 0, 1e-5f);
+    expect_color(eval_at(f, t, v3(0, 0.25f, 0), uv), 1, 1, 1, 1e-5f);
+    expect_color(eval_at(f, t, v3(0, 0.75f, 0), uv), 0, 0, 0, 1e-5f);
     /* a three-entry map: interpolation between the right neighbours, ends held */
     const vbnl_color_map_entry m3[3] = {{0.2f, {1, 0, 0}}, {0.6f, {0, 1, 0}}, {0.8f, {0, 0, 1}}};
-    expect_color(vbnl_color_map_eval(m3, 3, 0.1f), 1, 0, 0, 0);
-    expect_color(vbnl_color_map_eval(m3, 3, 0.3f), 0.75f, 0.25f, 0, 1e-6f);
-    expect_color(vbnl_color_map_eval(m3, 3, 0.7f), 0, 0.5f, 0.5f, 1e-6f);
-    expect_color(vbnl_color_map_eval(m3, 3, 0.95f), 0, 0, 1, 0);
+    d.color_map = m3;
+    d.color_map_count = 3;
+    d.wave = VBNL_WAVE_RAMP;
+    t = add(f, &d);
+    expect_color(eval_at(f, t, v3(0, 0.1f, 0), uv), 1, 0, 0, 0);
+    expect_color(eval_at(f, t, v3(0, 0.3f, 0), uv), 0.75f, 0.25f, 0, 1e-6f);
+    expect_color(eval_at(f, t, v3(0, 0.7f, 0), uv), 0, 0.5f, 0.5f, 1e-6f);
+    expect_color(eval_at(f, t, v3(0, 0.95f, 0), uv), 0, 0, 1, 0);
 }
 
 static void test_brick(void **state)
@@ -129,7 +154,7 @@ static void test_brick(void **state)
     d.kind = VBNL_TEXTURE_BRICK;
     d.color_map = two_colors;
     d.color_map_count = 2;
-    const vbnl_texture *t = add(f, &d);
+    uint32_t t = add(f, &d);
     /* expected values from POV-Ray's brick definition (scene.h) */
     const float pts[][4] = {
         {4.0f, 1.5f, 1.0f, 1},   /* inside a brick */
@@ -147,12 +172,12 @@ static void test_brick(void **state)
         {-4.2f, -1.5f, -1.0f, 0}, /* negative odd course */
     };
     for (size_t i = 0; i < sizeof(pts) / sizeof(pts[0]); ++i) {
-        float v = vbnl_texture_pattern(t, v3(pts[i][0], pts[i][1], pts[i][2]));
+        float v = pattern_at(f, t, v3(pts[i][0], pts[i][1], pts[i][2]));
         if (v != pts[i][3])
             fail_msg("brick at (%g %g %g) = %g, expected %g", pts[i][0], pts[i][1], pts[i][2], v, pts[i][3]);
     }
-    expect_color(vbnl_texture_eval(t, v3(4.0f, 1.5f, 1.0f), (vec2){0, 0}), 0, 0, 1, 0);
-    expect_color(vbnl_texture_eval(t, v3(7.6f, 1.5f, 1.0f), (vec2){0, 0}), 1, 0, 0, 0);
+    expect_color(eval_at(f, t, v3(4.0f, 1.5f, 1.0f), (vec2){0, 0}), 0, 0, 1, 0);
+    expect_color(eval_at(f, t, v3(7.6f, 1.5f, 1.0f), (vec2){0, 0}), 1, 0, 0, 0);
 }
 
 /* 2 x 2 image: rows top to bottom (0 1) / (2 3) as grey levels. */
@@ -166,42 +191,42 @@ static void test_image_bilinear(void **state)
     d.kind = VBNL_TEXTURE_IMAGE;
     d.texels = img2;
     d.width = d.height = 2;
-    const vbnl_texture *t = add(f, &d);
+    uint32_t t = add(f, &d);
     /* texel centres */
-    expect_color(vbnl_texture_image(t, 0.25f, 0.75f), 0, 0, 0, 1e-6f);
-    expect_color(vbnl_texture_image(t, 0.75f, 0.75f), 1, 1, 1, 1e-6f);
-    expect_color(vbnl_texture_image(t, 0.25f, 0.25f), 2, 2, 2, 1e-6f);
+    expect_color(image_at(f, t, 0.25f, 0.75f), 0, 0, 0, 1e-6f);
+    expect_color(image_at(f, t, 0.75f, 0.75f), 1, 1, 1, 1e-6f);
+    expect_color(image_at(f, t, 0.25f, 0.25f), 2, 2, 2, 1e-6f);
     /* the middle: the mean of all four; a quarter of the way: weights 3/4, 1/4 */
-    expect_color(vbnl_texture_image(t, 0.5f, 0.5f), 1.5f, 1.5f, 1.5f, 1e-6f);
-    expect_color(vbnl_texture_image(t, 0.375f, 0.75f), 0.25f, 0.25f, 0.25f, 1e-6f);
+    expect_color(image_at(f, t, 0.5f, 0.5f), 1.5f, 1.5f, 1.5f, 1e-6f);
+    expect_color(image_at(f, t, 0.375f, 0.75f), 0.25f, 0.25f, 0.25f, 1e-6f);
     /* repeat: u = 0 lies between texel 1 (wrapped from the left) and texel 0 */
-    expect_color(vbnl_texture_image(t, 0.0f, 0.75f), 0.5f, 0.5f, 0.5f, 1e-6f);
-    expect_color(vbnl_texture_image(t, 1.375f, 0.75f), 0.25f, 0.25f, 0.25f, 1e-6f);
+    expect_color(image_at(f, t, 0.0f, 0.75f), 0.5f, 0.5f, 0.5f, 1e-6f);
+    expect_color(image_at(f, t, 1.375f, 0.75f), 0.25f, 0.25f, 0.25f, 1e-6f);
     /* UV lookup through eval */
-    expect_color(vbnl_texture_eval(t, v3(0, 0, 0), (vec2){0.75f, 0.25f}), 3, 3, 3, 1e-6f);
+    expect_color(eval_at(f, t, v3(0, 0, 0), (vec2){0.75f, 0.25f}), 3, 3, 3, 1e-6f);
     d.wrap = VBNL_WRAP_CLAMP;
     t = add(f, &d);
-    expect_color(vbnl_texture_image(t, 0.0f, 0.75f), 0, 0, 0, 1e-6f);
-    expect_color(vbnl_texture_image(t, -3.0f, -2.0f), 2, 2, 2, 1e-6f);
+    expect_color(image_at(f, t, 0.0f, 0.75f), 0, 0, 0, 1e-6f);
+    expect_color(image_at(f, t, -3.0f, -2.0f), 2, 2, 2, 1e-6f);
     d.interpolate = 0;
     t = add(f, &d);
-    expect_color(vbnl_texture_image(t, 0.49f, 0.51f), 0, 0, 0, 0);
-    expect_color(vbnl_texture_image(t, 0.51f, 0.49f), 3, 3, 3, 0);
+    expect_color(image_at(f, t, 0.49f, 0.51f), 0, 0, 0, 0);
+    expect_color(image_at(f, t, 0.51f, 0.49f), 3, 3, 3, 0);
     /* planar projection of the pattern-space point: (u, v) = (x, y) */
     d.projection = VBNL_PROJECTION_PLANAR;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0.75f, 0.75f, 5.0f), (vec2){0, 0}), 1, 1, 1, 0);
+    expect_color(eval_at(f, t, v3(0.75f, 0.75f, 5.0f), (vec2){0, 0}), 1, 1, 1, 0);
     /* spherical (POV-Ray's): +x is u = 0, +z is u = 0.25; the top pole is v = 1 */
     d.projection = VBNL_PROJECTION_SPHERICAL;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0.2f, 0.9f, 1.0f), (vec2){0, 0}), 0, 0, 0, 0);   /* u 0.22, v 0.73 */
-    expect_color(vbnl_texture_eval(t, v3(1.0f, -0.5f, -0.2f), (vec2){0, 0}), 3, 3, 3, 0); /* u 0.97, v 0.36 */
-    expect_color(vbnl_texture_eval(t, v3(-1.0f, -0.5f, 0.2f), (vec2){0, 0}), 2, 2, 2, 0); /* u 0.47, v 0.36 */
+    expect_color(eval_at(f, t, v3(0.2f, 0.9f, 1.0f), (vec2){0, 0}), 0, 0, 0, 0);   /* u 0.22, v 0.73 */
+    expect_color(eval_at(f, t, v3(1.0f, -0.5f, -0.2f), (vec2){0, 0}), 3, 3, 3, 0); /* u 0.97, v 0.36 */
+    expect_color(eval_at(f, t, v3(-1.0f, -0.5f, 0.2f), (vec2){0, 0}), 2, 2, 2, 0); /* u 0.47, v 0.36 */
     /* cylindrical: u as spherical, v = y */
     d.projection = VBNL_PROJECTION_CYLINDRICAL;
     t = add(f, &d);
-    expect_color(vbnl_texture_eval(t, v3(0.0f, 0.3f, -1.0f), (vec2){0, 0}), 3, 3, 3, 0);  /* u 0.75, v 0.3 */
-    expect_color(vbnl_texture_eval(t, v3(0.0f, 0.7f, 1.0f), (vec2){0, 0}), 0, 0, 0, 0);   /* u 0.25, v 0.7 */
+    expect_color(eval_at(f, t, v3(0.0f, 0.3f, -1.0f), (vec2){0, 0}), 3, 3, 3, 0);  /* u 0.75, v 0.3 */
+    expect_color(eval_at(f, t, v3(0.0f, 0.7f, 1.0f), (vec2){0, 0}), 0, 0, 0, 0);   /* u 0.25, v 0.7 */
 }
 
 static void expect_add_error(fixture *f, const vbnl_texture_desc *d, const char *text)
@@ -243,7 +268,7 @@ static void test_validation(void **state)
     expect_add_error(f, &d, "singular");
     vbnl_material_desc m;
     vbnl_material_desc_init(&m);
-    m.base_texture = f->scene->texture_count + 1;
+    m.base_texture = f->scene->tex.pigment_count + 1;
     vbnl_error err = {0};
     assert_int_equal(vbnl_scene_add_material(f->scene, &m, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "base_texture"));
@@ -293,7 +318,9 @@ static void test_surface_bsdf_and_fingerprint(void **state)
     const vbnl_bsdf *b = vbnl_surface_bsdf(s, &hit, &store);
     assert_ptr_equal(b, &store);
     expect_color(b->color, 0.5f, 0, 0, 1e-6f);
-    expect_color(vbnl_surface_tint(s, &hit), 1, 0, 0, 0);
+    vec3 tint;
+    assert_int_equal(vbnl_surface_light_material(s, &hit, &tint), hit.material);
+    expect_color(tint, 1, 0, 0, 0);
     assert_true(vbnl_scene_intersect(s, v3(0.6f, 0.1f, 1), v3(0, 0, -1), INFINITY, &hit));
     b = vbnl_surface_bsdf(s, &hit, &store);
     expect_color(b->color, 0, 0, 0.5f, 1e-6f);
@@ -390,26 +417,10 @@ static vbnl_scene *checker_box(vbnl_context *ctx)
     uint32_t floor_m;
     assert_int_equal(vbnl_scene_add_material(s, &md, &floor_m, NULL), VBNL_OK);
     uint32_t white = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.7f, 0.7f, 0.7f, 0.0f);
-    const float floor_[12] = {-1, 0, -1, -1, 0, 1, 1, 0, 1, 1, 0, -1};
-    const float ceil_[12] = {-1, 2, -1, 1, 2, -1, 1, 2, 1, -1, 2, 1};
-    const float back[12] = {-1, 0, -1, 1, 0, -1, 1, 2, -1, -1, 2, -1};
-    const float front[12] = {-1, 0, 1, -1, 2, 1, 1, 2, 1, 1, 0, 1};
-    const float left[12] = {-1, 0, -1, -1, 2, -1, -1, 2, 1, -1, 0, 1};
-    const float right[12] = {1, 0, -1, 1, 0, 1, 1, 2, 1, 1, 2, -1};
-    ts_quad(s, floor_, floor_m);
-    ts_quad(s, ceil_, white);
-    ts_quad(s, back, white);
-    ts_quad(s, front, white);
-    ts_quad(s, left, white);
-    ts_quad(s, right, white);
-    vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
-    const float corner[3] = {-0.25f, 1.98f, -0.25f}, eu[3] = {0.5f, 0, 0}, ev[3] = {0, 0, 0.5f};
-    memcpy(al.corner, corner, sizeof(corner));
-    memcpy(al.edge_u, eu, sizeof(eu));
-    memcpy(al.edge_v, ev, sizeof(ev));
-    al.radiance[0] = al.radiance[1] = al.radiance[2] = 10.0f;
-    assert_int_equal(vbnl_scene_add_area_light(s, &al, NULL, NULL), VBNL_OK);
+    const uint32_t walls[6] = {floor_m, white, white, white, white, white};
+    ts_room_walls(s, walls);
+    const float le[3] = {10.0f, 10.0f, 10.0f};
+    ts_room_light(s, le);
     /* looking up at the back wall and the ceiling: the floor stays out of view */
     const float pos[3] = {0, 0.6f, 0.9f}, target[3] = {0, 1.6f, -1}, up[3] = {0, 1, 0};
     vbnl_camera_desc cam;

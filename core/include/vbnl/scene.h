@@ -32,33 +32,409 @@ typedef enum vbnl_material_type {
     VBNL_MATERIAL_CONDUCTOR = 1,  /* GGX metal: F0 = base_color, or complex IOR eta + i k */
     VBNL_MATERIAL_PLASTIC = 2,    /* Lambertian base (base_color) under a GGX dielectric coat (ior) */
     VBNL_MATERIAL_MIRROR = 3,     /* perfect specular reflection tinted by base_color */
-    VBNL_MATERIAL_DIELECTRIC = 4, /* smooth glass: Fresnel reflection + refraction, tint base_color */
+    VBNL_MATERIAL_DIELECTRIC = 4, /* smooth glass: Fresnel reflection + refraction, tint base_color;
+                                   * ior 1 lets light through unchanged */
 } vbnl_material_type;
 
 typedef struct vbnl_material_desc {
     vbnl_material_type type;
     float base_color[3];  /* see the type; each component in [0, 1] */
     float alpha;          /* GGX roughness alpha (not squared "perceptual" roughness), [1e-3, 1] */
-    float ior;            /* dielectric and plastic-coat index of refraction, > 1 */
+    float ior;            /* dielectric (>= 1) and plastic-coat (> 1) index of refraction */
     int conductor_use_ior;/* conductor: 1 = use eta/k, 0 = use base_color as F0 (Schlick) */
     float eta[3], k[3];   /* conductor complex index of refraction per RGB channel */
     float emission[3];    /* emitted radiance Le; any non-zero value makes the surface a light */
     int two_sided;        /* emission on both sides (default: front side = geometric normal side) */
-    uint32_t base_texture;/* 0 = none; else (texture id + 1) from vbnl_scene_add_texture: the colour
-                           * used at a hit is base_color * texture colour there (component-wise;
-                           * set base_color to 1 to let the texture replace it). Emission is not
-                           * textured. */
+    uint32_t base_texture;/* 0 = none; else (pigment id + 1) from vbnl_scene_add_texture or
+                           * vbnl_scene_add_pigment: the colour used at a hit is base_color * the
+                           * pigment's (r, g, b) there (component-wise; set base_color to 1 to let
+                           * the pigment replace it; its filter and transmit are not used here:
+                           * see VBNL_NODE_TEXTURED). Emission is not textured. */
 } vbnl_material_desc;
 
 /* Fills `d` with defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no emission, no
  * texture. */
 void vbnl_material_desc_init(vbnl_material_desc *d);
 
-/* ---- textures ----------------------------------------------------------------------------- */
+/* ---- textures: patterns, pigments, normals and materials that vary over surfaces ---------- */
 
-/* A colour varying over surfaces, looked up at every hit of a material that names it
- * (vbnl_material_desc.base_texture). Every texture first maps the world-space hit point p into
- * texture space: q = pattern_from_world * p.
+/* Surfaces that vary from point to point are built from small immutable nodes, each added once
+ * and referred to by id (id + 1 where 0 means "none"); a node may only refer to nodes added before
+ * it, so the nodes form a DAG, at most VBNL_TEXTURE_DEPTH_MAX deep. They follow POV-Ray 3.7's
+ * texture model (its reference manual, "Patterns", "Pattern Modifiers", "Warps", "Pigment",
+ * "Normal", "Texture" sections) and compute POV-Ray's values:
+ *
+ *   image     texels (vbnl_scene_add_image), looked up by IMAGE patterns
+ *   pattern   a number at each point: one of POV-Ray's patterns, after its warps, turbulence,
+ *             frequency, phase and wave shape (vbnl_scene_add_pattern)
+ *   pigment   a colour (r, g, b, filter, transmit) at each point: solid, a pattern through a map
+ *             of colours or other pigments, an image, or an average (vbnl_scene_add_pigment)
+ *   normal    a perturbation of the shading normal: a pattern's slope, one of POV-Ray's normal
+ *             patterns (bumps, dents, ripples, waves, wrinkles, quilted, facets), a bump map, a
+ *             normal map or an average (vbnl_scene_add_normal)
+ *   material  node: a material whose BSDF is chosen per point (vbnl_scene_add_material_node):
+ *             a material with a pigment, a normal and a transmission part, a pattern through a
+ *             map of materials (POV-Ray's texture_map, material_map, tiles), layers, an average.
+ *
+ * Points: a node a material uses directly receives the world-space hit point (or (u, v, 0) with
+ * `uv`); a node inside a map receives its parent's point after the parent's own transform and
+ * warps (POV-Ray evaluates map entries in the pattern's warped space). A node maps the point it
+ * receives by its `transform`, then its warps in order, before its pattern. Evaluation is
+ * deterministic, allocation-free and safe from any number of threads once the scene is committed.
+ *
+ * Blending whole materials: at each hit one material of the blend is chosen with probability
+ * equal to its weight there (colour-valued weights, from filter and layers: probability
+ * proportional to the weight's largest channel, the rest kept as a colour factor), by a hash of
+ * the hit, the same choice for every integrator and every ray reaching that point. The expected
+ * BSDF is POV-Ray's blend, and each path vertex uses one material's BSDF with that BSDF's own
+ * pdfs, so next-event estimation, BSDF sampling and their MIS weights stay consistent. */
+
+#define VBNL_TEXTURE_DEPTH_MAX 64u /* nodes nested in maps, layers and pattern pigments */
+#define VBNL_TEXTURE_MAP_MAX 256u  /* entries of one map */
+#define VBNL_TEXTURE_WARP_MAX 64u  /* warps of one pattern */
+#define VBNL_NOISE_WAVES_MAX 1024  /* centres of ripples and waves (POV-Ray's number_of_waves) */
+
+/* ---- images ---- */
+
+typedef struct vbnl_image_desc {
+    uint32_t size;           /* sizeof(vbnl_image_desc) (vbnl_image_desc_init) */
+    uint32_t width, height;  /* 1 .. 65536 each */
+    uint32_t channels;       /* 1 (grey), 2 (grey, alpha), 3 (RGB) or 4 (RGBA) */
+    const float *texels;     /* width * height * channels floats, row 0 at the top, linear values;
+                              * alpha is opacity (POV-Ray: transmit = 1 - alpha) */
+    const uint8_t *indices;  /* palette images: the palette index of each texel (bump_map and
+                              * material_map use it, as POV-Ray does); NULL otherwise */
+} vbnl_image_desc;
+
+void vbnl_image_desc_init(vbnl_image_desc *d);
+/* Adds an image (arrays copied). Errors: VBNL_ERR_INVALID_ARGUMENT for a wrong size field, an
+ * empty or oversized image, an unknown channel count or non-finite texels. */
+vbnl_result vbnl_scene_add_image(vbnl_scene *scene, const vbnl_image_desc *desc, uint32_t *out_id,
+                                 vbnl_error *err);
+
+/* ---- patterns ---- */
+
+/* The patterns of POV-Ray 3.7 (reference manual, "Patterns"; pavement and the Penrose tilings are
+ * not implemented). Pattern and warp parameters have
+ * POV-Ray's own precision (double, or float where POV-Ray keeps a float: frequency, phase,
+ * exponent, agate_turb, mortar, quilted controls, turbulence omega and lambda, repeat width):
+ * patterns whose raw values are large (fractal exteriors, gradients far from the origin) wrap
+ * them into [0, 1), where another precision would show. Values are POV-Ray's: mostly in
+ * [0, 1]; block patterns give block indices (checker 0/1, brick 0 mortar / 1 brick, hexagon 0..2,
+ * square 0..3, triangular and cubic 0..5, object 0 outside / 1 inside). */
+typedef enum vbnl_pattern_kind {
+    VBNL_PATTERN_AGATE = 0,
+    VBNL_PATTERN_AOI,          /* angle between the normal and the direction from the camera: acos / pi */
+    VBNL_PATTERN_BOXED,
+    VBNL_PATTERN_BOZO,         /* noise */
+    VBNL_PATTERN_BRICK,
+    VBNL_PATTERN_BUMPS,        /* noise (as a normal: the noise gradient) */
+    VBNL_PATTERN_CELLS,
+    VBNL_PATTERN_CHECKER,
+    VBNL_PATTERN_CRACKLE,
+    VBNL_PATTERN_CUBIC,
+    VBNL_PATTERN_CYLINDRICAL,
+    VBNL_PATTERN_DENSITY,      /* density_file: a voxel grid over the unit cube */
+    VBNL_PATTERN_DENTS,
+    VBNL_PATTERN_FACETS,       /* normals only */
+    VBNL_PATTERN_FUNCTION,     /* a callback (function { }); values above 1 wrap (fmod 1) */
+    VBNL_PATTERN_GRADIENT,
+    VBNL_PATTERN_GRANITE,
+    VBNL_PATTERN_HEXAGON,
+    VBNL_PATTERN_IMAGE,        /* image_map, bump_map, image_pattern, material_map lookups */
+    VBNL_PATTERN_JULIA,
+    VBNL_PATTERN_LEOPARD,
+    VBNL_PATTERN_MAGNET,
+    VBNL_PATTERN_MANDEL,
+    VBNL_PATTERN_MARBLE,
+    VBNL_PATTERN_OBJECT,       /* a callback returning 1 inside, 0 outside */
+    VBNL_PATTERN_ONION,
+    VBNL_PATTERN_PAVEMENT,     /* not implemented: refused */
+    VBNL_PATTERN_PIGMENT,      /* pigment_pattern: the greyscale of a pigment */
+    VBNL_PATTERN_PLANAR,
+    VBNL_PATTERN_QUILTED,
+    VBNL_PATTERN_RADIAL,
+    VBNL_PATTERN_RIPPLES,
+    VBNL_PATTERN_SLOPE,
+    VBNL_PATTERN_SPHERICAL,
+    VBNL_PATTERN_SPIRAL1,
+    VBNL_PATTERN_SPIRAL2,
+    VBNL_PATTERN_SPOTTED,      /* noise */
+    VBNL_PATTERN_SQUARE,
+    VBNL_PATTERN_TILING,
+    VBNL_PATTERN_TRIANGULAR,
+    VBNL_PATTERN_WAVES,
+    VBNL_PATTERN_WOOD,
+    VBNL_PATTERN_WRINKLES,
+    VBNL_PATTERN_KIND_COUNT
+} vbnl_pattern_kind;
+
+/* POV-Ray's turbulence (`turbulence <v> octaves n omega w lambda l`): amount per axis, octaves
+ * 1..10 (default 6), omega (0.5) and lambda (2). */
+typedef struct vbnl_turbulence_desc {
+    double amount[3];
+    int octaves;
+    float omega, lambda;
+} vbnl_turbulence_desc;
+
+/* Warps (reference manual, "Warps"), applied to the point in order. */
+typedef enum vbnl_warp_kind {
+    VBNL_WARP_TRANSFORM = 0,   /* p' = matrix p: the inverse of POV-Ray's translate/rotate/scale */
+    VBNL_WARP_TURBULENCE,      /* p' = p + amount * vector turbulence(p) */
+    VBNL_WARP_REPEAT,
+    VBNL_WARP_BLACK_HOLE,
+    VBNL_WARP_SPHERICAL,
+    VBNL_WARP_CYLINDRICAL,
+    VBNL_WARP_TOROIDAL,
+    VBNL_WARP_PLANAR,
+    VBNL_WARP_CUBIC,
+} vbnl_warp_kind;
+
+typedef struct vbnl_warp_desc {
+    uint32_t size;                    /* sizeof(vbnl_warp_desc) (vbnl_warp_desc_init) */
+    vbnl_warp_kind kind;
+    double matrix[16];               /* TRANSFORM: row-major affine, p' = M p */
+    vbnl_turbulence_desc turbulence;  /* TURBULENCE */
+    struct {                          /* REPEAT: along one axis, every `width` */
+        int axis;                     /* 0 x, 1 y, 2 z */
+        float width;                  /* != 0 */
+        double offset[3];             /* added per repetition */
+        int flip[3];                  /* mirror odd repetitions along each axis */
+    } repeat;
+    struct {                          /* BLACK_HOLE: pulls points within radius towards center */
+        double center[3];
+        double radius, strength, falloff; /* radius > 0; strength 1, falloff 2 by default */
+        int inverse;                  /* push instead */
+        double repeat[3];             /* a grid of holes (0: none on that axis) */
+        double turbulence[3];         /* random offset of each repeated hole */
+    } black_hole;
+    struct {                          /* SPHERICAL, CYLINDRICAL, TOROIDAL, PLANAR mappings */
+        double orientation[3];        /* unit; default <0, 0, 1> */
+        double dist_exp;              /* 0 */
+        double major_radius;          /* TOROIDAL: 1 */
+        double offset;                /* PLANAR: 0 */
+    } mapping;
+} vbnl_warp_desc;
+
+void vbnl_warp_desc_init(vbnl_warp_desc *d);
+
+/* Wave shapes; POV-Ray's Evaluate_TPat order: v' = fmod(v * frequency + phase, 1.00001) (skipped
+ * when frequency is 0), wrapped into [0, 1) when negative, then the wave. */
+typedef enum vbnl_texture_wave {
+    VBNL_WAVE_RAMP = 0,        /* v */
+    VBNL_WAVE_TRIANGLE = 1,    /* 2v below 1/2, 2(1 - v) above */
+    VBNL_WAVE_SINE = 2,        /* (1 + sin(2 pi v)) / 2 */
+    VBNL_WAVE_SCALLOP = 3,     /* |sin(pi v)| */
+    VBNL_WAVE_CUBIC = 4,       /* 3 v^2 - 2 v^3 */
+    VBNL_WAVE_POLY = 5,        /* v^exponent */
+} vbnl_texture_wave;
+
+/* Callback of FUNCTION and OBJECT patterns: must be thread-safe and deterministic; `p` is the
+ * point in the pattern's space. */
+typedef double (*vbnl_pattern_fn)(void *user, const double p[3]);
+
+typedef struct vbnl_pattern_desc {
+    uint32_t size;                     /* sizeof(vbnl_pattern_desc) (vbnl_pattern_desc_init) */
+    vbnl_pattern_kind kind;
+    double transform[16];              /* row-major affine applied first; identity by default */
+    const vbnl_warp_desc *warps;       /* applied after `transform`, in order (0..64) */
+    uint32_t warp_count;
+    vbnl_turbulence_desc turbulence;   /* POV-Ray's classic turbulence (amount 0 = none): applied
+                                        * after the warps, except that agate, marble, wood and
+                                        * spiral1/2 feed it into their own formula */
+    int noise_generator;               /* 1, 2 (POV-Ray's default) or 3 */
+    vbnl_texture_wave wave;
+    float frequency, phase;            /* 1 and 0; POV-Ray's parser gives block patterns 0 */
+    float exponent;                    /* POLY wave: 1 */
+    struct { double direction[3]; } gradient;              /* normalised by the core */
+    struct { double size[3]; float mortar; } brick;        /* <8, 3, 4.5>, 0.5 */
+    float agate_turb;                                      /* 1 */
+    struct { float control0, control1; } quilted;          /* 1, 1 */
+    int spiral_arms;                                       /* SPIRAL1/2 */
+    struct { double form[3], metric, offset; int solid; } crackle; /* <-1, 1, 0>, 2, 0, 0 */
+    struct {
+        int iterations;                /* >= 1 */
+        int exponent;                  /* MANDEL, JULIA: 2..33 */
+        int magnet;                    /* MAGNET: formula 1 or 2 */
+        int julia;                     /* MAGNET: 1 = julia form (uses coord), 0 = mandel */
+        double coord[2];               /* JULIA, MAGNET julia: the constant */
+        int interior, exterior;        /* colouring types 0..6 and 0..8; defaults 0 and 1 */
+        double interior_factor, exterior_factor; /* 1 */
+    } fractal;
+    struct { double size, coords, metric; } facets;        /* 0.1, 0, 2 */
+    int tiling;                                            /* TILING: 1..24 (not the Penrose 25..27) */
+    struct { int sides, tiles, pattern, form, interior, exterior; } pavement; /* 3, 1, 1, 0, 0, 0; kept for a
+                                                                              * later PAVEMENT */
+    struct {
+        double direction[3];           /* or the point with point_at */
+        double low, high;              /* slope range (0, 0: whole) */
+        double altitude[3];            /* 0: no altitude term */
+        double alt_low, alt_high;
+        int point_at;
+    } slope;
+    struct {
+        uint32_t nx, ny, nz;           /* >= 1 */
+        const float *values;           /* nx * ny * nz in [0, 1], x fastest */
+        int interpolate;               /* 0 none, 1 trilinear, 2 tricubic */
+    } density;
+    struct {
+        uint32_t image;                /* image id + 1 */
+        int map_type;                  /* 0 planar, 1 spherical, 2 cylindrical, 5 torus */
+        int once;                      /* no repetition: outside is clear */
+        int interpolate;               /* 0 none, 2 bilinear, 3 bicubic, 4 normalised distance */
+        int use;                       /* the IMAGE value, POV-Ray's image_pattern: 0 the palette
+                                        * index / 255 (palette images) or else the greyscale;
+                                        * 1 and 2 the greyscale; 3 alpha as transmit (red without
+                                        * alpha); 4 material_map's index: the palette index or
+                                        * red * 255 */
+        double filter_all, transmit_all; /* added to every texel (image_map filter / transmit all) */
+        double major_radius;           /* map_type 5: 1 */
+    } image;
+    struct {                           /* FUNCTION, OBJECT */
+        vbnl_pattern_fn fn;
+        void *user;
+        void (*destroy)(void *user);   /* optional: called with user when the scene is destroyed */
+    } function;
+    uint32_t pigment;                  /* PIGMENT: pigment id + 1 */
+    int waves;                         /* RIPPLES, WAVES: number of centres, 1..VBNL_NOISE_WAVES_MAX (10) */
+} vbnl_pattern_desc;
+
+void vbnl_pattern_desc_init(vbnl_pattern_desc *d);
+/* Adds a pattern (arrays copied; a callback's user data must live until the scene is destroyed,
+ * which calls function.destroy when given; on an error the caller keeps it). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for a wrong size field, an unknown kind, a singular or non-finite
+ * transform, invalid warps or parameters, unknown image or pigment ids, nesting beyond
+ * VBNL_TEXTURE_DEPTH_MAX. */
+vbnl_result vbnl_scene_add_pattern(vbnl_scene *scene, const vbnl_pattern_desc *desc, uint32_t *out_id,
+                                   vbnl_error *err);
+
+/* ---- pigments ---- */
+
+typedef enum vbnl_pigment_kind {
+    VBNL_PIGMENT_SOLID = 0,   /* color */
+    VBNL_PIGMENT_MAP,         /* pattern value through the map: colour and pigment entries */
+    VBNL_PIGMENT_IMAGE,       /* the colour of the pattern's image (an IMAGE pattern) */
+    VBNL_PIGMENT_AVERAGE,     /* entries weighted by their value */
+} vbnl_pigment_kind;
+
+/* Map entries, sorted by value. A value between two entries interpolates them linearly; equal
+ * values make a step; below the first / above the last the end entry holds (POV-Ray's
+ * Search_Blend_Map). */
+typedef struct vbnl_pigment_map_entry {
+    float value;
+    float color[5];           /* r g b filter transmit, used when pigment is 0 */
+    uint32_t pigment;         /* pigment id + 1, or 0 */
+} vbnl_pigment_map_entry;
+
+typedef struct vbnl_pigment_desc {
+    uint32_t size;            /* sizeof(vbnl_pigment_desc) (vbnl_pigment_desc_init) */
+    vbnl_pigment_kind kind;
+    float color[5];           /* SOLID */
+    uint32_t pattern;         /* MAP, IMAGE: pattern id + 1; AVERAGE: optional (its warps) */
+    const vbnl_pigment_map_entry *map; /* MAP, AVERAGE: 1..VBNL_TEXTURE_MAP_MAX entries */
+    uint32_t map_count;
+    int uv;                   /* 1: evaluate at the hit's (u, v, 0) (uv_mapping) */
+} vbnl_pigment_desc;
+
+void vbnl_pigment_desc_init(vbnl_pigment_desc *d);
+/* Adds a pigment. Material base_texture refers to it as id + 1 (the same id space as
+ * vbnl_scene_add_texture). Errors: VBNL_ERR_INVALID_ARGUMENT for a wrong size field, an unknown
+ * kind, a missing or unsorted map, non-finite colours, unknown ids, nesting too deep. */
+vbnl_result vbnl_scene_add_pigment(vbnl_scene *scene, const vbnl_pigment_desc *desc, uint32_t *out_id,
+                                   vbnl_error *err);
+
+/* ---- normals ---- */
+
+typedef enum vbnl_normal_kind {
+    VBNL_NORMAL_PATTERN = 0,  /* the pattern's perturbation (see below) scaled by amount */
+    VBNL_NORMAL_MAP,          /* pattern value through a map of normals */
+    VBNL_NORMAL_AVERAGE,      /* entries weighted by their value */
+    VBNL_NORMAL_IMAGE,        /* bump_map: the image (an IMAGE pattern) as a height field */
+} vbnl_normal_kind;
+
+typedef struct vbnl_normal_map_entry {
+    float value;
+    uint32_t normal;          /* normal id (not + 1) */
+} vbnl_normal_map_entry;
+
+/* slope_map entries: the height and slope the pattern value maps to (Hermite interpolation). */
+typedef struct vbnl_slope_map_entry {
+    float value, height, slope;
+} vbnl_slope_map_entry;
+
+/* PATTERN: bumps, dents, ripples, waves, wrinkles, quilted and facets perturb the normal by
+ * their own formulas; every other pattern by the gradient of its value (through the slope map)
+ * estimated from four evaluations `accuracy` apart, scaled by -5 amount 0.02 / accuracy
+ * (POV-Ray's normal.cpp convention). The perturbation is added in the pattern's space to the
+ * unit normal and the result carried back and normalised. */
+typedef struct vbnl_normal_desc {
+    uint32_t size;            /* sizeof(vbnl_normal_desc) (vbnl_normal_desc_init) */
+    vbnl_normal_kind kind;
+    uint32_t pattern;         /* pattern id + 1 (AVERAGE: optional, its warps) */
+    float amount;             /* bump_size: 0.5 */
+    float accuracy;           /* 0.02 */
+    const vbnl_slope_map_entry *slope_map; /* optional, sorted */
+    uint32_t slope_map_count;
+    const vbnl_normal_map_entry *map; /* MAP, AVERAGE */
+    uint32_t map_count;
+    int no_bump_scale;        /* the perturbation is not normalised with the pattern's scale */
+    int uv;                   /* evaluate at (u, v, 0) */
+} vbnl_normal_desc;
+
+void vbnl_normal_desc_init(vbnl_normal_desc *d);
+vbnl_result vbnl_scene_add_normal(vbnl_scene *scene, const vbnl_normal_desc *desc, uint32_t *out_id,
+                                  vbnl_error *err);
+
+/* ---- materials chosen per point ---- */
+
+typedef enum vbnl_material_node_kind {
+    VBNL_NODE_TEXTURED = 0,   /* a material with a pigment, a normal and a transmission part */
+    VBNL_NODE_MAP,            /* pattern value through a map of materials (blends neighbours) */
+    VBNL_NODE_LAYERS,         /* POV-Ray's layered textures, top first */
+    VBNL_NODE_AVERAGE,        /* entries weighted by their value */
+} vbnl_material_node_kind;
+
+typedef struct vbnl_material_map_entry {
+    float value;
+    uint32_t material;        /* material id (a plain material or another node) */
+} vbnl_material_map_entry;
+
+/* TEXTURED: at each point the pigment gives (r, g, b, f, t); the surface reflects as `material`
+ * with its base colour multiplied by (r, g, b), with weight 1 - f - t, and lets the rest through
+ * as `transmission` tinted by f (r, g, b) + t (POV-Ray 3.7's layer arithmetic, trace.cpp). The
+ * normal perturbs the shading normal of both. LAYERS: layer i (a TEXTURED node or a plain
+ * material) has weight (1 - f_i - t_i) prod_{j<i} (f_j c_j + t_j); what passes all layers takes
+ * the bottom layer's transmission. Emission is the node's own `emission` (a constant; the
+ * materials inside a node do not emit). */
+typedef struct vbnl_material_node_desc {
+    uint32_t size;            /* sizeof(vbnl_material_node_desc) (vbnl_material_node_desc_init) */
+    vbnl_material_node_kind kind;
+    uint32_t material;        /* TEXTURED: the plain material giving the BSDF */
+    uint32_t pigment;         /* TEXTURED: pigment id + 1, 0 = the material's own colour */
+    uint32_t normal;          /* TEXTURED: normal id + 1, 0 = none */
+    uint32_t transmission;    /* TEXTURED: material id + 1 for the light the pigment lets through;
+                               * 0 = straight through, unchanged (a dielectric of ior 1) */
+    uint32_t pattern;         /* MAP: pattern id + 1; AVERAGE: optional (its warps) */
+    const vbnl_material_map_entry *map; /* MAP, AVERAGE */
+    uint32_t map_count;
+    const uint32_t *layers;   /* LAYERS: material ids, top first (1..VBNL_TEXTURE_MAP_MAX) */
+    uint32_t layer_count;
+    float emission[3];        /* emitted radiance of the whole node */
+    int two_sided;
+    int uv;                   /* MAP: evaluate at (u, v, 0) */
+} vbnl_material_node_desc;
+
+void vbnl_material_node_desc_init(vbnl_material_node_desc *d);
+/* Adds a material node and returns its *material* id (geometry uses it like any material).
+ * Errors: VBNL_ERR_INVALID_ARGUMENT for a wrong size field, unknown ids or kind, a missing or
+ * unsorted map, nesting too deep, a TEXTURED material that is itself a node. */
+vbnl_result vbnl_scene_add_material_node(vbnl_scene *scene, const vbnl_material_node_desc *desc,
+                                         uint32_t *out_id, vbnl_error *err);
+
+/* ---- simple textures ---- */
+
+/* A pigment in one call, for the common cases (and the mesh importer): every texture first maps
+ * the world-space hit point p into texture space: q = pattern_from_world * p.
  *
  *   IMAGE     RGB float texels, row 0 at the top (v = 1). The lookup coordinate (u, v) is the
  *             hit's mesh UV (projection UV) or a projection of q, POV-Ray's image_map ones:
@@ -67,24 +443,16 @@ void vbnl_material_desc_init(vbnl_material_desc *d);
  *             CYLINDRICAL u as spherical, v = q.y.
  *             Texel centres sit at ((i + 0.5) / width, 1 - (j + 0.5) / height); bilinear
  *             (interpolate = 1) or nearest; wrap REPEAT (fractional part) or CLAMP.
- *   CHECKER   value floor(q.x + e) + floor(q.y + e) + floor(q.z + e) mod 2 (0 or 1): unit
- *             cubes (POV-Ray's; e = 1e-4, so surfaces lying on integer planes, hit at single
- *             precision, stay in one cell).
- *   GRADIENT  value = dot(q, normalize(gradient)) (POV-Ray normalises the vector too), then
- *             frequency/phase/wave (below).
+ *   CHECKER   POV-Ray's checker (unit cubes, values 0 and 1), with an offset of 1e-4 instead of
+ *             POV-Ray's 1e-10 so that faces on integer planes, hit in single precision, stay in
+ *             one cell.
+ *   GRADIENT  value = dot(q, normalize(gradient)), then frequency, phase and wave (above).
  *   BRICK     POV-Ray's brick: bricks of brick_size (x width w, y height h, z depth d) in
- *             courses along y. With p = q + mortar (+1e-10): mortar (value 0) where
- *             frac(p.y / h) <= mortar / h, or frac(p.x / w + s) <= mortar / w, or
- *             frac(p.z / d + 0.5 - s) <= mortar / d, where s = 0.5 on odd courses
- *             (frac(p.y / 2h) > 0.5) and 0 on even ones; 1 in a brick.
+ *             courses along y, joints `mortar` wide.
  *
- * Pattern values become colours through the colour map: entries sorted by value, linear
- * interpolation between neighbours, the first / last colour outside their range. CHECKER and
- * BRICK are block patterns (values exactly 0 or 1: give entries at 0 and 1). For GRADIENT the
- * raw value v is turned into v' = frac(v * frequency + phase) (POV-Ray: fmod by 1.00001, then
- * the same for negatives) then shaped by the wave: RAMP v',
- * TRIANGLE 1 - |2 v' - 1|, SINE (1 + sin(2 pi v')) / 2, SCALLOP
- * |sin(pi v')|. */
+ * Pattern values become colours through the colour map (POV-Ray's Search_Blend_Map, above).
+ * CHECKER and BRICK are block patterns (values exactly 0 or 1: give entries at 0 and 1). The
+ * result is a pigment (vbnl_scene_add_pigment's id space). */
 typedef enum vbnl_texture_kind {
     VBNL_TEXTURE_IMAGE = 0,
     VBNL_TEXTURE_CHECKER = 1,
@@ -100,13 +468,6 @@ typedef enum vbnl_texture_projection {
 } vbnl_texture_projection;
 
 typedef enum vbnl_texture_wrap { VBNL_WRAP_REPEAT = 0, VBNL_WRAP_CLAMP = 1 } vbnl_texture_wrap;
-
-typedef enum vbnl_texture_wave {
-    VBNL_WAVE_RAMP = 0,
-    VBNL_WAVE_TRIANGLE = 1,
-    VBNL_WAVE_SINE = 2,
-    VBNL_WAVE_SCALLOP = 3,
-} vbnl_texture_wave;
 
 typedef struct vbnl_color_map_entry {
     float value;
@@ -137,11 +498,42 @@ typedef struct vbnl_texture_desc {
 /* Fills `d` with the defaults above (a CHECKER with no colour map: set one). */
 void vbnl_texture_desc_init(vbnl_texture_desc *d);
 
-/* Adds a texture (arrays copied). Errors: VBNL_ERR_INVALID_ARGUMENT for a missing or unsorted
- * colour map, empty or non-finite texels, a singular or non-finite matrix, a zero gradient,
- * non-positive brick sizes or negative mortar. A material refers to it as id + 1. */
+/* Adds a texture as a pigment (arrays copied) and returns its pigment id. Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for a missing or unsorted colour map, empty or non-finite texels, a
+ * singular or non-finite matrix, a zero gradient, non-positive brick sizes or negative mortar. A
+ * material refers to it as id + 1. */
 vbnl_result vbnl_scene_add_texture(vbnl_scene *scene, const vbnl_texture_desc *desc,
                                    uint32_t *out_id, vbnl_error *err);
+
+/* ---- patterns and pigments outside a scene ---- */
+
+/* A set of images, patterns and pigments evaluated on their own, without a scene or a hit:
+ * POV-Ray's pattern and pigment functions (`function { pattern { ... } }`, `function { pigment
+ * { ... } }`). Nodes are added as to a scene (the same descriptors, checks and id spaces within
+ * the set); evaluation reads the set only, so once built it may be evaluated from any number of
+ * threads. Patterns that depend on a surface see none, as in POV-Ray's functions: aoi and slope
+ * give 0, uv-mapped lookups read (u, v) = (0, 0). */
+typedef struct vbnl_pattern_set vbnl_pattern_set;
+
+vbnl_result vbnl_pattern_set_create(vbnl_pattern_set **out, vbnl_error *err);
+/* Frees the set and calls the destroy callbacks of its FUNCTION and OBJECT patterns. NULL is
+ * accepted. */
+void vbnl_pattern_set_destroy(vbnl_pattern_set *set);
+vbnl_result vbnl_pattern_set_add_image(vbnl_pattern_set *set, const vbnl_image_desc *desc, uint32_t *out_id,
+                                       vbnl_error *err);
+vbnl_result vbnl_pattern_set_add_pattern(vbnl_pattern_set *set, const vbnl_pattern_desc *desc, uint32_t *out_id,
+                                         vbnl_error *err);
+vbnl_result vbnl_pattern_set_add_pigment(vbnl_pattern_set *set, const vbnl_pigment_desc *desc, uint32_t *out_id,
+                                         vbnl_error *err);
+/* The value of pattern `pattern` at p (what a map would look up; 0 for an unknown id). */
+double vbnl_pattern_set_value(const vbnl_pattern_set *set, uint32_t pattern, const double p[3]);
+/* The colour (r, g, b, filter, transmit) of pigment `pigment` at p (zero for an unknown id). */
+void vbnl_pattern_set_color(const vbnl_pattern_set *set, uint32_t pigment, const double p[3], float out[5]);
+
+/* POV-Ray's vector turbulence at p (its vturbulence(lambda, omega, octaves, p)): the noise
+ * gradient summed over octaves 1..10 (clamped), each at `lambda` times the frequency and `omega`
+ * times the weight of the one before. */
+void vbnl_vturbulence(double lambda, double omega, int octaves, const double p[3], double out[3]);
 
 /* ---- geometry ----------------------------------------------------------------------------- */
 

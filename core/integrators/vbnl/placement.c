@@ -86,8 +86,7 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
                 vbnl_candidate *c = &job->cand[k];
                 c->p = hit.p;
                 c->n = ns;
-                c->material = hit.material;
-                c->tint = vbnl_surface_tint(sc, &hit);
+                c->material = vbnl_surface_light_material(sc, &hit, &c->tint);
                 c->tile = tile;
                 job->valid[k] = 1;
                 job->via_specular[k] = chain > 0;

@@ -32,7 +32,7 @@ typedef struct vbnl_candidate {
     vec3 p;            /* position */
     vec3 n;            /* unit shading normal, facing the side the camera path arrived from */
     uint32_t material;
-    vec3 tint;         /* vbnl_surface_tint at the candidate */
+    vec3 tint;         /* vbnl_surface_light_material's colour at the candidate */
     uint32_t tile;     /* screen tile the camera path started in */
 } vbnl_candidate;
 

@@ -1757,7 +1757,7 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
             const scene_mesh *me = &g->u.mesh;
             const uint32_t mi = me->face_materials ? me->face_materials[r8.hit.primID[i]] : me->material;
             const scene_material *sm = &sc->materials[mi];
-            if (sm->texture) {
+            if (sm->varies) {
                 general |= 1u << i;
                 continue;
             }

@@ -269,7 +269,7 @@ vbnl_photon_scatter(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_s
     vbnl_bsdf bsdf_store;
     const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, hit, &bsdf_store);
     vec3 wo_w = v3_neg(ps->dir); /* toward where the photon came from */
-    vec3 ng = hit->ng, ns = hit->ns;
+    vec3 ng = hit->ng, ns = vbnl_bsdf_shading_normal(bsdf, hit->ns);
     int transmissive = vbnl_bsdf_is_transmissive(bsdf);
     if (!transmissive) { /* two-sided opaque surface: frame facing the photon (path.c) */
         if (v3_dot(ng, wo_w) < 0.0f) {

@@ -814,7 +814,7 @@ static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, co
         const vbnl_vl_shade_rec *e = &s->shade.rec[cand[k]];
         double d2;
         if (vbnl_vl_contains(e->position, e->radius, y->p, &d2) && vbnl_vl_filter_passes(&f, e->normal) &&
-            (!s->support || e->material == y->material)) {
+            (!s->support || vbnl_material_surface(s->scene, e->material) == y->material)) {
             overflow = m == VL_GATHER_MAX;
             if (!overflow) {
                 ranks[m++] = cand[k];
@@ -830,7 +830,7 @@ static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, co
         tmax = 0.0f;
         for (uint32_t k = 0; k < n; ++k) {
             const vbnl_vl_shade_rec *e = &s->shade.rec[found[k].rank];
-            if (s->support && e->material != y->material)
+            if (s->support && vbnl_material_surface(s->scene, e->material) != y->material)
                 continue;
             ranks[m++] = found[k].rank;
             tmax = e->support > tmax ? e->support : tmax;
@@ -858,7 +858,7 @@ static int accepts(const vbnl_state *s, const vbnl_vl_shade_rec *e, const vbnl_h
         return 0;
     vec3 n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng);
     if (!(v3_dot(e->normal, n) > VL_NORMAL_COS && v3_dot(e->normal, w) < 0.0f) ||
-        (s->support && e->material != y->material))
+        (s->support && vbnl_material_surface(s->scene, e->material) != y->material))
         return 0;
     return !(e->support > 0.0f) ||
            vbnl_vl_support_passes(s->scene, y->p, n, vbnl_vl_support_height(s->scene, y->p, n, e->support),

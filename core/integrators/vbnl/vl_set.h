@@ -18,9 +18,9 @@ typedef struct vbnl_vl_set {
     uint32_t count;
     vec3 *position;
     vec3 *normal;        /* unit, facing the side the placing camera path came from */
-    uint32_t *material;
-    vec3 *tint;          /* the material's texture colour at the light (vbnl_surface_tint; 1 when
-                          * untextured): its BSDF is the material's with the colour scaled by it */
+    uint32_t *material;  /* the material resolved at the light (vbnl_surface_light_material) */
+    vec3 *tint;          /* its colour factor there (1 when untextured): the light's BSDF is the
+                          * material's with the colour scaled by it */
     float *radius;       /* r_i */
     float *density;      /* rho_i, Eq. 8 */
 } vbnl_vl_set;

@@ -59,7 +59,7 @@ static void support_chunk(void *user, uint64_t item, unsigned thread)
     uint64_t rays = 0;
     for (uint32_t id = begin; id < end; ++id) {
         float tau = probe(job->sc, set->position[id], set->normal[id], set->radius[id], &rays);
-        job->out[vbnl_vl_index_rank(job->index, id)] = (vbnl_vl_support){tau, set->material[id]};
+        job->out[vbnl_vl_index_rank(job->index, id)] = (vbnl_vl_support){tau, vbnl_material_surface(job->sc, set->material[id])};
         tested += tau > 0.0f;
     }
     job->tested[item] = tested;

@@ -164,6 +164,14 @@ vbnl_sdl_loc vbnl_sdl_block_loc(const vbnl_sdl_block *b);
 vbnl_result vbnl_sdl_function_call(vbnl_sdl_parser *p, const vbnl_sdl_function *f,
                                    const double *args, int n, double *out);
 int vbnl_sdl_function_arity(const vbnl_sdl_function *f);
+/* A standalone copy of a user function and the functions it calls, for evaluation outside the
+ * parse (patterns evaluated while rendering): it needs no parser and outlives it; free it with
+ * vbnl_sdl_function_free_detached. NULL when out of memory. */
+vbnl_sdl_function *vbnl_sdl_function_detach(const vbnl_sdl_function *f);
+void vbnl_sdl_function_free_detached(vbnl_sdl_function *f);
+/* Evaluates a detached function: thread-safe, no diagnostics; 0 where evaluation fails (too deep
+ * or too long, as vbnl_sdl_function_call reports) and for pattern and internal functions. */
+double vbnl_sdl_function_eval_detached(const vbnl_sdl_function *f, const double *args, int n);
 
 /* ---- diagnostics ------------------------------------------------------------------------- */
 
@@ -183,6 +191,19 @@ typedef struct vbnl_sdl_diag {
 typedef void (*vbnl_sdl_diag_fn)(const vbnl_sdl_diag *d, void *user);
 
 /* ---- hooks for the object layer ---------------------------------------------------------- */
+
+/* What the object layer makes of a function body that is a block (`function { pattern { ... } }`,
+ * `function { pigment { ... } }`): an evaluator of the point (x, y, z). `eval` must be
+ * thread-safe and deterministic (detached functions call it while rendering); it fills `dims`
+ * values: 1 for a pattern, 5 (r, g, b, filter, transmit) for a pigment. `retain` takes one more
+ * reference to `user` and `release` drops one (the last frees it). */
+typedef struct vbnl_sdl_fn_block {
+    void *user;
+    int dims;
+    void (*eval)(void *user, const double p[3], double out[5]);
+    void (*retain)(void *user);
+    void (*release)(void *user);
+} vbnl_sdl_fn_block;
 
 typedef struct vbnl_sdl_hooks {
     void *user;
@@ -231,6 +252,13 @@ vbnl_result vbnl_sdl_declare_constant(vbnl_sdl_parser *p, const char *name, cons
 void vbnl_sdl_set_vbnl_version(vbnl_sdl_parser *p, double version);
 void vbnl_sdl_set_diag_callback(vbnl_sdl_parser *p, vbnl_sdl_diag_fn fn, void *user);
 void vbnl_sdl_set_hooks(vbnl_sdl_parser *p, const vbnl_sdl_hooks *hooks);
+/* A function body that is identifier `tok` (consumed) followed by a block: the parser is
+ * positioned on the block's '{'; the hook reads the block and fills *out. Same return convention
+ * as the hooks above; on 0 (reading nothing) or without this hook the block is skipped and the
+ * function evaluates as 0 with a warning. NULL removes the hook. */
+typedef int (*vbnl_sdl_function_block_fn)(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, vbnl_sdl_fn_block *out,
+                                          void *user);
+void vbnl_sdl_set_function_block_hook(vbnl_sdl_parser *p, vbnl_sdl_function_block_fn fn, void *user);
 
 /* Parse a whole scene. `name` labels the text in messages and gives the folder searched first
  * for includes ("scene.pov" -> "."). On failure `err` holds the first line of the error
@@ -277,6 +305,9 @@ vbnl_result vbnl_sdl_expect(vbnl_sdl_parser *p, int op, const char *context);
 /* Expression parsing; on error they report it, return VBNL_ERR_PARSE and leave *out NONE/0. */
 vbnl_result vbnl_sdl_parse_expression(vbnl_sdl_parser *p, vbnl_sdl_value *out);
 vbnl_result vbnl_sdl_parse_float(vbnl_sdl_parser *p, double *out);
+/* A float as POV-Ray's Parse_Float reads one: sums and differences of terms; a comparison must be
+ * in parentheses, so `[0 <0, 1>]` (a slope_map entry) reads 0 and leaves the vector. */
+vbnl_result vbnl_sdl_parse_float_sum(vbnl_sdl_parser *p, double *out);
 /* A vector of `dim` components (2..5); floats are promoted (<f,f,f>). */
 vbnl_result vbnl_sdl_parse_vector(vbnl_sdl_parser *p, int dim, double *out);
 /* [color|colour] followed by rgb/rgbf/rgbt/rgbft/red/green/blue/filter/transmit/expression. */

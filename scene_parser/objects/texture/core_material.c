@@ -1,6 +1,9 @@
-/* vbnl object layer, texture part: an appearance onto a core material and texture (the finish
- * table in scene_parser/README.md). Core materials are shared: one per distinct content, found by
- * a byte key of the material description and the texture inputs (the image by its file). */
+/* vbnl object layer, texture part: an appearance onto core materials (the table in
+ * scene_parser/README.md, "Textures"). A texture tree becomes core nodes (vbnl/scene.h's texture
+ * section): patterns, pigments, normals, and material nodes for textures whose BSDF varies over
+ * the surface; a plain texture with an opaque solid colour and no normal stays a plain material.
+ * Core materials are shared: one per distinct content, found by a byte key of the tree, its
+ * interior and its transforms (pov_key_texture). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,12 +12,10 @@
 
 /* A core material added by the texture part, and what made it. */
 struct pov_material_entry {
-    unsigned char key[sizeof(vbnl_material_desc) + sizeof(pov_pigment) + 8];
+    unsigned char *key;
+    size_t key_len;
     uint32_t material;
-    vbnl_material_desc desc;
-    int has_texture;
-    vbnl_texture_desc tdesc;
-    vbnl_color_map_entry map[POV_MAP_MAX];
+    vbnl_material_desc desc; /* the plain material, or the top layer's BSDF of a node (tests) */
 };
 
 /* Warnings found while mapping an appearance: reported only when it makes a new core material,
@@ -22,12 +23,75 @@ struct pov_material_entry {
 typedef struct map_notes {
     const char *clamped_what;
     double clamped_value;
-    int no_ior;
 } map_notes;
+
+typedef struct build {
+    pov_ctx *c;
+    vbnl_pattern_set *set;   /* patterns and pigments go here instead of the scene (functions) */
+    map_notes notes;
+    vbnl_error *err;
+    int uv;                  /* the appearance's textures are uv-mapped */
+    const double *pre;       /* the point map of its top-level patterns (NULL: identity) */
+    vbnl_material_desc top;  /* the top layer's plain material (tests) */
+    int have_top;
+} build;
+
+/* ---- function patterns --------------------------------------------------------------------------- */
+
+struct pov_fn {
+    int refs;
+    vbnl_sdl_function *f; /* detached */
+};
+
+pov_fn *pov_fn_retain(pov_fn *f)
+{
+    if (f)
+        f->refs++;
+    return f;
+}
+
+void pov_fn_release(pov_fn *f)
+{
+    if (f && --f->refs <= 0) {
+        vbnl_sdl_function_free_detached(f->f);
+        free(f);
+    }
+}
+
+static double fn_call(void *user, const double p[3]) { return vbnl_sdl_function_eval_detached(((pov_fn *)user)->f, p, 3); }
+static void fn_destroy(void *user) { pov_fn_release(user); }
+
+/* function { body }, positioned on the keyword `function`. */
+vbnl_result pov_function_pattern(pov_ctx *c, pov_pattern *pat, const vbnl_sdl_loc *loc)
+{
+    vbnl_sdl_parser *p = c->parser;
+    vbnl_sdl_value v;
+    if (vbnl_sdl_parse_rvalue(p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (v.kind != VBNL_SDL_FUNCTION) {
+        vbnl_sdl_value_clear(p, &v);
+        return vbnl_sdl_error(p, loc, "a function pattern needs function { ... }");
+    }
+    pov_fn *f = malloc(sizeof(*f));
+    if (f) {
+        f->refs = 1;
+        f->f = vbnl_sdl_function_detach(v.u.fn);
+    }
+    vbnl_sdl_value_clear(p, &v);
+    if (!f || !f->f) {
+        free(f);
+        return vbnl_sdl_error(p, loc, "out of memory");
+    }
+    pov_fn_release(pat->fn);
+    pat->fn = f;
+    return VBNL_OK;
+}
+
+/* ---- colours ------------------------------------------------------------------------------------- */
 
 static float clamp_albedo(map_notes *n, double v, const char *what)
 {
-    if (v > 1.0 || v < 0.0) {
+    if (v > 1.0 || v < 0.0 || !isfinite(v)) {
         if (!n->clamped_what) {
             n->clamped_what = what;
             n->clamped_value = v;
@@ -37,16 +101,237 @@ static float clamp_albedo(map_notes *n, double v, const char *what)
     return (float)v;
 }
 
+/* POV-Ray's pigment colour for the core: r g b in [0, 1] (warned), filter and transmit in [0, 1]. */
+static void color5(map_notes *n, const double in[5], float out[5])
+{
+    for (int k = 0; k < 3; ++k)
+        out[k] = clamp_albedo(n, in[k], "pigment colour");
+    for (int k = 3; k < 5; ++k)
+        out[k] = (float)(in[k] < 0.0 || !isfinite(in[k]) ? 0.0 : (in[k] > 1.0 ? 1.0 : in[k]));
+}
+
 static void report_notes(pov_ctx *c, const pov_appearance *a, const map_notes *n)
 {
-    const vbnl_sdl_loc *loc = a->loc.file ? &a->loc : NULL;
+    const vbnl_sdl_loc *loc = a && a->loc.file ? &a->loc : NULL;
     if (n->clamped_what)
         vbnl_sdl_warning(c->parser, loc, "%s %.3g exceeds the energy-conserving range [0, 1]: clamped",
                          n->clamped_what, n->clamped_value);
-    if (n->no_ior)
-        vbnl_sdl_warning(c->parser, loc,
-                         "transparent pigment without interior { ior > 1 }: rendered as glass of ior 1.5");
 }
+
+/* ---- patterns, pigments, normals ----------------------------------------------------------------- */
+
+static void image_desc(const pov_image *im, vbnl_image_desc *d)
+{
+    vbnl_image_desc_init(d);
+    d->width = im->width;
+    d->height = im->height;
+    d->channels = im->channels;
+    d->texels = im->texels;
+    d->indices = im->indices;
+}
+
+vbnl_result pov_image_core_id(pov_ctx *c, int i, uint32_t *out, vbnl_error *err)
+{
+    pov_image *im = &c->tex->images[i];
+    if (!im->core_id) {
+        vbnl_image_desc d;
+        image_desc(im, &d);
+        uint32_t id;
+        vbnl_result r = vbnl_scene_add_image(c->scene, &d, &id, err);
+        if (r != VBNL_OK)
+            return r;
+        im->core_id = id + 1;
+    }
+    *out = im->core_id - 1;
+    return VBNL_OK;
+}
+
+static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32_t *out);
+
+static vbnl_result add_pattern(build *b, const vbnl_pattern_desc *d, uint32_t *out)
+{
+    return b->set ? vbnl_pattern_set_add_pattern(b->set, d, out, b->err) : vbnl_scene_add_pattern(b->c->scene, d, out, b->err);
+}
+
+static vbnl_result add_pigment(build *b, const vbnl_pigment_desc *d, uint32_t *out)
+{
+    return b->set ? vbnl_pattern_set_add_pigment(b->set, d, out, b->err) : vbnl_scene_add_pigment(b->c->scene, d, out, b->err);
+}
+
+/* A pattern for the core: `pre` (a point map applied first, NULL for none) and the scene's noise
+ * generator and number of waves where the pattern has none of its own. */
+static vbnl_result build_pattern(build *b, const pov_pattern *pat, const double *pre, uint32_t *out)
+{
+    pov_ctx *c = b->c;
+    vbnl_pattern_desc d = pat->d;
+    if (pre)
+        memcpy(d.transform, pre, sizeof(d.transform));
+    d.warps = pat->warps;
+    d.warp_count = pat->nwarps;
+    if (d.noise_generator == 0)
+        d.noise_generator = c->tex->noise_generator ? c->tex->noise_generator : 2;
+    d.waves = c->tex->waves ? c->tex->waves : 10;
+    vbnl_result r;
+    if (d.kind == VBNL_PATTERN_IMAGE) {
+        uint32_t id;
+        vbnl_image_desc id_desc;
+        image_desc(&c->tex->images[pat->image], &id_desc);
+        if ((r = b->set ? vbnl_pattern_set_add_image(b->set, &id_desc, &id, b->err)
+                        : pov_image_core_id(c, pat->image, &id, b->err)) != VBNL_OK)
+            return r;
+        d.image.image = id + 1;
+    }
+    if (d.kind == VBNL_PATTERN_PIGMENT) {
+        uint32_t id;
+        if ((r = build_pigment(b, pat->pigment, 0, &id)) != VBNL_OK)
+            return r;
+        d.pigment = id + 1;
+    }
+    if (d.kind == VBNL_PATTERN_DENSITY) {
+        d.density.values = pat->density->v;
+        d.density.nx = pat->density->n[0];
+        d.density.ny = pat->density->n[1];
+        d.density.nz = pat->density->n[2];
+    }
+    if (d.kind == VBNL_PATTERN_FUNCTION) {
+        d.function.fn = fn_call;
+        d.function.user = pov_fn_retain(pat->fn);
+        d.function.destroy = fn_destroy;
+    }
+    if (d.kind == VBNL_PATTERN_PAVEMENT) { /* not implemented: the tiling of its cells */
+        d.tiling = d.pavement.sides == 4 ? 1 : d.pavement.sides == 6 ? 2 : 3;
+        d.kind = VBNL_PATTERN_TILING;
+    }
+    if (d.kind == VBNL_PATTERN_OBJECT) { /* not read: every point is outside */
+        d.kind = VBNL_PATTERN_PLANAR;
+        d.transform[0] = d.transform[5] = d.transform[10] = 1.0;
+        d.transform[12] = d.transform[13] = d.transform[14] = 0.0;
+        d.transform[7] = 1e9; /* y far away: planar's value 0 */
+        d.warp_count = 0;
+    }
+    r = add_pattern(b, &d, out);
+    if (r != VBNL_OK && d.kind == VBNL_PATTERN_FUNCTION)
+        pov_fn_release(pat->fn);
+    return r;
+}
+
+static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32_t *out)
+{
+    vbnl_pigment_desc d;
+    vbnl_pigment_desc_init(&d);
+    d.uv = g->uv_mapping || (top && b->uv);
+    vbnl_result r;
+    if (g->kind == POV_PIG_SOLID) {
+        color5(&b->notes, g->color, d.color);
+        return add_pigment(b, &d, out);
+    }
+    uint32_t pattern;
+    if ((r = build_pattern(b, &g->pat, top ? b->pre : NULL, &pattern)) != VBNL_OK)
+        return r;
+    d.pattern = pattern + 1;
+    if (g->kind == POV_PIG_IMAGE) {
+        d.kind = VBNL_PIGMENT_IMAGE;
+        return add_pigment(b, &d, out);
+    }
+    d.kind = g->kind == POV_PIG_AVERAGE ? VBNL_PIGMENT_AVERAGE : VBNL_PIGMENT_MAP;
+    pov_map def = {POV_MAP_COLOR, 0, NULL};
+    const pov_map *m = &g->map;
+    if (m->count == 0) {
+        pov_default_color_map(&g->pat, &def);
+        m = &def;
+    }
+    vbnl_pigment_map_entry *e = calloc(m->count ? m->count : 1, sizeof(*e));
+    if (!e) {
+        pov_map_free(&def);
+        return vbnl_error_set(b->err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    r = VBNL_OK;
+    for (uint32_t i = 0; i < m->count && r == VBNL_OK; ++i) {
+        e[i].value = (float)m->e[i].value;
+        if (m->kind == POV_MAP_PIGMENT && m->e[i].sub) {
+            uint32_t id;
+            if ((r = build_pigment(b, m->e[i].sub, 0, &id)) == VBNL_OK)
+                e[i].pigment = id + 1;
+        } else {
+            color5(&b->notes, m->e[i].color, e[i].color);
+        }
+    }
+    if (r == VBNL_OK) {
+        d.map = e;
+        d.map_count = m->count;
+        r = add_pigment(b, &d, out);
+    }
+    free(e);
+    pov_map_free(&def);
+    return r;
+}
+
+static vbnl_result build_normal(build *b, const pov_normal *n, int top, uint32_t *out)
+{
+    pov_ctx *c = b->c;
+    vbnl_normal_desc d;
+    vbnl_normal_desc_init(&d);
+    d.amount = (float)n->amount;
+    d.accuracy = (float)n->accuracy;
+    d.no_bump_scale = n->no_bump_scale;
+    d.uv = n->uv_mapping || (top && b->uv);
+    vbnl_result r;
+    if (n->kind != POV_NRM_AVERAGE || n->pat.nwarps || (top && b->pre)) {
+        uint32_t pattern;
+        if ((r = build_pattern(b, &n->pat, top ? b->pre : NULL, &pattern)) != VBNL_OK)
+            return r;
+        d.pattern = pattern + 1;
+    }
+    d.kind = n->kind == POV_NRM_MAP ? VBNL_NORMAL_MAP
+             : n->kind == POV_NRM_AVERAGE ? VBNL_NORMAL_AVERAGE
+             : n->kind == POV_NRM_IMAGE   ? VBNL_NORMAL_IMAGE
+                                          : VBNL_NORMAL_PATTERN;
+    vbnl_slope_map_entry *sl = NULL;
+    vbnl_normal_map_entry *nm = NULL;
+    if (n->slopes.count) {
+        if (!(sl = calloc(n->slopes.count, sizeof(*sl))))
+            return vbnl_error_set(b->err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        for (uint32_t i = 0; i < n->slopes.count; ++i)
+            sl[i] = (vbnl_slope_map_entry){(float)n->slopes.e[i].value, (float)n->slopes.e[i].slope[0],
+                                           (float)n->slopes.e[i].slope[1]};
+        d.slope_map = sl;
+        d.slope_map_count = n->slopes.count;
+    }
+    r = VBNL_OK;
+    if (d.kind == VBNL_NORMAL_MAP || d.kind == VBNL_NORMAL_AVERAGE) {
+        if (!(nm = calloc(n->map.count ? n->map.count : 1, sizeof(*nm)))) {
+            free(sl);
+            return vbnl_error_set(b->err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        for (uint32_t i = 0; i < n->map.count && r == VBNL_OK; ++i) {
+            nm[i].value = (float)n->map.e[i].value;
+            if (n->map.e[i].sub) {
+                r = build_normal(b, n->map.e[i].sub, 0, &nm[i].normal);
+            } else {
+                /* an entry without a normal: a flat one (bumps of amount 0) */
+                pov_normal *flat = pov_normal_new();
+                if (!flat) {
+                    r = vbnl_error_set(b->err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+                    break;
+                }
+                flat->pat.d.kind = VBNL_PATTERN_BUMPS;
+                flat->pat.name = "bumps";
+                flat->amount = 0.0;
+                r = build_normal(b, flat, 0, &nm[i].normal);
+                pov_normal_free(flat);
+            }
+        }
+        d.map = nm;
+        d.map_count = n->map.count;
+    }
+    if (r == VBNL_OK)
+        r = vbnl_scene_add_normal(c->scene, &d, out, b->err);
+    free(sl);
+    free(nm);
+    return r;
+}
+
+/* ---- finishes ------------------------------------------------------------------------------------ */
 
 /* Blinn-Phong exponent n to GGX alpha (Walter et al. 2007): alpha = sqrt(2 / (n + 2)). */
 static float alpha_from_exponent(double n)
@@ -55,240 +340,390 @@ static float alpha_from_exponent(double n)
     return (float)(a < 0.001 ? 0.001 : (a > 1.0 ? 1.0 : a));
 }
 
+/* The plain core material of a plain layer's finish (the finish table), with its base colour
+ * scaled by `pc` (the pigment's colour, or 1 where the pigment colours it per point). *tinted is
+ * 0 when the pigment does not colour this material (a mirror takes its reflection colour). */
+static void finish_material(build *b, const pov_texture *t, const pov_interior *in, const double pc[3],
+                            vbnl_material_desc *md, int *tinted)
+{
+    const pov_finish *f = &t->fin;
+    vbnl_material_desc_init(md);
+    *tinted = 1;
+    double scale[3] = {1, 1, 1};
+    if (t->ext.set) {
+        *md = t->ext.desc;
+        if (t->ext.has_color) {
+            *tinted = 0; /* an explicit colour replaces the pigment */
+            return;
+        }
+        for (int k = 0; k < 3; ++k)
+            md->base_color[k] = clamp_albedo(&b->notes, pc[k], "albedo");
+        return;
+    }
+    double refl = (f->reflection[0] + f->reflection[1] + f->reflection[2]) / 3.0;
+    if (f->metallic && (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0)) {
+        md->type = VBNL_MATERIAL_CONDUCTOR;
+        md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
+                    : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
+                                      : 0.001f;
+    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0) {
+        md->type = VBNL_MATERIAL_MIRROR;
+        memcpy(scale, f->reflection, sizeof(scale));
+        *tinted = 0;
+    } else if (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0) {
+        md->type = VBNL_MATERIAL_PLASTIC;
+        md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
+                    : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
+                                      : 0.001f;
+        md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
+        scale[0] = scale[1] = scale[2] = f->diffuse;
+    } else {
+        md->type = VBNL_MATERIAL_LAMBERT;
+        scale[0] = scale[1] = scale[2] = f->diffuse;
+    }
+    for (int k = 0; k < 3; ++k)
+        md->base_color[k] = clamp_albedo(&b->notes, scale[k] * (*tinted ? pc[k] : 1.0), "albedo");
+}
+
+/* The emitted radiance of a plain layer: POV-Ray's emission times the pigment's colour and
+ * opacity (a patterned pigment's average: the core's emission is constant per material). */
+static void layer_emission(build *b, const pov_texture *t, float out[3])
+{
+    double col[5];
+    if (t->ext.set) {
+        memcpy(out, t->ext.desc.emission, 3 * sizeof(float));
+        return;
+    }
+    pov_pigment_average(t->pig, b->c->tex, col);
+    double opacity = 1.0 - col[3] - col[4];
+    opacity = opacity < 0.0 ? 0.0 : (opacity > 1.0 ? 1.0 : opacity);
+    for (int k = 0; k < 3; ++k) {
+        double e = t->fin.emission[k] * (col[k] > 0.0 ? col[k] : 0.0) * opacity;
+        out[k] = isfinite(e) && e > 0.0 ? (float)e : 0.0f;
+    }
+}
+
+/* ---- textures ------------------------------------------------------------------------------------ */
+
+static vbnl_result build_stack(build *b, const pov_texture *t, const pov_interior *in, int top, uint32_t *out,
+                               float emission[3]);
+
+/* A plain layer: a plain material when its pigment is an opaque colour and it has no normal, else
+ * a TEXTURED node. */
+static vbnl_result build_plain(build *b, const pov_texture *t, const pov_interior *in, int top, uint32_t *out,
+                               float emission[3])
+{
+    pov_ctx *c = b->c;
+    const pov_pigment *g = t->pig;
+    const int solid = g->kind == POV_PIG_SOLID;
+    const double white[3] = {1, 1, 1};
+    int tinted;
+    vbnl_material_desc md;
+    finish_material(b, t, in, solid ? g->color : white, &md, &tinted);
+    layer_emission(b, t, emission);
+    const int transparent = solid ? g->color[3] + g->color[4] > 0.0 : 1;
+    memcpy(md.emission, emission, sizeof(md.emission));
+    md.two_sided = t->ext.set ? md.two_sided : 1; /* POV-Ray's emission glows on both sides */
+    if (!b->have_top) {
+        b->top = md;
+        b->have_top = 1;
+    }
+    vbnl_result r;
+    if (solid && !t->nrm && !transparent)
+        return vbnl_scene_add_material(c->scene, &md, out, b->err);
+    /* the leaf: the finish alone, the pigment colouring it per point */
+    vbnl_material_desc leaf_desc;
+    finish_material(b, t, in, white, &leaf_desc, &tinted);
+    uint32_t leaf;
+    if ((r = vbnl_scene_add_material(c->scene, &leaf_desc, &leaf, b->err)) != VBNL_OK)
+        return r;
+    vbnl_material_node_desc nd;
+    vbnl_material_node_desc_init(&nd);
+    nd.kind = VBNL_NODE_TEXTURED;
+    nd.material = leaf;
+    memcpy(nd.emission, emission, sizeof(nd.emission));
+    nd.two_sided = 1;
+    uint32_t pg;
+    if (tinted) {
+        if ((r = build_pigment(b, g, top, &pg)) != VBNL_OK)
+            return r;
+    } else {
+        /* a mirror or an explicit colour: the pigment only says how much passes (white, its f t) */
+        pov_pigment clear = *g;
+        if (solid) {
+            clear.color[0] = clear.color[1] = clear.color[2] = 1.0;
+        }
+        if ((r = build_pigment(b, solid ? &clear : g, top, &pg)) != VBNL_OK)
+            return r;
+    }
+    nd.pigment = pg + 1;
+    if (t->nrm) {
+        uint32_t n;
+        if ((r = build_normal(b, t->nrm, top, &n)) != VBNL_OK)
+            return r;
+        nd.normal = n + 1;
+    }
+    if (in->ior > 1.0) { /* the light the pigment lets through refracts into the interior */
+        vbnl_material_desc glass;
+        vbnl_material_desc_init(&glass);
+        glass.type = VBNL_MATERIAL_DIELECTRIC;
+        glass.ior = (float)in->ior;
+        glass.base_color[0] = glass.base_color[1] = glass.base_color[2] = 1.0f;
+        uint32_t gid;
+        if ((r = vbnl_scene_add_material(c->scene, &glass, &gid, b->err)) != VBNL_OK)
+            return r;
+        nd.transmission = gid + 1;
+    }
+    return vbnl_scene_add_material_node(c->scene, &nd, out, b->err);
+}
+
+/* A patterned texture (texture_map, a list, tiles, material_map, average). */
+static vbnl_result build_patterned(build *b, const pov_texture *t, const pov_interior *in, int top, uint32_t *out,
+                                   float emission[3])
+{
+    pov_ctx *c = b->c;
+    vbnl_material_node_desc nd;
+    vbnl_material_node_desc_init(&nd);
+    nd.kind = t->kind == POV_TEX_AVERAGE ? VBNL_NODE_AVERAGE : VBNL_NODE_MAP;
+    nd.uv = t->uv_mapping || (top && b->uv);
+    vbnl_result r;
+    if (t->kind != POV_TEX_AVERAGE || t->pat.nwarps || (top && b->pre)) {
+        uint32_t pattern;
+        if ((r = build_pattern(b, &t->pat, top ? b->pre : NULL, &pattern)) != VBNL_OK)
+            return r;
+        nd.pattern = pattern + 1;
+    }
+    const uint32_t n = t->map.count;
+    vbnl_material_map_entry *e = calloc(n ? n : 1, sizeof(*e));
+    if (!e)
+        return vbnl_error_set(b->err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    double acc[3] = {0, 0, 0};
+    r = VBNL_OK;
+    for (uint32_t i = 0; i < n && r == VBNL_OK; ++i) {
+        e[i].value = (float)t->map.e[i].value;
+        float em[3] = {0, 0, 0};
+        const pov_texture *sub = t->map.e[i].sub ? t->map.e[i].sub : c->tex->deflt.tex;
+        r = build_stack(b, sub, in, 0, &e[i].material, em);
+        for (int k = 0; k < 3; ++k)
+            acc[k] += em[k] / n;
+    }
+    for (int k = 0; k < 3; ++k)
+        emission[k] = (float)acc[k];
+    if (r == VBNL_OK) {
+        nd.map = e;
+        nd.map_count = n;
+        memcpy(nd.emission, emission, sizeof(nd.emission));
+        nd.two_sided = 1;
+        r = vbnl_scene_add_material_node(c->scene, &nd, out, b->err);
+    }
+    free(e);
+    return r;
+}
+
+/* A stack of layers (top first): one material, or a LAYERS node. */
+static vbnl_result build_stack(build *b, const pov_texture *t, const pov_interior *in, int top, uint32_t *out,
+                               float emission[3])
+{
+    if (!t->below)
+        return t->kind == POV_TEX_PLAIN ? build_plain(b, t, in, top, out, emission)
+                                        : build_patterned(b, t, in, top, out, emission);
+    uint32_t count = 0, *ids;
+    for (const pov_texture *l = t; l; l = l->below)
+        count++;
+    if (count > VBNL_TEXTURE_MAP_MAX)
+        return vbnl_error_set(b->err, VBNL_ERR_INVALID_ARGUMENT, "more than %u texture layers", VBNL_TEXTURE_MAP_MAX);
+    if (!(ids = malloc(sizeof(*ids) * count)))
+        return vbnl_error_set(b->err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    vbnl_result r = VBNL_OK;
+    uint32_t i = 0;
+    float top_emission[3] = {0, 0, 0};
+    for (const pov_texture *l = t; l && r == VBNL_OK; l = l->below, ++i) {
+        float em[3];
+        /* a layer is its own texture: build it without the layers below it */
+        pov_texture one = *l;
+        one.below = NULL;
+        r = one.kind == POV_TEX_PLAIN ? build_plain(b, &one, in, top, &ids[i], em)
+                                      : build_patterned(b, &one, in, top, &ids[i], em);
+        if (i == 0)
+            memcpy(top_emission, em, sizeof(em));
+    }
+    if (r == VBNL_OK) {
+        vbnl_material_node_desc nd;
+        vbnl_material_node_desc_init(&nd);
+        nd.kind = VBNL_NODE_LAYERS;
+        nd.layers = ids;
+        nd.layer_count = count;
+        memcpy(nd.emission, top_emission, sizeof(nd.emission));
+        nd.two_sided = 1;
+        memcpy(emission, top_emission, 3 * sizeof(float));
+        r = vbnl_scene_add_material_node(b->c->scene, &nd, out, b->err);
+    }
+    free(ids);
+    return r;
+}
+
+/* 1 when any texture of the stack (at its top level) asks for uv_mapping. */
+static int uv_mapped(const pov_texture *t)
+{
+    for (; t; t = t->below)
+        if (t->uv_mapping)
+            return 1;
+    return 0;
+}
+
 vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const double world_from_pov[16],
                                     uint32_t *material, vbnl_error *err)
 {
     pov_texture_state *s = c->tex;
-    pov_appearance tmp;
-    if (!a) {
-        tmp = s->deflt;
-        a = &tmp;
-    }
-    const pov_texture *tx = &a->tex;
-    const pov_pigment *g = &tx->pig;
-    const pov_finish *f = &tx->fin;
-    map_notes notes = {NULL, 0.0, 0};
+    const pov_texture *tex = a && a->tex ? a->tex : s->deflt.tex;
+    const pov_interior *in = a ? &a->interior : &s->deflt.interior;
+    const double *xf = a ? a->xf : s->deflt.xf;
+    /* the point map of the top-level patterns: core world -> POV world -> the object's pattern space */
+    double world_from_pattern[16], pre[16];
+    pov_m4_mul(world_from_pov, xf, world_from_pattern);
+    if (!pov_m4_invert(world_from_pattern, pre))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "an appearance transform is singular");
+    int identity = 1;
+    for (int i = 0; i < 16; ++i)
+        identity &= pre[i] == ((i % 5) == 0 ? 1.0 : 0.0);
 
-    /* the pigment's representative colour (solid colour, or 1 where a texture supplies it) */
-    double pc[5] = {1, 1, 1, 0, 0};
-    int textured = g->kind != POV_PIG_SOLID;
-    if (!textured)
-        memcpy(pc, g->color, sizeof(pc));
-    double filter = textured ? 0.0 : pc[3], transmit = textured ? 0.0 : pc[4];
-
-    vbnl_material_desc md;
-    vbnl_material_desc_init(&md);
-    double scale[3] = {1, 1, 1}; /* multiplies the pigment colour into base_color */
-    if (tx->ext.set) {
-        md = tx->ext.desc;
-        if (!tx->ext.has_color) {
-            scale[0] = scale[1] = scale[2] = 1.0;
-        } else {
-            textured = 0; /* an explicit colour replaces the pigment */
-            for (int k = 0; k < 3; ++k)
-                pc[k] = md.base_color[k];
-        }
-    } else {
-        double refl = (f->reflection[0] + f->reflection[1] + f->reflection[2]) / 3.0;
-        if (filter + transmit > 0.0) {
-            md.type = VBNL_MATERIAL_DIELECTRIC;
-            md.ior = (float)(a->interior.ior > 1.0 ? a->interior.ior : 1.5);
-            notes.no_ior = !(a->interior.ior > 1.0);
-            /* filter tints by the colour, transmit passes light unchanged */
-            double w = filter / (filter + transmit);
-            for (int k = 0; k < 3; ++k)
-                pc[k] = w * pc[k] + (1.0 - w);
-        } else if (f->metallic && (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0)) {
-            md.type = VBNL_MATERIAL_CONDUCTOR;
-            md.alpha = f->specular > 0.0   ? alpha_from_exponent(1.0 / f->roughness)
-                       : f->phong > 0.0    ? alpha_from_exponent(4.0 * f->phong_size)
-                                           : 0.001f;
-        } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0) {
-            md.type = VBNL_MATERIAL_MIRROR;
-            for (int k = 0; k < 3; ++k)
-                scale[k] = f->reflection[k];
-            textured = 0;
-            pc[0] = pc[1] = pc[2] = 1.0;
-        } else if (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0) {
-            md.type = VBNL_MATERIAL_PLASTIC;
-            md.alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
-                       : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
-                                         : 0.001f;
-            md.ior = (float)(a->interior.ior > 1.0 ? a->interior.ior : 1.5);
-            for (int k = 0; k < 3; ++k)
-                scale[k] = f->diffuse;
-        } else {
-            md.type = VBNL_MATERIAL_LAMBERT;
-            for (int k = 0; k < 3; ++k)
-                scale[k] = f->diffuse;
-        }
-        for (int k = 0; k < 3; ++k)
-            md.emission[k] = (float)(f->emission[k] * (textured ? 1.0 : pc[k]));
-        md.two_sided = 1; /* POV-Ray's emission glows on both sides of a surface */
-        if (textured && (f->emission[0] > 0 || f->emission[1] > 0 || f->emission[2] > 0)) {
-            double avg[5];
-            pov_color_map_average(&g->map, avg);
-            for (int k = 0; k < 3; ++k)
-                md.emission[k] = (float)(f->emission[k] * (g->kind == POV_PIG_IMAGE ? 1.0 : avg[k]));
-        }
-    }
-    for (int k = 0; k < 3; ++k) {
-        if (!(md.emission[k] >= 0.0f) || !isfinite(md.emission[k]))
-            md.emission[k] = 0.0f;
-        md.base_color[k] = clamp_albedo(&notes, scale[k] * (textured ? 1.0 : pc[k]), "albedo");
-    }
-
-    /* the texture */
-    vbnl_texture_desc td;
-    vbnl_texture_desc_init(&td);
-    vbnl_color_map_entry map[POV_MAP_MAX];
-    int image = -1;
-    if (textured) {
-        double pov_from_world[16], world_from_pattern[16], pattern_from_world[16];
-        if (!pov_m4_invert(world_from_pov, pov_from_world))
-            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "world_from_pov is singular");
-        pov_m4_mul(world_from_pov, g->xf, world_from_pattern);
-        if (!pov_m4_invert(world_from_pattern, pattern_from_world))
-            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "a pigment transform is singular");
-        for (int i = 0; i < 16; ++i)
-            td.pattern_from_world[i] = (float)pattern_from_world[i];
-        switch (g->kind) {
-        case POV_PIG_CHECKER: td.kind = VBNL_TEXTURE_CHECKER; break;
-        case POV_PIG_GRADIENT: td.kind = VBNL_TEXTURE_GRADIENT; break;
-        case POV_PIG_BRICK: td.kind = VBNL_TEXTURE_BRICK; break;
-        default: td.kind = VBNL_TEXTURE_IMAGE; break;
-        }
-        for (int k = 0; k < 3; ++k) {
-            td.gradient[k] = (float)g->gradient[k];
-            td.brick_size[k] = (float)g->brick_size[k];
-        }
-        td.mortar = (float)g->mortar;
-        td.frequency = (float)g->frequency;
-        td.phase = (float)g->phase;
-        td.wave = (vbnl_texture_wave)g->wave;
-        if (g->kind == POV_PIG_IMAGE) {
-            const pov_image *im = &s->images[g->image];
-            image = g->image;
-            td.texels = im->texels;
-            td.width = im->width;
-            td.height = im->height;
-            td.projection = g->uv_mapping ? VBNL_PROJECTION_UV
-                            : g->map_type == 1 ? VBNL_PROJECTION_SPHERICAL
-                            : g->map_type == 2 ? VBNL_PROJECTION_CYLINDRICAL
-                                               : VBNL_PROJECTION_PLANAR;
-            td.wrap = g->once ? VBNL_WRAP_CLAMP : VBNL_WRAP_REPEAT;
-            td.interpolate = g->interpolate;
-        } else {
-            td.color_map = map;
-            td.color_map_count = g->map.count;
-            for (uint32_t i = 0; i < g->map.count; ++i) {
-                map[i].value = (float)g->map.e[i].value;
-                for (int k = 0; k < 3; ++k)
-                    map[i].color[k] = clamp_albedo(&notes, g->map.e[i].color[k], "pigment colour");
-            }
-        }
-    }
-
-    /* the cache: one core material per distinct content */
-    pov_material_entry *ce = calloc(1, sizeof(*ce));
-    if (!ce)
+    pov_key key = {NULL, 0, 0, 0};
+    pov_key_texture(&key, tex);
+    pov_key_bytes(&key, in, sizeof(*in));
+    pov_key_bytes(&key, pre, sizeof(pre));
+    pov_key_bytes(&key, &s->noise_generator, sizeof(s->noise_generator));
+    pov_key_bytes(&key, &s->waves, sizeof(s->waves));
+    if (key.failed) {
+        free(key.b);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    ce->desc = md;
-    ce->has_texture = textured;
-    ce->tdesc = td;
-    if (textured) {
-        memcpy(ce->map, map, sizeof(vbnl_color_map_entry) * td.color_map_count);
-        ce->tdesc.color_map = NULL;
-        ce->tdesc.texels = NULL;
-    }
-    /* key: the material description, the texture inputs (with the image index in place of texels) */
-    unsigned char *k = ce->key;
-    memcpy(k, &md, sizeof(md));
-    k += sizeof(md);
-    if (textured) {
-        pov_pigment key_pig;
-        memset(&key_pig, 0, sizeof(key_pig));
-        key_pig.kind = g->kind;
-        memcpy(key_pig.xf, td.pattern_from_world, sizeof(td.pattern_from_world)); /* floats suffice */
-        key_pig.map.count = g->map.count;
-        for (uint32_t i = 0; i < g->map.count; ++i) {
-            key_pig.map.e[i].value = map[i].value;
-            for (int q = 0; q < 3; ++q)
-                key_pig.map.e[i].color[q] = map[i].color[q];
-        }
-        memcpy(key_pig.gradient, g->gradient, sizeof(g->gradient));
-        memcpy(key_pig.brick_size, g->brick_size, sizeof(g->brick_size));
-        key_pig.mortar = g->mortar;
-        key_pig.frequency = g->frequency;
-        key_pig.phase = g->phase;
-        key_pig.wave = g->wave;
-        key_pig.image = image;
-        key_pig.map_type = (int)td.projection;
-        key_pig.once = g->once;
-        key_pig.interpolate = g->interpolate;
-        memcpy(k, &key_pig, sizeof(key_pig));
     }
     for (uint32_t i = 0; i < s->cache_count; ++i) {
-        if (!memcmp(s->cache[i]->key, ce->key, sizeof(ce->key))) {
+        if (s->cache[i]->key_len == key.n && !memcmp(s->cache[i]->key, key.b, key.n)) {
             *material = s->cache[i]->material;
-            free(ce);
+            free(key.b);
             return VBNL_OK;
         }
     }
-    report_notes(c, a, &notes);
-    if (textured) {
-        uint32_t tid;
-        vbnl_result r = vbnl_scene_add_texture(c->scene, &td, &tid, err);
-        if (r != VBNL_OK) {
-            free(ce);
-            return r;
-        }
-        md.base_texture = tid + 1;
-        ce->desc.base_texture = tid + 1;
-    }
-    vbnl_result r = vbnl_scene_add_material(c->scene, &md, &ce->material, err);
+    build b;
+    memset(&b, 0, sizeof(b));
+    b.c = c;
+    b.err = err;
+    b.uv = uv_mapped(tex);
+    b.pre = identity ? NULL : pre;
+    float emission[3];
+    vbnl_result r = build_stack(&b, tex, in, 1, material, emission);
     if (r != VBNL_OK) {
-        free(ce);
+        free(key.b);
         return r;
     }
+    report_notes(c, a, &b.notes);
     if (s->cache_count == s->cache_cap) {
-        uint32_t ncap = s->cache_cap ? 2 * s->cache_cap : 16;
-        pov_material_entry **n = realloc(s->cache, sizeof(*n) * ncap);
-        if (!n) {
-            free(ce);
+        uint32_t cap = s->cache_cap ? 2 * s->cache_cap : 16;
+        pov_material_entry **grown = realloc(s->cache, sizeof(*grown) * cap);
+        if (!grown) {
+            free(key.b);
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         }
-        s->cache = n;
-        s->cache_cap = ncap;
+        s->cache = grown;
+        s->cache_cap = cap;
     }
+    pov_material_entry *ce = calloc(1, sizeof(*ce));
+    if (!ce) {
+        free(key.b);
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    ce->key = key.b;
+    ce->key_len = key.n;
+    ce->material = *material;
+    ce->desc = b.top;
     s->cache[s->cache_count++] = ce;
-    *material = ce->material;
+    return VBNL_OK;
+}
+
+void pov_material_cache_free(pov_ctx *c)
+{
+    for (uint32_t i = 0; i < c->tex->cache_count; ++i) {
+        free(c->tex->cache[i]->key);
+        free(c->tex->cache[i]);
+    }
+    free(c->tex->cache);
+    c->tex->cache = NULL;
+    c->tex->cache_count = c->tex->cache_cap = 0;
+}
+
+/* ---- pattern and pigment functions --------------------------------------------------------------- */
+
+/* The evaluator of a function { pattern { } } or function { pigment { } }: its own pattern set. */
+typedef struct fn_block {
+    int refs;
+    vbnl_pattern_set *set;
+    uint32_t id;
+    int pigment;
+} fn_block;
+
+static void fn_block_eval(void *user, const double p[3], double out[5])
+{
+    const fn_block *f = user;
+    if (f->pigment) {
+        float c[5];
+        vbnl_pattern_set_color(f->set, f->id, p, c);
+        for (int k = 0; k < 5; ++k)
+            out[k] = c[k];
+        return;
+    }
+    out[0] = vbnl_pattern_set_value(f->set, f->id, p);
+}
+
+static void fn_block_retain(void *user) { ((fn_block *)user)->refs++; }
+
+static void fn_block_release(void *user)
+{
+    fn_block *f = user;
+    if (--f->refs > 0)
+        return;
+    vbnl_pattern_set_destroy(f->set);
+    free(f);
+}
+
+vbnl_result pov_function_block_build(pov_ctx *c, const pov_pigment *g, int pigment, vbnl_sdl_fn_block *out,
+                                     vbnl_error *err)
+{
+    fn_block *f = calloc(1, sizeof(*f));
+    if (!f)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    f->refs = 1;
+    f->pigment = pigment;
+    vbnl_result r = vbnl_pattern_set_create(&f->set, err);
+    if (r != VBNL_OK) {
+        free(f);
+        return r;
+    }
+    build b;
+    memset(&b, 0, sizeof(b));
+    b.c = c;
+    b.set = f->set;
+    b.err = err;
+    r = pigment ? build_pigment(&b, g, 0, &f->id) : build_pattern(&b, &g->pat, NULL, &f->id);
+    if (r != VBNL_OK) {
+        fn_block_release(f);
+        return r;
+    }
+    out->user = f;
+    out->dims = pigment ? 5 : 1;
+    out->eval = fn_block_eval;
+    out->retain = fn_block_retain;
+    out->release = fn_block_release;
     return VBNL_OK;
 }
 
 /* ---- test accessors (pov_texture.h) ---------------------------------------------------------- */
 
-static const pov_material_entry *find_entry(const pov_ctx *c, uint32_t material)
+const vbnl_material_desc *pov_texture_material_desc(const pov_ctx *c, uint32_t material)
 {
     for (uint32_t i = 0; i < c->tex->cache_count; ++i)
         if (c->tex->cache[i]->material == material)
-            return c->tex->cache[i];
+            return &c->tex->cache[i]->desc;
     return NULL;
-}
-
-const vbnl_material_desc *pov_texture_material_desc(const pov_ctx *c, uint32_t material)
-{
-    const pov_material_entry *e = find_entry(c, material);
-    return e ? &e->desc : NULL;
-}
-
-const vbnl_texture_desc *pov_texture_texture_desc(const pov_ctx *c, uint32_t material)
-{
-    pov_material_entry *e = (pov_material_entry *)find_entry(c, material);
-    if (!e || !e->has_texture)
-        return NULL;
-    e->tdesc.color_map = e->tdesc.kind == VBNL_TEXTURE_IMAGE ? NULL : e->map;
-    return &e->tdesc;
 }
 
 uint32_t pov_texture_material_count(const pov_ctx *c) { return c->tex->cache_count; }

@@ -186,9 +186,7 @@ static vbnl_result unsupported(const pov_item *it) /* irid { }, subsurface { } *
     vbnl_sdl_next(it->p);
     if (vbnl_sdl_skip_block(it->p) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    /* it->tok is the parser's look-ahead slot: it now holds the skipped block's '}', and the
-     * message names that token */
-    vbnl_sdl_warning(it->p, &it->loc, "finish '%s' is not supported: ignored", it->tok->text);
+    vbnl_sdl_warning(it->p, &it->loc, "finish '%s' is not supported: ignored", it->kw);
     return VBNL_OK;
 }
 
@@ -215,11 +213,17 @@ static const pov_block finish_items = {.name = "finish",
                                        .tables = finish_tables,
                                        .unknown = pov_block_unexpected_word};
 
+static int copy_finish(void *dst, const void *src)
+{
+    memcpy(dst, src, sizeof(pov_finish));
+    return 1;
+}
+
 vbnl_result pov_finish_parse(pov_ctx *c, pov_finish *f)
 {
     if (vbnl_sdl_expect(c->parser, '{', "after 'finish'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (pov_take_ident(c, &pov_type_finish, f, sizeof *f) < 0)
+    if (pov_take_ident(c, &pov_type_finish, f, copy_finish) < 0)
         return VBNL_ERR_PARSE;
     return pov_block_parse(&finish_items, c->parser, c, f, NULL);
 }

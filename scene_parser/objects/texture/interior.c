@@ -1,4 +1,6 @@
 /* vbnl object layer, texture part: interior { } and material { texture interior vbnl_bsdf }. */
+#include <string.h>
+
 #include "pov_texture.h"
 
 /* ---- interior { } ------------------------------------------------------------------------------ */
@@ -34,6 +36,12 @@ static vbnl_result media(const pov_item *it)
     return VBNL_OK;
 }
 
+static int copy_interior(void *dst, const void *src)
+{
+    memcpy(dst, src, sizeof(pov_interior));
+    return 1;
+}
+
 static const pov_row interior_rows[] = {
     {"ior", ior, 0},
     {"caustics", pov_item_any_float, 0},
@@ -55,18 +63,12 @@ vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
 {
     if (vbnl_sdl_expect(c->parser, '{', "after 'interior'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (pov_take_ident(c, &pov_type_interior, in, sizeof *in) < 0)
+    if (pov_take_ident(c, &pov_type_interior, in, copy_interior) < 0)
         return VBNL_ERR_PARSE;
     return pov_block_parse(&interior_items, c->parser, c, in, NULL);
 }
 
 /* ---- material { } ------------------------------------------------------------------------------ */
-
-static vbnl_result mat_texture(const pov_item *it)
-{
-    vbnl_sdl_next(it->p);
-    return pov_texture_parse(it->ctx, &((pov_appearance *)it->target)->tex);
-}
 
 static vbnl_result mat_interior(const pov_item *it)
 {
@@ -77,13 +79,19 @@ static vbnl_result mat_interior(const pov_item *it)
 static vbnl_result mat_bsdf(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
-    return pov_bsdf_parse(it->ctx, &((pov_appearance *)it->target)->tex.ext);
+    return pov_bsdf_parse(it->ctx, &((pov_appearance *)it->target)->tex->ext);
 }
 
-static void mat_transform(const pov_item *it, const double m[16]) { pov_appearance_transform(it->target, m); }
+/* POV-Ray's material transforms move its textures (Transform_Textures). */
+static void mat_transform(const pov_item *it, const double m[16])
+{
+    pov_appearance *a = it->target;
+    if (!pov_texture_transform(a->tex, m))
+        vbnl_sdl_error(it->p, &it->loc, "a pattern has at most %d warps and transforms", POV_WARP_MAX);
+}
 
 static const pov_row material_rows[] = {
-    {"texture", mat_texture, 0},
+    {"texture", pov_appearance_texture_item, 0},
     {"interior", mat_interior, 0},
     {"vbnl_bsdf", mat_bsdf, 0},
     {NULL, NULL, 0},
@@ -94,11 +102,30 @@ static const pov_block material_items = {.name = "material",
                                          .unknown = pov_block_unexpected_word,
                                          .transform = mat_transform};
 
+static int copy_material(void *dst, const void *src)
+{
+    pov_appearance *a = dst;
+    const pov_appearance *m = src;
+    pov_texture *t = m->tex ? pov_texture_dup(m->tex) : NULL;
+    if (m->tex && !t)
+        return 0;
+    pov_texture_free(a->tex);
+    a->tex = t;
+    a->interior = m->interior;
+    a->own_texture = 1;
+    return 1;
+}
+
 vbnl_result pov_material_parse(pov_ctx *c, pov_appearance *a)
 {
     if (vbnl_sdl_expect(c->parser, '{', "after 'material'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (pov_take_ident(c, &pov_type_material, a, sizeof *a) < 0)
+    /* POV-Ray's material starts over: its first texture replaces the object's */
+    int had = a->own_texture;
+    a->own_texture = 0;
+    if (pov_take_ident(c, &pov_type_material, a, copy_material) < 0)
         return VBNL_ERR_PARSE;
-    return pov_block_parse(&material_items, c->parser, c, a, NULL);
+    vbnl_result r = pov_block_parse(&material_items, c->parser, c, a, NULL);
+    a->own_texture |= had;
+    return r;
 }

@@ -1,67 +1,54 @@
-/* vbnl object layer, texture part: texture { }, the items a texture holds, texture patterns and
- * texture_map, and layered textures. */
+/* vbnl object layer, texture part: texture { } (reference manual, "Texture", "Patterned
+ * Textures", "Layered Textures"), as POV-Ray's Parse_Texture: a texture starts from a declared
+ * texture or a copy of the #default one; a plain texture takes pigment, normal and finish items
+ * (and declared ones) and transforms; otherwise it is a pattern with a texture_map or a list of
+ * textures, `tiles`, a `material_map` or an `average`. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "pov_texture.h"
 
-void pov_texture_init(pov_texture *t)
-{
-    memset(t, 0, sizeof(*t));
-    pov_pigment_init(&t->pig);
-    pov_finish_init(&t->fin);
-}
+typedef struct tex_block {
+    pov_texture **tx;   /* the stack being read; (*tx) is its top layer */
+} tex_block;
 
-/* Layered textures (POV-Ray shows lower layers through the transparent parts of upper ones) are
- * rendered as one layer: the next layer replaces the one below unless its pigment is mostly
- * transparent (filter + transmit >= 0.5 on average), as the top layers of stones.inc are. */
-void pov_texture_put_layer(pov_texture *below, const pov_texture *above)
-{
-    if (pov_pigment_transparency(&above->pig) < 0.5)
-        *below = *above;
-}
+static pov_texture *top(const pov_item *it) { return *((tex_block *)it->target)->tx; }
 
-/* ---- texture, pigment finish normal vbnl_bsdf uv_mapping ------------------------------------------ */
+/* ---- the items of a plain texture (also directly in objects) ------------------------------------ */
 
 static vbnl_result item_pigment(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
-    return pov_pigment_parse(it->ctx, &((pov_texture *)it->target)->pig);
+    pov_texture *t = *(pov_texture **)it->target;
+    return pov_pigment_parse(it->ctx, t->pig);
 }
 
 static vbnl_result item_finish(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
-    return pov_finish_parse(it->ctx, &((pov_texture *)it->target)->fin);
+    return pov_finish_parse(it->ctx, &(*(pov_texture **)it->target)->fin);
 }
 
 static vbnl_result item_normal(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
-    return pov_normal_parse(it->ctx, &it->loc);
+    return pov_normal_parse(it->ctx, &(*(pov_texture **)it->target)->nrm);
 }
 
 static vbnl_result item_bsdf(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
-    return pov_bsdf_parse(it->ctx, &((pov_texture *)it->target)->ext);
+    return pov_bsdf_parse(it->ctx, &(*(pov_texture **)it->target)->ext);
 }
 
 static vbnl_result item_uv_mapping(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
-    ((pov_texture *)it->target)->pig.uv_mapping = 1;
+    (*(pov_texture **)it->target)->uv_mapping = 1;
     return VBNL_OK;
 }
 
-static vbnl_result item_texture(const pov_item *it)
-{
-    vbnl_sdl_next(it->p);
-    return pov_texture_parse(it->ctx, it->target);
-}
-
-const pov_row pov_texture_rows[] = {{"texture", item_texture, 0}, {NULL, NULL, 0}};
-
+/* The target of these rows is a pov_texture ** (the texture's top layer). */
 const pov_row pov_texture_item_rows[] = {
     {"pigment", item_pigment, 0},
     {"finish", item_finish, 0},
@@ -71,181 +58,220 @@ const pov_row pov_texture_item_rows[] = {
     {NULL, NULL, 0},
 };
 
-/* ---- texture patterns -------------------------------------------------------------------------- */
+/* ---- patterned textures ------------------------------------------------------------------------- */
 
-/* `texture { checker texture {A} texture {B} }`, `texture { gradient y texture_map { ... } }`:
- * parsed in full; the first texture of the list or map is used, with a warning, as texture
- * layers are not blended per point here. */
-typedef struct texture_pattern {
-    pov_texture *tx;
-    pov_pigment *scratch; /* the pattern's own modifiers */
-    pov_texture *entry;   /* a texture of the list or map */
-    int have;             /* the first texture was taken */
-    double xf[16];        /* the pattern's transforms */
-} texture_pattern;
-
-static void take_first(texture_pattern *tp)
+static vbnl_result texture_map(const pov_item *it)
 {
-    if (!tp->have) {
-        *tp->tx = *tp->entry;
-        tp->have = 1;
-    }
+    pov_texture *t = top(it);
+    vbnl_sdl_next(it->p);
+    if (t->kind == POV_TEX_PLAIN || pov_pattern_is_block(&t->pat) || t->kind == POV_TEX_MATERIAL_MAP)
+        return vbnl_sdl_error(it->p, &it->loc, "a texture_map needs a pattern that takes one (gradient, bozo, ...)");
+    return pov_map_parse(it->ctx, &t->map, POV_MAP_TEXTURE, t->kind == POV_TEX_AVERAGE);
 }
 
-static int map_entry_texture(const pov_item *it)
+/* tiles { texture { } ... tile2 texture { } ... }: a checker of the two (layered) textures; the
+ * first tile is the checker's 1, as POV-Ray's Parse_Tiles has it. */
+static vbnl_result tiles(const pov_item *it)
 {
-    return pov_take_ident(it->ctx, &pov_type_texture, it->target, sizeof(pov_texture));
-}
-
-static const pov_row *const map_entry_tables[] = {pov_texture_rows, pov_texture_item_rows, NULL};
-/* [value texture-identifier | texture { } | pigment/finish/normal items] */
-static const pov_block map_entry_items = {.name = "a texture_map entry",
-                                          .tables = map_entry_tables,
-                                          .before = map_entry_texture,
-                                          .unknown = pov_block_unexpected_word,
-                                          .eof = "unexpected end of file in texture_map",
-                                          .close = ']'};
-
-/* One texture_map entry into tp->entry; its value (or two) is read and dropped. */
-static int map_entry(const pov_item *it)
-{
-    texture_pattern *tp = it->target;
+    pov_ctx *c = it->ctx;
     vbnl_sdl_parser *p = it->p;
-    double v;
-    if (vbnl_sdl_expect(p, '[', "to start a texture_map entry") != VBNL_OK || vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-        return -1;
-    if (vbnl_sdl_accept(p, ',')) {
-        const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-        const vbnl_sdl_value *nv = n->kind == VBNL_SDL_TOK_IDENT ? vbnl_sdl_lookup(p, n->text) : NULL;
-        if ((n->kind == VBNL_SDL_TOK_NUMBER || (nv && nv->kind == VBNL_SDL_FLOAT)) && vbnl_sdl_parse_float(p, &v) != VBNL_OK)
-            return -1;
+    pov_texture *t = top(it);
+    vbnl_sdl_next(p);
+    if (vbnl_sdl_expect(p, '{', "after 'tiles'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    pov_texture *tile[2] = {NULL, NULL};
+    for (int k = 0; k < 2; ++k) {
+        if (k == 1) {
+            const vbnl_sdl_token *n = vbnl_sdl_peek(p);
+            if (!pov_is_word(n, "tile2")) {
+                pov_texture_free(tile[0]);
+                return vbnl_sdl_error(p, &n->loc, "expected 'tile2' in tiles");
+            }
+            vbnl_sdl_next(p);
+        }
+        while (pov_is_word(vbnl_sdl_peek(p), "texture")) {
+            vbnl_sdl_next(p);
+            pov_texture *layer = NULL;
+            if (pov_texture_parse(c, &layer) != VBNL_OK) {
+                pov_texture_free(layer);
+                pov_texture_free(tile[0]);
+                pov_texture_free(tile[1]);
+                return VBNL_ERR_PARSE;
+            }
+            pov_texture_put_layer(&tile[k], layer);
+        }
     }
-    pov_texture_init(tp->entry);
-    if (pov_block_parse(&map_entry_items, p, it->ctx, tp->entry, NULL) != VBNL_OK)
-        return -1;
-    take_first(tp);
+    if (vbnl_sdl_expect(p, '}', "to close tiles") != VBNL_OK || !tile[0]) {
+        if (!tile[0])
+            vbnl_sdl_error(p, &it->loc, "the first texture is missing from tiles");
+        pov_texture_free(tile[0]);
+        pov_texture_free(tile[1]);
+        return VBNL_ERR_PARSE;
+    }
+    if (!tile[1])
+        tile[1] = pov_texture_dup(c->tex->deflt.tex);
+    pov_pattern_init(&t->pat);
+    t->kind = POV_TEX_MAP;
+    t->pat.d.kind = VBNL_PATTERN_CHECKER;
+    t->pat.name = "checker";
+    t->pat.d.frequency = 0.0f;
+    pov_map_free(&t->map);
+    t->map.kind = POV_MAP_TEXTURE;
+    for (int k = 0; k < 2; ++k) {
+        pov_map_entry *e = pov_map_add(&t->map);
+        e->value = k;
+        e->sub = tile[1 - k];
+    }
+    return VBNL_OK;
+}
+
+static vbnl_result material_map(const pov_item *it)
+{
+    vbnl_sdl_next(it->p);
+    pov_texture *t = top(it);
+    t->kind = POV_TEX_MATERIAL_MAP;
+    return pov_material_map_parse(it->ctx, t);
+}
+
+static vbnl_result average(const pov_item *it)
+{
+    pov_texture *t = top(it);
+    vbnl_sdl_next(it->p);
+    t->kind = POV_TEX_AVERAGE;
+    t->pat.name = NULL;
+    return VBNL_OK;
+}
+
+/* pigment / normal / finish identifiers stand for their block (POV-Ray's old syntax) */
+static int copy_pigment(void *dst, const void *src)
+{
+    pov_pigment **g = dst, *d = pov_pigment_dup(src);
+    if (!d)
+        return 0;
+    pov_pigment_free(*g);
+    *g = d;
+    return 1;
+}
+static int copy_normal(void *dst, const void *src)
+{
+    pov_normal **n = dst, *d = pov_normal_dup(src);
+    if (!d)
+        return 0;
+    pov_normal_free(*n);
+    *n = d;
+    return 1;
+}
+static int copy_finish(void *dst, const void *src)
+{
+    memcpy(dst, src, sizeof(pov_finish));
     return 1;
 }
 
-static const pov_block texture_map_items = {.name = "texture_map", .after = map_entry};
-
-static vbnl_result tp_texture(const pov_item *it)
+/* A declared pigment, normal or finish, else a pattern keyword (a patterned texture). */
+static int ident_or_pattern(const pov_item *it)
 {
-    texture_pattern *tp = it->target;
-    vbnl_sdl_next(it->p);
-    pov_texture_init(tp->entry);
-    vbnl_result r = pov_texture_parse(it->ctx, tp->entry);
-    if (r == VBNL_OK)
-        take_first(tp);
-    vbnl_sdl_accept(it->p, ',');
-    return r;
-}
-
-static vbnl_result tp_texture_map(const pov_item *it)
-{
-    vbnl_sdl_next(it->p);
-    if (vbnl_sdl_expect(it->p, '{', "after 'texture_map'") != VBNL_OK)
-        return VBNL_ERR_PARSE;
-    return pov_block_parse(&texture_map_items, it->p, it->ctx, it->target, NULL);
-}
-
-static int tp_modifier(const pov_item *it)
-{
-    return pov_row_dispatch(pov_pattern_modifier_rows, it->p, it->ctx, ((texture_pattern *)it->target)->scratch);
-}
-
-static void tp_transform(const pov_item *it, const double m[16])
-{
-    texture_pattern *tp = it->target;
-    pov_m4_mul(m, tp->xf, tp->xf);
-}
-
-static const pov_row texture_pattern_rows[] = {
-    {"texture", tp_texture, 0},
-    {"texture_map", tp_texture_map, 0},
-    {"brick_size", pov_item_any_vec3, 0},
-    {"mortar", pov_item_any_float, 0},
-    {NULL, NULL, 0},
-};
-static const pov_row *const texture_pattern_tables[] = {texture_pattern_rows, pov_pattern_transform_rows, NULL};
-/* The rest of the texture after the pattern keyword; the texture's own block closes it. */
-static const pov_block texture_pattern_items = {.name = "a patterned texture",
-                                                .tables = texture_pattern_tables,
-                                                .before = tp_modifier,
-                                                .unknown = pov_block_unexpected_word,
-                                                .transform = tp_transform,
-                                                .eof = "unexpected end of file in texture",
-                                                .keep_close = 1};
-
-/* After the pattern keyword `name` at ploc. */
-static vbnl_result texture_pattern_parse(pov_ctx *c, pov_texture *tx, const char *name, const vbnl_sdl_loc *ploc)
-{
-    vbnl_sdl_parser *p = c->parser;
-    texture_pattern tp = {tx, malloc(sizeof(pov_pigment)), malloc(sizeof(pov_texture)), 0, {0}};
-    vbnl_result r = tp.scratch && tp.entry ? VBNL_OK : vbnl_sdl_error(p, ploc, "out of memory");
-    pov_m4_identity(tp.xf);
-    if (r == VBNL_OK) {
-        pov_pigment_init(tp.scratch);
-        r = pov_pattern_args(c, NULL, name);
-    }
-    if (r == VBNL_OK)
-        r = pov_block_parse(&texture_pattern_items, p, c, &tp, NULL);
-    if (r == VBNL_OK) {
-        pov_m4_mul(tp.xf, tx->pig.xf, tx->pig.xf);
-        vbnl_sdl_warning(p, ploc,
-                         tp.have ? "texture pattern '%s' is not supported: its first texture is used everywhere"
-                                 : "texture pattern '%s' is not supported and lists no texture: ignored",
-                         name);
-    }
-    free(tp.scratch);
-    free(tp.entry);
-    return r;
-}
-
-/* ---- texture { } ------------------------------------------------------------------------------- */
-
-static int pattern(const pov_item *it)
-{
-    if (!pov_is_pattern(it->tok))
-        return 0;
     pov_ctx *c = it->ctx;
-    const char *name = it->tok->text;
-    vbnl_sdl_next(it->p);
-    if (c->tex->depth >= POV_NEST_MAX) {
-        vbnl_sdl_error(it->p, &it->loc, "textures nested more than 64 deep");
-        return -1;
-    }
-    c->tex->depth++;
-    vbnl_result r = texture_pattern_parse(c, it->target, name, &it->loc);
-    c->tex->depth--;
-    return r == VBNL_OK ? 1 : -1;
+    pov_texture *t = top(it);
+    int r;
+    if ((r = pov_take_ident(c, &pov_type_pigment, &t->pig, copy_pigment)) != 0 ||
+        (r = pov_take_ident(c, &pov_type_normal, &t->nrm, copy_normal)) != 0 ||
+        (r = pov_take_ident(c, &pov_type_finish, &t->fin, copy_finish)) != 0)
+        return r;
+    pov_pattern_target pt = {&t->pat, &t->map, POV_MAP_TEXTURE, NULL};
+    if (t->kind == POV_TEX_PLAIN)
+        pov_pattern_init(&t->pat);
+    r = pov_pattern_keyword(c, &pt);
+    if (r > 0 && t->kind != POV_TEX_AVERAGE)
+        t->kind = POV_TEX_MAP;
+    return r;
 }
 
-static vbnl_result not_supported(const pov_item *it)
+static int pattern_modifier(const pov_item *it)
 {
-    return vbnl_sdl_error(it->p, &it->loc, "'%s' is not supported", it->kw);
+    pov_texture *t = top(it);
+    if (t->kind == POV_TEX_PLAIN)
+        return 0;
+    return pov_row_dispatch(pov_pattern_modifier_rows, it->p, it->ctx, &t->pat);
 }
 
 static void texture_transform(const pov_item *it, const double m[16])
 {
-    pov_texture *tx = it->target;
-    pov_m4_mul(m, tx->pig.xf, tx->pig.xf);
+    if (!pov_texture_transform(top(it), m))
+        vbnl_sdl_error(it->p, &it->loc, "a pattern has at most %d warps and transforms", POV_WARP_MAX);
 }
 
-static const pov_row unsupported_rows[] = {{"material_map", not_supported, 0}, {"tiles", not_supported, 0}, {NULL, NULL, 0}};
-static const pov_row *const texture_tables[] = {pov_texture_item_rows, pov_pattern_transform_rows, unsupported_rows, NULL};
+/* The items of a plain texture work on its top layer: the rows get the tex_block's pointer. */
+static int plain_item(const pov_item *it)
+{
+    return pov_row_dispatch(pov_texture_item_rows, it->p, it->ctx, ((tex_block *)it->target)->tx);
+}
+
+static int before(const pov_item *it)
+{
+    int r = plain_item(it);
+    return r ? r : pattern_modifier(it);
+}
+
+static const pov_row texture_rows[] = {
+    {"texture_map", texture_map, 0},
+    {"tiles", tiles, 0},
+    {"material_map", material_map, 0},
+    {"average", average, 0},
+    {NULL, NULL, 0},
+};
+static const pov_row *const texture_tables[] = {pov_pattern_transform_rows, texture_rows, NULL};
 static const pov_block texture_items = {.name = "texture",
                                         .tables = texture_tables,
-                                        .after = pattern,
+                                        .before = before,
+                                        .after = ident_or_pattern,
                                         .unknown = pov_block_unexpected_word,
                                         .transform = texture_transform,
                                         .eof = "unexpected end of file in texture"};
+static const pov_block texture_entry_items = {.name = "a texture_map entry",
+                                              .tables = texture_tables,
+                                              .before = before,
+                                              .after = ident_or_pattern,
+                                              .unknown = pov_block_unexpected_word,
+                                              .transform = texture_transform,
+                                              .eof = "unexpected end of file in texture_map",
+                                              .close = ']',
+                                              .keep_close = 1};
 
-vbnl_result pov_texture_parse(pov_ctx *c, pov_texture *tx)
+static int copy_texture(void *dst, const void *src)
+{
+    pov_texture **t = dst, *d = pov_texture_dup(src);
+    if (!d)
+        return 0;
+    pov_texture_free(*t);
+    *t = d;
+    return 1;
+}
+
+vbnl_result pov_texture_body(pov_ctx *c, pov_texture **tx, int close)
+{
+    vbnl_sdl_parser *p = c->parser;
+    int r = pov_take_ident(c, &pov_type_texture, tx, copy_texture);
+    if (r < 0)
+        return VBNL_ERR_PARSE;
+    if (r == 0) { /* a texture starts from the #default one (POV-Ray's Parse_Texture) */
+        pov_texture_free(*tx);
+        if (!(*tx = pov_texture_dup(c->tex->deflt.tex)))
+            return vbnl_sdl_error(p, NULL, "out of memory");
+    }
+    tex_block b = {tx};
+    if (pov_block_parse(close == ']' ? &texture_entry_items : &texture_items, p, c, &b, NULL) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    pov_texture *t = *tx;
+    if (t->kind == POV_TEX_AVERAGE && t->map.count == 0)
+        return vbnl_sdl_error(p, NULL, "an average texture needs a texture_map");
+    if (t->kind == POV_TEX_MAP && t->map.count == 0)
+        return vbnl_sdl_error(p, NULL, "a patterned texture needs a texture_map or a list of textures");
+    return VBNL_OK;
+}
+
+vbnl_result pov_texture_parse(pov_ctx *c, pov_texture **tx)
 {
     if (vbnl_sdl_expect(c->parser, '{', "after 'texture'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (pov_take_ident(c, &pov_type_texture, tx, sizeof *tx) < 0)
-        return VBNL_ERR_PARSE;
-    return pov_block_parse(&texture_items, c->parser, c, tx, NULL);
+    return pov_texture_body(c, tx, '}');
 }
