@@ -1,5 +1,5 @@
-/* k-d tree for VBNL sample elimination (see elimination_kdtree.h). */
-#include "elimination_kdtree.h"
+/* k-d tree over points (kdtree.h). */
+#include "kdtree.h"
 
 #include <float.h>
 #include <stdlib.h>
@@ -190,97 +190,67 @@ uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_
     return cnt;
 }
 
-static void vbnl_maxheap_push(float *h, uint32_t *hn, float v)
+/* (d2a, ia) before (d2b, ib): the order of vbnl_kd_knn's answer. */
+static inline int vbnl_kd_before(float d2a, uint32_t ia, float d2b, uint32_t ib)
 {
-    uint32_t i = (*hn)++;
-    while (i > 0) {
-        uint32_t p = (i - 1) / 2;
-        if (h[p] >= v)
-            break;
-        h[i] = h[p];
-        i = p;
-    }
-    h[i] = v;
+    return d2a < d2b || (d2a == d2b && ia < ib);
 }
 
-static void vbnl_maxheap_replace_top(float *h, uint32_t hn, float v)
+/* A depth-first descent, near side first, that skips a subtree whose box distance exceeds the
+ * k-th distance found so far (ties are still visited, so ties by id are exact), keeping the k
+ * best in a sorted list (insertion: k is small where it is called often). */
+uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
+                     float *out_d2)
 {
-    uint32_t i = 0;
-    for (;;) {
-        uint32_t c = 2 * i + 1;
-        if (c >= hn)
-            break;
-        if (c + 1 < hn && h[c + 1] > h[c])
-            c++;
-        if (h[c] <= v)
-            break;
-        h[i] = h[c];
-        i = c;
-    }
-    h[i] = v;
-}
-
-/* Squared distance from local point `self` to its m-th nearest other point (m <= n - 1); `heap`
- * holds m floats. `bound2` is a guess known to hold at least m points (INFINITY: none); when
- * rounding made it too tight, the search is redone without it. The m-th smallest distance does
- * not depend on traversal order or bound, so neither does the result. */
-static float vbnl_kd_knn_bounded(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap,
-                                 float bound2, uint32_t *found)
-{
-    struct { uint32_t node; float d2; } stack[VBNL_KD_STACK];
-    const float *q = t->pts[self].p;
+    if (!t->nodes || t->n == 0 || k == 0)
+        return 0;
+    struct {
+        uint32_t node;
+        float d2;
+    } stack[VBNL_KD_STACK];
     int sp = 0;
-    uint32_t hn = 0;
-    float worst = bound2;
+    uint32_t cnt = 0;
     stack[sp].node = 0;
     stack[sp].d2 = 0.0f;
     sp++;
     while (sp > 0) {
         --sp;
         uint32_t ni = stack[sp].node;
-        if (stack[sp].d2 >= worst)
+        if (cnt == k && stack[sp].d2 > out_d2[cnt - 1])
             continue;
         const vbnl_kd_node *nd = &t->nodes[ni];
         if (nd->axis == VBNL_KD_LEAF_AXIS) {
             for (uint32_t i = nd->begin; i < nd->end; ++i) {
-                if (i == self)
+                if (i == skip)
                     continue;
                 float d2 = vbnl_kd_dist2(q, t->pts[i].p);
-                if (hn < m) {
-                    if (d2 > bound2)
-                        continue;
-                    vbnl_maxheap_push(heap, &hn, d2);
-                    if (hn == m)
-                        worst = heap[0];
-                } else if (d2 < heap[0]) {
-                    vbnl_maxheap_replace_top(heap, hn, d2);
-                    worst = heap[0];
+                uint32_t id = t->pts[i].id;
+                if (cnt == k && !vbnl_kd_before(d2, id, out_d2[k - 1], t->pts[out_i[k - 1]].id))
+                    continue;
+                uint32_t j = cnt < k ? cnt++ : k - 1; /* insertion into the sorted list */
+                while (j > 0 && vbnl_kd_before(d2, id, out_d2[j - 1], t->pts[out_i[j - 1]].id)) {
+                    out_d2[j] = out_d2[j - 1];
+                    out_i[j] = out_i[j - 1];
+                    --j;
                 }
+                out_d2[j] = d2;
+                out_i[j] = i;
             }
             continue;
         }
+        /* the far side is at least |diff| away (left points <= split <= right points) */
         float diff = q[nd->axis] - nd->split;
         float pd = stack[sp].d2;
         float fd = diff * diff > pd ? diff * diff : pd;
         uint32_t near = diff <= 0.0f ? ni + 1 : nd->right, far = diff <= 0.0f ? nd->right : ni + 1;
-        stack[sp].node = far;
+        stack[sp].node = far; /* the stack grows by one entry per level at most */
         stack[sp].d2 = fd;
         sp++;
         stack[sp].node = near;
         stack[sp].d2 = pd;
         sp++;
     }
-    *found = hn;
-    return heap[0];
-}
-
-float vbnl_kd_knn(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap, float bound2)
-{
-    uint32_t found;
-    float d2 = vbnl_kd_knn_bounded(t, self, m, heap, bound2, &found);
-    if (found < m)
-        d2 = vbnl_kd_knn_bounded(t, self, m, heap, INFINITY, &found);
-    return d2;
+    return cnt;
 }
 
 /* Squared distance between two boxes (0 when they overlap). */

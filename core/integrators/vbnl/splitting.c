@@ -1198,13 +1198,7 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
     t->n = 0;
 }
 
-/* ---- one photon path ------------------------------------------------------------------------ */
-
-void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
-                      vbnl_photon_walk_stats *st)
-{
-    vbnl_photon_walk_inline(w, rng, visit, user, st);
-}
+/* ---- photon paths ----------------------------------------------------------------------------- */
 
 /* level_cell of a dense level (same cells): the far-outside test, then floor((p - lo) / cell)
  * clamped to the grid, for the three axes at once. */
