@@ -935,8 +935,7 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         }
         m += (uint32_t)__builtin_popcount(keep);
     }
-    if (0)
-#endif
+#else
     for (uint32_t i = 0; i < ncand; ++i) {
         uint32_t rank = cand[i];
         const vl_rec *e = x->rec + rank;
@@ -956,6 +955,7 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         sum += keep ? wk : 0.0f;
         m += (uint32_t)keep;
     }
+#endif
     if (m)
         split_deposit(cx, h, w, rk, m, sum);
 }
@@ -1823,16 +1823,6 @@ static __attribute__((flatten)) void trace_paths(const split_job *job, split_thr
         trace_lanes(job, t, b, e, 1);
 }
 
-/* vbnl_pool_run with poll == NULL never moves its wake-up time forward once it has passed and
- * then spins on pthread_cond_timedwait (pool.c); a no-op poll keeps the caller asleep. */
-static int no_poll(void *user, uint64_t finished, uint64_t count)
-{
-    (void)user;
-    (void)finished;
-    (void)count;
-    return 0;
-}
-
 /* A work item traces its paths into the thread's batch, deposited whenever it fills up; the
  * last thread_count items deposit what their thread holds before they return (the caller
  * deposits what is left after the run, splitting.h), so once the run is over every finished
@@ -1984,12 +1974,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     uint64_t items = (job.end - job.begin + job.chunk - 1) / job.chunk;
     job.items = items;
     if (items) {
-        if (stage) {
-            if (vbnl_stage_run(stage, items, run_chunk, &job) != 0)
-                res = VBNL_ERR_CANCELLED;
-        } else {
-            vbnl_pool_run(pool, items, run_chunk, &job, no_poll, NULL, 1.0);
-        }
+        if (vbnl_run_items(stage, pool, items, run_chunk, &job) != 0)
+            res = VBNL_ERR_CANCELLED;
         /* the batches of threads whose last item was not among the last thread_count (also
          * after a cancel: the items that ran have finished) */
         for (unsigned i = 0; i < job.thread_count && !job.empty; ++i)
