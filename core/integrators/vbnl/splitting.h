@@ -47,7 +47,7 @@
  *     bounding cube).
  *   - Deposit: the batch is counting-sorted by bin, then queried in that order through a
  *     software pipeline that prefetches each query's cell header, listings, hit record and
- *     candidate records a few queries ahead (splitting.c, run_fast_pipe, for hits that carry
+ *     candidate records a few queries ahead (splitting_batch.h, run_fast_pipe, for hits that carry
  *     their cell; the index's own pipeline, vl_index_pipe.h, otherwise), with the last stage
  *     (exact test, filters, weights of eight candidates at a time in AVX2) fused with the
  *     deposit. Consecutive queries then read the same cells and records, which stay in cache.
@@ -71,7 +71,7 @@
  *     reads nothing at random before its texels. Each splat is
  *     prepared and its texels prefetched, then applied 16 splats later, since the maps are large
  *     (3 KB per glossy VL and thread at 16 x 16) and the texels random. With AVX2 a splat is
- *     two rows (splitting.c, splat_rows), and splats are prepared eight at a time
+ *     two rows (splitting_splat.h, splat_rows), and splats are prepared eight at a time
  *     (splat_queue_run): the frame, the footprint of vbnl_hemioct_footprint and the exact
  *     integer parts of vbnl_profile_splat_prepare_lo32 across the eight, then per row one 8-lane
  *     32-bit add over texels x0 and x0 + 1 (a row whose lane wraps past 2^32 is redone lane by
@@ -89,7 +89,7 @@
  *   (slower, same bits); the 32-bit glossy maps add threads x half the set's incident maps
  *   (2 x 60 MB on the glossy-floor box with 2 threads).
  *   Each thread keeps eight paths in flight and traces their current rays as one rtcIntersect8
- *   packet (splitting.c, SPLIT_LANES). Packets of eight independent paths are faster than
+ *   packet (splitting_lanes.h, SPLIT_LANES). Packets of eight independent paths are faster than
  *   rtcIntersect1 one ray at a time (packets of consecutive rays of one path are not), with
  *   the same answers bit for bit.
  *   Loops whose trip counts vary from hit to hit cost more than their arithmetic (presumably
@@ -141,7 +141,7 @@ typedef struct vbnl_split_desc {
     int atomic_deposits;            /* 1: no per-thread sums, atomic adds into `profiles` (what
                                      * happens beyond VBNL_SPLIT_MAX_SUM_BYTES; same bits) */
     int general_walk;               /* 1: every hit through the general walk, none through the SIMD
-                                     * step (splitting.c, step_fast; same bits: tests compare) */
+                                     * step (splitting_lanes.h, step_fast; same bits: tests compare) */
     const vbnl_vl_support *support; /* by index rank: the support test's data (vl_support.h);
                                      * NULL: no test (the paper's rule) */
 } vbnl_split_desc;
