@@ -13,13 +13,25 @@
  * power, importance transport, Russian roulette from bounce rr_depth with the authors' square-root
  * rule, no deposits on delta surfaces).
  *
- * Which VLs share a hit at p with unit normal n (facing the arriving photon) arriving from wi:
- * the index (vl_index.h) gives every VL with d(p, y_j) < r_j; the authors' code then keeps those
- * with n_j . n > normal_cos (0.7) and, when require_facing, n_j . wi > 0; then, with `support`,
- * the VLs that pass the support test (vl_support.h: no occluder between the hit and the VL at
- * half its radius, which keeps the light trapped under a ceiling lamp or behind a thin wall out
- * of the VLs beyond it); of those the max_vls (8) with the largest weights 1 - (d/r)^2 (ties:
- * smaller id) share the photon.
+ * Which VLs share a hit at p with unit normal n (facing the arriving photon) arriving from wi,
+ * in this order:
+ *   1. every VL j with d(p, y_j) < r_j (vbnl_vl_contains of vl_index.h);
+ *   2. the authors' filters: n_j . n > normal_cos (0.7) and, when require_facing, n_j . wi > 0;
+ *   3. when more than VBNL_SPLIT_QUERY_MAX pass, the VBNL_SPLIT_QUERY_MAX with the smallest ids
+ *      (counted in stats.overflow);
+ *   4. the weight w_j = 1 - (float)d^2 / (r_j r_j) (d^2 in double as vbnl_vl_dist2 gives it,
+ *      then rounded to float) must be positive (d within rounding of r_j drops out);
+ *   5. with `support`, the support test (vl_support.h: the hit's material, then no occluder
+ *      between the hit and the VL at the test's height, which keeps the light trapped under a
+ *      ceiling lamp or behind a thin wall out of the VLs beyond it);
+ *   6. of those the max_vls (8) with the largest weights (ties: smaller id).
+ * The kept VLs are taken in ascending rank (the index's spatial order, vl_index.h): the
+ * normaliser is the float sum of their weights in that order, and the quantised power Q of the
+ * hit is split exactly by the normalised weights w_j / sum (vbnl_profile_split_fixed: floor(Q w)
+ * each, the residue to the largest normalised weight, the first in rank order on ties). The
+ * result is thus a function of the VLs and their ranks alone, whichever way a hit goes through
+ * the code below. splitting_reference.c states these rules plainly, a hit at a time and a
+ * brute-force search over all VLs; the tests hold vbnl_split_photons to it bit for bit.
  *
  * Determinism: photon k (a global index in [0, photon_paths)) draws only from
  * vbnl_rng_for(seed, k, 0); deposits are 64-bit fixed-point integer adds (profiles.h), so the
@@ -54,7 +66,7 @@
  *   - The split: the photon power is quantised, the weights normalised and the exact partition
  *     added into the sums for the three channels at once (AVX2, same bits as
  *     vbnl_profile_split_fixed); the max_vls cap drops the smallest weights (or picks the
- *     largest, whichever takes fewer passes).
+ *     largest, whichever takes fewer passes, then restores rank order).
  *   - The walk's hit set-up for triangle meshes (the shared vbnl_fill_mesh_hit) and its
  *     Lambertian bounce in the world frame are inline (photon_fast.h, same values).
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
@@ -77,10 +89,9 @@
  *     32-bit add over texels x0 and x0 + 1 (a row whose lane wraps past 2^32 is redone lane by
  *     lane with the carry; parts of 2^31 or more take the general form): the same bits as one
  *     splat at a time.
- *   The VLs that share a hit and their weights are exactly those of the rules above; only the
- *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
- *   normalised weights may differ in the last bit from an id-ordered sum; either is a
- *   deterministic function of the hit).
+ *   Candidates reach the deposit in rank order from a single-level grid; the other ways (the
+ *   index's plain queries, in id order; several levels, level by level; the max_vls selection
+ *   when it picks the largest) put them back in rank order first (rare, or small).
  *   Memory beyond the profile set (stats.scratch_bytes): per thread 64 bytes per VL (a record
  *   copy and the sums: RGB and a zero lane, one AVX2 vector) and 80 bytes per batch entry (the
  *   record, its order, bin, cell and sorted cell: 21 MB for the 262,144 entries of a batch);
@@ -90,8 +101,11 @@
  *   (2 x 60 MB on the glossy-floor box with 2 threads).
  *   Each thread keeps eight paths in flight and traces their current rays as one rtcIntersect8
  *   packet (splitting_lanes.h, SPLIT_LANES). Packets of eight independent paths are faster than
- *   rtcIntersect1 one ray at a time (packets of consecutive rays of one path are not), with
- *   the same answers bit for bit.
+ *   rtcIntersect1 one ray at a time (packets of consecutive rays of one path are not). A ray's
+ *   answer does not depend on the other rays of its packet, so neither the thread count nor the
+ *   chunking changes a bit; Embree's packet kernel may round a hit differently in the last bit
+ *   from its single-ray kernel (vbnl_photon_walk's), so the reference traces each of its rays
+ *   alone in a packet.
  *   Loops whose trip counts vary from hit to hit cost more than their arithmetic (presumably
  *   their mispredicted exits; the VM the benchmarks run on has no branch counters), so the
  *   cell pipeline prefetches four listing blocks and eight candidates at once, whatever their

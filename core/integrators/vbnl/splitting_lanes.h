@@ -31,10 +31,11 @@ static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
  * than one path at a time), and 16 or 24 paths in flight are no faster than 8; in the SIMD step the walk's own
  * work is ~170 instructions per hit (callgrind, Cornell box). Paths keep their
  * own streams, a ray's answer does not depend on its packet mates, the SIMD step computes the
- * general walk's values bit for bit (same operations in the same order; this file is compiled
+ * general walk's values bit for bit (same operations in the same order; splitting.c is compiled
  * without contracted multiply-adds), and the deposits are integer sums, so neither the order
  * of hits nor the grouping changes a bit of the result (test_splitting: chunks of 7 paths,
- * ranges merged, 1 to 3 threads; SIMD step against the general walk). */
+ * ranges merged, 1 to 3 threads; SIMD step against the general walk; test_splitting_oracle:
+ * against the plain reference). */
 #define SPLIT_LANES 8u
 
 /* The paths in flight, a structure of arrays (the SIMD step reads each field as a vector);

@@ -43,10 +43,27 @@ static inline void split3(const uint64_t q[3], uint32_t n, const float *w, uint6
     out[2][big] += left2;
 }
 
-/* Keeps the max_vls of the m VLs with the largest weights (ties: smaller id) in their order:
+/* Sorts the m weights w and ranks rk (distinct) by ascending rank (insertion: m is small and the
+ * arrays usually nearly sorted). */
+static inline void vl_sort_by_rank(float *w, uint32_t *rk, uint32_t m)
+{
+    for (uint32_t i = 1; i < m; ++i) {
+        const float wi = w[i];
+        const uint32_t ri = rk[i];
+        uint32_t j = i;
+        for (; j > 0 && rk[j - 1] > ri; --j) {
+            w[j] = w[j - 1];
+            rk[j] = rk[j - 1];
+        }
+        w[j] = wi;
+        rk[j] = ri;
+    }
+}
+
+/* Keeps the max_vls of the m VLs with the largest weights (ties: smaller id) in rank order:
  * drops the smallest (ties: larger id) m - max_vls times, or, when more than half go, moves the
- * largest to the front max_vls times (then in weight order). Either keeps the same set. Returns
- * the sum of the kept weights in their new order. */
+ * largest to the front max_vls times and sorts them back by rank. Either keeps the same set in
+ * the same order. Returns the sum of the kept weights in that order. */
 static inline float select_max_vls(const vbnl_vl_index *x, float *w, uint32_t *rk, uint32_t m, uint32_t max_vls)
 {
     if (m - max_vls <= max_vls) {
@@ -74,6 +91,7 @@ static inline float select_max_vls(const vbnl_vl_index *x, float *w, uint32_t *r
             rk[best] = tr;
         }
         m = max_vls;
+        vl_sort_by_rank(w, rk, m); /* back in rank order */
     }
     float sum = 0.0f;
     for (uint32_t i = 0; i < m; ++i)
@@ -258,16 +276,17 @@ static void split_found(const split_ctx *cx, const split_rec *h, uint32_t total,
     float w[VBNL_SPLIT_QUERY_MAX];
     uint32_t rk[VBNL_SPLIT_QUERY_MAX];
     uint32_t m = 0;
-    float sum = 0.0f; /* of the kept weights in order (adding 0 for the dropped changes no bit) */
     for (uint32_t i = 0; i < nf; ++i) {
         float r = f[i].r;
         float wi = 1.0f - f[i].d2 / (r * r);
         w[m] = wi;
         rk[m] = f[i].rank;
-        int keep = wi > 0.0f; /* d within rounding of r: dropped */
-        sum += keep ? wi : 0.0f;
-        m += (uint32_t)keep;
+        m += wi > 0.0f; /* d within rounding of r: dropped */
     }
+    vl_sort_by_rank(w, rk, m); /* the index answers in id order */
+    float sum = 0.0f;
+    for (uint32_t i = 0; i < m; ++i)
+        sum += w[i];
     if (m)
         split_deposit(cx, h, w, rk, m, sum);
 }
@@ -418,6 +437,12 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         m += (uint32_t)keep;
     }
 #endif
+    if (x->level_count > 1) { /* candidates come level by level: back in rank order */
+        vl_sort_by_rank(w, rk, m);
+        sum = 0.0f;
+        for (uint32_t i = 0; i < m; ++i)
+            sum += w[i];
+    }
     if (m)
         split_deposit(cx, h, w, rk, m, sum);
 }
