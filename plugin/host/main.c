@@ -225,15 +225,23 @@ typedef struct progress_state {
     double last_plain;
     char last_stage[64];
     int announced;        /* the first Ctrl-C has been reported */
-    int pause_interrupt;  /* VBNL_TEST_PAUSE=interrupt */
+    int pause_interrupt;  /* VBNL_TEST_PAUSE=interrupt (test_hooks below) */
 } progress_state;
 
-/* VBNL_TEST_PAUSE=interrupt (tests only; see the README's Tests section): once the first Ctrl-C is
- * seen, wait 30 s before the render is told to stop, after saying so on stderr, so that a test
- * can send the second one while the render is surely still running. */
+/* The program's test hooks, from VBNL_TEST_PAUSE in the environment (tests only, docs/tests.md;
+ * the module reads no environment): "interrupt": once the first Ctrl-C is seen, wait 30 s before
+ * the render is told to stop, after saying so on stderr, so that a test can send the second one
+ * while the render is surely still running; "write": the module's VBNL_PLUGIN_TEST_PAUSE_WRITES
+ * (every file it writes waits 30 s before its rename). */
+static int test_hook_is(const char *which)
+{
+    const char *v = getenv("VBNL_TEST_PAUSE");
+    return v && !strcmp(v, which);
+}
+
 static void test_pause_interrupt(void)
 {
-    fprintf(stderr, "vbnl: test pause (VBNL_TEST_PAUSE=interrupt): the render has not been stopped yet\n");
+    fprintf(stderr, "vbnl: test pause (interrupt): the render has not been stopped yet\n");
     struct timespec left = {30, 0};
     while (nanosleep(&left, &left) != 0 && errno == EINTR) {
     }
@@ -397,6 +405,8 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     int nsets = 0, half = 0, quiet = 0, spp_given = 0, time_given = 0;
     vbnl_plugin_options o;
     api->options_init(&o);
+    if (test_hook_is("write"))
+        o.test_hooks |= VBNL_PLUGIN_TEST_PAUSE_WRITES;
     vbnl_plugin_view view;
     api->view_init(&view);
     char msg[MSG_SIZE];
@@ -591,8 +601,7 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL); /* a host's stop button (Blender sends SIGTERM) */
     sigaction(SIGHUP, &sa, NULL);  /* the terminal closed */
-    const char *pause = getenv("VBNL_TEST_PAUSE");
-    progress_state ps = {quiet, isatty(STDERR_FILENO), -1e9, "", 0, pause && !strcmp(pause, "interrupt")};
+    progress_state ps = {quiet, isatty(STDERR_FILENO), -1e9, "", 0, test_hook_is("interrupt")};
     res = api->prepare(r, on_progress, &ps, msg, sizeof(msg));
     if (res == VBNL_PLUGIN_OK)
         res = api->render(r, on_progress, &ps, msg, sizeof(msg));

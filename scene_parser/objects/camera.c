@@ -136,6 +136,7 @@ vbnl_result pov_camera_parse(pov_loader *L, pov_cam *c)
 
 vbnl_result pov_camera_resolve(pov_loader *L, const pov_cam *c, vbnl_sdl_loc loc, vbnl_camera_desc *out)
 {
+    vbnl_camera_desc_init(out);
     double loc_[3], dir[3], right[3], up[3];
     memcpy(loc_, c->loc, sizeof loc_);
     memcpy(dir, c->dir, sizeof dir);

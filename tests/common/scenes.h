@@ -26,7 +26,7 @@ static inline void ts_quad(vbnl_scene *s, const float p[12], uint32_t material)
 {
     static const uint32_t idx[6] = {0, 1, 2, 0, 2, 3};
     vbnl_mesh_desc m;
-    memset(&m, 0, sizeof(m));
+    vbnl_mesh_desc_init(&m);
     m.positions = p;
     m.vertex_count = 4;
     m.indices = idx;
@@ -75,7 +75,7 @@ static inline vbnl_scene *ts_box_scene(vbnl_context *ctx, float aspect)
     }
     vbnl_scene_add_sphere(s, c, 0.4f, metal, VBNL_GROUP_WORLD, NULL, NULL);
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     float corner[3] = {-0.25f, 1.98f, -0.25f}, eu[3] = {0.5f, 0, 0}, ev[3] = {0, 0, 0.5f};
     memcpy(al.corner, corner, sizeof(corner));
     memcpy(al.edge_u, eu, sizeof(eu));

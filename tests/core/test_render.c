@@ -20,7 +20,9 @@
 static vbnl_context *make_ctx(unsigned threads)
 {
     vbnl_context *ctx = NULL;
-    vbnl_context_desc d = {threads};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = threads;
     assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
     return ctx;
 }
@@ -622,7 +624,9 @@ static void test_bad_arguments(void **state)
     uint32_t id;
     float v3a[3] = {0, 0, 0}, one[3] = {1, 1, 1}, nan3[3] = {NAN, 0, 0}, neg[3] = {-1, 0, 0};
     assert_int_equal(vbnl_context_create(NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_context_desc bigd = {5000};
+    vbnl_context_desc bigd;
+    vbnl_context_desc_init(&bigd);
+    bigd.threads = 5000;
     vbnl_context *ctx = NULL;
     assert_int_equal(vbnl_context_create(&bigd, &ctx, &err), VBNL_ERR_INVALID_ARGUMENT);
     ctx = make_ctx(1);
@@ -652,7 +656,7 @@ static void test_bad_arguments(void **state)
     const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     const uint32_t idx_bad[3] = {0, 1, 3};
     vbnl_mesh_desc mesh;
-    memset(&mesh, 0, sizeof(mesh));
+    vbnl_mesh_desc_init(&mesh);
     mesh.positions = pos;
     mesh.vertex_count = 3;
     mesh.indices = idx_bad;
@@ -692,20 +696,20 @@ static void test_bad_arguments(void **state)
     assert_int_equal(vbnl_scene_add_point_light(s, nan3, one, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_add_point_light(s, v3a, neg, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_add_point_light(NULL, v3a, one, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_spot_light_desc spot = {{0, 0, 0}, {0, 0, 0}, {1, 1, 1}, 0.9f, 0.8f, 0.0f};
+    vbnl_spot_light_desc spot = {sizeof(vbnl_spot_light_desc), {0, 0, 0}, {0, 0, 0}, {1, 1, 1}, 0.9f, 0.8f, 0.0f};
     assert_int_equal(vbnl_scene_add_spot_light(s, &spot, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     spot.direction[2] = -1.0f;
     spot.cos_inner = 0.5f; /* inner wider than outer */
     assert_int_equal(vbnl_scene_add_spot_light(s, &spot, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     al.edge_u[0] = 1.0f;
     al.edge_v[0] = 2.0f; /* parallel edges */
     assert_int_equal(vbnl_scene_add_area_light(s, &al, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_add_directional_light(s, v3a, one, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_set_environment(s, neg, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_set_camera(s, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_camera_desc flat = {{0, 0, 0}, {0, 0, -1}, {1, 0, 0}, {1, 0, 0}};
+    vbnl_camera_desc flat = {sizeof(vbnl_camera_desc), {0, 0, 0}, {0, 0, -1}, {1, 0, 0}, {1, 0, 0}};
     assert_int_equal(vbnl_scene_set_camera(s, &flat, &err), VBNL_ERR_INVALID_ARGUMENT);
     /* commit needs a camera and a light */
     assert_int_equal(vbnl_scene_commit(s, &err), VBNL_ERR_INVALID_ARGUMENT);

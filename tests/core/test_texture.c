@@ -23,7 +23,8 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof(*f));
-    vbnl_context_desc d = {0}; /* one worker per core */
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d); /* one worker per core */
     if (!f || vbnl_context_create(&d, &f->ctx, NULL) != VBNL_OK || vbnl_scene_create(f->ctx, &f->scene, NULL) != VBNL_OK)
         return -1;
     *state = f;
@@ -277,7 +278,7 @@ static vbnl_scene *plane_scene(vbnl_context *ctx, const vbnl_color_map_entry *ma
     ts_quad(s, ceiling, ts_material(s, VBNL_MATERIAL_LAMBERT, 0.8f, 0.8f, 0.8f, 0.0f));
     const float lp[3] = {0, 0, 3}, li[3] = {5, 5, 5};
     assert_int_equal(vbnl_scene_add_point_light(s, lp, li, NULL, NULL), VBNL_OK);
-    vbnl_camera_desc cam = {{0, 0, 4}, {0, 0, -1}, {0.5f, 0, 0}, {0, 0.5f, 0}}; /* sees [-1,1]^2 */
+    vbnl_camera_desc cam = {sizeof(vbnl_camera_desc), {0, 0, 4}, {0, 0, -1}, {0.5f, 0, 0}, {0, 0.5f, 0}}; /* sees [-1,1]^2 */
     assert_int_equal(vbnl_scene_set_camera(s, &cam, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     return s;
@@ -403,7 +404,7 @@ static vbnl_scene *checker_box(vbnl_context *ctx)
     ts_quad(s, left, white);
     ts_quad(s, right, white);
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     const float corner[3] = {-0.25f, 1.98f, -0.25f}, eu[3] = {0.5f, 0, 0}, ev[3] = {0, 0, 0.5f};
     memcpy(al.corner, corner, sizeof(corner));
     memcpy(al.edge_u, eu, sizeof(eu));

@@ -51,7 +51,7 @@ expect "a file that is not a module" 4 "cannot load plugin" -- "$VBNL" --plugin 
 cp "$VBNL" "$TMP/vbnl-alone"
 expect "no plugin anywhere: clear message" 4 "plugin vbnl_plugin.so not found.*--plugin PATH" -- env -u VBNL_PLUGIN "$TMP/vbnl-alone" info
 expect "help works without a plugin" 0 "usage: vbnl" -- "$TMP/vbnl-alone" --help
-expect "VBNL_PLUGIN finds the module" 0 "integrator ABI|ABI 1\.2" -- env VBNL_PLUGIN="$PLUGIN" "$TMP/vbnl-alone" info
+expect "VBNL_PLUGIN finds the module" 0 "integrator ABI|ABI 1\.3" -- env VBNL_PLUGIN="$PLUGIN" "$TMP/vbnl-alone" info
 
 # meson install into a temporary prefix: host, plugin, header, pkg-config file.
 DEST=$TMP/dest

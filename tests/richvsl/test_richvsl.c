@@ -350,7 +350,8 @@ static void test_cornell_indirect_energy(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
     vbnl_context_create(&d, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const uint32_t W = 24, H = 24;
@@ -403,7 +404,8 @@ static void test_door_ajar_indirect_energy(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
     vbnl_context_create(&d, &ctx, NULL);
     const char *src = getenv("VBNL_SOURCE_DIR");
     char path[1024];
@@ -447,7 +449,9 @@ static void test_determinism(void **state)
     float *img[2];
     for (int t = 0; t < 2; ++t) {
         vbnl_context *ctx;
-        vbnl_context_desc d = {(unsigned)t + 1};
+        vbnl_context_desc d;
+        vbnl_context_desc_init(&d);
+        d.threads = (unsigned)t + 1;
         vbnl_context_create(&d, &ctx, NULL);
         vbnl_scene *s = cornell(ctx);
         const char *const settings[] = {"virtual_lights=600", NULL};
@@ -466,7 +470,9 @@ static void test_refused(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const char *bad[][2] = {{"profile_resolution=12", "8, 16 or 32"},

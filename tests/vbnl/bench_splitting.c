@@ -172,7 +172,9 @@ int main(int argc, char **argv)
     else
         snprintf(path, sizeof(path), "%s/examples/mcguire/%s", src ? src : ".", scene_file);
 
-    vbnl_context_desc cd = {threads};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = threads;
     vbnl_context *ctx = NULL;
     vbnl_error err;
     if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK)

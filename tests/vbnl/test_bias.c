@@ -34,7 +34,8 @@ static vbnl_context *ctx;
 static int setup(void **state)
 {
     (void)state;
-    vbnl_context_desc d = {0};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
     return vbnl_context_create(&d, &ctx, NULL) == VBNL_OK ? 0 : -1;
 }
 

@@ -37,7 +37,9 @@
 
 static vbnl_context *make_ctx(unsigned threads)
 {
-    vbnl_context_desc d = {threads};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = threads;
     vbnl_context *ctx = NULL;
     assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
     return ctx;
@@ -680,7 +682,7 @@ static double simd_step_sphere(vbnl_material_type type, const char *name)
             nt += 2;
         }
     vbnl_mesh_desc m;
-    memset(&m, 0, sizeof(m));
+    vbnl_mesh_desc_init(&m);
     m.positions = pos;
     m.normals = nrm;
     m.vertex_count = (NU + 1) * (NV + 1);
@@ -757,7 +759,7 @@ static void test_glossy_directions(void **state)
     const float floor_[12] = {-3, 0, -3, -3, 0, 3, 3, 0, 3, 3, 0, -3};
     ts_quad(s, floor_, black);
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     const float corner[3] = {0.45f, 1.0f, -0.05f}, eu[3] = {0.1f, 0, 0}, ev[3] = {0, 0, 0.1f};
     const float Le = 50.0f;
     memcpy(al.corner, corner, sizeof(corner));

@@ -197,7 +197,9 @@ static vbnl_split_stats run_case(const vbnl_scene *s, const vl_list *v, const vb
 static void test_oracle(void **state)
 {
     (void)state;
-    vbnl_context_desc cd = {2};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 2;
     vbnl_context *ctx = NULL;
     assert_int_equal(vbnl_context_create(&cd, &ctx, NULL), VBNL_OK);
     vbnl_scene *s = oracle_scene(ctx);
@@ -256,7 +258,9 @@ static void test_oracle(void **state)
 static void test_index_oracle(void **state)
 {
     (void)state;
-    vbnl_context_desc cd = {1};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 1;
     vbnl_context *ctx = NULL;
     assert_int_equal(vbnl_context_create(&cd, &ctx, NULL), VBNL_OK);
     vbnl_scene *s = oracle_scene(ctx);
