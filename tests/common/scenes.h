@@ -6,6 +6,16 @@
 
 #include "vbnl/vbnl.h"
 
+/* A context of `threads` workers (0: one per core); NULL when it cannot be made. */
+static inline vbnl_context *ts_context(unsigned threads)
+{
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = threads;
+    vbnl_context *ctx = NULL;
+    return vbnl_context_create(&d, &ctx, NULL) == VBNL_OK ? ctx : NULL;
+}
+
 static inline uint32_t ts_material(vbnl_scene *s, vbnl_material_type type, float r, float g, float b,
                                    float emit)
 {

@@ -20,10 +20,8 @@ static vbnl_context *g_ctx;
 static int setup(void **state)
 {
     (void)state;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    return vbnl_context_create(&d, &g_ctx, NULL) == VBNL_OK ? 0 : -1;
+    g_ctx = ts_context(1);
+    return g_ctx ? 0 : -1;
 }
 
 static int teardown(void **state)

@@ -350,9 +350,7 @@ static void test_cornell_indirect_energy(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const uint32_t W = 24, H = 24;
     const char *const ps[] = {"split_direct=1", NULL};
@@ -404,9 +402,7 @@ static void test_door_ajar_indirect_energy(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     const char *src = getenv("VBNL_SOURCE_DIR");
     char path[1024];
     snprintf(path, sizeof(path), "%s/examples/door-ajar.obj", src ? src : ".");

@@ -50,9 +50,7 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof(*f));
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    vbnl_context_create(&d, &f->ctx, NULL);
+    vbnl_context_create(NULL, &f->ctx, NULL);
     f->scene = cornell(f->ctx);
     *state = f;
     return 0;
@@ -205,9 +203,7 @@ static void test_vpl_furnace(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_material_desc md;

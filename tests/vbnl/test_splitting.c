@@ -37,11 +37,8 @@
 
 static vbnl_context *make_ctx(unsigned threads)
 {
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = threads;
-    vbnl_context *ctx = NULL;
-    assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
+    vbnl_context *ctx = ts_context(threads);
+    assert_non_null(ctx);
     return ctx;
 }
 

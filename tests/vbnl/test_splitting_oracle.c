@@ -197,11 +197,8 @@ static vbnl_split_stats run_case(const vbnl_scene *s, const vl_list *v, const vb
 static void test_oracle(void **state)
 {
     (void)state;
-    vbnl_context_desc cd;
-    vbnl_context_desc_init(&cd);
-    cd.threads = 2;
-    vbnl_context *ctx = NULL;
-    assert_int_equal(vbnl_context_create(&cd, &ctx, NULL), VBNL_OK);
+    vbnl_context *ctx = ts_context(2);
+    assert_non_null(ctx);
     vbnl_scene *s = oracle_scene(ctx);
     vbnl_hemioct *map = NULL;
     assert_int_equal(vbnl_hemioct_create(8, &map), VBNL_OK);
@@ -258,11 +255,8 @@ static void test_oracle(void **state)
 static void test_index_oracle(void **state)
 {
     (void)state;
-    vbnl_context_desc cd;
-    vbnl_context_desc_init(&cd);
-    cd.threads = 1;
-    vbnl_context *ctx = NULL;
-    assert_int_equal(vbnl_context_create(&cd, &ctx, NULL), VBNL_OK);
+    vbnl_context *ctx = ts_context(1);
+    assert_non_null(ctx);
     vbnl_scene *s = oracle_scene(ctx);
     static vl_list v;
     place(s, &v, 1500, 0.05f, 3.0f);

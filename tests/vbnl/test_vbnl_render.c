@@ -103,9 +103,7 @@ static void test_furnace(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_material_desc md;
@@ -157,9 +155,7 @@ static void test_cornell_against_path(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const uint32_t W = 48, H = 48, K = 4, n = (W / K) * (H / K);
     render_result ref = render(ctx, s, "path", W, H, 4096, 1, NULL);
@@ -381,9 +377,7 @@ static void test_time_budget(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     vbnl_render_stats st;
     vbnl_error err = {0};
