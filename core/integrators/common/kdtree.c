@@ -190,17 +190,45 @@ uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_
     return cnt;
 }
 
-/* (d2a, ia) before (d2b, ib): the order of vbnl_kd_knn's answer. */
-static inline int vbnl_kd_before(float d2a, uint32_t ia, float d2b, uint32_t ib)
+/* The k best so far are a max-heap in (out_i, out_d2) ordered by (distance, id), the order of
+ * vbnl_kd_knn's answer: the root is the k-th best, the bound of the search. Entry j's id is
+ * t->pts[out_i[j]].id, read only on equal distances. */
+static inline int vbnl_kd_heap_before(const vbnl_kd_tree *t, const uint32_t *hi, const float *hd, uint32_t a,
+                                      uint32_t b)
 {
-    return d2a < d2b || (d2a == d2b && ia < ib);
+    if (hd[a] != hd[b])
+        return hd[a] < hd[b];
+    return t->pts[hi[a]].id < t->pts[hi[b]].id;
 }
 
-/* A depth-first descent, near side first, that skips a subtree whose box distance exceeds the
- * k-th distance found so far (ties are still visited, so ties by id are exact), keeping the k
- * best in a sorted list (insertion: k is small where it is called often). */
-uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
-                     float *out_d2)
+/* Puts (vi, vd) at the root of the heap of n entries and sifts it down (moving entries up into
+ * the hole instead of swapping). */
+static inline void vbnl_kd_heap_replace_top(const vbnl_kd_tree *t, uint32_t *hi, float *hd, uint32_t n, uint32_t vi,
+                                            float vd)
+{
+    const uint32_t vid = t->pts[vi].id;
+    uint32_t j = 0;
+    for (;;) {
+        uint32_t c = 2 * j + 1;
+        if (c >= n)
+            break;
+        if (c + 1 < n && vbnl_kd_heap_before(t, hi, hd, c, c + 1))
+            c++;
+        if (!(vd < hd[c] || (vd == hd[c] && vid < t->pts[hi[c]].id)))
+            break;
+        hi[j] = hi[c];
+        hd[j] = hd[c];
+        j = c;
+    }
+    hi[j] = vi;
+    hd[j] = vd;
+}
+
+/* The k-nearest search: a depth-first descent, near side first, that skips a subtree whose box
+ * distance exceeds the k-th distance found so far (ties are still visited, so ties by id are
+ * exact), keeping the k best in a max-heap in (out_i, out_d2). Returns their count. */
+static uint32_t vbnl_kd_knn_heap(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip,
+                                 uint32_t *out_i, float *out_d2)
 {
     if (!t->nodes || t->n == 0 || k == 0)
         return 0;
@@ -216,25 +244,30 @@ uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32
     while (sp > 0) {
         --sp;
         uint32_t ni = stack[sp].node;
-        if (cnt == k && stack[sp].d2 > out_d2[cnt - 1])
+        if (cnt == k && stack[sp].d2 > out_d2[0])
             continue;
         const vbnl_kd_node *nd = &t->nodes[ni];
         if (nd->axis == VBNL_KD_LEAF_AXIS) {
             for (uint32_t i = nd->begin; i < nd->end; ++i) {
                 if (i == skip)
                     continue;
-                float d2 = vbnl_kd_dist2(q, t->pts[i].p);
-                uint32_t id = t->pts[i].id;
-                if (cnt == k && !vbnl_kd_before(d2, id, out_d2[k - 1], t->pts[out_i[k - 1]].id))
-                    continue;
-                uint32_t j = cnt < k ? cnt++ : k - 1; /* insertion into the sorted list */
-                while (j > 0 && vbnl_kd_before(d2, id, out_d2[j - 1], t->pts[out_i[j - 1]].id)) {
-                    out_d2[j] = out_d2[j - 1];
-                    out_i[j] = out_i[j - 1];
-                    --j;
+                const float d2 = vbnl_kd_dist2(q, t->pts[i].p);
+                if (cnt < k) { /* push: sift up through the hole */
+                    const uint32_t id = t->pts[i].id;
+                    uint32_t j = cnt++;
+                    while (j > 0) {
+                        const uint32_t p = (j - 1) / 2;
+                        if (!(out_d2[p] < d2 || (out_d2[p] == d2 && t->pts[out_i[p]].id < id)))
+                            break;
+                        out_i[j] = out_i[p];
+                        out_d2[j] = out_d2[p];
+                        j = p;
+                    }
+                    out_i[j] = i;
+                    out_d2[j] = d2;
+                } else if (d2 < out_d2[0] || (d2 == out_d2[0] && t->pts[i].id < t->pts[out_i[0]].id)) {
+                    vbnl_kd_heap_replace_top(t, out_i, out_d2, k, i, d2); /* replaces the k-th best */
                 }
-                out_d2[j] = d2;
-                out_i[j] = i;
             }
             continue;
         }
@@ -251,6 +284,30 @@ uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32
         sp++;
     }
     return cnt;
+}
+
+uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
+                     float *out_d2)
+{
+    const uint32_t cnt = vbnl_kd_knn_heap(t, q, k, skip, out_i, out_d2);
+    /* heap sort: the largest to the end, one at a time */
+    for (uint32_t n = cnt; n > 1; --n) {
+        const uint32_t top_i = out_i[0];
+        const float top_d = out_d2[0];
+        vbnl_kd_heap_replace_top(t, out_i, out_d2, n - 1, out_i[n - 1], out_d2[n - 1]);
+        out_i[n - 1] = top_i;
+        out_d2[n - 1] = top_d;
+    }
+    return cnt;
+}
+
+float vbnl_kd_mth_dist2(const vbnl_kd_tree *t, uint32_t self, uint32_t m, uint32_t *idx, float *d2)
+{
+    const uint32_t cnt = vbnl_kd_knn_heap(t, t->pts[self].p, m, self, idx, d2);
+    float worst = 0.0f; /* the heap's root once full; the largest of fewer otherwise */
+    for (uint32_t j = 0; j < (cnt == m ? 1u : cnt); ++j)
+        worst = d2[j] > worst ? d2[j] : worst;
+    return cnt ? worst : INFINITY;
 }
 
 /* Squared distance between two boxes (0 when they overlap). */

@@ -79,13 +79,10 @@ uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_
  * depends on the points only, never on the tree's shape. */
 uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
                      float *out_d2);
-/* vbnl_kd_knn's squared distance from local point `self` to its m-th nearest other point,
- * 1 <= m <= n - 1, with the caller's scratch of m indices and m distances. */
-static inline float vbnl_kd_mth_dist2(const vbnl_kd_tree *t, uint32_t self, uint32_t m, uint32_t *idx, float *d2)
-{
-    uint32_t found = vbnl_kd_knn(t, t->pts[self].p, m, self, idx, d2);
-    return found ? d2[found - 1] : INFINITY;
-}
+/* The squared distance from local point `self` to its m-th nearest other point,
+ * 1 <= m <= n - 1: out_d2[m - 1] of vbnl_kd_knn(t, its position, m, self), the same search
+ * without sorting its answer; idx and d2 are the caller's scratch of m entries each. */
+float vbnl_kd_mth_dist2(const vbnl_kd_tree *t, uint32_t self, uint32_t m, uint32_t *idx, float *d2);
 
 /* Squared distance from point q to the box lo..hi (0 inside). */
 static inline float vbnl_kd_box_dist2(const float *lo, const float *hi, const float *q)

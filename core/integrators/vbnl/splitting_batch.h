@@ -122,7 +122,7 @@ static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t
 static inline __attribute__((always_inline)) void fast_d(fast_pipe *fp, uint32_t k)
 {
     const fast_slot *sl = &fp->ring[k & (FAST_SLOTS - 1)];
-    split_cands(fp->cx, fp->x, sl->h, sl->ncand, sl->cand);
+    split_cands(fp->cx, fp->x, sl->h, sl->ncand, sl->cand, 0); /* one level: rank order */
 }
 
 /* Step k of the pipeline: stage A of hit k, B of k - S, C of k - 2 S, D of k - 3 S (those that

@@ -313,7 +313,7 @@ static void split_plain(const split_ctx *cx, const split_rec *h)
  * answer, without the answer records). */
 static inline __attribute__((always_inline)) void split_cands(const split_ctx *cx, const vbnl_vl_index *x,
                                                               const split_rec *h, uint32_t ncand,
-                                                              const uint32_t *cand)
+                                                              const uint32_t *cand, int levels)
 {
     if (ncand > VBNL_VLI_PIPE_CAND) {
         split_plain(cx, h);
@@ -437,7 +437,7 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         m += (uint32_t)keep;
     }
 #endif
-    if (x->level_count > 1) { /* candidates come level by level: back in rank order */
+    if (levels) { /* candidates come level by level: back in rank order */
         vl_sort_by_rank(w, rk, m);
         sum = 0.0f;
         for (uint32_t i = 0; i < m; ++i)
@@ -454,7 +454,7 @@ static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_ind
     (void)b;
     (void)found;
     const split_ctx *cx = user;
-    split_cands(cx, x, &cx->recs[cx->order[k]], s->ncand, s->cand);
+    split_cands(cx, x, &cx->recs[cx->order[k]], s->ncand, s->cand, x->level_count > 1);
 }
 
 #endif
