@@ -65,7 +65,7 @@ static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *
     float xf[16];
     m4f(pr->m, xf);
     vbnl_mesh_desc d;
-    memset(&d, 0, sizeof d);
+    vbnl_mesh_desc_init(&d);
     d.positions = m->pos;
     d.normals = m->nrm;
     d.uvs = m->uv;

@@ -107,7 +107,9 @@ static void child(const char *path, int fd)
     vbnl_error err = { 0 };
     char out[800];
     vbnl_context *ctx = NULL;
-    vbnl_context_desc cd = {1};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 1;
     child_state cs = {0, ""};
     if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK) {
         snprintf(out, sizeof out, "error\t0\t%.700s\n", err.message);

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "splitting.h"
+#include "photon_walk.h"
 
 #define VPL_CHUNK 256u
 
