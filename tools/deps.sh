@@ -4,7 +4,7 @@
 set -euo pipefail
 
 VBNL_PACKAGES=(meson ninja-build pkg-config gcc g++ libc6-dev cmake python3 binutils
-    libembree-dev libtbb-dev libopenexr-dev libimath-dev libpng-dev libassimp-dev libcmocka-dev libopencolorio-dev)
+    libembree-dev libtbb-dev libopenexr-dev libimath-dev libpng-dev libassimp-dev libcmocka-dev libopencolorio-dev libfreetype-dev)
 
 vbnl_install_deps() {
     local missing=()

@@ -232,6 +232,30 @@ vbnl_result pov_build(pov_loader *L, vbnl_error *err)
             break;
         case POV_PRIM_SKIPPED:
             break;
+        case POV_PRIM_SURFACE: {
+            /* an unbounded shape nothing bounds: made within the scene's bounds (the geometry and
+             * the camera), half as large again on every side */
+            double blo[3], bhi[3], cp2[3] = {cd.position[0], cd.position[1], cd.position[2]};
+            for (int k = 0; k < 3; ++k) {
+                blo[k] = L->have_geo ? fmin(glo[k], cp2[k]) : cp2[k];
+                bhi[k] = L->have_geo ? fmax(ghi[k], cp2[k]) : cp2[k];
+                double c = 0.5 * (blo[k] + bhi[k]), h = fmax(1.0, 0.75 * (bhi[k] - blo[k]));
+                blo[k] = c - h;
+                bhi[k] = c + h;
+            }
+            vbnl_sdl_warning(L->c.parser, &pr->loc,
+                             "the shape is unbounded: its surface is made within the scene's bounds "
+                             "<%g, %g, %g> to <%g, %g, %g> (bound it with clipped_by or a CSG)",
+                             blo[0], blo[1], blo[2], bhi[0], bhi[1], bhi[2]);
+            const char *why = NULL;
+            pov_mesh *m = pov_solid_surface(pr->solid, pr->m, blo, bhi, &why);
+            if (!m)
+                return vbnl_error_set(err, why && strcmp(why, "out of memory") ? VBNL_ERR_PARSE : VBNL_ERR_OUT_OF_MEMORY,
+                                      "%s:%d:%d: %s", pr->loc.file, pr->loc.line, pr->loc.col, why ? why : "out of memory");
+            r = emit_mesh(L, pr, m, err);
+            pov_mesh_unref(m);
+            break;
+        }
         case POV_PRIM_IMPORT: {
             float xf[16];
             m4f(pr->m, xf);

@@ -53,6 +53,7 @@ vbnl_result pov_shape_object(const pov_shape *s);
 vbnl_result pov_shape_csg(const pov_shape *s);      /* intersection, difference, merge (csg.c) */
 vbnl_result pov_shape_union(const pov_shape *s);    /* union and light_group (union.c) */
 vbnl_result pov_shape_light(const pov_shape *s);    /* light_source (../light.c) */
+vbnl_result pov_shape_text(const pov_shape *s);
 
 /* triangle.c, for mesh { }: a triangle's values after its '{' and its normals made unit (a
  * flat triangle gets its face normal; a degenerate one +y). */

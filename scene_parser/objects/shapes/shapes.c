@@ -24,11 +24,12 @@ static const pov_shape_row shapes[] = {
     {"difference", pov_shape_csg},
     {"vbnl_mesh", pov_shape_vbnl_mesh},
     {"light_group", pov_shape_union},
+    {"text", pov_shape_text},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
 static const char *const unsupported[] = {
-    "height_field", "isosurface", "blob", "lathe", "sor", "prism", "text", "julia_fractal",
+    "height_field", "isosurface", "blob", "lathe", "sor", "prism", "julia_fractal",
     "superellipsoid", "parametric", "poly", "polynomial", "quartic", "cubic", "quadric",
     "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
 
