@@ -243,10 +243,11 @@ vbnl_result pov_build(pov_loader *L, vbnl_error *err)
                 blo[k] = c - h;
                 bhi[k] = c + h;
             }
-            vbnl_sdl_warning(L->c.parser, &pr->loc,
-                             "the shape is unbounded: its surface is made within the scene's bounds "
-                             "<%g, %g, %g> to <%g, %g, %g> (bound it with clipped_by or a CSG)",
-                             blo[0], blo[1], blo[2], bhi[0], bhi[1], bhi[2]);
+            if (!pov_solid_finite(pr->solid))
+                vbnl_sdl_warning(L->c.parser, &pr->loc,
+                                 "the shape is unbounded: its surface is made within the scene's bounds "
+                                 "<%g, %g, %g> to <%g, %g, %g> (bound it with clipped_by or a CSG)",
+                                 blo[0], blo[1], blo[2], bhi[0], bhi[1], bhi[2]);
             const char *why = NULL;
             pov_mesh *m = pov_solid_surface(pr->solid, pr->m, blo, bhi, &why);
             if (!m)

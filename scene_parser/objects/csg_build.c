@@ -111,6 +111,16 @@ int pov_solid_unbounded(const pov_solid *s)
     return s && s->kind == SOLID_CUSTOM && s->fn->surface;
 }
 
+int pov_solid_finite(const pov_solid *s)
+{
+    if (!s || s->kind != SOLID_CUSTOM)
+        return 1;
+    for (int k = 0; k < 6; ++k)
+        if (!isfinite(s->p[k]))
+            return 0;
+    return 1;
+}
+
 pov_solid *pov_solid_ref(pov_solid *s)
 {
     if (s)

@@ -1,5 +1,6 @@
 /* vbnl object layer: object modifiers (appearance, transforms, inverse, clipped_by, and the
  * flags that change nothing under global illumination). */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -74,9 +75,12 @@ vbnl_result pov_clip_block(pov_loader *L, pov_obj *clip)
     if (vbnl_sdl_expect(p, '{', "after 'clipped_by'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    if (pov_is_word(t, "bounded_by")) { /* clipped_by { bounded_by }: no clipping */
+    /* clipped_by { bounded_by } and bounded_by { clipped_by }: no shape of their own */
+    if (pov_is_word(t, "bounded_by") || pov_is_word(t, "clipped_by")) {
+        char ctx[64];
+        snprintf(ctx, sizeof ctx, "after '%s'", t->text);
         vbnl_sdl_next(p);
-        return vbnl_sdl_expect(p, '}', "after 'bounded_by' in 'clipped_by'");
+        return vbnl_sdl_expect(p, '}', ctx);
     }
     return pov_block_parse(&clipped_by_block, p, L, clip, NULL);
 }

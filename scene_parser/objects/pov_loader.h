@@ -131,8 +131,9 @@ vbnl_result pov_mods_parse(pov_mods *m, const char *what, int open);
 /* Applies the collected clipped_by (consumes it). */
 vbnl_result pov_mods_finish(pov_mods *m);
 void pov_mods_clear(pov_mods *m);
-/* `{ shapes }` of clipped_by (the parser is on '{') into clip, one primitive per shape. Shapes
- * whose bounded_by clips (the unbounded ones) read theirs with it too. */
+/* `{ shapes }` of clipped_by (the parser is on '{') into clip, one primitive per shape; `{
+ * bounded_by }` and `{ clipped_by }` add none. Shapes whose bounded_by clips (the unbounded
+ * ones) read theirs with it too. */
 vbnl_result pov_clip_block(pov_loader *L, pov_obj *clip);
 /* Modifiers of a CSG (clipping at once) up to and including the closing '}'. */
 vbnl_result pov_modifiers(pov_loader *L, pov_obj *o, const char *what);

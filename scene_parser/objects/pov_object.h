@@ -125,6 +125,8 @@ typedef struct pov_solid_fn {
 pov_solid *pov_solid_custom(const pov_solid_fn *fn, void *data, const double lo[3], const double hi[3]);
 /* 1 for the solid of an unbounded shape (it makes its own surface). */
 int pov_solid_unbounded(const pov_solid *s);
+/* 1 when the region a solid encloses has finite bounds. */
+int pov_solid_finite(const pov_solid *s);
 /* The surface of an unbounded shape placed with m within the box lo..hi of the space m maps to
  * (an empty mesh when the box misses the shape's region). NULL with *why set on failure. */
 pov_mesh *pov_solid_surface(const pov_solid *s, const double m[16], const double lo[3], const double hi[3],

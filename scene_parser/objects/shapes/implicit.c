@@ -193,14 +193,18 @@ static void descend(dc *d, int i, int j, int k, int s)
 {
     if (d->failed || i >= d->n[0] || j >= d->n[1] || k >= d->n[2])
         return;
-    if (s > 1 || d->im->lipschitz > 0) {
+    if (d->im->excludes) {
+        double lo[3] = {d->org[0] + i * d->h, d->org[1] + j * d->h, d->org[2] + k * d->h};
+        double hi[3] = {lo[0] + s * d->h, lo[1] + s * d->h, lo[2] + s * d->h};
+        d->evals++;
+        if (d->im->excludes(d->im->user, lo, hi))
+            return;
+    } else if (d->im->lipschitz > 0) {
         double c[3] = {d->org[0] + (i + 0.5 * s) * d->h, d->org[1] + (j + 0.5 * s) * d->h,
                        d->org[2] + (k + 0.5 * s) * d->h};
-        if (d->im->lipschitz > 0) {
-            double v = feval(d, c), r = 0.5 * sqrt(3.0) * s * d->h;
-            if (isfinite(v) && fabs(v) > d->im->lipschitz * r * 1.05)
-                return;
-        }
+        double v = feval(d, c), r = 0.5 * sqrt(3.0) * s * d->h;
+        if (isfinite(v) && fabs(v) > d->im->lipschitz * r * 1.05)
+            return;
     }
     if (s > 1) {
         int hs = s / 2;
@@ -590,6 +594,65 @@ static int implicit_mid(void *user, const pov_svert *a, const pov_svert *b, pov_
     if (out->n[0] == 0 && out->n[1] == 0 && out->n[2] == 0)
         memcpy(out->n, dir, sizeof dir);
     return 1;
+}
+
+typedef struct bounds_walk {
+    const pov_implicit *im;
+    double lo[3], hi[3];
+    int found;
+    uint64_t visits;
+} bounds_walk;
+
+static void bounds_descend(bounds_walk *w, const double lo[3], const double hi[3], int depth)
+{
+    if (w->im->max_evals && ++w->visits > w->im->max_evals)
+        return;
+    if (w->im->excludes(w->im->user, lo, hi))
+        return;
+    if (depth == 0) {
+        for (int k = 0; k < 3; ++k) {
+            w->lo[k] = w->found ? fmin(w->lo[k], lo[k]) : lo[k];
+            w->hi[k] = w->found ? fmax(w->hi[k], hi[k]) : hi[k];
+        }
+        w->found = 1;
+        return;
+    }
+    /* halve the sides longer than half the longest (cells stay near cubes) */
+    double ext = 0, mid[3];
+    for (int k = 0; k < 3; ++k) {
+        ext = fmax(ext, hi[k] - lo[k]);
+        mid[k] = 0.5 * (lo[k] + hi[k]);
+    }
+    int split[3];
+    for (int k = 0; k < 3; ++k)
+        split[k] = hi[k] - lo[k] > 0.5 * ext;
+    for (int c = 0; c < 8; ++c) {
+        if (((c & 1) && !split[0]) || ((c & 2) && !split[1]) || ((c & 4) && !split[2]))
+            continue;
+        double l[3], h[3];
+        for (int k = 0; k < 3; ++k) {
+            int upper = c >> k & 1;
+            l[k] = split[k] && upper ? mid[k] : lo[k];
+            h[k] = split[k] && !upper ? mid[k] : hi[k];
+        }
+        bounds_descend(w, l, h, depth - 1);
+    }
+}
+
+int pov_implicit_bounds(const pov_implicit *im, int depth, double lo[3], double hi[3])
+{
+    bounds_walk w;
+    memset(&w, 0, sizeof w);
+    w.im = im;
+    if (!im->excludes) {
+        memcpy(lo, im->lo, 3 * sizeof *lo);
+        memcpy(hi, im->hi, 3 * sizeof *hi);
+        return 1;
+    }
+    bounds_descend(&w, im->lo, im->hi, depth);
+    memcpy(lo, w.lo, sizeof w.lo);
+    memcpy(hi, w.hi, sizeof w.hi);
+    return w.found;
 }
 
 pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why)

@@ -54,6 +54,7 @@ vbnl_result pov_shape_csg(const pov_shape *s);      /* intersection, difference,
 vbnl_result pov_shape_union(const pov_shape *s);    /* union and light_group (union.c) */
 vbnl_result pov_shape_light(const pov_shape *s);    /* light_source (../light.c) */
 vbnl_result pov_shape_text(const pov_shape *s);
+vbnl_result pov_shape_poly(const pov_shape *s);     /* poly polynomial cubic quartic quadric (poly.c) */
 
 /* triangle.c, for mesh { }: a triangle's values after its '{' and its normals made unit (a
  * flat triangle gets its face normal; a degenerate one +y). */

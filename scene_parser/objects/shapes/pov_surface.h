@@ -82,6 +82,9 @@ typedef struct pov_implicit {
     int depth;           /* finest grid: 2^depth cells along the longest side (2..9) */
     double lipschitz;    /* a bound of |grad f| (cells further than f / bound from the surface are
                           * skipped); 0: every cell is visited at the finest level */
+    /* optional, instead of the bound: 1 when f surely has no zero in the box lo..hi (interval
+     * arithmetic) */
+    int (*excludes)(void *user, const double lo[3], const double hi[3]);
     double tol;          /* chord error of the refinement (absolute) */
     double grad_step;    /* central differences of the gradient (absolute) */
     uint64_t max_evals;  /* evaluation budget (0: none); exceeding it fails with *why set */
@@ -92,6 +95,9 @@ typedef struct pov_implicit {
  * sharp), then pov_smesh_refine with points found on the surface along the mean normal. Normals
  * are the gradient's. NULL with *why set ("out of memory", or the budget) on failure. */
 pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why);
+/* The bounds of the part of the region where f may vanish, by `excludes` on an octree down to
+ * 2^depth cells along the longest side (each kept cell whole). 0 when f vanishes nowhere. */
+int pov_implicit_bounds(const pov_implicit *im, int depth, double lo[3], double hi[3]);
 /* The unit gradient of f at p by central differences of step h (0 0 0 where it vanishes). */
 void pov_field_normal(pov_field_fn f, void *user, const double p[3], double h, double n[3]);
 

@@ -25,12 +25,17 @@ static const pov_shape_row shapes[] = {
     {"vbnl_mesh", pov_shape_vbnl_mesh},
     {"light_group", pov_shape_union},
     {"text", pov_shape_text},
+    {"poly", pov_shape_poly},
+    {"polynomial", pov_shape_poly},
+    {"cubic", pov_shape_poly},
+    {"quartic", pov_shape_poly},
+    {"quadric", pov_shape_poly},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
 static const char *const unsupported[] = {
     "height_field", "isosurface", "blob", "lathe", "sor", "prism", "julia_fractal",
-    "superellipsoid", "parametric", "poly", "polynomial", "quartic", "cubic", "quadric",
+    "superellipsoid", "parametric",
     "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
 
 const pov_shape_row *pov_shape_find(const char *keyword)
