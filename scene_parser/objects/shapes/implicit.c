@@ -423,27 +423,27 @@ static uint32_t cell_vertex(dc *d, int i, int j, int k)
     }
     if (*slot != NONE)
         return *slot;
-    const crossing *xs[12];
+    crossing xs[12]; /* copies: the table of crossings grows meanwhile */
     int nx = 0;
     for (int e = 0; e < 12; ++e) {
         int a[3] = {i + cell_edges[e][0], j + cell_edges[e][1], k + cell_edges[e][2]};
         const crossing *x = edge_crossing(d, a, cell_edges[e][3]);
         if (x)
-            xs[nx++] = x;
+            xs[nx++] = *x;
     }
     if (d->failed || nx == 0)
         return NONE;
     double mass[3] = {0, 0, 0}, A[3][3] = {{0}}, b[3] = {0, 0, 0}, nm[3] = {0, 0, 0};
     for (int x = 0; x < nx; ++x)
         for (int r = 0; r < 3; ++r) {
-            mass[r] += xs[x]->p[r] / nx;
-            nm[r] += xs[x]->n[r];
+            mass[r] += xs[x].p[r] / nx;
+            nm[r] += xs[x].n[r];
         }
     for (int x = 0; x < nx; ++x) {
-        const double *n = xs[x]->n;
+        const double *n = xs[x].n;
         double dn = 0;
         for (int r = 0; r < 3; ++r)
-            dn += n[r] * (xs[x]->p[r] - mass[r]);
+            dn += n[r] * (xs[x].p[r] - mass[r]);
         for (int r = 0; r < 3; ++r) {
             b[r] += n[r] * dn;
             for (int c = 0; c < 3; ++c)
@@ -474,7 +474,7 @@ static uint32_t cell_vertex(dc *d, int i, int j, int k)
     double nl = sqrt(nm[0] * nm[0] + nm[1] * nm[1] + nm[2] * nm[2]);
     int smooth = nl > 0;
     for (int x = 0; x < nx && smooth; ++x)
-        smooth = (xs[x]->n[0] * nm[0] + xs[x]->n[1] * nm[1] + xs[x]->n[2] * nm[2]) / nl > 0.9;
+        smooth = (xs[x].n[0] * nm[0] + xs[x].n[1] * nm[1] + xs[x].n[2] * nm[2]) / nl > 0.9;
     if (smooth)
         project(d, p, d->h);
     pov_svert v;

@@ -55,6 +55,8 @@ vbnl_result pov_shape_union(const pov_shape *s);    /* union and light_group (un
 vbnl_result pov_shape_light(const pov_shape *s);    /* light_source (../light.c) */
 vbnl_result pov_shape_text(const pov_shape *s);
 vbnl_result pov_shape_poly(const pov_shape *s);     /* poly polynomial cubic quartic quadric (poly.c) */
+vbnl_result pov_shape_isosurface(const pov_shape *s);
+vbnl_result pov_shape_parametric(const pov_shape *s);
 
 /* triangle.c, for mesh { }: a triangle's values after its '{' and its normals made unit (a
  * flat triangle gets its face normal; a degenerate one +y). */

@@ -30,12 +30,14 @@ static const pov_shape_row shapes[] = {
     {"cubic", pov_shape_poly},
     {"quartic", pov_shape_poly},
     {"quadric", pov_shape_poly},
+    {"isosurface", pov_shape_isosurface},
+    {"parametric", pov_shape_parametric},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
 static const char *const unsupported[] = {
-    "height_field", "isosurface", "blob", "lathe", "sor", "prism", "julia_fractal",
-    "superellipsoid", "parametric",
+    "height_field", "blob", "lathe", "sor", "prism", "julia_fractal",
+    "superellipsoid",
     "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
 
 const pov_shape_row *pov_shape_find(const char *keyword)

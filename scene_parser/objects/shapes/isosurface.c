@@ -1,0 +1,241 @@
+/* vbnl object layer: isosurface { function { F } [contained_by { box { A, B } | sphere { C, r } }]
+ *                                 [threshold t] [accuracy a] [max_gradient g] [evaluate a, b, c]
+ *                                 [open] [max_trace n | all_intersections] modifiers }
+ *
+ * The surface F(p) = t inside the container (POV-Ray's default: box { -1, 1 }), F < t inside.
+ * F is the language's own function (language/func.c), evaluated through vbnl_sdl_function_call.
+ * The surface is polygonised by dual contouring (implicit.c) of max(F - t, d(p)), where d is the
+ * container's signed distance, so that the container closes the shape where F < t reaches it, as
+ * in POV-Ray; with `open` the surface of F alone is made and cut at the container (clipped_by).
+ * max_gradient bounds |grad F| as in POV-Ray: cells further than (F - t) / max_gradient from the
+ * surface are not visited; a surface found in one cell is followed through all the others even
+ * where the bound is too low. Grid: 64 cells along the container's longest side (features
+ * thinner than a cell can be lost), then refinement to POV_TESS_TOL of the container's radius.
+ * `accuracy`, `evaluate`, `max_trace` and `all_intersections` tune POV-Ray's ray marching and
+ * change nothing here. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "pov_surface.h"
+#include "sdl_internal.h"
+
+typedef struct iso_data {
+    vbnl_sdl_parser *p;
+    vbnl_sdl_function *fn;
+    double t;
+    int sphere;     /* container: 1 sphere (c, r), 0 box (lo, hi) */
+    double lo[3], hi[3], c[3], r;
+    int with_container; /* the field includes the container (closed) */
+} iso_data;
+
+static double iso_f(const iso_data *d, const double q[3])
+{
+    double v = 0;
+    if (vbnl_sdl_function_call(d->p, d->fn, q, 3, &v) != VBNL_OK)
+        return 1e30;
+    return v - d->t;
+}
+
+static double container_dist(const iso_data *d, const double q[3])
+{
+    if (d->sphere) {
+        double x = q[0] - d->c[0], y = q[1] - d->c[1], z = q[2] - d->c[2];
+        return sqrt(x * x + y * y + z * z) - d->r;
+    }
+    double m = -INFINITY;
+    for (int k = 0; k < 3; ++k)
+        m = fmax(m, fmax(d->lo[k] - q[k], q[k] - d->hi[k]));
+    return m;
+}
+
+static double iso_field(void *user, const double q[3])
+{
+    const iso_data *d = user;
+    double v = iso_f(d, q);
+    return d->with_container ? fmax(v, container_dist(d, q)) : v;
+}
+
+static int iso_inside(const void *data, const double q[3])
+{
+    const iso_data *d = data;
+    return container_dist(d, q) <= 0 && iso_f(d, q) < 0;
+}
+
+static void iso_destroy(void *data)
+{
+    iso_data *d = data;
+    sdl_function_release(d->p, d->fn);
+    free(d);
+}
+
+static const pov_solid_fn iso_fn = {iso_inside, iso_destroy, NULL};
+
+/* ---- parsing --------------------------------------------------------------------------------- */
+
+typedef struct iso_shape {
+    pov_mods mods;
+    iso_data *d;
+    double max_gradient, accuracy, dummy;
+    int open;
+} iso_shape;
+
+static vbnl_result iso_contained_by(const pov_item *it)
+{
+    iso_shape *is = it->target;
+    pov_loader *L = it->ctx;
+    vbnl_sdl_parser *p = it->p;
+    iso_data *d = is->d;
+    vbnl_sdl_next(p);
+    if (vbnl_sdl_expect(p, '{', "after 'contained_by'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+    if (pov_is_word(t, "box")) {
+        double a[3], b[3];
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_expect(p, '{', "after 'box'") != VBNL_OK || pov_vec3(L, a) != VBNL_OK ||
+            (pov_comma(L), pov_vec3(L, b)) != VBNL_OK || vbnl_sdl_expect(p, '}', "after the box's corners") != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        d->sphere = 0;
+        for (int k = 0; k < 3; ++k) {
+            d->lo[k] = fmin(a[k], b[k]);
+            d->hi[k] = fmax(a[k], b[k]);
+        }
+    } else if (pov_is_word(t, "sphere")) {
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_expect(p, '{', "after 'sphere'") != VBNL_OK || pov_vec3(L, d->c) != VBNL_OK ||
+            (pov_comma(L), pov_float(L, &d->r)) != VBNL_OK ||
+            vbnl_sdl_expect(p, '}', "after the sphere's radius") != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (pov_positive(L, d->r, "contained_by sphere radius", it->loc) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        d->sphere = 1;
+    }
+    return vbnl_sdl_expect(p, '}', "after the container (contained_by takes a box or a sphere)");
+}
+
+static vbnl_result iso_evaluate(const pov_item *it)
+{
+    double v[3];
+    vbnl_sdl_next(it->p);
+    for (int k = 0; k < 3; ++k) {
+        if (k)
+            pov_comma(it->ctx);
+        if (pov_float(it->ctx, &v[k]) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+    }
+    return VBNL_OK;
+}
+
+static vbnl_result iso_open(const pov_item *it)
+{
+    vbnl_sdl_next(it->p);
+    ((iso_shape *)it->target)->open = 1;
+    return VBNL_OK;
+}
+
+static vbnl_result iso_threshold(const pov_item *it)
+{
+    vbnl_sdl_next(it->p);
+    return pov_float(it->ctx, &((iso_shape *)it->target)->d->t);
+}
+
+static const pov_row iso_rows[] = {
+    {"contained_by", iso_contained_by, 0},
+    {"threshold", iso_threshold, 0},
+    {"accuracy", pov_item_float, offsetof(iso_shape, accuracy)},
+    {"max_gradient", pov_item_float, offsetof(iso_shape, max_gradient)},
+    {"evaluate", iso_evaluate, 0},
+    {"open", iso_open, 0},
+    {"max_trace", pov_item_float, offsetof(iso_shape, dummy)},
+    {"all_intersections", pov_item_word, 0},
+    {NULL, NULL, 0},
+};
+POV_SHAPE_BLOCK(iso_block, iso_rows);
+
+static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
+{
+    iso_shape *is = (iso_shape *)mods;
+    pov_loader *L = s->L;
+    iso_data *d = is->d;
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = d->sphere ? d->c[k] - d->r : d->lo[k];
+        hi[k] = d->sphere ? d->c[k] + d->r : d->hi[k];
+    }
+    if (!(is->max_gradient > 0))
+        return vbnl_sdl_error(L->c.parser, &s->loc, "isosurface: max_gradient must be positive, got %g",
+                              is->max_gradient);
+    d->with_container = !is->open;
+    pov_implicit im;
+    memset(&im, 0, sizeof im);
+    im.f = iso_field;
+    im.user = d;
+    memcpy(im.lo, lo, sizeof lo);
+    memcpy(im.hi, hi, sizeof hi);
+    double r = pov_box_radius(lo, hi);
+    im.depth = 6;
+    im.lipschitz = fmax(is->max_gradient, 1.0);
+    im.tol = POV_TESS_TOL * r;
+    im.grad_step = 1e-5 * r;
+    im.max_evals = 40000000;
+    const char *why = NULL;
+    pov_mesh *m = pov_implicit_mesh(&im, &why);
+    if (vbnl_sdl_failed(L->c.parser)) { /* the function failed (too deep, ...) */
+        pov_mesh_unref(m);
+        return VBNL_ERR_PARSE;
+    }
+    if (!m)
+        return strcmp(why, "out of memory") ? vbnl_sdl_error(L->c.parser, &s->loc, "isosurface: %s", why)
+                                            : pov_oom(L);
+    pr->mesh = m;
+    if (!(pr->solid = pov_solid_custom(&iso_fn, d, lo, hi))) {
+        is->d = NULL;
+        return pov_oom(L);
+    }
+    is->d = NULL;
+    if (is->open) { /* cut at the container: a clipped_by shape in the shape's space */
+        pov_prim *c = pov_obj_add(&mods->clip, d->sphere ? POV_PRIM_SPHERE : POV_PRIM_MESH, s->loc);
+        if (!c)
+            return pov_oom(L);
+        memcpy(c->m, s->o->v[s->o->n - 1].m, sizeof c->m);
+        if (d->sphere) {
+            memcpy(c->a, d->c, sizeof d->c);
+            c->a[3] = d->r;
+        } else if (!(c->mesh = pov_tess_box(d->lo, d->hi)) || !(c->solid = pov_solid_box(d->lo, d->hi))) {
+            return pov_oom(L);
+        }
+        if (!mods->clip_loc.file)
+            mods->clip_loc = s->loc;
+    }
+    return VBNL_OK;
+}
+
+vbnl_result pov_shape_isosurface(const pov_shape *s)
+{
+    pov_loader *L = s->L;
+    vbnl_sdl_parser *p = L->c.parser;
+    iso_shape is;
+    memset(&is, 0, sizeof is);
+    is.max_gradient = 1.1; /* POV-Ray's defaults */
+    is.accuracy = 0.001;
+    if (!pov_is_word(vbnl_sdl_peek(p), "function"))
+        return vbnl_sdl_error(p, NULL, "isosurface: expected 'function { ... }' first");
+    if (!(is.d = calloc(1, sizeof *is.d)))
+        return pov_oom(L);
+    is.d->p = p;
+    for (int k = 0; k < 3; ++k) {
+        is.d->lo[k] = -1;
+        is.d->hi[k] = 1;
+    }
+    vbnl_sdl_value fv;
+    vbnl_sdl_loc floc = vbnl_sdl_peek(p)->loc;
+    if (!sdl_parse_function(p, &fv, &floc)) {
+        free(is.d);
+        return VBNL_ERR_PARSE;
+    }
+    is.d->fn = fv.u.fn;
+    vbnl_result r = pov_shape_deferred(s, &iso_block, &is.mods, iso_make);
+    if (is.d)
+        iso_destroy(is.d);
+    return r;
+}
