@@ -57,6 +57,7 @@ vbnl_result pov_shape_text(const pov_shape *s);
 vbnl_result pov_shape_poly(const pov_shape *s);     /* poly polynomial cubic quartic quadric (poly.c) */
 vbnl_result pov_shape_isosurface(const pov_shape *s);
 vbnl_result pov_shape_parametric(const pov_shape *s);
+vbnl_result pov_shape_lathe(const pov_shape *s);    /* lathe and sor (lathe.c) */
 
 /* triangle.c, for mesh { }: a triangle's values after its '{' and its normals made unit (a
  * flat triangle gets its face normal; a degenerate one +y). */

@@ -147,7 +147,7 @@ void pov_outline_walls(const pov_outline *o, pov_smesh *m, pov_sweep_fn sweep, v
 /* ---- surfaces of revolution (revolve.c) -------------------------------------------------------- */
 
 /* A profile r(t), y(t) for t in [0, 1] per segment, swept around the y axis. eval sets r, y and
- * the derivatives dr, dy at t of segment seg. */
+ * the direction of travel (dr, dy) (any length) at t of segment seg. */
 typedef void (*pov_profile_fn)(void *user, int seg, double t, double *r, double *y, double *dr, double *dy);
 
 /* The surface of revolution of nseg profile segments: normals from the profile's derivative,
@@ -155,6 +155,10 @@ typedef void (*pov_profile_fn)(void *user, int seg, double t, double *r, double 
  * outside is on its right (seen with y up and r to the right); `flip`: on its left. tol is
  * absolute. Returns 0 when out of memory. */
 int pov_revolve(pov_smesh *m, pov_profile_fn eval, void *user, int nseg, double tol, int flip);
+/* A flat cap closing a surface of revolution made by pov_revolve (vertices from first_vertex on):
+ * the rim at its start (top = 0, uv v = 0) or end (top = 1, v = 1), fanned from (0, y, 0) with
+ * the normal (0, normal_y, 0). Returns 0 when out of memory. */
+int pov_revolve_cap(pov_smesh *m, uint32_t first_vertex, int top, double y, double normal_y);
 
 /* ---- solids and deferred shapes (shape_solid.c) ---------------------------------------------- */
 

@@ -32,11 +32,13 @@ static const pov_shape_row shapes[] = {
     {"quadric", pov_shape_poly},
     {"isosurface", pov_shape_isosurface},
     {"parametric", pov_shape_parametric},
+    {"lathe", pov_shape_lathe},
+    {"sor", pov_shape_lathe},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
 static const char *const unsupported[] = {
-    "height_field", "blob", "lathe", "sor", "prism", "julia_fractal",
+    "height_field", "blob", "prism", "julia_fractal",
     "superellipsoid",
     "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
 
