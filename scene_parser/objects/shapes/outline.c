@@ -101,6 +101,13 @@ void pov_outline_quad(pov_outline *o, const double p0[2], const double p1[2], co
     }
 }
 
+void pov_outline_line(pov_outline *o, const double p0[2], const double p1[2])
+{
+    double c[2] = {0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])}; /* a flat quadratic: one step */
+    if (p0[0] != p1[0] || p0[1] != p1[1])
+        pov_outline_quad(o, p0, c, p1, 1.0);
+}
+
 void pov_outline_cubic(pov_outline *o, const double p0[2], const double p1[2], const double p2[2], const double p3[2],
                        double tol)
 {

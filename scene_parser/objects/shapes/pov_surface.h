@@ -126,6 +126,7 @@ int pov_outline_finish(pov_outline *o);
 /* Quadratic and cubic Bezier segments, flattened so that no chord is further than tol from the
  * curve (a Bezier's chord error is bounded by its control polygon's). The segment's first point
  * is the previous one (not appended again); `corner`: start a new point there. */
+void pov_outline_line(pov_outline *o, const double p0[2], const double p1[2]);
 void pov_outline_quad(pov_outline *o, const double p0[2], const double p1[2], const double p2[2], double tol);
 void pov_outline_cubic(pov_outline *o, const double p0[2], const double p1[2], const double p2[2], const double p3[2],
                        double tol);

@@ -34,11 +34,12 @@ static const pov_shape_row shapes[] = {
     {"parametric", pov_shape_parametric},
     {"lathe", pov_shape_lathe},
     {"sor", pov_shape_lathe},
+    {"prism", pov_shape_prism},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
 static const char *const unsupported[] = {
-    "height_field", "blob", "prism", "julia_fractal",
+    "height_field", "blob", "julia_fractal",
     "superellipsoid",
     "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
 

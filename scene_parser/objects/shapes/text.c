@@ -74,13 +74,9 @@ static int ft_move(const FT_Vector *to, void *user)
 static int ft_line(const FT_Vector *to, void *user)
 {
     decompose *d = user;
-    double p[2], c[2];
+    double p[2];
     ft_point(d, to, p);
-    if (p[0] == d->last[0] && p[1] == d->last[1])
-        return 0;
-    c[0] = 0.5 * (d->last[0] + p[0]); /* a line is a flat quadratic */
-    c[1] = 0.5 * (d->last[1] + p[1]);
-    pov_outline_quad(d->o, d->last, c, p, TEXT_TOL);
+    pov_outline_line(d->o, d->last, p);
     memcpy(d->last, p, sizeof p);
     return d->o->oom;
 }
