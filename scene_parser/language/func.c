@@ -349,8 +349,13 @@ static int f_ternary(fn_ctx *c)
 
 bool sdl_parse_function(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc)
 {
-    memset(out, 0, sizeof *out);
     vbnl_sdl_next(p); /* function */
+    return sdl_parse_function_body(p, out, loc);
+}
+
+bool sdl_parse_function_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc)
+{
+    memset(out, 0, sizeof *out);
     vbnl_sdl_function *f = sdl_alloc(p, sizeof *f);
     if (!f)
         return false;

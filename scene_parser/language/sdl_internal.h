@@ -305,6 +305,8 @@ void sdl_spline_release(vbnl_sdl_parser *p, vbnl_sdl_spline *s);
 
 /* func.c */
 bool sdl_parse_function(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc);
+/* The same after the keyword: `(params) { body }` or `{ body }` (height_field's function W, H { }). */
+bool sdl_parse_function_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc);
 bool sdl_call_function(vbnl_sdl_parser *p, const vbnl_sdl_function *f, const vbnl_sdl_loc *loc,
                        vbnl_sdl_value *out);
 void sdl_function_release(vbnl_sdl_parser *p, vbnl_sdl_function *f);

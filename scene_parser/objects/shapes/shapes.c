@@ -35,11 +35,12 @@ static const pov_shape_row shapes[] = {
     {"lathe", pov_shape_lathe},
     {"sor", pov_shape_lathe},
     {"prism", pov_shape_prism},
+    {"height_field", pov_shape_height_field},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
 static const char *const unsupported[] = {
-    "height_field", "blob", "julia_fractal",
+    "blob", "julia_fractal",
     "superellipsoid",
     "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
 
