@@ -97,9 +97,10 @@ typedef struct dc {
     int n[3];            /* cells per axis */
     uint64_t evals;
     int failed;          /* 1 out of memory, 2 budget */
-    hmap vals;           /* lattice point -> index into fv */
+    hmap vals;           /* lattice point -> index into fv (large grids) */
     double *fv;
     size_t nfv, capfv;
+    double *dense;       /* small grids: every lattice point's value (NAN: not evaluated yet) */
     hmap cells;          /* cell -> vertex id (NONE: crossed, no vertex yet / not crossed) */
     int64_t *queue;      /* cells to grow from */
     size_t nq, capq;
@@ -129,6 +130,16 @@ static void lpos(const dc *d, int i, int j, int k, double p[3])
 /* f at a lattice point (cached). */
 static double lval(dc *d, int i, int j, int k)
 {
+    if (d->dense) {
+        double *slot = &d->dense[((size_t)k * (d->n[1] + 1) + (size_t)j) * (d->n[0] + 1) + (size_t)i];
+        if (isnan(*slot)) {
+            double p[3];
+            lpos(d, i, j, k, p);
+            double v = feval(d, p);
+            *slot = isfinite(v) ? v : 1e30; /* undefined: outside */
+        }
+        return *slot;
+    }
     int isnew;
     uint32_t *slot = hmap_at(&d->vals, lkey(i, j, k), &isnew);
     if (!slot) {
@@ -297,7 +308,7 @@ static void root(dc *d, const double a[3], double fa, const double b[3], double 
                 f0 *= 0.5;
             side = 1;
         }
-        if (fabs(v) == 0 || t1 - t0 < 1e-12)
+        if (fabs(v) == 0 || t1 - t0 < 1e-7)
             break;
     }
     for (int k = 0; k < 3; ++k)
@@ -399,7 +410,7 @@ static int project(dc *d, double p[3], double reach)
         if (!(gl > 0) || !isfinite(gl))
             return 0;
         double step = v / gl, sl = fabs(v) / sqrt(gl);
-        if (sl < 1e-3 * d->im->tol) {
+        if (sl < 1e-2 * d->im->tol) {
             memcpy(p, q, sizeof q);
             return 1;
         }
@@ -681,6 +692,10 @@ pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why)
         while (top < d.n[k])
             top *= 2;
     }
+    size_t lattice = (size_t)(d.n[0] + 1) * (d.n[1] + 1) * (d.n[2] + 1);
+    if (lattice <= ((size_t)1 << 22) && (d.dense = malloc(lattice * sizeof *d.dense)) != NULL)
+        for (size_t i = 0; i < lattice; ++i)
+            d.dense[i] = NAN;
     descend(&d, 0, 0, 0, top);
     grow(&d);
     quads(&d);
@@ -698,6 +713,7 @@ pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why)
     hmap_free(&d.cells);
     hmap_free(&d.edges);
     free(d.fv);
+    free(d.dense);
     free(d.queue);
     free(d.xs);
     pov_smesh_free(&sm);

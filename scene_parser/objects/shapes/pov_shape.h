@@ -60,6 +60,8 @@ vbnl_result pov_shape_parametric(const pov_shape *s);
 vbnl_result pov_shape_lathe(const pov_shape *s);    /* lathe and sor (lathe.c) */
 vbnl_result pov_shape_prism(const pov_shape *s);
 vbnl_result pov_shape_height_field(const pov_shape *s);
+vbnl_result pov_shape_blob(const pov_shape *s);
+vbnl_result pov_shape_superellipsoid(const pov_shape *s);
 
 /* triangle.c, for mesh { }: a triangle's values after its '{' and its normals made unit (a
  * flat triangle gets its face normal; a degenerate one +y). */

@@ -36,12 +36,13 @@ static const pov_shape_row shapes[] = {
     {"sor", pov_shape_lathe},
     {"prism", pov_shape_prism},
     {"height_field", pov_shape_height_field},
+    {"blob", pov_shape_blob},
+    {"superellipsoid", pov_shape_superellipsoid},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
 static const char *const unsupported[] = {
-    "blob", "julia_fractal",
-    "superellipsoid",
+    "julia_fractal",
     "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
 
 const pov_shape_row *pov_shape_find(const char *keyword)
