@@ -255,6 +255,16 @@ static int f_primary(fn_ctx *c)
             return -1;
         c->f->nodes[n].args = first;
         c->f->nodes[n].nargs = na;
+        /* a pattern or pigment function's component (`F(x, y, z).red`): evaluated as the
+         * function itself (0, with its warning) */
+        if (callee->block && vbnl_sdl_accept(p, '.')) {
+            const vbnl_sdl_token *cn = vbnl_sdl_next(p);
+            if (cn->kind != VBNL_SDL_TOK_IDENT) {
+                char b2[80];
+                sdl_errorf(p, &cn->loc, "expected a component name after '.', found %s", sdl_token_describe(cn, b2, sizeof b2));
+                return -1;
+            }
+        }
         return n;
     }
     sdl_errorf(p, &tok.loc, "'%s' is a %s; a function body can use floats and functions", tok.text,

@@ -1,4 +1,4 @@
-/* vbnl object layer: height_field { png "file.png" | function W, H { F }
+/* vbnl object layer: height_field { [png] "file.png" | function W, H { F }
  *                                   [smooth] [water_level w] [hierarchy b] modifiers }
  *
  * POV-Ray 3.7's height field (hfield.cpp) is itself made of triangles, so it is reproduced
@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "pov_surface.h"
 #include "sdl_internal.h"
@@ -342,22 +343,31 @@ vbnl_result pov_shape_height_field(const pov_shape *s)
         for (size_t i = 0; i < sizeof types / sizeof types[0]; ++i)
             if (pov_is_word(t, types[i]))
                 type = types[i];
-        if (!type) {
-            r = vbnl_sdl_error(p, &at, "height_field: expected an image type (png, ...) or 'function'");
-            goto done;
-        }
-        vbnl_sdl_next(p);
+        if (type)
+            vbnl_sdl_next(p);
         char *name = NULL, *path = NULL;
         vbnl_sdl_loc nloc = vbnl_sdl_peek(p)->loc;
         if (vbnl_sdl_parse_string(p, &name) != VBNL_OK) {
             r = VBNL_ERR_PARSE;
             goto done;
         }
+        if (!type) { /* no type: the file's extension gives it, as in POV-Ray */
+            const char *dot = strrchr(name, '.');
+            type = "";
+            for (size_t i = 0; dot && i < sizeof types / sizeof types[0]; ++i)
+                if (!strcasecmp(dot + 1, types[i]) || (!strcasecmp(dot + 1, "jpg") && !strcmp(types[i], "jpeg")) ||
+                    (!strcasecmp(dot + 1, "tif") && !strcmp(types[i], "tiff")))
+                    type = types[i];
+        }
         if (strcmp(type, "png") != 0) {
-            vbnl_sdl_warning(p, &at, "height_field: '%s' images are not read (convert '%s' to PNG); the object is skipped",
-                             type, name);
+            if (type[0])
+                vbnl_sdl_warning(p, &at, "height_field: '%s' images are not read (convert '%s' to PNG); the object is skipped",
+                                 type, name);
+            else
+                vbnl_sdl_warning(p, &at, "height_field: '%s' is not a PNG image (the type of an image named without its "
+                                 "type is its extension); the object is skipped", name);
             hs.skip = 1;
-        } else if (!(path = pov_shape_find_file(L, name, &nloc, "height_field: image"))) {
+        } else if (!(path = pov_shape_find_file(L, name, NULL, &nloc, "height_field: image"))) {
             r = VBNL_ERR_PARSE;
         } else {
             const char *why = NULL;

@@ -384,7 +384,7 @@ vbnl_result pov_shape_poly(const pov_shape *s)
     } else {
         double order = w[0] == 'c' ? 3 : w[0] == 'q' ? 4 : 0;
         if (order == 0) {
-            if (pov_float(L, &order) != VBNL_OK) {
+            if (pov_list_count(L, &order) != VBNL_OK) { /* `poly { 4 <...> }`: the '<' starts the list */
                 r = VBNL_ERR_PARSE;
                 goto done;
             }

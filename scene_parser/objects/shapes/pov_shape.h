@@ -62,6 +62,10 @@ vbnl_result pov_shape_prism(const pov_shape *s);
 vbnl_result pov_shape_height_field(const pov_shape *s);
 vbnl_result pov_shape_blob(const pov_shape *s);
 vbnl_result pov_shape_superellipsoid(const pov_shape *s);
+vbnl_result pov_shape_julia(const pov_shape *s);    /* julia_fractal (julia.c) */
+vbnl_result pov_shape_bicubic(const pov_shape *s);  /* bicubic_patch (bicubic.c) */
+vbnl_result pov_shape_ovus(const pov_shape *s);     /* ovus and lemon (ovus.c) */
+vbnl_result pov_shape_sphere_sweep(const pov_shape *s);
 
 /* triangle.c, for mesh { }: a triangle's values after its '{' and its normals made unit (a
  * flat triangle gets its face normal; a degenerate one +y). */

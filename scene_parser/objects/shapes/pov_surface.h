@@ -187,8 +187,9 @@ vbnl_result pov_shape_set_mesh(const pov_shape *s, pov_prim *pr, pov_smesh *m, i
 double pov_box_radius(const double lo[3], const double hi[3]);
 
 /* Finds a file a shape names (a font, a height field image): next to the file that names it,
- * then in the scene's include folders. Returns a malloc'd path, or NULL after reporting
+ * then in the scene's include folders; in each, the name as given, then with `ext` appended
+ * (NULL: none; POV-Ray's ".ttf" for fonts). Returns a malloc'd path, or NULL after reporting
  * "<what>: cannot find '<name>' (searched: <folders>)" at loc. */
-char *pov_shape_find_file(pov_loader *L, const char *name, const vbnl_sdl_loc *loc, const char *what);
+char *pov_shape_find_file(pov_loader *L, const char *name, const char *ext, const vbnl_sdl_loc *loc, const char *what);
 
 #endif

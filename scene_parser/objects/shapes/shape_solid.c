@@ -22,7 +22,8 @@ vbnl_result pov_shape_deferred(const pov_shape *s, const pov_block *block, pov_m
     vbnl_result r = pov_block_parse(block, L->c.parser, L, mods, s->keyword);
     if (r == VBNL_OK)
         r = make(s, mods, &s->o->v[idx]);
-    if (r == VBNL_OK && !s->o->v[idx].mesh && s->o->v[idx].kind == POV_PRIM_MESH && !(s->o->v[idx].mesh = pov_mesh_new()))
+    if (r == VBNL_OK && idx < s->o->n && !s->o->v[idx].mesh && s->o->v[idx].kind == POV_PRIM_MESH &&
+        !(s->o->v[idx].mesh = pov_mesh_new()))
         r = pov_oom(L);
     if (r == VBNL_OK)
         r = pov_mods_finish(mods);
@@ -63,7 +64,14 @@ static int is_file(const char *path)
     return stat(path, &st) == 0 && S_ISREG(st.st_mode);
 }
 
-char *pov_shape_find_file(pov_loader *L, const char *name, const vbnl_sdl_loc *loc, const char *what)
+static int is_file_in(const char *dir, const char *name)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    return is_file(path);
+}
+
+char *pov_shape_find_file(pov_loader *L, const char *name, const char *ext, const vbnl_sdl_loc *loc, const char *what)
 {
     vbnl_sdl_parser *p = L->c.parser;
     char here[1024] = ".", list[2048] = "", path[4096];
@@ -98,10 +106,10 @@ char *pov_shape_find_file(pov_loader *L, const char *name, const vbnl_sdl_loc *l
             dup |= strcmp(cand[i], cand[j]) == 0;
         if (dup)
             continue;
-        snprintf(path, sizeof path, "%s/%s", cand[i], name);
+        snprintf(path, sizeof path, "%s/%s%s", cand[i], name, ext && !is_file_in(cand[i], name) ? ext : "");
         /* the system include folder is the installation's: its links are followed (Debian links
          * POV-Ray's fonts there from /usr/share/fonts) */
-        int system = p->system_dir && cand[i] == p->system_dir;
+        int system = p->system_dir && strcmp(cand[i], p->system_dir) == 0;
         if (is_file(path) && (system || sdl_path_readable(p, path))) {
             char *r = strdup(path);
             if (!r)

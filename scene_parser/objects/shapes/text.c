@@ -377,7 +377,7 @@ vbnl_result pov_shape_text(const pov_shape *s)
     } else {
         return vbnl_sdl_error(p, &floc, "text: expected 'ttf' or 'internal'");
     }
-    ts.font = pov_shape_find_file(L, name, &floc, "text: font");
+    ts.font = pov_shape_find_file(L, name, ".ttf", &floc, "text: font");
     free(name);
     if (!ts.font)
         return VBNL_ERR_PARSE;
