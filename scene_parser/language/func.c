@@ -4,7 +4,9 @@
  * with the same operators and maths built-ins as SDL expressions. Declared floats are captured as
  * constants when the function is defined, declared functions are called (shared reference), so
  * the call graph is acyclic. Bodies that are patterns/pigments ("function { pigment { ... } }")
- * and POV-Ray's internal(N) functions are kept but evaluate to 0 with a warning. */
+ * are kept but evaluate to 0 with a warning; so do POV-Ray's internal(N) functions other than
+ * the geometric ones evaluated here (f_ellipsoid, f_ph, f_r, f_rounded_box, f_sphere,
+ * f_superellipsoid, f_th, f_torus: functions.inc's definitions). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,6 +34,7 @@ struct vbnl_sdl_function {
     int root;
     bool block;       /* pattern/pigment function: not evaluable here */
     bool internal;    /* POV-Ray internal(N) */
+    int internal_id;  /* its N */
     bool warned;
     vbnl_sdl_loc loc;
 };
@@ -63,6 +66,40 @@ void sdl_function_release(vbnl_sdl_parser *p, vbnl_sdl_function *f)
 int vbnl_sdl_function_arity(const vbnl_sdl_function *f)
 {
     return f ? f->arity : 0;
+}
+
+/* Appends n bytes at *at when they fit. */
+static int key_put(unsigned char *buf, size_t cap, size_t *at, const void *p, size_t n)
+{
+    if (*at + n > cap)
+        return 0;
+    memcpy(buf + *at, p, n);
+    *at += n;
+    return 1;
+}
+
+static int key_fn(const vbnl_sdl_function *f, unsigned char *buf, size_t cap, size_t *at, int depth)
+{
+    if (depth > 16 || f->block || !key_put(buf, cap, at, &f->arity, sizeof f->arity) ||
+        !key_put(buf, cap, at, &f->internal_id, sizeof f->internal_id) || !key_put(buf, cap, at, &f->internal, 1) ||
+        !key_put(buf, cap, at, &f->root, sizeof f->root) || !key_put(buf, cap, at, &f->nnodes, sizeof f->nnodes) ||
+        !key_put(buf, cap, at, f->argv, (size_t)f->nargv * sizeof *f->argv))
+        return 0;
+    for (int i = 0; i < f->nnodes; ++i) {
+        const fn_node *n = &f->nodes[i];
+        int ints[7] = {n->kind, n->op, n->a, n->b, n->c, n->args, n->nargs};
+        if (!key_put(buf, cap, at, ints, sizeof ints) || !key_put(buf, cap, at, &n->num, sizeof n->num))
+            return 0;
+        if (n->kind == FN_USER && !key_fn(n->callee, buf, cap, at, depth + 1))
+            return 0;
+    }
+    return 1;
+}
+
+size_t sdl_function_key(const vbnl_sdl_function *f, unsigned char *buf, size_t cap)
+{
+    size_t at = 0;
+    return f && key_fn(f, buf, cap, &at, 0) ? at : 0;
 }
 
 static int node(fn_ctx *c, int kind)
@@ -193,6 +230,7 @@ static int f_primary(fn_ctx *c)
             !sdl_expect_op(p, ')', "after internal() argument"))
             return -1;
         c->f->internal = true;
+        c->f->internal_id = (int)id;
         return node(c, FN_INTERNAL);
     }
     default: break;
@@ -452,8 +490,56 @@ typedef struct fn_eval {
 
 static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, int nargs);
 
+/* POV-Ray's internal functions (functions.inc) that are geometry, by their documented definitions;
+ * -1 for the others (noise and patterns belong to the texture part). args: x, y, z, then the
+ * function's own parameters. */
+static int internal_eval(int id, const double *a, int n, double *out)
+{
+    double x = a[0], y = n > 1 ? a[1] : 0, z = n > 2 ? a[2] : 0, p[4] = {0, 0, 0, 0};
+    for (int i = 0; i < 4 && 3 + i < n; ++i)
+        p[i] = a[3 + i];
+    switch (id) {
+    case 17: /* f_ellipsoid(x, y, z, sx, sy, sz) */
+        *out = sqrt(x * x * p[0] * p[0] + y * y * p[1] * p[1] + z * z * p[2] * p[2]);
+        return 0;
+    case 47: /* f_ph: the angle from +y */
+        *out = atan2(sqrt(x * x + z * z), y);
+        return 0;
+    case 57: /* f_r */
+        *out = sqrt(x * x + y * y + z * z);
+        return 0;
+    case 60: { /* f_rounded_box(x, y, z, radius, sx, sy, sz): the distance to the box shrunk by the
+                * radius, less the radius */
+        double d[3] = {fabs(x) - (p[1] - p[0]), fabs(y) - (p[2] - p[0]), fabs(z) - (p[3] - p[0])}, s2 = 0;
+        for (int k = 0; k < 3; ++k)
+            s2 += d[k] > 0 ? d[k] * d[k] : 0;
+        *out = sqrt(s2) - p[0] - 1e-6;
+        return 0;
+    }
+    case 61: /* f_sphere(x, y, z, radius) */
+        *out = sqrt(x * x + y * y + z * z) - p[0];
+        return 0;
+    case 68: /* f_superellipsoid(x, y, z, e, n): positive inside */
+        *out = 1 - pow(pow(pow(fabs(x), 2 / p[0]) + pow(fabs(y), 2 / p[0]), p[0] / p[1]) + pow(fabs(z), 2 / p[1]), p[1] / 2);
+        return 0;
+    case 69: /* f_th: the angle around y from +z towards +x */
+        *out = atan2(x, z);
+        return 0;
+    case 70: { /* f_torus(x, y, z, major, minor) */
+        double r = sqrt(x * x + z * z) - p[0];
+        *out = sqrt(r * r + y * y) - p[1];
+        return 0;
+    }
+    default:
+        return -1;
+    }
+}
+
 static double call_user(fn_eval *e, vbnl_sdl_function *g, const double *args, int nargs)
 {
+    double v;
+    if (g->internal && internal_eval(g->internal_id, args, nargs, &v) == 0)
+        return v;
     if (g->block || g->internal || g->root < 0) {
         if (!g->warned) {
             g->warned = true;

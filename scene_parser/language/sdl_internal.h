@@ -310,6 +310,10 @@ bool sdl_parse_function_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl
 bool sdl_call_function(vbnl_sdl_parser *p, const vbnl_sdl_function *f, const vbnl_sdl_loc *loc,
                        vbnl_sdl_value *out);
 void sdl_function_release(vbnl_sdl_parser *p, vbnl_sdl_function *f);
+/* The bytes that identify what a function computes (its expression, constants and callees'
+ * expressions), for sharing what the object layer makes from equal functions; 0 when they do not
+ * fit in cap or the function is a pattern (nothing is shared then). */
+size_t sdl_function_key(const vbnl_sdl_function *f, unsigned char *buf, size_t cap);
 void sdl_function_retain(vbnl_sdl_function *f);
 
 #endif

@@ -45,6 +45,7 @@ typedef struct pov_loader {
     size_t nwarned;
     uint32_t *sphere_groups; /* per material: group holding a unit sphere (ellipsoids), or 0 */
     uint32_t nsphere_groups;
+    struct pov_shape_cache *shape_cache; /* shapes made once and shared (shapes/shape_cache.c) */
 } pov_loader;
 
 /* ---- 3-vectors --------------------------------------------------------------------------------- */
@@ -158,6 +159,8 @@ vbnl_result pov_sky_sphere_parse(pov_loader *L, const vbnl_sdl_loc *loc);
 
 /* ---- building (build.c) ------------------------------------------------------------------------ */
 
+/* Frees the shapes kept for sharing (shapes/shape_cache.c); before the parser is destroyed. */
+void pov_shape_cache_free(pov_loader *L);
 /* Adds the world's primitives, the camera and the environment to the core scene. */
 vbnl_result pov_build(pov_loader *L, vbnl_error *err);
 

@@ -152,6 +152,8 @@ static const pov_row iso_rows[] = {
 };
 POV_SHAPE_BLOCK(iso_block, iso_rows);
 
+static vbnl_result iso_open_clip(const pov_shape *s, pov_mods *mods, pov_prim *pr, const iso_data *d);
+
 static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
 {
     iso_shape *is = (iso_shape *)mods;
@@ -166,6 +168,23 @@ static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
         return vbnl_sdl_error(L->c.parser, &s->loc, "isosurface: max_gradient must be positive, got %g",
                               is->max_gradient);
     d->with_container = !is->open;
+    /* an equal isosurface made before (a macro's): shared */
+    pov_key key = {0};
+    unsigned char fk[8192];
+    size_t fkn = sdl_function_key(d->fn, fk, sizeof fk);
+    pov_key_add(&key, "iso", 4);
+    pov_key_add(&key, fk, fkn);
+    pov_key_add(&key, &d->t, sizeof d->t);
+    pov_key_add(&key, &d->sphere, sizeof d->sphere);
+    pov_key_add(&key, lo, sizeof lo);
+    pov_key_add(&key, hi, sizeof hi);
+    pov_key_add(&key, &is->max_gradient, sizeof is->max_gradient);
+    pov_key_add(&key, &is->open, sizeof is->open);
+    int cacheable = fkn > 0 && !key.failed;
+    if (cacheable && pov_shape_cache_get(L, key.b, key.n, &pr->mesh, &pr->solid)) {
+        pov_key_free(&key);
+        return iso_open_clip(s, mods, pr, d);
+    }
     pov_implicit im;
     memset(&im, 0, sizeof im);
     im.f = iso_field;
@@ -182,31 +201,44 @@ static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     pov_mesh *m = pov_implicit_mesh(&im, &why);
     if (vbnl_sdl_failed(L->c.parser)) { /* the function failed (too deep, ...) */
         pov_mesh_unref(m);
+        pov_key_free(&key);
         return VBNL_ERR_PARSE;
     }
-    if (!m)
+    if (!m) {
+        pov_key_free(&key);
         return strcmp(why, "out of memory") ? vbnl_sdl_error(L->c.parser, &s->loc, "isosurface: %s", why)
                                             : pov_oom(L);
+    }
     pr->mesh = m;
+    is->d = NULL;
     if (!(pr->solid = pov_solid_custom(&iso_fn, d, lo, hi))) {
-        is->d = NULL;
+        pov_key_free(&key);
         return pov_oom(L);
     }
-    is->d = NULL;
-    if (is->open) { /* cut at the container: a clipped_by shape in the shape's space */
-        pov_prim *c = pov_obj_add(&mods->clip, d->sphere ? POV_PRIM_SPHERE : POV_PRIM_MESH, s->loc);
-        if (!c)
-            return pov_oom(L);
-        memcpy(c->m, s->o->v[s->o->n - 1].m, sizeof c->m);
-        if (d->sphere) {
-            memcpy(c->a, d->c, sizeof d->c);
-            c->a[3] = d->r;
-        } else if (!(c->mesh = pov_tess_box(d->lo, d->hi)) || !(c->solid = pov_solid_box(d->lo, d->hi))) {
-            return pov_oom(L);
-        }
-        if (!mods->clip_loc.file)
-            mods->clip_loc = s->loc;
+    if (cacheable)
+        pov_shape_cache_put(L, key.b, key.n, pr->mesh, pr->solid);
+    pov_key_free(&key);
+    return iso_open_clip(s, mods, pr, d);
+}
+
+/* With `open`: cut at the container, a clipped_by shape in the shape's space. */
+static vbnl_result iso_open_clip(const pov_shape *s, pov_mods *mods, pov_prim *pr, const iso_data *d)
+{
+    pov_loader *L = s->L;
+    if (!((iso_shape *)mods)->open)
+        return VBNL_OK;
+    pov_prim *c = pov_obj_add(&mods->clip, d->sphere ? POV_PRIM_SPHERE : POV_PRIM_MESH, s->loc);
+    if (!c)
+        return pov_oom(L);
+    memcpy(c->m, pr->m, sizeof c->m);
+    if (d->sphere) {
+        memcpy(c->a, d->c, sizeof d->c);
+        c->a[3] = d->r;
+    } else if (!(c->mesh = pov_tess_box(d->lo, d->hi)) || !(c->solid = pov_solid_box(d->lo, d->hi))) {
+        return pov_oom(L);
     }
+    if (!mods->clip_loc.file)
+        mods->clip_loc = s->loc;
     return VBNL_OK;
 }
 

@@ -192,4 +192,24 @@ double pov_box_radius(const double lo[3], const double hi[3]);
  * "<what>: cannot find '<name>' (searched: <folders>)" at loc. */
 char *pov_shape_find_file(pov_loader *L, const char *name, const char *ext, const vbnl_sdl_loc *loc, const char *what);
 
+/* ---- sharing (shape_cache.c) ----------------------------------------------------------------- */
+
+typedef struct pov_shape_cache pov_shape_cache;
+/* The mesh and solid made before for the same key bytes (references taken): 1, else 0. */
+int pov_shape_cache_get(pov_loader *L, const void *key, size_t len, pov_mesh **mesh, pov_solid **solid);
+/* Keeps a mesh and solid (references taken) for the key; out of memory just shares nothing. */
+void pov_shape_cache_put(pov_loader *L, const void *key, size_t len, pov_mesh *mesh, pov_solid *solid);
+/* The same for a CSG's pieces: appends copies (meshes and solids shared) to out; *oom on failure. */
+int pov_shape_cache_get_obj(pov_loader *L, const void *key, size_t len, pov_obj *out, int *oom);
+void pov_shape_cache_put_obj(pov_loader *L, const void *key, size_t len, const pov_obj *o);
+
+/* A key being built (bytes appended; `failed` when memory ran out: nothing is cached). */
+typedef struct pov_key {
+    unsigned char *b;
+    size_t n, cap;
+    int failed;
+} pov_key;
+void pov_key_add(pov_key *k, const void *p, size_t n);
+void pov_key_free(pov_key *k);
+
 #endif

@@ -306,13 +306,25 @@ static vbnl_result text_make(const pov_shape *s, pov_mods *mods, pov_prim *first
                 goto done;
             }
             cache = nc;
-            const char *why = NULL;
             cache[ci].gi = gi;
-            cache[ci].mesh = glyph_mesh(face, sc, ts->depth, &cache[ci].solid, &why);
-            if (!cache[ci].mesh) {
-                r = strcmp(why, "out of memory") ? vbnl_sdl_error(p, &s->loc, "text: %s", why) : pov_oom(L);
-                goto done;
+            /* the glyph of this font and depth made before (by any text): shared */
+            pov_key key = {0};
+            pov_key_add(&key, "glyph", 6);
+            pov_key_add(&key, ts->font, strlen(ts->font) + 1);
+            pov_key_add(&key, &gi, sizeof gi);
+            pov_key_add(&key, &ts->depth, sizeof ts->depth);
+            if (key.failed || !pov_shape_cache_get(L, key.b, key.n, &cache[ci].mesh, &cache[ci].solid)) {
+                const char *why = NULL;
+                cache[ci].mesh = glyph_mesh(face, sc, ts->depth, &cache[ci].solid, &why);
+                if (!cache[ci].mesh) {
+                    pov_key_free(&key);
+                    r = strcmp(why, "out of memory") ? vbnl_sdl_error(p, &s->loc, "text: %s", why) : pov_oom(L);
+                    goto done;
+                }
+                if (!key.failed)
+                    pov_shape_cache_put(L, key.b, key.n, cache[ci].mesh, cache[ci].solid);
             }
+            pov_key_free(&key);
             ncache++;
         }
         /* the glyph's primitive: the first one reuses the primitive added for the shape */
