@@ -234,12 +234,13 @@ vbnl_result pov_build(pov_loader *L, vbnl_error *err)
             break;
         case POV_PRIM_SURFACE: {
             /* an unbounded shape nothing bounds: made within the scene's bounds (the geometry and
-             * the camera), half as large again on every side */
+             * the camera), half as large again on every side and at least 50 units from the
+             * centre (the shape finds where it is within them) */
             double blo[3], bhi[3], cp2[3] = {cd.position[0], cd.position[1], cd.position[2]};
             for (int k = 0; k < 3; ++k) {
                 blo[k] = L->have_geo ? fmin(glo[k], cp2[k]) : cp2[k];
                 bhi[k] = L->have_geo ? fmax(ghi[k], cp2[k]) : cp2[k];
-                double c = 0.5 * (blo[k] + bhi[k]), h = fmax(1.0, 0.75 * (bhi[k] - blo[k]));
+                double c = 0.5 * (blo[k] + bhi[k]), h = fmax(50.0, 0.75 * (bhi[k] - blo[k]));
                 blo[k] = c - h;
                 bhi[k] = c + h;
             }

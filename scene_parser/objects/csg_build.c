@@ -876,6 +876,8 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
     feature_list f = {0};
     pov_solid *node = solid_new(SOLID_CSG);
     size_t first_piece = out->n, total = 0;
+    pov_mesh **surfaces = NULL; /* the unbounded operands' surfaces, in operand order */
+    size_t nsurfaces = 0, capsurfaces = 0;
     f.unbounded = calloc(nops ? nops : 1, 1);
     if (!t || !node || !f.unbounded)
         goto fail;
@@ -915,6 +917,41 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
         rlo[k] -= pad;
         rhi[k] += pad;
     }
+    /* their surfaces first (of the operands that show one): their bounds are features too, so that
+     * the others' large triangles are split where the unbounded shape's boundary crosses them */
+    int empty_region = !(rlo[0] < rhi[0] && rlo[1] < rhi[1] && rlo[2] < rhi[2]);
+    for (size_t i = 0; i < nops && !empty_region; ++i)
+        for (size_t k = 0; k < ops[i].n; ++k) {
+            const pov_prim *pr = &ops[i].v[k];
+            if (pr->kind != POV_PRIM_SURFACE)
+                continue;
+            if (nsurfaces == capsurfaces) {
+                size_t cap = capsurfaces ? 2 * capsurfaces : 4;
+                pov_mesh **n = realloc(surfaces, cap * sizeof *n);
+                if (!n)
+                    goto fail;
+                surfaces = n;
+                capsurfaces = cap;
+            }
+            const char *why = NULL;
+            pov_mesh *m = pov_solid_surface(pr->solid, pr->m, rlo, rhi, &why);
+            if (!m) {
+                *error = why ? why : "out of memory";
+                goto cleanup;
+            }
+            surfaces[nsurfaces++] = m;
+            double ml[3] = {INFINITY, INFINITY, INFINITY}, mh[3] = {-INFINITY, -INFINITY, -INFINITY};
+            for (uint32_t v = 0; v < m->nv; ++v)
+                for (int j = 0; j < 3; ++j) {
+                    ml[j] = fmin(ml[j], m->pos[3 * v + j]);
+                    mh[j] = fmax(mh[j], m->pos[3 * v + j]);
+                }
+            if (m->nv)
+                feature_add(&f, pr->m, ml, mh, i);
+            if (f.oom)
+                goto fail;
+        }
+    size_t next_surface = 0;
 
     clipper c = {op, 0, nops, t, &f, 0, 0, 0, -1, NULL, &total, 0};
     for (size_t i = 0; i < nsurf && i < nops && !c.failed; ++i) {
@@ -935,14 +972,10 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
                 mesh = pr->mesh;
                 mesh->refs++;
             } else if (pr->kind == POV_PRIM_SURFACE) {
-                const char *why = NULL;
-                if (!(rlo[0] < rhi[0] && rlo[1] < rhi[1] && rlo[2] < rhi[2]))
-                    continue; /* an empty region */
-                mesh = pov_solid_surface(pr->solid, pr->m, rlo, rhi, &why);
-                if (!mesh && why) {
-                    *error = why;
-                    goto cleanup;
-                }
+                if (empty_region)
+                    continue;
+                mesh = surfaces[next_surface++];
+                mesh->refs++;
             } else if (pr->kind == POV_PRIM_SPHERE) {
                 mesh = pov_tess_sphere(pr->a, pr->a[3]);
             } else if (pr->kind == POV_PRIM_PLANE) {
@@ -992,6 +1025,9 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
     pov_solid_unref(node);
     free(f.v);
     free(f.unbounded);
+    for (size_t i = 0; i < nsurfaces; ++i)
+        pov_mesh_unref(surfaces[i]);
+    free(surfaces);
     return 1;
 fail:
     *error = "out of memory";
@@ -1010,5 +1046,8 @@ cleanup:
     pov_solid_unref(node);
     free(f.v);
     free(f.unbounded);
+    for (size_t i = 0; i < nsurfaces; ++i)
+        pov_mesh_unref(surfaces[i]);
+    free(surfaces);
     return 0;
 }

@@ -660,10 +660,29 @@ int pov_implicit_bounds(const pov_implicit *im, int depth, double lo[3], double 
         memcpy(hi, im->hi, 3 * sizeof *hi);
         return 1;
     }
-    bounds_descend(&w, im->lo, im->hi, depth);
-    memcpy(lo, w.lo, sizeof w.lo);
-    memcpy(hi, w.hi, sizeof w.hi);
-    return w.found;
+    double l[3], h[3];
+    memcpy(l, im->lo, sizeof l);
+    memcpy(h, im->hi, sizeof h);
+    /* again within the box found, until it stops shrinking: a small surface in a large region
+     * gets bounds of its own size */
+    for (int pass = 0; pass < 6; ++pass) {
+        w.found = 0;
+        bounds_descend(&w, l, h, depth);
+        if (!w.found)
+            return 0;
+        double before = 0, after = 0;
+        for (int k = 0; k < 3; ++k) {
+            before = fmax(before, h[k] - l[k]);
+            after = fmax(after, w.hi[k] - w.lo[k]);
+        }
+        memcpy(l, w.lo, sizeof l);
+        memcpy(h, w.hi, sizeof h);
+        if (after > 0.7 * before)
+            break;
+    }
+    memcpy(lo, l, sizeof l);
+    memcpy(hi, h, sizeof h);
+    return 1;
 }
 
 pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why)
@@ -701,7 +720,7 @@ pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why)
     quads(&d);
     int built = !d.failed && !sm.oom;
     if (built)
-        pov_smesh_refine(&sm, 0, implicit_mid, &d, im->tol, 8);
+        pov_smesh_refine(&sm, 0, implicit_mid, &d, im->tol, im->refine_depth > 0 ? im->refine_depth : 8);
     pov_mesh *out = NULL;
     if (built && d.failed == 2) /* over the budget while refining: the surface as refined so far */
         d.failed = 0;

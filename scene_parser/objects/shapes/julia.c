@@ -11,7 +11,7 @@
  * The surface is made by dual contouring (implicit.c) of the field
  *     max over k < max_iteration of 2^-k log(|q_k|^2 / bailout),
  * negative exactly where POV-Ray's point is inside (each term is continuous, so their maximum
- * is), on a 128^3 grid over the bounding sphere's box, refined to POV_TESS_TOL of it. `precision`
+ * is), on a 64^3 grid over the bounding sphere's box, refined to POV_TESS_TOL of it. `precision`
  * sets POV-Ray's ray-marching step and changes nothing here. */
 #include <complex.h>
 #include <stdlib.h>
@@ -231,6 +231,7 @@ static vbnl_result julia_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     }
     double r = pov_box_radius(im.lo, im.hi);
     im.depth = 7;
+    im.refine_depth = 1;
     im.tol = POV_TESS_TOL * r;
     im.grad_step = 1e-6 * r;
     im.max_evals = 60000000;

@@ -321,30 +321,149 @@ done:
 
 /* ---- walls ------------------------------------------------------------------------------------- */
 
-void pov_outline_walls(const pov_outline *o, pov_smesh *m, pov_sweep_fn sweep, void *user)
+/* The outline's distinct x values, sorted (the fill's slab boundaries); NULL when out of memory. */
+static double *slab_xs(const pov_outline *o, uint32_t *n)
 {
-    for (uint32_t c = 0; c < o->ncont && !m->oom; ++c) {
+    double *xs = malloc(sizeof *xs * (o->n + 1));
+    if (!xs)
+        return NULL;
+    for (uint32_t i = 0; i < o->n; ++i)
+        xs[i] = o->xy[2 * i];
+    qsort(xs, o->n, sizeof *xs, cmp_double);
+    uint32_t nu = 0;
+    for (uint32_t i = 0; i < o->n; ++i)
+        if (nu == 0 || xs[i] != xs[nu - 1])
+            xs[nu++] = xs[i];
+    *n = nu;
+    return xs;
+}
+
+/* One wall vertex: the outline point (x, y) with the normal nrm, at the sweep's start or end. */
+static uint32_t wall_vert(pov_smesh *m, pov_sweep_fn sweep, void *user, double x, double y, const double nrm[2], int h)
+{
+    pov_svert v;
+    memset(&v, 0, sizeof v);
+    double xy[2] = {x, y};
+    sweep(user, xy, nrm, h, v.p, v.n);
+    v.uv[0] = x;
+    v.uv[1] = h;
+    return pov_smesh_vert(m, &v);
+}
+
+static int cmp_up(const void *a, const void *b) { return cmp_double(a, b); }
+
+/* The wall of a vertical outline edge a-b: the caps' trapezoids have corners on its line at the
+ * heights of every other edge that spans it, so the wall is cut there too. */
+static void vertical_wall(const pov_outline *o, pov_smesh *m, pov_sweep_fn sweep, void *user, const double a[2],
+                          const double b[2], const double na[2], const double nb[2])
+{
+    double x = a[0], ylo = fmin(a[1], b[1]), yhi = fmax(a[1], b[1]);
+    uint32_t n = 0, cap = 16;
+    double *ys = malloc(sizeof *ys * cap);
+    for (uint32_t c = 0; c < o->ncont && ys; ++c) {
         uint32_t s = o->start[c], e = contour_end(o, c);
-        uint32_t first = m->nv;
-        for (uint32_t i = s; i < e; ++i)
-            for (int h = 0; h < 2; ++h) {
-                pov_svert v;
-                memset(&v, 0, sizeof v);
-                sweep(user, o->xy + 2 * i, o->nrm + 2 * i, h, v.p, v.n);
-                v.uv[0] = o->xy[2 * i];
-                v.uv[1] = h;
-                pov_smesh_vert(m, &v);
-            }
-        if (m->oom)
-            return;
-        for (uint32_t i = s; i < e; ++i) {
+        for (uint32_t i = s; i < e && ys; ++i) {
             uint32_t j = i + 1 < e ? i + 1 : s;
-            const double *a = o->xy + 2 * i, *b = o->xy + 2 * j;
-            if (a[0] == b[0] && a[1] == b[1])
+            const double *p = o->xy + 2 * i, *q = o->xy + 2 * j;
+            if (p[0] == q[0])
                 continue;
-            uint32_t i0 = first + 2 * (i - s), j0 = first + 2 * (j - s);
-            pov_smesh_tri_facing(m, i0, j0, j0 + 1);
-            pov_smesh_tri_facing(m, i0, j0 + 1, i0 + 1);
+            fedge fe = {fmin(p[0], q[0]), p[0] < q[0] ? p[1] : q[1], fmax(p[0], q[0]), p[0] < q[0] ? q[1] : p[1]};
+            if (!(fe.x0 <= x && x <= fe.x1))
+                continue;
+            double y = edge_y(&fe, x);
+            if (!(y > ylo && y < yhi))
+                continue;
+            if (n == cap) {
+                double *g = realloc(ys, sizeof *ys * (cap *= 2));
+                if (!g) {
+                    free(ys);
+                    ys = NULL;
+                    break;
+                }
+                ys = g;
+            }
+            ys[n++] = y;
         }
     }
+    if (!ys) {
+        m->oom = 1;
+        return;
+    }
+    qsort(ys, n, sizeof *ys, cmp_up);
+    uint32_t p0 = wall_vert(m, sweep, user, a[0], a[1], na, 0), p1 = wall_vert(m, sweep, user, a[0], a[1], na, 1);
+    for (uint32_t q = 0; q <= n && !m->oom; ++q) {
+        double y = q == n ? b[1] : a[1] < b[1] ? ys[q] : ys[n - 1 - q];
+        if (q < n && q > 0 && y == (a[1] < b[1] ? ys[q - 1] : ys[n - q]))
+            continue; /* the same height twice */
+        const double *nrm = q == n ? nb : na;
+        uint32_t c0 = wall_vert(m, sweep, user, x, y, nrm, 0), c1 = wall_vert(m, sweep, user, x, y, nrm, 1);
+        pov_smesh_tri_facing(m, p0, c0, c1);
+        pov_smesh_tri_facing(m, p0, c1, p1);
+        p0 = c0;
+        p1 = c1;
+    }
+    free(ys);
+}
+
+void pov_outline_walls(const pov_outline *o, pov_smesh *m, pov_sweep_fn sweep, void *user)
+{
+    /* each edge is cut where the caps' slabs cut it (at the same points, computed the same way),
+     * so that the walls and the caps share their vertices: no T-junction along the rims */
+    uint32_t nx;
+    double *xs = slab_xs(o, &nx);
+    if (!xs) {
+        m->oom = 1;
+        return;
+    }
+    for (uint32_t c = 0; c < o->ncont && !m->oom; ++c) {
+        uint32_t s = o->start[c], e = contour_end(o, c);
+        for (uint32_t i = s; i < e && !m->oom; ++i) {
+            uint32_t j = i + 1 < e ? i + 1 : s;
+            const double *a = o->xy + 2 * i, *b = o->xy + 2 * j, *na = o->nrm + 2 * i, *nb = o->nrm + 2 * j;
+            if (a[0] == b[0] && a[1] == b[1])
+                continue;
+            /* the points along the edge: its ends and the slab boundaries strictly between */
+            fedge fe = {fmin(a[0], b[0]), a[0] < b[0] ? a[1] : b[1], fmax(a[0], b[0]), a[0] < b[0] ? b[1] : a[1]};
+            uint32_t lo = 0, hi = nx;
+            while (lo < hi) { /* the first slab boundary above the edge's smaller x */
+                uint32_t mid = (lo + hi) / 2;
+                if (xs[mid] <= fe.x0)
+                    lo = mid + 1;
+                else
+                    hi = mid;
+            }
+            uint32_t k0 = lo, k1 = k0;
+            while (k1 < nx && xs[k1] < fe.x1)
+                k1++;
+            if (a[0] == b[0]) { /* vertical: cut where the other edges cross its slab line */
+                vertical_wall(o, m, sweep, user, a, b, na, nb);
+                continue;
+            }
+            uint32_t npts = 2 + (k1 - k0);
+            uint32_t prev0 = wall_vert(m, sweep, user, a[0], a[1], na, 0), prev1 = wall_vert(m, sweep, user, a[0], a[1], na, 1);
+            for (uint32_t q = 1; q < npts && !m->oom; ++q) {
+                double x, y, nrm[2];
+                if (q + 1 == npts) {
+                    x = b[0], y = b[1];
+                    nrm[0] = nb[0], nrm[1] = nb[1];
+                } else { /* in the edge's direction from a: the slabs in order */
+                    uint32_t k = a[0] < b[0] ? k0 + q - 1 : k1 - q;
+                    x = xs[k];
+                    y = edge_y(&fe, x);
+                    double t = (x - a[0]) / (b[0] - a[0]), l;
+                    nrm[0] = na[0] + t * (nb[0] - na[0]);
+                    nrm[1] = na[1] + t * (nb[1] - na[1]);
+                    l = hypot(nrm[0], nrm[1]);
+                    if (l > 0)
+                        nrm[0] /= l, nrm[1] /= l;
+                }
+                uint32_t cur0 = wall_vert(m, sweep, user, x, y, nrm, 0), cur1 = wall_vert(m, sweep, user, x, y, nrm, 1);
+                pov_smesh_tri_facing(m, prev0, cur0, cur1);
+                pov_smesh_tri_facing(m, prev0, cur1, prev1);
+                prev0 = cur0;
+                prev1 = cur1;
+            }
+        }
+    }
+    free(xs);
 }

@@ -88,6 +88,7 @@ typedef struct pov_implicit {
     double tol;          /* chord error of the refinement (absolute) */
     double grad_step;    /* central differences of the gradient (absolute) */
     uint64_t max_evals;  /* evaluation budget (0: none); exceeding it fails with *why set */
+    int refine_depth;    /* edge halvings allowed in refinement (0: 8) */
 } pov_implicit;
 
 /* The surface f = 0 inside the region: dual contouring on a sparse grid (one vertex per cell

@@ -118,22 +118,43 @@ static double dist2(const double a[3], const double b[3])
 
 void pov_smesh_grid(pov_smesh *m, pov_param_fn eval, void *user, const double lo[2], const double hi[2], int n0, int n1)
 {
-    uint32_t base = m->nv;
-    for (int j = 0; j <= n1; ++j)
-        for (int i = 0; i <= n0; ++i) {
-            pov_svert v;
-            memset(&v, 0, sizeof v);
-            v.s[0] = i == n0 ? hi[0] : lo[0] + (hi[0] - lo[0]) * i / n0;
-            v.s[1] = j == n1 ? hi[1] : lo[1] + (hi[1] - lo[1]) * j / n1;
-            eval(user, &v);
-            pov_smesh_vert(m, &v);
-        }
-    if (m->oom)
-        return;
     const uint32_t w = (uint32_t)n0 + 1;
+    uint32_t *ids = malloc(sizeof *ids * w * (size_t)(n1 + 1));
+    if (!ids) {
+        m->oom = 1;
+        return;
+    }
+    for (int j = 0; j <= n1; ++j) {
+        pov_svert row[w];
+        int pole = 1;
+        for (int i = 0; i <= n0; ++i) {
+            pov_svert *v = &row[i];
+            memset(v, 0, sizeof *v);
+            v->s[0] = i == n0 ? hi[0] : lo[0] + (hi[0] - lo[0]) * i / n0;
+            v->s[1] = j == n1 ? hi[1] : lo[1] + (hi[1] - lo[1]) * j / n1;
+            eval(user, v);
+            pole &= dist2(v->p, row[0].p) == 0;
+        }
+        /* a row that is one point (a pole) is one vertex, without a first parameter: the edges
+         * to it are then shared by their two triangles, and their midpoints take the other end's */
+        if (pole && n0 > 0) {
+            row[0].s[0] = NAN;
+            uint32_t id = pov_smesh_vert(m, &row[0]);
+            for (int i = 0; i <= n0; ++i)
+                ids[(size_t)j * w + (size_t)i] = id;
+        } else {
+            for (int i = 0; i <= n0; ++i)
+                ids[(size_t)j * w + (size_t)i] = pov_smesh_vert(m, &row[i]);
+        }
+    }
+    if (m->oom) {
+        free(ids);
+        return;
+    }
     for (int j = 0; j < n1; ++j)
         for (int i = 0; i < n0; ++i) {
-            uint32_t a = base + (uint32_t)j * w + (uint32_t)i, b = a + 1, c = a + w + 1, d = a + w;
+            const uint32_t *r0 = ids + (size_t)j * w + (size_t)i, *r1 = r0 + w;
+            uint32_t a = r0[0], b = r0[1], c = r1[1], d = r1[0];
             /* the shorter diagonal; a pole (two corners at one point) loses its empty triangle */
             const double *pa = m->v[a].p, *pb = m->v[b].p, *pc = m->v[c].p, *pd = m->v[d].p;
             int ab = dist2(pa, pb) == 0, cd = dist2(pc, pd) == 0;
@@ -147,13 +168,16 @@ void pov_smesh_grid(pov_smesh *m, pov_param_fn eval, void *user, const double lo
                 pov_smesh_tri(m, b, c, d);
             }
         }
+    free(ids);
 }
 
 int pov_param_mid(void *user, const pov_svert *a, const pov_svert *b, pov_svert *out)
 {
     const pov_param *pp = user;
     memset(out, 0, sizeof *out);
-    out->s[0] = 0.5 * (a->s[0] + b->s[0]);
+    if (isnan(a->s[0]) && isnan(b->s[0]))
+        return 0; /* both at one pole */
+    out->s[0] = isnan(a->s[0]) ? b->s[0] : isnan(b->s[0]) ? a->s[0] : 0.5 * (a->s[0] + b->s[0]);
     out->s[1] = 0.5 * (a->s[1] + b->s[1]);
     pp->eval(pp->user, out);
     return 1;
