@@ -82,7 +82,80 @@ static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *
     return r;
 }
 
+/* A mesh several primitives share (a declared object placed many times, a shape made once and
+ * shared): added once, in a group of its own per material, and placed as instances. */
+typedef struct mesh_group {
+    const pov_mesh *mesh;
+    uint32_t material, group;
+} mesh_group;
+
+typedef struct mesh_groups {
+    mesh_group *v;
+    size_t n, cap;
+} mesh_groups;
+
+static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err);
+
+static vbnl_result emit_instance(pov_loader *L, const pov_prim *pr, mesh_groups *mg, int *done, vbnl_error *err)
+{
+    const pov_mesh *m = pr->mesh;
+    const double *q = pr->m;
+    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
+                 q[2] * (q[4] * q[9] - q[5] * q[8]);
+    *done = 0;
+    if (m->refs < 2 || m->ftex || m->nt == 0 || !(fabs(det) > 1e-12) || pov_appearance_is_emissive(pr->app))
+        return VBNL_OK; /* emitters must be world geometry */
+    static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    uint32_t mat;
+    vbnl_result r = pov_appearance_material(&L->c, pr->app, ident, &mat, err);
+    if (r != VBNL_OK)
+        return r;
+    size_t i = 0;
+    while (i < mg->n && !(mg->v[i].mesh == m && mg->v[i].material == mat))
+        ++i;
+    if (i == mg->n) {
+        if (mg->n == mg->cap) {
+            size_t cap = mg->cap ? 2 * mg->cap : 16;
+            mesh_group *n = realloc(mg->v, cap * sizeof *n);
+            if (!n)
+                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+            mg->v = n;
+            mg->cap = cap;
+        }
+        mesh_group *g = &mg->v[mg->n];
+        g->mesh = m;
+        g->material = mat;
+        if ((r = vbnl_scene_add_group(L->c.scene, &g->group, err)) != VBNL_OK)
+            return r;
+        vbnl_mesh_desc d;
+        memset(&d, 0, sizeof d);
+        d.positions = m->pos;
+        d.normals = m->nrm;
+        d.uvs = m->uv;
+        d.vertex_count = m->nv;
+        d.indices = m->idx;
+        d.triangle_count = m->nt;
+        d.material = mat;
+        d.group = g->group;
+        if ((r = vbnl_scene_add_mesh(L->c.scene, &d, NULL, err)) != VBNL_OK)
+            return r;
+        mg->n++;
+    }
+    float xf[16];
+    m4f(pr->m, xf);
+    *done = 1;
+    return vbnl_scene_add_instance(L->c.scene, mg->v[i].group, xf, NULL, err);
+}
+
 vbnl_result pov_build(pov_loader *L, vbnl_error *err)
+{
+    mesh_groups mg = {NULL, 0, 0};
+    vbnl_result res = build_all(L, &mg, err);
+    free(mg.v);
+    return res;
+}
+
+static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
 {
     vbnl_result r = VBNL_OK;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -224,9 +297,12 @@ vbnl_result pov_build(pov_loader *L, vbnl_error *err)
             pov_mesh_unref(m);
             break;
         }
-        case POV_PRIM_MESH:
-            r = emit_mesh(L, pr, pr->mesh, err);
+        case POV_PRIM_MESH: {
+            int done;
+            if ((r = emit_instance(L, pr, mg, &done, err)) == VBNL_OK && !done)
+                r = emit_mesh(L, pr, pr->mesh, err);
             break;
+        }
         case POV_PRIM_LIGHT:
             r = pov_light_emit(L, pr, err);
             break;

@@ -22,6 +22,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "vbnl/pov_scene.h"
@@ -100,12 +101,17 @@ static void on_diag(const vbnl_sdl_diag *d, void *user)
     if (d->severity != VBNL_SDL_WARNING)
         return;
     c->warnings++;
+    /* a shape left out: "'lathe' is not supported; the object is skipped" or
+     * "height_field: 'pot' images are not read ...; the object is skipped" */
     const char *tail = strstr(d->message, "' is not supported; the object is skipped");
-    if (d->message[0] == '\'' && tail && tail - d->message < 64) {
-        char shape[64];
+    const char *colon = strchr(d->message, ':');
+    char shape[64] = "";
+    if (d->message[0] == '\'' && tail && tail - d->message < 64)
         snprintf(shape, sizeof shape, "%.*s", (int)(tail - d->message - 1), d->message + 1);
+    else if (strstr(d->message, "the object is skipped") && colon && colon - d->message < 32)
+        snprintf(shape, sizeof shape, "%.*s", (int)(colon - d->message), d->message);
+    if (shape[0])
         list_add(c->skipped, sizeof c->skipped, shape);
-    }
     if (!strstr(d->message, "not supported") && !strstr(d->message, "ignored") && !strstr(d->message, "skipped"))
         return;
     char key[200];
@@ -224,6 +230,8 @@ int main(int argc, char **argv)
         int fds[2];
         if (pipe(fds) != 0)
             return 1;
+        struct timespec ts0, ts1;
+        clock_gettime(CLOCK_MONOTONIC, &ts0);
         pid_t pid = fork();
         if (pid == 0) {
             close(fds[0]);
@@ -241,6 +249,8 @@ int main(int argc, char **argv)
         close(fds[0]);
         int st = 0;
         waitpid(pid, &st, 0);
+        clock_gettime(CLOCK_MONOTONIC, &ts1);
+        e->seconds = (double)(ts1.tv_sec - ts0.tv_sec) + 1e-9 * (double)(ts1.tv_nsec - ts0.tv_nsec);
         if (WIFSIGNALED(st) && WTERMSIG(st) == SIGALRM) {
             snprintf(e->status, sizeof e->status, "timeout");
             snprintf(e->message, sizeof e->message, "time limit of %d s exceeded", timeout);
@@ -270,7 +280,7 @@ int main(int argc, char **argv)
             else errors++;
         }
         if (verbose)
-            printf("%-9s %3d  %s  %s%s%s%s\n", e->status, e->warnings, e->path, e->skipped[0] ? "[skipped: " : "",
+            printf("%-9s %3d %6.2fs  %s  %s%s%s%s\n", e->status, e->warnings, e->seconds, e->path, e->skipped[0] ? "[skipped: " : "",
                    e->skipped[0] ? e->skipped : "", e->skipped[0] ? "] " : "", e->message);
     }
     size_t n = nentries;

@@ -22,6 +22,8 @@ enum { COMP_SPHERE = 0, COMP_CYLINDER };
 
 typedef struct blob_comp {
     int type;
+    int plain;           /* a sphere only moved: its centre is c */
+    double c[3];
     double inv[16];     /* object space -> the component's (sphere: centred; cylinder: axis along z) */
     double r2, len, s;  /* radius^2, cylinder length, strength */
     double lo[3], hi[3]; /* its reach in object space */
@@ -65,6 +67,46 @@ static double blob_field(void *user, const double p[3])
 }
 
 static int blob_inside(const void *data, const double q[3]) { return blob_field((void *)data, q) < 0; }
+
+static double density_at(const blob_comp *c, double d2)
+{
+    if (!(d2 < c->r2))
+        return 0;
+    double t = 1 - d2 / c->r2;
+    return c->s * t * t;
+}
+
+/* 1 when the field cannot reach the threshold anywhere in the box, or exceeds it everywhere
+ * there: the range of each component's density over the box (exact for a moved sphere, whose
+ * density falls with the distance; 0 to its strength for the others it reaches) summed. */
+static int blob_excludes(void *user, const double lo[3], const double hi[3])
+{
+    const blob_data *d = user;
+    double smin = 0, smax = 0;
+    for (size_t i = 0; i < d->n; ++i) {
+        const blob_comp *c = &d->c[i];
+        if (hi[0] < c->lo[0] || lo[0] > c->hi[0] || hi[1] < c->lo[1] || lo[1] > c->hi[1] || hi[2] < c->lo[2] ||
+            lo[2] > c->hi[2])
+            continue;
+        double a, b;
+        if (c->plain) {
+            double near2 = 0, far2 = 0;
+            for (int k = 0; k < 3; ++k) {
+                double e = fmax(0, fmax(lo[k] - c->c[k], c->c[k] - hi[k])), f = fmax(fabs(lo[k] - c->c[k]), fabs(hi[k] - c->c[k]));
+                near2 += e * e;
+                far2 += f * f;
+            }
+            a = density_at(c, far2);
+            b = density_at(c, near2);
+        } else {
+            a = 0;
+            b = c->s;
+        }
+        smin += fmin(a, b);
+        smax += fmax(a, b);
+    }
+    return smax < d->threshold || smin > d->threshold;
+}
 
 static void blob_destroy(void *data)
 {
@@ -168,6 +210,9 @@ static vbnl_result add_comp(const pov_item *it, blob_shape *bs, int type, const 
     }
     double full[16];
     pov_m4_mul(m, local, full);
+    c->plain = type == COMP_SPHERE && full[0] == 1 && full[1] == 0 && full[2] == 0 && full[4] == 0 && full[5] == 1 &&
+               full[6] == 0 && full[8] == 0 && full[9] == 0 && full[10] == 1;
+    pov_set3(c->c, full[3], full[7], full[11]);
     if (!pov_m4_invert(full, c->inv))
         return vbnl_sdl_error(it->p, &it->loc, "blob: a component is scaled flat");
     comp_bounds(c, full);
@@ -284,6 +329,7 @@ static vbnl_result blob_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     double r = pov_box_radius(lo, hi);
     im.depth = depth;
     im.lipschitz = lip;
+    im.excludes = blob_excludes;
     im.tol = POV_TESS_TOL * r;
     im.grad_step = 1e-6 * r;
     im.max_evals = 60000000;
