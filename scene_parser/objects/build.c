@@ -23,14 +23,33 @@ static void m4f(const double m[16], float out[16])
         out[i] = (float)m[i];
 }
 
+/* The core's description of a mesh (no transform, one material). */
+static void mesh_desc(const pov_mesh *m, uint32_t material, uint32_t group, vbnl_mesh_desc *d)
+{
+    memset(d, 0, sizeof *d);
+    d->positions = m->pos;
+    d->normals = m->nrm;
+    d->uvs = m->uv;
+    d->vertex_count = m->nv;
+    d->indices = m->idx;
+    d->triangle_count = m->nt;
+    d->material = material;
+    d->group = group;
+}
+
+/* 1 when the transform squashes space flat (its linear part is singular). */
+static int flat(const double q[16])
+{
+    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
+                 q[2] * (q[4] * q[9] - q[5] * q[8]);
+    return !(fabs(det) > 1e-12);
+}
+
 static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *m, vbnl_error *err)
 {
     if (m->nt == 0)
         return VBNL_OK;
-    const double *q = pr->m;
-    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
-                 q[2] * (q[4] * q[9] - q[5] * q[8]);
-    if (!(fabs(det) > 1e-12)) { /* e.g. `scale <1e-16, 1, 1>` from a loop: nothing to see */
+    if (flat(pr->m)) { /* e.g. `scale <1e-16, 1, 1>` from a loop: nothing to see */
         vbnl_sdl_warning(L->c.parser, &pr->loc, "the object is scaled flat (singular transform): skipped");
         return VBNL_OK;
     }
@@ -65,17 +84,9 @@ static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *
     float xf[16];
     m4f(pr->m, xf);
     vbnl_mesh_desc d;
-    memset(&d, 0, sizeof d);
-    d.positions = m->pos;
-    d.normals = m->nrm;
-    d.uvs = m->uv;
-    d.vertex_count = m->nv;
-    d.indices = m->idx;
-    d.triangle_count = m->nt;
-    d.material = mat;
+    mesh_desc(m, mat, VBNL_GROUP_WORLD, &d);
     d.face_materials = fm;
     d.transform = xf;
-    d.group = VBNL_GROUP_WORLD;
     if (r == VBNL_OK)
         r = vbnl_scene_add_mesh(L->c.scene, &d, NULL, err);
     free(fm);
@@ -99,11 +110,8 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err);
 static vbnl_result emit_instance(pov_loader *L, const pov_prim *pr, mesh_groups *mg, int *done, vbnl_error *err)
 {
     const pov_mesh *m = pr->mesh;
-    const double *q = pr->m;
-    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
-                 q[2] * (q[4] * q[9] - q[5] * q[8]);
     *done = 0;
-    if (m->refs < 2 || m->ftex || m->nt == 0 || !(fabs(det) > 1e-12) || pov_appearance_is_emissive(pr->app))
+    if (m->refs < 2 || m->ftex || m->nt == 0 || flat(pr->m) || pov_appearance_is_emissive(pr->app))
         return VBNL_OK; /* emitters must be world geometry */
     static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     uint32_t mat;
@@ -128,15 +136,7 @@ static vbnl_result emit_instance(pov_loader *L, const pov_prim *pr, mesh_groups 
         if ((r = vbnl_scene_add_group(L->c.scene, &g->group, err)) != VBNL_OK)
             return r;
         vbnl_mesh_desc d;
-        memset(&d, 0, sizeof d);
-        d.positions = m->pos;
-        d.normals = m->nrm;
-        d.uvs = m->uv;
-        d.vertex_count = m->nv;
-        d.indices = m->idx;
-        d.triangle_count = m->nt;
-        d.material = mat;
-        d.group = g->group;
+        mesh_desc(m, mat, g->group, &d);
         if ((r = vbnl_scene_add_mesh(L->c.scene, &d, NULL, err)) != VBNL_OK)
             return r;
         mg->n++;

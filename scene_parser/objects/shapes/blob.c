@@ -333,17 +333,7 @@ static vbnl_result blob_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     im.tol = POV_TESS_TOL * r;
     im.grad_step = 1e-6 * r;
     im.max_evals = 60000000;
-    const char *why = NULL;
-    pov_mesh *m = pov_implicit_mesh(&im, &why);
-    if (!m)
-        return strcmp(why, "out of memory") ? vbnl_sdl_error(L->c.parser, &s->loc, "blob: %s", why) : pov_oom(L);
-    pr->mesh = m;
-    if (!(pr->solid = pov_solid_custom(&blob_fn, d, lo, hi))) {
-        bs->d = NULL;
-        return pov_oom(L);
-    }
-    bs->d = NULL;
-    return VBNL_OK;
+    return pov_shape_implicit(s, pr, &im, &blob_fn, (void **)&bs->d, lo, hi);
 }
 
 vbnl_result pov_shape_blob(const pov_shape *s)

@@ -20,71 +20,6 @@
 
 #define NONE UINT32_MAX
 
-typedef struct hmap {
-    uint64_t *keys; /* key + 1; 0 = empty */
-    uint32_t *vals;
-    size_t cap, n;
-} hmap;
-
-static uint64_t mix(uint64_t k)
-{
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdull;
-    k ^= k >> 33;
-    k *= 0xc4ceb9fe1a85ec53ull;
-    return k ^ (k >> 33);
-}
-
-static int hmap_grow(hmap *m)
-{
-    size_t cap = m->cap ? 2 * m->cap : 1024;
-    uint64_t *k = calloc(cap, sizeof *k);
-    uint32_t *v = malloc(cap * sizeof *v);
-    if (!k || !v) {
-        free(k);
-        free(v);
-        return 0;
-    }
-    for (size_t i = 0; i < m->cap; ++i)
-        if (m->keys[i]) {
-            size_t h = mix(m->keys[i]) & (cap - 1);
-            while (k[h])
-                h = (h + 1) & (cap - 1);
-            k[h] = m->keys[i];
-            v[h] = m->vals[i];
-        }
-    free(m->keys);
-    free(m->vals);
-    m->keys = k;
-    m->vals = v;
-    m->cap = cap;
-    return 1;
-}
-
-/* The value slot of key (inserted with NONE when new); NULL when out of memory. */
-static uint32_t *hmap_at(hmap *m, uint64_t key, int *isnew)
-{
-    if ((m->n + 1) * 2 > m->cap && !hmap_grow(m))
-        return NULL;
-    key += 1;
-    size_t h = mix(key) & (m->cap - 1);
-    while (m->keys[h] && m->keys[h] != key)
-        h = (h + 1) & (m->cap - 1);
-    *isnew = !m->keys[h];
-    if (*isnew) {
-        m->keys[h] = key;
-        m->vals[h] = NONE;
-        m->n++;
-    }
-    return &m->vals[h];
-}
-
-static void hmap_free(hmap *m)
-{
-    free(m->keys);
-    free(m->vals);
-}
-
 /* ---- the grid ------------------------------------------------------------------------------- */
 
 typedef struct crossing {
@@ -97,14 +32,14 @@ typedef struct dc {
     int n[3];            /* cells per axis */
     uint64_t evals;
     int failed;          /* 1 out of memory, 2 budget */
-    hmap vals;           /* lattice point -> index into fv (large grids) */
+    pov_hmap vals;           /* lattice point -> index into fv (large grids) */
     double *fv;
     size_t nfv, capfv;
     double *dense;       /* small grids: every lattice point's value (NAN: not evaluated yet) */
-    hmap cells;          /* cell -> vertex id (NONE: crossed, no vertex yet / not crossed) */
+    pov_hmap cells;          /* cell -> vertex id (NONE: crossed, no vertex yet / not crossed) */
     int64_t *queue;      /* cells to grow from */
     size_t nq, capq;
-    hmap edges;          /* edge -> index into xs */
+    pov_hmap edges;          /* edge -> index into xs */
     crossing *xs;
     size_t nxs, capxs;
     pov_smesh *m;
@@ -141,7 +76,7 @@ static double lval(dc *d, int i, int j, int k)
         return *slot;
     }
     int isnew;
-    uint32_t *slot = hmap_at(&d->vals, lkey(i, j, k), &isnew);
+    uint32_t *slot = pov_hmap_at(&d->vals, lkey(i, j, k), &isnew);
     if (!slot) {
         d->failed = 1;
         return 1;
@@ -176,7 +111,7 @@ static void add_cell(dc *d, int i, int j, int k)
     if (i < 0 || j < 0 || k < 0 || i >= d->n[0] || j >= d->n[1] || k >= d->n[2])
         return;
     int isnew;
-    uint32_t *slot = hmap_at(&d->cells, lkey(i, j, k), &isnew);
+    uint32_t *slot = pov_hmap_at(&d->cells, lkey(i, j, k), &isnew);
     if (!slot) {
         d->failed = 1;
         return;
@@ -324,7 +259,7 @@ static const crossing *edge_crossing(dc *d, const int a[3], int ax)
     if (inside_v(fa) == inside_v(fb))
         return NULL;
     int isnew;
-    uint32_t *slot = hmap_at(&d->edges, lkey(a[0], a[1], a[2]) * 3 + (uint64_t)ax, &isnew);
+    uint32_t *slot = pov_hmap_at(&d->edges, lkey(a[0], a[1], a[2]) * 3 + (uint64_t)ax, &isnew);
     if (!slot) {
         d->failed = 1;
         return NULL;
@@ -353,8 +288,7 @@ static const crossing *edge_crossing(dc *d, const int a[3], int ax)
     return x;
 }
 
-/* Eigen decomposition of a symmetric 3x3 matrix (Jacobi): a = v diag(w) v^T, v's columns. */
-static void sym_eigen(double a[3][3], double w[3], double v[3][3])
+void pov_sym_eigen3(double a[3][3], double w[3], double v[3][3])
 {
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
@@ -427,7 +361,7 @@ static int project(dc *d, double p[3], double reach)
 static uint32_t cell_vertex(dc *d, int i, int j, int k)
 {
     int isnew;
-    uint32_t *slot = hmap_at(&d->cells, lkey(i, j, k), &isnew);
+    uint32_t *slot = pov_hmap_at(&d->cells, lkey(i, j, k), &isnew);
     if (!slot) {
         d->failed = 1;
         return NONE;
@@ -462,7 +396,7 @@ static uint32_t cell_vertex(dc *d, int i, int j, int k)
         }
     }
     double w[3], V[3][3], p[3];
-    sym_eigen(A, w, V);
+    pov_sym_eigen3(A, w, V);
     double wmax = fmax(w[0], fmax(w[1], w[2]));
     memcpy(p, mass, sizeof p);
     for (int e = 0; e < 3; ++e) { /* the pseudo-inverse, small eigenvalues dropped */
@@ -501,7 +435,7 @@ static uint32_t cell_vertex(dc *d, int i, int j, int k)
         return NONE;
     }
     /* the table may have grown since: look the slot up again */
-    slot = hmap_at(&d->cells, lkey(i, j, k), &isnew);
+    slot = pov_hmap_at(&d->cells, lkey(i, j, k), &isnew);
     if (!slot) {
         d->failed = 1;
         return NONE;
@@ -730,9 +664,9 @@ pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why)
         *why = "the surface needs more evaluations of its function than the budget allows";
     else if (d.failed || sm.oom || !(out = pov_smesh_to_mesh(&sm, 0)))
         *why = "out of memory";
-    hmap_free(&d.vals);
-    hmap_free(&d.cells);
-    hmap_free(&d.edges);
+    pov_hmap_free(&d.vals);
+    pov_hmap_free(&d.cells);
+    pov_hmap_free(&d.edges);
     free(d.fv);
     free(d.dense);
     free(d.queue);

@@ -23,8 +23,7 @@ typedef struct iso_data {
     vbnl_sdl_parser *p;
     vbnl_sdl_function *fn;
     double t;
-    int sphere;     /* container: 1 sphere (c, r), 0 box (lo, hi) */
-    double lo[3], hi[3], c[3], r;
+    pov_container cont;
     int with_container; /* the field includes the container (closed) */
 } iso_data;
 
@@ -36,29 +35,17 @@ static double iso_f(const iso_data *d, const double q[3])
     return v - d->t;
 }
 
-static double container_dist(const iso_data *d, const double q[3])
-{
-    if (d->sphere) {
-        double x = q[0] - d->c[0], y = q[1] - d->c[1], z = q[2] - d->c[2];
-        return sqrt(x * x + y * y + z * z) - d->r;
-    }
-    double m = -INFINITY;
-    for (int k = 0; k < 3; ++k)
-        m = fmax(m, fmax(d->lo[k] - q[k], q[k] - d->hi[k]));
-    return m;
-}
-
 static double iso_field(void *user, const double q[3])
 {
     const iso_data *d = user;
     double v = iso_f(d, q);
-    return d->with_container ? fmax(v, container_dist(d, q)) : v;
+    return d->with_container ? fmax(v, pov_container_dist(&d->cont, q)) : v;
 }
 
 static int iso_inside(const void *data, const double q[3])
 {
     const iso_data *d = data;
-    return container_dist(d, q) <= 0 && iso_f(d, q) < 0;
+    return pov_container_dist(&d->cont, q) <= 0 && iso_f(d, q) < 0;
 }
 
 static void iso_destroy(void *data)
@@ -81,36 +68,7 @@ typedef struct iso_shape {
 
 static vbnl_result iso_contained_by(const pov_item *it)
 {
-    iso_shape *is = it->target;
-    pov_loader *L = it->ctx;
-    vbnl_sdl_parser *p = it->p;
-    iso_data *d = is->d;
-    vbnl_sdl_next(p);
-    if (vbnl_sdl_expect(p, '{', "after 'contained_by'") != VBNL_OK)
-        return VBNL_ERR_PARSE;
-    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    if (pov_is_word(t, "box")) {
-        double a[3], b[3];
-        vbnl_sdl_next(p);
-        if (vbnl_sdl_expect(p, '{', "after 'box'") != VBNL_OK || pov_vec3(L, a) != VBNL_OK ||
-            (pov_comma(L), pov_vec3(L, b)) != VBNL_OK || vbnl_sdl_expect(p, '}', "after the box's corners") != VBNL_OK)
-            return VBNL_ERR_PARSE;
-        d->sphere = 0;
-        for (int k = 0; k < 3; ++k) {
-            d->lo[k] = fmin(a[k], b[k]);
-            d->hi[k] = fmax(a[k], b[k]);
-        }
-    } else if (pov_is_word(t, "sphere")) {
-        vbnl_sdl_next(p);
-        if (vbnl_sdl_expect(p, '{', "after 'sphere'") != VBNL_OK || pov_vec3(L, d->c) != VBNL_OK ||
-            (pov_comma(L), pov_float(L, &d->r)) != VBNL_OK ||
-            vbnl_sdl_expect(p, '}', "after the sphere's radius") != VBNL_OK)
-            return VBNL_ERR_PARSE;
-        if (pov_positive(L, d->r, "contained_by sphere radius", it->loc) != VBNL_OK)
-            return VBNL_ERR_PARSE;
-        d->sphere = 1;
-    }
-    return vbnl_sdl_expect(p, '}', "after the container (contained_by takes a box or a sphere)");
+    return pov_container_parse(it, &((iso_shape *)it->target)->d->cont);
 }
 
 static vbnl_result iso_evaluate(const pov_item *it)
@@ -160,10 +118,7 @@ static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     pov_loader *L = s->L;
     iso_data *d = is->d;
     double lo[3], hi[3];
-    for (int k = 0; k < 3; ++k) {
-        lo[k] = d->sphere ? d->c[k] - d->r : d->lo[k];
-        hi[k] = d->sphere ? d->c[k] + d->r : d->hi[k];
-    }
+    pov_container_bounds(&d->cont, lo, hi);
     if (!(is->max_gradient > 0))
         return vbnl_sdl_error(L->c.parser, &s->loc, "isosurface: max_gradient must be positive, got %g",
                               is->max_gradient);
@@ -175,7 +130,7 @@ static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     pov_key_add(&key, "iso", 4);
     pov_key_add(&key, fk, fkn);
     pov_key_add(&key, &d->t, sizeof d->t);
-    pov_key_add(&key, &d->sphere, sizeof d->sphere);
+    pov_key_add(&key, &d->cont.sphere, sizeof d->cont.sphere);
     pov_key_add(&key, lo, sizeof lo);
     pov_key_add(&key, hi, sizeof hi);
     pov_key_add(&key, &is->max_gradient, sizeof is->max_gradient);
@@ -197,23 +152,10 @@ static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     im.tol = POV_TESS_TOL * r;
     im.grad_step = 1e-5 * r;
     im.max_evals = 40000000;
-    const char *why = NULL;
-    pov_mesh *m = pov_implicit_mesh(&im, &why);
-    if (vbnl_sdl_failed(L->c.parser)) { /* the function failed (too deep, ...) */
-        pov_mesh_unref(m);
+    vbnl_result res = pov_shape_implicit(s, pr, &im, &iso_fn, (void **)&is->d, lo, hi);
+    if (res != VBNL_OK) {
         pov_key_free(&key);
-        return VBNL_ERR_PARSE;
-    }
-    if (!m) {
-        pov_key_free(&key);
-        return strcmp(why, "out of memory") ? vbnl_sdl_error(L->c.parser, &s->loc, "isosurface: %s", why)
-                                            : pov_oom(L);
-    }
-    pr->mesh = m;
-    is->d = NULL;
-    if (!(pr->solid = pov_solid_custom(&iso_fn, d, lo, hi))) {
-        pov_key_free(&key);
-        return pov_oom(L);
+        return res;
     }
     if (cacheable)
         pov_shape_cache_put(L, key.b, key.n, pr->mesh, pr->solid);
@@ -224,22 +166,7 @@ static vbnl_result iso_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
 /* With `open`: cut at the container, a clipped_by shape in the shape's space. */
 static vbnl_result iso_open_clip(const pov_shape *s, pov_mods *mods, pov_prim *pr, const iso_data *d)
 {
-    pov_loader *L = s->L;
-    if (!((iso_shape *)mods)->open)
-        return VBNL_OK;
-    pov_prim *c = pov_obj_add(&mods->clip, d->sphere ? POV_PRIM_SPHERE : POV_PRIM_MESH, s->loc);
-    if (!c)
-        return pov_oom(L);
-    memcpy(c->m, pr->m, sizeof c->m);
-    if (d->sphere) {
-        memcpy(c->a, d->c, sizeof d->c);
-        c->a[3] = d->r;
-    } else if (!(c->mesh = pov_tess_box(d->lo, d->hi)) || !(c->solid = pov_solid_box(d->lo, d->hi))) {
-        return pov_oom(L);
-    }
-    if (!mods->clip_loc.file)
-        mods->clip_loc = s->loc;
-    return VBNL_OK;
+    return ((iso_shape *)mods)->open ? pov_container_clip(s, mods, pr, &d->cont) : VBNL_OK;
 }
 
 vbnl_result pov_shape_isosurface(const pov_shape *s)
@@ -255,10 +182,7 @@ vbnl_result pov_shape_isosurface(const pov_shape *s)
     if (!(is.d = calloc(1, sizeof *is.d)))
         return pov_oom(L);
     is.d->p = p;
-    for (int k = 0; k < 3; ++k) {
-        is.d->lo[k] = -1;
-        is.d->hi[k] = 1;
-    }
+    pov_container_default(&is.d->cont);
     vbnl_sdl_value fv;
     vbnl_sdl_loc floc = vbnl_sdl_peek(p)->loc;
     if (!sdl_parse_function(p, &fv, &floc)) {

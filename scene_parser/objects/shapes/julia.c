@@ -235,17 +235,7 @@ static vbnl_result julia_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     im.tol = POV_TESS_TOL * r;
     im.grad_step = 1e-6 * r;
     im.max_evals = 60000000;
-    const char *why = NULL;
-    pov_mesh *m = pov_implicit_mesh(&im, &why);
-    if (!m)
-        return strcmp(why, "out of memory") ? vbnl_sdl_error(L->c.parser, &s->loc, "julia_fractal: %s", why) : pov_oom(L);
-    pr->mesh = m;
-    if (!(pr->solid = pov_solid_custom(&julia_fn, d, im.lo, im.hi))) {
-        js->d = NULL;
-        return pov_oom(L);
-    }
-    js->d = NULL;
-    return VBNL_OK;
+    return pov_shape_implicit(s, pr, &im, &julia_fn, (void **)&js->d, im.lo, im.hi);
 }
 
 vbnl_result pov_shape_julia(const pov_shape *s)

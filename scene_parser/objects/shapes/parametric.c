@@ -17,8 +17,7 @@ typedef struct par_data {
     vbnl_sdl_parser *p;
     vbnl_sdl_function *fn[3];
     double ulo[2], uhi[2];
-    int sphere;
-    double lo[3], hi[3], c[3], r;
+    pov_container cont;
 } par_data;
 
 static void par_point(const par_data *d, double u, double v, double out[3])
@@ -69,33 +68,7 @@ static void par_free(par_data *d)
 
 static vbnl_result par_contained_by(const pov_item *it)
 {
-    par_data *d = ((par_shape *)it->target)->d;
-    pov_loader *L = it->ctx;
-    vbnl_sdl_parser *p = it->p;
-    vbnl_sdl_next(p);
-    if (vbnl_sdl_expect(p, '{', "after 'contained_by'") != VBNL_OK)
-        return VBNL_ERR_PARSE;
-    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    if (pov_is_word(t, "box")) {
-        double a[3], b[3];
-        vbnl_sdl_next(p);
-        if (vbnl_sdl_expect(p, '{', "after 'box'") != VBNL_OK || pov_vec3(L, a) != VBNL_OK ||
-            (pov_comma(L), pov_vec3(L, b)) != VBNL_OK || vbnl_sdl_expect(p, '}', "after the box's corners") != VBNL_OK)
-            return VBNL_ERR_PARSE;
-        d->sphere = 0;
-        for (int k = 0; k < 3; ++k) {
-            d->lo[k] = fmin(a[k], b[k]);
-            d->hi[k] = fmax(a[k], b[k]);
-        }
-    } else if (pov_is_word(t, "sphere")) {
-        vbnl_sdl_next(p);
-        if (vbnl_sdl_expect(p, '{', "after 'sphere'") != VBNL_OK || pov_vec3(L, d->c) != VBNL_OK ||
-            (pov_comma(L), pov_float(L, &d->r)) != VBNL_OK || vbnl_sdl_expect(p, '}', "after the sphere's radius") != VBNL_OK ||
-            pov_positive(L, d->r, "contained_by sphere radius", it->loc) != VBNL_OK)
-            return VBNL_ERR_PARSE;
-        d->sphere = 1;
-    }
-    return vbnl_sdl_expect(p, '}', "after the container (contained_by takes a box or a sphere)");
+    return pov_container_parse(it, &((par_shape *)it->target)->d->cont);
 }
 
 static vbnl_result par_precompute(const pov_item *it)
@@ -128,10 +101,7 @@ static vbnl_result par_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     par_data *d = ((par_shape *)mods)->d;
     pov_loader *L = s->L;
     double lo[3], hi[3];
-    for (int k = 0; k < 3; ++k) {
-        lo[k] = d->sphere ? d->c[k] - d->r : d->lo[k];
-        hi[k] = d->sphere ? d->c[k] + d->r : d->hi[k];
-    }
+    pov_container_bounds(&d->cont, lo, hi);
     pov_smesh sm;
     memset(&sm, 0, sizeof sm);
     pov_smesh_grid(&sm, par_eval, d, d->ulo, d->uhi, 32, 32);
@@ -145,19 +115,7 @@ static vbnl_result par_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     if (r != VBNL_OK)
         return r;
     /* cut at the container: a clipped_by shape in the shape's space */
-    pov_prim *c = pov_obj_add(&mods->clip, d->sphere ? POV_PRIM_SPHERE : POV_PRIM_MESH, s->loc);
-    if (!c)
-        return pov_oom(L);
-    memcpy(c->m, pr->m, sizeof c->m);
-    if (d->sphere) {
-        memcpy(c->a, d->c, sizeof d->c);
-        c->a[3] = d->r;
-    } else if (!(c->mesh = pov_tess_box(d->lo, d->hi)) || !(c->solid = pov_solid_box(d->lo, d->hi))) {
-        return pov_oom(L);
-    }
-    if (!mods->clip_loc.file)
-        mods->clip_loc = s->loc;
-    return VBNL_OK;
+    return pov_container_clip(s, mods, pr, &d->cont);
 }
 
 vbnl_result pov_shape_parametric(const pov_shape *s)
@@ -169,10 +127,7 @@ vbnl_result pov_shape_parametric(const pov_shape *s)
     if (!(ps.d = calloc(1, sizeof *ps.d)))
         return pov_oom(L);
     ps.d->p = p;
-    for (int k = 0; k < 3; ++k) {
-        ps.d->lo[k] = -1;
-        ps.d->hi[k] = 1;
-    }
+    pov_container_default(&ps.d->cont);
     vbnl_result r = VBNL_OK;
     for (int k = 0; k < 3 && r == VBNL_OK; ++k) {
         if (k)

@@ -128,49 +128,13 @@ static const pov_solid_fn poly_fn = {poly_inside, poly_destroy, poly_surface};
 
 /* ---- a quadric's inside: exact bounds ------------------------------------------------------------ */
 
-/* Jacobi eigen decomposition of the symmetric 3x3 a (destroyed): a = v diag(w) v^T. */
-static void eigen3(double a[3][3], double w[3], double v[3][3])
-{
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            v[i][j] = i == j;
-    for (int sweep = 0; sweep < 50; ++sweep) {
-        if (fabs(a[0][1]) + fabs(a[0][2]) + fabs(a[1][2]) < 1e-300)
-            break;
-        for (int p = 0; p < 2; ++p)
-            for (int q = p + 1; q < 3; ++q) {
-                if (a[p][q] == 0)
-                    continue;
-                double th = 0.5 * (a[q][q] - a[p][p]) / a[p][q];
-                double t = (th >= 0 ? 1 : -1) / (fabs(th) + sqrt(th * th + 1)), c = 1 / sqrt(t * t + 1), s = t * c;
-                for (int k = 0; k < 3; ++k) {
-                    double x = a[k][p], y = a[k][q];
-                    a[k][p] = c * x - s * y;
-                    a[k][q] = s * x + c * y;
-                }
-                for (int k = 0; k < 3; ++k) {
-                    double x = a[p][k], y = a[q][k];
-                    a[p][k] = c * x - s * y;
-                    a[q][k] = s * x + c * y;
-                }
-                for (int k = 0; k < 3; ++k) {
-                    double x = v[k][p], y = v[k][q];
-                    v[k][p] = c * x - s * y;
-                    v[k][q] = s * x + c * y;
-                }
-            }
-    }
-    for (int i = 0; i < 3; ++i)
-        w[i] = a[i][i];
-}
-
 /* The bounds of { x^T A x + b.x + c < 0 }: finite along the axes where the quadric closes
  * (ellipsoids, the cross-section of elliptic cylinders), infinite elsewhere. 0: empty. */
 static int quadric_region(const double A[3][3], const double b[3], double c, double lo[3], double hi[3])
 {
     double a[3][3], w[3], V[3][3], wmax = 0;
     memcpy(a, A, sizeof a);
-    eigen3(a, w, V);
+    pov_sym_eigen3(a, w, V);
     for (int k = 0; k < 3; ++k) {
         lo[k] = -INFINITY;
         hi[k] = INFINITY;

@@ -20,6 +20,18 @@
 /* At most this many triangles per shape: refinement stops there (a warning says so). */
 #define POV_TESS_MAX_TRIANGLES 4000000u
 
+/* ---- a hash table of 64-bit keys to 32-bit values (refine.c) ------------------------------------ */
+
+typedef struct pov_hmap {
+    uint64_t *keys; /* key + 1; 0 = empty */
+    uint32_t *vals;
+    size_t cap, n;
+} pov_hmap;
+/* The value of key, inserted as UINT32_MAX (*isnew set) when absent; NULL when out of memory.
+ * The pointer stays valid until the next insertion. */
+uint32_t *pov_hmap_at(pov_hmap *m, uint64_t key, int *isnew);
+void pov_hmap_free(pov_hmap *m);
+
 /* ---- triangle lists on a surface (refine.c) -------------------------------------------------- */
 
 typedef struct pov_svert {
@@ -99,6 +111,9 @@ pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why);
 /* The bounds of the part of the region where f may vanish, by `excludes` on an octree down to
  * 2^depth cells along the longest side (each kept cell whole). 0 when f vanishes nowhere. */
 int pov_implicit_bounds(const pov_implicit *im, int depth, double lo[3], double hi[3]);
+/* The eigen decomposition of the symmetric 3x3 a (Jacobi rotations; a is overwritten):
+ * a = v diag(w) v^T, the eigenvectors in v's columns. */
+void pov_sym_eigen3(double a[3][3], double w[3], double v[3][3]);
 /* The unit gradient of f at p by central differences of step h (0 0 0 where it vanishes). */
 void pov_field_normal(pov_field_fn f, void *user, const double p[3], double h, double n[3]);
 
@@ -183,6 +198,27 @@ vbnl_result pov_shape_deferred(const pov_shape *s, const pov_block *block, pov_m
 /* Sets the primitive's mesh from an smesh (freed) with a solid (taken; NULL: no inside), reporting
  * out of memory, and a warning when refinement stopped at the cap. */
 vbnl_result pov_shape_set_mesh(const pov_shape *s, pov_prim *pr, pov_smesh *m, int with_uv, pov_solid *solid);
+
+/* Sets the primitive's mesh to the implicit surface and its solid to fn with *data (taken: NULL
+ * afterwards) and the bounds lo..hi; reports errors as "<keyword>: <reason>". */
+vbnl_result pov_shape_implicit(const pov_shape *s, pov_prim *pr, const pov_implicit *im, const pov_solid_fn *fn,
+                               void **data, const double lo[3], const double hi[3]);
+
+/* A `contained_by { box { A, B } | sphere { C, r } }` (isosurface, parametric). */
+typedef struct pov_container {
+    int sphere;
+    double lo[3], hi[3]; /* box */
+    double c[3], r;      /* sphere */
+} pov_container;
+void pov_container_default(pov_container *c); /* POV-Ray's box { -1, 1 } */
+/* The block after the keyword `contained_by` (a row handler's item). */
+vbnl_result pov_container_parse(const pov_item *it, pov_container *c);
+void pov_container_bounds(const pov_container *c, double lo[3], double hi[3]);
+/* The container's signed distance (negative inside). */
+double pov_container_dist(const pov_container *c, const double q[3]);
+/* Adds the container, placed as the shape's primitive pr, to the shape's clipped_by shapes: the
+ * shape is cut at it. */
+vbnl_result pov_container_clip(const pov_shape *s, pov_mods *mods, const pov_prim *pr, const pov_container *c);
 
 /* The shape's bounding radius: half the diagonal of lo..hi (tolerances are fractions of it). */
 double pov_box_radius(const double lo[3], const double hi[3]);

@@ -187,13 +187,9 @@ int pov_param_mid(void *user, const pov_svert *a, const pov_svert *b, pov_svert 
 
 #define NO_SPLIT (UINT32_MAX - 1)
 
-typedef struct edge_map {
-    uint64_t *keys; /* (min << 32 | max) + 1; 0 = empty */
-    uint32_t *mid;  /* the midpoint's vertex id or NO_SPLIT */
-    size_t cap, n;
-} edge_map;
+/* ---- a hash table of 64-bit keys (edges here, grid points in implicit.c) ---------------------- */
 
-static uint64_t hash64(uint64_t k)
+static uint64_t mix(uint64_t k)
 {
     k ^= k >> 33;
     k *= 0xff51afd7ed558ccdull;
@@ -202,9 +198,9 @@ static uint64_t hash64(uint64_t k)
     return k ^ (k >> 33);
 }
 
-static int map_grow(edge_map *e)
+static int hmap_grow(pov_hmap *m)
 {
-    size_t cap = e->cap ? 2 * e->cap : 4096;
+    size_t cap = m->cap ? 2 * m->cap : 1024;
     uint64_t *k = calloc(cap, sizeof *k);
     uint32_t *v = malloc(cap * sizeof *v);
     if (!k || !v) {
@@ -212,37 +208,44 @@ static int map_grow(edge_map *e)
         free(v);
         return 0;
     }
-    for (size_t i = 0; i < e->cap; ++i)
-        if (e->keys[i]) {
-            size_t h = hash64(e->keys[i]) & (cap - 1);
+    for (size_t i = 0; i < m->cap; ++i)
+        if (m->keys[i]) {
+            size_t h = mix(m->keys[i]) & (cap - 1);
             while (k[h])
                 h = (h + 1) & (cap - 1);
-            k[h] = e->keys[i];
-            v[h] = e->mid[i];
+            k[h] = m->keys[i];
+            v[h] = m->vals[i];
         }
-    free(e->keys);
-    free(e->mid);
-    e->keys = k;
-    e->mid = v;
-    e->cap = cap;
+    free(m->keys);
+    free(m->vals);
+    m->keys = k;
+    m->vals = v;
+    m->cap = cap;
     return 1;
 }
 
-/* The slot of edge (a, b): found (*found = 1) or where it goes. SIZE_MAX when out of memory. */
-static size_t map_slot(edge_map *e, uint32_t a, uint32_t b, int *found)
+uint32_t *pov_hmap_at(pov_hmap *m, uint64_t key, int *isnew)
 {
-    if ((e->n + 1) * 2 > e->cap && !map_grow(e))
-        return SIZE_MAX;
-    uint64_t key = ((uint64_t)(a < b ? a : b) << 32 | (a < b ? b : a)) + 1;
-    size_t h = hash64(key) & (e->cap - 1);
-    while (e->keys[h] && e->keys[h] != key)
-        h = (h + 1) & (e->cap - 1);
-    *found = e->keys[h] == key;
-    if (!*found) {
-        e->keys[h] = key;
-        e->n++;
+    if ((m->n + 1) * 2 > m->cap && !hmap_grow(m))
+        return NULL;
+    key += 1;
+    size_t h = mix(key) & (m->cap - 1);
+    while (m->keys[h] && m->keys[h] != key)
+        h = (h + 1) & (m->cap - 1);
+    *isnew = !m->keys[h];
+    if (*isnew) {
+        m->keys[h] = key;
+        m->vals[h] = UINT32_MAX;
+        m->n++;
     }
-    return h;
+    return &m->vals[h];
+}
+
+void pov_hmap_free(pov_hmap *m)
+{
+    free(m->keys);
+    free(m->vals);
+    memset(m, 0, sizeof *m);
 }
 
 typedef struct refiner {
@@ -251,18 +254,18 @@ typedef struct refiner {
     void *user;
     double tol2, cos_limit;
     int max_depth;
-    edge_map edges;
+    pov_hmap edges; /* edge (min << 32 | max) -> its midpoint's vertex, or NO_SPLIT */
 } refiner;
 
 /* The midpoint vertex of edge a-b, or NO_SPLIT; UINT32_MAX when out of memory. */
 static uint32_t edge_mid(refiner *r, uint32_t a, uint32_t b, int depth)
 {
-    int found;
-    size_t slot = map_slot(&r->edges, a, b, &found);
-    if (slot == SIZE_MAX)
+    int isnew;
+    uint32_t *slot = pov_hmap_at(&r->edges, (uint64_t)(a < b ? a : b) << 32 | (a < b ? b : a), &isnew);
+    if (!slot)
         return UINT32_MAX;
-    if (found)
-        return r->edges.mid[slot];
+    if (!isnew)
+        return *slot;
     uint32_t res = NO_SPLIT;
     pov_smesh *m = r->m;
     if (depth < r->max_depth && !m->capped) {
@@ -280,7 +283,7 @@ static uint32_t edge_mid(refiner *r, uint32_t a, uint32_t b, int depth)
             }
         }
     }
-    r->edges.mid[slot] = res;
+    *slot = res; /* the table did not change since: the slot stands */
     return res;
 }
 
@@ -356,6 +359,5 @@ void pov_smesh_refine(pov_smesh *m, uint32_t first, pov_mid_fn mid, void *user, 
     for (uint32_t t = 0; t < nt && !m->oom; ++t)
         refine_tri(&r, old[3 * t], old[3 * t + 1], old[3 * t + 2], 0);
     free(old);
-    free(r.edges.keys);
-    free(r.edges.mid);
+    pov_hmap_free(&r.edges);
 }

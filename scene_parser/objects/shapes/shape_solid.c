@@ -50,6 +50,100 @@ vbnl_result pov_shape_set_mesh(const pov_shape *s, pov_prim *pr, pov_smesh *m, i
     return VBNL_OK;
 }
 
+vbnl_result pov_shape_implicit(const pov_shape *s, pov_prim *pr, const pov_implicit *im, const pov_solid_fn *fn,
+                               void **data, const double lo[3], const double hi[3])
+{
+    pov_loader *L = s->L;
+    const char *why = NULL;
+    pov_mesh *m = pov_implicit_mesh(im, &why);
+    if (vbnl_sdl_failed(L->c.parser)) { /* the shape's function failed (too deep, ...) */
+        pov_mesh_unref(m);
+        return VBNL_ERR_PARSE;
+    }
+    if (!m)
+        return strcmp(why, "out of memory") ? vbnl_sdl_error(L->c.parser, &s->loc, "%s: %s", s->keyword, why) : pov_oom(L);
+    pr->mesh = m;
+    pr->solid = pov_solid_custom(fn, *data, lo, hi);
+    *data = NULL; /* the solid's now, or freed */
+    return pr->solid ? VBNL_OK : pov_oom(L);
+}
+
+vbnl_result pov_container_parse(const pov_item *it, pov_container *c)
+{
+    pov_loader *L = it->ctx;
+    vbnl_sdl_parser *p = it->p;
+    vbnl_sdl_next(p);
+    if (vbnl_sdl_expect(p, '{', "after 'contained_by'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+    if (pov_is_word(t, "box")) {
+        double a[3], b[3];
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_expect(p, '{', "after 'box'") != VBNL_OK || pov_vec3(L, a) != VBNL_OK ||
+            (pov_comma(L), pov_vec3(L, b)) != VBNL_OK || vbnl_sdl_expect(p, '}', "after the box's corners") != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        c->sphere = 0;
+        for (int k = 0; k < 3; ++k) {
+            c->lo[k] = fmin(a[k], b[k]);
+            c->hi[k] = fmax(a[k], b[k]);
+        }
+    } else if (pov_is_word(t, "sphere")) {
+        vbnl_sdl_next(p);
+        if (vbnl_sdl_expect(p, '{', "after 'sphere'") != VBNL_OK || pov_vec3(L, c->c) != VBNL_OK ||
+            (pov_comma(L), pov_float(L, &c->r)) != VBNL_OK || vbnl_sdl_expect(p, '}', "after the sphere's radius") != VBNL_OK ||
+            pov_positive(L, c->r, "contained_by sphere radius", it->loc) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        c->sphere = 1;
+    }
+    return vbnl_sdl_expect(p, '}', "after the container (contained_by takes a box or a sphere)");
+}
+
+void pov_container_bounds(const pov_container *c, double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = c->sphere ? c->c[k] - c->r : c->lo[k];
+        hi[k] = c->sphere ? c->c[k] + c->r : c->hi[k];
+    }
+}
+
+double pov_container_dist(const pov_container *c, const double q[3])
+{
+    if (c->sphere) {
+        double x = q[0] - c->c[0], y = q[1] - c->c[1], z = q[2] - c->c[2];
+        return sqrt(x * x + y * y + z * z) - c->r;
+    }
+    double m = -INFINITY;
+    for (int k = 0; k < 3; ++k)
+        m = fmax(m, fmax(c->lo[k] - q[k], q[k] - c->hi[k]));
+    return m;
+}
+
+vbnl_result pov_container_clip(const pov_shape *s, pov_mods *mods, const pov_prim *pr, const pov_container *c)
+{
+    pov_prim *k = pov_obj_add(&mods->clip, c->sphere ? POV_PRIM_SPHERE : POV_PRIM_MESH, s->loc);
+    if (!k)
+        return pov_oom(s->L);
+    memcpy(k->m, pr->m, sizeof k->m);
+    if (c->sphere) {
+        memcpy(k->a, c->c, sizeof c->c);
+        k->a[3] = c->r;
+    } else if (!(k->mesh = pov_tess_box(c->lo, c->hi)) || !(k->solid = pov_solid_box(c->lo, c->hi))) {
+        return pov_oom(s->L);
+    }
+    if (!mods->clip_loc.file)
+        mods->clip_loc = s->loc;
+    return VBNL_OK;
+}
+
+void pov_container_default(pov_container *c)
+{
+    memset(c, 0, sizeof *c);
+    for (int k = 0; k < 3; ++k) {
+        c->lo[k] = -1;
+        c->hi[k] = 1;
+    }
+}
+
 double pov_box_radius(const double lo[3], const double hi[3])
 {
     double d2 = 0;

@@ -193,16 +193,10 @@ static vbnl_result sweep_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     im.tol = POV_TESS_TOL * r;
     im.grad_step = 1e-6 * r;
     im.max_evals = 20000000;
-    const char *why = NULL;
-    pov_mesh *m = pov_implicit_mesh(&im, &why);
-    if (!m) {
+    vbnl_result res = pov_shape_implicit(s, pr, &im, &sweep_fn, (void **)&d, lo, hi);
+    if (d)
         sweep_destroy(d);
-        return strcmp(why, "out of memory") ? vbnl_sdl_error(L->c.parser, &s->loc, "sphere_sweep: %s", why) : pov_oom(L);
-    }
-    pr->mesh = m;
-    if (!(pr->solid = pov_solid_custom(&sweep_fn, d, lo, hi)))
-        return pov_oom(L);
-    return VBNL_OK;
+    return res;
 }
 
 vbnl_result pov_shape_sphere_sweep(const pov_shape *s)

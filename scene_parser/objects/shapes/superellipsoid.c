@@ -57,17 +57,7 @@ static vbnl_result super_make(const pov_shape *s, pov_mods *mods, pov_prim *pr)
     im.lipschitz = ss->d->pe >= 1 && ss->d->pn >= 1 ? 2.0 : 0.0;
     im.tol = POV_TESS_TOL * r;
     im.grad_step = 1e-6 * r;
-    const char *why = NULL;
-    pov_mesh *m = pov_implicit_mesh(&im, &why);
-    if (!m)
-        return pov_oom(s->L);
-    pr->mesh = m;
-    if (!(pr->solid = pov_solid_custom(&super_fn, ss->d, im.lo, im.hi))) {
-        ss->d = NULL;
-        return pov_oom(s->L);
-    }
-    ss->d = NULL;
-    return VBNL_OK;
+    return pov_shape_implicit(s, pr, &im, &super_fn, (void **)&ss->d, im.lo, im.hi);
 }
 
 vbnl_result pov_shape_superellipsoid(const pov_shape *s)
