@@ -71,6 +71,8 @@ int vbnl_sdl_function_arity(const vbnl_sdl_function *f)
 /* Appends n bytes at *at when they fit. */
 static int key_put(unsigned char *buf, size_t cap, size_t *at, const void *p, size_t n)
 {
+    if (n == 0)
+        return 1;
     if (*at + n > cap)
         return 0;
     memcpy(buf + *at, p, n);

@@ -93,8 +93,9 @@ static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *
     return r;
 }
 
-/* A mesh several primitives share (a declared object placed many times, a shape made once and
- * shared): added once, in a group of its own per material, and placed as instances. */
+/* A mesh several primitives of the world show (a declared object placed many times, a shape
+ * made once and shared): added once, in a group of its own per material, and placed as
+ * instances. A mesh placed once stays world geometry (one level of traversal less). */
 typedef struct mesh_group {
     const pov_mesh *mesh;
     uint32_t material, group;
@@ -103,7 +104,32 @@ typedef struct mesh_group {
 typedef struct mesh_groups {
     mesh_group *v;
     size_t n, cap;
+    const pov_mesh **placed; /* the meshes of the world's primitives, sorted: how often each is placed */
+    size_t nplaced;
 } mesh_groups;
+
+static int cmp_ptr(const void *a, const void *b)
+{
+    uintptr_t x = (uintptr_t) * (const void *const *)a, y = (uintptr_t) * (const void *const *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* How many of the world's primitives show this mesh. */
+static size_t placements(const mesh_groups *mg, const pov_mesh *m)
+{
+    size_t lo = 0, hi = mg->nplaced;
+    while (lo < hi) { /* the first entry not below m */
+        size_t mid = (lo + hi) / 2;
+        if ((uintptr_t)mg->placed[mid] < (uintptr_t)m)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    size_t n = 0;
+    while (lo + n < mg->nplaced && mg->placed[lo + n] == m)
+        n++;
+    return n;
+}
 
 static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err);
 
@@ -111,7 +137,7 @@ static vbnl_result emit_instance(pov_loader *L, const pov_prim *pr, mesh_groups 
 {
     const pov_mesh *m = pr->mesh;
     *done = 0;
-    if (m->refs < 2 || m->ftex || m->nt == 0 || flat(pr->m) || pov_appearance_is_emissive(pr->app))
+    if (placements(mg, m) < 2 || m->ftex || m->nt == 0 || flat(pr->m) || pov_appearance_is_emissive(pr->app))
         return VBNL_OK; /* emitters must be world geometry */
     static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     uint32_t mat;
@@ -149,9 +175,17 @@ static vbnl_result emit_instance(pov_loader *L, const pov_prim *pr, mesh_groups 
 
 vbnl_result pov_build(pov_loader *L, vbnl_error *err)
 {
-    mesh_groups mg = {NULL, 0, 0};
+    mesh_groups mg = {NULL, 0, 0, NULL, 0};
+    mg.placed = malloc(sizeof *mg.placed * (L->world.n + 1));
+    if (!mg.placed)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    for (size_t i = 0; i < L->world.n; ++i)
+        if (L->world.v[i].kind == POV_PRIM_MESH)
+            mg.placed[mg.nplaced++] = L->world.v[i].mesh;
+    qsort(mg.placed, mg.nplaced, sizeof *mg.placed, cmp_ptr);
     vbnl_result res = build_all(L, &mg, err);
     free(mg.v);
+    free(mg.placed);
     return res;
 }
 

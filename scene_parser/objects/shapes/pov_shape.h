@@ -37,6 +37,12 @@ vbnl_result pov_shape_vector_float(const pov_shape *s, double v[3], double *f);
 /* Appends an analytic primitive with a = (v, f), then reads the modifiers. */
 vbnl_result pov_shape_add_analytic(const pov_shape *s, int kind, const double v[3], double f);
 
+/* Simple shapes made once per load (shape_cache.c), so that equal CSGs of them are shared too:
+ * the mesh and solid of kind with these parameters (references taken) when made before. */
+int pov_shape_cache_find(pov_loader *L, const char *kind, const double *params, int n, pov_mesh **mesh,
+                         pov_solid **solid);
+void pov_shape_cache_keep(pov_loader *L, const char *kind, const double *params, int n, pov_mesh *mesh, pov_solid *solid);
+
 /* The parsers (one file each unless noted). */
 vbnl_result pov_shape_sphere(const pov_shape *s);
 vbnl_result pov_shape_box(const pov_shape *s);

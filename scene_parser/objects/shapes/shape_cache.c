@@ -149,3 +149,29 @@ void pov_key_free(pov_key *k)
     free(k->b);
     memset(k, 0, sizeof *k);
 }
+
+/* The key of a simple shape: its kind and its parameters. */
+static void simple_key(pov_key *k, const char *kind, const double *params, int n)
+{
+    pov_key_add(k, kind, strlen(kind) + 1);
+    pov_key_add(k, params, (size_t)n * sizeof *params);
+}
+
+int pov_shape_cache_find(pov_loader *L, const char *kind, const double *params, int n, pov_mesh **mesh,
+                         pov_solid **solid)
+{
+    pov_key k = {0};
+    simple_key(&k, kind, params, n);
+    int found = !k.failed && pov_shape_cache_get(L, k.b, k.n, mesh, solid);
+    pov_key_free(&k);
+    return found;
+}
+
+void pov_shape_cache_keep(pov_loader *L, const char *kind, const double *params, int n, pov_mesh *mesh, pov_solid *solid)
+{
+    pov_key k = {0};
+    simple_key(&k, kind, params, n);
+    if (!k.failed)
+        pov_shape_cache_put(L, k.b, k.n, mesh, solid);
+    pov_key_free(&k);
+}
