@@ -646,9 +646,10 @@ pov_mesh *pov_implicit_mesh(const pov_implicit *im, const char **why)
             top *= 2;
     }
     size_t lattice = (size_t)(d.n[0] + 1) * (d.n[1] + 1) * (d.n[2] + 1);
-    /* every lattice point is evaluated when nothing culls cells: an array then, else a hash table */
-    int dense = im->lipschitz <= 0 && !im->excludes;
-    if (dense && lattice <= ((size_t)1 << 22) && (d.dense = malloc(lattice * sizeof *d.dense)) != NULL)
+    /* lattice values in an array when it is small (8 MiB at most), or when nothing culls cells
+     * (every point is evaluated: 32 MiB at most), else in a hash table */
+    size_t dense_max = im->lipschitz <= 0 && !im->excludes ? (size_t)1 << 22 : (size_t)1 << 20;
+    if (lattice <= dense_max && (d.dense = malloc(lattice * sizeof *d.dense)) != NULL)
         for (size_t i = 0; i < lattice; ++i)
             d.dense[i] = NAN;
     descend(&d, 0, 0, 0, top);

@@ -48,29 +48,32 @@ static double poly_eval(void *user, const double p[3])
     return s;
 }
 
-/* [lo, hi]^e */
-static void ipow(double lo, double hi, int e, double *a, double *b)
+/* [lo, hi]^e for every e up to the order, from the powers of the ends. */
+static void ipow_all(double lo, double hi, int order, double *a, double *b)
 {
-    double pl = pow(lo, e), ph = pow(hi, e);
-    if (e == 0) {
-        *a = *b = 1;
-    } else if (e % 2 == 1 || lo >= 0) {
-        *a = fmin(pl, ph);
-        *b = fmax(pl, ph);
-    } else if (hi <= 0) {
-        *a = fmin(pl, ph);
-        *b = fmax(pl, ph);
-    } else { /* an even power over an interval holding 0 */
-        *a = 0;
-        *b = fmax(pl, ph);
+    double pl = 1, ph = 1;
+    a[0] = b[0] = 1;
+    for (int e = 1; e <= order; ++e) {
+        pl *= lo;
+        ph *= hi;
+        if (e % 2 == 1 || lo >= 0 || hi <= 0) { /* monotonic over the interval */
+            a[e] = pl < ph ? pl : ph;
+            b[e] = pl < ph ? ph : pl;
+        } else { /* an even power over an interval holding 0 */
+            a[e] = 0;
+            b[e] = pl > ph ? pl : ph;
+        }
     }
 }
 
 static void imul(double a0, double a1, double b0, double b1, double *c0, double *c1)
 {
-    double p[4] = {a0 * b0, a0 * b1, a1 * b0, a1 * b1};
-    *c0 = fmin(fmin(p[0], p[1]), fmin(p[2], p[3]));
-    *c1 = fmax(fmax(p[0], p[1]), fmax(p[2], p[3]));
+    double p0 = a0 * b0, p1 = a0 * b1, p2 = a1 * b0, p3 = a1 * b1;
+    double lo = p0 < p1 ? p0 : p1, hi = p0 < p1 ? p1 : p0;
+    lo = p2 < lo ? p2 : lo;
+    hi = p2 > hi ? p2 : hi;
+    *c0 = p3 < lo ? p3 : lo;
+    *c1 = p3 > hi ? p3 : hi;
 }
 
 static int poly_excludes(void *user, const double lo[3], const double hi[3])
@@ -78,17 +81,15 @@ static int poly_excludes(void *user, const double lo[3], const double hi[3])
     const poly_data *d = user;
     double pl[3][POLY_MAX_ORDER + 1], ph[3][POLY_MAX_ORDER + 1];
     for (int k = 0; k < 3; ++k)
-        for (int e = 0; e <= d->order; ++e)
-            ipow(lo[k], hi[k], e, &pl[k][e], &ph[k][e]);
+        ipow_all(lo[k], hi[k], d->order, pl[k], ph[k]);
     double s0 = 0, s1 = 0;
     for (int i = 0; i < d->nt; ++i) {
         const int *e = d->t[i].e;
-        double a, b;
+        double a, b, c = d->t[i].c;
         imul(pl[0][e[0]], ph[0][e[0]], pl[1][e[1]], ph[1][e[1]], &a, &b);
         imul(a, b, pl[2][e[2]], ph[2][e[2]], &a, &b);
-        imul(a, b, d->t[i].c, d->t[i].c, &a, &b);
-        s0 += a;
-        s1 += b;
+        s0 += c >= 0 ? c * a : c * b;
+        s1 += c >= 0 ? c * b : c * a;
     }
     return s0 > 0 || s1 < 0;
 }
