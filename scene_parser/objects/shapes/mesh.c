@@ -118,6 +118,10 @@ static vbnl_result mesh_make(const pov_shape *s, mesh_build *mb)
 vbnl_result pov_shape_mesh(const pov_shape *s)
 {
     vbnl_sdl_parser *p = s->L->c.parser;
+    /* mesh { ID modifiers }: a copy of a declared object, as object { ID } (POV-Ray takes one here;
+     * the mesh_camera scenes write mesh { camera_mesh texture { ... } }) */
+    if (pov_declared(s->L, vbnl_sdl_peek(p), &pov_object_type))
+        return pov_shape_object(s);
     mesh_build mb = {s->L, pov_mesh_new(), NULL, 0, 0, 0};
     if (!mb.m)
         return pov_oom(s->L);
