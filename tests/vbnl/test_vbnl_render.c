@@ -402,7 +402,7 @@ static void test_time_budget(void **state)
         fail_msg("%s", err.message);
     assert_true(wall < budget);
     /* a count that fits is kept */
-    const char *const fits[] = {"virtual_lights=1500", NULL};
+    const char *const fits[] = {"virtual_lights=500", NULL};
     if (render_budget(ctx, s, "vbnl", budget, 64, fits, &st, &wall, &err) != VBNL_OK)
         fail_msg("vbnl: %s", err.message);
     assert_true(st.prepare_seconds <= st.prepare_limit);
