@@ -108,7 +108,8 @@ for want in "vbnl/budget/virtual_lights/why=sized" "vbnl/budget/importon_paths/w
     grep -qF -- "$want" <<<"$hdr" && ok "richvsl budget EXR header has $want" || not_ok "richvsl budget EXR header has $want" "$hdr"
 done
 # Counts set explicitly are kept, and refused before the work when they cannot fit.
-expect "explicit count that fits is kept" 0 "" -- "$VBNL" render "$SCENE" -o "$TMP/keep.exr" --width 64 --height 64 --time 2 -q --integrator vbnl --set virtual_lights=500
+# (a 4 s budget: on a loaded machine the calibration alone has taken 0.4 s of a 2 s budget's 0.5 s bound)
+expect "explicit count that fits is kept" 0 "" -- "$VBNL" render "$SCENE" -o "$TMP/keep.exr" --width 64 --height 64 --time 4 -q --integrator vbnl --set virtual_lights=500
 grep -qF "vbnl/budget/virtual_lights/why=set explicitly, kept" <<<"$($HDR "$TMP/keep.exr" 2>&1)" && ok "the EXR says the count was kept" || not_ok "the EXR says the count was kept" "$($HDR "$TMP/keep.exr" 2>&1)"
 t0=$(now)
 expect "vbnl: explicit photon_paths that cannot fit are refused with the estimate" 1 "photon_paths set explicitly .* preparation needs about [0-9.]+ s .* more than its bound of 0.50 s \(25% of the 2 s time budget\)" -- "$VBNL" render "$SCENE" -o "$TMP/no.exr" --width 64 --height 64 --time 2 -q --integrator vbnl --set photon_paths=1e9

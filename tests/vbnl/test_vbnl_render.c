@@ -401,9 +401,10 @@ static void test_time_budget(void **state)
     if (!strstr(err.message, "photon_paths set explicitly") || !strstr(err.message, "more than its bound"))
         fail_msg("%s", err.message);
     assert_true(wall < budget);
-    /* a count that fits is kept */
+    /* a count that fits is kept: 500 lights take milliseconds; a 4 s budget (bound 1 s) leaves the
+     * calibration room on a loaded machine, where it alone has taken 0.4 s of a 2 s budget's 0.5 s */
     const char *const fits[] = {"virtual_lights=500", NULL};
-    if (render_budget(ctx, s, "vbnl", budget, 64, fits, &st, &wall, &err) != VBNL_OK)
+    if (render_budget(ctx, s, "vbnl", 2.0 * budget, 64, fits, &st, &wall, &err) != VBNL_OK)
         fail_msg("vbnl: %s", err.message);
     assert_true(st.prepare_seconds <= st.prepare_limit);
     vbnl_scene_destroy(s);
