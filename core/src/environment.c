@@ -1,0 +1,193 @@
+/* The directional environment: radiance of a pigment stack on the unit sphere and its
+ * importance-sampling table (environment.h). */
+#include "environment.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+vbnl_env *vbnl_env_create(const vbnl_environment_desc *d, const vbnl_texture_set *tex)
+{
+    vbnl_env *e = calloc(1, sizeof(*e));
+    if (!e)
+        return NULL;
+    e->pigments = malloc(sizeof(uint32_t) * (d->pigment_count ? d->pigment_count : 1));
+    if (!e->pigments) {
+        free(e);
+        return NULL;
+    }
+    memcpy(e->pigments, d->pigments, sizeof(uint32_t) * d->pigment_count);
+    e->count = d->pigment_count;
+    e->tex = tex;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            e->xf.m[r][c] = d->pattern_from_world[4 * r + c];
+    e->emission = v3_load(d->emission);
+    e->background = v3_load(d->background);
+    return e;
+}
+
+void vbnl_env_unbake(vbnl_env *e)
+{
+    if (!e)
+        return;
+    vbnl_alias_table_free(&e->table);
+    e->baked = 0;
+    e->constant = 0;
+    e->mean = v3s(0.0f);
+}
+
+void vbnl_env_destroy(vbnl_env *e)
+{
+    if (!e)
+        return;
+    vbnl_env_unbake(e);
+    free(e->pigments);
+    free(e);
+}
+
+/* The layers composed at pattern point q (environment.h), in double precision as the pigments. */
+static vec3 env_compose(const vbnl_env *e, dvec3 q, dvec3 d)
+{
+    /* No surface: the shade point is the sky point itself, its normal faces the viewer at the
+     * sphere's centre, and the eye is that centre. */
+    vbnl_shade_point sp = {.p = q, .n = d3(-d.x, -d.y, -d.z), .u = 0.0, .v = 0.0, .eye = d3(0.0, 0.0, 0.0)};
+    double col[3] = {0.0, 0.0, 0.0}, through[3] = {1.0, 1.0, 1.0};
+    const float em[3] = {e->emission.x, e->emission.y, e->emission.z};
+    const float bg[3] = {e->background.x, e->background.y, e->background.z};
+    for (uint32_t i = e->count; i-- > 0;) {
+        float c[5];
+        vbnl_pigment_eval(e->tex, e->pigments[i], q, &sp, c);
+        double opacity = 1.0 - (double)c[3] - (double)c[4];
+        for (int k = 0; k < 3; ++k) {
+            col[k] += (double)c[k] * opacity * through[k] * em[k];
+            through[k] *= (double)c[k] * c[3] + c[4];
+        }
+    }
+    vec3 out;
+    out.x = (float)fmax(col[0] + bg[0] * through[0], 0.0);
+    out.y = (float)fmax(col[1] + bg[1] * through[1], 0.0);
+    out.z = (float)fmax(col[2] + bg[2] * through[2], 0.0);
+    return v3_is_finite(out) ? out : v3s(0.0f);
+}
+
+vec3 vbnl_env_radiance(const vbnl_env *e, vec3 d)
+{
+    if (e->constant)
+        return e->mean;
+    dvec3 dd = d3(d.x, d.y, d.z);
+    return env_compose(e, dmat_point(&e->xf, dd), dd);
+}
+
+/* ---- the table --------------------------------------------------------------------------- */
+
+#define ENV_DPHI (2.0 * M_PI / VBNL_ENV_TABLE_COLS)
+#define ENV_DTHETA (M_PI / VBNL_ENV_TABLE_ROWS)
+#define ENV_EDGE 1e-4
+
+/* Solid angle of the cells of `row`: dphi (cos theta0 - cos theta1). */
+static double env_row_solid_angle(uint32_t row)
+{
+    return ENV_DPHI * (cos(row * ENV_DTHETA) - cos((row + 1) * ENV_DTHETA));
+}
+
+/* 1 when every layer is a solid colour: the sky is then constant. */
+static int env_is_constant(const vbnl_env *e)
+{
+    for (uint32_t i = 0; i < e->count; ++i)
+        if (e->tex->pigments[e->pigments[i]].kind != VBNL_PIGMENT_SOLID)
+            return 0;
+    return 1;
+}
+
+int vbnl_env_bake(vbnl_env *e)
+{
+    if (e->baked)
+        return 0;
+    if (env_is_constant(e)) {
+        e->mean = env_compose(e, d3(0.0, 1.0, 0.0), d3(0.0, 1.0, 0.0));
+        e->constant = 1;
+        e->baked = 1;
+        return 0;
+    }
+    const uint32_t n = VBNL_ENV_TABLE_ROWS * VBNL_ENV_TABLE_COLS;
+    float *w = malloc(sizeof(float) * n);
+    if (!w)
+        return -1;
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row) {
+        double omega = env_row_solid_angle(row);
+        for (uint32_t col = 0; col < VBNL_ENV_TABLE_COLS; ++col) {
+            /* a 2 x 2 grid in the cell (equal steps in cos theta and phi: equal solid angles) */
+            double z0 = cos(row * ENV_DTHETA), z1 = cos((row + 1) * ENV_DTHETA);
+            double cell[3] = {0.0, 0.0, 0.0};
+            for (int k = 0; k < 4; ++k) {
+                double z = z0 + (z1 - z0) * (0.25 + 0.5 * (k >> 1));
+                double phi = (col + 0.25 + 0.5 * (k & 1)) * ENV_DPHI;
+                double r = sqrt(fmax(1.0 - z * z, 0.0));
+                dvec3 d = d3(r * cos(phi), z, r * sin(phi));
+                vec3 L = env_compose(e, dmat_point(&e->xf, d), d);
+                cell[0] += 0.25 * L.x;
+                cell[1] += 0.25 * L.y;
+                cell[2] += 0.25 * L.z;
+            }
+            for (int c = 0; c < 3; ++c)
+                sum[c] += cell[c] * omega;
+            w[row * VBNL_ENV_TABLE_COLS + col] = (float)((cell[0] + cell[1] + cell[2]) / 3.0 * omega);
+        }
+    }
+    e->mean = v3((float)(sum[0] / (4.0 * M_PI)), (float)(sum[1] / (4.0 * M_PI)), (float)(sum[2] / (4.0 * M_PI)));
+    double floor_radiance = 0.01 * v3_avg(e->mean);
+    int rc = 0;
+    if (floor_radiance > 0.0) {
+        for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row) {
+            float add = (float)(floor_radiance * env_row_solid_angle(row));
+            for (uint32_t col = 0; col < VBNL_ENV_TABLE_COLS; ++col)
+                w[row * VBNL_ENV_TABLE_COLS + col] += add;
+        }
+        rc = vbnl_alias_table_build(&e->table, w, n);
+    }
+    free(w);
+    if (rc != 0)
+        return -1;
+    e->baked = 1;
+    return 0;
+}
+
+int vbnl_env_sample(const vbnl_env *e, vec2 u, vec3 *d, float *pdf)
+{
+    if (e->constant || e->table.n == 0) {
+        *d = sample_uniform_sphere(u);
+        *pdf = pdf_uniform_sphere();
+        return e->constant;
+    }
+    float pmf, rest;
+    uint32_t cell = vbnl_alias_table_sample_reuse(&e->table, u.x, &pmf, &rest);
+    uint32_t row = cell / VBNL_ENV_TABLE_COLS, col = cell % VBNL_ENV_TABLE_COLS;
+    double z0 = cos(row * ENV_DTHETA), z1 = cos((row + 1) * ENV_DTHETA);
+    double z = z0 + (z1 - z0) * (ENV_EDGE + (1.0 - 2.0 * ENV_EDGE) * u.y);
+    /* The alias table's leftover number has few bits (about 24 - log2(cells)) and may be exactly
+     * 0; a margin of 1e-4 of the cell keeps the direction off the cell's edges, where rounding
+     * would move it into the neighbour (whose density vbnl_env_pdf would report). */
+    double phi = (col + ENV_EDGE + (1.0 - 2.0 * ENV_EDGE) * rest) * ENV_DPHI;
+    double r = sqrt(fmax(1.0 - z * z, 0.0));
+    *d = v3((float)(r * cos(phi)), (float)z, (float)(r * sin(phi)));
+    *pdf = (float)(pmf / env_row_solid_angle(row));
+    return *pdf > 0.0f;
+}
+
+float vbnl_env_pdf(const vbnl_env *e, vec3 d)
+{
+    if (e->constant || e->table.n == 0)
+        return e->constant ? pdf_uniform_sphere() : 0.0f;
+    double theta = acos(fmin(fmax((double)d.y, -1.0), 1.0));
+    double phi = atan2((double)d.z, (double)d.x);
+    if (phi < 0.0)
+        phi += 2.0 * M_PI;
+    uint32_t row = (uint32_t)(theta / ENV_DTHETA), col = (uint32_t)(phi / ENV_DPHI);
+    if (row >= VBNL_ENV_TABLE_ROWS)
+        row = VBNL_ENV_TABLE_ROWS - 1;
+    if (col >= VBNL_ENV_TABLE_COLS)
+        col = VBNL_ENV_TABLE_COLS - 1;
+    return (float)(e->table.pmf[row * VBNL_ENV_TABLE_COLS + col] / env_row_solid_angle(row));
+}
