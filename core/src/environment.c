@@ -100,6 +100,39 @@ static int env_is_constant(const vbnl_env *e)
     return 1;
 }
 
+/* One row of the table: its cells' weights (solid angle times mean radiance) and the row's
+ * radiance integral per channel. */
+typedef struct env_bake_job {
+    const vbnl_env *e;
+    float *w;          /* ROWS * COLS */
+    double *row_sum;   /* ROWS * 3 */
+} env_bake_job;
+
+static void env_bake_row(const env_bake_job *job, uint32_t row)
+{
+    const double omega = env_row_solid_angle(row);
+    const double z0 = cos(row * ENV_DTHETA), z1 = cos((row + 1) * ENV_DTHETA);
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (uint32_t col = 0; col < VBNL_ENV_TABLE_COLS; ++col) {
+        /* a 2 x 2 grid in the cell (equal steps in cos theta and phi: equal solid angles) */
+        double cell[3] = {0.0, 0.0, 0.0};
+        for (int k = 0; k < 4; ++k) {
+            double z = z0 + (z1 - z0) * (0.25 + 0.5 * (k >> 1));
+            double phi = (col + 0.25 + 0.5 * (k & 1)) * ENV_DPHI;
+            double r = sqrt(fmax(1.0 - z * z, 0.0));
+            dvec3 d = d3(r * cos(phi), z, r * sin(phi));
+            vec3 L = env_compose(job->e, dmat_point(&job->e->xf, d), d);
+            cell[0] += 0.25 * L.x;
+            cell[1] += 0.25 * L.y;
+            cell[2] += 0.25 * L.z;
+        }
+        for (int c = 0; c < 3; ++c)
+            sum[c] += cell[c] * omega;
+        job->w[row * VBNL_ENV_TABLE_COLS + col] = (float)((cell[0] + cell[1] + cell[2]) / 3.0 * omega);
+    }
+    memcpy(job->row_sum + 3 * row, sum, sizeof(sum));
+}
+
 int vbnl_env_bake(vbnl_env *e)
 {
     if (e->baked)
@@ -111,31 +144,20 @@ int vbnl_env_bake(vbnl_env *e)
         return 0;
     }
     const uint32_t n = VBNL_ENV_TABLE_ROWS * VBNL_ENV_TABLE_COLS;
-    float *w = malloc(sizeof(float) * n);
-    if (!w)
+    env_bake_job job = {e, malloc(sizeof(float) * n), malloc(sizeof(double) * 3 * VBNL_ENV_TABLE_ROWS)};
+    if (!job.w || !job.row_sum) {
+        free(job.w);
+        free(job.row_sum);
         return -1;
-    double sum[3] = {0.0, 0.0, 0.0};
-    for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row) {
-        double omega = env_row_solid_angle(row);
-        for (uint32_t col = 0; col < VBNL_ENV_TABLE_COLS; ++col) {
-            /* a 2 x 2 grid in the cell (equal steps in cos theta and phi: equal solid angles) */
-            double z0 = cos(row * ENV_DTHETA), z1 = cos((row + 1) * ENV_DTHETA);
-            double cell[3] = {0.0, 0.0, 0.0};
-            for (int k = 0; k < 4; ++k) {
-                double z = z0 + (z1 - z0) * (0.25 + 0.5 * (k >> 1));
-                double phi = (col + 0.25 + 0.5 * (k & 1)) * ENV_DPHI;
-                double r = sqrt(fmax(1.0 - z * z, 0.0));
-                dvec3 d = d3(r * cos(phi), z, r * sin(phi));
-                vec3 L = env_compose(e, dmat_point(&e->xf, d), d);
-                cell[0] += 0.25 * L.x;
-                cell[1] += 0.25 * L.y;
-                cell[2] += 0.25 * L.z;
-            }
-            for (int c = 0; c < 3; ++c)
-                sum[c] += cell[c] * omega;
-            w[row * VBNL_ENV_TABLE_COLS + col] = (float)((cell[0] + cell[1] + cell[2]) / 3.0 * omega);
-        }
     }
+    for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row)
+        env_bake_row(&job, row);
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row)
+        for (int c = 0; c < 3; ++c)
+            sum[c] += job.row_sum[3 * row + c];
+    free(job.row_sum);
+    float *w = job.w;
     e->mean = v3((float)(sum[0] / (4.0 * M_PI)), (float)(sum[1] / (4.0 * M_PI)), (float)(sum[2] / (4.0 * M_PI)));
     double floor_radiance = 0.01 * v3_avg(e->mean);
     int rc = 0;

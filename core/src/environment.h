@@ -56,8 +56,9 @@ typedef struct vbnl_env {
 vbnl_env *vbnl_env_create(const vbnl_environment_desc *d, const vbnl_texture_set *tex);
 void vbnl_env_destroy(vbnl_env *e);
 
-/* Builds the sampling table and the mean radiance (idempotent; 0 on success, -1 when out of
- * memory). An env whose radiance is zero everywhere gets no table and a zero mean. */
+/* Builds the sampling table and the mean radiance on the calling thread (idempotent; 0 on
+ * success, -1 when out of memory). An env whose radiance is zero everywhere gets no table and a
+ * zero mean. */
 int vbnl_env_bake(vbnl_env *e);
 /* Drops the table (a failed commit is undone). */
 void vbnl_env_unbake(vbnl_env *e);

@@ -221,7 +221,7 @@ vbnl_result pov_environment_build(pov_loader *L, vbnl_error *err)
     const pov_sky *s = L->sky;
     vbnl_environment_desc d;
     vbnl_environment_desc_init(&d);
-    if (!pov_m4_invert(s->xf, d.pattern_from_world))
+    if (!pov_m4_invert(s->xf, d.pattern_from_world)) /* the transform rows refuse singular matrices */
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "the sky_sphere's transform is singular");
     for (int k = 0; k < 3; ++k) {
         /* POV-Ray scales the layers by the emission colour as given; a negative one would make a

@@ -10,6 +10,8 @@
  *    the horizon, E = pi A + 2 pi (B - A) / 3): light sampling alone, cosine (BSDF) sampling alone
  *    and their MIS combination with the table's pdf agree with it; light tracing (sample_le)
  *    carries the sky's power.
+ *  - Shadows: at points of a plane beside a sphere, environment sampling alone and cosine sampling
+ *    alone, both with shadow rays, agree within their noise.
  *  - Furnace: the path integrator renders a white-ish Lambertian plane under that sky as
  *    rho E / pi in every pixel.
  * Seeds are fixed, so results are deterministic. */
@@ -363,6 +365,67 @@ static void test_irradiance_estimators(void **state)
     vbnl_context_destroy(ctx);
 }
 
+/* ---- shadowed light: environment sampling alone against BSDF sampling alone ----------------------- */
+
+/* Irradiance at points of the plane around a sphere resting on it, each estimated twice with
+ * shadow rays: by the environment's samples alone and by cosine samples alone. Both are unbiased
+ * only if sample_li draws by the pdf it reports over the visible part of the sky; they must agree
+ * point by point within their noise. */
+static void test_shadowed_consistency(void **state)
+{
+    (void)state;
+    vbnl_context *ctx = ts_context(1);
+    vbnl_scene *s = plane_scene(ctx, 0.5f);
+    uint32_t m = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.5f, 0.5f, 0.5f, 0.0f);
+    const float c[3] = {0.0f, 1.0f, 0.0f};
+    assert_int_equal(vbnl_scene_add_sphere(s, c, 1.0f, m, VBNL_GROUP_WORLD, NULL, NULL), VBNL_OK);
+    const float dim[3] = {0.05f, 0.05f, 0.1f}, bright[3] = {8.0f, 6.0f, 3.0f};
+    uint32_t id = gradient_pigment(s, dim, bright, 0.7f);
+    set_sky(s, &id, 1);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    const vbnl_light *l = env_light(s);
+    const vec3 n = v3(0, 1, 0);
+    const frame f = frame_from_normal(n);
+    const int N = 6000;
+    vbnl_rng rng = vbnl_rng_make(9, 4);
+    double worst = 0.0, sum_a = 0.0, sum_b = 0.0;
+    for (int px = 0; px < 6; ++px)
+        for (int pz = 0; pz < 6; ++pz) {
+            vec3 p = v3(-1.5f + 0.6f * px, 1e-3f, -1.5f + 0.6f * pz);
+            double a = 0, a2 = 0, b = 0, b2 = 0;
+            vbnl_hit hit;
+            for (int i = 0; i < N; ++i) {
+                vbnl_light_li_sample ls;
+                double ea = 0.0, eb = 0.0;
+                vec2 u = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)};
+                if (vbnl_light_sample_li(l, p, u, &ls) && ls.wi.y > 0.0f && !vbnl_scene_intersect(s, p, ls.wi, INFINITY, &hit))
+                    ea = v3_avg(ls.Li) * ls.wi.y / ls.pdf;
+                vec3 wl = sample_cosine_hemisphere((vec2){vbnl_rng_next(&rng), vbnl_rng_next(&rng)});
+                vec3 w = frame_to_world(&f, wl);
+                if (wl.z > 0.0f && !vbnl_scene_intersect(s, p, w, INFINITY, &hit))
+                    eb = v3_avg(sky_Le(l, w)) * PI_D;
+                a += ea;
+                a2 += ea * ea;
+                b += eb;
+                b2 += eb * eb;
+            }
+            a /= N;
+            b /= N;
+            double va = (a2 / N - a * a) / N, vb = (b2 / N - b * b) / N;
+            double z = fabs(a - b) / sqrt(va + vb + 1e-12);
+            if (z > worst)
+                worst = z;
+            sum_a += a;
+            sum_b += b;
+        }
+    print_message("# shadowed irradiance, 36 points: env sampling mean %.4f, cosine sampling mean %.4f, worst point "
+                  "%.2f standard errors apart\n", sum_a / 36, sum_b / 36, worst);
+    assert_true(worst < 4.5);
+    assert_true(fabs(sum_a / sum_b - 1.0) < 0.01);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
 /* ---- furnace through the renderer -------------------------------------------------------------- */
 
 static void test_furnace_plane(void **state)
@@ -396,6 +459,7 @@ int main(void)
         cmocka_unit_test(test_layers),
         cmocka_unit_test(test_sampling_chi2),
         cmocka_unit_test(test_irradiance_estimators),
+        cmocka_unit_test(test_shadowed_consistency),
         cmocka_unit_test(test_furnace_plane),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
