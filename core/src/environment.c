@@ -24,6 +24,7 @@ vbnl_env *vbnl_env_create(const vbnl_environment_desc *d, const vbnl_texture_set
             e->xf.m[r][c] = d->pattern_from_world[4 * r + c];
     e->emission = v3_load(d->emission);
     e->background = v3_load(d->background);
+    e->legacy = d->legacy_layers != 0;
     return e;
 }
 
@@ -46,12 +47,47 @@ void vbnl_env_destroy(vbnl_env *e)
     free(e);
 }
 
+/* Negative or non-finite components to 0. */
+static vec3 env_clamp(const double c[3])
+{
+    vec3 out = v3((float)fmax(c[0], 0.0), (float)fmax(c[1], 0.0), (float)fmax(c[2], 0.0));
+    return v3_is_finite(out) ? out : v3s(0.0f);
+}
+
+/* POV-Ray's composition for scenes before #version 3.7 (its renderer keeps the old rule for
+ * them): a layer's weight is (1 - filter - transmit) times the product of the filter and
+ * transmit sums of the layers above (a scalar, not the colour they let through), the emission
+ * scales the layers' sum, and the background shows through the product of the layers' colours
+ * times their filters plus their transmits. */
+static vec3 env_compose_legacy(const vbnl_env *e, dvec3 q, const vbnl_shade_point *sp)
+{
+    double col[3] = {0.0, 0.0, 0.0}, prod[5] = {1.0, 1.0, 1.0, 1.0, 1.0}, trans = 1.0;
+    for (uint32_t i = e->count; i-- > 0;) {
+        float c[5];
+        vbnl_pigment_eval(e->tex, e->pigments[i], q, sp, c);
+        double att = trans * (1.0 - (double)c[3] - (double)c[4]);
+        for (int k = 0; k < 5; ++k) {
+            if (k < 3)
+                col[k] += (double)c[k] * att;
+            prod[k] *= c[k];
+        }
+        trans = fabs(prod[3]) + fabs(prod[4]);
+    }
+    const double em[3] = {e->emission.x, e->emission.y, e->emission.z};
+    const double bg[3] = {e->background.x, e->background.y, e->background.z};
+    for (int k = 0; k < 3; ++k)
+        col[k] = col[k] * em[k] + bg[k] * (prod[k] * prod[3] + prod[4]);
+    return env_clamp(col);
+}
+
 /* The layers composed at pattern point q (environment.h), in double precision as the pigments. */
 static vec3 env_compose(const vbnl_env *e, dvec3 q, dvec3 d)
 {
     /* No surface: the shade point is the sky point itself, its normal faces the viewer at the
      * sphere's centre, and the eye is that centre. */
     vbnl_shade_point sp = {.p = q, .n = d3(-d.x, -d.y, -d.z), .u = 0.0, .v = 0.0, .eye = d3(0.0, 0.0, 0.0)};
+    if (e->legacy)
+        return env_compose_legacy(e, q, &sp);
     double col[3] = {0.0, 0.0, 0.0}, through[3] = {1.0, 1.0, 1.0};
     const float em[3] = {e->emission.x, e->emission.y, e->emission.z};
     const float bg[3] = {e->background.x, e->background.y, e->background.z};
@@ -64,11 +100,9 @@ static vec3 env_compose(const vbnl_env *e, dvec3 q, dvec3 d)
             through[k] *= (double)c[k] * c[3] + c[4];
         }
     }
-    vec3 out;
-    out.x = (float)fmax(col[0] + bg[0] * through[0], 0.0);
-    out.y = (float)fmax(col[1] + bg[1] * through[1], 0.0);
-    out.z = (float)fmax(col[2] + bg[2] * through[2], 0.0);
-    return v3_is_finite(out) ? out : v3s(0.0f);
+    for (int k = 0; k < 3; ++k)
+        col[k] += bg[k] * through[k];
+    return env_clamp(col);
 }
 
 vec3 vbnl_env_radiance(const vbnl_env *e, vec3 d)

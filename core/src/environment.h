@@ -7,7 +7,8 @@
  * direction with the inverse transform as a point). The last pigment given is the top layer: each
  * layer adds rgb (1 - filter - transmit) times `emission`, seen through the layers above it, and
  * lets through rgb filter + transmit of what lies below; the background lies below every layer,
- * unscaled by `emission` (POV-Ray 3.7's sky with its background as a last uniform layer).
+ * unscaled by `emission` (POV-Ray 3.7's sky with its background as a last uniform layer). Scenes
+ * of an earlier #version compose as POV-Ray does for them (`legacy`, env_compose_legacy).
  * Negative results are clamped to 0 per channel: a light cannot emit a negative radiance.
  *
  * Sampling. At commit the sky is baked into a latitude-longitude table about +y (POV-Ray's up):
@@ -44,6 +45,7 @@ typedef struct vbnl_env {
     uint32_t count;
     dmat xf;                     /* pattern_from_world */
     vec3 emission, background;
+    int legacy;                  /* POV-Ray's composition before 3.7 (environment.c) */
     /* the baked table (vbnl_env_bake) */
     int baked;
     int constant;                /* every layer is a solid colour: `mean` everywhere, no table */

@@ -548,7 +548,7 @@ uint64_t vbnl_scene_fingerprint(const vbnl_scene *s)
         for (uint32_t i = 0; i < e->count; ++i)
             h = fp_u32(h, e->pigments[i]);
         h = fp_bytes(h, e->xf.m, sizeof(e->xf.m));
-        h = fp_v3(fp_v3(h, e->emission), e->background);
+        h = fp_u32(fp_v3(fp_v3(h, e->emission), e->background), (uint32_t)e->legacy);
     }
     return h;
 }

@@ -229,6 +229,9 @@ vbnl_result pov_environment_build(pov_loader *L, vbnl_error *err)
         d.emission[k] = (float)fmax(s->emission[k], 0.0);
         d.background[k] = bg[k];
     }
+    /* POV-Ray composes the layers by its older rule for scenes before 3.7 (its language version
+     * when the parse ends) */
+    d.legacy_layers = vbnl_sdl_language_version(L->c.parser) < 3.7 - 1e-9;
     uint32_t *ids = malloc(sizeof(uint32_t) * s->count);
     if (!ids)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");

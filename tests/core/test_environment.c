@@ -140,6 +140,21 @@ static void test_layers(void **state)
     assert_float_equal(L.z, 0.3f, 1e-5f);
     vbnl_scene_destroy(s);
 
+    /* the same layers by POV-Ray's rule before 3.7: the top weighs 0.25, leaves a scalar 0.75 for
+     * the bottom, (0.25, 0.125, 0) + 0.75 (0.2, 0.4, 0.6) = (0.4, 0.425, 0.45), times emission 2 */
+    s = plane_scene(ctx, 0.5f);
+    ids[0] = solid_pigment(s, 0.2f, 0.4f, 0.6f, 0, 0);
+    ids[1] = solid_pigment(s, 1.0f, 0.5f, 0.0f, 0.5f, 0.25f);
+    d.legacy_layers = 1;
+    assert_int_equal(vbnl_scene_set_environment_pigments(s, &d, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    L = sky_Le(env_light(s), v3(0, -1, 0));
+    assert_float_equal(L.x, 0.8f, 1e-5f);
+    assert_float_equal(L.y, 0.85f, 1e-5f);
+    assert_float_equal(L.z, 0.9f, 1e-5f);
+    vbnl_scene_destroy(s);
+    d.legacy_layers = 0;
+
     /* a transparent top over nothing: the background shows, unscaled by the emission */
     s = plane_scene(ctx, 0.5f);
     ids[0] = solid_pigment(s, 0.5f, 0.5f, 0.5f, 0.0f, 1.0f);

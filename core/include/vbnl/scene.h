@@ -668,6 +668,8 @@ typedef struct vbnl_environment_desc {
     double pattern_from_world[16];  /* row-major 4x4 affine; identity by default */
     float emission[3];              /* scales the layers (POV-Ray 3.7.1's `emission`); 1 by default */
     float background[3];            /* radiance below the layers; 0 by default */
+    int legacy_layers;              /* 1: POV-Ray's composition for scenes before #version 3.7
+                                     * (docs/environment.md); 0 by default */
 } vbnl_environment_desc;
 
 /* Fills `d` with its size, the identity transform, emission 1 and the rest zero. */

@@ -266,6 +266,22 @@ static void test_background(void **state)
     NEAR(L.y, 0.0f);
     NEAR(L.z, 0.5f);
     vbnl_pov_scene_destroy(s);
+    /* a scene of #version 3.6 composes its layers by POV-Ray's older rule (docs/environment.md):
+     * (0.8, 0.85, 0.9) where 3.7 gives (0.8, 0.65, 0.3) */
+    const char *layers = "camera { location -5 look_at 0 }\nsphere { 0, 1 }\n"
+                         "sky_sphere { pigment { rgb <0.2, 0.4, 0.6> } pigment { rgbft <1, 0.5, 0, 0.5, 0.25> } emission 2 }";
+    char text[512];
+    snprintf(text, sizeof text, "#version 3.6;\n%s", layers);
+    s = ok(text);
+    L = vbnl_light_Le(&sc(s)->lights[sc(s)->env_light], v3s(0.0f), v3(0.0f, 1.0f, 0.0f));
+    NEAR(L.y, 0.85f);
+    NEAR(L.z, 0.9f);
+    vbnl_pov_scene_destroy(s);
+    s = ok(layers);
+    L = vbnl_light_Le(&sc(s)->lights[sc(s)->env_light], v3s(0.0f), v3(0.0f, 1.0f, 0.0f));
+    NEAR(L.y, 0.65f);
+    NEAR(L.z, 0.3f);
+    vbnl_pov_scene_destroy(s);
     expect_error(BASE "sky_sphere { emission 2 }", "test.pov:3:1: sky_sphere needs at least one pigment");
     expect_error(BASE "sky_sphere { pigment { rgb 1 } frobnicate }", "test.pov:3:32: unexpected 'frobnicate' in 'sky_sphere'");
 }
