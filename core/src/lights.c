@@ -20,6 +20,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "environment.h"
 #include "sampling.h"
 
 /* ---- spot falloff ---------------------------------------------------------------------------- */
@@ -225,6 +226,17 @@ int vbnl_light_sample_li_other(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light
         out->is_delta = 1;
         return !v3_is_black(l->L);
     case VBNL_LIGHT_ENV:
+        if (l->env) {
+            /* the table's direction and density, the exact pattern's radiance */
+            vec3 d;
+            float pdf;
+            if (!vbnl_env_sample(l->env, u, &d, &pdf))
+                return 0;
+            fill_distant(l, ref, d, out);
+            out->Li = vbnl_env_radiance(l->env, d);
+            out->pdf = pdf;
+            return !v3_is_black(out->Li);
+        }
         fill_distant(l, ref, sample_uniform_sphere(u), out);
         out->pdf = pdf_uniform_sphere();
         out->is_delta = 0;
@@ -268,7 +280,7 @@ float vbnl_light_pdf_li_other(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 
         return 1.0f / (2.0f * VBNL_PI * sphere_one_minus_cos_max(sin2_max));
     }
     case VBNL_LIGHT_ENV:
-        return pdf_uniform_sphere();
+        return l->env ? vbnl_env_pdf(l->env, wi) : pdf_uniform_sphere();
     }
     (void)n_light;
     return 0.0f;
@@ -283,7 +295,8 @@ vec3 vbnl_light_Le_other(const vbnl_light *l, vec3 n_light, vec3 w)
     case VBNL_LIGHT_SPHERE:
         return (l->two_sided || v3_dot(n_light, w) > 0.0f) ? l->L : v3s(0.0f);
     case VBNL_LIGHT_ENV:
-        return l->L;
+        /* w leaves the light toward the receiver: the sky lies along -w */
+        return l->env ? vbnl_env_radiance(l->env, v3_neg(w)) : l->L;
     default:
         return v3s(0.0f); /* delta lights cannot be hit */
     }
@@ -411,6 +424,15 @@ int vbnl_light_sample_le(const vbnl_light *l, vec2 u_pos, vec2 u_dir, vbnl_light
         return sample_le_distant(l, l->n, u_pos, out);
     case VBNL_LIGHT_ENV: {
         /* The ray travels along d, against the direction -d the radiance arrives from. */
+        if (l->env) {
+            vec3 sky;
+            float pdf;
+            if (!vbnl_env_sample(l->env, u_dir, &sky, &pdf) || !sample_le_distant(l, v3_neg(sky), u_pos, out))
+                return 0;
+            out->Le = vbnl_env_radiance(l->env, sky);
+            out->pdf_dir = pdf;
+            return !v3_is_black(out->Le);
+        }
         vec3 d = sample_uniform_sphere(u_dir);
         out->pdf_dir = pdf_uniform_sphere();
         return sample_le_distant(l, d, u_pos, out);

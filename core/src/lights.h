@@ -22,7 +22,7 @@ typedef enum vbnl_light_type {
     VBNL_LIGHT_TRIANGLE = 3,    /* p, p + e0, p + e1 */
     VBNL_LIGHT_SPHERE = 4,      /* centre p, radius */
     VBNL_LIGHT_DIRECTIONAL = 5, /* light travels along n */
-    VBNL_LIGHT_ENV = 6,         /* constant radiance from every direction */
+    VBNL_LIGHT_ENV = 6,         /* radiance from every direction: constant, or `env` */
 } vbnl_light_type;
 
 typedef struct vbnl_light {
@@ -37,6 +37,8 @@ typedef struct vbnl_light {
     int two_sided;       /* rect, triangle, sphere (sphere: emits inward too) */
     vec3 world_center;   /* scene bounding sphere, for directional and env lights */
     float world_radius;
+    const struct vbnl_env *env; /* env: the directional sky (environment.h; L is then its mean
+                                 * radiance), NULL for a constant one */
 } vbnl_light;
 
 typedef struct vbnl_light_li_sample {

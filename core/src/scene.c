@@ -9,6 +9,7 @@
 #include "context.h"
 #include "desc.h"
 #include "camera_mesh.h"
+#include "environment.h"
 #include "scene_internal.h"
 
 #define GROW(arr, count, cap, type)                                                                \
@@ -123,6 +124,7 @@ void vbnl_scene_destroy(vbnl_scene *s)
     vbnl_alias_table_free(&s->light_table);
     free(s->geoms);
     free(s->materials);
+    vbnl_env_destroy(s->env_sky);
     vbnl_texture_set_free(&s->tex);
     free(s->lights);
     vbi_camera_mesh_free((void *)s->camera.mesh_index);
@@ -549,6 +551,52 @@ vbnl_result vbnl_scene_set_environment(vbnl_scene *s, const float radiance[3], v
     if ((r = check_color(radiance, "environment radiance", err)) != VBNL_OK)
         return r;
     s->env_radiance = v3_load(radiance);
+    vbnl_env_destroy(s->env_sky);
+    s->env_sky = NULL;
+    return VBNL_OK;
+}
+
+void vbnl_environment_desc_init(vbnl_environment_desc *d)
+{
+    if (!d)
+        return;
+    memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
+    d->pattern_from_world[0] = d->pattern_from_world[5] = d->pattern_from_world[10] = d->pattern_from_world[15] = 1.0;
+    d->emission[0] = d->emission[1] = d->emission[2] = 1.0f;
+}
+
+vbnl_result vbnl_scene_set_environment_pigments(vbnl_scene *s, const vbnl_environment_desc *d, vbnl_error *err)
+{
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_environment_pigments", err);
+    if (r != VBNL_OK)
+        return r;
+    if (!d)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_set_environment_pigments: desc is NULL");
+    if ((r = VBNL_DESC_CHECK(d, vbnl_environment_desc, err)) != VBNL_OK)
+        return r;
+    if (d->pigment_count == 0 || d->pigment_count > VBNL_ENVIRONMENT_LAYERS_MAX || !d->pigments)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "environment needs 1 to %u pigments, got %u",
+                              VBNL_ENVIRONMENT_LAYERS_MAX, d->pigment_count);
+    for (uint32_t i = 0; i < d->pigment_count; ++i)
+        if (d->pigments[i] >= s->tex.pigment_count)
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "environment layer %u: unknown pigment id %u", i,
+                                  d->pigments[i]);
+    for (int i = 0; i < 16; ++i)
+        if (!isfinite(d->pattern_from_world[i]))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "environment transform has a non-finite entry");
+    if (d->pattern_from_world[12] != 0.0 || d->pattern_from_world[13] != 0.0 || d->pattern_from_world[14] != 0.0 ||
+        d->pattern_from_world[15] != 1.0)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "environment transform must be affine (last row 0 0 0 1)");
+    if ((r = check_color(d->emission, "environment emission", err)) != VBNL_OK ||
+        (r = check_color(d->background, "environment background", err)) != VBNL_OK)
+        return r;
+    vbnl_env *e = vbnl_env_create(d, &s->tex);
+    if (!e)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    vbnl_env_destroy(s->env_sky);
+    s->env_sky = e;
+    s->env_radiance = v3s(0.0f);
     return VBNL_OK;
 }
 

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "context.h"
+#include "environment.h"
 #include "scene_internal.h"
 
 static vbnl_result embree_fail(const vbnl_scene *s, const char *what, vbnl_error *err)
@@ -169,12 +170,23 @@ static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
             g->u.sphere.light = s->light_count - 1;
         }
     }
-    if (!v3_is_black(s->env_radiance)) {
+    /* A directional sky: its table is baked here (environment.h); a sky that turns out constant
+     * (solid layers) becomes the constant environment, and a black one no light at all. */
+    vec3 env_L = s->env_radiance;
+    const vbnl_env *env_sky = NULL;
+    if (s->env_sky) {
+        if (vbnl_env_bake(s->env_sky) != 0)
+            return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory baking the environment");
+        env_L = s->env_sky->mean;
+        env_sky = s->env_sky->constant ? NULL : s->env_sky;
+    }
+    if (!v3_is_black(env_L)) {
         vbnl_light *l = append_light(s);
         if (!l)
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         l->type = VBNL_LIGHT_ENV;
-        l->L = s->env_radiance;
+        l->L = env_L;
+        l->env = env_sky;
         s->env_light = s->light_count - 1;
     }
     return VBNL_OK;
@@ -203,6 +215,7 @@ static void commit_undo(vbnl_scene *s)
     }
     s->light_count = s->user_light_count;
     s->env_light = VBNL_NO_LIGHT;
+    vbnl_env_unbake(s->env_sky);
     vbnl_alias_table_free(&s->light_table);
 }
 
@@ -529,5 +542,13 @@ uint64_t vbnl_scene_fingerprint(const vbnl_scene *s)
         h = fp_u32(h, (uint32_t)l->two_sided);
     }
     h = fp_v3(h, s->env_radiance);
+    if (s->env_sky) {
+        const vbnl_env *e = s->env_sky;
+        h = fp_u32(h, e->count);
+        for (uint32_t i = 0; i < e->count; ++i)
+            h = fp_u32(h, e->pigments[i]);
+        h = fp_bytes(h, e->xf.m, sizeof(e->xf.m));
+        h = fp_u32(fp_v3(fp_v3(h, e->emission), e->background), (uint32_t)e->legacy);
+    }
     return h;
 }

@@ -93,6 +93,7 @@ struct vbnl_scene {
     vbnl_alias_table light_table; /* power-based selection */
     uint32_t env_light;        /* index in lights or VBNL_NO_LIGHT */
     vec3 env_radiance;
+    struct vbnl_env *env_sky;  /* a directional environment (environment.h) or NULL */
     int has_camera;
     vbnl_camera_desc camera;
     int committed;

@@ -396,10 +396,5 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
     free(cam_storage); /* the scene keeps its own copy */
     if (r != VBNL_OK)
         return r;
-    if (L->have_env && (L->env[0] > 0 || L->env[1] > 0 || L->env[2] > 0)) {
-        float e[3] = {(float)L->env[0], (float)L->env[1], (float)L->env[2]};
-        if ((r = vbnl_scene_set_environment(L->c.scene, e, err)) != VBNL_OK)
-            return r;
-    }
-    return VBNL_OK;
+    return pov_environment_build(L, err);
 }

@@ -177,9 +177,20 @@ static vbnl_result rv_camera(const pov_item *it)
     return VBNL_OK;
 }
 
+static vbnl_result rv_sky_sphere(const pov_item *it)
+{
+    pov_sky *s;
+    vbnl_sdl_next(it->p);
+    if (pov_sky_parse(it->ctx, &it->loc, &s) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    vbnl_sdl_value_object(it->target, s, &pov_sky_type, 0);
+    return VBNL_OK;
+}
+
 static const pov_row rvalue_rows[] = {
     {"transform", rv_transform, 0},
     {"camera", rv_camera, 0},
+    {"sky_sphere", rv_sky_sphere, 0},
     {NULL, NULL, 0},
 };
 
@@ -332,6 +343,7 @@ done:
     pov_shape_cache_free(L); /* before the parser: solids may hold its functions */
     free(L->sphere_groups);
     free(L->warned);
+    pov_sky_free(L->sky);
     pov_texture_state_destroy(&L->c);
     vbnl_sdl_parser_destroy(L->c.parser);
     vbnl_scene_destroy(L->c.scene);

@@ -57,8 +57,17 @@ vbnl_result pov_appearance_parse_modifier(pov_ctx *c, pov_appearance **app);
  * the block). */
 int pov_appearance_rvalue(pov_ctx *c, const vbnl_sdl_token *tok, vbnl_sdl_value *out);
 
-/* The average colour of an appearance's pigment (solid colour, colour map or image average). */
-void pov_appearance_average_color(pov_ctx *c, const pov_appearance *a, double rgb[3]);
+/* Pigments on their own, for sky_sphere (the object part keeps them opaque):
+ * pov_pigment_new a black pigment; pov_pigment_parse reads `{ ... }` after the keyword `pigment`
+ * into it (VBNL_ERR_PARSE after the error); pov_pigment_dup / _free copy and free (NULL accepted);
+ * pov_pigment_core adds it to the scene as a core pigment (its id into *out) whose colours are
+ * radiances: unlike a surface's, they are not clamped to [0, 1]. */
+typedef struct pov_pigment pov_pigment;
+pov_pigment *pov_pigment_new(void);
+vbnl_result pov_pigment_parse(pov_ctx *c, pov_pigment *pg);
+pov_pigment *pov_pigment_dup(const pov_pigment *g);
+void pov_pigment_free(pov_pigment *g);
+vbnl_result pov_pigment_core(pov_ctx *c, const pov_pigment *g, uint32_t *out, vbnl_error *err);
 
 /* The default_block hook: `#default { texture/pigment/finish/normal { ... } }`. */
 int pov_appearance_default_block(pov_ctx *c);

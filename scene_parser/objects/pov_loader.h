@@ -38,8 +38,9 @@ typedef struct pov_loader {
     int have_geo;
     pov_cam cam;
     int have_camera;
-    double env[3];           /* background / sky_sphere radiance */
+    double env[3];           /* background colour */
     int have_env;
+    struct pov_sky *sky;     /* the sky_sphere (environment.c) or NULL */
     char integrator[64];
     vbnl_params *params;
     char **diags;            /* warnings and notes, kept for vbnl_pov_scene_diag_text */
@@ -170,6 +171,13 @@ vbnl_result pov_global_settings_parse(pov_loader *L);
 /* background { colour } and sky_sphere { ... }; the parser is after the keyword at loc. */
 vbnl_result pov_background_parse(pov_loader *L);
 vbnl_result pov_sky_sphere_parse(pov_loader *L, const vbnl_sdl_loc *loc);
+/* A sky_sphere block (the parser after the keyword at loc) into a new sky (`#declare`). */
+typedef struct pov_sky pov_sky;
+vbnl_result pov_sky_parse(pov_loader *L, const vbnl_sdl_loc *loc, pov_sky **out);
+void pov_sky_free(pov_sky *s);
+extern const vbnl_sdl_opaque_type pov_sky_type;
+/* The environment onto the core scene: the sky_sphere over the background, or the background. */
+vbnl_result pov_environment_build(pov_loader *L, vbnl_error *err);
 
 /* ---- building (build.c) ------------------------------------------------------------------------ */
 

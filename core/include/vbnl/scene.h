@@ -653,6 +653,36 @@ vbnl_result vbnl_scene_add_directional_light(vbnl_scene *scene, const float dire
  * call replaces it. Errors: VBNL_ERR_INVALID_ARGUMENT for a negative or non-finite radiance. */
 vbnl_result vbnl_scene_set_environment(vbnl_scene *scene, const float radiance[3], vbnl_error *err);
 
+/* An environment whose radiance varies with direction: POV-Ray's sky_sphere (reference section
+ * "Sky Sphere"). For a ray leaving the scene along the unit direction d, every pigment is
+ * evaluated at q = pattern_from_world (d, 1) (the sky_sphere's transforms inverted; d is taken as
+ * a point, as POV-Ray does). The pigments are layers, the last one on top: each adds its
+ * rgb (1 - filter - transmit) times `emission` to what shows through the layers above it and lets
+ * rgb filter + transmit of the layers below through; `background` lies below them all (POV-Ray
+ * 3.7's sky over its background colour). The environment lights the scene and is what rays that
+ * leave it see; it is baked into a sampling table at commit (docs/environment.md). */
+#define VBNL_ENVIRONMENT_LAYERS_MAX 64u
+typedef struct vbnl_environment_desc {
+    uint32_t size;                  /* sizeof(vbnl_environment_desc) (vbnl_environment_desc_init) */
+    const uint32_t *pigments;       /* pigment ids (vbnl_scene_add_pigment), bottom layer first */
+    uint32_t pigment_count;         /* 1..VBNL_ENVIRONMENT_LAYERS_MAX */
+    double pattern_from_world[16];  /* row-major 4x4 affine; identity by default */
+    float emission[3];              /* scales the layers (POV-Ray 3.7.1's `emission`); 1 by default */
+    float background[3];            /* radiance below the layers; 0 by default */
+    int legacy_layers;              /* 1: POV-Ray's composition for scenes before #version 3.7
+                                     * (docs/environment.md); 0 by default */
+} vbnl_environment_desc;
+
+/* Fills `d` with its size, the identity transform, emission 1 and the rest zero. */
+void vbnl_environment_desc_init(vbnl_environment_desc *d);
+/* Sets the environment to the pigment stack `d` (copied; replaces a constant environment, and a
+ * later vbnl_scene_set_environment replaces this one). Errors: VBNL_ERR_INVALID_ARGUMENT for a
+ * wrong size field, no pigments or more than VBNL_ENVIRONMENT_LAYERS_MAX, an unknown pigment id, a
+ * non-finite or non-affine transform, a negative or non-finite emission or background;
+ * VBNL_ERR_OUT_OF_MEMORY. Not thread-safe (as every scene edit). */
+vbnl_result vbnl_scene_set_environment_pigments(vbnl_scene *scene, const vbnl_environment_desc *d,
+                                                vbnl_error *err);
+
 /* ---- camera ------------------------------------------------------------------------------- */
 
 /* The camera's projection: POV-Ray 3.7's camera types (reference section "Camera", "Camera

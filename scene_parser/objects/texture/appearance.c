@@ -434,16 +434,6 @@ void pov_texture_state_destroy(pov_ctx *c)
     c->tex = NULL;
 }
 
-void pov_appearance_average_color(pov_ctx *c, const pov_appearance *a, double rgb[3])
-{
-    double col[5] = {0, 0, 0, 0, 0};
-    const pov_texture *t = a && a->tex ? a->tex : c->tex->deflt.tex;
-    if (t->kind == POV_TEX_PLAIN)
-        pov_pigment_average(t->pig, c->tex, col);
-    for (int k = 0; k < 3; ++k)
-        rgb[k] = col[k] > 0 ? col[k] : 0;
-}
-
 pov_appearance *pov_appearance_copy(const pov_appearance *a)
 {
     if (!a)

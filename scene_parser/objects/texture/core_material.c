@@ -30,6 +30,7 @@ typedef struct build {
     vbnl_pattern_set *set;   /* patterns and pigments go here instead of the scene (functions) */
     map_notes notes;
     vbnl_error *err;
+    int radiance;            /* colours are radiances (sky_sphere): not clamped to [0, 1] */
     int uv;                  /* the appearance's textures are uv-mapped */
     const double *pre;       /* the point map of its top-level patterns (NULL: identity) */
     vbnl_material_desc top;  /* the top layer's plain material (tests) */
@@ -101,11 +102,12 @@ static float clamp_albedo(map_notes *n, double v, const char *what)
     return (float)v;
 }
 
-/* POV-Ray's pigment colour for the core: r g b in [0, 1] (warned), filter and transmit in [0, 1]. */
-static void color5(map_notes *n, const double in[5], float out[5])
+/* POV-Ray's pigment colour for the core: r g b in [0, 1] (warned) for a surface, any finite value
+ * for a radiance; filter and transmit in [0, 1]. */
+static void color5(const build *b, map_notes *n, const double in[5], float out[5])
 {
     for (int k = 0; k < 3; ++k)
-        out[k] = clamp_albedo(n, in[k], "pigment colour");
+        out[k] = b->radiance ? (float)(isfinite(in[k]) ? in[k] : 0.0) : clamp_albedo(n, in[k], "pigment colour");
     for (int k = 3; k < 5; ++k)
         out[k] = (float)(in[k] < 0.0 || !isfinite(in[k]) ? 0.0 : (in[k] > 1.0 ? 1.0 : in[k]));
 }
@@ -222,7 +224,7 @@ static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32
     d.uv = g->uv_mapping || (top && b->uv);
     vbnl_result r;
     if (g->kind == POV_PIG_SOLID) {
-        color5(&b->notes, g->color, d.color);
+        color5(b, &b->notes, g->color, d.color);
         return add_pigment(b, &d, out);
     }
     uint32_t pattern;
@@ -253,7 +255,7 @@ static vbnl_result build_pigment(build *b, const pov_pigment *g, int top, uint32
             if ((r = build_pigment(b, m->e[i].sub, 0, &id)) == VBNL_OK)
                 e[i].pigment = id + 1;
         } else {
-            color5(&b->notes, m->e[i].color, e[i].color);
+            color5(b, &b->notes, m->e[i].color, e[i].color);
         }
     }
     if (r == VBNL_OK) {
@@ -714,6 +716,18 @@ vbnl_result pov_function_block_build(pov_ctx *c, const pov_pigment *g, int pigme
     out->retain = fn_block_retain;
     out->release = fn_block_release;
     return VBNL_OK;
+}
+
+/* ---- sky_sphere pigments ------------------------------------------------------------------------ */
+
+vbnl_result pov_pigment_core(pov_ctx *c, const pov_pigment *g, uint32_t *out, vbnl_error *err)
+{
+    build b;
+    memset(&b, 0, sizeof(b));
+    b.c = c;
+    b.err = err;
+    b.radiance = 1;
+    return build_pigment(&b, g, 0, out);
 }
 
 /* ---- test accessors (pov_texture.h) ---------------------------------------------------------- */

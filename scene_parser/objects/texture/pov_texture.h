@@ -170,9 +170,6 @@ int pov_map_copy(pov_map *dst, const pov_map *src);
 /* Room for one more entry, zeroed, or NULL (the caller reports). */
 pov_map_entry *pov_map_add(pov_map *m);
 
-pov_pigment *pov_pigment_new(void);   /* black */
-pov_pigment *pov_pigment_dup(const pov_pigment *g);
-void pov_pigment_free(pov_pigment *g);
 void pov_pigment_clear(pov_pigment *g); /* back to black, keeping the allocation */
 
 pov_normal *pov_normal_new(void);
@@ -226,7 +223,6 @@ extern const pov_row pov_texture_item_rows[];
 /* The body of a texture_map entry, or a texture after its '{' up to (not including) `close`. */
 vbnl_result pov_texture_body(pov_ctx *c, pov_texture **tx, int close);
 
-vbnl_result pov_pigment_parse(pov_ctx *c, pov_pigment *pg);         /* pigment.c: pigment { } */
 /* A pigment body up to (not including) `close` (']' in pigment_map entries, '}' in blocks). */
 vbnl_result pov_pigment_body(pov_ctx *c, pov_pigment *pg, int close);
 
