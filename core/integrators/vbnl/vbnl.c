@@ -1011,12 +1011,16 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
     if (power_on)
         pick = vbnl_vl_shade_pick_start(&s->shade, vbnl_sampler_next(sp));
     int direct_phase = 1; /* no non-delta vertex yet */
+    vbnl_bsdf y_store; /* the BSDF at the next vertex, resolved when it was reached */
+    const vbnl_bsdf *y_bsdf = NULL;
     for (int depth = 0;; ++depth) {
         vertices++;
         if (s->max_depth >= 0 && depth >= s->max_depth)
             break;
         vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+        const vbnl_bsdf *bsdf = y_bsdf == &y_store ? (bsdf_store = y_store, &bsdf_store)
+                                : y_bsdf           ? y_bsdf
+                                                   : vbnl_surface_bsdf(sc, &hit, &bsdf_store);
         vbnl_shading_frame sf;
         vbnl_shading_frame_make(bsdf, &hit, d, &sf);
         const int delta = vbnl_bsdf_is_delta(bsdf);
@@ -1091,6 +1095,12 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         hit = y;
         /* No light containing y means w_v = 0 (§4.2). */
         float wv = 0.0f;
+        /* A point whose BSDF is a delta (a mirror member of a material node) is not lit by the
+         * lights: they stand for the diffuse and glossy points around them, and the path goes on
+         * through it. */
+        y_bsdf = vbnl_surface_bsdf(sc, &hit, &y_store);
+        if (gather_y && vbnl_bsdf_is_delta(y_bsdf))
+            gather_y = 0;
         if (gather_y) {
             uint32_t n = gather_filter(s, &hit, w, cand, nc, ranks);
             if (n > 0) {
