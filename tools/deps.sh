@@ -5,7 +5,7 @@ set -euo pipefail
 
 VBNL_PACKAGES=(meson ninja-build pkg-config gcc g++ libc6-dev cmake python3 binutils
     libembree-dev libtbb-dev libopenexr-dev libimath-dev libpng-dev libassimp-dev libcmocka-dev libopencolorio-dev
-    libopenimageio-dev)
+    libopenimageio-dev libfreetype-dev)
 # Not needed to build: Slurm for `vbnl farm` and its test on a one-machine cluster
 # (tools/slurm/local_cluster.sh; about 13 MB installed). `bash tools/deps.sh slurmctld slurmd
 # slurm-client munge` installs them; CI does (.ci/run).

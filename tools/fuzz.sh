@@ -11,7 +11,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${1:-60}
 out="$here/build-fuzz"
 mkdir -p "$out/corpus" "$out/seeds"
-# every integrator folder is an include directory (they share headers, as in meson.build)
+# every integrator folder is an include directory (the union of what meson gives each folder)
 integrator_dirs=$(for d in "$here"/core/integrators/*/; do printf -- '-I %s ' "${d%/}"; done)
 build() { # TARGET_SOURCE OUTPUT
     clang -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -D_GNU_SOURCE \
@@ -19,8 +19,8 @@ build() { # TARGET_SOURCE OUTPUT
         -I "$here/scene_parser/include" -I "$here/scene_parser/language" -I "$here/scene_parser/objects" \
         -I "$here/scene_parser/objects/shapes" -I "$here/scene_parser/objects/texture" -I "$here/scene_parser/image" \
         $(find "$here/scene_parser" -name '*.c' | sort) "$here"/core/src/*.c "$here"/core/src/texture/*.c \
-        "$here"/core/integrators/registry.c "$here"/core/integrators/*/*.c \
-        "$1" -lembree3 -lassimp -lpng -lm -lpthread -ldl -o "$2"
+        "$here"/core/integrators/registry.c $(ls "$here"/core/integrators/*/*.c | grep -v '_reference\.c$') \
+        "$1" $(pkg-config --cflags --libs freetype2) -lembree3 -lassimp -lpng -lm -lpthread -ldl -o "$2"
 }
 build "$here/tests/scene_parser/fuzz_parser.c" "$out/fuzz_parser"
 build "$here/tests/scene_parser/fuzz_mesh.c" "$out/fuzz_mesh"

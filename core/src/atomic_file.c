@@ -126,17 +126,18 @@ void vbnl_atomic_file_abandon_all(void)
 }
 
 /* ---- test hook ------------------------------------------------------------------------------------
- * VBNL_TEST_PAUSE=write (tests only; see the README's Tests section): every commit (EXR, PNG,
- * virtual-light file) waits 30 s with its temporary file complete and not yet renamed, after
- * saying so on stderr, so that a test can interrupt a write at a known point without depending
- * on timing. */
+ * The pause of VBNL_TEST_HOOK_PAUSE_WRITES (atomic_file.h): every commit (EXR, PNG, virtual-light
+ * file) waits 30 s with its temporary file complete and not yet renamed, after saying so on
+ * stderr, so that a test can interrupt a write at a known point without depending on timing. */
+static atomic_int g_test_pause;
+
+void vbnl_atomic_file_set_test_pause(int on) { atomic_store(&g_test_pause, on != 0); }
+
 static void vbnl_test_pause_in_write(const vbnl_atomic_file *f)
 {
-    const char *p = getenv("VBNL_TEST_PAUSE");
-    if (!p || strcmp(p, "write") != 0)
+    if (!atomic_load(&g_test_pause))
         return;
-    fprintf(stderr, "vbnl: test pause (VBNL_TEST_PAUSE=write): '%s' written, not yet renamed to '%s'\n",
-            f->tmp_path, f->path);
+    fprintf(stderr, "vbnl: test pause (write): '%s' written, not yet renamed to '%s'\n", f->tmp_path, f->path);
     struct timespec left = {30, 0};
     while (nanosleep(&left, &left) != 0 && errno == EINTR) {
     }

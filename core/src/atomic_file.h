@@ -22,9 +22,10 @@
  * Threads: any number of atomic files may be open at once on any threads; one vbnl_atomic_file is
  * used by one thread at a time.
  *
- * Test hook: with VBNL_TEST_PAUSE=write in the environment, every commit first says so on stderr
- * ("vbnl: test pause (VBNL_TEST_PAUSE=write): '<tmp>' written, not yet renamed to '<path>'") and
- * waits 30 s (README, Tests). */
+ * Test hook: after vbnl_atomic_file_set_test_pause(1) (a context created with the test hook
+ * VBNL_TEST_HOOK_PAUSE_WRITES, vbnl/render.h), every commit first says so on stderr ("vbnl: test
+ * pause (write): '<tmp>' written, not yet renamed to '<path>'") and waits 30 s, so that a test
+ * can interrupt a write at a known point (docs/tests.md). */
 #ifndef VBNL_ATOMIC_FILE_H
 #define VBNL_ATOMIC_FILE_H
 
@@ -58,6 +59,10 @@ void vbnl_atomic_file_discard(vbnl_atomic_file *f);
  * unlink() only, no lock, no allocation; it may wait while another thread is inside the open() or
  * rename() of a temporary (that thread blocks signals for those calls only). */
 void vbnl_atomic_file_abandon_all(void);
+
+/* The test hook above, for the whole process (the table of temporaries is process-wide):
+ * on != 0 turns it on, 0 off. Any thread. */
+void vbnl_atomic_file_set_test_pause(int on);
 
 #ifdef __cplusplus
 }

@@ -2,7 +2,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "atomic_file.h"
 #include "context.h"
+#include "desc.h"
 
 static void embree_error_cb(void *user, enum RTCError code, const char *str)
 {
@@ -11,12 +13,28 @@ static void embree_error_cb(void *user, enum RTCError code, const char *str)
              str ? str : "(no message)");
 }
 
+void vbnl_context_desc_init(vbnl_context_desc *d)
+{
+    if (!d)
+        return;
+    memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
+}
+
 vbnl_result vbnl_context_create(const vbnl_context_desc *desc, vbnl_context **out, vbnl_error *err)
 {
     if (!out)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_context_create: out is NULL");
     *out = NULL;
-    unsigned threads = desc ? desc->threads : 0;
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    if (desc) {
+        vbnl_result r = VBNL_DESC_CHECK(desc, vbnl_context_desc, err);
+        if (r != VBNL_OK)
+            return r;
+        d = *desc;
+    }
+    unsigned threads = d.threads;
     if (threads > 1024)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "vbnl_context_create: %u threads is more than the 1024 supported",
@@ -41,6 +59,8 @@ vbnl_result vbnl_context_create(const vbnl_context_desc *desc, vbnl_context **ou
                               (int)rtcGetDeviceError(NULL));
     }
     rtcSetDeviceErrorFunction(ctx->device, embree_error_cb, ctx);
+    if (d.test_hooks & VBNL_TEST_HOOK_PAUSE_WRITES)
+        vbnl_atomic_file_set_test_pause(1);
     *out = ctx;
     return VBNL_OK;
 }

@@ -102,6 +102,7 @@ vbnl_result vbnl_film_allocate(vbnl_film *f, vbnl_error *err)
 }
 
 uint32_t vbnl_film_width(const vbnl_film *f) { return f ? f->width : 0; }
+uint32_t vbnl_film_record_size(const vbnl_film *f) { return f ? f->stride : 0; }
 uint32_t vbnl_film_height(const vbnl_film *f) { return f ? f->height : 0; }
 uint32_t vbnl_film_layer_count(const vbnl_film *f) { return f ? f->layer_count : 0; }
 

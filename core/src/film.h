@@ -14,7 +14,6 @@
 
 #define VBNL_FILM_TILE 16u
 #define VBNL_FILM_MAX_LAYERS 16u
-#define VBNL_FILM_MAX_CHANNELS 64u
 
 typedef struct film_layer {
     char name[32];
@@ -35,18 +34,12 @@ struct vbnl_film {
     uint32_t *samples;          /* tile-major like data */
 };
 
-/* Standard layer offsets (fixed). */
-#define VBNL_FILM_BEAUTY 0u
-#define VBNL_FILM_ALBEDO 4u
-#define VBNL_FILM_NORMAL 7u
-#define VBNL_FILM_DEPTH 10u
+/* The standard layers' offsets (VBNL_FILM_BEAUTY ...) and the channel limit are public
+ * (vbnl/render.h). */
 
 vbnl_result vbnl_film_create(uint32_t width, uint32_t height, const uint32_t crop[4], vbnl_film **out,
                              vbnl_error *err);
 void vbnl_film_destroy(vbnl_film *f);
-/* Adds a layer before vbnl_film_allocate; returns its channel offset through *offset. */
-vbnl_result vbnl_film_add_layer(vbnl_film *f, const char *name, uint32_t channels,
-                                const char *const *channel_names, uint32_t *offset, vbnl_error *err);
 vbnl_result vbnl_film_allocate(vbnl_film *f, vbnl_error *err);
 
 static inline size_t vbnl_film_pixel_index(const vbnl_film *f, uint32_t x, uint32_t y, size_t *tile)

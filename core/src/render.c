@@ -1,11 +1,13 @@
 /* Renderer: integrator life cycle, progressive passes over tiles, time budget, statistics. */
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "context.h"
+#include "desc.h"
 #include "render_internal.h"
 
 #define MAX_STAGES 32
@@ -47,6 +49,7 @@ void vbnl_render_settings_init(vbnl_render_settings *s)
     if (!s)
         return;
     memset(s, 0, sizeof(*s));
+    s->size = sizeof(*s);
     s->width = 512;
     s->height = 512;
     s->spp = 16;
@@ -82,13 +85,16 @@ static void list_integrators(char *buf, size_t size)
     }
 }
 
-vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
-                                 const vbnl_render_settings *settings, vbnl_renderer **out,
-                                 vbnl_error *err)
+/* The renderer of settings for class cls (NULL: the registered one settings->integrator names). */
+static vbnl_result renderer_create(vbnl_context *ctx, const vbnl_scene *scene, const vbnl_render_settings *settings,
+                                   const vbnl_integrator_class *cls, vbnl_renderer **out, vbnl_error *err)
 {
     if (!ctx || !scene || !settings || !out)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_renderer_create: NULL argument");
     *out = NULL;
+    vbnl_result r = VBNL_DESC_CHECK(settings, vbnl_render_settings, err);
+    if (r != VBNL_OK)
+        return r;
     if (!scene->committed)
         return vbnl_error_set(err, VBNL_ERR_STATE, "vbnl_renderer_create: the scene is not committed");
     if (settings->spp == 0 && !(settings->time_budget > 0.0))
@@ -99,9 +105,8 @@ vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
     if (!vbnl_sampler_name(settings->sampler))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown sampler %d (valid: " SAMPLER_LIST ")",
                               (int)settings->sampler);
-    const char *name = settings->integrator ? settings->integrator : "path";
-    const vbnl_integrator_class *cls = vbnl_integrator_find(name);
-    if (!cls) {
+    const char *name = cls ? cls->name : settings->integrator ? settings->integrator : "path";
+    if (!cls && !(cls = vbnl_integrator_find(name))) {
         char list[512];
         list_integrators(list, sizeof(list));
         return vbnl_error_set(err, VBNL_ERR_UNKNOWN_NAME, "unknown integrator '%s' (registered: %s)",
@@ -113,7 +118,7 @@ vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
                               cls->abi_major, VBNL_INTEGRATOR_ABI_MAJOR);
     char owner[96];
     snprintf(owner, sizeof(owner), "integrator '%s'", cls->name);
-    vbnl_result r = vbnl_params_validate(settings->params, cls->params, cls->param_count, owner, err);
+    r = vbnl_params_validate(settings->params, cls->params, cls->param_count, owner, err);
     if (r != VBNL_OK)
         return r;
     vbnl_renderer *rd = calloc(1, sizeof(*rd));
@@ -154,6 +159,38 @@ vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
     }
     *out = rd;
     return VBNL_OK;
+}
+
+vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
+                                 const vbnl_render_settings *settings, vbnl_renderer **out,
+                                 vbnl_error *err)
+{
+    return renderer_create(ctx, scene, settings, NULL, out, err);
+}
+
+vbnl_result vbnl_renderer_create_with_class(vbnl_context *ctx, const vbnl_scene *scene,
+                                            const vbnl_render_settings *settings,
+                                            const vbnl_integrator_class *cls, vbnl_renderer **out,
+                                            vbnl_error *err)
+{
+    if (out)
+        *out = NULL;
+    if (!cls)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_renderer_create_with_class: the class is NULL");
+    if (cls->abi_major != VBNL_INTEGRATOR_ABI_MAJOR)
+        return vbnl_error_set(err, VBNL_ERR_UNSUPPORTED, "integrator '%s' was built for ABI %u, this core has ABI %u",
+                              cls->name ? cls->name : "(unnamed)", cls->abi_major, VBNL_INTEGRATOR_ABI_MAJOR);
+    const size_t need = offsetof(vbnl_integrator_class, destroy) + sizeof(cls->destroy);
+    if (cls->size < need)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "integrator class of %u bytes: its table needs at least %zu (set size to "
+                              "sizeof(vbnl_integrator_class))",
+                              cls->size, need);
+    if (!cls->name || !cls->create || !cls->render_tile || (cls->param_count && !cls->params))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "integrator class '%s' lacks a name, create, render_tile or its parameter table",
+                              cls->name ? cls->name : "(unnamed)");
+    return renderer_create(ctx, scene, settings, cls, out, err);
 }
 
 void vbnl_renderer_destroy(vbnl_renderer *r)
@@ -215,10 +252,13 @@ void vbnl_budget_choose(vbnl_budget *b, const char *name, double value, const ch
     if (i == b->count)
         b->count++;
     snprintf(b->names[i], sizeof(b->names[i]), "%s", name);
-    va_list ap;
-    va_start(ap, why_fmt);
-    vsnprintf(b->why[i], sizeof(b->why[i]), why_fmt ? why_fmt : "", ap);
-    va_end(ap);
+    b->why[i][0] = '\0';
+    if (why_fmt) {
+        va_list ap;
+        va_start(ap, why_fmt);
+        vsnprintf(b->why[i], sizeof(b->why[i]), why_fmt, ap);
+        va_end(ap);
+    }
     b->choices[i] = (vbnl_budget_choice){b->names[i], value, b->why[i]};
 }
 
@@ -300,7 +340,7 @@ static int stage_poll(void *user, uint64_t finished, uint64_t count)
     return 0;
 }
 
-int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *user)
+int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_work_fn fn, void *user)
 {
     if (st->cancelled)
         return -1;

@@ -1,4 +1,6 @@
-/* What integrators see of the renderer (private header). */
+/* What the core's own integrators see of the renderer beyond the public integrator ABI
+ * (vbnl/integrator.h): the tile job's fields, the per-thread statistics, the samplers (private
+ * header). */
 #ifndef VBNL_RENDER_INTERNAL_H
 #define VBNL_RENDER_INTERNAL_H
 
@@ -31,8 +33,6 @@ struct vbnl_tile_job {
     vbnl_thread_stats *stats;          /* this thread's counters */
 };
 
-static inline unsigned vbnl_tile_job_thread(const vbnl_tile_job *job) { return job->thread; }
-
 /* The sampler of sample `s` of pixel (x, y): independent of tiles and threads. */
 static inline vbnl_sampler vbnl_pixel_sampler(const vbnl_tile_job *job, uint32_t x, uint32_t y, uint32_t s)
 {
@@ -57,19 +57,8 @@ struct vbnl_stage_ctx {
     int cancelled;
 };
 
-/* Starts a named stage (its time is recorded in the render statistics). */
-void vbnl_stage_begin(vbnl_stage_ctx *st, const char *name, double total, const char *unit);
-/* Runs `count` work items on the context's workers, reporting progress as items finish.
- * Returns 0, or -1 when cancelled (items in flight finish; later ones do not run). */
-int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_pool_fn fn, void *user);
-void vbnl_stage_end(vbnl_stage_ctx *st);
-/* What the current stage counted (`work` in `unit`, a string literal; vbnl_stage_time.work: the
- * photon stage's rays, so that outputs can report a rate beside the time); call before
- * vbnl_stage_end. A no-op without a stage. */
-void vbnl_stage_set_work(vbnl_stage_ctx *st, double work, const char *unit);
-/* Records the bytes the integrator's prepared data hold (vbnl_render_stats.storage_bytes). */
-void vbnl_stage_set_storage(vbnl_stage_ctx *st, uint64_t bytes);
-unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st);
+/* The stage functions (vbnl_stage_begin ... vbnl_stage_thread_count) are public: integrator.h.
+ * vbnl_work_fn and vbnl_pool_fn are the same function type. */
 
 /* Runs work items for a stage of an integrator that may also be driven without a renderer (unit
  * tests, benchmarks): through the stage when `st` is given, else on `pool` when given, else

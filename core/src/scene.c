@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "context.h"
+#include "desc.h"
 #include "scene_internal.h"
 
 #define GROW(arr, count, cap, type)                                                                \
@@ -26,11 +27,45 @@ void vbnl_material_desc_init(vbnl_material_desc *d)
     if (!d)
         return;
     memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
     d->type = VBNL_MATERIAL_LAMBERT;
     d->base_color[0] = d->base_color[1] = d->base_color[2] = 0.8f;
     d->alpha = 0.1f;
     d->ior = 1.5f;
     d->eta[0] = d->eta[1] = d->eta[2] = 1.0f;
+}
+
+void vbnl_mesh_desc_init(vbnl_mesh_desc *d)
+{
+    if (!d)
+        return;
+    memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
+    d->group = VBNL_GROUP_WORLD;
+}
+
+void vbnl_spot_light_desc_init(vbnl_spot_light_desc *d)
+{
+    if (!d)
+        return;
+    memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
+}
+
+void vbnl_area_light_desc_init(vbnl_area_light_desc *d)
+{
+    if (!d)
+        return;
+    memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
+}
+
+void vbnl_camera_desc_init(vbnl_camera_desc *d)
+{
+    if (!d)
+        return;
+    memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
 }
 
 static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
@@ -97,6 +132,8 @@ vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, 
 {
     vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_material", err);
     if (r != VBNL_OK)
+        return r;
+    if (d && (r = VBNL_DESC_CHECK(d, vbnl_material_desc, err)) != VBNL_OK)
         return r;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_material: desc is NULL");
@@ -201,6 +238,8 @@ vbnl_result vbnl_scene_add_mesh(vbnl_scene *s, const vbnl_mesh_desc *d, uint32_t
 {
     vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_mesh", err);
     if (r != VBNL_OK)
+        return r;
+    if (d && (r = VBNL_DESC_CHECK(d, vbnl_mesh_desc, err)) != VBNL_OK)
         return r;
     if (!d || !d->positions || !d->indices)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
@@ -396,6 +435,8 @@ vbnl_result vbnl_scene_add_spot_light(vbnl_scene *s, const vbnl_spot_light_desc 
     vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_spot_light", err);
     if (r != VBNL_OK)
         return r;
+    if (d && (r = VBNL_DESC_CHECK(d, vbnl_spot_light_desc, err)) != VBNL_OK)
+        return r;
     if (!d || !finite3(d->position) || !finite3(d->direction) || v3_len(v3_load(d->direction)) == 0.0f)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "spot light needs a finite position and a non-zero direction");
@@ -424,6 +465,8 @@ vbnl_result vbnl_scene_add_area_light(vbnl_scene *s, const vbnl_area_light_desc 
 {
     vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_area_light", err);
     if (r != VBNL_OK)
+        return r;
+    if (d && (r = VBNL_DESC_CHECK(d, vbnl_area_light_desc, err)) != VBNL_OK)
         return r;
     if (!d || !finite3(d->corner) || !finite3(d->edge_u) || !finite3(d->edge_v))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "area light needs finite corner and edges");
@@ -526,7 +569,7 @@ vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3], 
     r = v3_norm(r);
     vec3 uu = v3_cross(r, f);
     float h = 2.0f * tanf(fov_y_degrees * (float)M_PI / 360.0f);
-    memset(out, 0, sizeof(*out));
+    vbnl_camera_desc_init(out);
     v3_store(out->position, p);
     v3_store(out->forward, f);
     v3_store(out->right, v3_scale(r, h * aspect));
@@ -538,6 +581,8 @@ vbnl_result vbnl_scene_set_camera(vbnl_scene *s, const vbnl_camera_desc *c, vbnl
 {
     vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_camera", err);
     if (r != VBNL_OK)
+        return r;
+    if (c && (r = VBNL_DESC_CHECK(c, vbnl_camera_desc, err)) != VBNL_OK)
         return r;
     if (!c || !finite3(c->position) || !finite3(c->forward) || !finite3(c->right) || !finite3(c->up))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "camera vectors must be finite");

@@ -180,6 +180,34 @@ static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
     return VBNL_OK;
 }
 
+/* What a failed commit built, taken back: the scene is again as before the call (the user's
+ * lights, no Embree scenes, no emitters), so that it can be completed and committed again. */
+static void commit_undo(vbnl_scene *s)
+{
+    if (s->group_rtc) {
+        for (uint32_t i = 0; i < s->group_count; ++i)
+            if (s->group_rtc[i])
+                rtcReleaseScene(s->group_rtc[i]);
+        free(s->group_rtc);
+        s->group_rtc = NULL;
+    }
+    s->world = NULL;
+    for (uint32_t gi = 0; gi < s->geom_count; ++gi) {
+        scene_geom *g = &s->geoms[gi];
+        if (g->kind == SCENE_GEOM_MESH) {
+            free(g->u.mesh.face_lights);
+            g->u.mesh.face_lights = NULL;
+        } else if (g->kind == SCENE_GEOM_SPHERE) {
+            g->u.sphere.light = VBNL_NO_LIGHT;
+        }
+    }
+    s->light_count = s->user_light_count;
+    s->env_light = VBNL_NO_LIGHT;
+    vbnl_alias_table_free(&s->light_table);
+}
+
+static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err);
+
 vbnl_result vbnl_scene_commit(vbnl_scene *s, vbnl_error *err)
 {
     if (!s)
@@ -188,6 +216,16 @@ vbnl_result vbnl_scene_commit(vbnl_scene *s, vbnl_error *err)
         return vbnl_error_set(err, VBNL_ERR_STATE, "vbnl_scene_commit: already committed");
     if (!s->has_camera)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "the scene has no camera");
+    vbnl_result r = commit_build(s, err);
+    if (r != VBNL_OK)
+        commit_undo(s);
+    return r;
+}
+
+/* The commit proper: Embree scenes (groups, then the world with its instances), bounds, emitters,
+ * the light table. On failure the caller undoes what it built. */
+static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
+{
     s->ctx->embree_error[0] = '\0';
     /* textures are final now: which materials vary per hit, and the hidden leaf copies of nodes */
     s->user_material_count = s->material_count;

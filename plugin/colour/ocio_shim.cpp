@@ -16,7 +16,13 @@ namespace OCIO = OCIO_NAMESPACE;
 namespace {
 
 // Result codes of vbnl/result.h (the shim does not include C headers of the core).
-enum { OK = 0, ERR_INVALID_ARGUMENT = 1, ERR_OUT_OF_MEMORY = 2, ERR_UNKNOWN_NAME = 4, ERR_BACKEND = 6 };
+enum {
+    SHIM_OK = 0,
+    SHIM_ERR_INVALID_ARGUMENT = 1,
+    SHIM_ERR_OUT_OF_MEMORY = 2,
+    SHIM_ERR_UNKNOWN_NAME = 4,
+    SHIM_ERR_BACKEND = 6,
+};
 
 // OpenColorIO 2.1 has no built-in configs (ocio://default arrives in 2.2), so this one is
 // embedded. The scene reference is linear Rec.709/sRGB primaries, D65 (what the renderer
@@ -134,11 +140,11 @@ extern "C" int vbnl_ocio_describe(const char *config_path, char *buf, size_t buf
     try {
         OCIO::ConstConfigRcPtr cfg = load_config(config_path);
         std::snprintf(buf, buf_size, "%s", describe(cfg).c_str());
-        return OK;
+        return SHIM_OK;
     } catch (const std::exception &e) {
-        return fail(msg, msg_size, ERR_BACKEND, "%s: %s", config_label(config_path).c_str(), e.what());
+        return fail(msg, msg_size, SHIM_ERR_BACKEND, "%s: %s", config_label(config_path).c_str(), e.what());
     } catch (...) {
-        return fail(msg, msg_size, ERR_BACKEND, "%s: unknown error", config_label(config_path).c_str());
+        return fail(msg, msg_size, SHIM_ERR_BACKEND, "%s: unknown error", config_label(config_path).c_str());
     }
 }
 
@@ -146,7 +152,7 @@ extern "C" int vbnl_ocio_apply(const char *config_path, const char *display, con
                                uint32_t width, uint32_t height, uint32_t channels, char *msg, size_t msg_size)
 {
     if (!pixels || (channels != 3 && channels != 4) || width == 0 || height == 0)
-        return fail(msg, msg_size, ERR_INVALID_ARGUMENT, "colour view: bad image (%ux%u, %u channels)",
+        return fail(msg, msg_size, SHIM_ERR_INVALID_ARGUMENT, "colour view: bad image (%ux%u, %u channels)",
                     width, height, channels);
     std::string label = config_label(config_path);
     try {
@@ -157,14 +163,14 @@ extern "C" int vbnl_ocio_apply(const char *config_path, const char *display, con
         for (int d = 0; d < cfg->getNumDisplays(); ++d)
             disp_ok = disp_ok || std::strcmp(cfg->getDisplay(d), disp) == 0;
         if (!disp_ok)
-            return fail(msg, msg_size, ERR_UNKNOWN_NAME, "unknown display '%s' in %s; available: %s", disp,
+            return fail(msg, msg_size, SHIM_ERR_UNKNOWN_NAME, "unknown display '%s' in %s; available: %s", disp,
                         label.c_str(), describe(cfg).c_str());
         const char *v = view ? view : cfg->getDefaultView(disp);
         bool view_ok = false;
         for (int i = 0; i < cfg->getNumViews(disp); ++i)
             view_ok = view_ok || std::strcmp(cfg->getView(disp, i), v) == 0;
         if (!view_ok)
-            return fail(msg, msg_size, ERR_UNKNOWN_NAME, "unknown view '%s' of display '%s' in %s; available: %s",
+            return fail(msg, msg_size, SHIM_ERR_UNKNOWN_NAME, "unknown view '%s' of display '%s' in %s; available: %s",
                         v, disp, label.c_str(), describe(cfg).c_str());
         OCIO::DisplayViewTransformRcPtr t = OCIO::DisplayViewTransform::Create();
         t->setSrc(OCIO::ROLE_SCENE_LINEAR);
@@ -173,12 +179,12 @@ extern "C" int vbnl_ocio_apply(const char *config_path, const char *display, con
         OCIO::ConstCPUProcessorRcPtr cpu = cfg->getProcessor(t)->getDefaultCPUProcessor();
         OCIO::PackedImageDesc img(pixels, width, height, channels);
         cpu->apply(img);
-        return OK;
+        return SHIM_OK;
     } catch (const std::bad_alloc &) {
-        return fail(msg, msg_size, ERR_OUT_OF_MEMORY, "colour view: out of memory");
+        return fail(msg, msg_size, SHIM_ERR_OUT_OF_MEMORY, "colour view: out of memory");
     } catch (const std::exception &e) {
-        return fail(msg, msg_size, ERR_BACKEND, "%s: %s", label.c_str(), e.what());
+        return fail(msg, msg_size, SHIM_ERR_BACKEND, "%s: %s", label.c_str(), e.what());
     } catch (...) {
-        return fail(msg, msg_size, ERR_BACKEND, "%s: unknown error", label.c_str());
+        return fail(msg, msg_size, SHIM_ERR_BACKEND, "%s: unknown error", label.c_str());
     }
 }

@@ -182,7 +182,9 @@ int cmd_bench(int argc, char **argv)
     vbnl_error err = {0};
     vbnl_context *ctx = NULL;
     vbnl_scene *scene = NULL;
-    vbnl_context_desc cd = {threads};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = threads;
     int rc = VBNL_EXIT_FAILURE;
     if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK ||
         module_load_scene(ctx, scene_path, &cam, (float)width / (float)height, &scene, &err) != VBNL_OK) {

@@ -304,8 +304,7 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
     }
     vbnl_context *ctx;
     vbnl_error err = {0};
-    vbnl_context_desc cd = {0};
-    if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK) {
+    if (vbnl_context_create(NULL, &ctx, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl bench: %s\n", err.message);
         return VBNL_EXIT_FAILURE;
     }

@@ -55,7 +55,7 @@ void host_test_pause(void)
     const char *pause = getenv("VBNL_TEST_PAUSE");
     if (!pause || strcmp(pause, "interrupt"))
         return;
-    fprintf(stderr, "vbnl: test pause (VBNL_TEST_PAUSE=interrupt): the render has not been stopped yet\n");
+    fprintf(stderr, "vbnl: test pause (interrupt): the render has not been stopped yet\n");
     struct timespec left = {30, 0};
     while (nanosleep(&left, &left) != 0 && errno == EINTR) {
     }
@@ -165,6 +165,9 @@ void host_render_job_init(host_render_job *job, const vbnl_plugin_api *api, cons
     memset(job, 0, sizeof(*job));
     job->who = who;
     api->options_init(&job->opt);
+    const char *pause = getenv("VBNL_TEST_PAUSE");
+    if (pause && !strcmp(pause, "write"))
+        job->opt.test_hooks |= VBNL_PLUGIN_TEST_PAUSE_WRITES;
     api->view_init(&job->view);
 }
 

@@ -22,6 +22,7 @@
 /* VBNL_PLUGIN_ABI_MAJOR.MINOR as text, for messages */
 #define VBNL_PLUGIN_ABI_STR "1.3"
 _Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 3u, "update VBNL_PLUGIN_ABI_STR");
+_Static_assert(VBNL_PLUGIN_TEST_PAUSE_WRITES == (unsigned)VBNL_TEST_HOOK_PAUSE_WRITES, "test hooks must match");
 
 /* The plugin's result codes are the core's. */
 _Static_assert(VBNL_PLUGIN_ERR_CORRUPT == (int)VBNL_ERR_CORRUPT, "result codes must match");
@@ -254,8 +255,8 @@ static vbnl_plugin_result p_set_options(vbnl_plugin_renderer *r, const vbnl_plug
         if (res != VBNL_OK)
             return to_msg(res, &e, msg, n);
     }
-    if (r->ctx && o.threads != r->opt.threads)
-        return fail(msg, n, VBNL_ERR_STATE, "the thread count cannot change once a scene is loaded");
+    if (r->ctx && (o.threads != r->opt.threads || o.test_hooks != r->opt.test_hooks))
+        return fail(msg, n, VBNL_ERR_STATE, "the thread count and test hooks cannot change once a scene is loaded");
     drop_configuration(r);
     r->opt = o;
     r->sampler = sampler;
@@ -280,7 +281,10 @@ static vbnl_result ensure_context(vbnl_plugin_renderer *r, vbnl_error *e)
 {
     if (r->ctx)
         return VBNL_OK;
-    vbnl_context_desc cd = {r->opt.threads};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = r->opt.threads;
+    cd.test_hooks = r->opt.test_hooks;
     return vbnl_context_create(&cd, &r->ctx, e);
 }
 

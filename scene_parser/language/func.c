@@ -5,9 +5,11 @@
  * constants when the function is defined, declared functions are called (shared reference), so
  * the call graph is acyclic. Bodies that are patterns or pigments ("function { pattern { ... } }")
  * are read by the object layer's function_block hook, which hands back an evaluator; without the
- * hook they, and POV-Ray's internal(N) functions, are kept but evaluate to 0 with a warning. A
- * pigment function's value is its red component unless a member names another:
- * F(x, y, z).green. */
+ * hook they are kept but evaluate to 0 with a warning. A pigment function's value is its red
+ * component unless a member names another: F(x, y, z).green. POV-Ray's internal(N) functions
+ * that are geometry are evaluated here (f_ellipsoid, f_ph, f_r, f_rounded_box, f_sphere,
+ * f_superellipsoid, f_th, f_torus: functions.inc's definitions); the others evaluate to 0 with a
+ * warning. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,6 +39,7 @@ struct vbnl_sdl_function {
     bool has_ext;     /* ... evaluated by the object layer through ext */
     vbnl_sdl_fn_block ext;
     bool internal;    /* POV-Ray internal(N) */
+    int internal_id;  /* its N */
     bool warned;
     bool detached;    /* a standalone copy (vbnl_sdl_function_detach): plain malloc, no parser */
     vbnl_sdl_loc loc;
@@ -71,6 +74,42 @@ void sdl_function_release(vbnl_sdl_parser *p, vbnl_sdl_function *f)
 int vbnl_sdl_function_arity(const vbnl_sdl_function *f)
 {
     return f ? f->arity : 0;
+}
+
+/* Appends n bytes at *at when they fit. */
+static int key_put(unsigned char *buf, size_t cap, size_t *at, const void *p, size_t n)
+{
+    if (n == 0)
+        return 1;
+    if (*at + n > cap)
+        return 0;
+    memcpy(buf + *at, p, n);
+    *at += n;
+    return 1;
+}
+
+static int key_fn(const vbnl_sdl_function *f, unsigned char *buf, size_t cap, size_t *at, int depth)
+{
+    if (depth > 16 || f->block || !key_put(buf, cap, at, &f->arity, sizeof f->arity) ||
+        !key_put(buf, cap, at, &f->internal_id, sizeof f->internal_id) || !key_put(buf, cap, at, &f->internal, 1) ||
+        !key_put(buf, cap, at, &f->root, sizeof f->root) || !key_put(buf, cap, at, &f->nnodes, sizeof f->nnodes) ||
+        !key_put(buf, cap, at, f->argv, (size_t)f->nargv * sizeof *f->argv))
+        return 0;
+    for (int i = 0; i < f->nnodes; ++i) {
+        const fn_node *n = &f->nodes[i];
+        int ints[7] = {n->kind, n->op, n->a, n->b, n->c, n->args, n->nargs};
+        if (!key_put(buf, cap, at, ints, sizeof ints) || !key_put(buf, cap, at, &n->num, sizeof n->num))
+            return 0;
+        if (n->kind == FN_USER && !key_fn(n->callee, buf, cap, at, depth + 1))
+            return 0;
+    }
+    return 1;
+}
+
+size_t sdl_function_key(const vbnl_sdl_function *f, unsigned char *buf, size_t cap)
+{
+    size_t at = 0;
+    return f && key_fn(f, buf, cap, &at, 0) ? at : 0;
 }
 
 static int node(fn_ctx *c, int kind)
@@ -201,6 +240,7 @@ static int f_primary(fn_ctx *c)
             !sdl_expect_op(p, ')', "after internal() argument"))
             return -1;
         c->f->internal = true;
+        c->f->internal_id = (int)id;
         return node(c, FN_INTERNAL);
     }
     default: break;
@@ -376,8 +416,13 @@ static int f_ternary(fn_ctx *c)
 
 bool sdl_parse_function(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc)
 {
-    memset(out, 0, sizeof *out);
     vbnl_sdl_next(p); /* function */
+    return sdl_parse_function_body(p, out, loc);
+}
+
+bool sdl_parse_function_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc)
+{
+    memset(out, 0, sizeof *out);
     vbnl_sdl_function *f = sdl_alloc(p, sizeof *f);
     if (!f)
         return false;
@@ -498,10 +543,58 @@ static double call_ext(const vbnl_sdl_function *g, const double *args, int nargs
     return comp >= 0 && comp < 5 ? v[comp] : v[0];
 }
 
+/* POV-Ray's internal functions (functions.inc) that are geometry, by their documented definitions;
+ * -1 for the others (noise and patterns belong to the texture part). args: x, y, z, then the
+ * function's own parameters. */
+static int internal_eval(int id, const double *a, int n, double *out)
+{
+    double x = a[0], y = n > 1 ? a[1] : 0, z = n > 2 ? a[2] : 0, p[4] = {0, 0, 0, 0};
+    for (int i = 0; i < 4 && 3 + i < n; ++i)
+        p[i] = a[3 + i];
+    switch (id) {
+    case 17: /* f_ellipsoid(x, y, z, sx, sy, sz) */
+        *out = sqrt(x * x * p[0] * p[0] + y * y * p[1] * p[1] + z * z * p[2] * p[2]);
+        return 0;
+    case 47: /* f_ph: the angle from +y */
+        *out = atan2(sqrt(x * x + z * z), y);
+        return 0;
+    case 57: /* f_r */
+        *out = sqrt(x * x + y * y + z * z);
+        return 0;
+    case 60: { /* f_rounded_box(x, y, z, radius, sx, sy, sz): the distance to the box shrunk by the
+                * radius, less the radius */
+        double d[3] = {fabs(x) - (p[1] - p[0]), fabs(y) - (p[2] - p[0]), fabs(z) - (p[3] - p[0])}, s2 = 0;
+        for (int k = 0; k < 3; ++k)
+            s2 += d[k] > 0 ? d[k] * d[k] : 0;
+        *out = sqrt(s2) - p[0] - 1e-6;
+        return 0;
+    }
+    case 61: /* f_sphere(x, y, z, radius) */
+        *out = sqrt(x * x + y * y + z * z) - p[0];
+        return 0;
+    case 68: /* f_superellipsoid(x, y, z, e, n): positive inside */
+        *out = 1 - pow(pow(pow(fabs(x), 2 / p[0]) + pow(fabs(y), 2 / p[0]), p[0] / p[1]) + pow(fabs(z), 2 / p[1]), p[1] / 2);
+        return 0;
+    case 69: /* f_th: the angle around y from +z towards +x */
+        *out = atan2(x, z);
+        return 0;
+    case 70: { /* f_torus(x, y, z, major, minor) */
+        double r = sqrt(x * x + z * z) - p[0];
+        *out = sqrt(r * r + y * y) - p[1];
+        return 0;
+    }
+    default:
+        return -1;
+    }
+}
+
 static double call_user(fn_eval *e, vbnl_sdl_function *g, const double *args, int nargs)
 {
     if (g->has_ext)
         return call_ext(g, args, nargs, 0, NULL);
+    double v;
+    if (g->internal && internal_eval(g->internal_id, args, nargs, &v) == 0)
+        return v;
     if (g->block || g->internal || g->root < 0) {
         if (e->p && !g->warned) {
             g->warned = true;

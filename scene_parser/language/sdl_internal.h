@@ -313,9 +313,15 @@ void sdl_spline_release(vbnl_sdl_parser *p, vbnl_sdl_spline *s);
 
 /* func.c */
 bool sdl_parse_function(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc);
+/* The same after the keyword: `(params) { body }` or `{ body }` (height_field's function W, H { }). */
+bool sdl_parse_function_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_loc *loc);
 bool sdl_call_function(vbnl_sdl_parser *p, const vbnl_sdl_function *f, const vbnl_sdl_loc *loc,
                        vbnl_sdl_value *out);
 void sdl_function_release(vbnl_sdl_parser *p, vbnl_sdl_function *f);
+/* The bytes that identify what a function computes (its expression, constants and callees'
+ * expressions), for sharing what the object layer makes from equal functions; 0 when they do not
+ * fit in cap or the function is a pattern (nothing is shared then). */
+size_t sdl_function_key(const vbnl_sdl_function *f, unsigned char *buf, size_t cap);
 void sdl_function_retain(vbnl_sdl_function *f);
 
 #endif

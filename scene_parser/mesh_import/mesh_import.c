@@ -278,7 +278,7 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
             ++k;
         }
         vbnl_mesh_desc md;
-        memset(&md, 0, sizeof(md));
+        vbnl_mesh_desc_init(&md);
         md.positions = pos;
         md.normals = nrm;
         md.uvs = uv;

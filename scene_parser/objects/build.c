@@ -23,14 +23,33 @@ static void m4f(const double m[16], float out[16])
         out[i] = (float)m[i];
 }
 
+/* The core's description of a mesh (no transform, one material). */
+static void mesh_desc(const pov_mesh *m, uint32_t material, uint32_t group, vbnl_mesh_desc *d)
+{
+    vbnl_mesh_desc_init(d);
+    d->positions = m->pos;
+    d->normals = m->nrm;
+    d->uvs = m->uv;
+    d->vertex_count = m->nv;
+    d->indices = m->idx;
+    d->triangle_count = m->nt;
+    d->material = material;
+    d->group = group;
+}
+
+/* 1 when the transform squashes space flat (its linear part is singular). */
+static int flat(const double q[16])
+{
+    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
+                 q[2] * (q[4] * q[9] - q[5] * q[8]);
+    return !(fabs(det) > 1e-12);
+}
+
 static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *m, vbnl_error *err)
 {
     if (m->nt == 0)
         return VBNL_OK;
-    const double *q = pr->m;
-    double det = q[0] * (q[5] * q[10] - q[6] * q[9]) - q[1] * (q[4] * q[10] - q[6] * q[8]) +
-                 q[2] * (q[4] * q[9] - q[5] * q[8]);
-    if (!(fabs(det) > 1e-12)) { /* e.g. `scale <1e-16, 1, 1>` from a loop: nothing to see */
+    if (flat(pr->m)) { /* e.g. `scale <1e-16, 1, 1>` from a loop: nothing to see */
         vbnl_sdl_warning(L->c.parser, &pr->loc, "the object is scaled flat (singular transform): skipped");
         return VBNL_OK;
     }
@@ -65,24 +84,112 @@ static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *
     float xf[16];
     m4f(pr->m, xf);
     vbnl_mesh_desc d;
-    memset(&d, 0, sizeof d);
-    d.positions = m->pos;
-    d.normals = m->nrm;
-    d.uvs = m->uv;
-    d.vertex_count = m->nv;
-    d.indices = m->idx;
-    d.triangle_count = m->nt;
-    d.material = mat;
+    mesh_desc(m, mat, VBNL_GROUP_WORLD, &d);
     d.face_materials = fm;
     d.transform = xf;
-    d.group = VBNL_GROUP_WORLD;
     if (r == VBNL_OK)
         r = vbnl_scene_add_mesh(L->c.scene, &d, NULL, err);
     free(fm);
     return r;
 }
 
+/* A mesh several primitives of the world show (a declared object placed many times, a shape
+ * made once and shared): added once, in a group of its own per material, and placed as
+ * instances. A mesh placed once stays world geometry (one level of traversal less). */
+typedef struct mesh_group {
+    const pov_mesh *mesh;
+    uint32_t material, group;
+} mesh_group;
+
+typedef struct mesh_groups {
+    mesh_group *v;
+    size_t n, cap;
+    const pov_mesh **placed; /* the meshes of the world's primitives, sorted: how often each is placed */
+    size_t nplaced;
+} mesh_groups;
+
+static int cmp_ptr(const void *a, const void *b)
+{
+    uintptr_t x = (uintptr_t) * (const void *const *)a, y = (uintptr_t) * (const void *const *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* How many of the world's primitives show this mesh. */
+static size_t placements(const mesh_groups *mg, const pov_mesh *m)
+{
+    size_t lo = 0, hi = mg->nplaced;
+    while (lo < hi) { /* the first entry not below m */
+        size_t mid = (lo + hi) / 2;
+        if ((uintptr_t)mg->placed[mid] < (uintptr_t)m)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    size_t n = 0;
+    while (lo + n < mg->nplaced && mg->placed[lo + n] == m)
+        n++;
+    return n;
+}
+
+static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err);
+
+static vbnl_result emit_instance(pov_loader *L, const pov_prim *pr, mesh_groups *mg, int *done, vbnl_error *err)
+{
+    const pov_mesh *m = pr->mesh;
+    *done = 0;
+    if (placements(mg, m) < 2 || m->ftex || m->nt == 0 || flat(pr->m) || pov_appearance_is_emissive(pr->app))
+        return VBNL_OK; /* emitters must be world geometry */
+    static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    uint32_t mat;
+    vbnl_result r = pov_appearance_material(&L->c, pr->app, ident, &mat, err);
+    if (r != VBNL_OK)
+        return r;
+    size_t i = 0;
+    while (i < mg->n && !(mg->v[i].mesh == m && mg->v[i].material == mat))
+        ++i;
+    if (i == mg->n) {
+        if (mg->n == mg->cap) {
+            size_t cap = mg->cap ? 2 * mg->cap : 16;
+            mesh_group *n = realloc(mg->v, cap * sizeof *n);
+            if (!n)
+                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+            mg->v = n;
+            mg->cap = cap;
+        }
+        mesh_group *g = &mg->v[mg->n];
+        g->mesh = m;
+        g->material = mat;
+        if ((r = vbnl_scene_add_group(L->c.scene, &g->group, err)) != VBNL_OK)
+            return r;
+        vbnl_mesh_desc d;
+        mesh_desc(m, mat, g->group, &d);
+        if ((r = vbnl_scene_add_mesh(L->c.scene, &d, NULL, err)) != VBNL_OK)
+            return r;
+        mg->n++;
+    }
+    float xf[16];
+    m4f(pr->m, xf);
+    *done = 1;
+    return vbnl_scene_add_instance(L->c.scene, mg->v[i].group, xf, NULL, err);
+}
+
 vbnl_result pov_build(pov_loader *L, vbnl_error *err)
+{
+    mesh_groups mg = {NULL, 0, 0, NULL, 0};
+    mg.placed = malloc(sizeof *mg.placed * (L->world.n + 1));
+    if (!mg.placed)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    for (size_t i = 0; i < L->world.n; ++i)
+        if (L->world.v[i].kind == POV_PRIM_MESH)
+            mg.placed[mg.nplaced++] = L->world.v[i].mesh;
+    qsort(mg.placed, mg.nplaced, sizeof *mg.placed, cmp_ptr);
+    vbnl_result res = build_all(L, &mg, err);
+    free(mg.v);
+    free(mg.placed);
+    return res;
+}
+
+static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
 {
     vbnl_result r = VBNL_OK;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -224,14 +331,43 @@ vbnl_result pov_build(pov_loader *L, vbnl_error *err)
             pov_mesh_unref(m);
             break;
         }
-        case POV_PRIM_MESH:
-            r = emit_mesh(L, pr, pr->mesh, err);
+        case POV_PRIM_MESH: {
+            int done;
+            if ((r = emit_instance(L, pr, mg, &done, err)) == VBNL_OK && !done)
+                r = emit_mesh(L, pr, pr->mesh, err);
             break;
+        }
         case POV_PRIM_LIGHT:
             r = pov_light_emit(L, pr, err);
             break;
         case POV_PRIM_SKIPPED:
             break;
+        case POV_PRIM_SURFACE: {
+            /* an unbounded shape nothing bounds: made within the scene's bounds (the geometry and
+             * the camera), half as large again on every side and at least 50 units from the
+             * centre (the shape finds where it is within them) */
+            double blo[3], bhi[3], cp2[3] = {cd.position[0], cd.position[1], cd.position[2]};
+            for (int k = 0; k < 3; ++k) {
+                blo[k] = L->have_geo ? fmin(glo[k], cp2[k]) : cp2[k];
+                bhi[k] = L->have_geo ? fmax(ghi[k], cp2[k]) : cp2[k];
+                double c = 0.5 * (blo[k] + bhi[k]), h = fmax(50.0, 0.75 * (bhi[k] - blo[k]));
+                blo[k] = c - h;
+                bhi[k] = c + h;
+            }
+            if (!pov_solid_finite(pr->solid))
+                vbnl_sdl_warning(L->c.parser, &pr->loc,
+                                 "the shape is unbounded: its surface is made within the scene's bounds "
+                                 "<%g, %g, %g> to <%g, %g, %g> (bound it with clipped_by or a CSG)",
+                                 blo[0], blo[1], blo[2], bhi[0], bhi[1], bhi[2]);
+            const char *why = NULL;
+            pov_mesh *m = pov_solid_surface(pr->solid, pr->m, blo, bhi, &why);
+            if (!m)
+                return vbnl_error_set(err, why && strcmp(why, "out of memory") ? VBNL_ERR_PARSE : VBNL_ERR_OUT_OF_MEMORY,
+                                      "%s:%d:%d: %s", pr->loc.file, pr->loc.line, pr->loc.col, why ? why : "out of memory");
+            r = emit_mesh(L, pr, m, err);
+            pov_mesh_unref(m);
+            break;
+        }
         case POV_PRIM_IMPORT: {
             float xf[16];
             m4f(pr->m, xf);

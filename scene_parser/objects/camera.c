@@ -218,6 +218,7 @@ vbnl_result pov_camera_parse(pov_loader *L, pov_cam *c)
 
 vbnl_result pov_camera_resolve(pov_loader *L, const pov_cam *c, vbnl_sdl_loc loc, vbnl_camera_desc *out)
 {
+    vbnl_camera_desc_init(out);
     double loc_[3], dir[3], right[3], up[3];
     memcpy(loc_, c->loc, sizeof loc_);
     memcpy(dir, c->dir, sizeof dir);
@@ -269,7 +270,7 @@ vbnl_result pov_camera_resolve(pov_loader *L, const pov_cam *c, vbnl_sdl_loc loc
     pov_m4_dir(c->m, up, up);
     if (!(pov_len3(dir) > 0) || !(pov_len3(right) > 0) || !(pov_len3(up) > 0))
         return vbnl_sdl_error(L->c.parser, &loc, "camera direction, right and up must not be zero");
-    memset(out, 0, sizeof *out);
+    vbnl_camera_desc_init(out);
     for (int i = 0; i < 3; ++i) {
         out->position[i] = (float)loc_[i];
         out->forward[i] = (float)dir[i];

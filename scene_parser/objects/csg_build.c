@@ -16,7 +16,7 @@
 
 #include "pov_object.h"
 
-enum { SOLID_BOX = 0, SOLID_CONE, SOLID_TORUS, SOLID_CSG };
+enum { SOLID_BOX = 0, SOLID_CONE, SOLID_TORUS, SOLID_CSG, SOLID_CUSTOM };
 enum { TEST_SPHERE = 0, TEST_PLANE, TEST_SOLID };
 
 typedef struct csg_test {
@@ -36,10 +36,12 @@ typedef struct csg_operand { /* the union of its tests */
 struct pov_solid {
     int refs;
     int kind;
-    double p[8];       /* BOX: lo, hi; CONE: base, rb, top (p[4..6]) rt (p[7]); TORUS: R, r */
+    double p[8];       /* BOX and CUSTOM: lo, hi; CONE: base, rb, top (p[4..6]) rt (p[7]); TORUS: R, r */
     int op, inverse;   /* CSG */
     csg_operand *ops;
     size_t nops;
+    const pov_solid_fn *fn; /* CUSTOM */
+    void *data;
 };
 
 /* ---- solids ---------------------------------------------------------------------------------- */
@@ -87,6 +89,38 @@ pov_solid *pov_solid_torus(double major, double minor)
     return s;
 }
 
+pov_solid *pov_solid_custom(const pov_solid_fn *fn, void *data, const double lo[3], const double hi[3])
+{
+    pov_solid *s = solid_new(SOLID_CUSTOM);
+    if (!s) {
+        if (fn->destroy)
+            fn->destroy(data);
+        return NULL;
+    }
+    s->fn = fn;
+    s->data = data;
+    for (int k = 0; k < 3; ++k) {
+        s->p[k] = lo[k];
+        s->p[3 + k] = hi[k];
+    }
+    return s;
+}
+
+int pov_solid_unbounded(const pov_solid *s)
+{
+    return s && s->kind == SOLID_CUSTOM && s->fn->surface;
+}
+
+int pov_solid_finite(const pov_solid *s)
+{
+    if (!s || s->kind != SOLID_CUSTOM)
+        return 1;
+    for (int k = 0; k < 6; ++k)
+        if (!isfinite(s->p[k]))
+            return 0;
+    return 1;
+}
+
 pov_solid *pov_solid_ref(pov_solid *s)
 {
     if (s)
@@ -104,6 +138,8 @@ void pov_solid_unref(pov_solid *s)
         free(s->ops[i].t);
     }
     free(s->ops);
+    if (s->kind == SOLID_CUSTOM && s->fn->destroy)
+        s->fn->destroy(s->data);
     free(s);
 }
 
@@ -165,6 +201,8 @@ static int solid_inside(const pov_solid *s, const double q[3], int depth)
         double rr = sqrt(q[0] * q[0] + q[2] * q[2]) - s->p[0];
         return rr * rr + q[1] * q[1] < s->p[1] * s->p[1];
     }
+    case SOLID_CUSTOM:
+        return s->fn->inside(s->data, q);
     default:
         if (depth > 64)
             return 0;
@@ -209,7 +247,7 @@ static int add_test(csg_operand *o, const pov_prim *pr, int *oom)
         t.kind = TEST_SPHERE;
     else if (pr->kind == POV_PRIM_PLANE)
         t.kind = TEST_PLANE;
-    else if (pr->kind == POV_PRIM_MESH && pr->solid)
+    else if ((pr->kind == POV_PRIM_MESH || pr->kind == POV_PRIM_SURFACE) && pr->solid)
         t.kind = TEST_SOLID;
     else
         return 0;
@@ -314,6 +352,15 @@ static void solid_features(feature_list *f, const pov_solid *s, const double m[1
         feature_add(f, m, l, h, operand);
         return;
     }
+    case SOLID_CUSTOM:
+        for (int k = 0; k < 3; ++k)
+            if (!isfinite(s->p[k]) || !isfinite(s->p[3 + k])) { /* an unbounded shape: no bounds */
+                if (f->unbounded)
+                    f->unbounded[operand] = 1;
+                return;
+            }
+        feature_add(f, m, s->p, s->p + 3, operand);
+        return;
     default:
         if (depth > 64)
             return;
@@ -346,6 +393,185 @@ static void operand_features(feature_list *f, const csg_operand *o, size_t opera
     tmp.ops = (csg_operand *)o;
     tmp.nops = 1;
     solid_features(f, &tmp, id, operand, 0);
+}
+
+/* ---- regions --------------------------------------------------------------------------------- */
+
+/* The axis-aligned bounds of the region a solid encloses, sides infinite where it is unbounded
+ * along an axis (an infinite cylinder, the half-space below a plane normal to an axis): the box
+ * in which an unbounded shape's surface is made when a CSG bounds it. */
+
+static void region_all(double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = -INFINITY;
+        hi[k] = INFINITY;
+    }
+}
+
+static void region_none(double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = INFINITY;
+        hi[k] = -INFINITY;
+    }
+}
+
+/* Bounds of the box lo..hi (sides may be infinite) under m, by interval arithmetic. */
+static void box_xf_inf(const double m[16], const double lo[3], const double hi[3], double olo[3], double ohi[3])
+{
+    if (lo[0] > hi[0] || lo[1] > hi[1] || lo[2] > hi[2]) {
+        region_none(olo, ohi);
+        return;
+    }
+    for (int r = 0; r < 3; ++r) {
+        double a = m[4 * r + 3], b = m[4 * r + 3];
+        for (int c = 0; c < 3; ++c) {
+            double w = m[4 * r + c];
+            if (w == 0)
+                continue;
+            double x0 = w * lo[c], x1 = w * hi[c];
+            a += fmin(x0, x1);
+            b += fmax(x0, x1);
+        }
+        olo[r] = a;
+        ohi[r] = b;
+    }
+}
+
+static void region_and(double lo[3], double hi[3], const double l[3], const double h[3])
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = fmax(lo[k], l[k]);
+        hi[k] = fmin(hi[k], h[k]);
+    }
+}
+
+static void region_or(double lo[3], double hi[3], const double l[3], const double h[3])
+{
+    if (l[0] > h[0] || l[1] > h[1] || l[2] > h[2])
+        return;
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = fmin(lo[k], l[k]);
+        hi[k] = fmax(hi[k], h[k]);
+    }
+}
+
+static void node_region(int op, const csg_operand *ops, size_t nops, const double m[16], double lo[3], double hi[3],
+                        int depth);
+
+static void solid_region(const pov_solid *s, const double m[16], double lo[3], double hi[3], int depth)
+{
+    double l[3], h[3];
+    switch (s->kind) {
+    case SOLID_BOX:
+    case SOLID_CUSTOM:
+        box_xf_inf(m, s->p, s->p + 3, lo, hi);
+        return;
+    case SOLID_CONE: {
+        double r = fmax(s->p[3], s->p[7]);
+        for (int k = 0; k < 3; ++k) {
+            l[k] = fmin(s->p[k], s->p[4 + k]) - r;
+            h[k] = fmax(s->p[k], s->p[4 + k]) + r;
+        }
+        box_xf_inf(m, l, h, lo, hi);
+        return;
+    }
+    case SOLID_TORUS: {
+        double R = s->p[0] + s->p[1];
+        double tl[3] = {-R, -s->p[1], -R}, th[3] = {R, s->p[1], R};
+        box_xf_inf(m, tl, th, lo, hi);
+        return;
+    }
+    default:
+        if (s->inverse || depth > 64)
+            region_all(lo, hi);
+        else
+            node_region(s->op, s->ops, s->nops, m, lo, hi, depth + 1);
+    }
+}
+
+static void test_region(const csg_test *t, const double m[16], double lo[3], double hi[3], int depth)
+{
+    double mm[16];
+    pov_m4_mul(m, t->m, mm);
+    if (t->inverse) {
+        region_all(lo, hi);
+    } else if (t->kind == TEST_SPHERE) {
+        double l[3], h[3];
+        for (int k = 0; k < 3; ++k) {
+            l[k] = t->a[k] - t->a[3];
+            h[k] = t->a[k] + t->a[3];
+        }
+        box_xf_inf(mm, l, h, lo, hi);
+    } else if (t->kind == TEST_PLANE) {
+        /* a.q < d with q = inv x: (inv^T a).x < d - a.(inv's translation) */
+        double inv[16], n[3], nl = 0, d = t->a[3];
+        region_all(lo, hi);
+        if (!pov_m4_invert(mm, inv))
+            return;
+        for (int k = 0; k < 3; ++k) {
+            n[k] = inv[k] * t->a[0] + inv[4 + k] * t->a[1] + inv[8 + k] * t->a[2];
+            nl = fmax(nl, fabs(n[k]));
+            d -= t->a[k] * inv[4 * k + 3];
+        }
+        int axis = -1, count = 0;
+        for (int k = 0; k < 3; ++k)
+            if (fabs(n[k]) > 1e-9 * nl)
+                axis = k, count++;
+        if (count == 1) {
+            if (n[axis] > 0)
+                hi[axis] = d / n[axis];
+            else
+                lo[axis] = d / n[axis];
+        }
+    } else {
+        solid_region(t->solid, mm, lo, hi, depth);
+    }
+}
+
+static void operand_region(const csg_operand *o, const double m[16], double lo[3], double hi[3], int depth)
+{
+    region_none(lo, hi);
+    for (size_t i = 0; i < o->n; ++i) {
+        double l[3], h[3];
+        test_region(&o->t[i], m, l, h, depth);
+        region_or(lo, hi, l, h);
+    }
+}
+
+static void node_region(int op, const csg_operand *ops, size_t nops, const double m[16], double lo[3], double hi[3],
+                        int depth)
+{
+    double l[3], h[3];
+    if (nops == 0) {
+        region_none(lo, hi);
+        return;
+    }
+    operand_region(&ops[0], m, lo, hi, depth);
+    for (size_t i = 1; i < nops && op != POV_CSG_DIFFERENCE; ++i) {
+        operand_region(&ops[i], m, l, h, depth);
+        if (op == POV_CSG_INTERSECTION)
+            region_and(lo, hi, l, h);
+        else
+            region_or(lo, hi, l, h);
+    }
+}
+
+pov_mesh *pov_solid_surface(const pov_solid *s, const double m[16], const double lo[3], const double hi[3],
+                            const char **why)
+{
+    double inv[16], ol[3], oh[3];
+    *why = NULL;
+    if (!pov_solid_unbounded(s) || !pov_m4_invert(m, inv))
+        return pov_mesh_new();
+    box_xf_inf(inv, lo, hi, ol, oh);
+    /* and no further than the shape's own region */
+    region_and(ol, oh, s->p, s->p + 3);
+    for (int k = 0; k < 3; ++k)
+        if (!(ol[k] < oh[k]) || !isfinite(ol[k]) || !isfinite(oh[k]))
+            return pov_mesh_new();
+    return s->fn->surface(s->data, ol, oh, why);
 }
 
 /* ---- clipping -------------------------------------------------------------------------------- */
@@ -632,6 +858,11 @@ static int copy_prim(pov_obj *out, const pov_prim *pr)
     return !((pr->app && !(d->app = pov_appearance_copy(pr->app))) || (pr->path && !(d->path = strdup(pr->path))));
 }
 
+int pov_csg_solid(int op, const pov_obj *ops, size_t nops, pov_obj *out, const char **error)
+{
+    return pov_csg_build_surfaces(op, ops, nops, 0, out, error);
+}
+
 int pov_csg_build(int op, const pov_obj *ops, size_t nops, pov_obj *out, const char **error)
 {
     return pov_csg_build_surfaces(op, ops, nops, nops, out, error);
@@ -645,6 +876,8 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
     feature_list f = {0};
     pov_solid *node = solid_new(SOLID_CSG);
     size_t first_piece = out->n, total = 0;
+    pov_mesh **surfaces = NULL; /* the unbounded operands' surfaces, in operand order */
+    size_t nsurfaces = 0, capsurfaces = 0;
     f.unbounded = calloc(nops ? nops : 1, 1);
     if (!t || !node || !f.unbounded)
         goto fail;
@@ -671,6 +904,54 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
             extent = fmax(extent, hi[k] - lo[k]);
         }
     double half = fmax(100.0 * extent, 1000.0);
+    /* unbounded operands are made within the CSG's region, its unbounded sides as plane patches */
+    static const double ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    double rlo[3], rhi[3];
+    node_region(op, t, nops, ident, rlo, rhi, 0);
+    for (int k = 0; k < 3; ++k) {
+        if (!isfinite(rlo[k]))
+            rlo[k] = centre[k] - half;
+        if (!isfinite(rhi[k]))
+            rhi[k] = centre[k] + half;
+        double pad = 0.01 * (rhi[k] - rlo[k]) + 1e-9 * fmax(fabs(rlo[k]), fabs(rhi[k]));
+        rlo[k] -= pad;
+        rhi[k] += pad;
+    }
+    /* their surfaces first (of the operands that show one): their bounds are features too, so that
+     * the others' large triangles are split where the unbounded shape's boundary crosses them */
+    int empty_region = !(rlo[0] < rhi[0] && rlo[1] < rhi[1] && rlo[2] < rhi[2]);
+    for (size_t i = 0; i < nops && !empty_region; ++i)
+        for (size_t k = 0; k < ops[i].n; ++k) {
+            const pov_prim *pr = &ops[i].v[k];
+            if (pr->kind != POV_PRIM_SURFACE)
+                continue;
+            if (nsurfaces == capsurfaces) {
+                size_t cap = capsurfaces ? 2 * capsurfaces : 4;
+                pov_mesh **n = realloc(surfaces, cap * sizeof *n);
+                if (!n)
+                    goto fail;
+                surfaces = n;
+                capsurfaces = cap;
+            }
+            const char *why = NULL;
+            pov_mesh *m = pov_solid_surface(pr->solid, pr->m, rlo, rhi, &why);
+            if (!m) {
+                *error = why ? why : "out of memory";
+                goto cleanup;
+            }
+            surfaces[nsurfaces++] = m;
+            double ml[3] = {INFINITY, INFINITY, INFINITY}, mh[3] = {-INFINITY, -INFINITY, -INFINITY};
+            for (uint32_t v = 0; v < m->nv; ++v)
+                for (int j = 0; j < 3; ++j) {
+                    ml[j] = fmin(ml[j], m->pos[3 * v + j]);
+                    mh[j] = fmax(mh[j], m->pos[3 * v + j]);
+                }
+            if (m->nv)
+                feature_add(&f, pr->m, ml, mh, i);
+            if (f.oom)
+                goto fail;
+        }
+    size_t next_surface = 0;
 
     clipper c = {op, 0, nops, t, &f, 0, 0, 0, -1, NULL, &total, 0};
     for (size_t i = 0; i < nsurf && i < nops && !c.failed; ++i) {
@@ -689,6 +970,11 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
             }
             if (pr->kind == POV_PRIM_MESH) {
                 mesh = pr->mesh;
+                mesh->refs++;
+            } else if (pr->kind == POV_PRIM_SURFACE) {
+                if (empty_region)
+                    continue;
+                mesh = surfaces[next_surface++];
                 mesh->refs++;
             } else if (pr->kind == POV_PRIM_SPHERE) {
                 mesh = pov_tess_sphere(pr->a, pr->a[3]);
@@ -721,6 +1007,12 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
     }
     if (c.failed)
         goto fail;
+    if (nsurf == 0) { /* the solid alone: a primitive with an empty surface */
+        pov_prim *d = pov_obj_add(out, POV_PRIM_MESH, nops && ops[0].n ? ops[0].v[0].loc : out->loc);
+        if (!d || !(d->mesh = pov_mesh_new()))
+            goto fail;
+        d->solid = PIECE;
+    }
     node->op = op;
     node->ops = t;
     node->nops = nops;
@@ -733,6 +1025,9 @@ int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf
     pov_solid_unref(node);
     free(f.v);
     free(f.unbounded);
+    for (size_t i = 0; i < nsurfaces; ++i)
+        pov_mesh_unref(surfaces[i]);
+    free(surfaces);
     return 1;
 fail:
     *error = "out of memory";
@@ -751,5 +1046,8 @@ cleanup:
     pov_solid_unref(node);
     free(f.v);
     free(f.unbounded);
+    for (size_t i = 0; i < nsurfaces; ++i)
+        pov_mesh_unref(surfaces[i]);
+    free(surfaces);
     return 0;
 }

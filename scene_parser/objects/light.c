@@ -185,6 +185,7 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
             return vbnl_error_set(err, VBNL_ERR_PARSE, "%s:%d:%d: spotlight: point_at equals the location",
                                   pr->loc.file, pr->loc.line, pr->loc.col);
         vbnl_spot_light_desc sd;
+        vbnl_spot_light_desc_init(&sd);
         memcpy(sd.position, P, sizeof P);
         for (int i = 0; i < 3; ++i)
             sd.direction[i] = (float)dir[i];
@@ -201,6 +202,7 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
     if (l->area && area > 0) {
         /* Two-sided Lambertian rectangle with the point light's power 4 pi I = 2 pi A L. */
         vbnl_area_light_desc ad;
+        vbnl_area_light_desc_init(&ad);
         for (int i = 0; i < 3; ++i) {
             ad.corner[i] = (float)(pos[i] - 0.5 * a1[i] - 0.5 * a2[i]);
             ad.edge_u[i] = (float)a1[i];

@@ -324,6 +324,7 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
     s = NULL;
 done:
     pov_obj_clear(&L->world);
+    pov_shape_cache_free(L); /* before the parser: solids may hold its functions */
     free(L->sphere_groups);
     free(L->warned);
     pov_texture_state_destroy(&L->c);

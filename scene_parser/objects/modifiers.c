@@ -1,17 +1,25 @@
 /* vbnl object layer: object modifiers (appearance, transforms, inverse, clipped_by, and the
  * flags that change nothing under global illumination). */
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "pov_loader.h"
 
-/* clipped_by: the object keeps its surface inside the union of the clipping shapes (POV-Ray's
- * clipping; the shapes' own surfaces are not added). Consumes clip. */
+/* clipped_by: the object keeps its surface inside every clipping shape (POV-Ray's clipping: a
+ * point is kept when it is inside all of them; a union among them is one shape, see clip_shape;
+ * the shapes' own surfaces are not added). Consumes clip. */
 static vbnl_result apply_clip(pov_loader *L, pov_obj *o, pov_obj *clip, vbnl_sdl_loc loc)
 {
-    pov_obj ops[2];
-    memset(ops, 0, sizeof ops);
-    ops[1] = *clip;
-    memset(clip, 0, sizeof *clip);
+    pov_obj *ops = calloc(clip->n + 1, sizeof *ops);
+    if (!ops) {
+        pov_obj_clear(clip);
+        return pov_oom(L);
+    }
+    for (size_t i = 0; i < clip->n; ++i) { /* one operand per clipping shape */
+        ops[i + 1].v = &clip->v[i];
+        ops[i + 1].n = ops[i + 1].cap = 1;
+    }
     /* the object's primitives so far are the clipped operand; its own appearance stays with it
      * and reaches the pieces later, as it would have reached the primitives */
     ops[0].v = o->v;
@@ -21,24 +29,33 @@ static vbnl_result apply_clip(pov_loader *L, pov_obj *o, pov_obj *clip, vbnl_sdl
     o->n = o->cap = 0;
     vbnl_result r = VBNL_OK;
     const char *error = NULL;
-    if (!pov_csg_build_surfaces(POV_CSG_INTERSECTION, ops, 2, 1, o, &error))
+    if (!pov_csg_build_surfaces(POV_CSG_INTERSECTION, ops, clip->n + 1, 1, o, &error))
         r = strcmp(error, "out of memory") ? vbnl_sdl_error(L->c.parser, &loc, "clipped_by: %s", error) : pov_oom(L);
     pov_obj_clear(&ops[0]);
-    pov_obj_clear(&ops[1]);
+    free(ops);
+    pov_obj_clear(clip);
     return r;
 }
 
-/* The shapes of clipped_by { } join the clip object. */
+/* The shapes of clipped_by { } join the clip object, one primitive each: a shape made of several
+ * primitives (a union) becomes one primitive holding their union's solid. */
 static int clip_shape(const pov_item *it)
 {
     if (!pov_is_shape(it->tok))
         return 0;
     pov_loader *L = it->ctx;
-    pov_obj child = {0};
+    pov_obj child = {0}, one = {0};
     int r = 1;
-    if (pov_parse_object(L, &child) != VBNL_OK || !pov_obj_move(it->target, &child))
-        r = vbnl_sdl_failed(L->c.parser) ? -1 : (pov_oom(L), -1);
+    const char *error = NULL;
+    if (pov_parse_object(L, &child) != VBNL_OK)
+        r = -1;
+    else if (child.n > 1 && !pov_csg_solid(POV_CSG_MERGE, &child, 1, &one, &error))
+        r = error && strcmp(error, "out of memory") ? (vbnl_sdl_error(L->c.parser, &it->loc, "clipped_by: %s", error), -1)
+                                                    : (pov_oom(L), -1);
+    else if (!pov_obj_move(it->target, child.n > 1 ? &one : &child))
+        r = (pov_oom(L), -1);
     pov_obj_clear(&child);
+    pov_obj_clear(&one);
     return r;
 }
 
@@ -49,12 +66,21 @@ static vbnl_result parse_clipped_by(pov_loader *L, pov_obj *clip)
 {
     vbnl_sdl_parser *p = L->c.parser;
     vbnl_sdl_next(p);
+    return pov_clip_block(L, clip);
+}
+
+vbnl_result pov_clip_block(pov_loader *L, pov_obj *clip)
+{
+    vbnl_sdl_parser *p = L->c.parser;
     if (vbnl_sdl_expect(p, '{', "after 'clipped_by'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    if (pov_is_word(t, "bounded_by")) { /* clipped_by { bounded_by }: no clipping */
+    /* clipped_by { bounded_by } and bounded_by { clipped_by }: no shape of their own */
+    if (pov_is_word(t, "bounded_by") || pov_is_word(t, "clipped_by")) {
+        char ctx[64];
+        snprintf(ctx, sizeof ctx, "after '%s'", t->text);
         vbnl_sdl_next(p);
-        return vbnl_sdl_expect(p, '}', "after 'bounded_by' in 'clipped_by'");
+        return vbnl_sdl_expect(p, '}', ctx);
     }
     return pov_block_parse(&clipped_by_block, p, L, clip, NULL);
 }

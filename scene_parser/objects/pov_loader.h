@@ -48,6 +48,7 @@ typedef struct pov_loader {
     size_t nwarned;
     uint32_t *sphere_groups; /* per material: group holding a unit sphere (ellipsoids), or 0 */
     uint32_t nsphere_groups;
+    struct pov_shape_cache *shape_cache; /* shapes made once and shared (shapes/shape_cache.c) */
 } pov_loader;
 
 /* ---- 3-vectors --------------------------------------------------------------------------------- */
@@ -134,6 +135,10 @@ vbnl_result pov_mods_parse(pov_mods *m, const char *what, int open);
 /* Applies the collected clipped_by (consumes it). */
 vbnl_result pov_mods_finish(pov_mods *m);
 void pov_mods_clear(pov_mods *m);
+/* `{ shapes }` of clipped_by (the parser is on '{') into clip, one primitive per shape; `{
+ * bounded_by }` and `{ clipped_by }` add none. Shapes whose bounded_by clips (the unbounded
+ * ones) read theirs with it too. */
+vbnl_result pov_clip_block(pov_loader *L, pov_obj *clip);
 /* Modifiers of a CSG (clipping at once) up to and including the closing '}'. */
 vbnl_result pov_modifiers(pov_loader *L, pov_obj *o, const char *what);
 
@@ -157,6 +162,8 @@ vbnl_result pov_sky_sphere_parse(pov_loader *L, const vbnl_sdl_loc *loc);
 
 /* ---- building (build.c) ------------------------------------------------------------------------ */
 
+/* Frees the shapes kept for sharing (shapes/shape_cache.c); before the parser is destroyed. */
+void pov_shape_cache_free(pov_loader *L);
 /* Adds the world's primitives, the camera and the environment to the core scene. */
 vbnl_result pov_build(pov_loader *L, vbnl_error *err);
 

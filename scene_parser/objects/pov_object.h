@@ -40,8 +40,12 @@ typedef struct pov_light {
  * its primitive's object space (csg_build.c). Shared between copies (reference counted). */
 typedef struct pov_solid pov_solid;
 
-/* SKIPPED: an unsupported shape (path holds its keyword); warned about where it is placed. */
-enum { POV_PRIM_SPHERE = 0, POV_PRIM_PLANE, POV_PRIM_MESH, POV_PRIM_LIGHT, POV_PRIM_IMPORT, POV_PRIM_SKIPPED };
+/* SKIPPED: an unsupported shape (path holds its keyword); warned about where it is placed.
+ * SURFACE: an unbounded shape (a quadric, a polynomial): its solid holds its inside and makes its
+ * surface where its extent becomes known (the CSG or clipped_by that bounds it, or the scene's
+ * bounds when it is built). */
+enum { POV_PRIM_SPHERE = 0, POV_PRIM_PLANE, POV_PRIM_MESH, POV_PRIM_LIGHT, POV_PRIM_IMPORT, POV_PRIM_SKIPPED,
+       POV_PRIM_SURFACE };
 
 typedef struct pov_prim {
     int kind;
@@ -51,7 +55,7 @@ typedef struct pov_prim {
     pov_mesh *mesh;      /* MESH */
     pov_light light;     /* LIGHT */
     char *path;          /* IMPORT: resolved file name (owned) */
-    pov_solid *solid;    /* MESH: its inside for CSG (a reference), NULL when it has none */
+    pov_solid *solid;    /* MESH: its inside for CSG (a reference), NULL when it has none; SURFACE: the shape */
     int inverse;         /* `inverse`: inside and outside swapped (CSG) */
     vbnl_sdl_loc loc;
 } pov_prim;
@@ -109,6 +113,24 @@ void pov_obj_transform(pov_obj *o, const double m[16]);
 pov_solid *pov_solid_box(const double a[3], const double b[3]);
 pov_solid *pov_solid_cone(const double base[3], double rb, const double top[3], double rt);
 pov_solid *pov_solid_torus(double major, double minor);
+/* The solid of a shape of shapes/: its inside test and the bounds of the region it encloses in its
+ * object space (sides may be infinite). `surface` (unbounded shapes only, else NULL) makes its
+ * surface within an object-space box (NULL with *why set on failure). The solid takes `data`
+ * (destroy frees it, also when the solid cannot be made: NULL is then returned). */
+typedef struct pov_solid_fn {
+    int (*inside)(const void *data, const double q[3]);
+    void (*destroy)(void *data);
+    pov_mesh *(*surface)(const void *data, const double lo[3], const double hi[3], const char **why);
+} pov_solid_fn;
+pov_solid *pov_solid_custom(const pov_solid_fn *fn, void *data, const double lo[3], const double hi[3]);
+/* 1 for the solid of an unbounded shape (it makes its own surface). */
+int pov_solid_unbounded(const pov_solid *s);
+/* 1 when the region a solid encloses has finite bounds. */
+int pov_solid_finite(const pov_solid *s);
+/* The surface of an unbounded shape placed with m within the box lo..hi of the space m maps to
+ * (an empty mesh when the box misses the shape's region). NULL with *why set on failure. */
+pov_mesh *pov_solid_surface(const pov_solid *s, const double m[16], const double lo[3], const double hi[3],
+                            const char **why);
 pov_solid *pov_solid_ref(pov_solid *s);
 void pov_solid_unref(pov_solid *s);
 
@@ -121,5 +143,8 @@ int pov_csg_build(int op, const pov_obj *ops, size_t nops, pov_obj *out, const c
 /* The same with the surfaces of the first nsurf operands only: `clipped_by { S }` is the
  * intersection of the object and S without S's surface. */
 int pov_csg_build_surfaces(int op, const pov_obj *ops, size_t nops, size_t nsurf, pov_obj *out, const char **error);
+/* The CSG's solid alone: one primitive with an empty mesh whose solid is the CSG (a union of
+ * shapes as one clipped_by shape). */
+int pov_csg_solid(int op, const pov_obj *ops, size_t nops, pov_obj *out, const char **error);
 
 #endif

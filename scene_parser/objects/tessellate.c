@@ -183,9 +183,11 @@ pov_mesh *pov_tess_box(const double a[3], const double b[3])
     }
     static const uint32_t f[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1},
                                       {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+    /* counter-clockwise seen from outside: the geometric normal (p1 - p0) x (p2 - p0) points out,
+     * which a flat mesh's shading (and a glass box's inside) follows */
     for (int i = 0; i < 6; ++i)
-        if (!pov_mesh_tri(m, f[i][0], f[i][1], f[i][2], -1) ||
-            !pov_mesh_tri(m, f[i][0], f[i][2], f[i][3], -1))
+        if (!pov_mesh_tri(m, f[i][0], f[i][2], f[i][1], -1) ||
+            !pov_mesh_tri(m, f[i][0], f[i][3], f[i][2], -1))
             return fail(m);
     return m;
 }

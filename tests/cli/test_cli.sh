@@ -213,7 +213,7 @@ second_interrupt() {
     steps=0 seen="" ms=-1
     wait_for "$log" "^render: " && steps=1 && kill -INT $pid &&
         wait_for "$log" "^vbnl: interrupted, finishing the current tiles" && steps=2 &&
-        wait_for "$log" "^vbnl: test pause \(VBNL_TEST_PAUSE=$2\)" && steps=3 && seen=$(ls "$dir") &&
+        wait_for "$log" "^vbnl: test pause \($2\)" && steps=3 && seen=$(ls "$dir") &&
         t0=$(date +%s%N) && kill -INT $pid
     [ $steps -eq 3 ] || kill -KILL $pid 2>/dev/null
     wait $pid
@@ -329,7 +329,7 @@ echo "previous lights" > "$TMP/vl-int/l.vls"
 VBNL_TEST_PAUSE=write "$VBNL" render "$SCENE" $VL --png "$TMP/vl-int/l.png" --set virtual_lights=500 --set photon_paths=5000 --save-lights "$TMP/vl-int/l.vls" 2> "$TMP/vl-int.log" &
 pid=$!
 steps=0 seen="" ms=-1
-if wait_for "$TMP/vl-int.log" "^vbnl: test pause \(VBNL_TEST_PAUSE=write\): '[^']*/l\.vls\.tmp-" && steps=1 && seen=$(ls "$TMP/vl-int") && kill -INT $pid; then
+if wait_for "$TMP/vl-int.log" "^vbnl: test pause \(write\): '[^']*/l\.vls\.tmp-" && steps=1 && seen=$(ls "$TMP/vl-int") && kill -INT $pid; then
     for ((i = 0; i < 600 && steps == 1; i++)); do
         if sigint_pending $pid; then sleep 0.05; else steps=2; fi
     done

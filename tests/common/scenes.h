@@ -6,6 +6,16 @@
 
 #include "vbnl/vbnl.h"
 
+/* A context of `threads` workers (0: one per core); NULL when it cannot be made. */
+static inline vbnl_context *ts_context(unsigned threads)
+{
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = threads;
+    vbnl_context *ctx = NULL;
+    return vbnl_context_create(&d, &ctx, NULL) == VBNL_OK ? ctx : NULL;
+}
+
 static inline uint32_t ts_material(vbnl_scene *s, vbnl_material_type type, float r, float g, float b,
                                    float emit)
 {
@@ -26,7 +36,7 @@ static inline void ts_quad(vbnl_scene *s, const float p[12], uint32_t material)
 {
     static const uint32_t idx[6] = {0, 1, 2, 0, 2, 3};
     vbnl_mesh_desc m;
-    memset(&m, 0, sizeof(m));
+    vbnl_mesh_desc_init(&m);
     m.positions = p;
     m.vertex_count = 4;
     m.indices = idx;
@@ -52,7 +62,7 @@ static inline void ts_room_walls(vbnl_scene *s, const uint32_t m[6])
 static inline void ts_room_light(vbnl_scene *s, const float le[3])
 {
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     const float corner[3] = {-0.25f, 1.98f, -0.25f}, eu[3] = {0.5f, 0, 0}, ev[3] = {0, 0, 0.5f};
     memcpy(al.corner, corner, sizeof(corner));
     memcpy(al.edge_u, eu, sizeof(eu));

@@ -30,7 +30,8 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof(*f));
-    vbnl_context_desc d = {0};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
     if (!f || vbnl_context_create(&d, &f->ctx, NULL) != VBNL_OK)
         return -1;
     *state = f;

@@ -394,7 +394,9 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof(*f));
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     if (!f || vbnl_context_create(&d, &f->ctx, NULL) != VBNL_OK || vbnl_scene_create(f->ctx, &f->scene, NULL) != VBNL_OK)
         return -1;
     *state = f;

@@ -1,5 +1,5 @@
-/* Renderer tests through the public API: furnace, determinism, camera, intersection, params,
- * thread pool, AOVs, cancellation and bad arguments. */
+/* Renderer tests through the public API: furnace, determinism, camera, intersection, AOVs,
+ * cancellation, time budget, crop windows and bad arguments. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -10,7 +10,6 @@
 #include <string.h>
 #include <time.h>
 
-#include "pool.h"
 #include "scene_internal.h"
 #include "scenes.h"
 #include "vbnl/vbnl.h"
@@ -19,9 +18,8 @@
 
 static vbnl_context *make_ctx(unsigned threads)
 {
-    vbnl_context *ctx = NULL;
-    vbnl_context_desc d = {threads};
-    assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
+    vbnl_context *ctx = ts_context(threads);
+    assert_non_null(ctx);
     return ctx;
 }
 
@@ -274,7 +272,7 @@ static void test_camera_rays(void **state)
 static void test_camera_projections(void **state)
 {
     (void)state;
-    vbnl_camera_desc c = {.position = {0, 0, 0}, .forward = {0, 0, 2}, .right = {1, 0, 0}, .up = {0, 1, 0}};
+    vbnl_camera_desc c = {.size = sizeof(vbnl_camera_desc), .position = {0, 0, 0}, .forward = {0, 0, 2}, .right = {1, 0, 0}, .up = {0, 1, 0}};
     vec3 o, d;
     c.projection = VBNL_CAMERA_ORTHOGRAPHIC;
     assert_int_equal(vbnl_camera_ray(&c, 100, 100, 75.0f, 25.0f, &o, &d), 1);
@@ -330,7 +328,9 @@ static void test_camera_projections(void **state)
     vbnl_error err = {0};
     vbnl_scene *s = NULL;
     vbnl_context *ctx = NULL;
-    vbnl_context_desc cd = {1};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 1;
     assert_int_equal(vbnl_context_create(&cd, &ctx, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
     c.focal_distance = 0.0f;
@@ -423,115 +423,6 @@ static void test_intersection(void **state)
     assert_int_equal(info.light_count, 2); /* two emissive triangles */
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
-}
-
-static void test_params(void **state)
-{
-    (void)state;
-    static const char *const modes[] = {"adaptive", "uniform", "none", NULL};
-    static const vbnl_param_spec spec[] = {
-        {"virtual_lights", VBNL_PARAM_INT, 1000, NULL, 1, 1e9, NULL, "N"},
-        {"early_stop", VBNL_PARAM_FLOAT, 0.8, NULL, 0, 1, NULL, "p"},
-        {"lazy", VBNL_PARAM_BOOL, 1, NULL, 0, 1, NULL, "lazy"},
-        {"elimination", VBNL_PARAM_ENUM, 0, "adaptive", 0, 0, modes, "mode"},
-    };
-    vbnl_params *p;
-    vbnl_error err = {0};
-    assert_int_equal(vbnl_params_create(&p, &err), VBNL_OK);
-    assert_int_equal(vbnl_params_validate(p, spec, 4, "x", &err), VBNL_OK);
-    assert_float_equal(vbnl_params_number(p, spec, 4, "early_stop"), 0.8, 0);
-    assert_string_equal(vbnl_params_string(p, spec, 4, "elimination"), "adaptive");
-    assert_false(vbnl_params_has(p, "virtual_lights")); /* defaulted, not set */
-    assert_false(vbnl_params_has(NULL, "virtual_lights"));
-    assert_int_equal(vbnl_params_set_text(p, "virtual_lights=5e4", "a.pov:3:7", &err), VBNL_OK);
-    assert_true(vbnl_params_has(p, "virtual_lights"));
-    assert_false(vbnl_params_has(p, "early_stop"));
-    assert_int_equal(vbnl_params_set_text(p, "lazy=off", NULL, &err), VBNL_OK);
-    assert_int_equal(vbnl_params_set_text(p, "elimination=uniform", NULL, &err), VBNL_OK);
-    assert_int_equal(vbnl_params_validate(p, spec, 4, "vbnl", &err), VBNL_OK);
-    assert_float_equal(vbnl_params_number(p, spec, 4, "virtual_lights"), 50000.0, 0);
-    assert_float_equal(vbnl_params_number(p, spec, 4, "lazy"), 0.0, 0);
-    assert_string_equal(vbnl_params_string(p, spec, 4, "elimination"), "uniform");
-    /* a later setting replaces an earlier one */
-    assert_int_equal(vbnl_params_set_text(p, "virtual_lights=7", NULL, &err), VBNL_OK);
-    assert_float_equal(vbnl_params_number(p, spec, 4, "virtual_lights"), 7.0, 0);
-    assert_int_equal(vbnl_params_count(p), 3);
-    /* unknown name: closest valid one and the list, with the origin */
-    vbnl_params_set_text(p, "virtual_light=5", "scene.pov:12:40", NULL);
-    assert_int_equal(vbnl_params_validate(p, spec, 4, "integrator 'vbnl'", &err), VBNL_ERR_UNKNOWN_NAME);
-    assert_non_null(strstr(err.message, "scene.pov:12:40: unknown parameter 'virtual_light'"));
-    assert_non_null(strstr(err.message, "did you mean 'virtual_lights'?"));
-    assert_non_null(strstr(err.message, "early_stop"));
-    vbnl_params_destroy(p);
-    /* types and ranges */
-    const char *bad[] = {"virtual_lights=0", "virtual_lights=2.5", "early_stop=1.5", "lazy=2",
-                         "elimination=fast", "virtual_lights=lots"};
-    const char *expect[] = {"must lie in [1", "takes an integer", "must lie in [0, 1]", "on/off",
-                            "must be one of adaptive, uniform, none", "takes an integer"};
-    for (int i = 0; i < 6; ++i) {
-        vbnl_params_create(&p, NULL);
-        assert_int_equal(vbnl_params_set_text(p, bad[i], NULL, &err), VBNL_OK);
-        assert_int_equal(vbnl_params_validate(p, spec, 4, "vbnl", &err), VBNL_ERR_INVALID_ARGUMENT);
-        if (!strstr(err.message, expect[i]))
-            fail_msg("'%s' gave '%s'", bad[i], err.message);
-        vbnl_params_destroy(p);
-    }
-    vbnl_params_create(&p, NULL);
-    assert_int_equal(vbnl_params_set_text(p, "novalue", NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_params_set_text(p, "=3", NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_params_destroy(p);
-}
-
-typedef struct pool_probe {
-    int *hits;
-    uint64_t stop_after;
-} pool_probe;
-
-static void pool_item(void *user, uint64_t item, unsigned thread)
-{
-    pool_probe *pp = user;
-    (void)thread;
-    __atomic_fetch_add(&pp->hits[item], 1, __ATOMIC_RELAXED);
-}
-
-static int pool_cancel(void *user, uint64_t finished, uint64_t count)
-{
-    (void)count;
-    pool_probe *pp = user;
-    return finished >= pp->stop_after;
-}
-
-static void slow_item(void *user, uint64_t item, unsigned thread)
-{
-    pool_item(user, item, thread);
-    struct timespec ts = {0, 2000000};
-    nanosleep(&ts, NULL);
-}
-
-static void test_pool(void **state)
-{
-    (void)state;
-    vbnl_pool *pool = vbnl_pool_create(3);
-    assert_non_null(pool);
-    assert_int_equal(vbnl_pool_thread_count(pool), 3);
-    int hits[10000] = {0};
-    pool_probe pp = {hits, 0};
-    for (int round = 0; round < 3; ++round)
-        assert_int_equal(vbnl_pool_run(pool, 10000, pool_item, &pp, NULL, NULL, 0.1), 10000);
-    for (int i = 0; i < 10000; ++i)
-        assert_int_equal(hits[i], 3);
-    /* cancellation stops handing out items */
-    memset(hits, 0, sizeof(hits));
-    pp.stop_after = 1;
-    uint64_t ran = vbnl_pool_run(pool, 2000, slow_item, &pp, pool_cancel, &pp, 0.01);
-    assert_true(ran < 2000);
-    uint64_t counted = 0;
-    for (int i = 0; i < 2000; ++i)
-        counted += (uint64_t)hits[i];
-    assert_int_equal(counted, ran);
-    assert_int_equal(vbnl_pool_run(pool, 0, pool_item, &pp, NULL, NULL, 0.1), 0);
-    vbnl_pool_destroy(pool);
-    vbnl_pool_destroy(NULL);
 }
 
 static int cancel_at_once(void *user, const vbnl_progress *p)
@@ -695,7 +586,9 @@ static void test_bad_arguments(void **state)
     uint32_t id;
     float v3a[3] = {0, 0, 0}, one[3] = {1, 1, 1}, nan3[3] = {NAN, 0, 0}, neg[3] = {-1, 0, 0};
     assert_int_equal(vbnl_context_create(NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_context_desc bigd = {5000};
+    vbnl_context_desc bigd;
+    vbnl_context_desc_init(&bigd);
+    bigd.threads = 5000;
     vbnl_context *ctx = NULL;
     assert_int_equal(vbnl_context_create(&bigd, &ctx, &err), VBNL_ERR_INVALID_ARGUMENT);
     ctx = make_ctx(1);
@@ -725,7 +618,7 @@ static void test_bad_arguments(void **state)
     const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     const uint32_t idx_bad[3] = {0, 1, 3};
     vbnl_mesh_desc mesh;
-    memset(&mesh, 0, sizeof(mesh));
+    vbnl_mesh_desc_init(&mesh);
     mesh.positions = pos;
     mesh.vertex_count = 3;
     mesh.indices = idx_bad;
@@ -765,20 +658,20 @@ static void test_bad_arguments(void **state)
     assert_int_equal(vbnl_scene_add_point_light(s, nan3, one, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_add_point_light(s, v3a, neg, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_add_point_light(NULL, v3a, one, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_spot_light_desc spot = {{0, 0, 0}, {0, 0, 0}, {1, 1, 1}, 0.9f, 0.8f, 0.0f};
+    vbnl_spot_light_desc spot = {sizeof(vbnl_spot_light_desc), {0, 0, 0}, {0, 0, 0}, {1, 1, 1}, 0.9f, 0.8f, 0.0f};
     assert_int_equal(vbnl_scene_add_spot_light(s, &spot, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     spot.direction[2] = -1.0f;
     spot.cos_inner = 0.5f; /* inner wider than outer */
     assert_int_equal(vbnl_scene_add_spot_light(s, &spot, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     al.edge_u[0] = 1.0f;
     al.edge_v[0] = 2.0f; /* parallel edges */
     assert_int_equal(vbnl_scene_add_area_light(s, &al, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_add_directional_light(s, v3a, one, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_set_environment(s, neg, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_scene_set_camera(s, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_camera_desc flat = {.position = {0, 0, 0}, .forward = {0, 0, -1}, .right = {1, 0, 0}, .up = {1, 0, 0}};
+    vbnl_camera_desc flat = {.size = sizeof(vbnl_camera_desc), .position = {0, 0, 0}, .forward = {0, 0, -1}, .right = {1, 0, 0}, .up = {1, 0, 0}};
     assert_int_equal(vbnl_scene_set_camera(s, &flat, &err), VBNL_ERR_INVALID_ARGUMENT);
     /* commit needs a camera and a light */
     assert_int_equal(vbnl_scene_commit(s, &err), VBNL_ERR_INVALID_ARGUMENT);
@@ -872,7 +765,6 @@ int main(void)
         cmocka_unit_test(test_split_direct),  cmocka_unit_test(test_max_depth),
         cmocka_unit_test(test_camera_rays),
         cmocka_unit_test(test_camera_projections),   cmocka_unit_test(test_intersection),
-        cmocka_unit_test(test_params),        cmocka_unit_test(test_pool),
         cmocka_unit_test(test_cancel),        cmocka_unit_test(test_time_budget),
         cmocka_unit_test(test_crop),          cmocka_unit_test(test_bad_arguments),
         cmocka_unit_test(test_ray_rates),

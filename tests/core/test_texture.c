@@ -23,7 +23,8 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof(*f));
-    vbnl_context_desc d = {0}; /* one worker per core */
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d); /* one worker per core */
     if (!f || vbnl_context_create(&d, &f->ctx, NULL) != VBNL_OK || vbnl_scene_create(f->ctx, &f->scene, NULL) != VBNL_OK)
         return -1;
     *state = f;
@@ -302,7 +303,7 @@ static vbnl_scene *plane_scene(vbnl_context *ctx, const vbnl_color_map_entry *ma
     ts_quad(s, ceiling, ts_material(s, VBNL_MATERIAL_LAMBERT, 0.8f, 0.8f, 0.8f, 0.0f));
     const float lp[3] = {0, 0, 3}, li[3] = {5, 5, 5};
     assert_int_equal(vbnl_scene_add_point_light(s, lp, li, NULL, NULL), VBNL_OK);
-    vbnl_camera_desc cam = {.position = {0, 0, 4}, .forward = {0, 0, -1}, .right = {0.5f, 0, 0}, .up = {0, 0.5f, 0}}; /* sees [-1,1]^2 */
+    vbnl_camera_desc cam = {.size = sizeof(vbnl_camera_desc), .position = {0, 0, 4}, .forward = {0, 0, -1}, .right = {0.5f, 0, 0}, .up = {0, 0.5f, 0}}; /* sees [-1,1]^2 */
     assert_int_equal(vbnl_scene_set_camera(s, &cam, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     return s;

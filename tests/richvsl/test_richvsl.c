@@ -350,8 +350,7 @@ static void test_cornell_indirect_energy(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const uint32_t W = 24, H = 24;
     const char *const ps[] = {"split_direct=1", NULL};
@@ -403,8 +402,7 @@ static void test_door_ajar_indirect_energy(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     const char *src = getenv("VBNL_SOURCE_DIR");
     char path[1024];
     snprintf(path, sizeof(path), "%s/examples/door-ajar.obj", src ? src : ".");
@@ -447,7 +445,9 @@ static void test_determinism(void **state)
     float *img[2];
     for (int t = 0; t < 2; ++t) {
         vbnl_context *ctx;
-        vbnl_context_desc d = {(unsigned)t + 1};
+        vbnl_context_desc d;
+        vbnl_context_desc_init(&d);
+        d.threads = (unsigned)t + 1;
         vbnl_context_create(&d, &ctx, NULL);
         vbnl_scene *s = cornell(ctx);
         const char *const settings[] = {"virtual_lights=600", NULL};
@@ -466,7 +466,9 @@ static void test_refused(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const char *bad[][2] = {{"profile_resolution=12", "8, 16 or 32"},

@@ -4,8 +4,9 @@
  * /usr/share/povray-3.7/scenes from Debian's povray-examples) with vbnl_pov_load_file, building
  * the core scene without committing it (the BVH build adds nothing to the parser check), each in a
  * child process with a time limit, and prints a table: parsed clean / with warnings / error /
- * timeout / crash, followed by the most frequent error messages and the most frequent
- * unsupported features (warnings that something is skipped or ignored).
+ * timeout / crash, followed by the most frequent error messages, the most frequent unsupported
+ * features (warnings that something is skipped or ignored) and, for every shape left out of a
+ * scene ("'lathe' is not supported; the object is skipped"), the number of scenes that lose it.
  *
  *     corpus [-t seconds] [-v] [--check PERCENT] [dir]
  *
@@ -21,6 +22,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "vbnl/pov_scene.h"
@@ -30,6 +32,7 @@ typedef struct entry {
     char *path;
     char status[16];
     char message[600];
+    char skipped[300]; /* shapes left out, '|'-separated */
     int warnings;
     double seconds;
 } entry;
@@ -78,7 +81,19 @@ static int cmp_entry(const void *a, const void *b)
 typedef struct child_state {
     int warnings;
     char features[600]; /* distinct "not supported"/"ignored" warnings, '|'-separated */
+    char skipped[300];  /* distinct shapes left out ("'text' is not supported; the object is skipped") */
 } child_state;
+
+/* Appends `key` to the '|'-separated list unless it is there already. */
+static void list_add(char *list, size_t size, const char *key)
+{
+    size_t len = strlen(list), n = strlen(key);
+    for (const char *s = list; (s = strstr(s, key)) != NULL; s += n)
+        if ((s == list || s[-1] == '|') && (s[n] == 0 || s[n] == '|'))
+            return;
+    if (len + n + 2 < size)
+        snprintf(list + len, size - len, "%s%s", len ? "|" : "", key);
+}
 
 static void on_diag(const vbnl_sdl_diag *d, void *user)
 {
@@ -86,6 +101,17 @@ static void on_diag(const vbnl_sdl_diag *d, void *user)
     if (d->severity != VBNL_SDL_WARNING)
         return;
     c->warnings++;
+    /* a shape left out: "'lathe' is not supported; the object is skipped" or
+     * "height_field: 'pot' images are not read ...; the object is skipped" */
+    const char *tail = strstr(d->message, "' is not supported; the object is skipped");
+    const char *colon = strchr(d->message, ':');
+    char shape[64] = "";
+    if (d->message[0] == '\'' && tail && tail - d->message < 64)
+        snprintf(shape, sizeof shape, "%.*s", (int)(tail - d->message - 1), d->message + 1);
+    else if (strstr(d->message, "the object is skipped") && colon && colon - d->message < 32)
+        snprintf(shape, sizeof shape, "%.*s", (int)(colon - d->message), d->message);
+    if (shape[0])
+        list_add(c->skipped, sizeof c->skipped, shape);
     if (!strstr(d->message, "not supported") && !strstr(d->message, "ignored") && !strstr(d->message, "skipped"))
         return;
     char key[200];
@@ -93,24 +119,22 @@ static void on_diag(const vbnl_sdl_diag *d, void *user)
     for (char *k = key; *k; ++k)
         if (*k == '|')
             *k = '/';
-    if (strstr(c->features, key))
-        return;
-    size_t len = strlen(c->features);
-    if (len + strlen(key) + 2 < sizeof c->features)
-        snprintf(c->features + len, sizeof c->features - len, "%s%s", len ? "|" : "", key);
+    list_add(c->features, sizeof c->features, key);
 }
 
-/* Child: load and write "status\twarnings\tmessage\n" to fd (message: the error, or for scenes
- * with warnings the unsupported features). */
+/* Child: load and write "status\twarnings\tskipped shapes\tmessage\n" to fd (message: the error,
+ * or for scenes with warnings the unsupported features). */
 static void child(const char *path, int fd)
 {
     vbnl_error err = { 0 };
-    char out[800];
+    char out[1200];
     vbnl_context *ctx = NULL;
-    vbnl_context_desc cd = {1};
-    child_state cs = {0, ""};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 1;
+    child_state cs = {0, "", ""};
     if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK) {
-        snprintf(out, sizeof out, "error\t0\t%.700s\n", err.message);
+        snprintf(out, sizeof out, "error\t0\t\t%.700s\n", err.message);
     } else {
         vbnl_pov_options o;
         vbnl_pov_options_init(&o);
@@ -122,9 +146,10 @@ static void child(const char *path, int fd)
         vbnl_pov_scene *s = NULL;
         vbnl_result r = vbnl_pov_load_file(ctx, path, &o, &s, &err);
         if (r == VBNL_OK)
-            snprintf(out, sizeof out, "%s\t%d\t%s\n", cs.warnings ? "warnings" : "clean", cs.warnings, cs.features);
+            snprintf(out, sizeof out, "%s\t%d\t%s\t%s\n", cs.warnings ? "warnings" : "clean", cs.warnings, cs.skipped,
+                     cs.features);
         else
-            snprintf(out, sizeof out, "error\t%d\t%.600s\n", cs.warnings, err.message);
+            snprintf(out, sizeof out, "error\t%d\t%s\t%.600s\n", cs.warnings, cs.skipped, err.message);
         vbnl_pov_scene_destroy(s);
         vbnl_context_destroy(ctx);
     }
@@ -207,6 +232,8 @@ int main(int argc, char **argv)
         int fds[2];
         if (pipe(fds) != 0)
             return 1;
+        struct timespec ts0, ts1;
+        clock_gettime(CLOCK_MONOTONIC, &ts0);
         pid_t pid = fork();
         if (pid == 0) {
             close(fds[0]);
@@ -215,7 +242,7 @@ int main(int argc, char **argv)
             _exit(0);
         }
         close(fds[1]);
-        char buf[1024];
+        char buf[1400];
         size_t got = 0;
         ssize_t r;
         while ((r = read(fds[0], buf + got, sizeof buf - 1 - got)) > 0)
@@ -224,6 +251,8 @@ int main(int argc, char **argv)
         close(fds[0]);
         int st = 0;
         waitpid(pid, &st, 0);
+        clock_gettime(CLOCK_MONOTONIC, &ts1);
+        e->seconds = (double)(ts1.tv_sec - ts0.tv_sec) + 1e-9 * (double)(ts1.tv_nsec - ts0.tv_nsec);
         if (WIFSIGNALED(st) && WTERMSIG(st) == SIGALRM) {
             snprintf(e->status, sizeof e->status, "timeout");
             snprintf(e->message, sizeof e->message, "time limit of %d s exceeded", timeout);
@@ -234,22 +263,27 @@ int main(int argc, char **argv)
             crashes++;
         } else {
             char *t1 = strchr(buf, '\t'), *t2 = t1 ? strchr(t1 + 1, '\t') : NULL;
+            char *t3 = t2 ? strchr(t2 + 1, '\t') : NULL;
             if (t1) *t1 = 0;
             if (t2) *t2 = 0;
+            if (t3) *t3 = 0;
             snprintf(e->status, sizeof e->status, "%.15s", buf);
             e->warnings = t1 ? atoi(t1 + 1) : 0;
-            if (t2) {
-                char *nl = strchr(t2 + 1, '\n');
+            if (t2)
+                snprintf(e->skipped, sizeof e->skipped, "%s", t2 + 1);
+            if (t3) {
+                char *nl = strchr(t3 + 1, '\n');
                 if (nl)
                     *nl = 0;
-                snprintf(e->message, sizeof e->message, "%s", t2 + 1);
+                snprintf(e->message, sizeof e->message, "%s", t3 + 1);
             }
             if (strcmp(e->status, "clean") == 0) clean++;
             else if (strcmp(e->status, "warnings") == 0) warn++;
             else errors++;
         }
         if (verbose)
-            printf("%-9s %3d  %s  %s\n", e->status, e->warnings, e->path, e->message);
+            printf("%-9s %3d %6.2fs  %s  %s%s%s%s\n", e->status, e->warnings, e->seconds, e->path, e->skipped[0] ? "[skipped: " : "",
+                   e->skipped[0] ? e->skipped : "", e->skipped[0] ? "] " : "", e->message);
     }
     size_t n = nentries;
     printf("\nScene parser corpus (language + object layers): %zu scenes under %s (time limit %d s each)\n\n", n, dir, timeout);
@@ -312,6 +346,32 @@ int main(int argc, char **argv)
         printf("\nTop unsupported features (scenes reporting each):\n");
         for (size_t k = 0; k < nc && k < 20; k++)
             printf("  %4d  %s\n", counts[k].n, counts[k].msg);
+    }
+    free(counts);
+    /* shapes left out: how many scenes (loaded with or without error) lose each */
+    counts = calloc(32 * n + 1, sizeof *counts);
+    nc = 0;
+    for (size_t i = 0; i < n && counts; i++) {
+        char list[300];
+        snprintf(list, sizeof list, "%s", entries[i].skipped);
+        for (char *tok = strtok(list, "|"); tok; tok = strtok(NULL, "|")) {
+            size_t k;
+            for (k = 0; k < nc; k++)
+                if (strcmp(counts[k].msg, tok) == 0)
+                    break;
+            if (k == nc) {
+                snprintf(counts[nc].msg, sizeof counts[nc].msg, "%s", tok);
+                counts[nc].example = entries[i].path;
+                nc++;
+            }
+            counts[k].n++;
+        }
+    }
+    printf("\nObjects skipped (scenes losing each shape): %s\n", nc ? "" : "none");
+    if (nc) {
+        qsort(counts, nc, sizeof *counts, cmp_count);
+        for (size_t k = 0; k < nc; k++)
+            printf("  %4d  %-16s e.g. %s\n", counts[k].n, counts[k].msg, counts[k].example);
     }
     free(counts);
     for (size_t i = 0; i < n; i++)

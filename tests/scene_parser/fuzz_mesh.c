@@ -23,7 +23,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     static const char *const ext[] = {"ply", "obj", "gltf", "off", "stl"};
     if (!ctx) {
-        vbnl_context_desc cd = {1};
+        vbnl_context_desc cd;
+        vbnl_context_desc_init(&cd);
+        cd.threads = 1;
         snprintf(dir, sizeof(dir), "/tmp/vbnl_fuzz_mesh_XXXXXX");
         if (vbnl_context_create(&cd, &ctx, NULL) != VBNL_OK || !mkdtemp(dir))
             return 0;

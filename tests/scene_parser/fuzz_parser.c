@@ -18,7 +18,9 @@ static vbnl_context *ctx;
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     if (!ctx) {
-        vbnl_context_desc cd = {1};
+        vbnl_context_desc cd;
+        vbnl_context_desc_init(&cd);
+        cd.threads = 1;
         if (vbnl_context_create(&cd, &ctx, NULL) != VBNL_OK)
             return 0;
     }

@@ -107,14 +107,6 @@ static void raw_chunk(void *user, uint64_t item, unsigned thread)
     }
 }
 
-static int no_poll(void *user, uint64_t finished, uint64_t count)
-{
-    (void)user;
-    (void)finished;
-    (void)count;
-    return 0;
-}
-
 /* The ceiling: the faster of one ray at a time and eight-ray packets, each the median of 3 runs,
  * per wall second and per CPU second. */
 static void raw_rate(vbnl_context *ctx, raw_rays *rr, double *wall, double *cpu)
@@ -125,7 +117,7 @@ static void raw_rate(vbnl_context *ctx, raw_rays *rr, double *wall, double *cpu)
         double w[3], c[3];
         for (int k = 0; k < 3; ++k) {
             double t0 = vbnl_now(), c0 = cpu_now();
-            vbnl_pool_run(ctx->pool, (rr->n + 4095u) / 4096u, raw_chunk, (void *)rr, no_poll, NULL, 1.0);
+            vbnl_pool_run(ctx->pool, (rr->n + 4095u) / 4096u, raw_chunk, (void *)rr, NULL, NULL, 1.0);
             w[k] = rr->n / (vbnl_now() - t0);
             c[k] = rr->n / (cpu_now() - c0);
         }
@@ -180,7 +172,9 @@ int main(int argc, char **argv)
     else
         snprintf(path, sizeof(path), "%s/examples/mcguire/%s", src ? src : ".", scene_file);
 
-    vbnl_context_desc cd = {threads};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = threads;
     vbnl_context *ctx = NULL;
     vbnl_error err;
     if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK)

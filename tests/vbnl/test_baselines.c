@@ -50,8 +50,7 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof(*f));
-    vbnl_context_desc d = {0};
-    vbnl_context_create(&d, &f->ctx, NULL);
+    vbnl_context_create(NULL, &f->ctx, NULL);
     f->scene = cornell(f->ctx);
     *state = f;
     return 0;
@@ -204,8 +203,7 @@ static void test_vpl_furnace(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_material_desc md;
@@ -288,7 +286,11 @@ static void test_determinism(void **state)
 {
     (void)state;
     vbnl_context *c1, *c2;
-    vbnl_context_desc d1 = {1}, d2 = {2};
+    vbnl_context_desc d1, d2;
+    vbnl_context_desc_init(&d1);
+    vbnl_context_desc_init(&d2);
+    d1.threads = 1;
+    d2.threads = 2;
     vbnl_context_create(&d1, &c1, NULL);
     vbnl_context_create(&d2, &c2, NULL);
     vbnl_scene *s1 = cornell(c1), *s2 = cornell(c2);

@@ -34,8 +34,7 @@ static vbnl_context *ctx;
 static int setup(void **state)
 {
     (void)state;
-    vbnl_context_desc d = {0};
-    return vbnl_context_create(&d, &ctx, NULL) == VBNL_OK ? 0 : -1;
+    return vbnl_context_create(NULL, &ctx, NULL) == VBNL_OK ? 0 : -1;
 }
 
 static int teardown(void **state)

@@ -16,7 +16,7 @@
 #include <string.h>
 
 #include "elimination.h"
-#include "elimination_kdtree.h"
+#include "kdtree.h"
 #include "pool.h"
 #include "rng.h"
 
@@ -473,7 +473,8 @@ static void test_kdtree(void **state)
     for (int parts = 0; parts < 2; ++parts) {
         vbnl_kd_pt *pts = malloc(n * sizeof(vbnl_kd_pt));
         uint32_t *qi = malloc(n * sizeof(uint32_t));
-        float *qd = malloc(n * sizeof(float)), *all = malloc(n * sizeof(float)), heap[64];
+        float *qd = malloc(n * sizeof(float)), *all = malloc(n * sizeof(float)), knn_d2[64];
+        uint32_t knn_i[64];
         assert_true(pts && qi && qd && all);
         for (uint32_t i = 0; i < n; ++i) {
             pts[i].p[0] = src[i].x;
@@ -499,7 +500,7 @@ static void test_kdtree(void **state)
                     all[cnt++] = vbnl_kd_dist2(pts[i].p, pts[j].p);
             qsort(all, cnt, sizeof(float), cmp_float);
             for (uint32_t m = 1; m <= 64; m = 2 * m + 1)
-                assert_true(vbnl_kd_knn(&t, i, m, heap, INFINITY) == all[m - 1]);
+                assert_true(vbnl_kd_mth_dist2(&t, i, m, knn_i, knn_d2) == all[m - 1]);
             float r2 = all[20];
             uint32_t c = vbnl_kd_radius(&t, pts[i].p, r2, qi, qd, n), expect = 1; /* itself */
             for (uint32_t j = 0; j < cnt; ++j)

@@ -27,7 +27,9 @@ static vbnl_placement_params default_params(uint32_t count)
 
 static vbnl_scene *box(vbnl_context **ctx)
 {
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     assert_int_equal(vbnl_context_create(&d, ctx, NULL), VBNL_OK);
     vbnl_scene *s = ts_box_scene(*ctx, 1.0f);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
@@ -112,7 +114,9 @@ static void test_mirror_pass_through(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);

@@ -1,7 +1,8 @@
 /* Tests for photon splitting (core/integrators/vbnl/splitting.h, Li et al. 2022, Section 3.3)
  * and the VL sphere index (vl_index.h).
  *
- *  - index: grid and Embree variants against brute force (identical id lists and distances);
+ *  - index: grid and Embree variants against the brute-force reference (reference.h: identical id
+ *    lists and distances), several level policies, degenerate radii, a hashed grid;
  *    the batched query against single queries (same sets, capped or not, filtered or not);
  *  - closed Lambertian sphere with uniform two-sided emission: analytic incident power of every
  *    VL and exact energy bookkeeping;
@@ -25,6 +26,7 @@
 #include "octahedral.h"
 #include "pool.h"
 #include "profiles.h"
+#include "reference.h"
 #include "rng.h"
 #include "sampling.h"
 #include "scene_internal.h"
@@ -35,9 +37,8 @@
 
 static vbnl_context *make_ctx(unsigned threads)
 {
-    vbnl_context_desc d = {threads};
-    vbnl_context *ctx = NULL;
-    assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
+    vbnl_context *ctx = ts_context(threads);
+    assert_non_null(ctx);
     return ctx;
 }
 
@@ -139,16 +140,16 @@ static uint32_t check_index_levels(vbnl_vl_index_kind kind, vbnl_vl_index_levels
     assert_int_equal(vbnl_vl_index_create(&d, &x), VBNL_OK);
     uint32_t ids[256], ref[256];
     float d2[256], rd2[256];
+    vbnl_vl_found rf[256];
     uint64_t total = 0;
     uint32_t most = 0;
     for (uint32_t k = 0; k < npts; ++k) {
-        uint32_t m = 0;
-        for (uint32_t j = 0; j < n; ++j) {
-            double dd;
-            if (vbnl_vl_contains(c[j], r[j], pts[k], &dd)) {
-                rd2[m] = (float)dd;
-                ref[m++] = j;
-            }
+        /* the reference: brute force over every sphere (reference.h) */
+        uint32_t m = vbnl_vl_query_reference(c, r, nrm, n, pts[k], NULL, 256, rf);
+        assert_true(m <= 256);
+        for (uint32_t q = 0; q < m; ++q) {
+            ref[q] = rf[q].id;
+            rd2[q] = rf[q].d2;
         }
         uint32_t got = vbnl_vl_index_query(x, pts[k], 256, ids, d2);
         assert_int_equal(got, m);
@@ -163,12 +164,11 @@ static uint32_t check_index_levels(vbnl_vl_index_kind kind, vbnl_vl_index_levels
         }
         total += m;
         most = m > most ? m : most;
-        /* Filtered query (splitting): brute force with the same filter. */
+        /* Filtered query (splitting): the reference with the same filter. */
         vbnl_vl_filter f = {v3_norm(v3(0.3f, 1.0f, -0.2f)), v3_norm(v3(-0.5f, 0.6f, 0.4f)), 0.2f, 1};
-        uint32_t mf = 0;
-        for (uint32_t q = 0; q < m; ++q)
-            if (v3_dot(nrm[ref[q]], f.n) > f.normal_cos && v3_dot(nrm[ref[q]], f.wi) > 0.0f)
-                ref[mf++] = ref[q];
+        uint32_t mf = vbnl_vl_query_reference(c, r, nrm, n, pts[k], &f, 256, rf);
+        for (uint32_t q = 0; q < mf; ++q)
+            ref[q] = rf[q].id;
         assert_int_equal(vbnl_vl_index_query_filtered(x, pts[k], &f, 256, ids, NULL), mf);
         assert_memory_equal(ids, ref, mf * sizeof(uint32_t));
     }
@@ -679,7 +679,7 @@ static double simd_step_sphere(vbnl_material_type type, const char *name)
             nt += 2;
         }
     vbnl_mesh_desc m;
-    memset(&m, 0, sizeof(m));
+    vbnl_mesh_desc_init(&m);
     m.positions = pos;
     m.normals = nrm;
     m.vertex_count = (NU + 1) * (NV + 1);
@@ -756,7 +756,7 @@ static void test_glossy_directions(void **state)
     const float floor_[12] = {-3, 0, -3, -3, 0, 3, 3, 0, 3, 3, 0, -3};
     ts_quad(s, floor_, black);
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     const float corner[3] = {0.45f, 1.0f, -0.05f}, eu[3] = {0.1f, 0, 0}, ev[3] = {0, 0, 0.1f};
     const float Le = 50.0f;
     memcpy(al.corner, corner, sizeof(corner));

@@ -110,9 +110,8 @@ static uint64_t map_sum(const vbnl_profile_set *ps, uint32_t j, uint32_t texels,
 
 static void compare_paths(float spread, vbnl_vl_index_levels levels, uint32_t expect_levels)
 {
-    vbnl_context *ctx = NULL;
-    vbnl_context_desc cd = {2};
-    assert_int_equal(vbnl_context_create(&cd, &ctx, NULL), VBNL_OK);
+    vbnl_context *ctx = ts_context(2);
+    assert_non_null(ctx);
     vbnl_scene *s = ts_box_scene(ctx, 1.0f);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;

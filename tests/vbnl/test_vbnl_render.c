@@ -103,8 +103,7 @@ static void test_furnace(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_material_desc md;
@@ -156,8 +155,7 @@ static void test_cornell_against_path(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const uint32_t W = 48, H = 48, K = 4, n = (W / K) * (H / K);
     render_result ref = render(ctx, s, "path", W, H, 4096, 1, NULL);
@@ -227,7 +225,9 @@ static void test_refused(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     const char *bad[][3] = {{"virtual_lights=1000", "candidates=500", "candidates (M = 500) must be at least"},
@@ -264,7 +264,9 @@ static void test_determinism(void **state)
     float *img[2];
     for (int t = 0; t < 2; ++t) {
         vbnl_context *ctx;
-        vbnl_context_desc d = {(unsigned)t + 1};
+        vbnl_context_desc d;
+        vbnl_context_desc_init(&d);
+        d.threads = (unsigned)t + 1;
         vbnl_context_create(&d, &ctx, NULL);
         vbnl_scene *s = cornell(ctx);
         const char *const settings[] = {"virtual_lights=3000", "photon_paths=100000", NULL};
@@ -375,8 +377,7 @@ static void test_time_budget(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {0};
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context_create(NULL, &ctx, NULL);
     vbnl_scene *s = cornell(ctx);
     vbnl_render_stats st;
     vbnl_error err = {0};

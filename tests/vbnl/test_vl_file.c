@@ -39,7 +39,9 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof(*f));
-    vbnl_context_desc d = {2};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 2;
     vbnl_context_create(&d, &f->ctx, NULL);
     f->scene = ts_box_scene(f->ctx, 1.0f);
     assert_int_equal(vbnl_scene_commit(f->scene, NULL), VBNL_OK);
@@ -406,7 +408,7 @@ static void test_other_scene(void **state)
     /* the same box with a slightly different light */
     other = ts_box_scene(f->ctx, 1.0f);
     vbnl_area_light_desc al;
-    memset(&al, 0, sizeof(al));
+    vbnl_area_light_desc_init(&al);
     al.corner[0] = 0.5f;
     al.corner[1] = 1.9f;
     al.edge_u[0] = 0.1f;
@@ -777,15 +779,21 @@ static void on_signal_abandon(int sig)
     _exit(42);
 }
 
-/* A save held by VBNL_TEST_PAUSE=write with its temporary complete and not yet renamed (the pause
- * is announced on `err_fd`); the parent then sends SIGUSR1, whose handler abandons and leaves. */
+/* A save held by the test hook VBNL_TEST_HOOK_PAUSE_WRITES (asked for through a context) with its
+ * temporary complete and not yet renamed (the pause is announced on `err_fd`); the parent then
+ * sends SIGUSR1, whose handler abandons and leaves. */
 static int child_save_paused(const tiny_set *t, const char *path, int err_fd)
 {
     struct sigaction sa;
     memset(&sa, 0, sizeof(sa));
     sa.sa_handler = on_signal_abandon;
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 1;
+    cd.test_hooks = VBNL_TEST_HOOK_PAUSE_WRITES;
+    vbnl_context *ctx = NULL;
     if (sigaction(SIGUSR1, &sa, NULL) != 0 || dup2(err_fd, STDERR_FILENO) < 0 ||
-        setenv("VBNL_TEST_PAUSE", "write", 1) != 0)
+        vbnl_context_create(&cd, &ctx, NULL) != VBNL_OK)
         return 1;
     vbnl_vl_file_save(path, &t->h, &t->vls, t->ps, NULL);
     return 2; /* the pause lasts 30 s: the signal comes long before */
@@ -819,7 +827,7 @@ static int await_pause(int fd, char *buf, size_t cap)
             return -1;
         len += (size_t)got;
         buf[len] = '\0';
-        const char *at = strstr(buf, "vbnl: test pause (VBNL_TEST_PAUSE=write)");
+        const char *at = strstr(buf, "vbnl: test pause (write)");
         if (at && strchr(at, '\n'))
             return 0;
     }

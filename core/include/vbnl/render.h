@@ -31,12 +31,34 @@ extern "C" {
 typedef struct vbnl_renderer vbnl_renderer;
 typedef struct vbnl_film vbnl_film;
 
+/* Test hooks (vbnl_context_desc.test_hooks): for the project's own tests, never set otherwise. */
+typedef enum vbnl_test_hook {
+    /* Every file the library writes (EXR, PNG, virtual-light files) waits 30 s with its temporary
+     * file complete and not yet renamed, after saying so on stderr ("vbnl: test pause (write):
+     * '<temporary>' written, not yet renamed to '<path>'"), so that a test can interrupt a write
+     * at a known point. Writes are process-wide (one table of temporaries, which a signal handler
+     * empties), so the pause is too: once a context asked for it, every write of the process
+     * pauses. */
+    VBNL_TEST_HOOK_PAUSE_WRITES = 1u << 0,
+} vbnl_test_hook;
+
 typedef struct vbnl_context_desc {
+    uint32_t size;              /* sizeof(vbnl_context_desc): set by vbnl_context_desc_init */
     unsigned threads;           /* worker threads; 0 = one per core */
+    uint32_t test_hooks;        /* vbnl_test_hook bits; 0 */
 } vbnl_context_desc;
 
+/* Fills `d` with its size and the defaults (one thread per core, no test hook). */
+void vbnl_context_desc_init(vbnl_context_desc *d);
+/* Creates a context (its worker threads and Embree device) into *out; desc may be NULL (the
+ * defaults). Errors: VBNL_ERR_INVALID_ARGUMENT (NULL out, a descriptor of an unknown size, more
+ * than 1024 threads), VBNL_ERR_UNSUPPORTED (a descriptor from a newer vbnl), VBNL_ERR_BACKEND
+ * (Embree), VBNL_ERR_OUT_OF_MEMORY (also when a thread cannot start). */
 vbnl_result vbnl_context_create(const vbnl_context_desc *desc, vbnl_context **out, vbnl_error *err);
+/* Stops the workers and frees the context (accepts NULL). Every scene and renderer made with it
+ * must be destroyed first. */
 void vbnl_context_destroy(vbnl_context *ctx);
+/* Worker threads of the context (0 for NULL). Any thread. */
 unsigned vbnl_context_thread_count(const vbnl_context *ctx);
 
 /* Where the random numbers of a camera sample come from (core/src/sampler.h). Chosen by name
@@ -48,13 +70,14 @@ typedef enum vbnl_sampler_kind {
     VBNL_SAMPLER_RANDOM = 1  /* "random": independent uniform numbers (PCG) for every draw */
 } vbnl_sampler_kind;
 
-/* The sampler's name ("sobol", "random"), or NULL for a value that is none. */
+/* The sampler's name ("sobol", "random"), or NULL for a value that is none. Pure: any thread. */
 const char *vbnl_sampler_name(vbnl_sampler_kind kind);
 /* Looks a sampler up by name; unknown names are refused with the list of valid ones
- * (VBNL_ERR_UNKNOWN_NAME). */
+ * (VBNL_ERR_UNKNOWN_NAME); NULL arguments: VBNL_ERR_INVALID_ARGUMENT. Pure: any thread. */
 vbnl_result vbnl_sampler_find(const char *name, vbnl_sampler_kind *out, vbnl_error *err);
 
 typedef struct vbnl_render_settings {
+    uint32_t size;              /* sizeof(vbnl_render_settings): set by vbnl_render_settings_init */
     uint32_t width, height;     /* image size in pixels, 1 .. 65536 */
     uint32_t spp;               /* samples per pixel to reach; 0 = until the time budget ends */
     double time_budget;         /* seconds for prepare + render; 0 = no limit (spp must be > 0).
@@ -68,6 +91,8 @@ typedef struct vbnl_render_settings {
     vbnl_sampler_kind sampler;  /* VBNL_SAMPLER_SOBOL unless changed */
 } vbnl_render_settings;
 
+/* Fills `s` with its size and the defaults: 512 x 512, 16 samples per pixel, no time budget,
+ * seed 1, the `path` integrator with default parameters, no crop, the "sobol" sampler. */
 void vbnl_render_settings_init(vbnl_render_settings *s);
 
 /* Progress of one stage ("prepare: photons", "render", ...). */
@@ -83,21 +108,33 @@ typedef struct vbnl_progress {
 /* Returns non-zero to cancel: the stage stops after the work items in flight. */
 typedef int (*vbnl_progress_fn)(void *user, const vbnl_progress *progress);
 
-/* Validates the integrator name and parameters and allocates the film. Unknown integrators
- * are refused with the list of registered names. */
+/* Validates the settings, the integrator name and its parameters, creates the integrator and
+ * allocates the film. The settings and parameters are copied; ctx and scene (committed) must
+ * outlive the renderer. Errors: VBNL_ERR_INVALID_ARGUMENT (NULL arguments, settings of an unknown
+ * size, neither spp nor a time budget, a bad size, crop, sampler or parameter value),
+ * VBNL_ERR_UNSUPPORTED (settings from a newer vbnl), VBNL_ERR_UNKNOWN_NAME (an unknown integrator,
+ * with the list of registered names, or parameter), VBNL_ERR_STATE (the scene is not committed),
+ * VBNL_ERR_OUT_OF_MEMORY, and what the integrator's create() refuses. */
 vbnl_result vbnl_renderer_create(vbnl_context *ctx, const vbnl_scene *scene,
                                  const vbnl_render_settings *settings, vbnl_renderer **out,
                                  vbnl_error *err);
+/* Frees the renderer, its integrator and its film (accepts NULL). */
 void vbnl_renderer_destroy(vbnl_renderer *r);
 
-/* Scene-dependent preparation of the integrator (a no-op for `path`). May be cancelled. */
+/* Scene-dependent preparation of the integrator (a no-op for `path`), its stages reported to
+ * `progress` (may be NULL), which may cancel. Errors: VBNL_ERR_CANCELLED, VBNL_ERR_INVALID_ARGUMENT
+ * (NULL renderer), and the integrator's (e.g. VBNL_ERR_OUT_OF_MEMORY, a budget it cannot keep). */
 vbnl_result vbnl_renderer_prepare(vbnl_renderer *r, vbnl_progress_fn progress, void *user,
                                   vbnl_error *err);
-/* Renders progressive passes until `spp` or the time budget is reached. Returns
- * VBNL_ERR_CANCELLED when the callback cancelled; the film then holds every finished sample. */
+/* Renders progressive passes until `spp` or the time budget is reached (prepares first if
+ * vbnl_renderer_prepare was not called). Returns VBNL_ERR_CANCELLED when the callback cancelled;
+ * the film then holds every finished sample; once spp is reached a further call renders nothing.
+ * Errors: VBNL_ERR_INVALID_ARGUMENT (NULL renderer), those of prepare. */
 vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, void *user,
                                  vbnl_error *err);
 
+/* The renderer's film (NULL for NULL), valid until the renderer is destroyed; read it between
+ * calls of prepare and render, never during them. */
 const vbnl_film *vbnl_renderer_film(const vbnl_renderer *r);
 
 typedef struct vbnl_stage_time {
@@ -139,6 +176,8 @@ typedef struct vbnl_render_stats {
     double prepare_limit;
     int budget_cut;
 } vbnl_render_stats;
+/* The renderer's statistics so far into *out (pointers in it owned by the renderer). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for NULL arguments. */
 vbnl_result vbnl_renderer_get_stats(const vbnl_renderer *r, vbnl_render_stats *out, vbnl_error *err);
 
 /* Diagnostics: raw Embree ray rates of this scene in rays per second, for each kind of ray a
@@ -161,18 +200,29 @@ typedef struct vbnl_ray_rates {
     double camera, closest, shadow;
     double closest_packet; /* appended: the layout of the first three is unchanged */
 } vbnl_ray_rates;
+/* Measures the rates above on ctx's workers (the calling thread waits). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT (NULL arguments, zero counts or sizes), VBNL_ERR_STATE (the scene is
+ * not committed), VBNL_ERR_OUT_OF_MEMORY. */
 vbnl_result vbnl_scene_measure_ray_rates(vbnl_context *ctx, const vbnl_scene *scene, uint32_t ray_count,
                                          uint32_t width, uint32_t height, vbnl_ray_rates *out, vbnl_error *err);
 /* The rate Embree alone would trace a given mixture of rays at: the total count over the sum of
- * each kind's count divided by its rate. 0 when a kind with rays has no measured rate. */
+ * each kind's count divided by its rate. 0 when a kind with rays has no measured rate. Pure. */
 double vbnl_ray_rates_mix(const vbnl_ray_rates *r, uint64_t camera_rays, uint64_t closest_rays,
                           uint64_t shadow_rays);
-/* The closest-hit rate of vbnl_scene_measure_ray_rates alone (measures every kind). */
+/* The closest-hit rate of vbnl_scene_measure_ray_rates alone (measures every kind; its errors). */
 vbnl_result vbnl_scene_measure_ray_rate(vbnl_context *ctx, const vbnl_scene *scene, uint32_t ray_count,
                                         uint32_t width, uint32_t height, double *rays_per_second,
                                         vbnl_error *err);
 
 /* ---- film --------------------------------------------------------------------------------- */
+
+/* Offsets, in a sample record (integrator.h, vbnl_tile_job_add_sample), of the layers every
+ * film has; an integrator's own layers follow (vbnl_film_add_layer). */
+#define VBNL_FILM_BEAUTY 0u       /* R, G, B, A */
+#define VBNL_FILM_ALBEDO 4u       /* R, G, B: the first surface's reflectance */
+#define VBNL_FILM_NORMAL 7u       /* X, Y, Z: its unit shading normal */
+#define VBNL_FILM_DEPTH 10u       /* Z: its distance along the camera's view axis */
+#define VBNL_FILM_MAX_CHANNELS 64u /* channels of all layers together, at most */
 
 typedef struct vbnl_layer_info {
     const char *name;              /* "" for the beauty image, else "albedo", "normal", ... */
@@ -180,16 +230,32 @@ typedef struct vbnl_layer_info {
     const char *const *channel_names; /* e.g. "R","G","B" or "Z" */
 } vbnl_layer_info;
 
+/* Reading a film: any thread, while no render runs on it. Image size in pixels (0 for NULL). */
 uint32_t vbnl_film_width(const vbnl_film *f);
 uint32_t vbnl_film_height(const vbnl_film *f);
+/* Layers: the beauty image first, then albedo, normal, depth and the integrator's. */
 uint32_t vbnl_film_layer_count(const vbnl_film *f);
+/* Layer `index`'s name and channels (strings owned by the film). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT (NULL arguments, index >= the layer count). */
 vbnl_result vbnl_film_layer(const vbnl_film *f, uint32_t index, vbnl_layer_info *out, vbnl_error *err);
 /* Writes the resolved layer (mean of its samples; 0 where a pixel has none) as interleaved
- * floats, row 0 at the top: width*height*channels values. */
+ * floats, row 0 at the top: width*height*channels values into dst (the caller's, dst_count
+ * floats). Errors: VBNL_ERR_UNKNOWN_NAME (no such layer), VBNL_ERR_INVALID_ARGUMENT (NULL
+ * arguments, dst_count too small). */
 vbnl_result vbnl_film_read(const vbnl_film *f, const char *layer, float *dst, size_t dst_count,
                            vbnl_error *err);
 /* Samples taken in pixel (x, y) (0 outside a crop window). */
 uint32_t vbnl_film_pixel_samples(const vbnl_film *f, uint32_t x, uint32_t y);
+
+/* For integrators, from create() only (integrator.h): adds a layer `name` (not yet in the film,
+ * at most 31 bytes) of 1 to 4 channels named channel_names[0 .. channels) (strings that outlive
+ * the film) and writes its offset in a sample record to *offset (may be NULL). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT (bad arguments, a taken or too long name, more than 16 layers or
+ * VBNL_FILM_MAX_CHANNELS channels), VBNL_ERR_STATE (after create()). */
+vbnl_result vbnl_film_add_layer(vbnl_film *f, const char *name, uint32_t channels,
+                                const char *const *channel_names, uint32_t *offset, vbnl_error *err);
+/* Floats in a sample record: the channels of every layer (at most VBNL_FILM_MAX_CHANNELS). */
+uint32_t vbnl_film_record_size(const vbnl_film *f);
 
 #ifdef __cplusplus
 }

@@ -8,6 +8,17 @@
  * Ownership: every array passed in is copied; the caller may free it as soon as the call returns.
  * Ids returned through out-parameters are dense small integers, stable for the scene's life.
  *
+ * Descriptors (vbnl_*_desc) start with their own size: fill one with its init function, which sets
+ * `size` and the defaults, then change the fields you need. The core refuses a descriptor whose
+ * size is not one it knows (VBNL_ERR_INVALID_ARGUMENT, or VBNL_ERR_UNSUPPORTED for one from a
+ * newer vbnl), and new fields only ever come at the end, with defaults for older callers.
+ *
+ * Errors: every function that returns a vbnl_result writes one sentence into `err` (may be NULL)
+ * when it fails, and then changes nothing (the scene is as before the call, out-parameters are
+ * not written). VBNL_ERR_INVALID_ARGUMENT for a NULL scene or descriptor and the bad values each
+ * function names; VBNL_ERR_STATE for an add or set after vbnl_scene_commit;
+ * VBNL_ERR_OUT_OF_MEMORY.
+ *
  * Units and conventions: right-handed world space (the scene parser converts POV-Ray's
  * left-handed one); colours are linear Rec.709 RGB; radiance in W/(m^2 sr), intensity in W/sr;
  * transforms are row-major 4x4 affine matrices applied as p' = M p. */
@@ -37,6 +48,7 @@ typedef enum vbnl_material_type {
 } vbnl_material_type;
 
 typedef struct vbnl_material_desc {
+    uint32_t size;        /* sizeof(vbnl_material_desc): set by vbnl_material_desc_init */
     vbnl_material_type type;
     float base_color[3];  /* see the type; each component in [0, 1] */
     float alpha;          /* GGX roughness alpha (not squared "perceptual" roughness), [1e-3, 1] */
@@ -52,8 +64,8 @@ typedef struct vbnl_material_desc {
                            * see VBNL_NODE_TEXTURED). Emission is not textured. */
 } vbnl_material_desc;
 
-/* Fills `d` with defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no emission, no
- * texture. */
+/* Fills `d` with its size and the defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no
+ * emission, no texture. */
 void vbnl_material_desc_init(vbnl_material_desc *d);
 
 /* ---- textures: patterns, pigments, normals and materials that vary over surfaces ---------- */
@@ -477,6 +489,7 @@ typedef struct vbnl_color_map_entry {
 #define VBNL_COLOR_MAP_MAX 256u
 
 typedef struct vbnl_texture_desc {
+    uint32_t size;                    /* sizeof(vbnl_texture_desc): set by vbnl_texture_desc_init */
     vbnl_texture_kind kind;
     float pattern_from_world[16];     /* row-major 4x4 affine, p' = M p; identity by default */
     /* IMAGE */
@@ -495,7 +508,7 @@ typedef struct vbnl_texture_desc {
     vbnl_texture_wave wave;
 } vbnl_texture_desc;
 
-/* Fills `d` with the defaults above (a CHECKER with no colour map: set one). */
+/* Fills `d` with its size and the defaults above (a CHECKER with no colour map: set one). */
 void vbnl_texture_desc_init(vbnl_texture_desc *d);
 
 /* Adds a texture as a pigment (arrays copied) and returns its pigment id. Errors:
@@ -541,6 +554,7 @@ void vbnl_vturbulence(double lambda, double omega, int octaves, const double p[3
 #define VBNL_GROUP_WORLD 0u
 
 typedef struct vbnl_mesh_desc {
+    uint32_t size;                 /* sizeof(vbnl_mesh_desc): set by vbnl_mesh_desc_init */
     const float *positions;        /* 3 floats per vertex (required) */
     const float *normals;          /* 3 floats per vertex, or NULL: flat shading */
     const float *uvs;              /* 2 floats per vertex, or NULL */
@@ -553,35 +567,49 @@ typedef struct vbnl_mesh_desc {
     uint32_t group;                /* VBNL_GROUP_WORLD or an id from vbnl_scene_add_group */
 } vbnl_mesh_desc;
 
-/* Adds a triangle mesh. Errors: VBNL_ERR_INVALID_ARGUMENT for a NULL array, an index out of
- * range, a non-finite position or an unknown material/group; emissive materials are only
- * allowed in the world group. */
+/* Fills `d` with its size and no mesh (NULL arrays, zero counts, material 0, the world group). */
+void vbnl_mesh_desc_init(vbnl_mesh_desc *d);
+
+/* Adds a triangle mesh (arrays copied). Errors: VBNL_ERR_INVALID_ARGUMENT for a NULL array, an
+ * index out of range, a non-finite position, an unknown material or group, a bad transform (as
+ * for instances); VBNL_ERR_UNSUPPORTED for an emissive material outside the world group. */
 vbnl_result vbnl_scene_add_mesh(vbnl_scene *scene, const vbnl_mesh_desc *desc, uint32_t *out_id,
                                 vbnl_error *err);
 
 /* Adds an analytic sphere (exact intersection, exact normals). Emissive spheres become area
- * lights sampled uniformly over their surface. `group` as for meshes. */
+ * lights sampled uniformly over their surface. `group` as for meshes. Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for a non-finite centre, a radius that is not positive and finite,
+ * an unknown material or group; VBNL_ERR_UNSUPPORTED for an emissive material outside the world
+ * group. */
 vbnl_result vbnl_scene_add_sphere(vbnl_scene *scene, const float center[3], float radius,
                                   uint32_t material, uint32_t group, uint32_t *out_id,
                                   vbnl_error *err);
 
-/* Creates an empty group whose content can be instanced any number of times. */
+/* Creates an empty group whose content can be instanced any number of times; its id goes to
+ * *out_group. Errors: the common ones (above). */
 vbnl_result vbnl_scene_add_group(vbnl_scene *scene, uint32_t *out_group, vbnl_error *err);
 
-/* Places group `group` in the world with the 4x4 transform (must be invertible). */
+/* Places group `group` in the world with the 4x4 transform (copied). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for an unknown group, the world group, a NULL transform, one with a
+ * non-finite entry, one that is not affine (last row 0 0 0 1) or not invertible. */
 vbnl_result vbnl_scene_add_instance(vbnl_scene *scene, uint32_t group, const float transform[16],
                                     uint32_t *out_id, vbnl_error *err);
 
+/* Adds a material (the descriptor is copied). Errors: VBNL_ERR_INVALID_ARGUMENT for an unknown
+ * type, colours outside [0, 1], negative or non-finite emission, alpha outside [0, 1], an ior
+ * outside (1, 10), conductor eta <= 0 or k < 0, a texture that does not exist (yet). */
 vbnl_result vbnl_scene_add_material(vbnl_scene *scene, const vbnl_material_desc *desc,
                                     uint32_t *out_id, vbnl_error *err);
 
 /* ---- lights ------------------------------------------------------------------------------- */
 
-/* Point light with radiant intensity I (W/sr); irradiance falls off as 1/r^2. */
+/* Point light with radiant intensity I (W/sr); irradiance falls off as 1/r^2. Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for a non-finite position or a negative or non-finite intensity. */
 vbnl_result vbnl_scene_add_point_light(vbnl_scene *scene, const float position[3],
                                        const float intensity[3], uint32_t *out_id, vbnl_error *err);
 
 typedef struct vbnl_spot_light_desc {
+    uint32_t size;            /* sizeof(vbnl_spot_light_desc): set by vbnl_spot_light_desc_init */
     float position[3];
     float direction[3];       /* need not be normalised */
     float intensity[3];       /* on the axis, W/sr */
@@ -589,6 +617,11 @@ typedef struct vbnl_spot_light_desc {
     float cos_outer;          /* zero outside; smoothstep falloff between (pbrt's spot light) */
     float exponent;           /* extra cos(theta)^exponent concentration (POV-Ray tightness); 0 = none */
 } vbnl_spot_light_desc;
+/* Fills `d` with its size and zeros (every field to be set). */
+void vbnl_spot_light_desc_init(vbnl_spot_light_desc *d);
+/* Adds a spot light. Errors: VBNL_ERR_INVALID_ARGUMENT for non-finite values, a zero direction,
+ * negative intensity, cone cosines not in -1 <= cos_outer <= cos_inner <= 1 with cos_outer < 1,
+ * a negative exponent. */
 vbnl_result vbnl_scene_add_spot_light(vbnl_scene *scene, const vbnl_spot_light_desc *desc,
                                       uint32_t *out_id, vbnl_error *err);
 
@@ -596,20 +629,27 @@ vbnl_result vbnl_scene_add_spot_light(vbnl_scene *scene, const vbnl_spot_light_d
  * radiance Le from the side of cross(edge_u, edge_v) (or both sides). It is also geometry: rays hit
  * it and see its radiance. */
 typedef struct vbnl_area_light_desc {
+    uint32_t size;            /* sizeof(vbnl_area_light_desc): set by vbnl_area_light_desc_init */
     float corner[3], edge_u[3], edge_v[3];
     float radiance[3];
     int two_sided;
 } vbnl_area_light_desc;
+/* Fills `d` with its size and zeros (every field to be set; one-sided). */
+void vbnl_area_light_desc_init(vbnl_area_light_desc *d);
+/* Adds the light and its quad (in the world group). Errors: VBNL_ERR_INVALID_ARGUMENT for
+ * non-finite values, parallel or zero edges, negative radiance. */
 vbnl_result vbnl_scene_add_area_light(vbnl_scene *scene, const vbnl_area_light_desc *desc,
                                       uint32_t *out_id, vbnl_error *err);
 
 /* Distant light arriving from the direction opposite to `direction` with irradiance E (W/m^2)
- * on a surface facing it. */
+ * on a surface facing it. Errors: VBNL_ERR_INVALID_ARGUMENT for a zero or non-finite direction,
+ * a negative or non-finite irradiance. */
 vbnl_result vbnl_scene_add_directional_light(vbnl_scene *scene, const float direction[3],
                                              const float irradiance[3], uint32_t *out_id,
                                              vbnl_error *err);
 
-/* Constant environment radiance seen by every ray that leaves the scene (0 = black). */
+/* Constant environment radiance seen by every ray that leaves the scene (0 = black); a later
+ * call replaces it. Errors: VBNL_ERR_INVALID_ARGUMENT for a negative or non-finite radiance. */
 vbnl_result vbnl_scene_set_environment(vbnl_scene *scene, const float radiance[3], vbnl_error *err);
 
 /* ---- camera ------------------------------------------------------------------------------- */
@@ -650,6 +690,7 @@ typedef enum vbnl_camera_projection {
  * perspective camera, forward + sx*right + sy*up: the plane at focal_distance along forward is
  * sharp). The disc is sampled with each sample's second pair of random numbers. */
 typedef struct vbnl_camera_desc {
+    uint32_t size;            /* sizeof(vbnl_camera_desc): set by vbnl_camera_desc_init and look_at */
     float position[3];
     float forward[3];
     float right[3];
@@ -660,19 +701,34 @@ typedef struct vbnl_camera_desc {
     float focal_distance; /* > 0 when lens_radius > 0 */
 } vbnl_camera_desc;
 
-/* Convenience: camera at `position` looking at `target` with `up` roughly up, vertical field of
- * view `fov_y_degrees` in (0, 180) and image aspect width/height `aspect`. */
+/* Fills `d` with its size and zeros (every vector to be set), for cameras in the general form;
+ * vbnl_camera_look_at fills a whole one. */
+void vbnl_camera_desc_init(vbnl_camera_desc *d);
+
+/* Convenience: fills *out (size included) with a camera at `position` looking at `target` with
+ * `up` roughly up, vertical field of view `fov_y_degrees` in (0, 180) and image aspect
+ * width/height `aspect` > 0. Errors: VBNL_ERR_INVALID_ARGUMENT for non-finite values, a target at
+ * the position, `up` along the view, a field of view or aspect out of range; *out is not
+ * written. Pure: any thread. */
 vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3],
                                 const float target[3], const float up[3], float fov_y_degrees,
                                 float aspect, vbnl_error *err);
 
+/* Sets the camera (copied; a later call replaces it). Errors: VBNL_ERR_INVALID_ARGUMENT for
+ * non-finite vectors or forward, right and up vectors that are not linearly independent. */
 vbnl_result vbnl_scene_set_camera(vbnl_scene *scene, const vbnl_camera_desc *camera, vbnl_error *err);
 
 /* ---- life cycle --------------------------------------------------------------------------- */
 
+/* Creates an empty scene on `ctx` (which must outlive it) into *out. Errors:
+ * VBNL_ERR_INVALID_ARGUMENT (NULL ctx or out), VBNL_ERR_OUT_OF_MEMORY. */
 vbnl_result vbnl_scene_create(vbnl_context *ctx, vbnl_scene **out, vbnl_error *err);
-/* Builds the BVH and light tables. A scene without a camera or without any light fails. */
+/* Builds the BVH and light tables; afterwards the scene is immutable and may be read by any
+ * number of threads and renderers. Errors: VBNL_ERR_INVALID_ARGUMENT for a scene without a camera
+ * or without any light, VBNL_ERR_STATE when already committed, VBNL_ERR_BACKEND (Embree),
+ * VBNL_ERR_OUT_OF_MEMORY. */
 vbnl_result vbnl_scene_commit(vbnl_scene *scene, vbnl_error *err);
+/* Frees the scene (accepts NULL). No renderer of it may remain. */
 void vbnl_scene_destroy(vbnl_scene *scene);
 
 typedef struct vbnl_scene_info {
@@ -683,6 +739,8 @@ typedef struct vbnl_scene_info {
     uint32_t light_count;      /* after commit: each emissive triangle counts as one light */
     float bounds_min[3], bounds_max[3];
 } vbnl_scene_info;
+/* The scene's counts and bounds (light_count and bounds after commit). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for NULL arguments. Any thread once committed. */
 vbnl_result vbnl_scene_get_info(const vbnl_scene *scene, vbnl_scene_info *out, vbnl_error *err);
 
 #ifdef __cplusplus

@@ -126,7 +126,7 @@ static void em_light(em_job *job, uint32_t li, uint32_t *idx, float *d2, rv_gath
     /* gather radius: distance to the second-closest other light */
     uint32_t li_idx[4];
     float li_d2[4];
-    uint32_t n = rv_knn(&job->lights, q, 3, UINT32_MAX, li_idx, li_d2);
+    uint32_t n = vbnl_kd_knn(&job->lights, q, 3, UINT32_MAX, li_idx, li_d2);
     uint32_t others = 0;
     float r2 = INFINITY;
     for (uint32_t k = 0; k < n; ++k) {
@@ -140,7 +140,7 @@ static void em_light(em_job *job, uint32_t li, uint32_t *idx, float *d2, rv_gath
     uint32_t found = r2 < INFINITY ? vbnl_kd_radius(&m->ph_tree, q, r2, idx, d2, RV_GATHER_MAX) : RV_GATHER_MAX + 1;
     if (found > RV_GATHER_MAX) {
         /* too many (or no second light): the RV_GATHER_MAX nearest, kernel radius = the farthest */
-        found = rv_knn(&m->ph_tree, q, RV_GATHER_MAX, UINT32_MAX, idx, d2);
+        found = vbnl_kd_knn(&m->ph_tree, q, RV_GATHER_MAX, UINT32_MAX, idx, d2);
         r2 = found ? d2[found - 1] * (1.0f + 1e-6f) : 0.0f;
     }
     /* the photon the light sits on is always inside (d = 0) */

@@ -4,7 +4,7 @@
 
 #include "richvsl.h"
 #include "shading.h"
-#include "splitting.h"
+#include "photon_walk.h"
 
 #define IMPORTON_STREAM 0x696d706f72746f6eull
 #define PHOTON_STREAM 0x70686f746f6e6d61ull
@@ -23,70 +23,6 @@ void rv_maps_free(rv_maps *m)
     free(m->ph);
     free(m->ph_pts);
     memset(m, 0, sizeof(*m));
-}
-
-/* ---- k nearest neighbours on an elimination k-d tree ---------------------------------------- */
-
-static inline int rv_before(float d2a, uint32_t ia, float d2b, uint32_t ib)
-{
-    return d2a < d2b || (d2a == d2b && ia < ib);
-}
-
-uint32_t rv_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i, float *out_d2)
-{
-    if (!t->nodes || t->n == 0 || k == 0)
-        return 0;
-    if (k > RV_KNN_MAX)
-        k = RV_KNN_MAX;
-    struct {
-        uint32_t node;
-        float d2;
-    } stack[128];
-    int sp = 0;
-    uint32_t cnt = 0;
-    stack[sp].node = 0;
-    stack[sp].d2 = 0.0f;
-    sp++;
-    while (sp > 0) {
-        --sp;
-        uint32_t ni = stack[sp].node;
-        if (cnt == k && stack[sp].d2 > out_d2[cnt - 1])
-            continue;
-        const vbnl_kd_node *nd = &t->nodes[ni];
-        if (nd->axis == VBNL_KD_LEAF_AXIS) {
-            for (uint32_t i = nd->begin; i < nd->end; ++i) {
-                if (i == skip)
-                    continue;
-                float d2 = vbnl_kd_dist2(q, t->pts[i].p);
-                uint32_t id = t->pts[i].id;
-                if (cnt == k && !rv_before(d2, id, out_d2[k - 1], t->pts[out_i[k - 1]].id))
-                    continue;
-                /* insertion into the sorted list */
-                uint32_t j = cnt < k ? cnt++ : k - 1;
-                while (j > 0 && rv_before(d2, id, out_d2[j - 1], t->pts[out_i[j - 1]].id)) {
-                    out_d2[j] = out_d2[j - 1];
-                    out_i[j] = out_i[j - 1];
-                    --j;
-                }
-                out_d2[j] = d2;
-                out_i[j] = i;
-            }
-            continue;
-        }
-        float diff = q[nd->axis] - nd->split;
-        float pd = stack[sp].d2;
-        float fd = diff * diff > pd ? diff * diff : pd;
-        uint32_t near = diff <= 0.0f ? ni + 1 : nd->right, far = diff <= 0.0f ? nd->right : ni + 1;
-        if (sp + 2 > 128)
-            break; /* cannot happen for a balanced tree of < 2^32 points */
-        stack[sp].node = far;
-        stack[sp].d2 = fd;
-        sp++;
-        stack[sp].node = near;
-        stack[sp].d2 = pd;
-        sp++;
-    }
-    return cnt;
 }
 
 /* ---- importons ------------------------------------------------------------------------------ */
@@ -269,7 +205,7 @@ static void ph_chunk(void *user, uint64_t item, unsigned thread)
     b->n = 0;
     ph_visit pv = {b};
     /* plain Russian roulette (survival = sampled albedo) from the first bounce on */
-    vbnl_photon_walk_desc wd = {job->sc, 1.0f, 1, 0, 0};
+    vbnl_photon_walk_desc wd = {job->sc, 1.0f, 1, 0, 0, 0};
     for (uint64_t k = 0; k < PH_CHUNK; ++k) {
         uint64_t path = job->first_path + item * PH_CHUNK + k;
         vbnl_rng rng = vbnl_rng_for(job->seed ^ PHOTON_STREAM, path, 0);

@@ -27,7 +27,7 @@ static void w_chunk(void *user, uint64_t item, unsigned thread)
     uint32_t end = begin + W_CHUNK < m->ph_count ? begin + W_CHUNK : m->ph_count;
     for (uint32_t i = begin; i < end; ++i) {
         const float q[3] = {m->ph[i].hit.p.x, m->ph[i].hit.p.y, m->ph[i].hit.p.z};
-        uint32_t n = rv_knn(&m->imp_tree, q, job->K, UINT32_MAX, idx, d2);
+        uint32_t n = vbnl_kd_knn(&m->imp_tree, q, job->K, UINT32_MAX, idx, d2);
         double dK2 = n ? d2[n - 1] : 0.0, sum = 0.0;
         if (n < 2 || !(dK2 > 0.0)) {
             job->W[i] = 0.0f;
@@ -125,7 +125,7 @@ static void relax_chunk(void *user, uint64_t item, unsigned thread)
         /* local index of light li in the light tree: pts are permuted, so look it up by id */
         vec3 xp = job->pos[job->ids[li]];
         const float x[3] = {xp.x, xp.y, xp.z};
-        uint32_t n = rv_knn(&job->lights, x, job->K + 2, UINT32_MAX, idx, d2);
+        uint32_t n = vbnl_kd_knn(&job->lights, x, job->K + 2, UINT32_MAX, idx, d2);
         /* drop the light itself (distance 0 to its own point; a twin on the same photon stays) */
         for (uint32_t k = 0; k < n; ++k)
             if (job->lights.pts[idx[k]].id == li) {
@@ -165,7 +165,7 @@ static void relax_chunk(void *user, uint64_t item, unsigned thread)
         /* snap to the nearest photon (keeps the light on a surface) */
         uint32_t pi;
         float pd2;
-        if (rv_knn(job->photons, q, 1, UINT32_MAX, &pi, &pd2) == 1)
+        if (vbnl_kd_knn(job->photons, q, 1, UINT32_MAX, &pi, &pd2) == 1)
             job->next[li] = job->photons->pts[pi].id;
         else
             job->next[li] = job->ids[li];

@@ -193,7 +193,7 @@ static vbnl_result set_radii(rv_state *s, vbnl_error *err)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u lights", n);
         for (uint32_t i = 0; r == VBNL_OK && i < n; ++i) {
             const float q[3] = {l->p[i].x, l->p[i].y, l->p[i].z};
-            uint32_t c = rv_knn(&t, q, s->radius_k + 1, UINT32_MAX, idx, d2);
+            uint32_t c = vbnl_kd_knn(&t, q, s->radius_k + 1, UINT32_MAX, idx, d2);
             uint32_t seen = 0;
             for (uint32_t k = 0; k < c; ++k) {
                 if (t.pts[idx[k]].id == i)

@@ -3,8 +3,8 @@
  *
  * Stages (one file each):
  *   maps.c       importon map (camera paths, §4.1) and photon map (light paths, the photon walk
- *                of splitting.h), k-d trees over both (elimination_kdtree.h) and k-nearest
- *                queries on them;
+ *                of photon_walk.h), k-d trees over both (kdtree.h, whose k-nearest query the
+ *                other stages use);
  *   placement.c  importance at every photon (Epanechnikov K-NN estimate of the importons,
  *                §4.1), one Bernoulli trial per photon with P_RS = min(1, W / (q W_mean)), and
  *                the relaxation of §4.2 (K = 6, snap to the nearest photon after every step);
@@ -24,7 +24,7 @@
 #include <stdint.h>
 
 #include "bsdf.h"
-#include "elimination_kdtree.h"
+#include "kdtree.h"
 #include "octahedral.h"
 #include "pool.h"
 #include "render_internal.h"
@@ -75,11 +75,8 @@ vbnl_result rv_trace_importons(const vbnl_scene *sc, uint32_t width, uint32_t he
 vbnl_result rv_trace_photons(const vbnl_scene *sc, uint64_t target_photons, uint64_t seed, vbnl_stage_ctx *stage,
                              vbnl_pool *pool, rv_maps *m, vbnl_error *err);
 
-/* The k nearest points of tree t to q, excluding local index `skip` (UINT32_MAX: none), sorted
- * by distance (ties by id): local indices and squared distances. Returns how many (<= k).
- * k <= RV_KNN_MAX. */
+/* The most neighbours a placement query asks vbnl_kd_knn for (its arrays are on the stack). */
 #define RV_KNN_MAX 1024u
-uint32_t rv_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i, float *out_d2);
 
 /* ---- placement.c ----------------------------------------------------------------------------- */
 

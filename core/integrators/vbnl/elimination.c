@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "elimination_kdtree.h"
+#include "kdtree.h"
 #include "rng.h"
 
 #define VBNL_SQRT3 1.7320508075688772
@@ -677,9 +677,11 @@ static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
     const uint32_t m = job->m;
     vbnl_cand c;
     memset(&c, 0, sizeof(c));
-    float *heap = malloc((size_t)m * sizeof(float));
-    if (!heap || vbnl_cand_alloc(&c, 1024u + 8u * m) != 0) {
-        free(heap);
+    float *knn_d2 = malloc((size_t)m * sizeof(float)); /* scratch of the exact search */
+    uint32_t *knn_i = malloc((size_t)m * sizeof(uint32_t));
+    if (!knn_d2 || !knn_i || vbnl_cand_alloc(&c, 1024u + 8u * m) != 0) {
+        free(knn_d2);
+        free(knn_i);
         atomic_store(&job->failed, 1);
         return;
     }
@@ -690,7 +692,7 @@ static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
             continue;
         const uint32_t b = nd->begin, e = nd->end;
         if (!(est > 0.0f))
-            mean = est = sqrtf(vbnl_kd_knn(t, b + (e - b) / 2, m, heap, INFINITY));
+            mean = est = sqrtf(vbnl_kd_mth_dist2(t, b + (e - b) / 2, m, knn_i, knn_d2));
         const float r2g = (VBNL_KNN_GATHER * est) * (VBNL_KNN_GATHER * est);
         /* Points within R of q have a box distance below r2g even after rounding. */
         const float r2f = r2g * 0.9999f;
@@ -756,7 +758,7 @@ static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
                 }
             }
             float d2m = ns > 0 ? vbnl_select(c.sel, (int32_t)ns, (int32_t)(m - 1 - below))
-                               : vbnl_kd_knn(t, q, m, heap, INFINITY);
+                               : vbnl_kd_mth_dist2(t, q, m, knn_i, knn_d2);
             float d = sqrtf(d2m);
             next = d > next ? d : next;
             sum += d;
@@ -766,7 +768,8 @@ static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
         mean = sum / (float)(e - b);
     }
     vbnl_cand_free(&c);
-    free(heap);
+    free(knn_d2);
+    free(knn_i);
 }
 
 /* The lists of all candidates, one work item per subtree (the serial variant). */
@@ -1325,12 +1328,13 @@ vbnl_result vbnl_elim_measure(const vec3 *points, const uint32_t *kept, const fl
     }
     double sum = 0.0, mn = INFINITY;
     uint32_t cnt = 0;
-    float heap[1];
+    uint32_t knn_i[1];
+    float knn_d2[1];
     for (uint32_t i = 0; i < n; ++i) {
         float r = rmax[pts[i].id];
         if (!(r > 0.0f))
             continue;
-        double rel = sqrt((double)vbnl_kd_knn(&t, i, 1, heap, INFINITY)) / (2.0 * r);
+        double rel = sqrt((double)vbnl_kd_mth_dist2(&t, i, 1, knn_i, knn_d2)) / (2.0 * r);
         sum += rel;
         mn = rel < mn ? rel : mn;
         cnt++;

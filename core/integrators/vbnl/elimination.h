@@ -25,8 +25,8 @@
  * proportional to the number of kept points its candidates are expected to carry,
  * sum_i A_i / (m 2 sqrt(3) r_i,max^2) (= M_box N / M for unclamped adaptive radii).
  *
- * Spatial index and neighbour lists: one balanced k-d tree (elimination_kdtree.h) over all
- * candidates, with a bounding box per node; its top levels are the parallel boxes, so every box
+ * Spatial index and neighbour lists: one balanced k-d tree (kdtree.h, the integrators' common
+ * machinery) over all candidates, with a bounding box per node; its top levels are the parallel boxes, so every box
  * is a contiguous range of the tree's point order. The m-NN search of Eq. 2 runs a tree leaf at
  * a time: the leaf's queries share one candidate set (the points within an estimated radius R of
  * the leaf's box) and each query picks its m-th distance from it by brute force (vectorised),

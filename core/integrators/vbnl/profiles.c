@@ -615,22 +615,19 @@ vbnl_result vbnl_profile_set_import_fixed(vbnl_profile_set *s, uint32_t vl, cons
 #define DOT_LANES 24
 
 typedef float lanes8 __attribute__((vector_size(32))); /* GCC vectors: AVX, SSE or scalar */
-
-static inline lanes8 load8(const float *p)
-{
-    lanes8 v;
-    memcpy(&v, p, sizeof v);
-    return v;
-}
+/* Eight floats at any address, read as one vector (no function returns a vector: without AVX
+ * that would change the calling convention). */
+typedef float lanes8_unaligned __attribute__((vector_size(32), aligned(4), may_alias));
+#define LOAD8(p) (*(const lanes8_unaligned *)(p))
 
 static vec3 dot_lanes(const float *row, const float *phi, uint32_t m3)
 {
     lanes8 a0 = {0}, a1 = {0}, a2 = {0};
     uint32_t i = 0;
     for (; i + DOT_LANES <= m3; i += DOT_LANES) {
-        a0 += load8(row + i) * load8(phi + i);
-        a1 += load8(row + i + 8) * load8(phi + i + 8);
-        a2 += load8(row + i + 16) * load8(phi + i + 16);
+        a0 += LOAD8(row + i) * LOAD8(phi + i);
+        a1 += LOAD8(row + i + 8) * LOAD8(phi + i + 8);
+        a2 += LOAD8(row + i + 16) * LOAD8(phi + i + 16);
     }
     float acc[DOT_LANES];
     memcpy(acc, &a0, sizeof a0);

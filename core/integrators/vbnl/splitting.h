@@ -9,29 +9,29 @@
  * wi pointing toward where the photon came from. Conversion to emission profiles is later
  * (profiles.h).
  *
- * Photon paths (importance transport, Veach 1997 ch. 5):
- *   - light j picked by power (the scene's alias table, pmf p_j), point and direction by
- *     vbnl_light_sample_le; flux Phi = Le |cos| / (p_j pdf_pos pdf_dir) / photon_paths;
- *   - at a hit, an opaque BSDF uses a frame facing the arriving photon (two-sided surfaces, as
- *     the path tracer); the dielectric keeps its orientation;
- *   - bounce by BSDF sampling with the photon arriving along wo: the sample weight
- *     f |cos theta_i| / pdf times eta^2 for a refraction (bsdf.h weights are for radiance,
- *     which carries 1 / eta^2; flux does not) times the shading-normal correction
- *     |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) of the adjoint BSDF (Veach 1997, Eq. 5.17);
- *   - Russian roulette from bounce rr_depth on (authors' code: 5) with continuation probability
- *     q = min(1, sqrt(max(beta_new) / max(beta_old))), beta_new /= q (the authors' rule; its
- *     square root keeps photon powers from dropping as fast as the albedo). No depth limit
- *     (max_depth = 0), but a safety cap of VBNL_SPLIT_SAFETY_DEPTH bounces for lossless traps
- *     (mirror boxes, where q stays 1).
- *   - no deposits on delta surfaces (mirror, glass): VLs never stand for them.
+ * Photon paths: the photon walk of the integrators' common machinery (photon_walk.h: light by
+ * power, importance transport, Russian roulette from bounce rr_depth with the authors' square-root
+ * rule, no deposits on delta surfaces).
  *
- * Which VLs share a hit at p with unit normal n (facing the arriving photon) arriving from wi:
- * the index (vl_index.h) gives every VL with d(p, y_j) < r_j; the authors' code then keeps those
- * with n_j . n > normal_cos (0.7) and, when require_facing, n_j . wi > 0; then, with `support`,
- * the VLs that pass the support test (vl_support.h: no occluder between the hit and the VL at
- * half its radius, which keeps the light trapped under a ceiling lamp or behind a thin wall out
- * of the VLs beyond it); of those the max_vls (8) with the largest weights 1 - (d/r)^2 (ties:
- * smaller id) share the photon.
+ * Which VLs share a hit at p with unit normal n (facing the arriving photon) arriving from wi,
+ * in this order:
+ *   1. every VL j with d(p, y_j) < r_j (vbnl_vl_contains of vl_index.h);
+ *   2. the authors' filters: n_j . n > normal_cos (0.7) and, when require_facing, n_j . wi > 0;
+ *   3. when more than VBNL_SPLIT_QUERY_MAX pass, the VBNL_SPLIT_QUERY_MAX with the smallest ids
+ *      (counted in stats.overflow);
+ *   4. the weight w_j = 1 - (float)d^2 / (r_j r_j) (d^2 in double as vbnl_vl_dist2 gives it,
+ *      then rounded to float) must be positive (d within rounding of r_j drops out);
+ *   5. with `support`, the support test (vl_support.h: the hit's material, then no occluder
+ *      between the hit and the VL at the test's height, which keeps the light trapped under a
+ *      ceiling lamp or behind a thin wall out of the VLs beyond it);
+ *   6. of those the max_vls (8) with the largest weights (ties: smaller id).
+ * The kept VLs are taken in ascending rank (the index's spatial order, vl_index.h): the
+ * normaliser is the float sum of their weights in that order, and the quantised power Q of the
+ * hit is split exactly by the normalised weights w_j / sum (vbnl_profile_split_fixed: floor(Q w)
+ * each, the residue to the largest normalised weight, the first in rank order on ties). The
+ * result is thus a function of the VLs and their ranks alone, whichever way a hit goes through
+ * the code below. splitting_reference.c states these rules plainly, a hit at a time and a
+ * brute-force search over all VLs; the tests hold vbnl_split_photons to it bit for bit.
  *
  * Determinism: photon k (a global index in [0, photon_paths)) draws only from
  * vbnl_rng_for(seed, k, 0); deposits are 64-bit fixed-point integer adds (profiles.h), so the
@@ -59,14 +59,14 @@
  *     bounding cube).
  *   - Deposit: the batch is counting-sorted by bin, then queried in that order through a
  *     software pipeline that prefetches each query's cell header, listings, hit record and
- *     candidate records a few queries ahead (splitting.c, run_fast_pipe, for hits that carry
+ *     candidate records a few queries ahead (splitting_batch.h, run_fast_pipe, for hits that carry
  *     their cell; the index's own pipeline, vl_index_pipe.h, otherwise), with the last stage
  *     (exact test, filters, weights of eight candidates at a time in AVX2) fused with the
  *     deposit. Consecutive queries then read the same cells and records, which stay in cache.
  *   - The split: the photon power is quantised, the weights normalised and the exact partition
  *     added into the sums for the three channels at once (AVX2, same bits as
  *     vbnl_profile_split_fixed); the max_vls cap drops the smallest weights (or picks the
- *     largest, whichever takes fewer passes).
+ *     largest, whichever takes fewer passes, then restores rank order).
  *   - The walk's hit set-up for triangle meshes (the shared vbnl_fill_mesh_hit) and its
  *     Lambertian bounce in the world frame are inline (photon_fast.h, same values).
  *   - Phi_in goes into per-thread fixed-point sums indexed by the VLs' rank in the index's
@@ -83,16 +83,15 @@
  *     reads nothing at random before its texels. Each splat is
  *     prepared and its texels prefetched, then applied 16 splats later, since the maps are large
  *     (3 KB per glossy VL and thread at 16 x 16) and the texels random. With AVX2 a splat is
- *     two rows (splitting.c, splat_rows), and splats are prepared eight at a time
+ *     two rows (splitting_splat.h, splat_rows), and splats are prepared eight at a time
  *     (splat_queue_run): the frame, the footprint of vbnl_hemioct_footprint and the exact
  *     integer parts of vbnl_profile_splat_prepare_lo32 across the eight, then per row one 8-lane
  *     32-bit add over texels x0 and x0 + 1 (a row whose lane wraps past 2^32 is redone lane by
  *     lane with the carry; parts of 2^31 or more take the general form): the same bits as one
  *     splat at a time.
- *   The VLs that share a hit and their weights are exactly those of the rules above; only the
- *   order in which a hit's VLs are summed follows the index's rank order (so rounding of the
- *   normalised weights may differ in the last bit from an id-ordered sum; either is a
- *   deterministic function of the hit).
+ *   Candidates reach the deposit in rank order from a single-level grid; the other ways (the
+ *   index's plain queries, in id order; several levels, level by level; the max_vls selection
+ *   when it picks the largest) put them back in rank order first (rare, or small).
  *   Memory beyond the profile set (stats.scratch_bytes): per thread 64 bytes per VL (a record
  *   copy and the sums: RGB and a zero lane, one AVX2 vector) and 80 bytes per batch entry (the
  *   record, its order, bin, cell and sorted cell: 21 MB for the 262,144 entries of a batch);
@@ -101,9 +100,12 @@
  *   (slower, same bits); the 32-bit glossy maps add threads x half the set's incident maps
  *   (2 x 60 MB on the glossy-floor box with 2 threads).
  *   Each thread keeps eight paths in flight and traces their current rays as one rtcIntersect8
- *   packet (splitting.c, SPLIT_LANES). Packets of eight independent paths are faster than
- *   rtcIntersect1 one ray at a time (packets of consecutive rays of one path are not), with
- *   the same answers bit for bit.
+ *   packet (splitting_lanes.h, SPLIT_LANES). Packets of eight independent paths are faster than
+ *   rtcIntersect1 one ray at a time (packets of consecutive rays of one path are not). A ray's
+ *   answer does not depend on the other rays of its packet, so neither the thread count nor the
+ *   chunking changes a bit; Embree's packet kernel may round a hit differently in the last bit
+ *   from its single-ray kernel (vbnl_photon_walk's), so the reference traces each of its rays
+ *   alone in a packet.
  *   Loops whose trip counts vary from hit to hit cost more than their arithmetic (presumably
  *   their mispredicted exits; the VM the benchmarks run on has no branch counters), so the
  *   cell pipeline prefetches four listing blocks and eight candidates at once, whatever their
@@ -121,7 +123,7 @@
 #include "scene_internal.h"
 #include "vl_index.h"
 #include "vl_support.h"
-#include "photon_fast.h"
+#include "photon_walk.h"
 
 #define VBNL_SPLIT_DEFAULT_CHUNK 16384u /* photon paths per work item (about 4 hits each here) */
 #define VBNL_SPLIT_BATCH_HITS 262144u   /* photon hits a thread buffers before depositing them, */
@@ -130,7 +132,6 @@
 #define VBNL_SPLIT_BIN_BITS 12u         /* spatial bins of the batch sort: 2^12 (16 per axis) */
 #define VBNL_SPLIT_MAX_SUM_BYTES (256u << 20) /* per-thread sums of all threads, at most */
 #define VBNL_SPLIT_MAX_MAP_COPY_BYTES (512u << 20) /* the 32-bit incident maps of all threads */
-#define VBNL_SPLIT_SAFETY_DEPTH 4096
 #define VBNL_SPLIT_QUERY_MAX 64u   /* candidates read from the index per hit */
 #define VBNL_SPLIT_MAX_VLS 64u     /* upper bound for max_vls */
 
@@ -148,13 +149,13 @@ typedef struct vbnl_split_desc {
     int require_facing;             /* keep VLs with n_j . wi > 0 */
     uint32_t max_vls;               /* VLs sharing one hit (1 .. VBNL_SPLIT_MAX_VLS) */
     int rr_depth;                   /* bounces before Russian roulette */
-    int max_depth;                  /* 0 = unlimited (up to VBNL_SPLIT_SAFETY_DEPTH) */
+    int max_depth;                  /* 0 = unlimited (up to VBNL_PHOTON_SAFETY_DEPTH) */
     uint32_t chunk;                 /* photon paths per work item, 0 = default (results do not
                                      * depend on it) */
     int atomic_deposits;            /* 1: no per-thread sums, atomic adds into `profiles` (what
                                      * happens beyond VBNL_SPLIT_MAX_SUM_BYTES; same bits) */
     int general_walk;               /* 1: every hit through the general walk, none through the SIMD
-                                     * step (splitting.c, step_fast; same bits: tests compare) */
+                                     * step (splitting_lanes.h, step_fast; same bits: tests compare) */
     const vbnl_vl_support *support; /* by index rank: the support test's data (vl_support.h);
                                      * NULL: no test (the paper's rule) */
 } vbnl_split_desc;
@@ -194,173 +195,6 @@ typedef struct vbnl_split_stats {
 /* The fixed-point unit for `photon_paths` photons of this scene: vbnl_profile_unit_for_power of
  * the total light power (max channel) / photon_paths, the power of an emitted photon. */
 double vbnl_split_photon_unit(const vbnl_scene *scene, uint64_t photon_paths);
-
-/* One photon path (light random walk), shared with the many-light baselines (vpl, vsl): the
- * rules above (light by power, importance transport, Russian roulette, safety cap). `visit` is
- * called at every non-delta hit, before the bounce, with the flux arriving there. Draws from
- * `rng` only, in a fixed order, so a path is a function of its stream. (Its floating-point
- * results depend on the compiler's inlining at the last bit: GCC contracts a * b + c into FMAs
- * across inlined statements; a given build is deterministic.) */
-typedef struct vbnl_photon_vertex {
-    const vbnl_hit *hit;
-    const vbnl_bsdf *bsdf;  /* vbnl_surface_bsdf at the hit */
-    vec3 ng, ns;            /* unit normals facing the arriving photon (opaque surfaces) */
-    vec3 wo;                /* unit, toward where the photon came from */
-    vec3 beta;              /* flux arriving (already divided by the path count) */
-    int depth;              /* 0 at the first hit */
-} vbnl_photon_vertex;
-typedef void (*vbnl_photon_visit_fn)(void *user, const vbnl_photon_vertex *v);
-typedef struct vbnl_photon_walk_desc {
-    const vbnl_scene *scene;
-    float inv_paths;        /* 1 / N, the flux normalisation by the number of paths */
-    int rr_depth;           /* bounces before Russian roulette */
-    int max_depth;          /* 0 = unlimited (up to VBNL_SPLIT_SAFETY_DEPTH) */
-    int rr_sqrt;            /* 1: VBNL authors' sqrt rule; 0: survival = sampled albedo ratio */
-    int visit_delta_nodes;  /* 1: also visit the delta hits of material nodes (photon splitting:
-                             * a VBNL light stands for its own leaf over its whole disk, so the
-                             * irradiance of the node's mirror-chosen points is its too) */
-} vbnl_photon_walk_desc;
-typedef struct vbnl_photon_walk_stats {
-    uint64_t rays, hits, delta_hits;
-} vbnl_photon_walk_stats;
-void vbnl_photon_walk(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
-                      vbnl_photon_walk_stats *stats);
-/* The walk in two steps, so that a caller can keep several paths in flight and trace their rays
- * together (photon splitting): vbnl_photon_emit draws the path's emission, vbnl_photon_scatter
- * takes the hit of the path's current ray (o, dir), visits it and bounces. Each returns 1 when
- * the path has a next ray to trace, 0 when it has ended. */
-typedef struct vbnl_photon_state {
-    vec3 o, dir;   /* the ray to trace next */
-    vec3 beta;     /* flux it carries (already divided by the path count) */
-    int depth;     /* 0 for the emitted ray */
-    int max_depth;
-} vbnl_photon_state;
-
-static inline __attribute__((always_inline)) int vbnl_photon_emit(const vbnl_photon_walk_desc *w, vbnl_rng *rng,
-                                                                  vbnl_photon_state *ps)
-{
-    const vbnl_scene *sc = w->scene;
-    float pmf;
-    uint32_t li = vbnl_scene_pick_light(sc, vbnl_rng_next(rng), &pmf);
-    vec2 u_pos = vbnl_rng_next2(rng), u_dir = vbnl_rng_next2(rng);
-    vbnl_light_le_sample les;
-    if (!(pmf > 0.0f) || !vbnl_light_sample_le(&sc->lights[li], u_pos, u_dir, &les))
-        return 0;
-    float den = pmf * les.pdf_pos * les.pdf_dir;
-    if (!(den > 0.0f))
-        return 0;
-    /* Flux of the photon: Le |cos| / (p_j pdf_pos pdf_dir) / N (lights.h). */
-    ps->beta = v3_scale(les.Le, les.cos_at_light / den * w->inv_paths);
-    if (!v3_is_finite(ps->beta) || v3_is_black(ps->beta))
-        return 0;
-    ps->o = vbnl_offset_ray_origin(les.p, les.n, les.dir);
-    ps->dir = les.dir;
-    ps->depth = 0;
-    ps->max_depth = w->max_depth > 0 && w->max_depth < VBNL_SPLIT_SAFETY_DEPTH ? w->max_depth
-                                                                              : VBNL_SPLIT_SAFETY_DEPTH;
-    return 1;
-}
-
-static inline __attribute__((always_inline)) int
-vbnl_photon_scatter(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_state *ps, const vbnl_hit *hitp,
-                    vbnl_photon_visit_fn visit, void *user, vbnl_photon_walk_stats *st)
-{
-    const vbnl_scene *sc = w->scene;
-    const vbnl_hit *hit = hitp; /* read in place: `visit` sees the caller's record */
-    const vec3 beta = ps->beta;
-    st->hits++;
-    vbnl_bsdf bsdf_store;
-    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, hit, &bsdf_store);
-    vec3 wo_w = v3_neg(ps->dir); /* toward where the photon came from */
-    vec3 ng = hit->ng, ns = vbnl_bsdf_shading_normal(bsdf, hit->ns);
-    int transmissive = vbnl_bsdf_is_transmissive(bsdf);
-    if (!transmissive) { /* two-sided opaque surface: frame facing the photon (path.c) */
-        if (v3_dot(ng, wo_w) < 0.0f) {
-            ng = v3_neg(ng);
-            ns = v3_neg(ns);
-        }
-        if (v3_dot(ns, wo_w) <= 0.0f)
-            ns = ng;
-    }
-    if (vbnl_bsdf_is_delta(bsdf)) {
-        st->delta_hits++;
-        if (w->visit_delta_nodes && sc->materials[hit->material].is_node) {
-            vbnl_photon_vertex v = {hit, bsdf, ng, ns, wo_w, beta, ps->depth};
-            visit(user, &v);
-        }
-    } else {
-        vbnl_photon_vertex v = {hit, bsdf, ng, ns, wo_w, beta, ps->depth};
-        visit(user, &v);
-    }
-
-    /* Bounce (importance transport, splitting.h). The same draws for every BSDF. */
-    vec2 ub = vbnl_rng_next2(rng);
-    vec3 wi_w, wt;
-    if (bsdf->type == VBNL_MATERIAL_LAMBERT) {
-        /* lambert_sample without the general dispatch (photon_fast.h) */
-        if (!vbnl_photon_lambert_bounce(bsdf, ns, wo_w, ub, &wi_w) || v3_is_black(bsdf->color))
-            return 0;
-        if (v3_dot(wi_w, ng) <= 0.0f)
-            return 0; /* a reflection must leave on the photon's side of the real surface */
-        wt = bsdf->color;
-    } else {
-        frame fr = frame_from_normal(ns);
-        vec3 wo = frame_to_local(&fr, wo_w);
-        vbnl_bsdf_sample_rec bs;
-        if (!vbnl_bsdf_sample(bsdf, wo, ub, &bs) || v3_is_black(bs.weight))
-            return 0;
-        wi_w = frame_to_world(&fr, bs.wi);
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(wi_w, ng) <= 0.0f)
-            return 0; /* a reflection must leave on the photon's side of the real surface */
-        wt = bs.weight;
-        if (bs.lobe & VBNL_LOBE_TRANSMISSION)
-            wt = v3_scale(wt, bs.eta * bs.eta); /* flux is not compressed by refraction */
-    }
-    /* Adjoint shading-normal correction (Veach 1997, Eq. 5.17); exactly 1 when ns == ng. */
-    if (ns.x != ng.x || ns.y != ng.y || ns.z != ng.z) {
-        float den_c = v3_absdot(wo_w, ng) * v3_absdot(wi_w, ns);
-        if (den_c > 0.0f)
-            wt = v3_scale(wt, v3_absdot(wo_w, ns) * v3_absdot(wi_w, ng) / den_c);
-    }
-    vec3 nb = v3_mul(beta, wt);
-    if (ps->depth + 1 >= w->rr_depth) {
-        /* VBNL authors' rule: continue with q = sqrt(max(new) / max(old)); the plain rule
-         * (q = max(new) / max(old), the sampled albedo) otherwise; at most 1. */
-        float ratio = v3_max_comp(nb) / v3_max_comp(beta);
-        float q = minf(1.0f, w->rr_sqrt ? sqrtf(ratio) : ratio);
-        if (!(q > 0.0f) || vbnl_rng_next(rng) >= q)
-            return 0;
-        nb = v3_scale(nb, 1.0f / q);
-    }
-    if (!v3_is_finite(nb) || v3_is_black(nb))
-        return 0;
-    if (++ps->depth >= ps->max_depth)
-        return 0;
-    ps->beta = nb;
-    ps->o = vbnl_offset_ray_origin(hit->p, hit->ng, wi_w);
-    ps->dir = wi_w;
-    return 1;
-}
-
-/* The same walk, inline: called with a known `visit`, the compiler inlines the visit too
- * (vbnl_photon_walk is this function out of line). */
-static inline __attribute__((always_inline)) void
-vbnl_photon_walk_inline(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_visit_fn visit, void *user,
-                        vbnl_photon_walk_stats *st)
-{
-    vbnl_photon_state ps;
-    if (!vbnl_photon_emit(w, rng, &ps))
-        return;
-    for (;;) {
-        vbnl_hit hit;
-        st->rays++;
-        if (!vbnl_photon_intersect(w->scene, ps.o, ps.dir, &hit)) /* photon_fast.h */
-            return;
-        if (!vbnl_photon_scatter(w, rng, &ps, &hit, visit, user, st))
-            return;
-    }
-}
-
 
 /* Traces the photon paths of `d` and deposits into d->profiles (adds to what it holds; the
  * call owns the set while it runs: nothing else may read or deposit into it meanwhile, since

@@ -36,22 +36,22 @@ static inline uint64_t spatial_key(const vbnl_vl_index *x, vec3 p)
 static void radix_sort_pairs(uint64_t *key, uint32_t *val, uint64_t *tmp_key, uint32_t *tmp_val, size_t n,
                              size_t *count)
 {
-    enum { BITS = 11, BUCKETS = 1 << BITS, PASSES = (64 + BITS - 1) / BITS };
-    for (unsigned pass = 0; pass < PASSES; ++pass) {
-        unsigned shift = pass * BITS;
-        memset(count, 0, BUCKETS * sizeof(size_t));
+    enum { RADIX_BITS = 11, RADIX_BUCKETS = 1 << RADIX_BITS, RADIX_PASSES = (64 + RADIX_BITS - 1) / RADIX_BITS };
+    for (unsigned pass = 0; pass < RADIX_PASSES; ++pass) {
+        unsigned shift = pass * RADIX_BITS;
+        memset(count, 0, RADIX_BUCKETS * sizeof(size_t));
         for (size_t i = 0; i < n; ++i)
-            count[(key[i] >> shift) & (BUCKETS - 1)]++;
-        if (n == 0 || count[(key[0] >> shift) & (BUCKETS - 1)] == n)
+            count[(key[i] >> shift) & (RADIX_BUCKETS - 1)]++;
+        if (n == 0 || count[(key[0] >> shift) & (RADIX_BUCKETS - 1)] == n)
             continue;
         size_t sum = 0;
-        for (unsigned b = 0; b < BUCKETS; ++b) {
+        for (unsigned b = 0; b < RADIX_BUCKETS; ++b) {
             size_t c = count[b];
             count[b] = sum;
             sum += c;
         }
         for (size_t i = 0; i < n; ++i) {
-            size_t at = count[(key[i] >> shift) & (BUCKETS - 1)]++;
+            size_t at = count[(key[i] >> shift) & (RADIX_BUCKETS - 1)]++;
             tmp_key[at] = key[i];
             tmp_val[at] = val[i];
         }

@@ -19,8 +19,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "elimination_kdtree.h"
+#include "kdtree.h"
 #include "vpl_set.h"
+
+#define VSL_RADIUS_K_MAX 1000 /* largest radius_neighbour (the search's scratch is on the stack) */
 
 static const vbnl_param_spec vsl_params[] = {
     {"virtual_lights", VBNL_PARAM_INT, 1000, NULL, 1, 5e7, NULL,
@@ -30,7 +32,7 @@ static const vbnl_param_spec vsl_params[] = {
     {"rr_depth", VBNL_PARAM_INT, 0, NULL, 0, 1e6, NULL, "light-walk bounces before Russian roulette"},
     {"radius_scale", VBNL_PARAM_FLOAT, 4, NULL, 1e-3, 1e3, NULL,
      "M: radius = M x distance to the k-th nearest light (Hasan et al. 2009: 4 to 10)"},
-    {"radius_neighbour", VBNL_PARAM_INT, 10, NULL, 1, 1000, NULL, "k of the radius rule (10)"},
+    {"radius_neighbour", VBNL_PARAM_INT, 10, NULL, 1, VSL_RADIUS_K_MAX, NULL, "k of the radius rule (10)"},
     {"indirect_only", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
      "leave out emission and single scattering (compare indirect light)"},
 };
@@ -114,11 +116,12 @@ static void radius_chunk(void *user, uint64_t item, unsigned thread)
     (void)thread;
     radius_job *job = user;
     vsl_state *s = job->s;
-    float heap[1024];
+    uint32_t idx[VSL_RADIUS_K_MAX];
+    float d2s[VSL_RADIUS_K_MAX];
     uint32_t b = (uint32_t)item * RADIUS_CHUNK, n = job->tree->n;
     uint32_t e = b + RADIUS_CHUNK < n ? b + RADIUS_CHUNK : n;
     for (uint32_t i = b; i < e; ++i) {
-        float d2 = vbnl_kd_knn(job->tree, i, job->m, heap, INFINITY);
+        float d2 = vbnl_kd_mth_dist2(job->tree, i, job->m, idx, d2s);
         uint32_t id = job->tree->pts[i].id;
         s->radius[id] = s->radius_scale * sqrtf(d2);
     }

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "desc.h"
 #include "scene_internal.h"
 
 /* ---- storage ------------------------------------------------------------------------------- */
@@ -233,15 +234,6 @@ static vbnl_result turb_from(const vbnl_turbulence_desc *t, vbnl_turb *out, cons
     return VBNL_OK;
 }
 
-static vbnl_result check_size(uint32_t got, size_t want, const char *what, vbnl_error *err)
-{
-    if (got != want)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                              "%s: size is %u, this vbnl expects %zu (fill the struct with its _init function)", what,
-                              got, want);
-    return VBNL_OK;
-}
-
 /* ---- images -------------------------------------------------------------------------------- */
 
 static vbnl_result add_image(vbnl_texture_set *ts, const vbnl_image_desc *d, uint32_t *out_id, vbnl_error *err)
@@ -249,7 +241,7 @@ static vbnl_result add_image(vbnl_texture_set *ts, const vbnl_image_desc *d, uin
     vbnl_result r = VBNL_OK;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "desc is NULL");
-    if ((r = check_size(d->size, sizeof(*d), "vbnl_image_desc", err)) != VBNL_OK)
+    if ((r = VBNL_DESC_CHECK(d, vbnl_image_desc, err)) != VBNL_OK)
         return r;
     if (!d->texels || d->width == 0 || d->height == 0 || d->width > (1u << 16) || d->height > (1u << 16))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "image needs texels and a size in [1, 65536]^2 (got %u x %u)",
@@ -294,7 +286,7 @@ vbnl_result vbnl_scene_add_image(vbnl_scene *s, const vbnl_image_desc *d, uint32
 
 static vbnl_result warp_from(const vbnl_warp_desc *d, vbnl_warp *w, vbnl_error *err)
 {
-    vbnl_result r = check_size(d->size, sizeof(*d), "vbnl_warp_desc", err);
+    vbnl_result r = VBNL_DESC_CHECK(d, vbnl_warp_desc, err);
     if (r != VBNL_OK)
         return r;
     memset(w, 0, sizeof(*w));
@@ -539,7 +531,7 @@ static vbnl_result add_pattern(vbnl_texture_set *ts, const vbnl_pattern_desc *d,
     vbnl_result r = VBNL_OK;
     if (!d)
         VBNL_BAD("desc is NULL");
-    if ((r = check_size(d->size, sizeof(*d), "vbnl_pattern_desc", err)) != VBNL_OK)
+    if ((r = VBNL_DESC_CHECK(d, vbnl_pattern_desc, err)) != VBNL_OK)
         return r;
     if ((unsigned)d->kind >= VBNL_PATTERN_KIND_COUNT)
         VBNL_BAD("unknown pattern kind %d", (int)d->kind);
@@ -629,7 +621,7 @@ static vbnl_result add_pigment(vbnl_texture_set *ts, const vbnl_pigment_desc *d,
     vbnl_result r = VBNL_OK;
     if (!d)
         VBNL_BAD("desc is NULL");
-    if ((r = check_size(d->size, sizeof(*d), "vbnl_pigment_desc", err)) != VBNL_OK)
+    if ((r = VBNL_DESC_CHECK(d, vbnl_pigment_desc, err)) != VBNL_OK)
         return r;
     vbnl_pigment pg;
     memset(&pg, 0, sizeof(pg));
@@ -711,7 +703,7 @@ vbnl_result vbnl_scene_add_normal(vbnl_scene *s, const vbnl_normal_desc *d, uint
         return r;
     if (!d)
         VBNL_BAD("vbnl_scene_add_normal: desc is NULL");
-    if ((r = check_size(d->size, sizeof(*d), "vbnl_normal_desc", err)) != VBNL_OK)
+    if ((r = VBNL_DESC_CHECK(d, vbnl_normal_desc, err)) != VBNL_OK)
         return r;
     vbnl_texture_set *ts = &s->tex;
     if ((unsigned)d->kind > VBNL_NORMAL_IMAGE)
@@ -810,7 +802,7 @@ vbnl_result vbnl_scene_add_material_node(vbnl_scene *s, const vbnl_material_node
         return r;
     if (!d)
         VBNL_BAD("vbnl_scene_add_material_node: desc is NULL");
-    if ((r = check_size(d->size, sizeof(*d), "vbnl_material_node_desc", err)) != VBNL_OK)
+    if ((r = VBNL_DESC_CHECK(d, vbnl_material_node_desc, err)) != VBNL_OK)
         return r;
     vbnl_texture_set *ts = &s->tex;
     if (!finite_n(d->emission, 3) || !(d->emission[0] >= 0.0f && d->emission[1] >= 0.0f && d->emission[2] >= 0.0f))
@@ -1087,8 +1079,8 @@ void vbnl_texture_desc_init(vbnl_texture_desc *d)
     if (!d)
         return;
     memset(d, 0, sizeof(*d));
+    d->size = sizeof(*d);
     d->kind = VBNL_TEXTURE_CHECKER;
-    memset(d->pattern_from_world, 0, sizeof(d->pattern_from_world));
     d->pattern_from_world[0] = d->pattern_from_world[5] = d->pattern_from_world[10] = d->pattern_from_world[15] = 1.0f;
     d->projection = VBNL_PROJECTION_UV;
     d->wrap = VBNL_WRAP_REPEAT;
@@ -1109,6 +1101,8 @@ vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, ui
         return r;
     if (!d)
         VBNL_BAD("vbnl_scene_add_texture: desc is NULL");
+    if ((r = VBNL_DESC_CHECK(d, vbnl_texture_desc, err)) != VBNL_OK)
+        return r;
     if ((unsigned)d->kind > VBNL_TEXTURE_BRICK)
         VBNL_BAD("unknown texture kind %d", (int)d->kind);
     vbnl_pattern_desc pd;

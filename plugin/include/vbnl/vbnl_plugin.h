@@ -128,7 +128,17 @@ typedef struct vbnl_plugin_options {
     /* ---- ABI 1.2 (a 1.1 host's shorter struct leaves these at their defaults) ---- */
     const char *sampler;         /* "sobol" (NULL: the default) or "random"; checked by set_options
                                     (VBNL_PLUGIN_ERR_UNKNOWN_NAME); copied */
+    /* ---- ABI 1.3 ---- */
+    uint32_t test_hooks;         /* VBNL_PLUGIN_TEST_* bits, for tests only; 0. Fixed once a scene is
+                                    loaded, like threads */
 } vbnl_plugin_options;
+
+/* options.test_hooks: every file the module writes (write_exr, write_png, the save_lights file)
+ * waits 30 s with its temporary file complete and not yet renamed, after saying so on stderr
+ * ("vbnl: test pause (write): '<temporary>' written, not yet renamed to '<path>'"), so that a
+ * test can interrupt a write at a known point. It holds for the whole process from the first
+ * scene loaded with it. */
+#define VBNL_PLUGIN_TEST_PAUSE_WRITES 1u
 
 /* ---- progress -------------------------------------------------------------------------------- */
 

@@ -75,7 +75,8 @@ vbnl_result vbnl_pov_load_file(vbnl_context *ctx, const char *path, const vbnl_p
 vbnl_result vbnl_pov_load_text(vbnl_context *ctx, const char *name, const char *text, size_t len,
                                const vbnl_pov_options *opt, vbnl_pov_scene **out, vbnl_error *err);
 
-void vbnl_pov_scene_destroy(vbnl_pov_scene *s); /* accepts NULL */
+/* Frees the loaded scene, and its committed scene unless taken (accepts NULL). */
+void vbnl_pov_scene_destroy(vbnl_pov_scene *s);
 
 /* The committed scene (owned by s unless taken). */
 const vbnl_scene *vbnl_pov_scene_get(const vbnl_pov_scene *s);

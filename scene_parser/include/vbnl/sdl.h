@@ -221,9 +221,14 @@ typedef struct vbnl_sdl_hooks {
 
 /* ---- parser lifecycle -------------------------------------------------------------------- */
 
+/* A parser with the default limits and no hooks into *out. Errors: VBNL_ERR_INVALID_ARGUMENT
+ * (NULL out), VBNL_ERR_OUT_OF_MEMORY. */
 vbnl_result vbnl_sdl_parser_create(vbnl_sdl_parser **out, vbnl_error *err);
-void vbnl_sdl_parser_destroy(vbnl_sdl_parser *p); /* accepts NULL */
+/* Frees the parser and everything it returned (accepts NULL). */
+void vbnl_sdl_parser_destroy(vbnl_sdl_parser *p);
 
+/* Replaces the limits (copied). Returns VBNL_ERR_INVALID_ARGUMENT (and keeps the old ones) for a
+ * NULL argument or a limit below its floor (depths and counts 1, nesting 8, memory 4096 bytes). */
 vbnl_result vbnl_sdl_set_limits(vbnl_sdl_parser *p, const vbnl_sdl_limits *limits);
 /* Appends a directory to the user include path (searched after the scene's folder). */
 vbnl_result vbnl_sdl_add_include_dir(vbnl_sdl_parser *p, const char *dir);
@@ -267,6 +272,8 @@ vbnl_result vbnl_sdl_parse_file(vbnl_sdl_parser *p, const char *path, vbnl_error
 vbnl_result vbnl_sdl_parse_text(vbnl_sdl_parser *p, const char *name, const char *text,
                                 size_t len, vbnl_error *err);
 
+/* The diagnostics of the parses so far (0 for NULL); diagnostic i (NULL past the end), valid
+ * until the parser is destroyed; how many of them are warnings. */
 size_t vbnl_sdl_diag_count(const vbnl_sdl_parser *p);
 const vbnl_sdl_diag *vbnl_sdl_diag_get(const vbnl_sdl_parser *p, size_t i);
 size_t vbnl_sdl_warning_count(const vbnl_sdl_parser *p);
@@ -319,17 +326,20 @@ vbnl_result vbnl_sdl_parse_rvalue(vbnl_sdl_parser *p, vbnl_sdl_value *out);
 /* Skips `{ ... }` (balanced; directives and macros still run). Positioned on '{'. */
 vbnl_result vbnl_sdl_skip_block(vbnl_sdl_parser *p);
 
-/* Reports an error / warning at `loc` (NULL: the last token). The error stops the parse. */
+/* Reports an error at `loc` (NULL: the last token) and stops the parse; returns VBNL_ERR_PARSE. */
 vbnl_result vbnl_sdl_error(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
+/* A warning at `loc` (NULL: the last token), kept and passed on like an error; the parse goes on
+ * (inside a vbnl_sdl_defer_begin group it waits for the use). */
 void vbnl_sdl_warning(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
+/* 1 once the parse has failed (an error was reported; also for NULL), else 0. */
 int vbnl_sdl_failed(const vbnl_sdl_parser *p);
 
 #ifdef __cplusplus

@@ -40,8 +40,13 @@ vbnl_result pov_shape_cone(const pov_shape *s)
         if (!(pr->mesh = pov_mesh_new()))
             r = pov_oom(L);
     } else if (r == VBNL_OK) {
-        if (!(pr->mesh = pov_tess_cone(a, ra, b, rb, m.open)) || !(pr->solid = pov_solid_cone(a, ra, b, rb)))
-            r = pov_oom(L);
+        double key[9] = {a[0], a[1], a[2], ra, b[0], b[1], b[2], rb, m.open};
+        if (!pov_shape_cache_find(L, "cone", key, 9, &pr->mesh, &pr->solid)) {
+            if (!(pr->mesh = pov_tess_cone(a, ra, b, rb, m.open)) || !(pr->solid = pov_solid_cone(a, ra, b, rb)))
+                r = pov_oom(L);
+            else
+                pov_shape_cache_keep(L, "cone", key, 9, pr->mesh, pr->solid);
+        }
     }
     if (r == VBNL_OK)
         r = pov_mods_finish(&m);

@@ -37,6 +37,12 @@ vbnl_result pov_shape_vector_float(const pov_shape *s, double v[3], double *f);
 /* Appends an analytic primitive with a = (v, f), then reads the modifiers. */
 vbnl_result pov_shape_add_analytic(const pov_shape *s, int kind, const double v[3], double f);
 
+/* Simple shapes made once per load (shape_cache.c), so that equal CSGs of them are shared too:
+ * the mesh and solid of kind with these parameters (references taken) when made before. */
+int pov_shape_cache_find(pov_loader *L, const char *kind, const double *params, int n, pov_mesh **mesh,
+                         pov_solid **solid);
+void pov_shape_cache_keep(pov_loader *L, const char *kind, const double *params, int n, pov_mesh *mesh, pov_solid *solid);
+
 /* The parsers (one file each unless noted). */
 vbnl_result pov_shape_sphere(const pov_shape *s);
 vbnl_result pov_shape_box(const pov_shape *s);
@@ -53,6 +59,19 @@ vbnl_result pov_shape_object(const pov_shape *s);
 vbnl_result pov_shape_csg(const pov_shape *s);      /* intersection, difference, merge (csg.c) */
 vbnl_result pov_shape_union(const pov_shape *s);    /* union and light_group (union.c) */
 vbnl_result pov_shape_light(const pov_shape *s);    /* light_source (../light.c) */
+vbnl_result pov_shape_text(const pov_shape *s);
+vbnl_result pov_shape_poly(const pov_shape *s);     /* poly polynomial cubic quartic quadric (poly.c) */
+vbnl_result pov_shape_isosurface(const pov_shape *s);
+vbnl_result pov_shape_parametric(const pov_shape *s);
+vbnl_result pov_shape_lathe(const pov_shape *s);    /* lathe and sor (lathe.c) */
+vbnl_result pov_shape_prism(const pov_shape *s);
+vbnl_result pov_shape_height_field(const pov_shape *s);
+vbnl_result pov_shape_blob(const pov_shape *s);
+vbnl_result pov_shape_superellipsoid(const pov_shape *s);
+vbnl_result pov_shape_julia(const pov_shape *s);    /* julia_fractal (julia.c) */
+vbnl_result pov_shape_bicubic(const pov_shape *s);  /* bicubic_patch (bicubic.c) */
+vbnl_result pov_shape_ovus(const pov_shape *s);     /* ovus and lemon (ovus.c) */
+vbnl_result pov_shape_sphere_sweep(const pov_shape *s);
 
 /* triangle.c, for mesh { }: a triangle's values after its '{' and its normals made unit (a
  * flat triangle gets its face normal; a degenerate one +y). */

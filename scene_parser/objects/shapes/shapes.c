@@ -24,13 +24,29 @@ static const pov_shape_row shapes[] = {
     {"difference", pov_shape_csg},
     {"vbnl_mesh", pov_shape_vbnl_mesh},
     {"light_group", pov_shape_union},
+    {"text", pov_shape_text},
+    {"poly", pov_shape_poly},
+    {"polynomial", pov_shape_poly},
+    {"cubic", pov_shape_poly},
+    {"quartic", pov_shape_poly},
+    {"quadric", pov_shape_poly},
+    {"isosurface", pov_shape_isosurface},
+    {"parametric", pov_shape_parametric},
+    {"lathe", pov_shape_lathe},
+    {"sor", pov_shape_lathe},
+    {"prism", pov_shape_prism},
+    {"height_field", pov_shape_height_field},
+    {"blob", pov_shape_blob},
+    {"superellipsoid", pov_shape_superellipsoid},
+    {"julia_fractal", pov_shape_julia},
+    {"bicubic_patch", pov_shape_bicubic},
+    {"ovus", pov_shape_ovus},
+    {"lemon", pov_shape_ovus},
+    {"sphere_sweep", pov_shape_sphere_sweep},
 };
 
 /* Parsed (their block skipped) and left out with a warning where they are placed. */
-static const char *const unsupported[] = {
-    "height_field", "isosurface", "blob", "lathe", "sor", "prism", "text", "julia_fractal",
-    "superellipsoid", "parametric", "poly", "polynomial", "quartic", "cubic", "quadric",
-    "sphere_sweep", "bicubic_patch", "ovus", "lemon", "fractal"};
+static const char *const unsupported[] = {NULL};
 
 const pov_shape_row *pov_shape_find(const char *keyword)
 {
@@ -42,7 +58,7 @@ const pov_shape_row *pov_shape_find(const char *keyword)
 
 int pov_shape_unsupported(const char *keyword)
 {
-    for (size_t i = 0; i < sizeof unsupported / sizeof unsupported[0]; ++i)
+    for (size_t i = 0; unsupported[i]; ++i)
         if (strcmp(unsupported[i], keyword) == 0)
             return 1;
     return 0;

@@ -11,9 +11,22 @@ vbnl_result pov_shape_torus(const pov_shape *s)
     if (pov_float(L, &minor) != VBNL_OK || pov_positive(L, major, "torus major radius", s->loc) != VBNL_OK ||
         pov_positive(L, minor, "torus minor radius", s->loc) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (pov_shape_add_mesh(s, pov_tess_torus(major, minor)) != VBNL_OK)
+    double key[2] = {major, minor};
+    pov_mesh *m = NULL;
+    pov_solid *solid = NULL;
+    if (!pov_shape_cache_find(L, "torus", key, 2, &m, &solid)) {
+        m = pov_tess_torus(major, minor);
+        solid = m ? pov_solid_torus(major, minor) : NULL;
+        if (!solid) {
+            pov_mesh_unref(m);
+            return pov_oom(L);
+        }
+        pov_shape_cache_keep(L, "torus", key, 2, m, solid);
+    }
+    if (pov_shape_add_mesh(s, m) != VBNL_OK) {
+        pov_solid_unref(solid);
         return VBNL_ERR_PARSE;
-    if (!(s->o->v[s->o->n - 1].solid = pov_solid_torus(major, minor)))
-        return pov_oom(L);
+    }
+    s->o->v[s->o->n - 1].solid = solid;
     return pov_shape_modifiers(s);
 }

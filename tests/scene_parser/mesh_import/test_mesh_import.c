@@ -50,7 +50,9 @@ static void test_cornell_original(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     char path[1024];
     vbnl_mesh_import_stats st;
@@ -93,7 +95,9 @@ static void test_material_mapping(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     char path[1024];
     /* Mirror: tallBox has Ks 0.95, Ns 1000, illum 5 -> perfect mirror tinted 0.95 */
@@ -138,7 +142,9 @@ static void test_errors(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
@@ -174,7 +180,9 @@ static void test_untrusted(void **state)
 {
     (void)state;
     vbnl_context *ctx;
-    vbnl_context_desc d = {1};
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
     vbnl_context_create(&d, &ctx, NULL);
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);

@@ -85,7 +85,9 @@ POV_T_UNUSED static int hit(vbnl_pov_scene *s, float ox, float oy, float oz, flo
 POV_T_UNUSED static int pov_t_setup(void **state)
 {
     (void)state;
-    vbnl_context_desc cd = {2};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 2;
     return vbnl_context_create(&cd, &g_ctx, NULL) == VBNL_OK ? 0 : -1;
 }
 

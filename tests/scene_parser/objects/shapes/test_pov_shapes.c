@@ -229,9 +229,11 @@ static void test_union_inheritance(void **state)
     vbnl_pov_scene_destroy(s);
 }
 
-static void test_skipped_shapes_warn(void **state)
+static void test_curved_shapes_placed(void **state)
 {
     (void)state;
+    /* every POV-Ray shape is made (test_pov_curved checks their geometry); a degenerate cylinder
+     * is still dropped with a warning, and a declared shape never placed costs nothing */
     vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 }\n"
                                 "superellipsoid { <0.5, 0.5> }\n"
                                 "lathe { linear_spline 3, <0,0>, <1,1>, <0,2> }\n"
@@ -241,16 +243,11 @@ static void test_skipped_shapes_warn(void **state)
                                 "#declare Unused = quadric { <1, 1, 0>, <0, 0, 0>, <0, 0, 0>, -1 }\n"
                                 "#declare U = union { object { I } sphere { 0, 1 } }\n"
                                 "object { U translate x } object { U translate -x }");
-    assert_non_null(strstr(g_diags, "test.pov:4:1: warning: 'superellipsoid' is not supported; the object is skipped"));
-    assert_non_null(strstr(g_diags, "test.pov:5:1: warning: 'lathe' is not supported; the object is skipped"));
-    assert_non_null(strstr(g_diags, "test.pov:6:14: warning: 'ovus' is not supported; the object is skipped"));
+    assert_null(strstr(g_diags, "is not supported"));
     assert_non_null(strstr(g_diags, "test.pov:8:1: warning: cylinder: the two end points coincide; the object is skipped"));
     assert_null(strstr(g_diags, "quadric")); /* declared, never placed: silent */
-    const char *w = strstr(g_diags, "test.pov:6:14: warning");
-    assert_non_null(w);
-    assert_null(strstr(w + 30, "test.pov:6:14: warning")); /* once, though placed three times */
     assert_int_equal(info(s).sphere_count, 3);
-    assert_int_equal(info(s).triangle_count, 0);
+    assert_true(info(s).triangle_count > 1000);
     vbnl_pov_scene_destroy(s);
 }
 
@@ -391,7 +388,7 @@ int main(void)
         cmocka_unit_test(test_triangles_polygon),
         cmocka_unit_test(test_mesh_mesh2_textures),
         cmocka_unit_test(test_union_inheritance),
-        cmocka_unit_test(test_skipped_shapes_warn),
+        cmocka_unit_test(test_curved_shapes_placed),
         cmocka_unit_test(test_ignored_modifiers),
         cmocka_unit_test(test_csg),
         cmocka_unit_test(test_vbnl_mesh),

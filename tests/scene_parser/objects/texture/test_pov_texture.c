@@ -106,7 +106,9 @@ static harness *run(const char *text)
 {
     harness *h = calloc(1, sizeof(*h));
     assert_non_null(h);
-    vbnl_context_desc cd = {1};
+    vbnl_context_desc cd;
+    vbnl_context_desc_init(&cd);
+    cd.threads = 1;
     assert_int_equal(vbnl_context_create(&cd, &h->ctx, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_create(h->ctx, &h->c.scene, NULL), VBNL_OK);
     assert_int_equal(vbnl_sdl_parser_create(&h->c.parser, NULL), VBNL_OK);

@@ -1,13 +1,17 @@
-/* k-d tree over candidate positions for VBNL sample elimination (private to the vbnl
- * integrator; see elimination.h).
+/* k-d tree over points (private header of the integrators' common machinery): `vbnl`'s sample
+ * elimination (its m-th neighbour distances and box gathers, elimination.h), `vsl`'s sphere radii
+ * and `richvsl`'s importon, photon and light maps.
  *
  * A balanced tree built by median splits along the axis of largest extent; the points are
  * permuted into tree order, so that spatial neighbours are close in memory, and carry their
- * global index; every node keeps the bounding box of its points. Radius and m-nearest queries,
- * and gathers of the points near a box; all are exact and their results do not depend on
- * anything but the points (queries only read the tree: thread-safe). */
-#ifndef VBNL_ELIMINATION_KDTREE_H
-#define VBNL_ELIMINATION_KDTREE_H
+ * global index (`id`); every node keeps the bounding box of its points. Radius and k-nearest
+ * queries, and gathers of the points near a box; all are exact and their results do not depend
+ * on anything but the points.
+ *
+ * Ownership and threads: the tree does not own its points; a built tree is only read by the
+ * queries, which any number of threads may run at once. */
+#ifndef VBNL_KDTREE_H
+#define VBNL_KDTREE_H
 
 #include <math.h>
 #include <stdint.h>
@@ -67,11 +71,18 @@ void vbnl_kd_free(vbnl_kd_tree *t);
 uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_t *out_i,
                         float *out_d2, uint32_t cap);
 
-/* Squared distance from point `self` (local index) to its m-th nearest other point,
- * 1 <= m <= n - 1. `heap` holds m floats. `bound2` is an optional upper bound known to hold at
- * least m other points (INFINITY: none); a bound made too tight by rounding only costs a second
- * search. The result does not depend on the bound. */
-float vbnl_kd_knn(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap, float bound2);
+/* The k points nearest to q other than local point `skip` (UINT32_MAX: none), in increasing
+ * order of (squared distance, id): their local indices (into t->pts) and squared distances
+ * (vbnl_kd_dist2(q, p)) in out_i[0..k) and out_d2[0..k). Returns how many were found: k, or
+ * fewer when the tree holds fewer points. So out_d2[m - 1] is the squared distance to the m-th
+ * nearest neighbour (for a point of the tree, with skip = its local index). Exact: the result
+ * depends on the points only, never on the tree's shape. */
+uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
+                     float *out_d2);
+/* The squared distance from local point `self` to its m-th nearest other point,
+ * 1 <= m <= n - 1: out_d2[m - 1] of vbnl_kd_knn(t, its position, m, self), the same search
+ * without sorting its answer; idx and d2 are the caller's scratch of m entries each. */
+float vbnl_kd_mth_dist2(const vbnl_kd_tree *t, uint32_t self, uint32_t m, uint32_t *idx, float *d2);
 
 /* Squared distance from point q to the box lo..hi (0 inside). */
 static inline float vbnl_kd_box_dist2(const float *lo, const float *hi, const float *q)

@@ -20,7 +20,7 @@
 /* Only the test itself of the shared chi-square header is used here. */
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-function"
-#include "../common/chi2.h"
+#include "chi2.h"
 #pragma GCC diagnostic pop
 
 static const uint32_t resolutions[] = {8, 16, 32};

@@ -1,4 +1,4 @@
-/* Photon walk fast paths (private to splitting.h's vbnl_photon_walk_inline), restricted to the
+/* Photon walk fast paths (private to photon_walk.h's vbnl_photon_walk_inline), restricted to the
  * cases the walk meets most and computing the same values as the general routines:
  *   - vbnl_photon_intersect (vbnl_photon_hit_from of a traced ray): vbnl_scene_intersect with
  *     the set-up inline for a non-instanced triangle mesh (the shared vbnl_fill_mesh_hit of

@@ -1,5 +1,5 @@
-/* k-d tree for VBNL sample elimination (see elimination_kdtree.h). */
-#include "elimination_kdtree.h"
+/* k-d tree over points (kdtree.h). */
+#include "kdtree.h"
 
 #include <float.h>
 #include <stdlib.h>
@@ -190,97 +190,124 @@ uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_
     return cnt;
 }
 
-static void vbnl_maxheap_push(float *h, uint32_t *hn, float v)
+/* The k best so far are a max-heap in (out_i, out_d2) ordered by (distance, id), the order of
+ * vbnl_kd_knn's answer: the root is the k-th best, the bound of the search. Entry j's id is
+ * t->pts[out_i[j]].id, read only on equal distances. */
+static inline int vbnl_kd_heap_before(const vbnl_kd_tree *t, const uint32_t *hi, const float *hd, uint32_t a,
+                                      uint32_t b)
 {
-    uint32_t i = (*hn)++;
-    while (i > 0) {
-        uint32_t p = (i - 1) / 2;
-        if (h[p] >= v)
-            break;
-        h[i] = h[p];
-        i = p;
-    }
-    h[i] = v;
+    if (hd[a] != hd[b])
+        return hd[a] < hd[b];
+    return t->pts[hi[a]].id < t->pts[hi[b]].id;
 }
 
-static void vbnl_maxheap_replace_top(float *h, uint32_t hn, float v)
+/* Puts (vi, vd) at the root of the heap of n entries and sifts it down (moving entries up into
+ * the hole instead of swapping). */
+static inline void vbnl_kd_heap_replace_top(const vbnl_kd_tree *t, uint32_t *hi, float *hd, uint32_t n, uint32_t vi,
+                                            float vd)
 {
-    uint32_t i = 0;
+    const uint32_t vid = t->pts[vi].id;
+    uint32_t j = 0;
     for (;;) {
-        uint32_t c = 2 * i + 1;
-        if (c >= hn)
+        uint32_t c = 2 * j + 1;
+        if (c >= n)
             break;
-        if (c + 1 < hn && h[c + 1] > h[c])
+        if (c + 1 < n && vbnl_kd_heap_before(t, hi, hd, c, c + 1))
             c++;
-        if (h[c] <= v)
+        if (!(vd < hd[c] || (vd == hd[c] && vid < t->pts[hi[c]].id)))
             break;
-        h[i] = h[c];
-        i = c;
+        hi[j] = hi[c];
+        hd[j] = hd[c];
+        j = c;
     }
-    h[i] = v;
+    hi[j] = vi;
+    hd[j] = vd;
 }
 
-/* Squared distance from local point `self` to its m-th nearest other point (m <= n - 1); `heap`
- * holds m floats. `bound2` is a guess known to hold at least m points (INFINITY: none); when
- * rounding made it too tight, the search is redone without it. The m-th smallest distance does
- * not depend on traversal order or bound, so neither does the result. */
-static float vbnl_kd_knn_bounded(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap,
-                                 float bound2, uint32_t *found)
+/* The k-nearest search: a depth-first descent, near side first, that skips a subtree whose box
+ * distance exceeds the k-th distance found so far (ties are still visited, so ties by id are
+ * exact), keeping the k best in a max-heap in (out_i, out_d2). Returns their count. */
+static uint32_t vbnl_kd_knn_heap(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip,
+                                 uint32_t *out_i, float *out_d2)
 {
-    struct { uint32_t node; float d2; } stack[VBNL_KD_STACK];
-    const float *q = t->pts[self].p;
+    if (!t->nodes || t->n == 0 || k == 0)
+        return 0;
+    struct {
+        uint32_t node;
+        float d2;
+    } stack[VBNL_KD_STACK];
     int sp = 0;
-    uint32_t hn = 0;
-    float worst = bound2;
+    uint32_t cnt = 0;
     stack[sp].node = 0;
     stack[sp].d2 = 0.0f;
     sp++;
     while (sp > 0) {
         --sp;
         uint32_t ni = stack[sp].node;
-        if (stack[sp].d2 >= worst)
+        if (cnt == k && stack[sp].d2 > out_d2[0])
             continue;
         const vbnl_kd_node *nd = &t->nodes[ni];
         if (nd->axis == VBNL_KD_LEAF_AXIS) {
             for (uint32_t i = nd->begin; i < nd->end; ++i) {
-                if (i == self)
+                if (i == skip)
                     continue;
-                float d2 = vbnl_kd_dist2(q, t->pts[i].p);
-                if (hn < m) {
-                    if (d2 > bound2)
-                        continue;
-                    vbnl_maxheap_push(heap, &hn, d2);
-                    if (hn == m)
-                        worst = heap[0];
-                } else if (d2 < heap[0]) {
-                    vbnl_maxheap_replace_top(heap, hn, d2);
-                    worst = heap[0];
+                const float d2 = vbnl_kd_dist2(q, t->pts[i].p);
+                if (cnt < k) { /* push: sift up through the hole */
+                    const uint32_t id = t->pts[i].id;
+                    uint32_t j = cnt++;
+                    while (j > 0) {
+                        const uint32_t p = (j - 1) / 2;
+                        if (!(out_d2[p] < d2 || (out_d2[p] == d2 && t->pts[out_i[p]].id < id)))
+                            break;
+                        out_i[j] = out_i[p];
+                        out_d2[j] = out_d2[p];
+                        j = p;
+                    }
+                    out_i[j] = i;
+                    out_d2[j] = d2;
+                } else if (d2 < out_d2[0] || (d2 == out_d2[0] && t->pts[i].id < t->pts[out_i[0]].id)) {
+                    vbnl_kd_heap_replace_top(t, out_i, out_d2, k, i, d2); /* replaces the k-th best */
                 }
             }
             continue;
         }
+        /* the far side is at least |diff| away (left points <= split <= right points) */
         float diff = q[nd->axis] - nd->split;
         float pd = stack[sp].d2;
         float fd = diff * diff > pd ? diff * diff : pd;
         uint32_t near = diff <= 0.0f ? ni + 1 : nd->right, far = diff <= 0.0f ? nd->right : ni + 1;
-        stack[sp].node = far;
+        stack[sp].node = far; /* the stack grows by one entry per level at most */
         stack[sp].d2 = fd;
         sp++;
         stack[sp].node = near;
         stack[sp].d2 = pd;
         sp++;
     }
-    *found = hn;
-    return heap[0];
+    return cnt;
 }
 
-float vbnl_kd_knn(const vbnl_kd_tree *t, uint32_t self, uint32_t m, float *heap, float bound2)
+uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
+                     float *out_d2)
 {
-    uint32_t found;
-    float d2 = vbnl_kd_knn_bounded(t, self, m, heap, bound2, &found);
-    if (found < m)
-        d2 = vbnl_kd_knn_bounded(t, self, m, heap, INFINITY, &found);
-    return d2;
+    const uint32_t cnt = vbnl_kd_knn_heap(t, q, k, skip, out_i, out_d2);
+    /* heap sort: the largest to the end, one at a time */
+    for (uint32_t n = cnt; n > 1; --n) {
+        const uint32_t top_i = out_i[0];
+        const float top_d = out_d2[0];
+        vbnl_kd_heap_replace_top(t, out_i, out_d2, n - 1, out_i[n - 1], out_d2[n - 1]);
+        out_i[n - 1] = top_i;
+        out_d2[n - 1] = top_d;
+    }
+    return cnt;
+}
+
+float vbnl_kd_mth_dist2(const vbnl_kd_tree *t, uint32_t self, uint32_t m, uint32_t *idx, float *d2)
+{
+    const uint32_t cnt = vbnl_kd_knn_heap(t, t->pts[self].p, m, self, idx, d2);
+    float worst = 0.0f; /* the heap's root once full; the largest of fewer otherwise */
+    for (uint32_t j = 0; j < (cnt == m ? 1u : cnt); ++j)
+        worst = d2[j] > worst ? d2[j] : worst;
+    return cnt ? worst : INFINITY;
 }
 
 /* Squared distance between two boxes (0 when they overlap). */

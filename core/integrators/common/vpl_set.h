@@ -1,7 +1,7 @@
 /* Virtual point lights shared by the many-light baselines `vpl` and `vsl` (private header).
  *
  * Generation (instant radiosity, Keller 1997; the survey of Dachsbacher et al. 2014, §2.1): light
- * random walks (vbnl_photon_walk of splitting.h: light picked by power through the scene's alias
+ * random walks (vbnl_photon_walk of photon_walk.h: light picked by power through the scene's alias
  * table, emission sampling, BSDF-sampled bounces, Russian roulette with survival = the sampled
  * albedo ratio), a VPL at every non-delta hit (none on the light itself: direct light is computed
  * separately), flux divided by the number of light *paths* N (survey Eq. 6), never by the VPL
