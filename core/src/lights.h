@@ -37,6 +37,7 @@ typedef struct vbnl_light {
     int two_sided;       /* rect, triangle, sphere (sphere: emits inward too) */
     vec3 world_center;   /* scene bounding sphere, for directional and env lights */
     float world_radius;
+    int shadowless;      /* casts no shadow (vbnl_scene_set_light_shadowless) */
 } vbnl_light;
 
 typedef struct vbnl_light_li_sample {

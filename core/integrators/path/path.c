@@ -147,6 +147,17 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
     }
 }
 
+typedef struct path_add_ctx {
+    const path_state *ps;
+    float *out;
+} path_add_ctx;
+
+static void path_walk_add(void *user, vec3 c, int is_direct)
+{
+    const path_add_ctx *a = user;
+    add_L(a->ps, a->out, c, is_direct);
+}
+
 /* Works on a copy of the sampler (written back at the end): through the pointer its state would
  * be stored and reloaded around every Embree call. */
 static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
@@ -154,7 +165,16 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
 {
     const path_state *ps = state;
     vbnl_sampler r = *sp;
-    trace_path(ps, &r, o, d, hit_ok, first, out, stats);
+    const vbnl_scene *sc = ps->scene;
+    if (sc->has_media || sc->has_null || sc->has_masks) {
+        /* media, pass-through surfaces or visibility flags: the walk between vertices */
+        path_add_ctx a = {ps, out};
+        out[3] = 1.0f;
+        vbnl_trace_path_walk(sc, &r, o, d, hit_ok, first, ps->max_depth, ps->rr_depth, path_walk_add, &a, out,
+                             stats);
+    } else {
+        trace_path(ps, &r, o, d, hit_ok, first, out, stats);
+    }
     *sp = r;
 }
 

@@ -707,6 +707,9 @@ static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_
 static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     vbnl_state *s = state;
+    /* a scene with media is path traced (trace): no virtual lights to prepare */
+    if (s->scene->has_media)
+        return VBNL_OK;
     vbnl_result r = s->load_path ? prepare_from_file(s, stage, err) : prepare_from_scene(s, stage, err);
     if (r != VBNL_OK || s->placement_only)
         return r; /* a placement is saved, not rendered: no light has any power yet */
@@ -970,6 +973,18 @@ static void power_trace(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_s
     }
 }
 
+typedef struct vbnl_media_add_ctx {
+    float *out;
+    int indirect_only;
+} vbnl_media_add_ctx;
+
+static void vbnl_media_add(void *user, vec3 c, int is_direct)
+{
+    const vbnl_media_add_ctx *a = user;
+    if (!(a->indirect_only && is_direct))
+        add_L(a->out, c);
+}
+
 static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
@@ -983,6 +998,13 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
     uint8_t lit[VL_GATHER_MAX];
     int vertices = 0;
     out[3] = 1.0f;
+    if (sc->has_media) {
+        /* Media: path tracing with the walk between vertices (the virtual lights are placed for surfaces and do not light points in media;
+         * docs/integrators.md, "Media"). */
+        vbnl_media_add_ctx a = {out, s->indirect_only};
+        vbnl_trace_path_walk(sc, sp, o, d, hit_ok, first, s->max_depth, s->rr_depth, vbnl_media_add, &a, out, stats);
+        return;
+    }
     /* what the camera sees directly */
     /* indirect_only: emission seen directly or through delta bounces, and single scattering at
      * the first non-delta vertex, are left out (the split of path.c) */
