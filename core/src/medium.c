@@ -412,6 +412,13 @@ static vec3 pigment_bound(const vbnl_texture_set *ts, uint32_t id, uint32_t dept
 
 void vbnl_media_commit(vbnl_scene *sc)
 {
+    /* a textured node's surface lets light into the interior of its transmission material */
+    for (uint32_t i = 0; i < sc->material_count; ++i) {
+        scene_material *m = &sc->materials[i];
+        if (m->is_node && m->node.kind == VBNL_NODE_TEXTURED && m->node.transmission &&
+            m->desc.interior == VBNL_INTERIOR_SAME)
+            m->desc.interior = sc->materials[m->node.transmission - 1].desc.interior;
+    }
     vec3 c = v3_scale(v3_add(sc->bounds_min, sc->bounds_max), 0.5f);
     float radius = 0.5f * v3_len(v3_sub(sc->bounds_max, sc->bounds_min));
     if (!(radius > 0.0f) || !isfinite(radius))

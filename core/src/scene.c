@@ -90,6 +90,7 @@ vbnl_result vbnl_scene_create(vbnl_context *ctx, vbnl_scene **out, vbnl_error *e
     s->ctx = ctx;
     s->device = ctx->device;
     s->group_count = 1; /* the world */
+    s->background_alpha = 1.0f; /* opaque, unless the front end asks for POV-Ray's +UA */
     s->env_light = VBNL_NO_LIGHT;
     vbnl_texture_set_init(&s->tex);
     *out = s;

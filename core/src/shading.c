@@ -49,9 +49,10 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                  * alpha is the camera ray's coverage (POV-Ray's Output_Alpha) */
                 if (seen[i]) {
                     fn(state, &sp[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
-                    values[i][3] = hit_mask[i] && !sc->has_media && !sc->has_null &&
+                    values[i][3] = sc->background_alpha >= 1.0f ||
+                                           (hit_mask[i] && !sc->has_media && !sc->has_null &&
                                            !vbnl_bsdf_is_transmissive(&sc->materials[hits[i].material].bsdf) &&
-                                           !sc->materials[hits[i].material].varies
+                                           !sc->materials[hits[i].material].varies)
                                        ? 1.0f
                                        : vbnl_camera_alpha(sc, o[i], d[i], hit_mask[i], &hits[i], &sp[i]);
                 }

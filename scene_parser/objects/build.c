@@ -395,5 +395,5 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
         if ((r = vbnl_scene_set_environment(L->c.scene, e, err)) != VBNL_OK)
             return r;
     }
-    return VBNL_OK;
+    return pov_fogs_build(L, err);
 }

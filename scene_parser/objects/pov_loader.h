@@ -27,6 +27,13 @@ typedef struct pov_cam {
     double m[16];
 } pov_cam;
 
+/* A fog { } block as read (fog.c). */
+typedef struct pov_fog {
+    double type, distance, color[5], offset, alt, up[3];
+    double turbulence[3], turb_depth, omega, lambda, octaves;
+    vbnl_sdl_loc loc;
+} pov_fog;
+
 typedef struct pov_loader {
     pov_ctx c;
     pov_obj world;           /* every object placed in the scene */
@@ -36,6 +43,10 @@ typedef struct pov_loader {
     int have_camera;
     double env[3];           /* background / sky_sphere radiance */
     int have_env;
+    pov_fog *fogs;           /* fog { } blocks, in order */
+    size_t nfogs;
+    vbnl_medium_part_desc atmosphere[VBNL_MEDIUM_PARTS_MAX]; /* top-level media { } blocks */
+    uint32_t natmosphere;
     char integrator[64];
     vbnl_params *params;
     char **diags;            /* warnings and notes, kept for vbnl_pov_scene_diag_text */
@@ -159,6 +170,12 @@ vbnl_result pov_global_settings_parse(pov_loader *L);
 /* background { colour } and sky_sphere { ... }; the parser is after the keyword at loc. */
 vbnl_result pov_background_parse(pov_loader *L);
 vbnl_result pov_sky_sphere_parse(pov_loader *L, const vbnl_sdl_loc *loc);
+/* fog { } (fog.c); the parser is after the keyword at loc. Errors name loc for a fog_type other
+ * than 1 or 2, a distance or fog_alt that is not positive, a zero up vector. */
+vbnl_result pov_fog_parse(pov_loader *L, const vbnl_sdl_loc *loc);
+/* Adds the fogs read and the atmospheric media (top-level media { }: the core's atmosphere) to the
+ * core scene. */
+vbnl_result pov_fogs_build(pov_loader *L, vbnl_error *err);
 
 /* ---- building (build.c) ------------------------------------------------------------------------ */
 

@@ -664,8 +664,8 @@ vbnl_result vbnl_scene_add_directional_light(vbnl_scene *scene, const float dire
  * call replaces it. Errors: VBNL_ERR_INVALID_ARGUMENT for a negative or non-finite radiance. */
 vbnl_result vbnl_scene_set_environment(vbnl_scene *scene, const float radiance[3], vbnl_error *err);
 
-/* Opacity (alpha) of the pixels where camera rays see only the environment: 0 by default
- * (POV-Ray's default background is transparent), 1 for an opaque background. Seen through
+/* Opacity (alpha) of the pixels where camera rays see only the environment: 1 by default (an
+ * opaque background), 0 for POV-Ray's transparent background under Output_Alpha (+UA). Seen through
  * transmitting surfaces and media, the alpha is 1 - (1 - this) x the light they let through. */
 vbnl_result vbnl_scene_set_background_alpha(vbnl_scene *scene, float alpha, vbnl_error *err);
 

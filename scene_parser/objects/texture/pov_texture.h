@@ -118,6 +118,9 @@ struct pov_texture {
 
 typedef struct pov_interior {
     double ior;
+    vbnl_medium_part_desc media[VBNL_MEDIUM_PARTS_MAX]; /* its media { } blocks */
+    uint32_t nmedia;
+    uint32_t medium;                                    /* the core medium id + 1 (0: none) */
 } pov_interior;
 
 struct pov_appearance {
