@@ -8,6 +8,8 @@
  *   radiance 1 looks 1 everywhere, with isotropic, Henyey-Greenstein and mixed Rayleigh + Mie
  *   phase functions;
  * - constant and ground fog reproduce POV-Ray's blend (reference "Fog") on camera rays;
+ * - no_shadow geometry and shadowless lights: a ground point under an occluder gets the point
+ *   light's full direct light I albedo / (pi r^2);
  * - POV-Ray's brilliance as a BSDF: sampled weights equal eval / pdf, and the albedo seen from wo
  *   is the base colour times cos_o^(b - 1). */
 #include <stdarg.h>
@@ -375,6 +377,57 @@ static void test_brilliance(void **state)
         fail_msg("brilliance albedo by uniform sampling %.4f, want %.4f", est, want);
 }
 
+/* ---- no_shadow, shadowless ---------------------------------------------------------------------- */
+
+/* The centre pixel's mean: ground (a huge sphere, albedo 0.5) at the origin, an occluder between it
+ * and a point light of intensity 9 at height 3; flags on the occluder, shadowless on the light. */
+static double shadow_pixel(vbnl_context *ctx, uint32_t occluder_flags, int shadowless)
+{
+    vbnl_scene *s;
+    assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
+    vbnl_material_desc md;
+    vbnl_material_desc_init(&md);
+    md.base_color[0] = md.base_color[1] = md.base_color[2] = 0.5f;
+    uint32_t mat, occ;
+    assert_int_equal(vbnl_scene_add_material(s, &md, &mat, NULL), VBNL_OK);
+    float gc[3] = {0, -1000, 0}, oc[3] = {0, 1, 0}, lp[3] = {0, 3, 0}, I[3] = {9, 9, 9};
+    assert_int_equal(vbnl_scene_add_sphere(s, gc, 1000.0f, mat, VBNL_GROUP_WORLD, NULL, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_add_sphere(s, oc, 0.5f, mat, VBNL_GROUP_WORLD, &occ, NULL), VBNL_OK);
+    if (occluder_flags)
+        assert_int_equal(vbnl_scene_set_visibility(s, occ, occluder_flags, NULL), VBNL_OK);
+    uint32_t light;
+    assert_int_equal(vbnl_scene_add_point_light(s, lp, I, &light, NULL), VBNL_OK);
+    if (shadowless)
+        assert_int_equal(vbnl_scene_set_light_shadowless(s, light, 1, NULL), VBNL_OK);
+    float pos[3] = {0, 0.3f, 4}, target[3] = {0, 0, 0}, up[3] = {0, 1, 0};
+    vbnl_camera_desc cam;
+    assert_int_equal(vbnl_camera_look_at(&cam, pos, target, up, 1.0f, 1.0f, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_set_camera(s, &cam, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    float *px = ts_render(ctx, s, "path", 5, 5, 64, 2, NULL);
+    double v = px[4 * 12];
+    free(px);
+    vbnl_scene_destroy(s);
+    return v;
+}
+
+static void test_shadow_controls(void **state)
+{
+    fixture *f = *state;
+    const double direct = 0.5 / M_PI * 9.0 / 9.0; /* albedo / pi * I / r^2, normal incidence */
+    double shadowed = shadow_pixel(f->ctx, 0, 0);
+    double no_shadow = shadow_pixel(f->ctx, VBNL_VISIBLE_NO_SHADOW, 0);
+    double shadowless = shadow_pixel(f->ctx, 0, 1);
+    if (!(shadowed < 0.2 * direct))
+        fail_msg("the occluder's shadow: %.4f, direct light %.4f", shadowed, direct);
+    /* the full direct light, plus the little indirect light (the lit ground bounced back by the
+     * occluder's underside: a few percent) */
+    if (!(no_shadow > 0.97 * direct && no_shadow < 1.1 * direct))
+        fail_msg("no_shadow occluder: %.4f, direct light %.4f (shadowed %.4f)", no_shadow, direct, shadowed);
+    if (!(shadowless > 0.97 * direct && shadowless < 1.1 * direct))
+        fail_msg("shadowless light: %.4f, direct light %.4f (shadowed %.4f)", shadowless, direct, shadowed);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -385,6 +438,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_furnace, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fog, setup, teardown),
         cmocka_unit_test(test_brilliance),
+        cmocka_unit_test_setup_teardown(test_shadow_controls, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -379,7 +379,9 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
         scale[0] = scale[1] = scale[2] = f->diffuse;
     } else {
-        md->type = VBNL_MATERIAL_LAMBERT;
+        /* brilliance b > 1: POV-Ray's cos^b falloff as a reciprocal BSDF (VBNL_MATERIAL_BRILLIANCE) */
+        md->type = f->brilliance > 1.0 ? VBNL_MATERIAL_BRILLIANCE : VBNL_MATERIAL_LAMBERT;
+        md->brilliance = (float)f->brilliance;
         scale[0] = scale[1] = scale[2] = f->diffuse;
     }
     for (int k = 0; k < 3; ++k)

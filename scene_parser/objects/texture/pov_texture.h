@@ -94,6 +94,7 @@ struct pov_normal {
 
 typedef struct pov_finish {
     double diffuse, emission[3], reflection[3], specular, roughness, phong, phong_size;
+    double brilliance; /* the diffuse falloff exponent (1: Lambert) */
     int metallic;
 } pov_finish;
 

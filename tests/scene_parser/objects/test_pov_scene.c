@@ -308,6 +308,31 @@ static void test_media(void **state)
                  "test.pov:3:34: scattering type must be 1 to 5 (got 6)");
 }
 
+/* shadowless, no_shadow and brilliance onto the core */
+static void test_lighting_controls(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok("camera { location -5 look_at 0 }\nlight_source { <0, 5, 0> rgb 1 shadowless }\n"
+                           "light_source { <0, 6, 0> rgb 1 }\n"
+                           "sphere { 0, 1 no_shadow pigment { rgb 1 } finish { brilliance 3 } }\nbox { -2, -1.5 }");
+    const vbnl_scene *c = sc(s);
+    int shadowless = 0, no_shadow = 0, brilliance = 0;
+    for (uint32_t i = 0; i < c->light_count; ++i)
+        shadowless += c->lights[i].shadowless;
+    assert_int_equal(shadowless, 1);
+    for (uint32_t g = 0; g < c->geom_count; ++g)
+        no_shadow += c->geoms[g].visibility == VBNL_VISIBLE_NO_SHADOW;
+    assert_int_equal(no_shadow, 1);
+    assert_int_equal(c->has_masks, 1);
+    for (uint32_t i = 0; i < c->material_count; ++i)
+        brilliance |= c->materials[i].desc.type == VBNL_MATERIAL_BRILLIANCE && c->materials[i].desc.brilliance == 3.0f;
+    assert_true(brilliance);
+    assert_null(strstr(g_diags, "shadowless"));
+    assert_null(strstr(g_diags, "no_shadow"));
+    assert_null(strstr(g_diags, "brilliance"));
+    vbnl_pov_scene_destroy(s);
+}
+
 /* ---- errors ------------------------------------------------------------------------------------- */
 
 static void test_errors(void **state)
@@ -571,6 +596,7 @@ int main(void)
         cmocka_unit_test(test_background),
         cmocka_unit_test(test_fog),
         cmocka_unit_test(test_media),
+        cmocka_unit_test(test_lighting_controls),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_scene_files),
         cmocka_unit_test(test_opened_folders),
