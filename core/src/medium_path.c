@@ -92,17 +92,10 @@ vec3 vbnl_estimate_direct_medium(const vbnl_scene *sc, const vbnl_medium_stack *
     const float ph = vbnl_phase_eval(kind, g, -v3_dot(ls.wi, out));
     if (!(ph > 0.0f))
         return v3s(0.0f);
-    vec3 dir = ls.wi;
-    float tmax = INFINITY;
-    if (!isinf(ls.dist)) {
-        vec3 end = ls.is_delta ? ls.p : vbnl_offset_ray_origin(ls.p, ls.n, v3_neg(ls.wi));
-        vec3 to = v3_sub(end, p);
-        float len = v3_len(to);
-        if (!(len > 0.0f))
-            return v3s(0.0f);
-        dir = v3_scale(to, 1.0f / len);
-        tmax = len * (1.0f - 1e-4f);
-    }
+    vec3 dir;
+    float tmax;
+    if (!vbnl_shadow_segment(&ls, p, &dir, &tmax))
+        return v3s(0.0f);
     const vbnl_light *light = &sc->lights[li];
     int nee_only = ls.is_delta || light->shadowless;
     vec3 T = v3s(1.0f);

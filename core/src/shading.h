@@ -131,6 +131,27 @@ void vbnl_trace_path_walk(const vbnl_scene *sc, vbnl_sampler *sp, vec3 o, vec3 d
  * reaches the background times its transparency (1 - vbnl_scene_set_background_alpha). */
 float vbnl_camera_alpha(const vbnl_scene *sc, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, vbnl_sampler *sp);
 
+/* The shadow ray of light sample ls from org: *dir and *tmax (INFINITY for a light at infinity).
+ * It runs to the light's point offset off its own surface the same way as org, so that it ends
+ * short of the emitter whatever the distance: a margin taken from the distance alone is eaten by
+ * the origin's offset, which grows with the coordinates (256 ulps), and a close light then
+ * shadows itself. 0 when org is at the light's point. */
+static inline int vbnl_shadow_segment(const vbnl_light_li_sample *ls, vec3 org, vec3 *dir, float *tmax)
+{
+    *dir = ls->wi;
+    *tmax = INFINITY;
+    if (!isinf(ls->dist)) {
+        vec3 end = ls->is_delta ? ls->p : vbnl_offset_ray_origin(ls->p, ls->n, v3_neg(ls->wi));
+        vec3 to = v3_sub(end, org);
+        float len = v3_len(to);
+        if (!(len > 0.0f))
+            return 0;
+        *dir = v3_scale(to, 1.0f / len);
+        *tmax = len * (1.0f - 1e-4f);
+    }
+    return 1;
+}
+
 /* Next-event estimation at x (non-delta BSDF): one light picked by power, a point on it, a
  * shadow ray, MIS against BSDF sampling (power heuristic). Returns f * Li * w / pdf (not yet
  * multiplied by the path throughput). Inline, like the two functions around it: they run at
@@ -160,21 +181,10 @@ static inline vec3 vbnl_estimate_direct_in(const vbnl_scene *sc, const vbnl_medi
     /* opaque: side_ok has just found ng on the side of wi */
     vec3 org = vbnl_bsdf_is_transmissive(bsdf) ? vbnl_offset_ray_origin(x, sf->ng, ls.wi)
                                                : vbnl_offset_ray_origin_along(x, sf->ng);
-    /* The shadow ray runs from org to the light's point offset off its own surface the same way,
-     * so that it ends short of the emitter whatever the distance: a margin taken from the
-     * distance alone (from x, not org) is eaten by the origin's offset, which grows with the
-     * coordinates (256 ulps), and a close light then shadows itself. */
-    vec3 dir = ls.wi;
-    float tmax = INFINITY;
-    if (!isinf(ls.dist)) {
-        vec3 end = ls.is_delta ? ls.p : vbnl_offset_ray_origin(ls.p, ls.n, v3_neg(ls.wi));
-        vec3 to = v3_sub(end, org);
-        float len = v3_len(to);
-        if (!(len > 0.0f))
-            return v3s(0.0f);
-        dir = v3_scale(to, 1.0f / len);
-        tmax = len * (1.0f - 1e-4f);
-    }
+    vec3 dir;
+    float tmax;
+    if (!vbnl_shadow_segment(&ls, org, &dir, &tmax))
+        return v3s(0.0f);
     const vbnl_light *light = &sc->lights[li];
     int nee_only = ls.is_delta || light->shadowless;
     vec3 T = v3s(1.0f);

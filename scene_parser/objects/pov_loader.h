@@ -53,7 +53,7 @@ typedef struct pov_loader {
     size_t ndiags;
     vbnl_sdl_diag_fn user_diag;
     void *user_diag_user;
-    int warned_shadowless, warned_no_shadow;
+    int warned_shadowless;   /* a shadowless area_light was warned about */
     int files_disabled;      /* includes disabled: vbnl_mesh is refused too */
     vbnl_sdl_loc *warned;    /* skipped shapes already warned about */
     size_t nwarned;

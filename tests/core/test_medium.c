@@ -6,7 +6,8 @@
  *   shadow ray through it carries the same transmittance;
  * - furnace: a sphere of purely scattering medium (albedo 1) in a uniform environment of
  *   radiance 1 looks 1 everywhere, with isotropic, Henyey-Greenstein and mixed Rayleigh + Mie
- *   phase functions;
+ *   phase functions (and path's clamp: a bound no contribution reaches changes no pixel, a low one
+ *   darkens);
  * - constant and ground fog reproduce POV-Ray's blend (reference "Fog") on camera rays;
  * - no_shadow geometry and shadowless lights: a ground point under an occluder gets the point
  *   light's full direct light I albedo / (pi r^2);
@@ -248,6 +249,18 @@ static void furnace_check(vbnl_context *ctx, const vbnl_medium_part_desc *parts,
     float *px = ts_render(ctx, s, "path", 12, 12, 512, 9, NULL);
     double mean[3];
     image_mean(px, 144, mean);
+    if (n == 1 && parts[0].phase == VBNL_PHASE_ISOTROPIC) {
+        /* path's clamp: a bound no contribution reaches changes nothing; a low one darkens */
+        const char *const high[] = {"clamp=1000", NULL}, *const low[] = {"clamp=0.05", NULL};
+        float *ph = ts_render(ctx, s, "path", 12, 12, 512, 9, high);
+        assert_memory_equal(ph, px, sizeof(float) * 4 * 144);
+        free(ph);
+        float *pl = ts_render(ctx, s, "path", 12, 12, 64, 9, low);
+        double ml[3];
+        image_mean(pl, 144, ml);
+        assert_true(ml[0] < 0.8);
+        free(pl);
+    }
     for (int c = 0; c < 3; ++c)
         if (fabs(mean[c] - 1.0) > 0.02)
             fail_msg("furnace (%u parts, phase %d) channel %d: %.4f, want 1", n, (int)parts[0].phase, c, mean[c]);
