@@ -39,7 +39,8 @@ typedef struct pov_ctx {
  * scattering { type, colour [eccentricity] [extinction] } onto one part of a core medium; the
  * sampling controls (method, intervals, samples, ...) are read and not needed (the core samples
  * media without bias); density { } and a scattering extinction other than 1 are approximated and
- * warned about (docs/scene-language.md, "Media"). */
+ * warned about (docs/scene-language.md, "Media"). A declared media identifier inside is not
+ * supported: warned, and part->phase is 0 (the caller leaves the part out). */
 vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part);
 
 /* ---- texture part: state ------------------------------------------------------------------ */

@@ -33,6 +33,7 @@ typedef struct media_item {
     vbnl_medium_part_desc *part;
     double extinction;
     int warned_density;
+    int declared; /* a declared media identifier was named: the block is left out */
 } media_item;
 
 static vbnl_result media_colour(const pov_item *it, float out[3])
@@ -161,10 +162,21 @@ static const pov_row media_rows[] = {
     {"aa_level", media_control, 0},
     {NULL, NULL, 0},
 };
+/* A declared media (`media { Media }`): not kept as a value, so the block is left out, warned. */
+static vbnl_result media_unknown(const pov_item *it)
+{
+    if (it->tok->kind != VBNL_SDL_TOK_IDENT || !vbnl_sdl_lookup(it->p, it->tok->text))
+        return pov_block_unexpected_word(it);
+    vbnl_sdl_warning(it->p, &it->loc, "declared media '%s' is not supported: the media is left out", it->tok->text);
+    ((media_item *)it->target)->declared = 1;
+    vbnl_sdl_next(it->p);
+    return VBNL_OK;
+}
+
 static const pov_row *const media_tables[] = {media_rows, pov_pattern_transform_rows, NULL};
 static const pov_block media_items = {.name = "media",
                                       .tables = media_tables,
-                                      .unknown = pov_block_unexpected_word,
+                                      .unknown = media_unknown,
                                       .transform = media_transform};
 
 vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part)
@@ -174,8 +186,10 @@ vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part)
     vbnl_sdl_loc loc = vbnl_sdl_peek(c->parser)->loc;
     if (vbnl_sdl_expect(c->parser, '{', "after 'media'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    media_item m = {part, 1.0, 0};
+    media_item m = {part, 1.0, 0, 0};
     vbnl_result r = pov_block_parse(&media_items, c->parser, c, &m, NULL);
+    if (m.declared)
+        part->phase = 0; /* left out: the callers keep only parts with a phase */
     if (r == VBNL_OK && m.extinction != 1.0)
         vbnl_sdl_warning(c->parser, &loc, "scattering extinction %g is not supported: scattering extincts fully (1)",
                          m.extinction);
@@ -189,7 +203,7 @@ static vbnl_result media(const pov_item *it)
     if (in->nmedia >= VBNL_MEDIUM_PARTS_MAX)
         return vbnl_sdl_error(it->p, &it->loc, "an interior holds at most %u media", VBNL_MEDIUM_PARTS_MAX);
     vbnl_result r = pov_media_parse(it->ctx, &in->media[in->nmedia]);
-    if (r == VBNL_OK)
+    if (r == VBNL_OK && in->media[in->nmedia].phase)
         in->nmedia++;
     return r;
 }

@@ -304,6 +304,11 @@ static void test_media(void **state)
     assert_true(entered);
     assert_null(strstr(g_diags, "warning"));
     vbnl_pov_scene_destroy(s);
+    /* a declared media is left out, warned */
+    s = ok(BASE "#declare M = media { absorption 1 }\nsphere { 0, 1 pigment { rgbf 1 } interior { media { M } } }");
+    assert_int_equal(sc(s)->medium_count, 0);
+    assert_non_null(strstr(g_diags, "test.pov:4:53: warning: declared media 'M' is not supported: the media is left out"));
+    vbnl_pov_scene_destroy(s);
     expect_error(BASE "sphere { 0, 1 interior { media { scattering { 6, 1 } } } }",
                  "test.pov:3:34: scattering type must be 1 to 5 (got 6)");
 }
