@@ -160,6 +160,7 @@ void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m)
     b->use_ior = m->conductor_use_ior;
     b->eta = v3_max(v3_load(m->eta), v3s(1e-3f));
     b->k = v3_max(v3_load(m->k), v3s(0.0f));
+    b->brilliance = m->type == VBNL_MATERIAL_BRILLIANCE ? clampf(m->brilliance, 1.0f, 1000.0f) : 1.0f;
     b->bumped = 0;
     b->ns = v3(0.0f, 0.0f, 1.0f);
 }
@@ -167,6 +168,49 @@ void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m)
 /* ---- Lambert ------------------------------------------------------------------------------ */
 
 /* Inline in bsdf.h. */
+
+/* ---- brilliance ---------------------------------------------------------------------------- */
+
+/* POV-Ray's brilliance b makes diffuse light fall off as cos^b of the light's incidence (its
+ * trace.cpp, ComputeDiffuseColour). A reciprocal, energy-conserving BRDF with that falloff for a
+ * surface seen head-on: f = rho (b + 1) / (2 pi) (cos_i cos_o)^(b - 1). Its albedo seen from wo
+ * is rho cos_o^(b - 1) <= rho (the integral of cos_i^b over the hemisphere is 2 pi / (b + 1)), so
+ * it reflects rho head-on and less at grazing views; b = 1 is Lambert. Sampling: cos_i with
+ * density (b + 1) / (2 pi) cos_i^b, cos_i = u^(1 / (b + 1)), weight rho cos_o^(b - 1). */
+static float brilliance_norm(float b) { return (b + 1.0f) * VBNL_INV_2PI; }
+
+static vec3 brilliance_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+{
+    if (wo.z <= 0.0f || wi.z <= 0.0f)
+        return v3s(0.0f);
+    const float e = b->brilliance - 1.0f;
+    return v3_scale(b->color, brilliance_norm(b->brilliance) * powf(wi.z * wo.z, e) * wi.z);
+}
+
+static float brilliance_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+{
+    if (wo.z <= 0.0f || wi.z <= 0.0f)
+        return 0.0f;
+    return brilliance_norm(b->brilliance) * powf(wi.z, b->brilliance);
+}
+
+static int brilliance_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
+{
+    if (wo.z <= 0.0f)
+        return 0;
+    const float c = powf(1.0f - u.x, 1.0f / (b->brilliance + 1.0f)), s = safe_sqrtf(1.0f - c * c);
+    const float phi = 2.0f * VBNL_PI * u.y;
+    vec3 wi = v3(s * cosf(phi), s * sinf(phi), c);
+    float pdf = brilliance_pdf(b, wo, wi);
+    if (!(wi.z > 0.0f) || !(pdf > 0.0f))
+        return 0;
+    out->wi = wi;
+    out->pdf = pdf;
+    out->weight = v3_scale(b->color, powf(wo.z, b->brilliance - 1.0f));
+    out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
+    out->eta = 1.0f;
+    return 1;
+}
 
 /* ---- GGX conductor ------------------------------------------------------------------------ */
 
@@ -412,6 +456,8 @@ vec3 vbnl_bsdf_eval_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
         return conductor_eval(b, wo, wi);
     case VBNL_MATERIAL_PLASTIC:
         return plastic_eval(b, wo, wi);
+    case VBNL_MATERIAL_BRILLIANCE:
+        return brilliance_eval(b, wo, wi);
     default: /* delta lobes only */
         return v3s(0.0f);
     }
@@ -426,6 +472,8 @@ float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
         return conductor_pdf(b, wo, wi);
     case VBNL_MATERIAL_PLASTIC:
         return plastic_pdf(b, wo, wi);
+    case VBNL_MATERIAL_BRILLIANCE:
+        return brilliance_pdf(b, wo, wi);
     default:
         return 0.0f;
     }
@@ -444,6 +492,8 @@ int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample
         return mirror_sample(b, wo, out);
     case VBNL_MATERIAL_DIELECTRIC:
         return dielectric_sample(b, wo, u.x, out);
+    case VBNL_MATERIAL_BRILLIANCE:
+        return brilliance_sample(b, wo, u, out);
     }
     return 0;
 }
@@ -480,6 +530,8 @@ float vbnl_bsdf_pdf_diffuse(const vbnl_bsdf *b, vec3 wo, vec3 wi)
         return 0.0f;
     if (b->type == VBNL_MATERIAL_LAMBERT)
         return pdf_cosine_hemisphere(wi);
+    if (b->type == VBNL_MATERIAL_BRILLIANCE)
+        return brilliance_pdf(b, wo, wi);
     if (b->type != VBNL_MATERIAL_PLASTIC)
         return 0.0f;
     plastic_ctx c = plastic_setup(b, wo);
@@ -490,6 +542,7 @@ uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
+    case VBNL_MATERIAL_BRILLIANCE:
         return VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
     case VBNL_MATERIAL_CONDUCTOR:
         return VBNL_LOBE_REFLECTION | VBNL_LOBE_GLOSSY;

@@ -35,6 +35,7 @@ typedef struct vbnl_bsdf {
     float ior;        /* dielectric / plastic coat */
     int use_ior;      /* conductor: eta/k instead of F0 */
     vec3 eta, k;
+    float brilliance; /* VBNL_MATERIAL_BRILLIANCE: the exponent b */
     int bumped;       /* 1: ns replaces the hit's shading normal */
     vec3 ns;          /* the perturbed unit shading normal, on the hit's geometric side */
 } vbnl_bsdf;

@@ -39,6 +39,7 @@ typedef struct vbnl_light {
     float world_radius;
     const struct vbnl_env *env; /* env: the directional sky (environment.h; L is then its mean
                                  * radiance), NULL for a constant one */
+    int shadowless;      /* casts no shadow (vbnl_scene_set_light_shadowless) */
 } vbnl_light;
 
 typedef struct vbnl_light_li_sample {

@@ -35,6 +35,7 @@ void vbnl_material_desc_init(vbnl_material_desc *d)
     d->alpha = 0.1f;
     d->ior = 1.5f;
     d->eta[0] = d->eta[1] = d->eta[2] = 1.0f;
+    d->brilliance = 1.0f;
 }
 
 void vbnl_mesh_desc_init(vbnl_mesh_desc *d)
@@ -91,6 +92,7 @@ vbnl_result vbnl_scene_create(vbnl_context *ctx, vbnl_scene **out, vbnl_error *e
     s->ctx = ctx;
     s->device = ctx->device;
     s->group_count = 1; /* the world */
+    s->background_alpha = 1.0f; /* opaque, unless the front end asks for POV-Ray's +UA */
     s->env_light = VBNL_NO_LIGHT;
     vbnl_texture_set_init(&s->tex);
     *out = s;
@@ -128,6 +130,8 @@ void vbnl_scene_destroy(vbnl_scene *s)
     vbnl_texture_set_free(&s->tex);
     free(s->lights);
     vbi_camera_mesh_free((void *)s->camera.mesh_index);
+    free(s->media);
+    free(s->fogs);
     free(s);
 }
 
@@ -141,8 +145,15 @@ vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, 
         return r;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_material: desc is NULL");
-    if ((unsigned)d->type > VBNL_MATERIAL_DIELECTRIC)
+    if ((unsigned)d->type > VBNL_MATERIAL_BRILLIANCE)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown material type %d", (int)d->type);
+    if (d->type == VBNL_MATERIAL_BRILLIANCE && !(d->brilliance >= 1.0f && d->brilliance <= 1000.0f))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "material brilliance must lie in [1, 1000] (got %g)",
+                              d->brilliance);
+    if (d->interior != VBNL_INTERIOR_SAME && d->interior != VBNL_INTERIOR_CLEAR && d->interior > s->medium_count)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "material interior %u names no medium (%u added; it is id + 1)", d->interior,
+                              s->medium_count);
     for (int i = 0; i < 3; ++i) {
         if (!(d->base_color[i] >= 0.0f && d->base_color[i] <= 1.0f))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
@@ -597,6 +608,45 @@ vbnl_result vbnl_scene_set_environment_pigments(vbnl_scene *s, const vbnl_enviro
     vbnl_env_destroy(s->env_sky);
     s->env_sky = e;
     s->env_radiance = v3s(0.0f);
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_scene_set_background_alpha(vbnl_scene *s, float alpha, vbnl_error *err)
+{
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_background_alpha", err);
+    if (r != VBNL_OK)
+        return r;
+    if (!(alpha >= 0.0f && alpha <= 1.0f))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "background alpha must lie in [0, 1] (got %g)", alpha);
+    s->background_alpha = alpha;
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_scene_set_visibility(vbnl_scene *s, uint32_t geom, uint32_t flags, vbnl_error *err)
+{
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_visibility", err);
+    if (r != VBNL_OK)
+        return r;
+    if (geom >= s->geom_count || s->geoms[geom].kind == SCENE_GEOM_AREA_LIGHT)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_set_visibility: geometry %u does not exist",
+                              geom);
+    const uint32_t all = VBNL_VISIBLE_NO_SHADOW | VBNL_VISIBLE_NO_IMAGE | VBNL_VISIBLE_NO_REFLECTION;
+    if (flags & ~all)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_set_visibility: unknown flags 0x%x",
+                              flags & ~all);
+    s->geoms[geom].visibility = flags;
+    return VBNL_OK;
+}
+
+vbnl_result vbnl_scene_set_light_shadowless(vbnl_scene *s, uint32_t light, int shadowless, vbnl_error *err)
+{
+    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_light_shadowless", err);
+    if (r != VBNL_OK)
+        return r;
+    if (light >= s->light_count)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_set_light_shadowless: light %u does not exist",
+                              light);
+    s->lights[light].shadowless = shadowless != 0;
     return VBNL_OK;
 }
 

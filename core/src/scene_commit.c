@@ -80,6 +80,15 @@ static RTCGeometry make_geometry(vbnl_scene *s, scene_geom *g)
         break;
     }
     }
+    /* visibility flags clear the bits of the rays that must not see the geometry */
+    uint32_t mask = VBNL_RAY_ANY;
+    if (g->visibility & VBNL_VISIBLE_NO_SHADOW)
+        mask = (mask & ~VBNL_RAY_SHADOW) | VBNL_RAY_NO_SHADOW_PROBE;
+    if (g->visibility & VBNL_VISIBLE_NO_IMAGE)
+        mask &= ~VBNL_RAY_CAMERA;
+    if (g->visibility & VBNL_VISIBLE_NO_REFLECTION)
+        mask &= ~VBNL_RAY_REFLECTED;
+    rtcSetGeometryMask(geom, mask);
     rtcCommitGeometry(geom);
     return geom;
 }
@@ -324,6 +333,11 @@ static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "every light of the scene has zero power");
+    vbnl_media_commit(s);
+    s->has_masks = 0;
+    for (uint32_t gi = 0; gi < s->geom_count; ++gi)
+        s->has_masks |= s->geoms[gi].visibility != 0;
+    s->has_null = vbnl_media_commit_pass(s);
     s->committed = 1;
     return VBNL_OK;
 }
@@ -424,6 +438,12 @@ int vbnl_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar)
 void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
                            vbnl_hit hits[8], int hit_mask[8])
 {
+    vbnl_scene_intersect8_mask(s, active, o, d, VBNL_RAY_ANY, hits, hit_mask);
+}
+
+void vbnl_scene_intersect8_mask(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
+                                uint32_t mask, vbnl_hit hits[8], int hit_mask[8])
+{
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
     ictx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
@@ -440,7 +460,7 @@ void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 
         rh.ray.tnear[i] = 0.0f;
         rh.ray.tfar[i] = INFINITY;
         rh.ray.time[i] = 0.0f;
-        rh.ray.mask[i] = 0xffffffffu;
+        rh.ray.mask[i] = mask;
         rh.ray.id[i] = (unsigned)i;
         rh.ray.flags[i] = 0;
         rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;

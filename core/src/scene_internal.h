@@ -15,6 +15,7 @@
 
 #include "bsdf.h"
 #include "lights.h"
+#include "medium.h"
 #include "sampling.h"
 #include "texture/texture.h"
 #include "vbnl/scene.h"
@@ -40,6 +41,7 @@ typedef struct scene_mesh {
 typedef struct scene_geom {
     scene_geom_kind kind;
     uint32_t group;
+    uint32_t visibility;      /* VBNL_VISIBLE_* (vbnl_scene_set_visibility) */
     union {
         scene_mesh mesh;
         struct {
@@ -72,6 +74,8 @@ typedef struct scene_material {
                        * surface (vl_support.h) */
     uint32_t origin;  /* hidden copies: the leaf material copied; others: itself */
     uint32_t hidden_begin, hidden_count; /* nodes: their hidden leaf copies in `materials` */
+    int may_pass;     /* some hit may resolve to a BSDF that lets light through unchanged in
+                       * direction (vbnl_bsdf_is_null; set at commit) */
 } scene_material;
 
 struct vbnl_scene {
@@ -99,7 +103,28 @@ struct vbnl_scene {
     int committed;
     vec3 bounds_min, bounds_max;
     uint64_t triangle_count;
+    /* media and fog (medium.h) */
+    scene_medium *media;
+    uint32_t medium_count, medium_cap;
+    uint32_t atmosphere;       /* medium id + 1 filling the outside, 0 none */
+    vbnl_fog *fogs;
+    uint32_t fog_count, fog_cap;
+    float far_bound;           /* where escaped segments in sampled media end (from the camera) */
+    int has_media;             /* some medium or fog: paths track their regions */
+    int has_null;              /* some surface may let light through unchanged in direction (a
+                                * dielectric of ior 1): shadow rays pass such surfaces */
+    int has_masks;             /* some geometry has visibility flags: rays carry their kind's mask */
+    float background_alpha;    /* the alpha of escaped camera rays */
 };
+
+/* Embree ray masks of the kinds of rays (geometries clear the bits of the rays that do not see
+ * them: vbnl_scene_set_visibility); rays that need no distinction use VBNL_RAY_ANY. */
+#define VBNL_RAY_CAMERA 1u
+#define VBNL_RAY_SHADOW 2u
+#define VBNL_RAY_REFLECTED 4u
+#define VBNL_RAY_OTHER 8u
+#define VBNL_RAY_NO_SHADOW_PROBE 16u /* only no_shadow geometry has this bit */
+#define VBNL_RAY_ANY (~VBNL_RAY_NO_SHADOW_PROBE)
 
 /* add_* calls that need an open scene: VBNL_OK, or the error naming `fn`. */
 vbnl_result vbnl_scene_check_open(const vbnl_scene *s, const char *fn, vbnl_error *err);
@@ -265,6 +290,22 @@ static inline __attribute__((always_inline)) void vbnl_fill_hit(const vbnl_scene
 /* vbnl_scene_intersect and vbnl_scene_occluded inline, for loops that trace a ray per bounce
  * (the path tracer): without the call, the hit is filled in the caller's frame and the caller's
  * live floats need not be saved around a second call level. */
+static inline __attribute__((always_inline)) int vbnl_scene_intersect_mask(const vbnl_scene *s, vec3 o, vec3 d,
+                                                                           float tfar, uint32_t mask, vbnl_hit *hit)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRayHit rh;
+    vbnl_rayhit_init(&rh, o, d, tfar);
+    rh.ray.mask = mask;
+    rtcIntersect1(s->world, &ictx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+    vbnl_fill_hit(s, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar, o, d,
+                  v3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), hit);
+    return 1;
+}
+
 static inline __attribute__((always_inline)) int vbnl_scene_intersect_inline(const vbnl_scene *s, vec3 o, vec3 d,
                                                                              float tfar, vbnl_hit *hit)
 {
@@ -278,6 +319,28 @@ static inline __attribute__((always_inline)) int vbnl_scene_intersect_inline(con
     vbnl_fill_hit(s, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar, o, d,
                   v3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), hit);
     return 1;
+}
+
+static inline __attribute__((always_inline)) int vbnl_scene_occluded_mask(const vbnl_scene *s, vec3 o, vec3 d,
+                                                                          float tfar, uint32_t mask)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRay ray;
+    ray.org_x = o.x;
+    ray.org_y = o.y;
+    ray.org_z = o.z;
+    ray.dir_x = d.x;
+    ray.dir_y = d.y;
+    ray.dir_z = d.z;
+    ray.tnear = 0.0f;
+    ray.tfar = tfar;
+    ray.time = 0.0f;
+    ray.mask = mask;
+    ray.id = 0;
+    ray.flags = 0;
+    rtcOccluded1(s->world, &ictx, &ray);
+    return ray.tfar == -INFINITY;
 }
 
 static inline __attribute__((always_inline)) int vbnl_scene_occluded_inline(const vbnl_scene *s, vec3 o, vec3 d,
@@ -322,6 +385,13 @@ int vbnl_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar);
  * active[i] == 0 are ignored; hit_mask[i] is set to 1 for lanes that hit. */
 void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8],
                            const vec3 d[8], vbnl_hit hits[8], int hit_mask[8]);
+/* The same with a ray mask (VBNL_RAY_*). */
+void vbnl_scene_intersect8_mask(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
+                                uint32_t mask, vbnl_hit hits[8], int hit_mask[8]);
+
+/* A surface whose BSDF lets light through unchanged in direction (a dielectric of ior 1: POV-Ray's
+ * transmit and filter without refraction): light passes it with the BSDF's tint. */
+static inline int vbnl_bsdf_is_null(const vbnl_bsdf *b) { return b->type == VBNL_MATERIAL_DIELECTRIC && b->ior == 1.0f; }
 
 /* The BSDF at a surface hit. Every integrator asks for the BSDF at a hit through this one
  * function: a plain material's BSDF; for a material that varies over the surface (a pigment, a

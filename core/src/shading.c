@@ -42,14 +42,23 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                                                (float)py[i] + u.y, lens, &o[i], &d[i]);
                 active[i] = seen[i];
             }
-            vbnl_scene_intersect8(sc, active, o, d, hits, hit_mask);
+            vbnl_scene_intersect8_mask(sc, active, o, d, sc->has_masks ? VBNL_RAY_CAMERA : VBNL_RAY_ANY, hits,
+                                       hit_mask);
             job->stats->rays += lanes;
             job->stats->camera_rays += lanes;
             for (uint32_t i = 0; i < lanes; ++i) {
                 memset(values[i], 0, sizeof(float) * stride);
-                /* where the projection has no ray the sample stays transparent black */
-                if (seen[i])
+                /* where the projection has no ray the sample stays transparent black; elsewhere its
+                 * alpha is the camera ray's coverage (POV-Ray's Output_Alpha) */
+                if (seen[i]) {
                     fn(state, &sp[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
+                    values[i][3] = sc->background_alpha >= 1.0f ||
+                                           (hit_mask[i] && !sc->has_media && !sc->has_null &&
+                                           !vbnl_bsdf_is_transmissive(&sc->materials[hits[i].material].bsdf) &&
+                                           !sc->materials[hits[i].material].varies)
+                                       ? 1.0f
+                                       : vbnl_camera_alpha(sc, o[i], d[i], hit_mask[i], &hits[i], &sp[i]);
+                }
                 vbnl_film_add(film, px[i], py[i], values[i]);
             }
         }

@@ -57,12 +57,111 @@ static inline void vbnl_shading_frame_make(const vbnl_bsdf *bsdf, const vbnl_hit
     sf->wo = frame_to_local(&sf->fr, wo_w);
 }
 
+/* ---- media, pass-through surfaces and visibility (medium_path.c) ---- */
+
+/* The light a connection from org along the unit dir over (0, tmax) lets through: 0 when an
+ * opaque surface blocks it (shadow rays ignore no_shadow geometry), through surfaces that let
+ * light through unchanged in direction (their tint) and the media of the regions it crosses
+ * (starting in the innermost of `media`, NULL: outside). *nee_only (optional) is set to 1 when
+ * only no_shadow geometry lies on the way: BSDF sampling cannot find that light, so next-event
+ * estimation counts it alone. Random numbers (ratio tracking) from r. */
+vec3 vbnl_shadow_transmittance(const vbnl_scene *sc, const vbnl_medium_stack *media, vec3 org, vec3 dir, float tmax,
+                               vbnl_rand *r, vbnl_thread_stats *stats, int *nee_only);
+
+/* Next-event estimation at a point p in a medium, scattering with the phase function (kind, g)
+ * light that then travels along `out` (unit): as vbnl_estimate_direct, the phase function in
+ * place of the BSDF (MIS against phase sampling). */
+vec3 vbnl_estimate_direct_medium(const vbnl_scene *sc, const vbnl_medium_stack *media, vec3 p, vec3 out,
+                                 vbnl_phase_kind kind, float g, vbnl_sampler *sp, vbnl_thread_stats *stats);
+
+/* A path's travel between scattering vertices, through media and pass-through surfaces, for every
+ * integrator (docs/integrators.md, "Media"). The integrator fills the first fields and keeps the
+ * walk across its bounces: beta is its throughput, depth its bounce count. */
+typedef void (*vbnl_walk_add_fn)(void *user, vec3 c, int is_direct);
+typedef struct vbnl_walk {
+    const vbnl_scene *sc;
+    vbnl_sampler *sp;
+    vbnl_thread_stats *stats;
+    int max_depth, rr_depth;     /* the integrator's rules (-1: no depth limit) */
+    vbnl_walk_add_fn add;        /* receives what the walk adds to the image */
+    void *user;
+    vbnl_medium_stack media;     /* the regions the path is in */
+    vec3 beta;
+    int depth;
+} vbnl_walk;
+
+enum {
+    VBNL_WALK_SURFACE = 0, /* the path reached a surface */
+    VBNL_WALK_ESCAPED,     /* it left the scene */
+    VBNL_WALK_ENDED,       /* it ended (absorbed, Russian roulette, the depth limit) */
+};
+
+/* Sets up a walk with throughput 1 outside every surface. */
+void vbnl_walk_init(vbnl_walk *w, const vbnl_scene *sc, vbnl_sampler *sp, vbnl_thread_stats *stats, int max_depth,
+                    int rr_depth, vbnl_walk_add_fn add, void *user);
+
+/* Follows the ray o + t d (d unit, updated) from the scattering vertex x (the direction's pdf
+ * there, `specular` for a delta lobe or the camera) to the next surface that scatters: segments
+ * through media are tracked (their emission and fog added, beta weighted), surfaces that let light
+ * through unchanged are crossed (beta times their tint, the region stack updated), and where the
+ * path scatters in a medium the walk shades that point itself (next-event estimation of the real
+ * lights with the phase function, MIS against phase sampling) and goes on along a sampled
+ * direction, with the integrator's Russian roulette and depth limit. `known` (optional) is the
+ * ray's first hit, already traced; `mask` the Embree mask of the ray's kind (VBNL_RAY_*);
+ * `seg_direct` whether light arriving at x counts as direct. Returns VBNL_WALK_*; on
+ * VBNL_WALK_SURFACE *hit is filled. *scattered is set when the path scattered in a medium: the
+ * light arriving at the hit (or from the environment on escape) has then been counted by the walk,
+ * and the integrator must not count it again; otherwise counting it is the integrator's, with
+ * its own MIS at x and the updated beta. */
+int vbnl_walk_next(vbnl_walk *w, vec3 o, vec3 *d, uint32_t mask, vec3 x, float pdf, int specular, int seg_direct,
+                   const vbnl_hit *known, vbnl_hit *hit, int *scattered);
+
+/* A whole camera path through media, pass-through surfaces and visibility flags: the path tracer
+ * (next-event estimation and BSDF or phase sampling, MIS, Russian roulette after rr_depth
+ * vertices, max_depth vertices at most, -1 unlimited) with the walk between its vertices. Its
+ * first hit (hit_ok, first) is known. Contributions go to add (is_direct as path.c's split);
+ * aov (optional) receives the albedo and normal of the first surface seen directly. Used by
+ * every integrator for scenes with media (docs/integrators.md, "Media"). */
+void vbnl_trace_path_walk(const vbnl_scene *sc, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first,
+                          int max_depth, int rr_depth, vbnl_walk_add_fn add, void *user, float *aov,
+                          vbnl_thread_stats *stats);
+
+/* The alpha of a camera sample (POV-Ray's Output_Alpha): 1 where the camera ray meets a surface
+ * that does not let it through; along pass-through and refracting surfaces and media, 1 minus what
+ * reaches the background times its transparency (1 - vbnl_scene_set_background_alpha). */
+float vbnl_camera_alpha(const vbnl_scene *sc, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, vbnl_sampler *sp);
+
+/* The shadow ray of light sample ls from org: *dir and *tmax (INFINITY for a light at infinity).
+ * It runs to the light's point offset off its own surface the same way as org, so that it ends
+ * short of the emitter whatever the distance: a margin taken from the distance alone is eaten by
+ * the origin's offset, which grows with the coordinates (256 ulps), and a close light then
+ * shadows itself. 0 when org is at the light's point. */
+static inline int vbnl_shadow_segment(const vbnl_light_li_sample *ls, vec3 org, vec3 *dir, float *tmax)
+{
+    *dir = ls->wi;
+    *tmax = INFINITY;
+    if (!isinf(ls->dist)) {
+        vec3 end = ls->is_delta ? ls->p : vbnl_offset_ray_origin(ls->p, ls->n, v3_neg(ls->wi));
+        vec3 to = v3_sub(end, org);
+        float len = v3_len(to);
+        if (!(len > 0.0f))
+            return 0;
+        *dir = v3_scale(to, 1.0f / len);
+        *tmax = len * (1.0f - 1e-4f);
+    }
+    return 1;
+}
+
 /* Next-event estimation at x (non-delta BSDF): one light picked by power, a point on it, a
  * shadow ray, MIS against BSDF sampling (power heuristic). Returns f * Li * w / pdf (not yet
  * multiplied by the path throughput). Inline, like the two functions around it: they run at
- * every path vertex, and inlined the Lambertian case needs only the z of wi in the local frame. */
-static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
-                          vbnl_sampler *sp, vbnl_thread_stats *stats)
+ * every path vertex, and inlined the Lambertian case needs only the z of wi in the local frame.
+ * `media` is the region stack of the path at x (NULL: outside): with media, pass-through surfaces
+ * or visibility flags in the scene the shadow ray is vbnl_shadow_transmittance's; a shadowless
+ * light traces none and counts alone. */
+static inline vec3 vbnl_estimate_direct_in(const vbnl_scene *sc, const vbnl_medium_stack *media, const vbnl_bsdf *bsdf,
+                                           vec3 x, const vbnl_shading_frame *sf, vbnl_sampler *sp,
+                                           vbnl_thread_stats *stats)
 {
     float pmf;
     /* one 2D number picks the light (its first coordinate, reused within the light's share of
@@ -82,27 +181,34 @@ static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *b
     /* opaque: side_ok has just found ng on the side of wi */
     vec3 org = vbnl_bsdf_is_transmissive(bsdf) ? vbnl_offset_ray_origin(x, sf->ng, ls.wi)
                                                : vbnl_offset_ray_origin_along(x, sf->ng);
-    /* The shadow ray runs from org to the light's point offset off its own surface the same way,
-     * so that it ends short of the emitter whatever the distance: a margin taken from the
-     * distance alone (from x, not org) is eaten by the origin's offset, which grows with the
-     * coordinates (256 ulps), and a close light then shadows itself. */
-    vec3 dir = ls.wi;
-    float tmax = INFINITY;
-    if (!isinf(ls.dist)) {
-        vec3 end = ls.is_delta ? ls.p : vbnl_offset_ray_origin(ls.p, ls.n, v3_neg(ls.wi));
-        vec3 to = v3_sub(end, org);
-        float len = v3_len(to);
-        if (!(len > 0.0f))
-            return v3s(0.0f);
-        dir = v3_scale(to, 1.0f / len);
-        tmax = len * (1.0f - 1e-4f);
-    }
-    stats->rays++;
-    stats->shadow_rays++;
-    if (vbnl_scene_occluded_inline(sc, org, dir, tmax))
+    vec3 dir;
+    float tmax;
+    if (!vbnl_shadow_segment(&ls, org, &dir, &tmax))
         return v3s(0.0f);
-    float w = ls.is_delta ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf->wo, wi));
-    return v3_scale(v3_mul(f, ls.Li), w / (pmf * ls.pdf));
+    const vbnl_light *light = &sc->lights[li];
+    int nee_only = ls.is_delta || light->shadowless;
+    vec3 T = v3s(1.0f);
+    if (light->shadowless) {
+        /* POV-Ray's shadowless: no shadow ray */
+    } else if (!sc->has_media && !sc->has_null && !sc->has_masks) {
+        stats->rays++;
+        stats->shadow_rays++;
+        if (vbnl_scene_occluded_inline(sc, org, dir, tmax))
+            return v3s(0.0f);
+    } else {
+        vbnl_rand r = {sp, NULL};
+        T = vbnl_shadow_transmittance(sc, media, org, dir, tmax, &r, stats, &nee_only);
+        if (vbnl_is_black(T))
+            return v3s(0.0f);
+    }
+    float w = nee_only ? 1.0f : power_heuristic(pmf * ls.pdf, vbnl_bsdf_pdf(bsdf, sf->wo, wi));
+    return v3_scale(v3_mul(v3_mul(f, ls.Li), T), w / (pmf * ls.pdf));
+}
+
+static inline vec3 vbnl_estimate_direct(const vbnl_scene *sc, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
+                                        vbnl_sampler *sp, vbnl_thread_stats *stats)
+{
+    return vbnl_estimate_direct_in(sc, NULL, bsdf, x, sf, sp, stats);
 }
 
 /* MIS weight of light found by a BSDF sample from x along w (environment when !hit_ok, else the
@@ -123,6 +229,8 @@ static inline float vbnl_arriving_light(const vbnl_scene *sc, int hit_ok, const 
         if (y->light == VBNL_NO_LIGHT)
             return 0.0f;
         l = &sc->lights[y->light];
+        if (l->shadowless) /* next-event estimation counts it alone */
+            return 0.0f;
         *Le = vbnl_light_Le(l, y->ng, v3_neg(w));
         if (vbnl_is_black(*Le))
             return 0.0f;

@@ -184,6 +184,10 @@ bool sdl_to_vector(vbnl_sdl_parser *p, const vbnl_sdl_value *v, int dim, double 
 
 /* ---- colours ------------------------------------------------------------------------------- */
 
+/* The sRGB transfer function's decoding (IEC 61966-2-1), as POV-Ray's SRGBGammaCurve::Decode:
+ * linear below 0.04045 (negative values included), a 2.4 power above. */
+static double sdl_srgb_decode(double v) { return v < 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
+
 static bool color_body_inner(vbnl_sdl_parser *p, vbnl_sdl_value *out, bool keyword_seen);
 
 static bool color_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, bool keyword_seen)
@@ -204,12 +208,16 @@ static bool color_body_inner(vbnl_sdl_parser *p, vbnl_sdl_value *out, bool keywo
         const vbnl_sdl_token *t = vbnl_sdl_peek(p);
         vbnl_sdl_loc loc = t->loc;
         int kw = t->kind == VBNL_SDL_TOK_IDENT ? t->keyword : 0;
-        int first = -1, count = 0;
+        int first = -1, count = 0, srgb = 0;
         switch (kw) {
-        case VBNL_KW_rgb: case VBNL_KW_srgb: first = 0; count = 3; break;
-        case VBNL_KW_rgbf: case VBNL_KW_srgbf: first = 0; count = 4; break;
-        case VBNL_KW_rgbt: case VBNL_KW_srgbt: first = 0; count = -4; break;
-        case VBNL_KW_rgbft: case VBNL_KW_srgbft: first = 0; count = 5; break;
+        case VBNL_KW_srgb: srgb = 1; /* fall through */
+        case VBNL_KW_rgb: first = 0; count = 3; break;
+        case VBNL_KW_srgbf: srgb = 1; /* fall through */
+        case VBNL_KW_rgbf: first = 0; count = 4; break;
+        case VBNL_KW_srgbt: srgb = 1; /* fall through */
+        case VBNL_KW_rgbt: first = 0; count = -4; break;
+        case VBNL_KW_srgbft: srgb = 1; /* fall through */
+        case VBNL_KW_rgbft: first = 0; count = 5; break;
         case VBNL_KW_red: first = 0; count = 1; break;
         case VBNL_KW_green: first = 1; count = 1; break;
         case VBNL_KW_blue: first = 2; count = 1; break;
@@ -238,6 +246,10 @@ static bool color_body_inner(vbnl_sdl_parser *p, vbnl_sdl_value *out, bool keywo
             any = true;
             continue;
         }
+        /* A whole-colour keyword after the colour has begun starts the next colour (POV-Ray's
+         * Parse_Colour): `checker rgb <1,0,0> rgb <0,0,1>` is two colours. */
+        if (any && count != 1)
+            break;
         const char *kwname = t->text;
         vbnl_sdl_next(p);
         if (!additive(p, &v))
@@ -265,6 +277,10 @@ static bool color_body_inner(vbnl_sdl_parser *p, vbnl_sdl_value *out, bool keywo
             if (count == 4) c[3] = tmp[3];
             if (count == -4) c[4] = tmp[3];
             if (count == 5) { c[3] = tmp[3]; c[4] = tmp[4]; }
+            /* srgb*: the colour channels are sRGB-encoded (POV-Ray decodes them into its working
+             * space; vbnl's is linear, POV-Ray's assumed_gamma 1.0); filter and transmit are not */
+            for (int i = 0; srgb && i < 3; i++)
+                c[i] = sdl_srgb_decode(c[i]);
         }
         any = true;
     }

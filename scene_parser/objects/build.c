@@ -9,6 +9,12 @@
 
 #define POV_PLANE_EXTENT 100.0
 
+/* The visibility flags of a primitive's core geometry `id` (no_shadow). */
+static vbnl_result prim_visibility(pov_loader *L, const pov_prim *pr, uint32_t id, vbnl_error *err)
+{
+    return pr->no_shadow ? vbnl_scene_set_visibility(L->c.scene, id, VBNL_VISIBLE_NO_SHADOW, err) : VBNL_OK;
+}
+
 static void bounds_add(double lo[3], double hi[3], const double p[3])
 {
     for (int i = 0; i < 3; ++i) {
@@ -87,8 +93,9 @@ static vbnl_result emit_mesh(pov_loader *L, const pov_prim *pr, const pov_mesh *
     mesh_desc(m, mat, VBNL_GROUP_WORLD, &d);
     d.face_materials = fm;
     d.transform = xf;
-    if (r == VBNL_OK)
-        r = vbnl_scene_add_mesh(L->c.scene, &d, NULL, err);
+    uint32_t gid;
+    if (r == VBNL_OK && (r = vbnl_scene_add_mesh(L->c.scene, &d, &gid, err)) == VBNL_OK)
+        r = prim_visibility(L, pr, gid, err);
     free(fm);
     return r;
 }
@@ -170,7 +177,10 @@ static vbnl_result emit_instance(pov_loader *L, const pov_prim *pr, mesh_groups 
     float xf[16];
     m4f(pr->m, xf);
     *done = 1;
-    return vbnl_scene_add_instance(L->c.scene, mg->v[i].group, xf, NULL, err);
+    uint32_t gid;
+    if ((r = vbnl_scene_add_instance(L->c.scene, mg->v[i].group, xf, &gid, err)) != VBNL_OK)
+        return r;
+    return prim_visibility(L, pr, gid, err);
 }
 
 vbnl_result pov_build(pov_loader *L, vbnl_error *err)
@@ -271,8 +281,11 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
                 double c[3];
                 pov_m4_point(pr->m, pr->a, c);
                 float cf[3] = {(float)c[0], (float)c[1], (float)c[2]};
-                if ((r = pov_appearance_material(&L->c, pr->app, ident, &mat, err)) == VBNL_OK)
-                    r = vbnl_scene_add_sphere(L->c.scene, cf, (float)(pr->a[3] * s), mat, VBNL_GROUP_WORLD, NULL, err);
+                uint32_t gid;
+                if ((r = pov_appearance_material(&L->c, pr->app, ident, &mat, err)) == VBNL_OK &&
+                    (r = vbnl_scene_add_sphere(L->c.scene, cf, (float)(pr->a[3] * s), mat, VBNL_GROUP_WORLD, &gid,
+                                               err)) == VBNL_OK)
+                    r = prim_visibility(L, pr, gid, err);
             } else if (!pov_appearance_is_emissive(pr->app)) {
                 /* An ellipsoid: an instance of an analytic unit sphere (exact surface and normals). */
                 uint32_t mat;
@@ -300,7 +313,9 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
                 pov_m4_mul(pr->m, local, xf);
                 float xff[16];
                 m4f(xf, xff);
-                r = vbnl_scene_add_instance(L->c.scene, L->sphere_groups[mat], xff, NULL, err);
+                uint32_t gid;
+                if ((r = vbnl_scene_add_instance(L->c.scene, L->sphere_groups[mat], xff, &gid, err)) == VBNL_OK)
+                    r = prim_visibility(L, pr, gid, err);
             } else { /* emissive: emitters must be world geometry */
                 pov_mesh *m = pov_tess_sphere(pr->a, pr->a[3]);
                 if (!m)
@@ -394,7 +409,7 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
         return r;
     r = vbnl_scene_set_camera(L->c.scene, &cd, err);
     free(cam_storage); /* the scene keeps its own copy */
-    if (r != VBNL_OK)
+    if (r != VBNL_OK || (r = pov_environment_build(L, err)) != VBNL_OK)
         return r;
-    return pov_environment_build(L, err);
+    return pov_fogs_build(L, err);
 }

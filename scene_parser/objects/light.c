@@ -48,12 +48,13 @@ static vbnl_result area_light(const pov_item *it)
     return pov_float(L, &n2);
 }
 
+/* POV-Ray's shadowless: the light's direct light reaches every point it faces (no shadow rays);
+ * an area light keeps its shadows (it is an emitting surface in the core). */
 static vbnl_result shadowless(const pov_item *it)
 {
-    pov_loader *L = it->ctx;
+    pov_light *l = &((pov_prim *)it->target)->light;
     vbnl_sdl_next(it->p);
-    if (!L->warned_shadowless++)
-        vbnl_sdl_warning(it->p, &it->loc, "shadowless is ignored: the light casts shadows");
+    l->shadowless = 1;
     return VBNL_OK;
 }
 
@@ -177,7 +178,9 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
                                   pr->loc.file, pr->loc.line, pr->loc.col);
         float d[3] = {(float)dir[0], (float)dir[1], (float)dir[2]};
         float E[3] = {(float)fmax(l->color[0], 0), (float)fmax(l->color[1], 0), (float)fmax(l->color[2], 0)};
-        return vbnl_scene_add_directional_light(L->c.scene, d, E, NULL, err);
+        uint32_t id;
+        vbnl_result r = vbnl_scene_add_directional_light(L->c.scene, d, E, &id, err);
+        return r == VBNL_OK && l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : r;
     }
     float P[3] = {(float)pos[0], (float)pos[1], (float)pos[2]};
     if (l->type == POV_LIGHT_SPOT) {
@@ -194,7 +197,9 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
         sd.cos_inner = (float)cos(rad * POV_PI / 180);
         sd.cos_outer = (float)cos(fall * POV_PI / 180);
         sd.exponent = (float)fmax(l->tightness, 0);
-        return vbnl_scene_add_spot_light(L->c.scene, &sd, NULL, err);
+        uint32_t id;
+        vbnl_result r = vbnl_scene_add_spot_light(L->c.scene, &sd, &id, err);
+        return r == VBNL_OK && l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : r;
     }
     double n[3];
     pov_cross3(a1, a2, n);
@@ -210,7 +215,11 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
             ad.radiance[i] = (float)(2.0 * I[i] / area);
         }
         ad.two_sided = 1;
+        if (l->shadowless && !L->warned_shadowless++)
+            vbnl_sdl_warning(L->c.parser, &pr->loc, "shadowless area_light is not supported: it casts shadows");
         return vbnl_scene_add_area_light(L->c.scene, &ad, NULL, err);
     }
-    return vbnl_scene_add_point_light(L->c.scene, P, I, NULL, err);
+    uint32_t id;
+    vbnl_result r = vbnl_scene_add_point_light(L->c.scene, P, I, &id, err);
+    return r == VBNL_OK && l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : r;
 }

@@ -99,6 +99,25 @@ static vbnl_result st_sky_sphere(const pov_item *it)
     return pov_sky_sphere_parse(it->ctx, &it->loc);
 }
 
+static vbnl_result st_fog(const pov_item *it)
+{
+    vbnl_sdl_next(it->p);
+    return pov_fog_parse(it->ctx, &it->loc);
+}
+
+/* media { } at the top level: atmospheric media, filling the space outside objects */
+static vbnl_result st_media(const pov_item *it)
+{
+    pov_loader *L = it->ctx;
+    vbnl_sdl_next(it->p);
+    if (L->natmosphere >= VBNL_MEDIUM_PARTS_MAX)
+        return vbnl_sdl_error(it->p, &it->loc, "a scene holds at most %u atmospheric media", VBNL_MEDIUM_PARTS_MAX);
+    vbnl_result r = pov_media_parse(&L->c, &L->atmosphere[L->natmosphere]);
+    if (r == VBNL_OK && L->atmosphere[L->natmosphere].phase)
+        L->natmosphere++;
+    return r;
+}
+
 static vbnl_result st_unsupported(const pov_item *it)
 {
     vbnl_sdl_next(it->p);
@@ -111,9 +130,9 @@ static const pov_row statement_rows[] = {
     {"global_settings", st_global_settings, 0},
     {"background", st_background, 0},
     {"sky_sphere", st_sky_sphere, 0},
-    {"fog", st_unsupported, 0},
+    {"fog", st_fog, 0},
     {"rainbow", st_unsupported, 0},
-    {"media", st_unsupported, 0},
+    {"media", st_media, 0},
     {"atmosphere", st_unsupported, 0},
     {NULL, NULL, 0},
 };
@@ -344,6 +363,7 @@ done:
     free(L->sphere_groups);
     free(L->warned);
     pov_sky_free(L->sky);
+    free(L->fogs);
     pov_texture_state_destroy(&L->c);
     vbnl_sdl_parser_destroy(L->c.parser);
     vbnl_scene_destroy(L->c.scene);

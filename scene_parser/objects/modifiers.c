@@ -96,12 +96,13 @@ static vbnl_result mod_inverse(const pov_item *it) /* swaps inside and outside (
     return VBNL_OK;
 }
 
+/* POV-Ray's no_shadow: shadow rays pass the object (docs/integrators.md, "Media": visibility) */
 static vbnl_result mod_no_shadow(const pov_item *it)
 {
-    pov_loader *L = it->ctx;
+    pov_obj *o = ((pov_mods *)it->target)->o;
     vbnl_sdl_next(it->p);
-    if (!L->warned_no_shadow++)
-        vbnl_sdl_warning(it->p, &it->loc, "no_shadow is ignored: every object casts shadows under global illumination");
+    for (size_t i = 0; i < o->n; ++i)
+        o->v[i].no_shadow = 1;
     return VBNL_OK;
 }
 

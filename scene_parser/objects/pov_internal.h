@@ -33,6 +33,16 @@ typedef struct pov_ctx {
     pov_texture_state *tex;  /* pov_texture_state_create / _destroy */
 } pov_ctx;
 
+/* ---- media (texture/interior.c) ------------------------------------------------------------ */
+
+/* media { } (POV-Ray 3.7 reference "Media"), the parser on '{': absorption, emission and
+ * scattering { type, colour [eccentricity] [extinction] } onto one part of a core medium; the
+ * sampling controls (method, intervals, samples, ...) are read and not needed (the core samples
+ * media without bias); density { } and a scattering extinction other than 1 are approximated and
+ * warned about (docs/scene-language.md, "Media"). A declared media identifier inside is not
+ * supported: warned, and part->phase is 0 (the caller leaves the part out). */
+vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part);
+
 /* ---- texture part: state ------------------------------------------------------------------ */
 
 vbnl_result pov_texture_state_create(pov_ctx *c, vbnl_error *err);

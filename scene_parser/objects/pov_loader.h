@@ -31,6 +31,13 @@ typedef struct pov_cam {
     int mesh_smooth;
 } pov_cam;
 
+/* A fog { } block as read (fog.c). */
+typedef struct pov_fog {
+    double type, distance, color[5], offset, alt, up[3];
+    double turbulence[3], turb_depth, omega, lambda, octaves;
+    vbnl_sdl_loc loc;
+} pov_fog;
+
 typedef struct pov_loader {
     pov_ctx c;
     pov_obj world;           /* every object placed in the scene */
@@ -41,13 +48,17 @@ typedef struct pov_loader {
     double env[3];           /* background colour */
     int have_env;
     struct pov_sky *sky;     /* the sky_sphere (environment.c) or NULL */
+    pov_fog *fogs;           /* fog { } blocks, in order */
+    size_t nfogs;
+    vbnl_medium_part_desc atmosphere[VBNL_MEDIUM_PARTS_MAX]; /* top-level media { } blocks */
+    uint32_t natmosphere;
     char integrator[64];
     vbnl_params *params;
     char **diags;            /* warnings and notes, kept for vbnl_pov_scene_diag_text */
     size_t ndiags;
     vbnl_sdl_diag_fn user_diag;
     void *user_diag_user;
-    int warned_shadowless, warned_no_shadow;
+    int warned_shadowless;   /* a shadowless area_light was warned about */
     int files_disabled;      /* includes disabled: vbnl_mesh is refused too */
     vbnl_sdl_loc *warned;    /* skipped shapes already warned about */
     size_t nwarned;
@@ -178,6 +189,12 @@ void pov_sky_free(pov_sky *s);
 extern const vbnl_sdl_opaque_type pov_sky_type;
 /* The environment onto the core scene: the sky_sphere over the background, or the background. */
 vbnl_result pov_environment_build(pov_loader *L, vbnl_error *err);
+/* fog { } (fog.c); the parser is after the keyword at loc. Errors name loc for a fog_type other
+ * than 1 or 2, a distance or fog_alt that is not positive, a zero up vector. */
+vbnl_result pov_fog_parse(pov_loader *L, const vbnl_sdl_loc *loc);
+/* Adds the fogs read and the atmospheric media (top-level media { }: the core's atmosphere) to the
+ * core scene. */
+vbnl_result pov_fogs_build(pov_loader *L, vbnl_error *err);
 
 /* ---- building (build.c) ------------------------------------------------------------------------ */
 

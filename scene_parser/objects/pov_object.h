@@ -34,6 +34,7 @@ typedef struct pov_light {
     int area;
     double axis1[3], axis2[3];
     double fade_distance, fade_power;
+    int shadowless;      /* casts no shadows (point, spot and parallel lights) */
 } pov_light;
 
 /* The inside of a shape that tessellates to a mesh (box, cylinder, cone, torus) or of a CSG, in
@@ -57,6 +58,7 @@ typedef struct pov_prim {
     char *path;          /* IMPORT: resolved file name (owned) */
     pov_solid *solid;    /* MESH: its inside for CSG (a reference), NULL when it has none; SURFACE: the shape */
     int inverse;         /* `inverse`: inside and outside swapped (CSG) */
+    int no_shadow;       /* `no_shadow`: casts no shadow (the core's VBNL_VISIBLE_NO_SHADOW) */
     vbnl_sdl_loc loc;
 } pov_prim;
 

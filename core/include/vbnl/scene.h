@@ -46,6 +46,9 @@ typedef enum vbnl_material_type {
     VBNL_MATERIAL_MIRROR = 3,     /* perfect specular reflection tinted by base_color */
     VBNL_MATERIAL_DIELECTRIC = 4, /* smooth glass: Fresnel reflection + refraction, tint base_color;
                                    * ior 1 lets light through unchanged */
+    VBNL_MATERIAL_BRILLIANCE = 5, /* diffuse with POV-Ray's brilliance b >= 1: f = albedo (b + 1) /
+                                   * (2 pi) (cos_i cos_o)^(b - 1), reciprocal and energy-conserving
+                                   * (albedo base_color cos_o^(b - 1)); b = 1 is Lambertian */
 } vbnl_material_type;
 
 typedef struct vbnl_material_desc {
@@ -63,10 +66,19 @@ typedef struct vbnl_material_desc {
                            * pigment's (r, g, b) there (component-wise; set base_color to 1 to let
                            * the pigment replace it; its filter and transmit are not used here:
                            * see VBNL_NODE_TEXTURED). Emission is not textured. */
+    uint32_t interior;    /* what a ray that crosses the surface inward (against the geometric
+                           * normal, through a transmitting BSDF) travels in: VBNL_INTERIOR_SAME
+                           * (0, the medium outside continues), VBNL_INTERIOR_CLEAR (nothing), or
+                           * a medium id + 1 (vbnl_scene_add_medium); crossing outward returns to
+                           * what the ray was in before */
+    float brilliance;     /* VBNL_MATERIAL_BRILLIANCE: the exponent b, >= 1 */
 } vbnl_material_desc;
 
+#define VBNL_INTERIOR_SAME 0u
+#define VBNL_INTERIOR_CLEAR UINT32_MAX
+
 /* Fills `d` with its size and the defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no
- * emission, no texture. */
+ * emission, no texture, interior VBNL_INTERIOR_SAME, brilliance 1. */
 void vbnl_material_desc_init(vbnl_material_desc *d);
 
 /* ---- textures: patterns, pigments, normals and materials that vary over surfaces ---------- */
@@ -682,6 +694,108 @@ void vbnl_environment_desc_init(vbnl_environment_desc *d);
  * VBNL_ERR_OUT_OF_MEMORY. Not thread-safe (as every scene edit). */
 vbnl_result vbnl_scene_set_environment_pigments(vbnl_scene *scene, const vbnl_environment_desc *d,
                                                 vbnl_error *err);
+/* Opacity (alpha) of the pixels where camera rays see only the environment: 1 by default (an
+ * opaque background), 0 for POV-Ray's transparent background under Output_Alpha (+UA). Seen through
+ * transmitting surfaces and media, the alpha is 1 - (1 - this) x the light they let through. */
+vbnl_result vbnl_scene_set_background_alpha(vbnl_scene *scene, float alpha, vbnl_error *err);
+
+/* Per-geometry visibility (POV-Ray's object modifiers), for a mesh, sphere or instance id: */
+enum {
+    VBNL_VISIBLE_NO_SHADOW = 1u << 0,     /* blocks no shadow ray: casts no shadow (no_shadow) */
+    VBNL_VISIBLE_NO_IMAGE = 1u << 1,      /* invisible to camera rays (no_image) */
+    VBNL_VISIBLE_NO_REFLECTION = 1u << 2, /* invisible after a specular reflection (no_reflection) */
+};
+/* Sets the flags (a combination of VBNL_VISIBLE_*) of geometry `geom` (an id of add_mesh,
+ * add_sphere or add_instance). Errors: VBNL_ERR_INVALID_ARGUMENT for an unknown id. */
+vbnl_result vbnl_scene_set_visibility(vbnl_scene *scene, uint32_t geom, uint32_t flags, vbnl_error *err);
+
+/* A light of add_*_light (not an emissive surface) that casts no shadow: POV-Ray's `shadowless`.
+ * Its direct light is found by next-event estimation without shadow rays (and only by it);
+ * photons and virtual lights still see occluders. */
+vbnl_result vbnl_scene_set_light_shadowless(vbnl_scene *scene, uint32_t light, int shadowless, vbnl_error *err);
+
+/* ---- participating media and fog ---------------------------------------------------------- */
+
+/* A medium fills the inside of the surfaces whose material names it (vbnl_material_desc.interior)
+ * or, as the atmosphere, all space outside them (vbnl_scene_set_atmosphere). Each medium is a sum
+ * of up to VBNL_MEDIUM_PARTS_MAX parts (POV-Ray's media blocks of one interior): absorption
+ * sigma_a, scattering sigma_s (per unit length) with a phase function, and emitted radiance per
+ * unit length, each multiplied at a point by the product of the part's density pigments there
+ * (their r, g, b; filter and transmit unused). Rendering: delta tracking with the medium's
+ * majorant for the distance to the next interaction, ratio tracking for the transmittance of
+ * shadow rays, closed forms where a medium has no density pattern (README: docs/integrators.md,
+ * "Media"). */
+#define VBNL_MEDIUM_PARTS_MAX 8u
+#define VBNL_MEDIUM_DENSITY_MAX 8u
+
+/* Phase functions, normalised over the sphere, of the cosine mu between the directions of travel
+ * before and after scattering (POV-Ray's scattering types 1 to 5 in its order). */
+typedef enum vbnl_phase_kind {
+    VBNL_PHASE_ISOTROPIC = 1,         /* 1 / (4 pi) */
+    VBNL_PHASE_MIE_HAZY = 2,          /* (1 + 9 ((1 + mu) / 2)^8) / (8 pi) */
+    VBNL_PHASE_MIE_MURKY = 3,         /* (1 + 50 ((1 + mu) / 2)^32) 33 / (332 pi) */
+    VBNL_PHASE_RAYLEIGH = 4,          /* 3 (1 + mu^2) / (16 pi) */
+    VBNL_PHASE_HENYEY_GREENSTEIN = 5, /* (1 - g^2) / (4 pi (1 + g^2 - 2 g mu)^1.5), g in (-1, 1) */
+} vbnl_phase_kind;
+
+typedef struct vbnl_medium_part_desc {
+    float absorption[3];      /* sigma_a, >= 0 */
+    float scattering[3];      /* sigma_s, >= 0 */
+    float emission[3];        /* radiance emitted per unit length, >= 0 */
+    vbnl_phase_kind phase;
+    float g;                  /* HENYEY_GREENSTEIN: the eccentricity */
+    const uint32_t *density;  /* pigment ids (not + 1) whose colours multiply the part, evaluated at
+                               * the world point; 0..VBNL_MEDIUM_DENSITY_MAX of them */
+    uint32_t density_count;
+} vbnl_medium_part_desc;
+
+typedef struct vbnl_medium_desc {
+    uint32_t size;            /* sizeof(vbnl_medium_desc) (vbnl_medium_desc_init) */
+    const vbnl_medium_part_desc *parts; /* 1..VBNL_MEDIUM_PARTS_MAX */
+    uint32_t part_count;
+} vbnl_medium_desc;
+
+void vbnl_medium_desc_init(vbnl_medium_desc *d);
+/* Adds a medium (arrays copied). Errors: VBNL_ERR_INVALID_ARGUMENT for a wrong size field, no
+ * parts or too many, negative or non-finite coefficients, an unknown phase function or |g| >= 1,
+ * unknown pigment ids, a density pigment whose colours have no finite upper bound. */
+vbnl_result vbnl_scene_add_medium(vbnl_scene *scene, const vbnl_medium_desc *desc, uint32_t *out_id,
+                                  vbnl_error *err);
+/* The medium filling space outside every surface whose material has an interior of its own
+ * (id + 1; 0 = none, the default). Rays start from the camera and lights in it. */
+vbnl_result vbnl_scene_set_atmosphere(vbnl_scene *scene, uint32_t medium, vbnl_error *err);
+
+/* POV-Ray's fog (reference "Fog"): applied over every ray segment travelled outside surfaces
+ * whose material has an interior (where the atmosphere is), in closed form per segment of length
+ * d, as POV-Ray applies it per ray: attenuation a = max(exp(-d' / distance), transmit), with d' =
+ * d for constant fog and, for ground fog, d times the mean of the density 1 / (1 + h^2) (1 below
+ * the offset) along the segment, h = (height along `up` - offset) / alt; turbulence scales d' by
+ * 1 - exp(-d / distance) min(1, turbulence(p) turb_depth) at the segment's midpoint p. The
+ * segment lets through a (1 - filter + filter colour) of what arrives from its far end and adds
+ * (1 - a) colour: an absorbing medium emitting the fog colour, which reproduces POV-Ray's blend
+ * exactly on camera rays. Several fogs multiply their attenuations and add their colours, as in
+ * POV-Ray. */
+typedef enum vbnl_fog_kind {
+    VBNL_FOG_CONSTANT = 1,
+    VBNL_FOG_GROUND = 2,
+} vbnl_fog_kind;
+
+typedef struct vbnl_fog_desc {
+    uint32_t size;                  /* sizeof(vbnl_fog_desc) (vbnl_fog_desc_init) */
+    vbnl_fog_kind kind;
+    float distance;                 /* > 0 */
+    float color[5];                 /* r, g, b, filter, transmit */
+    float offset, alt;              /* GROUND: fog_offset, fog_alt (> 0) */
+    float up[3];                    /* GROUND: the up direction (normalised by the core) */
+    vbnl_turbulence_desc turbulence; /* amount 0: none */
+    float turb_depth;               /* 0.5 */
+    int noise_generator;            /* 1, 2 or 3 */
+} vbnl_fog_desc;
+
+void vbnl_fog_desc_init(vbnl_fog_desc *d);
+/* Adds a fog. Errors: VBNL_ERR_INVALID_ARGUMENT for a wrong size field, an unknown kind, a
+ * distance or alt that is not positive and finite, non-finite colours or a zero up vector. */
+vbnl_result vbnl_scene_add_fog(vbnl_scene *scene, const vbnl_fog_desc *desc, vbnl_error *err);
 
 /* ---- camera ------------------------------------------------------------------------------- */
 

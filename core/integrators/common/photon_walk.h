@@ -56,6 +56,9 @@ typedef struct vbnl_photon_walk_desc {
     int rr_depth;           /* bounces before Russian roulette */
     int max_depth;          /* 0 = unlimited (up to VBNL_PHOTON_SAFETY_DEPTH) */
     int rr_sqrt;            /* 1: VBNL authors' sqrt rule; 0: survival = sampled albedo ratio */
+    int visit_delta_nodes;  /* 1: also visit the delta hits of material nodes (photon splitting:
+                             * a VBNL light stands for its own leaf over its whole disk, so the
+                             * irradiance of the node's mirror-chosen points is its too) */
 } vbnl_photon_walk_desc;
 typedef struct vbnl_photon_walk_stats {
     uint64_t rays, hits, delta_hits;
@@ -121,6 +124,10 @@ vbnl_photon_scatter(const vbnl_photon_walk_desc *w, vbnl_rng *rng, vbnl_photon_s
     }
     if (vbnl_bsdf_is_delta(bsdf)) {
         st->delta_hits++;
+        if (w->visit_delta_nodes && sc->materials[hit->material].is_node) {
+            vbnl_photon_vertex v = {hit, bsdf, ng, ns, wo_w, beta, ps->depth};
+            visit(user, &v);
+        }
     } else {
         vbnl_photon_vertex v = {hit, bsdf, ng, ns, wo_w, beta, ps->depth};
         visit(user, &v);

@@ -283,7 +283,7 @@ static void run_chunk(void *user, uint64_t item, unsigned thread)
     chunk_out *o = &job->out[item];
     uint64_t b = job->first + item * VPL_CHUNK;
     uint64_t e = b + VPL_CHUNK < job->end ? b + VPL_CHUNK : job->end;
-    vbnl_photon_walk_desc wd = {job->scene, 1.0f, job->p->rr_depth, 0, 0};
+    vbnl_photon_walk_desc wd = {job->scene, 1.0f, job->p->rr_depth, 0, 0, 0};
     vbnl_photon_walk_stats ws = {0, 0, 0};
     for (uint64_t k = b; k < e; ++k) {
         vbnl_rng rng = vbnl_rng_for(job->seed, k, 0);

@@ -16,6 +16,8 @@ static const vbnl_param_spec path_params[] = {
      "also write 'direct' (emission and one-bounce light) and 'indirect' layers"},
     {"indirect_only", VBNL_PARAM_BOOL, 0, NULL, 0, 1, NULL,
      "leave out emission and single scattering (the 'direct' part), to compare indirect light"},
+    {"clamp", VBNL_PARAM_FLOAT, 0, NULL, 0, 1e30, NULL,
+     "largest contribution one path vertex adds (its largest channel); 0 = off. Removes fireflies, biased"},
 };
 
 typedef struct path_state {
@@ -24,6 +26,7 @@ typedef struct path_state {
     int rr_depth;
     int split;
     int indirect_only;
+    float clamp; /* > 0: each contribution scaled down to this largest channel */
     uint32_t off_direct, off_indirect;
     uint32_t stride;
     vec3 cam_forward;
@@ -40,6 +43,7 @@ static vbnl_result path_create(const vbnl_integrator_env *env, void **out, vbnl_
     ps->rr_depth = (int)vbnl_params_number(env->params, path_params, n, "rr_depth");
     ps->split = vbnl_params_number(env->params, path_params, n, "split_direct") != 0.0;
     ps->indirect_only = vbnl_params_number(env->params, path_params, n, "indirect_only") != 0.0;
+    ps->clamp = (float)vbnl_params_number(env->params, path_params, n, "clamp");
     if (ps->split) {
         static const char *const rgb[] = {"R", "G", "B"};
         vbnl_result r;
@@ -65,6 +69,12 @@ static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct
 {
     if (ps->indirect_only && is_direct) /* the setting first: it is the predictable test */
         return;
+    if (ps->clamp > 0.0f) {
+        /* the user's bias for fewer fireflies (docs/integrators.md, "path") */
+        const float m = v3_max_comp(c);
+        if (m > ps->clamp)
+            c = v3_scale(c, ps->clamp / m);
+    }
     out[0] += c.x;
     out[1] += c.y;
     out[2] += c.z;
@@ -147,6 +157,17 @@ static inline __attribute__((always_inline)) void trace_path(const path_state *p
     }
 }
 
+typedef struct path_add_ctx {
+    const path_state *ps;
+    float *out;
+} path_add_ctx;
+
+static void path_walk_add(void *user, vec3 c, int is_direct)
+{
+    const path_add_ctx *a = user;
+    add_L(a->ps, a->out, c, is_direct);
+}
+
 /* Works on a copy of the sampler (written back at the end): through the pointer its state would
  * be stored and reloaded around every Embree call. */
 static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
@@ -154,7 +175,16 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
 {
     const path_state *ps = state;
     vbnl_sampler r = *sp;
-    trace_path(ps, &r, o, d, hit_ok, first, out, stats);
+    const vbnl_scene *sc = ps->scene;
+    if (sc->has_media || sc->has_null || sc->has_masks) {
+        /* media, pass-through surfaces or visibility flags: the walk between vertices */
+        path_add_ctx a = {ps, out};
+        out[3] = 1.0f;
+        vbnl_trace_path_walk(sc, &r, o, d, hit_ok, first, ps->max_depth, ps->rr_depth, path_walk_add, &a, out,
+                             stats);
+    } else {
+        trace_path(ps, &r, o, d, hit_ok, first, out, stats);
+    }
     *sp = r;
 }
 

@@ -205,7 +205,7 @@ static void ph_chunk(void *user, uint64_t item, unsigned thread)
     b->n = 0;
     ph_visit pv = {b};
     /* plain Russian roulette (survival = sampled albedo) from the first bounce on */
-    vbnl_photon_walk_desc wd = {job->sc, 1.0f, 1, 0, 0};
+    vbnl_photon_walk_desc wd = {job->sc, 1.0f, 1, 0, 0, 0};
     for (uint64_t k = 0; k < PH_CHUNK; ++k) {
         uint64_t path = job->first_path + item * PH_CHUNK + k;
         vbnl_rng rng = vbnl_rng_for(job->seed ^ PHOTON_STREAM, path, 0);

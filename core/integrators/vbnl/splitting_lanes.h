@@ -463,7 +463,7 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
 {
     const vbnl_split_desc *d = job->d;
     const vbnl_scene *sc = d->scene;
-    vbnl_photon_walk_desc w = {sc, job->inv_paths, d->rr_depth, d->max_depth, 1};
+    vbnl_photon_walk_desc w = {sc, job->inv_paths, d->rr_depth, d->max_depth, 1, 1};
     vbnl_photon_walk_stats ws = {0, 0, 0};
     split_visit sv = {job, t};
     const vbnl_photon_visit_fn visit = rec ? split_visit_fn : skip_visit_fn;

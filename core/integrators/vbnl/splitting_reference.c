@@ -195,7 +195,7 @@ vbnl_result vbnl_split_photons_reference(const vbnl_split_desc *d, vbnl_split_st
         rs.radius[r] = vbnl_vl_index_radius(d->index, rs.id[r]);
     }
     /* the walk of splitting.h: the authors' square-root roulette, the flux over all photon_paths */
-    const vbnl_photon_walk_desc w = {d->scene, (float)(1.0 / (double)d->photon_paths), d->rr_depth, d->max_depth, 1};
+    const vbnl_photon_walk_desc w = {d->scene, (float)(1.0 / (double)d->photon_paths), d->rr_depth, d->max_depth, 1, 1};
     for (uint64_t k = d->first_path; res == VBNL_OK && k < end; ++k) {
         vbnl_rng rng = vbnl_rng_for(d->seed, k, 0);
         vbnl_photon_walk_stats ws = {0, 0, 0};

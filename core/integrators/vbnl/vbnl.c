@@ -720,6 +720,9 @@ static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_
 static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     vbnl_state *s = state;
+    /* a scene with media is path traced (trace): no virtual lights to prepare */
+    if (s->scene->has_media)
+        return VBNL_OK;
     vbnl_result r = s->load_path ? prepare_from_file(s, stage, err) : prepare_from_scene(s, stage, err);
     if (r != VBNL_OK || s->placement_only)
         return r; /* a placement is saved, not rendered: no light has any power yet */
@@ -983,6 +986,18 @@ static void power_trace(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_s
     }
 }
 
+typedef struct vbnl_media_add_ctx {
+    float *out;
+    int indirect_only;
+} vbnl_media_add_ctx;
+
+static void vbnl_media_add(void *user, vec3 c, int is_direct)
+{
+    const vbnl_media_add_ctx *a = user;
+    if (!(a->indirect_only && is_direct))
+        add_L(a->out, c);
+}
+
 static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
                   vbnl_thread_stats *stats)
 {
@@ -996,6 +1011,13 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
     uint8_t lit[VL_GATHER_MAX];
     int vertices = 0;
     out[3] = 1.0f;
+    if (sc->has_media) {
+        /* Media: path tracing with the walk between vertices (the virtual lights are placed for surfaces and do not light points in media;
+         * docs/integrators.md, "Media"). */
+        vbnl_media_add_ctx a = {out, s->indirect_only};
+        vbnl_trace_path_walk(sc, sp, o, d, hit_ok, first, s->max_depth, s->rr_depth, vbnl_media_add, &a, out, stats);
+        return;
+    }
     /* what the camera sees directly */
     /* indirect_only: emission seen directly or through delta bounces, and single scattering at
      * the first non-delta vertex, are left out (the split of path.c) */
@@ -1024,12 +1046,16 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
     if (power_on)
         pick = vbnl_vl_shade_pick_start(&s->shade, vbnl_sampler_next(sp));
     int direct_phase = 1; /* no non-delta vertex yet */
+    vbnl_bsdf y_store; /* the BSDF at the next vertex, resolved when it was reached */
+    const vbnl_bsdf *y_bsdf = NULL;
     for (int depth = 0;; ++depth) {
         vertices++;
         if (s->max_depth >= 0 && depth >= s->max_depth)
             break;
         vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+        const vbnl_bsdf *bsdf = y_bsdf == &y_store ? (bsdf_store = y_store, &bsdf_store)
+                                : y_bsdf           ? y_bsdf
+                                                   : vbnl_surface_bsdf(sc, &hit, &bsdf_store);
         vbnl_shading_frame sf;
         vbnl_shading_frame_make(bsdf, &hit, d, &sf);
         const int delta = vbnl_bsdf_is_delta(bsdf);
@@ -1104,6 +1130,12 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         hit = y;
         /* No light containing y means w_v = 0 (§4.2). */
         float wv = 0.0f;
+        /* A point whose BSDF is a delta (a mirror member of a material node) is not lit by the
+         * lights: they stand for the diffuse and glossy points around them, and the path goes on
+         * through it. */
+        y_bsdf = vbnl_surface_bsdf(sc, &hit, &y_store);
+        if (gather_y && vbnl_bsdf_is_delta(y_bsdf))
+            gather_y = 0;
         if (gather_y) {
             uint32_t n = gather_filter(s, &hit, w, cand, nc, ranks);
             if (n > 0) {

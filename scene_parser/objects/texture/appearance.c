@@ -211,7 +211,7 @@ static vbnl_result declared_value(const pov_item *it)
         break;
     }
     case TAG_INTERIOR: {
-        pov_interior *in = malloc(sizeof(*in));
+        pov_interior *in = calloc(1, sizeof(*in));
         if (in)
             in->ior = 1.0;
         r = in ? pov_interior_parse(c, in) : vbnl_sdl_error(it->p, &it->loc, "out of memory");

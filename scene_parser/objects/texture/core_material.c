@@ -362,6 +362,7 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
             md->base_color[k] = clamp_albedo(&b->notes, pc[k], "albedo");
         return;
     }
+    md->interior = in->medium; /* what a ray that enters travels in (its media) */
     double refl = (f->reflection[0] + f->reflection[1] + f->reflection[2]) / 3.0;
     if (f->metallic && (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0)) {
         md->type = VBNL_MATERIAL_CONDUCTOR;
@@ -380,7 +381,9 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
         scale[0] = scale[1] = scale[2] = f->diffuse;
     } else {
-        md->type = VBNL_MATERIAL_LAMBERT;
+        /* brilliance b > 1: POV-Ray's cos^b falloff as a reciprocal BSDF (VBNL_MATERIAL_BRILLIANCE) */
+        md->type = f->brilliance > 1.0 ? VBNL_MATERIAL_BRILLIANCE : VBNL_MATERIAL_LAMBERT;
+        md->brilliance = (float)f->brilliance;
         scale[0] = scale[1] = scale[2] = f->diffuse;
     }
     for (int k = 0; k < 3; ++k)
@@ -465,11 +468,14 @@ static vbnl_result build_plain(build *b, const pov_texture *t, const pov_interio
             return r;
         nd.normal = n + 1;
     }
-    if (in->ior > 1.0) { /* the light the pigment lets through refracts into the interior */
+    if (in->ior > 1.0 || in->medium) {
+        /* the light the pigment lets through refracts into the interior (or enters its media
+         * unrefracted: ior 1) */
         vbnl_material_desc glass;
         vbnl_material_desc_init(&glass);
         glass.type = VBNL_MATERIAL_DIELECTRIC;
         glass.ior = (float)in->ior;
+        glass.interior = in->medium;
         glass.base_color[0] = glass.base_color[1] = glass.base_color[2] = 1.0f;
         uint32_t gid;
         if ((r = vbnl_scene_add_material(c->scene, &glass, &gid, b->err)) != VBNL_OK)

@@ -10,6 +10,7 @@ void pov_finish_init(pov_finish *f)
     f->diffuse = 0.6;
     f->roughness = 0.05;
     f->phong_size = 40.0;
+    f->brilliance = 1.0;
 }
 
 vbnl_result pov_parse_color3(pov_ctx *c, double out[3])
@@ -163,8 +164,12 @@ static vbnl_result amount(const pov_item *it)
         f->phong_size = v;
     } else if (is_metal) {
         f->metallic = v > 0.0;
-    } else if (!strcmp(kw, "brilliance") && v != 1.0) {
-        vbnl_sdl_warning(p, &it->loc, "'brilliance' is ignored (the diffuse lobe is Lambertian)");
+    } else if (!strcmp(kw, "brilliance")) {
+        /* b > 1: the core's brilliance BSDF (docs/scene-language.md); b < 1 widens POV-Ray's
+         * falloff beyond Lambert's, which no energy-conserving reciprocal lobe does */
+        if (v < 1.0)
+            vbnl_sdl_warning(p, &it->loc, "'brilliance' %g below 1 is rendered as 1 (Lambertian)", v);
+        f->brilliance = v > 1000.0 ? 1000.0 : v < 1.0 ? 1.0 : v;
     }
     return VBNL_OK;
 }

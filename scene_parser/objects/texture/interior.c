@@ -27,13 +27,185 @@ static vbnl_result fade_color(const pov_item *it)
     return VBNL_OK;
 }
 
-static vbnl_result media(const pov_item *it)
+/* ---- media { } ------------------------------------------------------------------------------ */
+
+typedef struct media_item {
+    vbnl_medium_part_desc *part;
+    double extinction;
+    int warned_density;
+    int declared; /* a declared media identifier was named: the block is left out */
+} media_item;
+
+static vbnl_result media_colour(const pov_item *it, float out[3])
 {
+    double col[3];
+    vbnl_sdl_next(it->p);
+    if (pov_parse_color3(it->ctx, col) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    for (int k = 0; k < 3; ++k) {
+        if (!(col[k] >= 0.0) || !(col[k] < 1e30))
+            return vbnl_sdl_error(it->p, &it->loc, "media %s must be finite and not negative (got %g)", it->kw, col[k]);
+        out[k] = (float)col[k];
+    }
+    return VBNL_OK;
+}
+
+static vbnl_result media_absorption(const pov_item *it)
+{
+    return media_colour(it, ((media_item *)it->target)->part->absorption);
+}
+
+static vbnl_result media_emission(const pov_item *it)
+{
+    return media_colour(it, ((media_item *)it->target)->part->emission);
+}
+
+static vbnl_result scat_eccentricity(const pov_item *it)
+{
+    double g;
+    vbnl_sdl_next(it->p);
+    if (vbnl_sdl_parse_float(it->p, &g) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (!(g > -1.0 && g < 1.0))
+        return vbnl_sdl_error(it->p, &it->loc, "eccentricity must lie in (-1, 1) (got %g)", g);
+    ((media_item *)it->target)->part->g = (float)g;
+    return VBNL_OK;
+}
+
+static vbnl_result scat_extinction(const pov_item *it)
+{
+    vbnl_sdl_next(it->p);
+    return vbnl_sdl_parse_float(it->p, &((media_item *)it->target)->extinction);
+}
+
+static const pov_row scattering_rows[] = {
+    {"eccentricity", scat_eccentricity, 0},
+    {"extinction", scat_extinction, 0},
+    {NULL, NULL, 0},
+};
+static const pov_row *const scattering_tables[] = {scattering_rows, NULL};
+static const pov_block scattering_items = {.name = "scattering",
+                                           .tables = scattering_tables,
+                                           .unknown = pov_block_unexpected_word};
+
+/* scattering { type, colour [eccentricity g] [extinction e] } */
+static vbnl_result media_scattering(const pov_item *it)
+{
+    media_item *m = it->target;
+    vbnl_sdl_next(it->p);
+    double type;
+    if (vbnl_sdl_expect(it->p, '{', "after 'scattering'") != VBNL_OK || vbnl_sdl_parse_float(it->p, &type) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (!(type == 1 || type == 2 || type == 3 || type == 4 || type == 5))
+        return vbnl_sdl_error(it->p, &it->loc, "scattering type must be 1 to 5 (got %g)", type);
+    m->part->phase = (vbnl_phase_kind)(int)type;
+    if (pov_is_punct(vbnl_sdl_peek(it->p), ','))
+        vbnl_sdl_next(it->p);
+    double col[3];
+    if (pov_parse_color3(it->ctx, col) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    for (int k = 0; k < 3; ++k) {
+        if (!(col[k] >= 0.0) || !(col[k] < 1e30))
+            return vbnl_sdl_error(it->p, &it->loc, "scattering colour must be finite and not negative (got %g)", col[k]);
+        m->part->scattering[k] = (float)col[k];
+    }
+    return pov_block_parse(&scattering_items, it->p, it->ctx, m, NULL);
+}
+
+/* density { }: the medium is taken as constant (its density 1 everywhere). */
+static vbnl_result media_density(const pov_item *it)
+{
+    media_item *m = it->target;
     vbnl_sdl_next(it->p);
     if (vbnl_sdl_skip_block(it->p) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    vbnl_sdl_warning(it->p, &it->loc, "'media' is not supported: ignored");
+    if (!m->warned_density)
+        vbnl_sdl_warning(it->p, &it->loc, "media density is not supported: the medium is taken as constant");
+    m->warned_density = 1;
     return VBNL_OK;
+}
+
+/* Sampling controls: one float, or two for `samples min, max`. */
+static vbnl_result media_control(const pov_item *it)
+{
+    double v;
+    vbnl_sdl_next(it->p);
+    if (vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (pov_is_punct(vbnl_sdl_peek(it->p), ',')) {
+        vbnl_sdl_next(it->p);
+        if (vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+    }
+    return VBNL_OK;
+}
+
+static void media_transform(const pov_item *it, const double m[16]) /* moves the density only */
+{
+    (void)it;
+    (void)m;
+}
+
+static const pov_row media_rows[] = {
+    {"absorption", media_absorption, 0},
+    {"emission", media_emission, 0},
+    {"scattering", media_scattering, 0},
+    {"density", media_density, 0},
+    {"method", media_control, 0},
+    {"intervals", media_control, 0},
+    {"samples", media_control, 0},
+    {"confidence", media_control, 0},
+    {"variance", media_control, 0},
+    {"ratio", media_control, 0},
+    {"jitter", media_control, 0},
+    {"aa_threshold", media_control, 0},
+    {"aa_level", media_control, 0},
+    {NULL, NULL, 0},
+};
+/* A declared media (`media { Media }`): not kept as a value, so the block is left out, warned. */
+static vbnl_result media_unknown(const pov_item *it)
+{
+    if (it->tok->kind != VBNL_SDL_TOK_IDENT || !vbnl_sdl_lookup(it->p, it->tok->text))
+        return pov_block_unexpected_word(it);
+    vbnl_sdl_warning(it->p, &it->loc, "declared media '%s' is not supported: the media is left out", it->tok->text);
+    ((media_item *)it->target)->declared = 1;
+    vbnl_sdl_next(it->p);
+    return VBNL_OK;
+}
+
+static const pov_row *const media_tables[] = {media_rows, pov_pattern_transform_rows, NULL};
+static const pov_block media_items = {.name = "media",
+                                      .tables = media_tables,
+                                      .unknown = media_unknown,
+                                      .transform = media_transform};
+
+vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part)
+{
+    memset(part, 0, sizeof(*part));
+    part->phase = VBNL_PHASE_ISOTROPIC;
+    vbnl_sdl_loc loc = vbnl_sdl_peek(c->parser)->loc;
+    if (vbnl_sdl_expect(c->parser, '{', "after 'media'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    media_item m = {part, 1.0, 0, 0};
+    vbnl_result r = pov_block_parse(&media_items, c->parser, c, &m, NULL);
+    if (m.declared)
+        part->phase = 0; /* left out: the callers keep only parts with a phase */
+    if (r == VBNL_OK && m.extinction != 1.0)
+        vbnl_sdl_warning(c->parser, &loc, "scattering extinction %g is not supported: scattering extincts fully (1)",
+                         m.extinction);
+    return r;
+}
+
+static vbnl_result media(const pov_item *it)
+{
+    pov_interior *in = it->target;
+    vbnl_sdl_next(it->p);
+    if (in->nmedia >= VBNL_MEDIUM_PARTS_MAX)
+        return vbnl_sdl_error(it->p, &it->loc, "an interior holds at most %u media", VBNL_MEDIUM_PARTS_MAX);
+    vbnl_result r = pov_media_parse(it->ctx, &in->media[in->nmedia]);
+    if (r == VBNL_OK && in->media[in->nmedia].phase)
+        in->nmedia++;
+    return r;
 }
 
 static int copy_interior(void *dst, const void *src)
@@ -61,11 +233,26 @@ static const pov_block interior_items = {.name = "interior",
 
 vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
 {
+    vbnl_sdl_loc loc = vbnl_sdl_peek(c->parser)->loc;
     if (vbnl_sdl_expect(c->parser, '{', "after 'interior'") != VBNL_OK)
         return VBNL_ERR_PARSE;
     if (pov_take_ident(c, &pov_type_interior, in, copy_interior) < 0)
         return VBNL_ERR_PARSE;
-    return pov_block_parse(&interior_items, c->parser, c, in, NULL);
+    const uint32_t had = in->nmedia;
+    vbnl_result r = pov_block_parse(&interior_items, c->parser, c, in, NULL);
+    if (r != VBNL_OK || in->nmedia == had)
+        return r;
+    /* its media make one core medium (a declared interior's medium is shared until media are added) */
+    vbnl_medium_desc md;
+    vbnl_medium_desc_init(&md);
+    md.parts = in->media;
+    md.part_count = in->nmedia;
+    uint32_t id;
+    vbnl_error err = {0};
+    if (vbnl_scene_add_medium(c->scene, &md, &id, &err) != VBNL_OK)
+        return vbnl_sdl_error(c->parser, &loc, "%s", err.message);
+    in->medium = id + 1;
+    return VBNL_OK;
 }
 
 /* ---- material { } ------------------------------------------------------------------------------ */

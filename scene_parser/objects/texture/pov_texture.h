@@ -94,6 +94,7 @@ struct pov_normal {
 
 typedef struct pov_finish {
     double diffuse, emission[3], reflection[3], specular, roughness, phong, phong_size;
+    double brilliance; /* the diffuse falloff exponent (1: Lambert) */
     int metallic;
 } pov_finish;
 
@@ -118,6 +119,9 @@ struct pov_texture {
 
 typedef struct pov_interior {
     double ior;
+    vbnl_medium_part_desc media[VBNL_MEDIUM_PARTS_MAX]; /* its media { } blocks */
+    uint32_t nmedia;
+    uint32_t medium;                                    /* the core medium id + 1 (0: none) */
 } pov_interior;
 
 struct pov_appearance {

@@ -100,6 +100,56 @@ static void test_colors(void **state)
     (void)c;
 }
 
+/* srgb, srgbf, srgbt and srgbft decode their colour channels from sRGB into vbnl's linear space
+ * (POV-Ray's SRGBGammaCurve with assumed_gamma 1); filter, transmit and the channel keywords after
+ * them are kept as written. */
+static void test_srgb_colors(void **state)
+{
+    (void)state;
+    vbnl_sdl_parser *p = sdl_t_ok("#declare A = srgb <1, 0.5, 0.02>;\n"
+                                  "#declare B = srgbf <0.5, 0.5, 0.5, 0.5>;\n"
+                                  "#declare C = srgbt <0.25, 0.75, 0.04045, 0.3>;\n"
+                                  "#declare D = srgbft <0.5, 0.5, 0.5, 0.2, 0.6>;\n"
+                                  "#declare E = srgb 0.5 filter 0.5;\n"
+                                  "#declare F = color srgb <0.5, 0.5, 0.5> green 0.5;\n");
+    const double half = pow((0.5 + 0.055) / 1.055, 2.4); /* 0.21404 */
+    const vbnl_sdl_value *v = sdl_t_value(p, "A", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[0], 1); SDL_T_NEAR(v->v[1], half); SDL_T_NEAR(v->v[2], 0.02 / 12.92);
+    assert_true(fabs(half - 0.214041) < 1e-6);
+    v = sdl_t_value(p, "B", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[0], half); SDL_T_NEAR(v->v[3], 0.5); SDL_T_NEAR(v->v[4], 0);
+    v = sdl_t_value(p, "C", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[0], pow((0.25 + 0.055) / 1.055, 2.4)); SDL_T_NEAR(v->v[1], pow((0.75 + 0.055) / 1.055, 2.4));
+    SDL_T_NEAR(v->v[2], pow((0.04045 + 0.055) / 1.055, 2.4)); SDL_T_NEAR(v->v[3], 0); SDL_T_NEAR(v->v[4], 0.3);
+    v = sdl_t_value(p, "D", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[2], half); SDL_T_NEAR(v->v[3], 0.2); SDL_T_NEAR(v->v[4], 0.6);
+    v = sdl_t_value(p, "E", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[1], half); SDL_T_NEAR(v->v[3], 0.5);
+    v = sdl_t_value(p, "F", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[0], half); SDL_T_NEAR(v->v[1], 0.5);
+    vbnl_sdl_parser_destroy(p);
+}
+
+/* A whole-colour keyword after a colour has begun starts the next one (POV-Ray's Parse_Colour):
+ * `rgb <1, 0, 0> rgb <0, 0, 1>` is two colours, as `checker` reads them without a comma. */
+static void test_color_ends_at_next_color_keyword(void **state)
+{
+    (void)state;
+    vbnl_sdl_parser *p = sdl_t_ok("#declare B = rgbt <0, 1, 0, 0.5> red 1;\n");
+    const vbnl_sdl_value *v = sdl_t_value(p, "B", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[0], 1); SDL_T_NEAR(v->v[1], 1); SDL_T_NEAR(v->v[4], 0.5);
+    vbnl_sdl_parser_destroy(p);
+    p = sdl_t_ok("#declare A = array[3] { rgb <1, 0, 0> rgb <0, 0, 1> srgbt <1, 1, 1, 0.5> }\n"
+                 "#declare A0 = A[0]; #declare A1 = A[1]; #declare A2 = A[2];\n");
+    v = sdl_t_value(p, "A0", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[0], 1); SDL_T_NEAR(v->v[2], 0);
+    v = sdl_t_value(p, "A1", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[0], 0); SDL_T_NEAR(v->v[2], 1);
+    v = sdl_t_value(p, "A2", VBNL_SDL_COLOR);
+    SDL_T_NEAR(v->v[1], 1); SDL_T_NEAR(v->v[4], 0.5);
+    vbnl_sdl_parser_destroy(p);
+}
+
 static void test_strings(void **state)
 {
     (void)state;
@@ -326,7 +376,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_float_arithmetic),  cmocka_unit_test(test_vectors),
-        cmocka_unit_test(test_colors),            cmocka_unit_test(test_strings),
+        cmocka_unit_test(test_colors),            cmocka_unit_test(test_srgb_colors),
+        cmocka_unit_test(test_color_ends_at_next_color_keyword), cmocka_unit_test(test_strings),
         cmocka_unit_test(test_math_builtins),     cmocka_unit_test(test_vector_builtins),
         cmocka_unit_test(test_rand_deterministic), cmocka_unit_test(test_arrays),
         cmocka_unit_test(test_functions),         cmocka_unit_test(test_builtin_identifiers),

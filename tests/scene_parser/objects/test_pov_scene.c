@@ -289,7 +289,7 @@ static void test_integrator_block(void **state)
         expect_error(BASE "global_settings { integrator { \"pathh\" } }", want);
     }
     expect_error(BASE "global_settings {\n  integrator { \"path\" max_dept 4 } }",
-                 "test.pov:4:23: unknown parameter 'max_dept' for integrator 'path'; did you mean 'max_depth'? (valid: max_depth, rr_depth, split_direct, indirect_only)");
+                 "test.pov:4:23: unknown parameter 'max_dept' for integrator 'path'; did you mean 'max_depth'? (valid: max_depth, rr_depth, split_direct, indirect_only, clamp)");
     expect_error(BASE "global_settings { integrator { \"path\" max_depth 2.5 } }",
                  "test.pov:3:39: parameter 'max_depth' of integrator 'path' takes an integer, got 2.5");
     expect_error(BASE "global_settings { integrator { \"path\" max_depth \"deep\" } }",
@@ -348,6 +348,92 @@ static void test_background(void **state)
     vbnl_pov_scene_destroy(s);
     expect_error(BASE "sky_sphere { emission 2 }", "test.pov:3:1: sky_sphere needs at least one pigment");
     expect_error(BASE "sky_sphere { pigment { rgb 1 } frobnicate }", "test.pov:3:32: unexpected 'frobnicate' in 'sky_sphere'");
+}
+
+/* fog { }: its items onto the core's fog (the blend itself: tests/core/test_medium.c) */
+static void test_fog(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok("camera { location -5 look_at 0 }\nlight_source { <0, 5, 0> rgb 1 }\nsphere { 0, 1 }\n"
+                           "fog { fog_type 2 distance 150 color rgbft <0.3, 0.5, 0.2, 0.4, 0.1> fog_offset 2 fog_alt 3 "
+                           "turbulence 0.5 up z }\nfog { rgb 1 distance 20 }");
+    const vbnl_scene *c = sc(s);
+    assert_int_equal(c->fog_count, 2);
+    assert_int_equal(c->has_media, 1);
+    assert_int_equal(c->fogs[0].kind, VBNL_FOG_GROUND);
+    NEAR((float)c->fogs[0].distance, 150.0f);
+    NEAR(c->fogs[0].color.y, 0.5f);
+    NEAR(c->fogs[0].filter, 0.4f);
+    NEAR(c->fogs[0].transmit, 0.1f);
+    NEAR((float)c->fogs[0].offset, 2.0f);
+    NEAR((float)c->fogs[0].alt, 3.0f);
+    NEAR((float)c->fogs[0].up.z, 1.0f);
+    assert_int_equal(c->fogs[0].turbulent, 1);
+    assert_int_equal(c->fogs[1].kind, VBNL_FOG_CONSTANT);
+    NEAR(c->fogs[1].color.x, 1.0f);
+    assert_null(strstr(g_diags, "warning: 'fog'"));
+    vbnl_pov_scene_destroy(s);
+    expect_error(BASE "fog { color rgb 1 }", "test.pov:3:1: fog distance must be positive, got 0");
+    expect_error(BASE "fog { fog_type 3 distance 1 }", "test.pov:3:1: fog_type must be 1 (constant) or 2 (ground), got 3");
+}
+
+/* media { } in an interior and at the top level (the atmosphere) */
+static void test_media(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok("camera { location -5 look_at 0 }\nlight_source { <0, 5, 0> rgb 1 }\n"
+                           "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption rgb <0.1, 0.2, 0.3> "
+                           "emission 0.5 scattering { 5, rgb 0.4 eccentricity 0.3 } method 3 samples 10, 20 intervals 1 } } }\n"
+                           "media { scattering { 4, 0.01 } }");
+    const vbnl_scene *c = sc(s);
+    assert_int_equal(c->medium_count, 2);
+    assert_int_equal(c->atmosphere, 2);
+    const scene_medium *m = &c->media[0];
+    NEAR(m->sigma_a.y, 0.2f);
+    NEAR(m->sigma_s.z, 0.4f);
+    NEAR(m->emission.x, 0.5f);
+    assert_int_equal(m->part[0].phase, VBNL_PHASE_HENYEY_GREENSTEIN);
+    NEAR(m->part[0].g, 0.3f);
+    assert_int_equal(c->media[1].part[0].phase, VBNL_PHASE_RAYLEIGH);
+    /* the sphere's surface lets rays into medium 0 */
+    int entered = 0;
+    for (uint32_t i = 0; i < c->material_count; ++i)
+        entered |= c->materials[i].is_node && c->materials[i].desc.interior == 1;
+    assert_true(entered);
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    /* a declared media is left out, warned */
+    s = ok(BASE "#declare M = media { absorption 1 }\nsphere { 0, 1 pigment { rgbf 1 } interior { media { M } } }");
+    assert_int_equal(sc(s)->medium_count, 0);
+    assert_non_null(strstr(g_diags, "test.pov:4:53: warning: declared media 'M' is not supported: the media is left out"));
+    vbnl_pov_scene_destroy(s);
+    expect_error(BASE "sphere { 0, 1 interior { media { scattering { 6, 1 } } } }",
+                 "test.pov:3:34: scattering type must be 1 to 5 (got 6)");
+}
+
+/* shadowless, no_shadow and brilliance onto the core */
+static void test_lighting_controls(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok("camera { location -5 look_at 0 }\nlight_source { <0, 5, 0> rgb 1 shadowless }\n"
+                           "light_source { <0, 6, 0> rgb 1 }\n"
+                           "sphere { 0, 1 no_shadow pigment { rgb 1 } finish { brilliance 3 } }\nbox { -2, -1.5 }");
+    const vbnl_scene *c = sc(s);
+    int shadowless = 0, no_shadow = 0, brilliance = 0;
+    for (uint32_t i = 0; i < c->light_count; ++i)
+        shadowless += c->lights[i].shadowless;
+    assert_int_equal(shadowless, 1);
+    for (uint32_t g = 0; g < c->geom_count; ++g)
+        no_shadow += c->geoms[g].visibility == VBNL_VISIBLE_NO_SHADOW;
+    assert_int_equal(no_shadow, 1);
+    assert_int_equal(c->has_masks, 1);
+    for (uint32_t i = 0; i < c->material_count; ++i)
+        brilliance |= c->materials[i].desc.type == VBNL_MATERIAL_BRILLIANCE && c->materials[i].desc.brilliance == 3.0f;
+    assert_true(brilliance);
+    assert_null(strstr(g_diags, "warning: shadowless"));
+    assert_null(strstr(g_diags, "warning: no_shadow"));
+    assert_null(strstr(g_diags, "warning: 'brilliance'"));
+    vbnl_pov_scene_destroy(s);
 }
 
 /* ---- errors ------------------------------------------------------------------------------------- */
@@ -611,6 +697,9 @@ int main(void)
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_integrator_block),
         cmocka_unit_test(test_background),
+        cmocka_unit_test(test_fog),
+        cmocka_unit_test(test_media),
+        cmocka_unit_test(test_lighting_controls),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_scene_files),
         cmocka_unit_test(test_opened_folders),

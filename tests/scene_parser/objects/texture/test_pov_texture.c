@@ -390,8 +390,10 @@ static void test_patterns(void **state)
         /* 11 a pigment_map with a sub-pigment that is itself patterned */
         "object_test { pigment { gradient x pigment_map { [0 checker rgb 1, rgb 0 scale 0.1] [1 P_Blue] } } finish { diffuse 1 } }\n"
         /* 12 wave type and turbulence reach the core */
-        "object_test { pigment { gradient x triangle_wave color_map { [0 rgb 0] [1 rgb 1] } } finish { diffuse 1 } }\n");
-    assert_int_equal(h->nmats, 13);
+        "object_test { pigment { gradient x triangle_wave color_map { [0 rgb 0] [1 rgb 1] } } finish { diffuse 1 } }\n"
+        /* 13 two colours without a comma (POV-Ray ends a colour at the next rgb keyword), srgb decoded */
+        "object_test { pigment { checker rgb <1, 0, 0> srgb <0, 0.5, 1> } finish { diffuse 1 } }\n");
+    assert_int_equal(h->nmats, 14);
     /* checker scale 0.5: the cell of (0.25, 0.25, 0.25) is the first colour, one step in x the second */
     expect_color(color_at(h, 0, 0.25, 0.25, 0.25, 1), 1, 0, 0, 0);
     expect_color(color_at(h, 0, 0.75, 0.25, 0.25, 1), 0, 0, 1, 0);
@@ -427,6 +429,8 @@ static void test_patterns(void **state)
     expect_color(color_at(h, 11, 0.35, 0.05, 0.05, 1), 0, 0, 0.35, 1e-5);
     /* triangle wave: 0.75 -> 0.5 */
     expect_color(color_at(h, 12, 0.75, 0, 0, 1), 0.5, 0.5, 0.5, 1e-5);
+    expect_color(color_at(h, 13, 0.5, 0.5, 0.5, 1), 1, 0, 0, 0);
+    expect_color(color_at(h, 13, 1.5, 0.5, 0.5, 1), 0, 0.214041, 1, 1e-5);
     assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 0);
     done(h);
 }
