@@ -20,6 +20,7 @@
 
 #include "vbnl/mesh_import.h"
 #include "ply_check.h"
+#include "read_file.h"
 
 float vbnl_phong_exponent_to_alpha(float ns)
 {
@@ -149,7 +150,8 @@ static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char 
             snprintf(m->refused, sizeof(m->refused), "%s", name);
         return NULL;
     }
-    FILE *fp = fopen(real, "rb");
+    const char *why;
+    FILE *fp = vbi_read_fopen(real, NULL, &why); /* a FIFO beside the file is refused, not waited on */
     struct aiFile *f = fp ? calloc(1, sizeof(*f)) : NULL;
     if (!f) {
         if (fp)
@@ -184,9 +186,17 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
     memset(&defaults, 0, sizeof(defaults));
     if (!opt)
         opt = &defaults;
+    /* the file itself: a regular file (read_file.h), a PLY file checked against its header */
+    struct stat fst;
+    const char *no;
+    FILE *fp = vbi_read_fopen(path, &fst, &no);
+    if (!fp)
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': %s", path, no);
     char why[160];
-    if (mesh_ply_check(path, why, sizeof(why)))
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, why);
+    const char *bad = mesh_ply_check(fp, (uint64_t)fst.st_size, why, sizeof(why));
+    fclose(fp);
+    if (bad)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, bad);
     mesh_io m;
     m.refused[0] = '\0';
     /* the folder of the file itself (a link named by the user leads to its file's folder) */

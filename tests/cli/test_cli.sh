@@ -147,6 +147,41 @@ else
     not_ok "writing through a link replaces its file, keeps the link and the file's mode" "$(ls -l "$TMP"/private*)"
 fi
 
+# Inputs that are FIFOs (nobody writes them: an ordinary open would wait forever) are refused at
+# once with the reason, whoever names them: the command line (scene, mesh, light files, EXRs of
+# compare and merge-tiles, OCIO config) or a scene (include, image, mesh, font, height field,
+# density file). `timeout` turns a wait into a failure.
+mkdir -p "$TMP/in"
+for f in s.pov m.obj l.vls a.exr c.ocio i.inc p.png f.ttf d.df3; do mkfifo "$TMP/in/$f"; done
+"$VBNL" render "$SCENE" -o "$TMP/in-ref.exr" --width 8 --height 8 --spp 1 -q
+FIFO="it is a FIFO, not a regular file"
+expect "a FIFO scene is refused" 3 "cannot open scene file '.*s.pov': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/s.pov" -o "$TMP/in.exr" -q
+expect "a FIFO mesh scene is refused" 3 "cannot import '.*m.obj': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/m.obj" -o "$TMP/in.exr" -q
+expect "a FIFO --load-lights file is refused" 1 "cannot read '.*l.vls': $FIFO" -- timeout 20 "$VBNL" render "$SCENE" --integrator vbnl --load-lights "$TMP/in/l.vls" -o "$TMP/in.exr" -q
+expect "a FIFO compare reference is refused" 1 "cannot read '.*a.exr': $FIFO" -- timeout 20 "$VBNL" compare "$TMP/in/a.exr" "$TMP/in-ref.exr"
+expect "a FIFO compare candidate is refused" 1 "cannot read '.*a.exr': $FIFO" -- timeout 20 "$VBNL" compare "$TMP/in-ref.exr" "$TMP/in/a.exr"
+expect "a FIFO merge-tiles input is refused" 1 "cannot read '.*a.exr': $FIFO" -- timeout 20 "$VBNL" merge-tiles "$TMP/in/a.exr" -o "$TMP/in.exr" -q
+expect "a FIFO merge-lights input is refused" 1 "cannot read '.*l.vls': $FIFO" -- timeout 20 "$VBNL" merge-lights "$TMP/in/l.vls" -o "$TMP/in.vls"
+expect "a FIFO OCIO config is refused" 1 "OCIO config '.*c.ocio': $FIFO" -- timeout 20 "$VBNL" render "$SCENE" --png "$TMP/in.png" --ocio "$TMP/in/c.ocio" -q
+head='camera { location <0, 0, -5> look_at 0 } light_source { <0, 5, -5> rgb 1 }'
+fifo_scene() { # NAME LINE: a scene in $TMP/in whose third line names a FIFO
+    printf '%s\n\n%s\n' "$head" "$2" > "$TMP/in/$1.pov"
+}
+fifo_scene inc '#include "i.inc"'
+fifo_scene img 'plane { y, 0 pigment { image_map { png "p.png" } } }'
+fifo_scene oiio 'plane { y, 0 pigment { image_map { tga "p.png" } } }'
+fifo_scene mesh 'vbnl_mesh { "m.obj" }'
+fifo_scene font 'text { ttf "f.ttf" "A" 1, 0 }'
+fifo_scene hf 'height_field { png "p.png" }'
+fifo_scene df 'box { 0, 1 pigment { density_file df3 "d.df3" } }'
+expect "a FIFO include is refused at its line" 3 "inc.pov:3:1: cannot open include file '.*i.inc': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/inc.pov" -o "$TMP/in.exr" -q
+expect "a FIFO PNG image is refused at its line" 3 "img.pov:3:[0-9]+: image_map: cannot read image '.*p.png': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/img.pov" -o "$TMP/in.exr" -q
+expect "a FIFO image of another format is refused" 3 "oiio.pov:3:[0-9]+: image_map: cannot read image '.*p.png': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/oiio.pov" -o "$TMP/in.exr" -q
+expect "a FIFO vbnl_mesh is refused" 3 "cannot import '.*m.obj': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/mesh.pov" -o "$TMP/in.exr" -q
+expect "a FIFO font is refused at its line" 3 "font.pov:3:1: text: cannot read '.*f.ttf': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/font.pov" -o "$TMP/in.exr" -q
+expect "a FIFO height field is refused at its line" 3 "hf.pov:3:[0-9]+: height_field: cannot read '.*p.png': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/hf.pov" -o "$TMP/in.exr" -q
+expect "a FIFO density file is refused at its line" 3 "df.pov:3:[0-9]+: density_file: cannot read '.*d.df3': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/df.pov" -o "$TMP/in.exr" -q
+
 # Memory follows what a scene holds: 100,000 untextured spheres share one default appearance
 # (each primitive's own copy would take ~1.4 GB; shared, ~130 MB; the bound leaves room for ASan).
 printf 'camera { location <0,0,-50> look_at 0 }\nlight_source { <0,50,-50> rgb 1 }\n#for (I, 0, 99999)\nsphere { <mod(I,100), div(I,100)/10, 0>, 0.1 }\n#end\n' > "$TMP/many.pov"
