@@ -393,7 +393,17 @@ expect "compare refuses different sizes" 1 "is 8x16 but the reference .* is 16x1
 # The equal-time and equal-count benchmark in a tiny configuration (every method runs).
 expect "bench refuses an unknown sampler" 2 "unknown sampler 'halton'" -- "$VBNL" bench --sampler halton
 expect "bench equal-time and equal-count run every method" 0 "vsl +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+  light paths" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --equal-count 12 --count-spp 1 --sampler random --out '$TMP/bench'"
-expect "bench equal-time --repeat refuses 0" 2 "--repeat takes 1..99" -- "$VBNL" bench --equal-time --repeat 0
+expect "bench equal-time --repeat refuses 0" 2 "--repeat takes a whole number in 1\.\.99, got '0'" -- "$VBNL" bench --equal-time --repeat 0
+# Every number of the bench command is the whole argument, in range (no atoi: '10abc' is not 10).
+expect "bench refuses --spp 10abc" 2 "--spp takes a whole number in 1\.\.[0-9]+, got '10abc'" -- "$VBNL" bench --spp 10abc
+expect "bench refuses --width -3" 2 "--width takes a whole number in 1\.\.16384, got '-3'" -- "$VBNL" bench --width -3
+expect "bench refuses --threads 4x" 2 "--threads takes a whole number in 0\.\.1024, got '4x'" -- "$VBNL" bench --threads 4x
+expect "bench refuses --equal-count 12x" 2 "--equal-count takes a whole number in 0\.\.50000000, got '12x'" -- "$VBNL" bench --equal-time --equal-count 12x
+expect "bench refuses --size 8k" 2 "--size takes a whole number in 1\.\.8192, got '8k'" -- "$VBNL" bench --equal-time --size 8k
+expect "bench refuses --ref-time 5s" 2 "--ref-time takes seconds, more than 0 and at most 1e7, got '5s'" -- "$VBNL" bench --equal-time --ref-time 5s
+expect "bench refuses --ref-time nan" 2 "--ref-time takes seconds, more than 0 and at most 1e7, got 'nan'" -- "$VBNL" bench --equal-time --ref-time nan
+expect "bench refuses a budget that is no number" 2 "--budgets takes up to 8 increasing seconds, e\.g\. 10,30,100, got '10,3x'" -- "$VBNL" bench --equal-time --budgets 10,3x
+expect "bench refuses an empty budget" 2 "--budgets takes up to 8 increasing seconds.*got '10,,30'" -- "$VBNL" bench --equal-time --budgets 10,,30
 # Three rounds: each cell is the median run, and the ratio line lists the three rounds' ratios.
 expect "bench equal-time --repeat reports the median of the rounds" 0 "run of median rMAE of 3 \(seeds 7..9.*path/vbnl rMAE ratio at 0.2s: [0-9.]+ \(rounds: [0-9.]+ [0-9.]+ [0-9.]+\)" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --methods path,vbnl --repeat 3 --out '$TMP/bench' 2>/dev/null | tr '\n' ' '"
 
