@@ -389,6 +389,12 @@ fi
 expect "compare prints the metrics" 0 "vpl +[0-9.]+ +[0-9.e-]+ +[0-9.e-]+ +[0-9.]+% +[0-9.]+" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-vpl.exr" --labels vpl --out "$TMP/cmp"
 [ -s "$TMP/cmp/montage.png" ] && [ -s "$TMP/cmp/error-vpl.png" ] && ok "compare writes the montage and error map" || not_ok "compare writes the montage and error map" "$(ls "$TMP/cmp" 2>&1)"
 expect "compare refuses different sizes" 1 "is 8x16 but the reference .* is 16x16" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-small.exr"
+# A black reference (a light that lights nothing in view) leaves every relative metric 0/0: refused,
+# not a table of NaNs with exit 0. A black candidate against a lit reference is measured.
+printf 'camera { location <0, 0, -5> look_at 0 }\nlight_source { <0, 5, -5> rgb 1 }\nsphere { <0, 0, -20>, 1 }\n' > "$TMP/black.pov"
+"$VBNL" render "$TMP/black.pov" -o "$TMP/c-black.exr" --integrator path --width 16 --height 16 --spp 1 -q 2>/dev/null
+expect "compare refuses a black reference" 1 "the reference '.*c-black.exr' is black \(its mean is 0\): relative errors \(rMAE, relMSE, outliers, mean/ref\) are undefined against it" -- "$VBNL" compare "$TMP/c-black.exr" "$TMP/c-ref.exr"
+expect "compare measures a black candidate" 0 "c-black +0\.[0-9]+ +[0-9.e-]+ +[0-9.e-]+ +[0-9.]+% +0\.0000$" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-black.exr"
 
 # The equal-time and equal-count benchmark in a tiny configuration (every method runs).
 expect "bench refuses an unknown sampler" 2 "unknown sampler 'halton'" -- "$VBNL" bench --sampler halton
