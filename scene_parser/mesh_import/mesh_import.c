@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 #include "vbnl/mesh_import.h"
@@ -177,6 +178,47 @@ static void io_close(struct aiFileIO *io, struct aiFile *f)
     }
 }
 
+/* Why an OBJ file assimp could not import (or that gave no triangle) looks truncated, or NULL:
+ * assimp's own words for a file cut short ("Mesh contains no faces", "aiScene::mNumMeshes is 0",
+ * "all meshes are orphaned", "mFaces[1] is a LINE") do not say so. `why` holds the reason: no face
+ * statement in the file, or a last line without its newline. */
+static const char *obj_truncation(const char *path, char *why, size_t n)
+{
+    size_t len = strlen(path);
+    if (len < 4 || strcasecmp(path + len - 4, ".obj") != 0)
+        return NULL;
+    const char *no;
+    FILE *f = vbi_read_fopen(path, NULL, &no);
+    if (!f)
+        return NULL;
+    /* a face statement: 'f' and a blank first on a line (blanks before it allowed) */
+    enum { AT_START, AFTER_F, IN_LINE } state = AT_START;
+    unsigned long long faces = 0, lines = 1;
+    int c, last = '\n';
+    while ((c = getc(f)) != EOF) {
+        if (c == '\n') {
+            state = AT_START;
+            ++lines;
+        } else if (state == AT_START && c == 'f') {
+            state = AFTER_F;
+        } else if (state == AFTER_F) {
+            faces += c == ' ' || c == '\t';
+            state = IN_LINE;
+        } else if (state == AT_START && c != ' ' && c != '\t' && c != '\r') {
+            state = IN_LINE;
+        }
+        last = c;
+    }
+    fclose(f);
+    if (faces == 0)
+        snprintf(why, n, "no faces in it: truncated or empty OBJ?");
+    else if (last != '\n')
+        snprintf(why, n, "its last line (line %llu) ends without a newline: truncated OBJ?", lines);
+    else
+        return NULL;
+    return why;
+}
+
 vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mesh_import_options *opt,
                              vbnl_mesh_import_stats *stats, vbnl_error *err)
 {
@@ -219,8 +261,13 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
                               "files beside it)",
                               path, m.refused);
     }
-    if (!ai)
+    if (!ai) {
+        char cut[128];
+        if (obj_truncation(path, cut, sizeof(cut)))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s (assimp: %s)", path, cut,
+                                  aiGetErrorString());
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': %s", path, aiGetErrorString());
+    }
     vbnl_result r = VBNL_OK;
     uint32_t *mat_ids = NULL;
     vbnl_mesh_import_stats st;
@@ -313,8 +360,13 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
         st.meshes++;
         st.triangles += ntri;
     }
-    if (st.triangles == 0)
-        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "'%s' contains no triangles", path);
+    if (st.triangles == 0) {
+        char cut[128];
+        if (obj_truncation(path, cut, sizeof(cut)))
+            r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, cut);
+        else
+            r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "'%s' contains no triangles", path);
+    }
 done:
     free(mat_ids);
     aiReleaseImport(ai);
