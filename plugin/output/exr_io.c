@@ -84,6 +84,7 @@ typedef struct vbnl_exr_io {
     int fd;
     int64_t size; /* reading: the file's size */
     int write_errno;
+    int read_errno; /* reading: errno of a failed read (not a file that ends early, which is damage) */
     exr_result_t code; /* first error the library reported */
     char msg[512];
 } vbnl_exr_io;
@@ -136,6 +137,7 @@ static int64_t vbnl_exr_pread(exr_const_context_t ctxt, void *userdata, void *bu
         if (n < 0 && errno == EINTR)
             continue;
         if (n < 0) {
+            io->read_errno = errno;
             if (error_cb)
                 error_cb(ctxt, EXR_ERR_READ_IO, "%s", strerror(errno));
             return -1;
@@ -744,9 +746,10 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
     vbnl_exr_current_io = &io;
     exr_result_t rv = exr_start_read(&ctxt, path, &init);
     if (rv != EXR_ERR_SUCCESS) {
-        vbnl_result code = rv == EXR_ERR_FILE_ACCESS || rv == EXR_ERR_READ_IO ? VBNL_ERR_IO
-                           : rv == EXR_ERR_OUT_OF_MEMORY                   ? VBNL_ERR_OUT_OF_MEMORY
-                                                                           : VBNL_ERR_CORRUPT;
+        /* a short read is a file that ends early (damage); only a failed read is an I/O error */
+        vbnl_result code = rv == EXR_ERR_FILE_ACCESS || io.read_errno ? VBNL_ERR_IO
+                           : rv == EXR_ERR_OUT_OF_MEMORY              ? VBNL_ERR_OUT_OF_MEMORY
+                                                                      : VBNL_ERR_CORRUPT;
         exr_finish(&ctxt);
         close(io.fd);
         vbnl_exr_current_io = outer_io;
