@@ -25,6 +25,17 @@ static const char *mcguire_scene(const char *name, char *buf, size_t n)
     return buf;
 }
 
+/* A context of one worker thread (the caller destroys it). */
+static vbnl_context *one_thread_context(void)
+{
+    vbnl_context *ctx = NULL;
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
+    assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
+    return ctx;
+}
+
 static vbnl_scene *import(vbnl_context *ctx, const char *path, vbnl_mesh_import_stats *st, vbnl_result expect)
 {
     vbnl_scene *s = NULL;
@@ -49,11 +60,7 @@ static void test_phong_to_alpha(void **state)
 static void test_cornell_original(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     char path[1024];
     vbnl_mesh_import_stats st;
     vbnl_scene *s = import(ctx, mcguire_scene("CornellBox-Original.obj", path, sizeof(path)), &st, VBNL_OK);
@@ -94,11 +101,7 @@ static const vbnl_material_desc *find_type(const vbnl_scene *s, vbnl_material_ty
 static void test_material_mapping(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     char path[1024];
     /* Mirror: tallBox has Ks 0.95, Ns 1000, illum 5 -> perfect mirror tinted 0.95 */
     vbnl_scene *s = import(ctx, mcguire_scene("CornellBox-Mirror.obj", path, sizeof(path)), NULL, VBNL_OK);
@@ -141,11 +144,7 @@ static void test_material_mapping(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_error err = {0};
@@ -179,11 +178,7 @@ static void write_file(const char *path, const char *text)
 static void test_untrusted(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_error err = {0};
@@ -289,11 +284,7 @@ static void expect_truncated(vbnl_scene *s, const char *name, const char *text, 
 static void test_truncated_obj(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     static const char *const no_faces = "no faces in it: truncated or empty OBJ?";
