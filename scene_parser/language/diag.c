@@ -88,6 +88,25 @@ static const sdl_file *find_file(vbnl_sdl_parser *p, const char *name)
     return NULL;
 }
 
+const char *sdl_word_at(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, char *buf, size_t n)
+{
+    const sdl_file *f = loc && loc->file ? find_file(p, loc->file) : NULL;
+    if (!f || loc->line < 1 || loc->col < 1 || n < 2)
+        return NULL;
+    const char *s = f->text, *end = f->text + f->len;
+    for (int l = 1; l < loc->line && s < end; s++)
+        if (*s == '\n')
+            l++;
+    for (int c = 1; c < loc->col && s < end && *s != '\n'; c++)
+        s++;
+    size_t k = 0;
+    while (s < end && k + 1 < n && (*s == '_' || (*s >= 'a' && *s <= 'z') || (*s >= 'A' && *s <= 'Z') ||
+                                    (k > 0 && *s >= '0' && *s <= '9')))
+        buf[k++] = *s++;
+    buf[k] = '\0';
+    return k ? buf : NULL;
+}
+
 static void add_source_line(vbnl_sdl_parser *p, sbuf *b, const vbnl_sdl_loc *loc)
 {
     const sdl_file *f = find_file(p, loc->file);
