@@ -20,7 +20,7 @@ build() { # TARGET_SOURCE OUTPUT
         -I "$here/scene_parser/objects/shapes" -I "$here/scene_parser/objects/texture" -I "$here/scene_parser/image" \
         $(find "$here/scene_parser" -name '*.c' | sort) "$here"/core/src/*.c "$here"/core/src/texture/*.c \
         "$here"/core/integrators/registry.c $(ls "$here"/core/integrators/*/*.c | grep -v '_reference\.c$') \
-        "$1" -lembree3 -lassimp -lpng -lm -lpthread -ldl -o "$2"
+        "$1" $(pkg-config --cflags --libs freetype2) -lembree3 -lassimp -lpng -lm -lpthread -ldl -o "$2"
 }
 build "$here/tests/scene_parser/fuzz_parser.c" "$out/fuzz_parser"
 build "$here/tests/scene_parser/fuzz_mesh.c" "$out/fuzz_mesh"

@@ -252,10 +252,13 @@ void vbnl_budget_choose(vbnl_budget *b, const char *name, double value, const ch
     if (i == b->count)
         b->count++;
     snprintf(b->names[i], sizeof(b->names[i]), "%s", name);
-    va_list ap;
-    va_start(ap, why_fmt);
-    vsnprintf(b->why[i], sizeof(b->why[i]), why_fmt ? why_fmt : "", ap);
-    va_end(ap);
+    b->why[i][0] = '\0';
+    if (why_fmt) {
+        va_list ap;
+        va_start(ap, why_fmt);
+        vsnprintf(b->why[i], sizeof(b->why[i]), why_fmt, ap);
+        va_end(ap);
+    }
     b->choices[i] = (vbnl_budget_choice){b->names[i], value, b->why[i]};
 }
 

@@ -185,10 +185,10 @@ static void test_pick_frequencies(void **state)
     assert_true(obs[zero_rank] == 0.0); /* a light without photons is never picked */
     vbnl_chi2_result res;
     int ok = vbnl_chi2_test(obs, exp_pmf, N_LIGHTS, 5.0, 0.01, &res);
-    print_message("pick vs pmf: %s\n", res.msg);
+    print_message("# pick vs pmf: %s\n", res.msg);
     assert_true(ok);
     int wrong = vbnl_chi2_test(obs, exp_uniform, N_LIGHTS, 5.0, 0.01, &res);
-    print_message("pick vs uniform (must fail): %s\n", res.msg);
+    print_message("# pick vs uniform (must fail): %s\n", res.msg);
     assert_false(wrong);
     free(obs);
     free(exp_pmf);
@@ -294,7 +294,7 @@ static void test_candidates(void **state)
             nonempty += n > 0;
         }
     }
-    print_message("candidates: %u non-empty answers, %u candidates rejected by the exact test\n", nonempty,
+    print_message("# candidates: %u non-empty answers, %u candidates rejected by the exact test\n", nonempty,
                   rejected);
     assert_true(nonempty > 1000 && rejected > 0);
     /* too small a buffer: reported, not overrun */

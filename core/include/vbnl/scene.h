@@ -19,8 +19,9 @@
  * function names; VBNL_ERR_STATE for an add or set after vbnl_scene_commit;
  * VBNL_ERR_OUT_OF_MEMORY.
  *
- * Units and conventions: right-handed world space (the scene parser converts POV-Ray's
- * left-handed one); colours are linear Rec.709 RGB; radiance in W/(m^2 sr), intensity in W/sr;
+ * Units and conventions: world space of either handedness (no formula of the core depends on it;
+ * cameras, where it would matter, take explicit right and up vectors, so the scene parser keeps
+ * POV-Ray's left-handed coordinates unchanged); colours are linear Rec.709 RGB; radiance in W/(m^2 sr), intensity in W/sr;
  * transforms are row-major 4x4 affine matrices applied as p' = M p. */
 #ifndef VBNL_SCENE_H
 #define VBNL_SCENE_H

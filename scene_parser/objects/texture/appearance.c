@@ -135,10 +135,12 @@ int pov_take_ident(pov_ctx *c, const vbnl_sdl_opaque_type *type, void *dst, int 
     }
     if (v->kind != VBNL_SDL_ARRAY)
         return 0;
-    /* an array element of this type (Arr[i]...); other elements are not this item */
+    /* an array element of this type (Arr[i]...) */
     const vbnl_sdl_array *arr = v->u.array;
     const vbnl_sdl_value *first = vbnl_sdl_array_size(arr, 0) ? vbnl_sdl_array_at(arr, 0) : NULL;
-    if (first && first->kind == VBNL_SDL_OBJECT && first->u.obj.type != type)
+    /* an array of other items, or of colours (pigment { Colours[i] } is a colour: the block's own
+     * parse reads it) */
+    if (first && first->kind != VBNL_SDL_NONE && (first->kind != VBNL_SDL_OBJECT || first->u.obj.type != type))
         return 0;
     vbnl_sdl_value e;
     if (vbnl_sdl_parse_expression(p, &e) != VBNL_OK)

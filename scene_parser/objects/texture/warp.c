@@ -6,14 +6,6 @@
 
 #include "pov_texture.h"
 
-static int next_is_number(vbnl_sdl_parser *p)
-{
-    const vbnl_sdl_token *n = vbnl_sdl_peek(p);
-    const vbnl_sdl_value *v = n->kind == VBNL_SDL_TOK_IDENT ? vbnl_sdl_lookup(p, n->text) : NULL;
-    return n->kind == VBNL_SDL_TOK_NUMBER || pov_is_punct(n, '(') || pov_is_punct(n, '-') || pov_is_punct(n, '<') ||
-           (v && (v->kind == VBNL_SDL_FLOAT || v->kind == VBNL_SDL_VECTOR));
-}
-
 /* turbulence <v> [octaves n] [omega w] [lambda l] */
 static vbnl_result turbulence(pov_ctx *c, vbnl_warp_desc *w)
 {
@@ -152,8 +144,8 @@ static vbnl_result mapping(pov_ctx *c, vbnl_warp_desc *w, vbnl_warp_kind kind)
 {
     vbnl_sdl_parser *p = c->parser;
     w->kind = kind;
-    if (kind == VBNL_WARP_PLANAR) {
-        if (!next_is_number(p))
+    if (kind == VBNL_WARP_PLANAR) { /* planar [VECTOR, FLOAT]: anything but the closing brace starts them */
+        if (pov_is_punct(vbnl_sdl_peek(p), '}'))
             return VBNL_OK;
         if (vbnl_sdl_parse_vector(p, 3, w->mapping.orientation) != VBNL_OK)
             return VBNL_ERR_PARSE;

@@ -460,6 +460,24 @@ static void test_transforms(void **state)
     expect_color(color_at(h, 0, 1.25, 0, 0, 1), 0.75, 0.75, 0.75, 1e-5);
     assert_true(fabsf(color_at(h, 1, 0.25, 0.3, 0.7, 1).x - 0.25f) > 1e-3);
     done(h);
+    /* planar [VECTOR, FLOAT] with the vector a keyword (advanced/wallstucco.pov writes planar z, 0):
+     * z, 0 is the default */
+    h = run_ok("object_test { pigment { gradient y color_map { [0 rgb 0] [1 rgb 1] } warp { planar } } finish { diffuse 1 } }\n"
+               "object_test { pigment { gradient y color_map { [0 rgb 0] [1 rgb 1] } warp { planar z, 0 } } finish { diffuse 1 } }\n");
+    for (int k = 0; k < 3; ++k) {
+        double q[3][3] = {{0.3, 0.6, 0.2}, {-1.2, 0.45, 2.5}, {0.7, -0.2, -0.9}};
+        vec3 a = color_at(h, 0, q[k][0], q[k][1], q[k][2], 1), b = color_at(h, 1, q[k][0], q[k][1], q[k][2], 1);
+        assert_float_equal(a.x, b.x, 1e-6);
+    }
+    done(h);
+    /* an array element in a pigment: a colour (arrays.inc's Rand_Array_Item over colours) or a pigment */
+    h = run_ok("#declare Cols = array[2] { rgb <1, 0, 0>, rgb <0, 0, 1> }\n"
+               "#declare Pigs = array[2] { pigment { rgb <1, 0, 0> }, pigment { rgb <0, 1, 0> } }\n"
+               "object_test { pigment { Cols[1] } finish { diffuse 1 } }\n"
+               "object_test { pigment { Pigs[1] } finish { diffuse 1 } }\n");
+    expect_color(color_at(h, 0, 0, 0, 0, 1), 0, 0, 1, 0);
+    expect_color(color_at(h, 1, 0, 0, 0, 1), 0, 1, 0, 0);
+    done(h);
 }
 
 static void write_png(const char *path)
