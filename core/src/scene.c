@@ -8,6 +8,7 @@
 
 #include "context.h"
 #include "desc.h"
+#include "camera_mesh.h"
 #include "scene_internal.h"
 
 #define GROW(arr, count, cap, type)                                                                \
@@ -124,6 +125,7 @@ void vbnl_scene_destroy(vbnl_scene *s)
     free(s->materials);
     vbnl_texture_set_free(&s->tex);
     free(s->lights);
+    vbi_camera_mesh_free((void *)s->camera.mesh_index);
     free(s);
 }
 
@@ -590,7 +592,7 @@ vbnl_result vbnl_scene_set_camera(vbnl_scene *s, const vbnl_camera_desc *c, vbnl
     if (!(fabsf(v3_dot(f, v3_cross(rt, up))) > 1e-12f))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "camera forward, right and up vectors must be linearly independent");
-    if ((unsigned)c->projection > (unsigned)VBNL_CAMERA_CYLINDER_4)
+    if ((unsigned)c->projection > (unsigned)VBNL_CAMERA_MESH)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "camera projection %d is unknown", (int)c->projection);
     if (!(c->angle[0] >= 0.0f && c->angle[0] <= 360.0f) || !(c->angle[1] >= 0.0f && c->angle[1] <= 360.0f))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "camera angles must lie in [0, 360] degrees");
@@ -598,7 +600,16 @@ vbnl_result vbnl_scene_set_camera(vbnl_scene *s, const vbnl_camera_desc *c, vbnl
         (c->lens_radius > 0.0f && !(c->focal_distance > 0.0f && isfinite(c->focal_distance))))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "camera lens radius must be >= 0 and, with a lens, the focal distance > 0");
-    s->camera = *c;
+    vbnl_camera_desc copy = *c;
+    copy.meshes = NULL;
+    copy.mesh_index = NULL;
+    if (c->projection == VBNL_CAMERA_MESH) {
+        copy.meshes = c->meshes;
+        if ((r = vbi_camera_mesh_copy(&copy, err)) != VBNL_OK)
+            return r;
+    }
+    vbi_camera_mesh_free((void *)s->camera.mesh_index);
+    s->camera = copy;
     s->has_camera = 1;
     return VBNL_OK;
 }
@@ -684,6 +695,14 @@ static int camera_pinhole(const vbnl_camera_desc *c, float sx, float sy, vec3 *o
 int vbnl_camera_ray_lens(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec2 lens,
                          vec3 *o, vec3 *d)
 {
+    if (c->projection == VBNL_CAMERA_MESH) {
+        int ok = vbi_camera_mesh_ray(c, width, height, px, py, lens.x, o, d);
+        if (!ok) {
+            *o = v3_load(c->position); /* a ray all the same, for callers that ignore the answer */
+            *d = v3_norm(v3_load(c->forward));
+        }
+        return ok;
+    }
     const float sx = px / (float)width - 0.5f, sy = 0.5f - py / (float)height;
     vec3 dir;
     int ok = camera_pinhole(c, sx, sy, o, &dir);

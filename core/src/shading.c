@@ -33,8 +33,11 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                 }
                 sp[i] = vbnl_pixel_sampler(job, px[i], py[i], smp);
                 vec2 u = vbnl_sampler_next2(&sp[i]);
-                /* a thin lens takes the sample's second pair of numbers (a pinhole camera none) */
-                vec2 lens = sc->camera.lens_radius > 0.0f ? vbnl_sampler_next2(&sp[i]) : (vec2){0.5f, 0.5f};
+                /* a thin lens takes the sample's second pair of numbers (a pinhole camera none), and
+                 * so does a mesh camera with several rays per pixel, to pick one */
+                const int lens_numbers = sc->camera.lens_radius > 0.0f ||
+                                         (sc->camera.projection == VBNL_CAMERA_MESH && sc->camera.mesh_rays_per_pixel > 1);
+                vec2 lens = lens_numbers ? vbnl_sampler_next2(&sp[i]) : (vec2){0.5f, 0.5f};
                 seen[i] = vbnl_camera_ray_lens(&sc->camera, job->width, job->height, (float)px[i] + u.x,
                                                (float)py[i] + u.y, lens, &o[i], &d[i]);
                 active[i] = seen[i];

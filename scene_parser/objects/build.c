@@ -540,7 +540,13 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
     }
     if (r != VBNL_OK)
         return r;
-    if ((r = vbnl_scene_set_camera(L->c.scene, &cd, err)) != VBNL_OK)
+    void *cam_storage = NULL;
+    if (L->cam.projection == VBNL_CAMERA_MESH && L->cam.meshes &&
+        (r = pov_camera_meshes(L, &L->cam, &cd, &cam_storage, err)) != VBNL_OK)
+        return r;
+    r = vbnl_scene_set_camera(L->c.scene, &cd, err);
+    free(cam_storage); /* the scene keeps its own copy */
+    if (r != VBNL_OK)
         return r;
     if (L->have_env && (L->env[0] > 0 || L->env[1] > 0 || L->env[2] > 0)) {
         float e[3] = {(float)L->env[0], (float)L->env[1], (float)L->env[2]};

@@ -1,7 +1,8 @@
 /* vbnl object layer: camera { } and POV-Ray 3.7's camera set-up onto the core camera: the camera
- * types of the reference's "Camera Types" (mesh_camera and omnimax excepted) and focal blur as a
- * thin lens. */
+ * types of the reference's "Camera Types" (omnimax excepted), mesh_camera among them, and focal
+ * blur as a thin lens. */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "pov_loader.h"
@@ -42,6 +43,7 @@ static vbnl_result camera_type(const pov_item *it)
 {
     pov_cam *c = it->target;
     vbnl_sdl_next(it->p);
+    pov_camera_release(c);
     for (size_t i = 0; i < sizeof projections / sizeof projections[0]; ++i)
         if (!strcmp(it->kw, projections[i].kw)) {
             c->projection = projections[i].projection;
@@ -56,10 +58,174 @@ static vbnl_result camera_type(const pov_item *it)
         c->projection = (vbnl_camera_projection)(VBNL_CAMERA_CYLINDER_1 + (int)f - 1);
         return VBNL_OK;
     }
-    /* omnimax, mesh_camera */
+    /* omnimax */
     vbnl_sdl_warning(it->p, &it->loc, "camera type '%s' is not supported; rendering with a perspective camera", it->kw);
     c->projection = VBNL_CAMERA_PERSPECTIVE;
-    return !strcmp(it->kw, "mesh_camera") ? vbnl_sdl_skip_block(it->p) : VBNL_OK;
+    return VBNL_OK;
+}
+
+/* ---- mesh_camera --------------------------------------------------------------------------------- */
+
+/* The meshes of a mesh_camera, one primitive each, shared by the copies of the camera. */
+typedef struct pov_cam_meshes {
+    int refs;
+    pov_obj obj;
+} pov_cam_meshes;
+
+void pov_camera_copy(pov_cam *dst, const pov_cam *src)
+{
+    *dst = *src;
+    if (dst->meshes)
+        dst->meshes->refs++;
+}
+
+void pov_camera_release(pov_cam *c)
+{
+    if (c->meshes && --c->meshes->refs == 0) {
+        pov_obj_clear(&c->meshes->obj);
+        free(c->meshes);
+    }
+    c->meshes = NULL;
+}
+
+/* 1 when a number follows (an optional float), not a keyword such as mesh. */
+static int float_follows(vbnl_sdl_parser *p)
+{
+    const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+    if (t->kind == VBNL_SDL_TOK_IDENT) {
+        const vbnl_sdl_value *v = t->keyword ? NULL : vbnl_sdl_lookup(p, t->text);
+        return v && v->kind == VBNL_SDL_FLOAT;
+    }
+    return t->kind == VBNL_SDL_TOK_NUMBER || (t->kind == VBNL_SDL_TOK_PUNCT && (t->op == '-' || t->op == '('));
+}
+
+/* mesh_camera { RAYS_PER_PIXEL, DISTRIBUTION [, MAX_DISTANCE] mesh { } | mesh2 { } ... [smooth] }
+ * with POV-Ray's checks (Parse_Mesh_Camera). */
+static vbnl_result mesh_camera(const pov_item *it)
+{
+    pov_cam *c = it->target;
+    pov_loader *L = it->ctx;
+    vbnl_sdl_parser *p = it->p;
+    vbnl_sdl_next(p);
+    double rays, dist, max_distance = 0;
+    if (vbnl_sdl_expect(p, '{', "after 'mesh_camera'") != VBNL_OK || vbnl_sdl_parse_float(p, &rays) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    vbnl_sdl_accept(p, ',');
+    if (vbnl_sdl_parse_float(p, &dist) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    vbnl_sdl_accept(p, ',');
+    if (float_follows(p) && vbnl_sdl_parse_float(p, &max_distance) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (!(rays >= 1 && rays < 1e6))
+        return vbnl_sdl_error(p, &it->loc, "mesh_camera: rays per pixel must be at least 1, got %g", rays);
+    if (!(dist >= 0 && dist < 4))
+        return vbnl_sdl_error(p, &it->loc, "mesh_camera: distribution %g is not one of 0, 1, 2, 3", dist);
+    c->mesh_rays = (unsigned)rays;
+    c->mesh_distribution = (unsigned)dist;
+    if (c->mesh_distribution >= 2 && c->mesh_rays != 1)
+        return vbnl_sdl_error(p, &it->loc, "mesh_camera: rays per pixel must be 1 for distributions 2 and 3");
+    if (max_distance > 0)
+        vbnl_sdl_warning(p, &it->loc, "mesh_camera: the maximum distance %g is ignored (rays are not shortened)",
+                         max_distance);
+    pov_camera_release(c);
+    if (!(c->meshes = calloc(1, sizeof *c->meshes)))
+        return pov_oom(L);
+    c->meshes->refs = 1;
+    c->projection = VBNL_CAMERA_MESH;
+    for (;;) {
+        const vbnl_sdl_token *t = vbnl_sdl_peek(p);
+        if (!pov_is_word(t, "mesh") && !pov_is_word(t, "mesh2"))
+            break;
+        vbnl_sdl_loc ml = t->loc;
+        pov_obj one = {0};
+        vbnl_result r = pov_parse_member(L, &one);
+        if (r == VBNL_OK && (one.n != 1 || one.v[0].kind != POV_PRIM_MESH))
+            r = vbnl_sdl_error(p, &ml, "mesh_camera: a mesh must be made of triangles only");
+        if (r == VBNL_OK && !pov_obj_move(&c->meshes->obj, &one))
+            r = pov_oom(L);
+        pov_obj_clear(&one);
+        if (r != VBNL_OK)
+            return r;
+    }
+    c->mesh_smooth = 0;
+    if (pov_is_word(vbnl_sdl_peek(p), "smooth")) {
+        vbnl_sdl_next(p);
+        if (c->mesh_distribution != 3)
+            return vbnl_sdl_error(p, &it->loc, "mesh_camera: smooth needs distribution 3");
+        c->mesh_smooth = 1;
+    }
+    const size_t n = c->meshes->obj.n;
+    if (n == 0)
+        return vbnl_sdl_error(p, &it->loc, "mesh_camera needs a mesh or mesh2");
+    if (c->mesh_distribution == 0 && c->mesh_rays > n)
+        return vbnl_sdl_error(p, &it->loc, "mesh_camera: rays per pixel (%u) must not exceed the number of meshes (%zu) "
+                                           "for distribution 0", c->mesh_rays, n);
+    if (c->mesh_distribution == 3 && n > 1)
+        vbnl_sdl_warning(p, &it->loc, "mesh_camera: distribution 3 uses the first mesh; the other %zu are ignored", n - 1);
+    const pov_mesh *m0 = c->meshes->obj.v[0].mesh;
+    if (c->mesh_distribution == 3 && !m0->uv)
+        return vbnl_sdl_error(p, &it->loc, "mesh_camera: distribution 3 needs a mesh with uv_vectors");
+    if (c->mesh_smooth && !m0->nrm)
+        return vbnl_sdl_error(p, &it->loc, "mesh_camera: smooth needs a mesh with normals");
+    return vbnl_sdl_expect(p, '}', "to close the mesh_camera");
+}
+
+vbnl_result pov_camera_meshes(pov_loader *L, const pov_cam *c, vbnl_camera_desc *out, void **storage, vbnl_error *err)
+{
+    (void)L;
+    *storage = NULL;
+    const pov_obj *o = &c->meshes->obj;
+    size_t nf = 0;
+    for (size_t k = 0; k < o->n; ++k)
+        nf += 24 * (size_t)o->v[k].mesh->nt;
+    /* one block: the meshes, then their arrays */
+    const size_t head = o->n * sizeof(vbnl_camera_mesh);
+    char *block = malloc(head + (nf ? nf : 1) * sizeof(float));
+    if (!block)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory making the mesh camera");
+    vbnl_camera_mesh *meshes = (vbnl_camera_mesh *)(void *)block;
+    memset(meshes, 0, head);
+    float *next = (float *)(void *)(block + head);
+    for (size_t k = 0; k < o->n; ++k) {
+        const pov_mesh *m = o->v[k].mesh;
+        vbnl_camera_mesh *d = &meshes[k];
+        d->triangle_count = m->nt;
+        float *pos = next, *nrm = m->nrm ? pos + 9 * (size_t)m->nt : NULL;
+        float *uv = m->uv ? (nrm ? nrm : pos) + 9 * (size_t)m->nt : NULL;
+        for (uint32_t t = 0; t < m->nt; ++t)
+            for (int j = 0; j < 3; ++j) {
+                const uint32_t v = m->idx[3 * (size_t)t + (size_t)j];
+                for (int a = 0; a < 3; ++a) {
+                    pos[9 * (size_t)t + 3 * (size_t)j + (size_t)a] = m->pos[3 * (size_t)v + (size_t)a];
+                    if (nrm)
+                        nrm[9 * (size_t)t + 3 * (size_t)j + (size_t)a] = m->nrm[3 * (size_t)v + (size_t)a];
+                }
+                if (uv)
+                    for (int a = 0; a < 2; ++a)
+                        uv[6 * (size_t)t + 2 * (size_t)j + (size_t)a] = m->uv[2 * (size_t)v + (size_t)a];
+            }
+        next = (uv ? uv + 6 * (size_t)m->nt : nrm ? nrm + 9 * (size_t)m->nt : pos + 9 * (size_t)m->nt);
+        d->positions = pos;
+        d->normals = nrm;
+        d->uvs = uv;
+        for (int i = 0; i < 16; ++i)
+            d->transform[i] = (float)o->v[k].m[i];
+    }
+    /* POV-Ray's offset and reversal: the z of the camera's location and direction */
+    double loc[3], dir[3];
+    pov_m4_point(c->m, c->loc, loc);
+    pov_m4_dir(c->m, c->dir, dir);
+    out->projection = VBNL_CAMERA_MESH;
+    out->meshes = meshes;
+    out->mesh_count = (uint32_t)o->n;
+    out->mesh_distribution = c->mesh_distribution;
+    out->mesh_rays_per_pixel = c->mesh_rays;
+    out->mesh_smooth = (uint32_t)c->mesh_smooth;
+    out->mesh_offset = (float)loc[2];
+    out->mesh_reverse = dir[2] < -1e-10;
+    out->lens_radius = 0;
+    *storage = block;
+    return VBNL_OK;
 }
 
 static vbnl_result look_at(const pov_item *it)
@@ -181,7 +347,7 @@ static const pov_row camera_rows[] = {
     {"panoramic", camera_type, 0},
     {"spherical", camera_type, 0},
     {"cylinder", camera_type, 0},
-    {"mesh_camera", camera_type, 0},
+    {"mesh_camera", mesh_camera, 0},
     {"location", pov_item_vec3, CAM_FIELD(loc)},
     {"look_at", look_at, 0},
     {"right", up_right, 0},
@@ -211,7 +377,8 @@ vbnl_result pov_camera_parse(pov_loader *L, pov_cam *c)
     const pov_cam *d = pov_declared(L, vbnl_sdl_peek(p), &pov_camera_type);
     if (d) {
         vbnl_sdl_next(p);
-        *c = *d;
+        pov_camera_release(c);
+        pov_camera_copy(c, d);
     }
     return pov_block_parse(&camera_block, p, L, c, NULL);
 }

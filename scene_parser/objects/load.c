@@ -71,8 +71,11 @@ static vbnl_result st_camera(const pov_item *it)
     vbnl_camera_desc cd;
     vbnl_sdl_next(it->p);
     pov_camera_default(&c);
-    if (pov_camera_parse(L, &c) != VBNL_OK || pov_camera_resolve(L, &c, it->loc, &cd) != VBNL_OK)
+    if (pov_camera_parse(L, &c) != VBNL_OK || pov_camera_resolve(L, &c, it->loc, &cd) != VBNL_OK) {
+        pov_camera_release(&c);
         return VBNL_ERR_PARSE;
+    }
+    pov_camera_release(&L->cam);
     L->cam = c;
     L->have_camera = 1;
     return VBNL_OK;
@@ -166,6 +169,7 @@ static vbnl_result rv_camera(const pov_item *it)
     pov_camera_default(c);
     vbnl_sdl_next(it->p);
     if (pov_camera_parse(it->ctx, c) != VBNL_OK) {
+        pov_camera_release(c);
         free(c);
         return VBNL_ERR_PARSE;
     }
@@ -326,6 +330,7 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
     s = NULL;
 done:
     pov_obj_clear(&L->world);
+    pov_camera_release(&L->cam);
     pov_shape_cache_free(L); /* before the parser: solids may hold its functions */
     free(L->sphere_groups);
     free(L->warned);

@@ -178,8 +178,16 @@ static void *camera_copy(const void *ptr, void *user)
     (void)user;
     pov_cam *d = malloc(sizeof *d);
     if (d)
-        *d = *(const pov_cam *)ptr;
+        pov_camera_copy(d, ptr);
     return d;
+}
+
+static void camera_destroy(void *ptr, void *user)
+{
+    (void)user;
+    if (ptr)
+        pov_camera_release(ptr);
+    free(ptr);
 }
 
 static void plain_destroy(void *ptr, void *user)
@@ -190,7 +198,7 @@ static void plain_destroy(void *ptr, void *user)
 
 const vbnl_sdl_opaque_type pov_object_type = {"object", pov_object_destroy, object_copy, NULL, NULL};
 const vbnl_sdl_opaque_type pov_transform_type = {"transform", plain_destroy, transform_copy, NULL, NULL};
-const vbnl_sdl_opaque_type pov_camera_type = {"camera", plain_destroy, camera_copy, NULL, NULL};
+const vbnl_sdl_opaque_type pov_camera_type = {"camera", camera_destroy, camera_copy, NULL, NULL};
 
 const void *pov_declared(pov_loader *L, const vbnl_sdl_token *t, const vbnl_sdl_opaque_type *type)
 {

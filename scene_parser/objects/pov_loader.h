@@ -25,6 +25,10 @@ typedef struct pov_cam {
     double aperture, blur_samples; /* focal blur when both are non-zero */
     double focal_distance;         /* |focal_point - location| as written; < 0: |direction| */
     double m[16];
+    /* mesh_camera: its meshes (shared between copies: pov_camera_copy, pov_camera_release) */
+    struct pov_cam_meshes *meshes;
+    unsigned mesh_rays, mesh_distribution;
+    int mesh_smooth;
 } pov_cam;
 
 typedef struct pov_loader {
@@ -146,6 +150,13 @@ vbnl_result pov_modifiers(pov_loader *L, pov_obj *o, const char *what);
 /* ---- camera (camera.c), lights (light.c) -------------------------------------------------------- */
 
 void pov_camera_default(pov_cam *c);
+/* *dst = *src, sharing src's mesh_camera meshes (dst holds none). */
+void pov_camera_copy(pov_cam *dst, const pov_cam *src);
+/* Lets go of the camera's mesh_camera meshes. */
+void pov_camera_release(pov_cam *c);
+/* The core's mesh camera of a resolved mesh_camera (out->projection VBNL_CAMERA_MESH): fills
+ * out's mesh fields with arrays in *storage (free it after vbnl_scene_set_camera). */
+vbnl_result pov_camera_meshes(pov_loader *L, const pov_cam *c, vbnl_camera_desc *out, void **storage, vbnl_error *err);
 /* camera { [ID] items }; the parser is after the keyword. */
 vbnl_result pov_camera_parse(pov_loader *L, pov_cam *c);
 /* POV-Ray 3.7's camera set-up (angle, then look_at, then transforms) onto the core camera. */

@@ -678,7 +678,24 @@ typedef enum vbnl_camera_projection {
     VBNL_CAMERA_CYLINDER_2 = 7,
     VBNL_CAMERA_CYLINDER_3 = 8,
     VBNL_CAMERA_CYLINDER_4 = 9,
+    /* POV-Ray's mesh_camera: rays leave the faces of meshes (vbnl_camera_mesh); the vectors and
+     * angles are not used */
+    VBNL_CAMERA_MESH = 10,
 } vbnl_camera_projection;
+
+/* One mesh of a mesh camera (reference section "Mesh Camera"), as separate triangles. A ray of a
+ * face starts at its centroid (distributions 0 to 2) or at the point of the face whose uv is the
+ * image point (distribution 3), along the face normal cross(c - a, b - a) / |...| of its corners
+ * a, b, c (or, with `smooth`, the corner normals interpolated there), moved `mesh_offset` along
+ * that direction, reversed with `mesh_reverse`, then carried to the world by `transform` (points)
+ * and its inverse transpose (the direction). */
+typedef struct vbnl_camera_mesh {
+    uint32_t triangle_count;
+    const float *positions; /* 9 per triangle: the corners a, b, c in the mesh's space */
+    const float *normals;   /* NULL, or 9 per triangle: corner normals (distribution 3 with smooth) */
+    const float *uvs;       /* NULL, or 6 per triangle: corner uvs (distribution 3 needs them) */
+    float transform[16];    /* row-major, the mesh's space to the world */
+} vbnl_camera_mesh;
 
 /* A camera in POV-Ray's general form. The lengths of right and up set the field of view and the
  * aspect ratio; mirrored cameras are allowed. The fields after `up` are zero for the pinhole
@@ -700,6 +717,22 @@ typedef struct vbnl_camera_desc {
     float angle[2];       /* degrees, for the projections that name them above */
     float lens_radius;    /* 0: pinhole */
     float focal_distance; /* > 0 when lens_radius > 0 */
+    /* VBNL_CAMERA_MESH. Distribution 0: pixel (x, y) (row 0 at the top) is face y * width + x of
+     * mesh k for its k-th ray; 1: face y * width + x + k * width * height of the meshes taken as
+     * one; 2: the meshes side by side, each over width / mesh_count columns, pixel (x, y) face
+     * y * columns + (x - its mesh's first column); 3: the first face of the first mesh whose uvs
+     * hold (x / width, 1 - y / height). A camera sample takes ray k of its pixel's
+     * mesh_rays_per_pixel uniformly (from its lens numbers: the lens is not used); a pixel or
+     * ray without a face sees nothing (transparent black). vbnl_scene_set_camera copies the
+     * meshes. */
+    const vbnl_camera_mesh *meshes;
+    uint32_t mesh_count;
+    uint32_t mesh_distribution;   /* 0 to 3 */
+    uint32_t mesh_rays_per_pixel; /* >= 1; 1 for distributions 2 and 3; at most mesh_count for 0 */
+    uint32_t mesh_smooth;         /* distribution 3: interpolated corner normals */
+    uint32_t mesh_reverse;        /* rays against the face normals */
+    float mesh_offset;            /* how far along its direction a ray starts */
+    const void *mesh_index;       /* set in the scene's own copy (a uv index); NULL in a caller's */
 } vbnl_camera_desc;
 
 /* Fills `d` with its size and zeros (every vector to be set), for cameras in the general form;
@@ -715,8 +748,11 @@ vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3],
                                 const float target[3], const float up[3], float fov_y_degrees,
                                 float aspect, vbnl_error *err);
 
-/* Sets the camera (copied; a later call replaces it). Errors: VBNL_ERR_INVALID_ARGUMENT for
- * non-finite vectors or forward, right and up vectors that are not linearly independent. */
+/* Sets the camera (copied, a mesh camera's meshes included; a later call replaces it). Errors:
+ * VBNL_ERR_INVALID_ARGUMENT for non-finite vectors or forward, right and up vectors that are not
+ * linearly independent; for a mesh camera, no meshes, a distribution above 3, a ray count out of
+ * range, corners that are not finite, a transform that cannot be inverted, or distribution 3
+ * without uvs or smooth without normals; VBNL_ERR_OUT_OF_MEMORY. */
 vbnl_result vbnl_scene_set_camera(vbnl_scene *scene, const vbnl_camera_desc *camera, vbnl_error *err);
 
 /* ---- life cycle --------------------------------------------------------------------------- */

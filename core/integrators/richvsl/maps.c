@@ -231,15 +231,19 @@ vbnl_result rv_trace_photons(const vbnl_scene *sc, uint64_t target, uint64_t see
     uint64_t n = 0, cap = 0, paths = 0;
     /* a scene whose lights reach (almost) nothing: give up after this many paths */
     const uint64_t max_paths = target * 64 + (1u << 22);
+    /* chunks per batch: PH_BATCH, fewer for small maps (a path leaves about one photon or more in
+     * a closed scene), so that a map of a few thousand photons does not trace 65K paths; the
+     * batch depends on the target only, so the stopping point does not depend on threads */
+    const uint64_t batch = target / PH_CHUNK + 1 < PH_BATCH ? target / PH_CHUNK + 1 : PH_BATCH;
     vbnl_result r = job.bufs ? VBNL_OK : vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     while (r == VBNL_OK && n < target && paths < max_paths) {
         job.first_path = paths;
-        if (vbnl_run_items(stage, pool, PH_BATCH, ph_chunk, &job) != 0) {
+        if (vbnl_run_items(stage, pool, batch, ph_chunk, &job) != 0) {
             r = vbnl_error_set(err, VBNL_ERR_CANCELLED, "photon tracing was cancelled");
             break;
         }
-        paths += (uint64_t)PH_BATCH * PH_CHUNK;
-        for (uint32_t b = 0; b < PH_BATCH && r == VBNL_OK; ++b) {
+        paths += batch * PH_CHUNK;
+        for (uint32_t b = 0; b < batch && r == VBNL_OK; ++b) {
             ph_buf *bf = &job.bufs[b];
             if (bf->oom) {
                 r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for the photon map");

@@ -23,6 +23,7 @@
  * bounds G = cos_x cos_i / d^2 by b. The sphere form bounds the same quantity for each direction
  * of the cone, with 1 / d^2 replaced by the cone's solid angle over pi r^2 (which tends to
  * 1 / d^2 as r -> 0), so both agree in the limit and clamping never adds light. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -35,7 +36,7 @@ static const vbnl_param_spec rv_params[] = {
     {"virtual_lights", VBNL_PARAM_INT, 1000, NULL, 1, 5e7, NULL,
      "N: the photon map holds q N photons, so about N lights (at most) are placed (the VBNL paper "
      "compares at 12K); under --time sized to the budget unless set"},
-    {"importon_paths", VBNL_PARAM_INT, 32, NULL, 1, 4096, NULL, "camera (importon) paths per pixel (§7: 32)"},
+    {"importon_paths", VBNL_PARAM_INT, 32, NULL, 1, 4096, NULL, "camera (importon) paths per pixel (§7: 32); under --time lowered to fit the preparation bound unless set"},
     {"photons_per_light", VBNL_PARAM_FLOAT, 100, NULL, 1, 1e6, NULL, "q: photons per light (§7: 100)"},
     {"importance_neighbours", VBNL_PARAM_INT, 16, NULL, 2, 1024, NULL,
      "K of the importance estimate at the photons (not given in the paper)"},
@@ -80,6 +81,7 @@ typedef struct rv_state {
     uint64_t photon_paths;
     int prepared;
     vbnl_budget *budget;
+    int lights_set, importons_set; /* virtual_lights / importon_paths set by the user */
 } rv_state;
 
 /* Under a time budget the light count is sized by vbnl_budget_size_lights (docs/time-budget.md):
@@ -103,6 +105,8 @@ static vbnl_result rv_create(const vbnl_integrator_env *env, void **out, vbnl_er
     s->seed = env->settings->seed;
     s->virtual_lights = (uint32_t)param(env, "virtual_lights");
     s->budget = env->budget;
+    s->lights_set = vbnl_params_has(env->params, "virtual_lights");
+    s->importons_set = vbnl_params_has(env->params, "importon_paths");
     s->importon_paths = (uint32_t)param(env, "importon_paths");
     s->q = param(env, "photons_per_light");
     s->k_importance = (uint32_t)param(env, "importance_neighbours");
@@ -153,15 +157,25 @@ static vbnl_result rv_create(const vbnl_integrator_env *env, void **out, vbnl_er
     return VBNL_OK;
 }
 
+/* Frees what a preparation made (the lights, their tables and frames). */
+static void rv_release(rv_state *s)
+{
+    rv_lights_free(&s->l);
+    vbnl_hemioct_destroy(s->map);
+    free(s->fr);
+    free(s->inv_area);
+    s->map = NULL;
+    s->fr = NULL;
+    s->inv_area = NULL;
+    s->prepared = 0;
+}
+
 static void rv_destroy(void *state)
 {
     rv_state *s = state;
     if (!s)
         return;
-    rv_lights_free(&s->l);
-    vbnl_hemioct_destroy(s->map);
-    free(s->fr);
-    free(s->inv_area);
+    rv_release(s);
     free(s);
 }
 
@@ -214,26 +228,41 @@ static vbnl_result set_radii(rv_state *s, vbnl_error *err)
     return r;
 }
 
-static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
+/* Traces s's importons into m (stage "importons"). */
+static vbnl_result rv_importons(const rv_state *s, vbnl_stage_ctx *stage, rv_maps *m, vbnl_error *err)
 {
-    rv_state *s = state;
+    if (stage)
+        vbnl_stage_begin(stage, "importons", 0, "chunks");
+    vbnl_result r = rv_trace_importons(s->scene, s->width, s->height, s->importon_paths, s->seed, stage, NULL, m, err);
+    if (stage)
+        vbnl_stage_end(stage);
+    return r;
+}
+
+/* Frees the photon part of m, keeping its importons. */
+static void free_photons(rv_maps *m)
+{
+    vbnl_kd_free(&m->ph_tree);
+    free(m->ph);
+    free(m->ph_pts);
+    memset(&m->ph_tree, 0, sizeof(m->ph_tree));
+    m->ph = NULL;
+    m->ph_pts = NULL;
+    m->ph_count = 0;
+    m->ph_paths = 0;
+}
+
+/* The rest of the preparation at s's light count, on the importons of m (whose photon part it
+ * fills and frees again): photons, importance, placement, relaxation, emission tables, radii. */
+static vbnl_result rv_build(rv_state *s, vbnl_stage_ctx *stage, rv_maps *mp, vbnl_error *err)
+{
     const vbnl_scene *sc = s->scene;
-    vbnl_result r0 = vbnl_budget_size_lights(s->budget, "virtual_lights", s->virtual_lights, 2.0, RV_LIGHT_COST, 16,
-                                             12000, &s->virtual_lights, err);
-    if (r0 != VBNL_OK)
-        return r0;
-    rv_maps m;
-    memset(&m, 0, sizeof(m));
+    rv_maps m = *mp;
     float *W = NULL, *p_rs = NULL;
     uint32_t *ids = NULL, count = 0;
     vec3 *pos = NULL;
-    vbnl_result r;
+    vbnl_result r = VBNL_OK;
 
-    if (stage)
-        vbnl_stage_begin(stage, "importons", 0, "chunks");
-    r = rv_trace_importons(sc, s->width, s->height, s->importon_paths, s->seed, stage, NULL, &m, err);
-    if (stage)
-        vbnl_stage_end(stage);
     if (r == VBNL_OK) {
         if (stage)
             vbnl_stage_begin(stage, "photons", 0, "batches");
@@ -314,7 +343,8 @@ static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *er
     }
     free(ids);
     free(p_rs);
-    rv_maps_free(&m); /* rendering needs only the lights */
+    free_photons(&m); /* rendering needs only the lights */
+    *mp = m;
     if (r == VBNL_OK) {
         s->prepared = 1;
         if (stage) { /* the lights and their emission tables */
@@ -326,6 +356,144 @@ static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *er
             vbnl_stage_set_storage(stage, bytes);
         }
     }
+    return r;
+}
+
+/* Under a time budget (docs/time-budget.md) the light count is first chosen from the rendering
+ * rate (vbnl_budget_size_lights), then the preparation is kept within its bound in two steps,
+ * each measured on the scene by a calibration recorded as the stage "calibrate" and thrown away:
+ * importon_paths is lowered (not below 1) until the importons take at most RV_IMPORTON_SHARE of
+ * what is left of RV_AIM of the bound (calibration: RV_CAL_IMPORTONS importon paths per pixel), then, on the
+ * importons traced, the light count until the rest fits (calibration: the rest of the
+ * preparation with at most RV_CAL_LIGHTS lights on the same importons, whose number sets the
+ * cost of the importance estimate). Counts set by the user are kept; when they cannot fit the
+ * bound they are refused before their work. */
+#define RV_CAL_IMPORTONS 1u
+#define RV_CAL_LIGHTS 16u
+#define RV_AIM 0.8
+#define RV_MARGIN 1.25
+#define RV_IMPORTON_SHARE (1.0 / 3.0)
+
+static void refuse_if(const rv_state *s, double estimate, const char *what, double per_unit, const char *unit,
+                      int *refused, vbnl_error *err)
+{
+    const double limit = vbnl_budget_prepare_limit(s->budget);
+    if (estimate <= limit)
+        return;
+    *refused = 1;
+    vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                   "integrator 'richvsl': with %s set explicitly (virtual_lights=%u, importon_paths=%u) preparation "
+                   "needs about %.1f s (calibrated on this scene: %.3g us per %s), more than its bound of %.2f s "
+                   "(%g%% of the %g s time budget); lower it, raise --time, or leave it unset so that the budget "
+                   "sizes it",
+                   what, s->virtual_lights, s->importon_paths, estimate, per_unit * 1e6, unit, limit,
+                   100.0 * VBNL_BUDGET_PREPARE_SHARE, vbnl_budget_seconds(s->budget));
+}
+
+static vbnl_result size_importons(rv_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    vbnl_result r = vbnl_budget_size_lights(s->budget, "virtual_lights", s->virtual_lights, 2.0, RV_LIGHT_COST, 16,
+                                            12000, &s->virtual_lights, err);
+    if (r != VBNL_OK)
+        return r;
+    rv_state cal = *s;
+    cal.importon_paths = s->importon_paths < RV_CAL_IMPORTONS ? s->importon_paths : RV_CAL_IMPORTONS;
+    rv_maps m;
+    memset(&m, 0, sizeof(m));
+    const char *record_as = stage ? stage->record_as : NULL;
+    if (stage)
+        stage->record_as = "calibrate";
+    double t0 = vbnl_now();
+    r = rv_importons(&cal, stage, &m, err);
+    const double t = vbnl_now() - t0;
+    if (stage)
+        stage->record_as = record_as;
+    rv_maps_free(&m);
+    if (r != VBNL_OK)
+        return r;
+    const double pixels = (double)s->width * s->height;
+    const double per_importon = fmax(t, 1e-9) / (pixels * cal.importon_paths);
+    const double limit = vbnl_budget_prepare_limit(s->budget), elapsed = vbnl_budget_elapsed(s->budget);
+    if (s->importons_set) {
+        int refused = 0;
+        refuse_if(s, elapsed + s->importon_paths * pixels * per_importon, "importon_paths", per_importon,
+                  "importon path", &refused, err);
+        if (refused)
+            return VBNL_ERR_INVALID_ARGUMENT;
+        vbnl_budget_choose(s->budget, "importon_paths", s->importon_paths, "set explicitly, kept (%.3g s estimated)",
+                           s->importon_paths * pixels * per_importon);
+        return VBNL_OK;
+    }
+    const double left = fmax(0.0, RV_AIM * limit - elapsed);
+    const double fit = floor(RV_IMPORTON_SHARE * left / (RV_MARGIN * per_importon * pixels));
+    const uint32_t want = s->importon_paths;
+    s->importon_paths = (uint32_t)fmax(1.0, fmin((double)want, fit));
+    vbnl_budget_choose(s->budget, "importon_paths", s->importon_paths,
+                       "sized: %u per pixel%s; %.3g us per importon path measured", want,
+                       s->importon_paths < want ? ", lowered to fit a third of the preparation bound" : "",
+                       per_importon * 1e6);
+    return VBNL_OK;
+}
+
+static vbnl_result size_lights(rv_state *s, vbnl_stage_ctx *stage, rv_maps *m, vbnl_error *err)
+{
+    rv_state *cal = malloc(sizeof(*cal));
+    if (!cal)
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    *cal = *s;
+    memset(&cal->l, 0, sizeof(cal->l));
+    cal->map = NULL;
+    cal->fr = NULL;
+    cal->inv_area = NULL;
+    cal->prepared = 0;
+    cal->budget = NULL;
+    cal->virtual_lights = s->virtual_lights < RV_CAL_LIGHTS ? s->virtual_lights : RV_CAL_LIGHTS;
+    const char *record_as = stage ? stage->record_as : NULL;
+    if (stage)
+        stage->record_as = "calibrate";
+    double t0 = vbnl_now();
+    vbnl_result r = rv_build(cal, stage, m, err);
+    const double per_light = fmax(vbnl_now() - t0, 1e-9) / cal->virtual_lights;
+    if (stage)
+        stage->record_as = record_as;
+    rv_destroy(cal);
+    if (r != VBNL_OK)
+        return r;
+    const double limit = vbnl_budget_prepare_limit(s->budget), elapsed = vbnl_budget_elapsed(s->budget);
+    if (s->lights_set) {
+        int refused = 0;
+        refuse_if(s, elapsed + s->virtual_lights * per_light, "virtual_lights", per_light, "light", &refused, err);
+        return refused ? VBNL_ERR_INVALID_ARGUMENT : VBNL_OK;
+    }
+    const double left = fmax(0.0, RV_AIM * limit - elapsed);
+    const uint32_t want = s->virtual_lights;
+    s->virtual_lights = (uint32_t)fmax(16.0, fmin((double)want, floor(left / (RV_MARGIN * per_light))));
+    if (s->virtual_lights < want)
+        vbnl_budget_choose(s->budget, "virtual_lights", s->virtual_lights,
+                           "sized: %u from the rendering rate, lowered to fit the preparation bound; %.3g us per "
+                           "light measured",
+                           want, per_light * 1e6);
+    vbnl_budget_choose(s->budget, "prepare_estimate", elapsed + s->virtual_lights * per_light,
+                       "seconds of preparation estimated (calibrations and importons, %.3f s, included) against "
+                       "the bound of %.2f s (%g%% of %g s)",
+                       elapsed, limit, 100.0 * VBNL_BUDGET_PREPARE_SHARE, vbnl_budget_seconds(s->budget));
+    return VBNL_OK;
+}
+
+static vbnl_result rv_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
+{
+    rv_state *s = state;
+    const int budget = vbnl_budget_seconds(s->budget) > 0.0;
+    vbnl_result r = budget ? size_importons(s, stage, err) : VBNL_OK;
+    rv_maps m;
+    memset(&m, 0, sizeof(m));
+    if (r == VBNL_OK)
+        r = rv_importons(s, stage, &m, err);
+    if (r == VBNL_OK && budget)
+        r = size_lights(s, stage, &m, err);
+    if (r == VBNL_OK)
+        r = rv_build(s, stage, &m, err);
+    rv_maps_free(&m);
     return r;
 }
 

@@ -49,7 +49,9 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
     uint64_t begin = item * CHUNK, end = begin + CHUNK < p->count ? begin + CHUNK : p->count;
     for (uint64_t k = begin; k < end; ++k) {
         vbnl_rng rng = vbnl_rng_for(p->seed ^ PLACEMENT_STREAM, k, 0);
-        uint32_t tile = (uint32_t)(k % job->tiles);
+        /* round robin over the tiles; fewer candidates than tiles (small sets, the time budget's
+         * calibration) are spread evenly over the image instead of filling its first rows */
+        uint32_t tile = p->count >= job->tiles ? (uint32_t)(k % job->tiles) : (uint32_t)(k * job->tiles / p->count);
         uint32_t tx = tile % job->tiles_x, ty = tile / job->tiles_x;
         uint32_t x0 = tx * p->tile_size, y0 = ty * p->tile_size;
         uint32_t w = p->width - x0 < p->tile_size ? p->width - x0 : p->tile_size;

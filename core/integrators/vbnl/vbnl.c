@@ -147,6 +147,7 @@ typedef struct vbnl_state {
     /* what the calibration measures (size_to_budget): seconds of the work that grows with the
      * light count, and of photon splitting, whose first cal_split paths are timed apart */
     double t_lights, t_photons, t_photons_first;
+    double t_kernels;                /* of the fixed seconds: the conversion kernels */
     uint64_t cal_split;
 } vbnl_state;
 
@@ -350,7 +351,8 @@ static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
     s->t_lights += vbnl_now() - t0;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the virtual-light index (%s)", vbnl_result_name(r));
-    s->kernels = calloc(sc->material_count, sizeof(*s->kernels));
+    if (!s->kernels) /* else the calibration's, kept (size_to_budget) */
+        s->kernels = calloc(sc->material_count, sizeof(*s->kernels));
     if (!s->kernels)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
     s->log_rmin = INFINITY;
@@ -359,11 +361,13 @@ static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
         s->log_rmin = fminf(s->log_rmin, logf(s->vls.radius[j]));
         s->log_rmax = fmaxf(s->log_rmax, logf(s->vls.radius[j]));
     }
+    double t_k = vbnl_now();
     for (uint32_t j = 0; j < n && r == VBNL_OK; ++j) {
         uint32_t m = s->vls.material[j];
         if (!s->kernels[m])
             r = vbnl_profile_kernel_create(s->map, &sc->materials[m].bsdf, 1, &s->kernels[m]);
     }
+    s->t_kernels += vbnl_now() - t_k;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the profile conversion kernels");
     return VBNL_OK;
@@ -423,7 +427,7 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
     cal->photon_paths = VBNL_SIZING_CAL_PATHS_FIRST + VBNL_SIZING_CAL_PATHS;
     cal->cal_split = VBNL_SIZING_CAL_PATHS_FIRST;
     cal->photon_first = cal->photon_count = 0;
-    cal->t_lights = cal->t_photons = cal->t_photons_first = 0.0;
+    cal->t_lights = cal->t_photons = cal->t_photons_first = cal->t_kernels = 0.0;
     const char *record_as = stage ? stage->record_as : NULL;
     if (stage)
         stage->record_as = "calibrate";
@@ -440,9 +444,18 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
         per_path = t_b / nb;
     const double fixed_paths = fmax(0.0, t_b - per_path * nb);
     const double per_light = cal->t_lights / n_cal;
-    const double fixed = fmax(0.0, total - cal->t_lights - t_a - t_b) + fixed_paths;
+    /* the conversion kernels depend on the materials and the profile resolution only: the real
+     * preparation keeps the calibration's (and the map they refer to) and builds only those of
+     * materials the calibration's lights did not sit on, so their seconds are not paid again */
+    const double fixed = fmax(0.0, total - cal->t_lights - t_a - t_b - cal->t_kernels) + fixed_paths;
     if (stage)
         stage->record_as = record_as;
+    if (r == VBNL_OK) {
+        s->map = cal->map;
+        s->kernels = cal->kernels;
+        cal->map = NULL;
+        cal->kernels = NULL;
+    }
     vbnl_destroy(cal);
     if (r != VBNL_OK)
         return r;
@@ -598,7 +611,7 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
     for (uint32_t j = 0; j < n; ++j)
         glossy[j] = sc->materials[s->vls.material[j]].desc.type != VBNL_MATERIAL_LAMBERT;
-    if ((r = vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
+    if ((r = s->map ? VBNL_OK : vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
         r = vbnl_profile_set_create_fixed(s->map, n, glossy, vbnl_split_photon_unit(sc, s->photon_paths),
                                           &s->profiles);
     free(glossy);

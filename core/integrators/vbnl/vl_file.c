@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "atomic_file.h"
+#include "camera_mesh.h"
 #include "read_file.h"
 
 #define BYTE_ORDER_MARK 0x01020304u
@@ -656,5 +657,6 @@ uint64_t vbnl_vl_file_camera_fingerprint(const vbnl_scene *scene)
     h = vbnl_vl_file_hash(h, c->position, sizeof(c->position));
     h = vbnl_vl_file_hash(h, c->forward, sizeof(c->forward));
     h = vbnl_vl_file_hash(h, c->right, sizeof(c->right));
-    return vbnl_vl_file_hash(h, c->up, sizeof(c->up));
+    h = vbnl_vl_file_hash(h, c->up, sizeof(c->up));
+    return c->projection == VBNL_CAMERA_MESH ? vbi_camera_mesh_hash(c, h, vbnl_vl_file_hash) : h;
 }

@@ -1,11 +1,12 @@
 /* vbnl object layer: mesh { triangle { ... [texture { T }] } smooth_triangle { ... }
  * [inside_vector V] modifiers }. */
 #include <stdlib.h>
+#include <string.h>
 
 #include "pov_shape.h"
 
 typedef struct mesh_tri {
-    double v[3][3], n[3][3];
+    double v[3][3], n[3][3], uv[3][2]; /* uv: zero unless given */
     int smooth;
     int32_t tex; /* index in the mesh's textures, -1: the object's appearance */
 } mesh_tri;
@@ -15,7 +16,7 @@ typedef struct mesh_build {
     pov_mesh *m;
     mesh_tri *tris;
     size_t nt, cap;
-    int any_smooth;
+    int any_smooth, any_uv;
 } mesh_build;
 
 static const pov_row inside_vector_rows[] = {{"inside_vector", pov_item_any_vec3, 0}, {NULL, NULL, 0}};
@@ -24,17 +25,19 @@ const pov_block pov_inside_vector_block = {.tables = inside_vector_tables};
 
 /* ---- a triangle's items ------------------------------------------------------------------------ */
 
-/* Per-triangle uv: accepted (patterns use world space). */
+/* Per-triangle uv_vectors (uv_mapping, the mesh camera); the mesh's other triangles get (0, 0). */
 static vbnl_result tri_uv_vectors(const pov_item *it)
 {
-    double uv[2];
+    mesh_build *mb = it->target;
+    mesh_tri *tr = &mb->tris[mb->nt - 1];
     vbnl_sdl_next(it->p);
     for (int k = 0; k < 3; ++k) {
         if (k)
-            pov_comma(it->ctx);
-        if (vbnl_sdl_parse_vector(it->p, 2, uv) != VBNL_OK)
+            pov_comma(mb->L);
+        if (vbnl_sdl_parse_vector(it->p, 2, tr->uv[k]) != VBNL_OK)
             return VBNL_ERR_PARSE;
     }
+    mb->any_uv = 1;
     return VBNL_OK;
 }
 
@@ -79,6 +82,7 @@ static vbnl_result mesh_triangle(const pov_item *it)
         mb->cap = cap;
     }
     mesh_tri *tr = &mb->tris[mb->nt++];
+    memset(tr, 0, sizeof *tr);
     tr->smooth = smooth;
     tr->tex = -1;
     mb->any_smooth |= smooth;
@@ -104,7 +108,8 @@ static vbnl_result mesh_make(const pov_shape *s, mesh_build *mb)
     for (size_t i = 0; i < mb->nt; ++i) {
         uint32_t id[3];
         for (int k = 0; k < 3; ++k)
-            id[k] = pov_mesh_vertex(mb->m, mb->tris[i].v[k], mb->any_smooth ? mb->tris[i].n[k] : NULL, NULL);
+            id[k] = pov_mesh_vertex(mb->m, mb->tris[i].v[k], mb->any_smooth ? mb->tris[i].n[k] : NULL,
+                                    mb->any_uv ? mb->tris[i].uv[k] : NULL);
         if (!pov_mesh_tri(mb->m, id[0], id[1], id[2], mb->tris[i].tex))
             return pov_oom(s->L);
     }
@@ -118,7 +123,11 @@ static vbnl_result mesh_make(const pov_shape *s, mesh_build *mb)
 vbnl_result pov_shape_mesh(const pov_shape *s)
 {
     vbnl_sdl_parser *p = s->L->c.parser;
-    mesh_build mb = {s->L, pov_mesh_new(), NULL, 0, 0, 0};
+    /* mesh { ID modifiers }: a copy of a declared object, as object { ID } (POV-Ray takes one here;
+     * the mesh_camera scenes write mesh { camera_mesh texture { ... } }) */
+    if (pov_declared(s->L, vbnl_sdl_peek(p), &pov_object_type))
+        return pov_shape_object(s);
+    mesh_build mb = {s->L, pov_mesh_new(), NULL, 0, 0, 0, 0};
     if (!mb.m)
         return pov_oom(s->L);
     vbnl_result r = pov_block_prefix(&mesh_block, p, s->L, &mb);

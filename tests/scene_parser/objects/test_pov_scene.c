@@ -61,6 +61,70 @@ static void test_camera(void **state)
     vbnl_pov_scene_destroy(s);
 }
 
+/* mesh_camera: a pinhole made of one small triangle per pixel of an 8 x 6 image, on the unit
+ * sphere along each pixel centre's perspective ray and wound to face along it, gives the
+ * perspective camera's rays at the pixel centres; POV-Ray's checks are errors at the block. */
+#define PINHOLE_MESH                                                                                   \
+    "#declare S = 0.001;\n"                                                                            \
+    "#declare M = mesh { #for (R, 0, 5) #for (C, 0, 7)\n"                                              \
+    "  #local D = vnormalize(<(C + 0.5) / 8 - 0.5, (0.5 - (R + 0.5) / 6) * 0.75, 1>);\n"               \
+    "  #local E2 = vnormalize(vcross(y, D)); #local E1 = vcross(D, E2);\n"                             \
+    "  triangle { D, D + E1 * S, D + E2 * S }\n"                                                       \
+    "#end #end }\n"
+
+static void test_mesh_camera(void **state)
+{
+    (void)state;
+    vbnl_pov_scene *s = ok("light_source { <0, 5, 0> rgb 1 }\n" PINHOLE_MESH
+                           "camera { mesh_camera { 1 0 mesh { M rotate y * 90 } } location <0, 0, 0.25> }");
+    const vbnl_camera_desc *c = &sc(s)->camera;
+    assert_int_equal(c->projection, VBNL_CAMERA_MESH);
+    assert_int_equal(c->mesh_count, 1);
+    assert_int_equal(c->meshes[0].triangle_count, 48);
+    for (int r = 0; r < 6; ++r)
+        for (int k = 0; k < 8; ++k) {
+            vec3 o, d;
+            assert_int_equal(vbnl_camera_ray(c, 8, 6, (float)k + 0.5f, (float)r + 0.5f, &o, &d), 1);
+            /* the perspective ray of the pixel centre, turned 90 degrees about y (x' = z, z' = -x) */
+            vec3 e = v3_norm(v3(((float)k + 0.5f) / 8 - 0.5f, (0.5f - ((float)r + 0.5f) / 6) * 0.75f, 1));
+            e = v3(e.z, e.y, -e.x);
+            /* (the face normal of a 0.001 triangle, in single precision) */
+            assert_float_equal(d.x, e.x, 1e-4f);
+            assert_float_equal(d.y, e.y, 1e-4f);
+            assert_float_equal(d.z, e.z, 1e-4f);
+            /* from the sphere plus the offset of 0.25 (location z) along the ray */
+            assert_float_equal(v3_len(o), 1.25f, 2e-3f);
+        }
+    vbnl_pov_scene_destroy(s);
+    /* direction z < 0 reverses the rays */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\n" PINHOLE_MESH "camera { mesh_camera { 1 0 mesh { M } } direction -z }");
+    vec3 o, d;
+    vbnl_camera_ray(&sc(s)->camera, 8, 6, 4.0f, 3.0f, &o, &d);
+    assert_true(d.z < -0.9f);
+    vbnl_pov_scene_destroy(s);
+    /* POV-Ray's checks */
+    expect_error("light_source { <0, 5, 0> rgb 1 }\n" PINHOLE_MESH "camera { mesh_camera { 2 0 mesh { M } } }",
+                 "test.pov:8:10: mesh_camera: rays per pixel (2) must not exceed the number of meshes (1) for distribution 0");
+    expect_error("light_source { <0, 5, 0> rgb 1 }\n" PINHOLE_MESH "camera { mesh_camera { 1 3 mesh { M } } }",
+                 "test.pov:8:10: mesh_camera: distribution 3 needs a mesh with uv_vectors");
+    expect_error("light_source { <0, 5, 0> rgb 1 }\n" PINHOLE_MESH "camera { mesh_camera { 1 0 mesh { M } smooth } }",
+                 "test.pov:8:10: mesh_camera: smooth needs distribution 3");
+    expect_error("light_source { <0, 5, 0> rgb 1 }\ncamera { mesh_camera { 1 0 } }",
+                 "test.pov:2:10: mesh_camera needs a mesh or mesh2");
+    expect_error("light_source { <0, 5, 0> rgb 1 }\ncamera { mesh_camera { 1 5 } }",
+                 "test.pov:2:10: mesh_camera: distribution 5 is not one of 0, 1, 2, 3");
+    /* distribution 3 with uv_vectors: a quad whose uvs cover the image; a declared camera keeps its meshes */
+    s = ok("light_source { <0, 5, 0> rgb 1 }\n"
+           "#declare Q = mesh { triangle { <0, 0, 0>, <2, 1, 0>, <2, 0, 0> uv_vectors <0, 0>, <1, 1>, <1, 0> }\n"
+           "                    triangle { <0, 0, 0>, <0, 1, 0>, <2, 1, 0> uv_vectors <0, 0>, <0, 1>, <1, 1> } }\n"
+           "#declare C = camera { mesh_camera { 1 3 mesh { Q } } }\n"
+           "camera { C }");
+    assert_int_equal(vbnl_camera_ray(&sc(s)->camera, 10, 10, 7.5f, 2.5f, &o, &d), 1);
+    NEAR(o.x, 1.5f);
+    NEAR(o.y, 0.75f);
+    vbnl_pov_scene_destroy(s);
+}
+
 /* The other camera types, with POV-Ray's defaults and angle rules, and focal blur. */
 static void test_camera_types(void **state)
 {
@@ -556,7 +620,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_camera),
-        cmocka_unit_test(test_camera_types),
+        cmocka_unit_test(test_camera_types), cmocka_unit_test(test_mesh_camera),
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_integrator_block),
         cmocka_unit_test(test_background),

@@ -204,6 +204,13 @@ static void test_mesh_mesh2_textures(void **state)
     assert_true(hit(s, 10.2f, 0.8f, -20, 0, 0, 1, &h));
     NEAR(h.ns.z, -1.0f);
     vbnl_pov_scene_destroy(s);
+    /* mesh { ID modifiers }: a copy of the declared mesh, moved and textured */
+    s = ok(BASE "#declare M = mesh { triangle { <0,0,0>, <1,0,0>, <0,1,0> } }\n"
+                "mesh { M pigment { rgb <0, 0, 1> } finish { diffuse 1 } translate <5, 0, 0> }");
+    assert_int_equal(info(s).triangle_count, 1);
+    NEAR(mat_at(s, 5.2f, 0.2f)->base_color[2], 1.0f);
+    assert_false(hit(s, 0.2f, 0.2f, -20, 0, 0, 1, &h));
+    vbnl_pov_scene_destroy(s);
 }
 
 static void test_union_inheritance(void **state)
