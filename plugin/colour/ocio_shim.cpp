@@ -11,6 +11,8 @@
 
 #include <OpenColorIO/OpenColorIO.h>
 
+#include "read_file.h"
+
 namespace OCIO = OCIO_NAMESPACE;
 
 namespace {
@@ -104,13 +106,37 @@ std::string config_label(const char *path)
     return "the embedded OCIO config";
 }
 
+// A config file: read through read_file.h (a regular file; a FIFO is refused, not waited on), its
+// folder the working folder its relative search paths start from, as CreateFromFile makes it.
+OCIO::ConstConfigRcPtr load_config_file(const char *path)
+{
+    const char *why = nullptr;
+    FILE *f = vbi_read_fopen(path, nullptr, &why);
+    if (!f)
+        throw OCIO::Exception(why);
+    std::string text;
+    char buf[65536];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0)
+        text.append(buf, n);
+    const bool failed = std::ferror(f) != 0;
+    std::fclose(f);
+    if (failed)
+        throw OCIO::Exception("read error");
+    std::istringstream in(text);
+    OCIO::ConfigRcPtr cfg = OCIO::Config::CreateFromStream(in)->createEditableCopy();
+    const char *slash = std::strrchr(path, '/');
+    cfg->setWorkingDir(slash ? std::string(path, slash == path ? 1 : (size_t)(slash - path)).c_str() : ".");
+    return cfg;
+}
+
 OCIO::ConstConfigRcPtr load_config(const char *path)
 {
     if (path)
-        return OCIO::Config::CreateFromFile(path);
+        return load_config_file(path);
     const char *env = std::getenv("OCIO");
     if (env && *env)
-        return OCIO::Config::CreateFromFile(env);
+        return load_config_file(env);
     std::istringstream in(kBuiltinConfig);
     return OCIO::Config::CreateFromStream(in);
 }

@@ -25,6 +25,26 @@ static double median(double *v, int n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/* A whole number for option `opt` in [min, max], the whole argument (cli_parse_u32): 0, or -1
+ * after saying what the option takes. */
+static int bench_u32(const char *opt, const char *arg, uint32_t *out, uint32_t min, uint32_t max)
+{
+    if (cli_parse_u32(arg, out, min, max) == 0)
+        return 0;
+    fprintf(stderr, "vbnl bench: --%s takes a whole number in %u..%u, got '%s'\n", opt, min, max, arg);
+    return -1;
+}
+
+/* Seconds for option `opt`, a finite number > 0 up to 1e7, the whole argument: 0, or -1 after
+ * saying so. */
+static int bench_seconds(const char *opt, const char *arg, double *out)
+{
+    if (cli_parse_double(arg, out, 0.0, 1e7) == 0 && *out > 0.0)
+        return 0;
+    fprintf(stderr, "vbnl bench: --%s takes seconds, more than 0 and at most 1e7, got '%s'\n", opt, arg);
+    return -1;
+}
+
 static void bench_usage(FILE *f)
 {
     fprintf(f,
@@ -76,16 +96,16 @@ int cmd_bench(int argc, char **argv)
         {"count-spp", required_argument, 0, 'P'}, {"methods", required_argument, 0, 'M'},
         {"ref-spp", required_argument, 0, 'S'}, {"sampler", required_argument, 0, 'm'}, {0, 0, 0, 0}};
     int equal_time = 0, nb = 0, no_budgets = 0, repeat_set = 0;
-    long count = 0, count_spp = 16, ref_spp = 0;
+    uint32_t count = 0, count_spp = 16, ref_spp = 0;
     const char *methods = NULL;
     double budgets[8];
-    unsigned size = 512;
+    uint32_t size = 512;
     double ref_time = 1200.0;
     const char *out_dir = "bench-out", *only = NULL;
     const char *scene_path = DEFAULT_SCENE;
     module_camera cam = {1, {0}, {0}, 0.0f};
     cli_parse_camera(DEFAULT_CAMERA, cam.position, cam.target, &cam.fov_y);
-    unsigned width = 256, height = 256, spp = 16, repeat = 3, threads = 0;
+    uint32_t width = 256, height = 256, spp = 16, repeat = 3, threads = 0;
     vbnl_sampler_kind sampler = VBNL_SAMPLER_SOBOL;
     int c;
     optind = 1;
@@ -98,14 +118,27 @@ int cmd_bench(int argc, char **argv)
                 return VBNL_EXIT_USAGE;
             }
             break;
-        case 'W': width = (unsigned)atoi(optarg); break;
-        case 'H': height = (unsigned)atoi(optarg); break;
-        case 'n': spp = (unsigned)atoi(optarg); break;
+        case 'W':
+            if (bench_u32("width", optarg, &width, 1, 16384))
+                return VBNL_EXIT_USAGE;
+            break;
+        case 'H':
+            if (bench_u32("height", optarg, &height, 1, 16384))
+                return VBNL_EXIT_USAGE;
+            break;
+        case 'n':
+            if (bench_u32("spp", optarg, &spp, 1, 1u << 30))
+                return VBNL_EXIT_USAGE;
+            break;
         case 'r':
-            repeat = (unsigned)atoi(optarg);
+            if (bench_u32("repeat", optarg, &repeat, 1, 99))
+                return VBNL_EXIT_USAGE;
             repeat_set = 1;
             break;
-        case 'T': threads = (unsigned)atoi(optarg); break;
+        case 'T':
+            if (bench_u32("threads", optarg, &threads, 0, 1024))
+                return VBNL_EXIT_USAGE;
+            break;
         case 'm': {
             vbnl_error e = {0};
             if (vbnl_sampler_find(optarg, &sampler, &e) != VBNL_OK) {
@@ -116,8 +149,14 @@ int cmd_bench(int argc, char **argv)
         }
         case 'h': bench_usage(stdout); return VBNL_EXIT_OK;
         case 'E': equal_time = 1; break;
-        case 'C': count = strtol(optarg, NULL, 10); break;
-        case 'P': count_spp = strtol(optarg, NULL, 10); break;
+        case 'C':
+            if (bench_u32("equal-count", optarg, &count, 0, 50000000))
+                return VBNL_EXIT_USAGE;
+            break;
+        case 'P':
+            if (bench_u32("count-spp", optarg, &count_spp, 1, 1000000))
+                return VBNL_EXIT_USAGE;
+            break;
         case 'M': methods = optarg; break;
         case 'B': {
             nb = 0;
@@ -126,26 +165,43 @@ int cmd_bench(int argc, char **argv)
                 break;
             }
             no_budgets = 0;
-            for (char *tok = strtok(optarg, ","); tok && nb < 8; tok = strtok(NULL, ","))
-                budgets[nb++] = atof(tok);
-            for (int i = 0; i < nb; ++i)
-                if (!(budgets[i] > 0.0) || (i && budgets[i] <= budgets[i - 1])) {
-                    fprintf(stderr, "vbnl bench: --budgets takes increasing seconds, e.g. 10,30,100\n");
-                    return VBNL_EXIT_USAGE;
+            /* every item a number of seconds, at most 8, increasing; no empty item */
+            const char *q = optarg;
+            int bad = !*q;
+            while (!bad && *q) {
+                char item[64];
+                size_t len = strcspn(q, ",");
+                bad = nb == 8 || len == 0 || len >= sizeof(item);
+                if (!bad) {
+                    memcpy(item, q, len);
+                    item[len] = '\0';
+                    bad = cli_parse_double(item, &budgets[nb], 0.0, 1e7) != 0 || !(budgets[nb] > 0.0) ||
+                          (nb && budgets[nb] <= budgets[nb - 1]);
+                    ++nb;
                 }
-            break;
-        }
-        case 'Z': size = (unsigned)atoi(optarg); break;
-        case 'F': ref_time = atof(optarg); break;
-        case 'S': {
-            char *end;
-            ref_spp = strtol(optarg, &end, 10);
-            if (end == optarg || *end || ref_spp < 1) {
-                fprintf(stderr, "vbnl bench: --ref-spp takes a positive sample count, got '%s'\n", optarg);
+                q += len;
+                if (!bad && *q == ',')
+                    bad = !*++q; /* a trailing comma */
+            }
+            if (bad) {
+                fprintf(stderr, "vbnl bench: --budgets takes up to 8 increasing seconds, e.g. 10,30,100, got '%s'\n",
+                        optarg);
                 return VBNL_EXIT_USAGE;
             }
             break;
         }
+        case 'Z':
+            if (bench_u32("size", optarg, &size, 1, 8192))
+                return VBNL_EXIT_USAGE;
+            break;
+        case 'F':
+            if (bench_seconds("ref-time", optarg, &ref_time))
+                return VBNL_EXIT_USAGE;
+            break;
+        case 'S':
+            if (bench_u32("ref-spp", optarg, &ref_spp, 1, 16777216))
+                return VBNL_EXIT_USAGE;
+            break;
         case 'O': out_dir = optarg; break;
         case 'Y': only = optarg; break;
         default: bench_usage(stderr); return VBNL_EXIT_USAGE;
@@ -158,26 +214,9 @@ int cmd_bench(int argc, char **argv)
             budgets[2] = 100;
             nb = 3;
         }
-        if (size == 0 || size > 8192 || !(ref_time > 0.0) || ref_spp < 0 || ref_spp > 16777216) {
-            fprintf(stderr, "vbnl bench: --size takes 1..8192, --ref-time seconds > 0 and --ref-spp 1..2^24\n");
-            return VBNL_EXIT_USAGE;
-        }
-        if (count < 0 || count > 50000000 || count_spp < 1 || count_spp > 1000000) {
-            fprintf(stderr, "vbnl bench: --equal-count takes 0..5e7 lights and --count-spp a positive count\n");
-            return VBNL_EXIT_USAGE;
-        }
-        if (repeat_set && (repeat == 0 || repeat > 99)) {
-            fprintf(stderr, "vbnl bench: --repeat takes 1..99\n");
-            return VBNL_EXIT_USAGE;
-        }
-        cmd_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, (uint32_t)ref_spp, only, methods,
-                                  (uint32_t)count, (uint32_t)count_spp, sampler, repeat_set ? repeat : 1u};
+        cmd_bench_equal_opts o = {out_dir, size, budgets, nb, ref_time, ref_spp, only, methods,
+                                  count, count_spp, sampler, repeat_set ? repeat : 1u};
         return cmd_bench_equal_time(&o);
-    }
-    if (width == 0 || height == 0 || width > 16384 || height > 16384 || spp == 0 || repeat == 0 ||
-        repeat > 99 || threads > 1024) {
-        fprintf(stderr, "vbnl bench: size, --spp and --repeat must be positive (repeat <= 99)\n");
-        return VBNL_EXIT_USAGE;
     }
     vbnl_error err = {0};
     vbnl_context *ctx = NULL;

@@ -15,7 +15,8 @@
  *             and splotches of many-light methods, the baseline notes §5).
  *   mean/ref  sum of I over sum of I_ref (R, G, B): the energy kept, e.g. what clamping removes
  *             or what spherical lights redistribute (notes §5, "energy loss").
- * The error map of a candidate shows e per pixel through a magma-like colour ramp from 0 to 1
+ * A reference whose mean is 0 (black) is refused: every metric but MSE divides by it. So is an
+ * image with a pixel that is NaN or infinite. The error map of a candidate shows e per pixel through a magma-like colour ramp from 0 to 1
  * (values above 1 saturate), with a colour bar underneath. */
 #include <errno.h>
 #include <math.h>
@@ -158,6 +159,15 @@ static void ramp(double t, uint8_t out[3])
     double f = x - i;
     for (int c = 0; c < 3; ++c)
         out[c] = (uint8_t)lround(stops[i][c] + (stops[i + 1][c] - stops[i][c]) * f);
+}
+
+/* How many of the n pixels have an R, G or B value that is NaN or infinite. */
+static size_t count_nonfinite(const float *img, size_t n)
+{
+    size_t bad = 0;
+    for (size_t i = 0; i < n; ++i)
+        bad += !isfinite(img[4 * i]) || !isfinite(img[4 * i + 1]) || !isfinite(img[4 * i + 2]);
+    return bad;
 }
 
 /* Per-pixel relative error e = sum_c |I - I_ref| / sum_c (I_ref + eps). */
@@ -393,6 +403,23 @@ int cmd_compare(int argc, char **argv)
     }
     if (rc == VBNL_EXIT_OK && (size_t)w * h == 0) {
         fprintf(stderr, "vbnl compare: '%s' has no pixels\n", files[0]);
+        rc = VBNL_EXIT_FAILURE;
+    }
+    /* every metric but MSE is relative to the reference: against a black one (eps = 0) it divides 0
+     * by 0, and a pixel that is not a finite number makes every mean NaN */
+    for (int i = 0; i < nfiles && rc == VBNL_EXIT_OK; ++i) {
+        size_t bad = count_nonfinite(img[i], (size_t)w * h);
+        if (bad) {
+            fprintf(stderr, "vbnl compare: '%s' has %zu pixel%s that %s not finite numbers (NaN or infinite): no "
+                            "error is defined against it\n",
+                    files[i], bad, bad == 1 ? "" : "s", bad == 1 ? "is" : "are");
+            rc = VBNL_EXIT_FAILURE;
+        }
+    }
+    if (rc == VBNL_EXIT_OK && !(cmd_rmae_eps(img[0], (size_t)w * h) > 0.0)) {
+        fprintf(stderr, "vbnl compare: the reference '%s' is black (its mean is %s): relative errors (rMAE, relMSE, "
+                        "outliers, mean/ref) are undefined against it\n",
+                files[0], cmd_rmae_eps(img[0], (size_t)w * h) < 0.0 ? "negative" : "0");
         rc = VBNL_EXIT_FAILURE;
     }
     if (rc == VBNL_EXIT_OK) {

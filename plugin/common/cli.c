@@ -61,3 +61,14 @@ int cli_parse_u32(const char *s, uint32_t *out, uint32_t min, uint32_t max)
     *out = (uint32_t)v;
     return 0;
 }
+
+int cli_parse_double(const char *s, double *out, double min, double max)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || *end || end == s || !isfinite(v) || v < min || v > max)
+        return -1;
+    *out = v;
+    return 0;
+}

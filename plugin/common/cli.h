@@ -24,6 +24,10 @@ int cli_parse_camera(const char *text, float position[3], float target[3], float
 /* Parses a whole number in [min, max] (decimal, no sign) into *out: 0, or -1 leaving it unchanged. */
 int cli_parse_u32(const char *s, uint32_t *out, uint32_t min, uint32_t max);
 
+/* Parses a finite number in [min, max] (the whole text, as strtod reads it) into *out: 0, or -1
+ * leaving it unchanged. */
+int cli_parse_double(const char *s, double *out, double min, double max);
+
 /* 1 when `a` and `b` name one file: the same inode when both exist (links and hard links
  * included), else the same canonical path of the folder and name (a file about to be created).
  * An output is never an input or another output. */

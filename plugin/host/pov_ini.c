@@ -14,6 +14,7 @@
 #include <strings.h>
 
 #include "pov_options.h"
+#include "read_file.h"
 
 /* What a key or switch does. The kinds after NOTE only note that they do not apply. */
 typedef enum {
@@ -728,9 +729,10 @@ static int read_ini(pov_settings *s, const char *spec, const char *where)
         fprintf(stderr, "vbnl: %s: .ini files nested more than 16 deep at '%s'\n", where, path);
         return -1;
     }
-    FILE *f = fopen(path, "r");
+    const char *why;
+    FILE *f = vbi_read_fopen(path, NULL, &why); /* a FIFO is refused, not waited on (read_file.h) */
     if (!f) {
-        fprintf(stderr, "vbnl: %s: cannot open INI file '%s': %s\n", where, path, strerror(errno));
+        fprintf(stderr, "vbnl: %s: cannot open INI file '%s': %s\n", where, path, why);
         return -1;
     }
     if (pov_strings_add(&s->ini_files, path) != 0) {

@@ -14,6 +14,7 @@
 
 #include "atomic_file.h"
 #include "image_io.h"
+#include "read_file.h"
 
 #define VBNL_EXR_MAX_CHANNELS_PER_LAYER 64u
 #define VBNL_EXR_MAX_NAME 255u
@@ -81,7 +82,9 @@ static float vbnl_half_to_float(uint16_t h)
 
 typedef struct vbnl_exr_io {
     int fd;
+    int64_t size; /* reading: the file's size */
     int write_errno;
+    int read_errno; /* reading: errno of a failed read (not a file that ends early, which is damage) */
     exr_result_t code; /* first error the library reported */
     char msg[512];
 } vbnl_exr_io;
@@ -120,6 +123,36 @@ static int64_t vbnl_exr_pwrite(exr_const_context_t ctxt, void *userdata, const v
         done += (uint64_t)n;
     }
     return (int64_t)done;
+}
+
+/* Reading through our descriptor (read_file.h: a regular file, opened without waiting on a FIFO). */
+static int64_t vbnl_exr_pread(exr_const_context_t ctxt, void *userdata, void *buffer, uint64_t sz,
+                              uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    vbnl_exr_io *io = userdata;
+    char *p = buffer;
+    uint64_t done = 0;
+    while (done < sz) {
+        ssize_t n = pread(io->fd, p + done, (size_t)(sz - done), (off_t)(offset + done));
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0) {
+            io->read_errno = errno;
+            if (error_cb)
+                error_cb(ctxt, EXR_ERR_READ_IO, "%s", strerror(errno));
+            return -1;
+        }
+        if (n == 0)
+            break; /* the end of the file: a short read, which the library reports */
+        done += (uint64_t)n;
+    }
+    return (int64_t)done;
+}
+
+static int64_t vbnl_exr_size(exr_const_context_t ctxt, void *userdata)
+{
+    (void)ctxt;
+    return ((const vbnl_exr_io *)userdata)->size;
 }
 
 /* Library failure -> vbnl error, preferring the specific message the callback captured. */
@@ -697,18 +730,28 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
                               "cannot read EXR: %s is NULL", !path ? "path" : "out");
 
     vbnl_exr_io io = {.fd = -1};
+    struct stat st;
+    const char *why;
+    if ((io.fd = vbi_read_open(path, &st, &why)) < 0)
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, why);
+    io.size = (int64_t)st.st_size;
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = vbnl_exr_on_error;
+    init.user_data = &io;
+    init.read_fn = vbnl_exr_pread;
+    init.size_fn = vbnl_exr_size;
 
     exr_context_t ctxt = NULL;
     vbnl_exr_io *outer_io = vbnl_exr_current_io;
     vbnl_exr_current_io = &io;
     exr_result_t rv = exr_start_read(&ctxt, path, &init);
     if (rv != EXR_ERR_SUCCESS) {
-        vbnl_result code = rv == EXR_ERR_FILE_ACCESS ? VBNL_ERR_IO
-                           : rv == EXR_ERR_OUT_OF_MEMORY ? VBNL_ERR_OUT_OF_MEMORY
-                                                         : VBNL_ERR_CORRUPT;
+        /* a short read is a file that ends early (damage); only a failed read is an I/O error */
+        vbnl_result code = rv == EXR_ERR_FILE_ACCESS || io.read_errno ? VBNL_ERR_IO
+                           : rv == EXR_ERR_OUT_OF_MEMORY              ? VBNL_ERR_OUT_OF_MEMORY
+                                                                      : VBNL_ERR_CORRUPT;
         exr_finish(&ctxt);
+        close(io.fd);
         vbnl_exr_current_io = outer_io;
         return vbnl_exr_fail(err, &io, rv, code, "read", path);
     }
@@ -794,6 +837,7 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
 
 done:
     exr_finish(&ctxt);
+    close(io.fd);
     vbnl_exr_current_io = outer_io;
     if (r != VBNL_OK) {
         vbnl_exr_image_free(&img);

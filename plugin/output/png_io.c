@@ -13,6 +13,7 @@
 
 #include "atomic_file.h"
 #include "image_io.h"
+#include "read_file.h"
 
 /* libpng reports errors by calling this and expecting it not to return: keep the message, longjmp
  * back to the setjmp in the calling function. */
@@ -199,9 +200,10 @@ vbnl_result vbnl_png_read(const char *path, vbnl_png_image *out, vbnl_error *err
     if (!path || !out)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot read PNG: %s is NULL",
                               !path ? "path" : "out");
-    FILE *fp = fopen(path, "rbe");
+    const char *why;
+    FILE *fp = vbi_read_fopen(path, NULL, &why);
     if (!fp)
-        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, why);
     uint8_t sig[8];
     if (fread(sig, 1, 8, fp) != 8 || png_sig_cmp(sig, 0, 8) != 0) {
         fclose(fp);

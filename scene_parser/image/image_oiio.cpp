@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 namespace {
@@ -46,12 +47,16 @@ void encoding_of(const OIIO::ImageSpec &spec, pov_image_data *out)
 
 } // namespace
 
-extern "C" __attribute__((visibility("default"))) int vbnl_oiio_image_read(const char *path, pov_image_data *out,
-                                                                           char *why, size_t why_size)
+// The image in `file` (opened by the caller, who keeps it: image_read.c opens only regular files),
+// `path` its name: OpenImageIO picks the format by the name's extension, then by the contents.
+extern "C" __attribute__((visibility("default"))) int vbnl_oiio_image_read_stream(const char *path, FILE *file,
+                                                                                  pov_image_data *out, char *why,
+                                                                                  size_t why_size)
 {
     std::memset(out, 0, sizeof(*out));
     try {
-        auto in = OIIO::ImageInput::open(path);
+        OIIO::Filesystem::IOFile proxy(file, OIIO::Filesystem::IOProxy::Read);
+        auto in = OIIO::ImageInput::open(path, nullptr, &proxy);
         if (!in) {
             std::string e = OIIO::geterror();
             say(why, why_size, e.empty() ? "not an image OpenImageIO reads" : e);

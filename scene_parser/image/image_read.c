@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "pov_image.h"
+#include "read_file.h"
 
 #ifndef VBNL_IMAGE_MODULE_DIR
 #define VBNL_IMAGE_MODULE_DIR "/usr/local/lib/x86_64-linux-gnu/vbnl"
@@ -159,7 +160,8 @@ static int read_png(FILE *f, pov_image_data *out, char *why, size_t why_size)
 
 /* ---- other formats: the OpenImageIO module ------------------------------------------------------ */
 
-typedef int (*oiio_read_fn)(const char *, pov_image_data *, char *, size_t);
+/* The module's reader (image_oiio.cpp): the image in the open stream, named `path`. */
+typedef int (*oiio_read_fn)(const char *, FILE *, pov_image_data *, char *, size_t);
 static pthread_once_t module_once = PTHREAD_ONCE_INIT;
 static oiio_read_fn module_read;
 static char module_error[512];
@@ -173,7 +175,7 @@ static int try_module(const char *path)
             snprintf(module_error, sizeof(module_error), "%s", e ? e : path);
         return 0;
     }
-    module_read = (oiio_read_fn)(uintptr_t)dlsym(h, "vbnl_oiio_image_read");
+    module_read = (oiio_read_fn)(uintptr_t)dlsym(h, "vbnl_oiio_image_read_stream");
     if (!module_read) {
         snprintf(module_error, sizeof(module_error), "%s has no reader", path);
         dlclose(h);
@@ -216,26 +218,29 @@ static void load_module(void)
 int pov_image_read(const char *path, pov_image_data *out, char *why, size_t why_size)
 {
     memset(out, 0, sizeof(*out));
-    FILE *f = fopen(path, "rb");
+    const char *no;
+    FILE *f = vbi_read_fopen(path, NULL, &no);
     if (!f) {
-        say(why, why_size, "%s", strerror(errno));
+        say(why, why_size, "%s", no);
         return -1;
     }
     unsigned char sig[8] = {0};
     size_t n = fread(sig, 1, sizeof(sig), f);
+    rewind(f);
+    int r;
     if (n == sizeof(sig) && !png_sig_cmp(sig, 0, sizeof(sig))) {
-        rewind(f);
-        int r = read_png(f, out, why, why_size);
-        fclose(f);
-        return r;
+        r = read_png(f, out, why, why_size);
+    } else {
+        pthread_once(&module_once, load_module);
+        if (module_read) {
+            r = module_read(path, f, out, why, why_size);
+        } else {
+            say(why, why_size, "reading formats other than PNG needs OpenImageIO (%s)", module_error);
+            r = -1;
+        }
     }
     fclose(f);
-    pthread_once(&module_once, load_module);
-    if (!module_read) {
-        say(why, why_size, "reading formats other than PNG needs OpenImageIO (%s)", module_error);
-        return -1;
-    }
-    return module_read(path, out, why, why_size);
+    return r;
 }
 
 void pov_image_data_free(pov_image_data *d)

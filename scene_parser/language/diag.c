@@ -48,12 +48,63 @@ static void sb_printf(sbuf *b, const char *fmt, ...)
     sb_add(b, tmp, (size_t)n < sizeof tmp ? (size_t)n : sizeof tmp - 1);
 }
 
+/* Whether byte i of s[0..n) is printed escaped: scene text reaches a terminal, where a control
+ * character (ESC, CSI, BEL, CR, ...) would act instead of showing. Escaped: the C0 controls but
+ * the newline and the tab, DEL, and the C1 controls U+0080..U+009F as UTF-8 (both their bytes). */
+static bool escaped_byte(const unsigned char *s, size_t i, size_t n)
+{
+    unsigned char c = s[i];
+    if (c < 0x20)
+        return c != '\n' && c != '\t';
+    if (c == 0x7f)
+        return true;
+    if (c == 0xc2)
+        return i + 1 < n && s[i + 1] >= 0x80 && s[i + 1] <= 0x9f;
+    return c >= 0x80 && c <= 0x9f && i > 0 && s[i - 1] == 0xc2;
+}
+
+/* Adds s[0..n) with every escaped byte as \xHH (four characters). */
+static void sb_add_text(sbuf *b, const char *s, size_t n)
+{
+    const unsigned char *u = (const unsigned char *)s;
+    size_t start = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!escaped_byte(u, i, n))
+            continue;
+        char hex[5];
+        snprintf(hex, sizeof hex, "\\x%02x", u[i]);
+        sb_add(b, s + start, i - start);
+        sb_add(b, hex, 4);
+        start = i + 1;
+    }
+    sb_add(b, s + start, n - start);
+}
+
 static const sdl_file *find_file(vbnl_sdl_parser *p, const char *name)
 {
     for (sdl_file *f = p->files; f; f = f->next)
         if (f->name == name)
             return f;
     return NULL;
+}
+
+const char *sdl_word_at(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, char *buf, size_t n)
+{
+    const sdl_file *f = loc && loc->file ? find_file(p, loc->file) : NULL;
+    if (!f || loc->line < 1 || loc->col < 1 || n < 2)
+        return NULL;
+    const char *s = f->text, *end = f->text + f->len;
+    for (int l = 1; l < loc->line && s < end; s++)
+        if (*s == '\n')
+            l++;
+    for (int c = 1; c < loc->col && s < end && *s != '\n'; c++)
+        s++;
+    size_t k = 0;
+    while (s < end && k + 1 < n && (*s == '_' || (*s >= 'a' && *s <= 'z') || (*s >= 'A' && *s <= 'Z') ||
+                                    (k > 0 && *s >= '0' && *s <= '9')))
+        buf[k++] = *s++;
+    buf[k] = '\0';
+    return k ? buf : NULL;
 }
 
 static void add_source_line(vbnl_sdl_parser *p, sbuf *b, const vbnl_sdl_loc *loc)
@@ -73,17 +124,20 @@ static void add_source_line(vbnl_sdl_parser *p, sbuf *b, const vbnl_sdl_loc *loc
     size_t n = (size_t)(e - s);
     if (n > 300)
         n = 300;
-    sb_add(b, s, n);
+    sb_add_text(b, s, n);
     sb_add(b, "\n", 1);
-    for (int i = 1; i < loc->col && (size_t)(i - 1) < n; i++)
-        sb_add(b, s[i - 1] == '\t' ? "\t" : " ", 1);
+    for (size_t i = 0; i + 1 < (size_t)loc->col && i < n; i++) /* under an escaped byte, its 4 characters */
+        if (s[i] == '\t')
+            sb_add(b, "\t", 1);
+        else
+            sb_add(b, "    ", escaped_byte((const unsigned char *)s, i, n) ? 4 : 1);
     sb_add(b, "^\n", 2);
 }
 
 static void deliver(vbnl_sdl_parser *p, const vbnl_sdl_diag *dp, char *m, char *text);
 
 void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc *loc,
-                   const char *msg)
+                   const char *raw)
 {
     vbnl_sdl_loc l = loc ? *loc : p->last_loc;
     if (!l.file)
@@ -93,12 +147,19 @@ void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc
     /* nobody will see it: a #debug or #warning in a long loop must stay cheap */
     if (sev != VBNL_SDL_ERROR && !p->diag_fn && p->diags.count >= VBNL_SDL_MAX_STORED_DIAGS)
         return;
+    /* the message (a #debug's text, a name from the scene) with its control characters escaped */
+    sbuf clean = { 0 };
+    sb_add_text(&clean, raw, strlen(raw));
+    const char *msg = clean.s ? clean.s : raw[0] ? "out of memory" : "";
     static const char *const sevname[] = { "note", "warning", "error" };
     sbuf b = { 0 };
+    const char *where = l.file[0] || l.line > 0 ? l.file : "vbnl";
+    sb_add_text(&b, where, strlen(where));
     if (l.line > 0)
-        sb_printf(&b, "%s:%d:%d: %s: %s\n", l.file, l.line, l.col, sevname[sev], msg);
-    else
-        sb_printf(&b, "%s: %s: %s\n", l.file[0] ? l.file : "vbnl", sevname[sev], msg);
+        sb_printf(&b, ":%d:%d", l.line, l.col);
+    sb_printf(&b, ": %s: ", sevname[sev]);
+    sb_add(&b, msg, strlen(msg));
+    sb_add(&b, "\n", 1);
     if (sev != VBNL_SDL_NOTE && l.line > 0)
         add_source_line(p, &b, &l);
     for (int i = p->nframes - 1; i > 0; i--) {
@@ -125,7 +186,7 @@ void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc
             snprintf(p->fail_message, sizeof p->fail_message, "%s", msg);
     }
     vbnl_sdl_diag d = { sev, l, NULL, NULL };
-    char *m = strdup(msg);
+    char *m = clean.s ? clean.s : strdup(msg);
     d.message = m ? m : no_text;
     d.text = b.s ? b.s : no_text;
     if (sev == VBNL_SDL_WARNING && p->ndefer_open > 0) {

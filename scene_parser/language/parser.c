@@ -473,14 +473,13 @@ vbnl_result vbnl_sdl_parse_file(vbnl_sdl_parser *p, const char *path, vbnl_error
     if (!p || !path)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_sdl_parse_file: NULL argument");
     begin(p, path);
-    struct stat st;
-    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
-        return vbnl_error_set(err, VBNL_ERR_IO, "cannot open scene file '%s'", path);
-    sdl_file *f = sdl_load_file(p, path, path);
+    const char *why;
+    sdl_file *f = sdl_load_file(p, path, &why);
     if (!f) {
         if (p->failed)
             return vbnl_error_set(err, p->fail_code ? p->fail_code : VBNL_ERR_IO, "%s", p->fail_message);
-        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read scene file '%s'", path);
+        return vbnl_error_set(err, why ? VBNL_ERR_IO : VBNL_ERR_OUT_OF_MEMORY, "cannot open scene file '%s': %s", path,
+                              why ? why : "out of memory");
     }
     return run(p, f, err);
 }

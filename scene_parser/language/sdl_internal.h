@@ -262,8 +262,15 @@ void sdl_pop_frame(vbnl_sdl_parser *p);
 void sdl_seek(vbnl_sdl_parser *p, sdl_pos pos);
 sdl_pos sdl_tell(vbnl_sdl_parser *p);
 void sdl_raw(vbnl_sdl_parser *p, vbnl_sdl_token *tok); /* from the top frame, no expansion */
-sdl_file *sdl_load_file(vbnl_sdl_parser *p, const char *path, const char *name);
+/* The file at `path`, read once per parse (a regular file: a FIFO or device is refused without
+ * waiting on it). NULL with *why set when it cannot be opened (nothing reported), or with
+ * *why NULL after an error reported here (memory). */
+sdl_file *sdl_load_file(vbnl_sdl_parser *p, const char *path, const char **why);
 sdl_file *sdl_add_text(vbnl_sdl_parser *p, const char *name, const char *text, size_t len);
+/* The identifier (a keyword such as `sphere`) that starts at `loc` in its file, copied into buf (n
+ * bytes); NULL when the file is not the parser's or no identifier starts there. For messages
+ * about a statement after the parse (the object layer's checks). */
+const char *sdl_word_at(vbnl_sdl_parser *p, const vbnl_sdl_loc *loc, char *buf, size_t n);
 bool sdl_invoke_macro(vbnl_sdl_parser *p, vbnl_sdl_macro *m, const vbnl_sdl_loc *loc);
 bool sdl_expand_here(vbnl_sdl_parser *p);
 void sdl_unread(vbnl_sdl_parser *p, const vbnl_sdl_token *tok);

@@ -12,6 +12,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "read_file.h"
 #include "sdl_internal.h"
 
 sdl_frame *sdl_top(vbnl_sdl_parser *p)
@@ -331,16 +332,16 @@ sdl_file *sdl_add_text(vbnl_sdl_parser *p, const char *name, const char *text, s
     return f;
 }
 
-sdl_file *sdl_load_file(vbnl_sdl_parser *p, const char *path, const char *name)
+sdl_file *sdl_load_file(vbnl_sdl_parser *p, const char *path, const char **why)
 {
-    (void)name;
+    *why = NULL;
     const char *iname = sdl_intern(p, path, strlen(path), NULL);
     if (!iname)
         return NULL;
     for (sdl_file *f = p->files; f; f = f->next)
         if (f->name == iname)
             return f;
-    FILE *fp = fopen(path, "rb");
+    FILE *fp = vbi_read_fopen(path, NULL, why);
     if (!fp)
         return NULL;
     char *buf = NULL;
@@ -374,10 +375,22 @@ sdl_file *sdl_load_file(vbnl_sdl_parser *p, const char *path, const char *name)
     return f;
 }
 
+/* True when `path` names something other than a folder: an include is found there (a special
+ * file is then refused by sdl_load_file with the reason, instead of "cannot find"). */
 static bool is_file(const char *path)
 {
     struct stat st;
-    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+    return stat(path, &st) == 0 && !S_ISDIR(st.st_mode);
+}
+
+/* The include file at `path`, or NULL after an error at `loc`. */
+static sdl_file *load_include(vbnl_sdl_parser *p, const char *path, const vbnl_sdl_loc *loc)
+{
+    const char *why;
+    sdl_file *f = sdl_load_file(p, path, &why);
+    if (!f && !p->failed)
+        sdl_errorf(p, loc, "cannot open include file '%s': %s", path, why ? why : "out of memory");
+    return f;
 }
 
 static void dirname_of(const char *path, char *out, size_t n)
@@ -441,7 +454,7 @@ sdl_file *sdl_find_include(vbnl_sdl_parser *p, const char *name, const vbnl_sdl_
             sdl_errorf(p, loc, outside_text, name);
             return NULL;
         }
-        return sdl_load_file(p, name, name);
+        return load_include(p, name, loc);
     }
     const char *cand[64];
     int nc = 0;
@@ -472,7 +485,7 @@ sdl_file *sdl_find_include(vbnl_sdl_parser *p, const char *name, const vbnl_sdl_
                 sdl_errorf(p, loc, outside_text, name);
                 return NULL;
             }
-            return sdl_load_file(p, path, name);
+            return load_include(p, path, loc);
         }
         if (nd < 8)
             snprintf(dirs[nd++], sizeof dirs[0], "%s", cand[i]);

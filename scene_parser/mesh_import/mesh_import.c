@@ -16,10 +16,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 #include "vbnl/mesh_import.h"
 #include "ply_check.h"
+#include "read_file.h"
 
 float vbnl_phong_exponent_to_alpha(float ns)
 {
@@ -149,7 +151,8 @@ static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char 
             snprintf(m->refused, sizeof(m->refused), "%s", name);
         return NULL;
     }
-    FILE *fp = fopen(real, "rb");
+    const char *why;
+    FILE *fp = vbi_read_fopen(real, NULL, &why); /* a FIFO beside the file is refused, not waited on */
     struct aiFile *f = fp ? calloc(1, sizeof(*f)) : NULL;
     if (!f) {
         if (fp)
@@ -175,6 +178,47 @@ static void io_close(struct aiFileIO *io, struct aiFile *f)
     }
 }
 
+/* Why an OBJ file assimp could not import (or that gave no triangle) looks truncated, or NULL:
+ * assimp's own words for a file cut short ("Mesh contains no faces", "aiScene::mNumMeshes is 0",
+ * "all meshes are orphaned", "mFaces[1] is a LINE") do not say so. `why` holds the reason: no face
+ * statement in the file, or a last line without its newline. */
+static const char *obj_truncation(const char *path, char *why, size_t n)
+{
+    size_t len = strlen(path);
+    if (len < 4 || strcasecmp(path + len - 4, ".obj") != 0)
+        return NULL;
+    const char *no;
+    FILE *f = vbi_read_fopen(path, NULL, &no);
+    if (!f)
+        return NULL;
+    /* a face statement: 'f' and a blank first on a line (blanks before it allowed) */
+    enum { AT_START, AFTER_F, IN_LINE } state = AT_START;
+    unsigned long long faces = 0, lines = 1;
+    int c, last = '\n';
+    while ((c = getc(f)) != EOF) {
+        if (c == '\n') {
+            state = AT_START;
+            ++lines;
+        } else if (state == AT_START && c == 'f') {
+            state = AFTER_F;
+        } else if (state == AFTER_F) {
+            faces += c == ' ' || c == '\t';
+            state = IN_LINE;
+        } else if (state == AT_START && c != ' ' && c != '\t' && c != '\r') {
+            state = IN_LINE;
+        }
+        last = c;
+    }
+    fclose(f);
+    if (faces == 0)
+        snprintf(why, n, "no faces in it: truncated or empty OBJ?");
+    else if (last != '\n')
+        snprintf(why, n, "its last line (line %llu) ends without a newline: truncated OBJ?", lines);
+    else
+        return NULL;
+    return why;
+}
+
 vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mesh_import_options *opt,
                              vbnl_mesh_import_stats *stats, vbnl_error *err)
 {
@@ -184,9 +228,17 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
     memset(&defaults, 0, sizeof(defaults));
     if (!opt)
         opt = &defaults;
+    /* the file itself: a regular file (read_file.h), a PLY file checked against its header */
+    struct stat fst;
+    const char *no;
+    FILE *fp = vbi_read_fopen(path, &fst, &no);
+    if (!fp)
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': %s", path, no);
     char why[160];
-    if (mesh_ply_check(path, why, sizeof(why)))
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, why);
+    const char *bad = mesh_ply_check(fp, (uint64_t)fst.st_size, why, sizeof(why));
+    fclose(fp);
+    if (bad)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, bad);
     mesh_io m;
     m.refused[0] = '\0';
     /* the folder of the file itself (a link named by the user leads to its file's folder) */
@@ -209,8 +261,13 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
                               "files beside it)",
                               path, m.refused);
     }
-    if (!ai)
+    if (!ai) {
+        char cut[128];
+        if (obj_truncation(path, cut, sizeof(cut)))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s (assimp: %s)", path, cut,
+                                  aiGetErrorString());
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot import '%s': %s", path, aiGetErrorString());
+    }
     vbnl_result r = VBNL_OK;
     uint32_t *mat_ids = NULL;
     vbnl_mesh_import_stats st;
@@ -303,8 +360,13 @@ vbnl_result vbnl_mesh_import(vbnl_scene *scene, const char *path, const vbnl_mes
         st.meshes++;
         st.triangles += ntri;
     }
-    if (st.triangles == 0)
-        r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "'%s' contains no triangles", path);
+    if (st.triangles == 0) {
+        char cut[128];
+        if (obj_truncation(path, cut, sizeof(cut)))
+            r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "cannot import '%s': %s", path, cut);
+        else
+            r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "'%s' contains no triangles", path);
+    }
 done:
     free(mat_ids);
     aiReleaseImport(ai);

@@ -10,7 +10,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #define PLY_MAX_ELEMENTS 64
 #define PLY_MAX_PROPS 256
@@ -283,15 +282,11 @@ static const char *check_binary(FILE *f, const ply_header *h, char *why, size_t 
     return res;
 }
 
-const char *mesh_ply_check(const char *path, char *why, size_t n)
+const char *mesh_ply_check(FILE *f, uint64_t size, char *why, size_t n)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    struct stat st;
     ply_header *h = calloc(1, sizeof(*h));
     const char *res = NULL;
-    int kind = !h ? -1 : fstat(fileno(f), &st) ? 0 : read_header(f, h, why, n);
+    int kind = !h ? -1 : read_header(f, h, why, n);
     if (!h)
         snprintf(why, n, "out of memory checking it");
     if (kind < 0) {
@@ -300,15 +295,14 @@ const char *mesh_ply_check(const char *path, char *why, size_t n)
         unsigned long long total = 0;
         for (int e = 0; e < h->el_count; ++e)
             total = total + h->el[e].count < total ? ~0ull : total + h->el[e].count;
-        if (total > (unsigned long long)st.st_size / (h->format == 0 ? 2u : 1u)) {
+        if (total > (unsigned long long)size / (h->format == 0 ? 2u : 1u)) {
             snprintf(why, n, "its header declares %llu elements, more than its %llu bytes hold", total,
-                     (unsigned long long)st.st_size);
+                     (unsigned long long)size);
             res = why;
         } else {
             res = h->format == 0 ? check_ascii(f, h, why, n) : check_binary(f, h, why, n);
         }
     }
     free(h);
-    fclose(f);
     return res;
 }

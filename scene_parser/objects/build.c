@@ -1,10 +1,13 @@
 /* vbnl object layer: building the core scene from the parsed world. Primitives are collected
  * during the parse and added here, at the end, because an infinite plane needs the bounds of
  * everything else: its patch is POV_PLANE_EXTENT times the scene's bounding radius. */
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "pov_loader.h"
+#include "sdl_internal.h"
 #include "vbnl/mesh_import.h"
 
 #define POV_PLANE_EXTENT 100.0
@@ -13,6 +16,141 @@
 static vbnl_result prim_visibility(pov_loader *L, const pov_prim *pr, uint32_t id, vbnl_error *err)
 {
     return pr->no_shadow ? vbnl_scene_set_visibility(L->c.scene, id, VBNL_VISIBLE_NO_SHADOW, err) : VBNL_OK;
+}
+
+/* The farthest a point of an object or a light may lie from the origin, in units. The core holds
+ * geometry in single precision, where the squared distances, areas and light powers of objects far
+ * beyond this overflow (a sphere of radius 1e38 has no finite area). POV-Ray counts no
+ * intersection farther than 1e7 from a ray's origin (its Max_Distance), so an object wholly beyond
+ * this bound is invisible there too: it is skipped with a warning. A light beyond it is an error
+ * (leaving it out would change every pixel). */
+#define POV_MAX_EXTENT 1e10
+
+/* An error about the statement that placed `pr` (an object or a light): reported as the parser's
+ * errors are, with file:line:col, the statement's keyword and its source line, and in *err as
+ * "file:line:col: keyword: message". */
+static vbnl_result prim_error(pov_loader *L, const pov_prim *pr, vbnl_result code, vbnl_error *err, const char *fmt,
+                              ...) __attribute__((format(printf, 5, 6)));
+static vbnl_result prim_error(pov_loader *L, const pov_prim *pr, vbnl_result code, vbnl_error *err, const char *fmt,
+                              ...)
+{
+    static const char *const kinds[] = {"sphere", "plane", "object", "light_source", "vbnl_mesh", "object", "object"};
+    char word[32], msg[VBNL_ERROR_MESSAGE_SIZE];
+    const char *what = sdl_word_at(L->c.parser, &pr->loc, word, sizeof word);
+    if (!what)
+        what = pr->kind >= 0 && pr->kind < (int)(sizeof kinds / sizeof kinds[0]) ? kinds[pr->kind] : "object";
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    vbnl_sdl_error(L->c.parser, &pr->loc, "%s: %s", what, msg);
+    L->build_error_located = 1;
+    return vbnl_error_set(err, code, "%s:%d:%d: %s: %s", pr->loc.file ? pr->loc.file : "", pr->loc.line, pr->loc.col,
+                          what, msg);
+}
+
+/* Where `p` (object space) lies in the world, through m: 0, or -1 when a coordinate is NaN or
+ * infinite, 1 when it lies beyond POV_MAX_EXTENT. */
+static int world_point(const double m[16], const double p[3], double q[3])
+{
+    pov_m4_point(m, p, q);
+    if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2]))
+        return -1;
+    return fabs(q[0]) > POV_MAX_EXTENT || fabs(q[1]) > POV_MAX_EXTENT || fabs(q[2]) > POV_MAX_EXTENT;
+}
+
+static int finite_n(const double *v, int n)
+{
+    for (int i = 0; i < n; ++i)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
+}
+
+/* The warning for an object beyond POV_MAX_EXTENT, which is then skipped (*skip set). */
+static vbnl_result prim_far(pov_loader *L, const pov_prim *pr, const char *what, double reach, int *skip)
+{
+    char word[32];
+    const char *kw = sdl_word_at(L->c.parser, &pr->loc, word, sizeof word);
+    vbnl_sdl_warning(L->c.parser, &pr->loc, "%s: %s reaches %g units from the origin, beyond the %g vbnl holds "
+                     "(POV-Ray traces no farther than 1e7): the object is skipped", kw ? kw : "object", what, reach,
+                     POV_MAX_EXTENT);
+    *skip = 1;
+    return VBNL_OK;
+}
+
+static double reach3(const double q[3]) { return fmax(fmax(fabs(q[0]), fabs(q[1])), fabs(q[2])); }
+
+/* The checks a placed object or light must pass before the core sees it: finite numbers (a
+ * `pow(-8, 1/3)` is NaN, a `scale 1e400` infinite; errors) and a world within POV_MAX_EXTENT (an
+ * object beyond it is skipped, *skip set, with a warning; a light beyond it is an error). */
+static vbnl_result prim_check(pov_loader *L, const pov_prim *pr, int *skip, vbnl_error *err)
+{
+    static const char nan_text[] = "%s is not a finite number (NaN or infinite)";
+    static const char far_text[] = "%s lies beyond %g units from the origin, farther than vbnl holds";
+    *skip = 0;
+    if (!finite_n(pr->m, 16))
+        return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, "its transformation (scale, rotate, translate, matrix)");
+    double q[3];
+    int w;
+    switch (pr->kind) {
+    case POV_PRIM_SPHERE: {
+        if (!finite_n(pr->a, 4))
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, isfinite(pr->a[3]) ? "its centre" : "its radius");
+        double s = 0;
+        for (int k = 0; k < 3; ++k)
+            s = fmax(s, pov_len3((double[3]){pr->m[k], pr->m[4 + k], pr->m[8 + k]}));
+        if (world_point(pr->m, pr->a, q) < 0)
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, "its centre");
+        double reach = reach3(q) + fabs(pr->a[3]) * s;
+        if (!(reach <= POV_MAX_EXTENT))
+            return prim_far(L, pr, "its surface", reach, skip);
+        break;
+    }
+    case POV_PRIM_PLANE: {
+        if (!finite_n(pr->a, 4))
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, finite_n(pr->a, 3) ? "its distance" : "its normal");
+        double nl2 = pov_dot3(pr->a, pr->a), p0[3]; /* its point nearest the origin, before the transform */
+        for (int k = 0; k < 3; ++k)
+            p0[k] = pr->a[k] * pr->a[3] / nl2;
+        if (world_point(pr->m, p0, q) < 0)
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, "its transformed position");
+        if (reach3(q) > POV_MAX_EXTENT)
+            return prim_far(L, pr, "a point of it", reach3(q), skip);
+        break;
+    }
+    case POV_PRIM_MESH: {
+        double reach = 0;
+        for (uint32_t v = 0; v < pr->mesh->nv; ++v) {
+            double pp[3] = {pr->mesh->pos[3 * v], pr->mesh->pos[3 * v + 1], pr->mesh->pos[3 * v + 2]};
+            if (world_point(pr->m, pp, q) < 0)
+                return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, "a point of its surface");
+            reach = fmax(reach, reach3(q));
+        }
+        if (reach > POV_MAX_EXTENT)
+            return prim_far(L, pr, "its surface", reach, skip);
+        break;
+    }
+    case POV_PRIM_LIGHT: {
+        const pov_light *l = &pr->light;
+        if (!finite_n(l->color, 3))
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, "its colour");
+        /* a parallel light's position gives only its direction: it may lie as far as it likes */
+        if ((w = world_point(pr->m, l->pos, q)) < 0 || (w > 0 && l->type != POV_LIGHT_PARALLEL))
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, w < 0 ? nan_text : far_text, "its position", POV_MAX_EXTENT);
+        if (l->type != POV_LIGHT_POINT && world_point(pr->m, l->point_at, q) < 0)
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, "its point_at");
+        if (l->area && (!finite_n(l->axis1, 3) || !finite_n(l->axis2, 3)))
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text, "an axis of its area_light");
+        double more[5] = {l->radius, l->falloff, l->tightness, l->fade_distance, l->fade_power};
+        if (!finite_n(more, l->type == POV_LIGHT_SPOT ? 5 : 0) || !finite_n(more + 3, 2))
+            return prim_error(L, pr, VBNL_ERR_PARSE, err, nan_text,
+                              finite_n(more + 3, 2) ? "its radius, falloff or tightness" : "its fade_distance or fade_power");
+        break;
+    }
+    default: break;
+    }
+    return VBNL_OK;
 }
 
 static void bounds_add(double lo[3], double hi[3], const double p[3])
@@ -209,6 +347,13 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
         pov_camera_default(&dc);
         L->cam = dc;
     }
+    int skip;
+    for (size_t i = 0; i < L->world.n; ++i) {
+        if ((r = prim_check(L, &L->world.v[i], &skip, err)) != VBNL_OK)
+            return r;
+        if (skip) /* too far to hold: left out of the bounds and the scene (its data freed with the world) */
+            L->world.v[i].kind = POV_PRIM_SKIPPED;
+    }
     vbnl_sdl_loc nowhere = {"", 0, 0};
     if ((r = pov_camera_resolve(L, &L->cam, nowhere, &cd)) != VBNL_OK)
         return vbnl_error_set(err, r, "camera: invalid vectors");
@@ -376,9 +521,10 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
                                  blo[0], blo[1], blo[2], bhi[0], bhi[1], bhi[2]);
             const char *why = NULL;
             pov_mesh *m = pov_solid_surface(pr->solid, pr->m, blo, bhi, &why);
+            if (!m && (!why || !strcmp(why, "out of memory")))
+                return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
             if (!m)
-                return vbnl_error_set(err, why && strcmp(why, "out of memory") ? VBNL_ERR_PARSE : VBNL_ERR_OUT_OF_MEMORY,
-                                      "%s:%d:%d: %s", pr->loc.file, pr->loc.line, pr->loc.col, why ? why : "out of memory");
+                return prim_error(L, pr, VBNL_ERR_PARSE, err, "%s", why);
             r = emit_mesh(L, pr, m, err);
             pov_mesh_unref(m);
             break;
@@ -399,6 +545,12 @@ static vbnl_result build_all(pov_loader *L, mesh_groups *mg, vbnl_error *err)
             r = vbnl_mesh_import(L->c.scene, pr->path, &o, NULL, err);
             break;
         }
+        }
+        /* what the core refused, blamed on the statement that placed it */
+        if (r != VBNL_OK && r != VBNL_ERR_OUT_OF_MEMORY && !L->build_error_located) {
+            char msg[VBNL_ERROR_MESSAGE_SIZE];
+            snprintf(msg, sizeof msg, "%s", err ? err->message : vbnl_result_name(r));
+            return prim_error(L, pr, r, err, "%s", msg);
         }
     }
     if (r != VBNL_OK)

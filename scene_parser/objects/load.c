@@ -340,9 +340,11 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
     if (r != VBNL_OK)
         goto done;
     if ((r = pov_build(L, err)) != VBNL_OK || (!opt->no_commit && (r = vbnl_scene_commit(L->c.scene, err)) != VBNL_OK)) {
-        char msg[VBNL_ERROR_MESSAGE_SIZE];
-        snprintf(msg, sizeof msg, "%s", err ? err->message : "");
-        vbnl_error_set(err, r, "%s: %s", name, msg);
+        if (!L->build_error_located) { /* the message names no statement: it names the scene */
+            char msg[VBNL_ERROR_MESSAGE_SIZE];
+            snprintf(msg, sizeof msg, "%s", err ? err->message : "");
+            vbnl_error_set(err, r, "%s: %s", name, msg);
+        }
         goto done;
     }
     s->scene = L->c.scene;

@@ -11,8 +11,30 @@
 /* ---- reading values -------------------------------------------------------------------------- */
 
 vbnl_result pov_oom(pov_loader *L) { return vbnl_sdl_error(L->c.parser, NULL, "out of memory"); }
-vbnl_result pov_vec3(pov_loader *L, double o[3]) { return vbnl_sdl_parse_vector(L->c.parser, 3, o); }
-vbnl_result pov_float(pov_loader *L, double *o) { return vbnl_sdl_parse_float(L->c.parser, o); }
+/* A shape's or a light's value: a NaN (`pow(-8, 1/3)`) or an infinity (`1e400`) is an error at the
+ * expression, where the shape would otherwise be made of it (fmin drops a NaN corner silently). */
+static vbnl_result finite_value(pov_loader *L, const vbnl_sdl_loc *at, const double *v, int n)
+{
+    for (int i = 0; i < n; ++i)
+        if (!isfinite(v[i]))
+            return vbnl_sdl_error(L->c.parser, at, "%s%s is %s, not a finite number", n > 1 ? "this vector's " : "this value",
+                                  n > 1 ? (i == 0 ? "x" : i == 1 ? "y" : "z") : "", isnan(v[i]) ? "NaN" : "infinite");
+    return VBNL_OK;
+}
+
+vbnl_result pov_vec3(pov_loader *L, double o[3])
+{
+    vbnl_sdl_loc at = vbnl_sdl_peek(L->c.parser)->loc;
+    vbnl_result r = vbnl_sdl_parse_vector(L->c.parser, 3, o);
+    return r == VBNL_OK ? finite_value(L, &at, o, 3) : r;
+}
+
+vbnl_result pov_float(pov_loader *L, double *o)
+{
+    vbnl_sdl_loc at = vbnl_sdl_peek(L->c.parser)->loc;
+    vbnl_result r = vbnl_sdl_parse_float(L->c.parser, o);
+    return r == VBNL_OK ? finite_value(L, &at, o, 1) : r;
+}
 void pov_comma(pov_loader *L) { vbnl_sdl_accept(L->c.parser, ','); }
 
 vbnl_result pov_list_count(pov_loader *L, double *o)

@@ -65,6 +65,7 @@ typedef struct pov_loader {
     uint32_t *sphere_groups; /* per material: group holding a unit sphere (ellipsoids), or 0 */
     uint32_t nsphere_groups;
     struct pov_shape_cache *shape_cache; /* shapes made once and shared (shapes/shape_cache.c) */
+    int build_error_located; /* pov_build's error names the statement's file:line:col */
 } pov_loader;
 
 /* ---- 3-vectors --------------------------------------------------------------------------------- */

@@ -151,6 +151,41 @@ else
     not_ok "writing through a link replaces its file, keeps the link and the file's mode" "$(ls -l "$TMP"/private*)"
 fi
 
+# Inputs that are FIFOs (nobody writes them: an ordinary open would wait forever) are refused at
+# once with the reason, whoever names them: the command line (scene, mesh, light files, EXRs of
+# compare and merge-tiles, OCIO config) or a scene (include, image, mesh, font, height field,
+# density file). `timeout` turns a wait into a failure.
+mkdir -p "$TMP/in"
+for f in s.pov m.obj l.vls a.exr c.ocio i.inc p.png f.ttf d.df3; do mkfifo "$TMP/in/$f"; done
+"$VBNL" render "$SCENE" -o "$TMP/in-ref.exr" --width 8 --height 8 --spp 1 -q
+FIFO="it is a FIFO, not a regular file"
+expect "a FIFO scene is refused" 3 "cannot open scene file '.*s.pov': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/s.pov" -o "$TMP/in.exr" -q
+expect "a FIFO mesh scene is refused" 3 "cannot import '.*m.obj': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/m.obj" -o "$TMP/in.exr" -q
+expect "a FIFO --load-lights file is refused" 1 "cannot read '.*l.vls': $FIFO" -- timeout 20 "$VBNL" render "$SCENE" --integrator vbnl --load-lights "$TMP/in/l.vls" -o "$TMP/in.exr" -q
+expect "a FIFO compare reference is refused" 1 "cannot read '.*a.exr': $FIFO" -- timeout 20 "$VBNL" compare "$TMP/in/a.exr" "$TMP/in-ref.exr"
+expect "a FIFO compare candidate is refused" 1 "cannot read '.*a.exr': $FIFO" -- timeout 20 "$VBNL" compare "$TMP/in-ref.exr" "$TMP/in/a.exr"
+expect "a FIFO merge-tiles input is refused" 1 "cannot read '.*a.exr': $FIFO" -- timeout 20 "$VBNL" merge-tiles "$TMP/in/a.exr" -o "$TMP/in.exr" -q
+expect "a FIFO merge-lights input is refused" 1 "cannot read '.*l.vls': $FIFO" -- timeout 20 "$VBNL" merge-lights "$TMP/in/l.vls" -o "$TMP/in.vls"
+expect "a FIFO OCIO config is refused" 1 "OCIO config '.*c.ocio': $FIFO" -- timeout 20 "$VBNL" render "$SCENE" --png "$TMP/in.png" --ocio "$TMP/in/c.ocio" -q
+head='camera { location <0, 0, -5> look_at 0 } light_source { <0, 5, -5> rgb 1 }'
+fifo_scene() { # NAME LINE: a scene in $TMP/in whose third line names a FIFO
+    printf '%s\n\n%s\n' "$head" "$2" > "$TMP/in/$1.pov"
+}
+fifo_scene inc '#include "i.inc"'
+fifo_scene img 'plane { y, 0 pigment { image_map { png "p.png" } } }'
+fifo_scene oiio 'plane { y, 0 pigment { image_map { tga "p.png" } } }'
+fifo_scene mesh 'vbnl_mesh { "m.obj" }'
+fifo_scene font 'text { ttf "f.ttf" "A" 1, 0 }'
+fifo_scene hf 'height_field { png "p.png" }'
+fifo_scene df 'box { 0, 1 pigment { density_file df3 "d.df3" } }'
+expect "a FIFO include is refused at its line" 3 "inc.pov:3:1: cannot open include file '.*i.inc': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/inc.pov" -o "$TMP/in.exr" -q
+expect "a FIFO PNG image is refused at its line" 3 "img.pov:3:[0-9]+: image_map: cannot read image '.*p.png': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/img.pov" -o "$TMP/in.exr" -q
+expect "a FIFO image of another format is refused" 3 "oiio.pov:3:[0-9]+: image_map: cannot read image '.*p.png': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/oiio.pov" -o "$TMP/in.exr" -q
+expect "a FIFO vbnl_mesh is refused" 3 "cannot import '.*m.obj': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/mesh.pov" -o "$TMP/in.exr" -q
+expect "a FIFO font is refused at its line" 3 "font.pov:3:1: text: cannot read '.*f.ttf': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/font.pov" -o "$TMP/in.exr" -q
+expect "a FIFO height field is refused at its line" 3 "hf.pov:3:[0-9]+: height_field: cannot read '.*p.png': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/hf.pov" -o "$TMP/in.exr" -q
+expect "a FIFO density file is refused at its line" 3 "df.pov:3:[0-9]+: density_file: cannot read '.*d.df3': $FIFO" -- timeout 20 "$VBNL" render "$TMP/in/df.pov" -o "$TMP/in.exr" -q
+
 # Memory follows what a scene holds: 100,000 untextured spheres share one default appearance
 # (each primitive's own copy would take ~1.4 GB; shared, ~130 MB; the bound leaves room for ASan).
 printf 'camera { location <0,0,-50> look_at 0 }\nlight_source { <0,50,-50> rgb 1 }\n#for (I, 0, 99999)\nsphere { <mod(I,100), div(I,100)/10, 0>, 0.1 }\n#end\n' > "$TMP/many.pov"
@@ -358,11 +393,27 @@ fi
 expect "compare prints the metrics" 0 "vpl +[0-9.]+ +[0-9.e-]+ +[0-9.e-]+ +[0-9.]+% +[0-9.]+" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-vpl.exr" --labels vpl --out "$TMP/cmp"
 [ -s "$TMP/cmp/montage.png" ] && [ -s "$TMP/cmp/error-vpl.png" ] && ok "compare writes the montage and error map" || not_ok "compare writes the montage and error map" "$(ls "$TMP/cmp" 2>&1)"
 expect "compare refuses different sizes" 1 "is 8x16 but the reference .* is 16x16" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-small.exr"
+# A black reference (a light that lights nothing in view) leaves every relative metric 0/0: refused,
+# not a table of NaNs with exit 0. A black candidate against a lit reference is measured.
+printf 'camera { location <0, 0, -5> look_at 0 }\nlight_source { <0, 5, -5> rgb 1 }\nsphere { <0, 0, -20>, 1 }\n' > "$TMP/black.pov"
+"$VBNL" render "$TMP/black.pov" -o "$TMP/c-black.exr" --integrator path --width 16 --height 16 --spp 1 -q 2>/dev/null
+expect "compare refuses a black reference" 1 "the reference '.*c-black.exr' is black \(its mean is 0\): relative errors \(rMAE, relMSE, outliers, mean/ref\) are undefined against it" -- "$VBNL" compare "$TMP/c-black.exr" "$TMP/c-ref.exr"
+expect "compare measures a black candidate" 0 "c-black +0\.[0-9]+ +[0-9.e-]+ +[0-9.e-]+ +[0-9.]+% +0\.0000$" -- "$VBNL" compare "$TMP/c-ref.exr" "$TMP/c-black.exr"
 
 # The equal-time and equal-count benchmark in a tiny configuration (every method runs).
 expect "bench refuses an unknown sampler" 2 "unknown sampler 'halton'" -- "$VBNL" bench --sampler halton
 expect "bench equal-time and equal-count run every method" 0 "vsl +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+  light paths" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --equal-count 12 --count-spp 1 --sampler random --out '$TMP/bench'"
-expect "bench equal-time --repeat refuses 0" 2 "--repeat takes 1..99" -- "$VBNL" bench --equal-time --repeat 0
+expect "bench equal-time --repeat refuses 0" 2 "--repeat takes a whole number in 1\.\.99, got '0'" -- "$VBNL" bench --equal-time --repeat 0
+# Every number of the bench command is the whole argument, in range (no atoi: '10abc' is not 10).
+expect "bench refuses --spp 10abc" 2 "--spp takes a whole number in 1\.\.[0-9]+, got '10abc'" -- "$VBNL" bench --spp 10abc
+expect "bench refuses --width -3" 2 "--width takes a whole number in 1\.\.16384, got '-3'" -- "$VBNL" bench --width -3
+expect "bench refuses --threads 4x" 2 "--threads takes a whole number in 0\.\.1024, got '4x'" -- "$VBNL" bench --threads 4x
+expect "bench refuses --equal-count 12x" 2 "--equal-count takes a whole number in 0\.\.50000000, got '12x'" -- "$VBNL" bench --equal-time --equal-count 12x
+expect "bench refuses --size 8k" 2 "--size takes a whole number in 1\.\.8192, got '8k'" -- "$VBNL" bench --equal-time --size 8k
+expect "bench refuses --ref-time 5s" 2 "--ref-time takes seconds, more than 0 and at most 1e7, got '5s'" -- "$VBNL" bench --equal-time --ref-time 5s
+expect "bench refuses --ref-time nan" 2 "--ref-time takes seconds, more than 0 and at most 1e7, got 'nan'" -- "$VBNL" bench --equal-time --ref-time nan
+expect "bench refuses a budget that is no number" 2 "--budgets takes up to 8 increasing seconds, e\.g\. 10,30,100, got '10,3x'" -- "$VBNL" bench --equal-time --budgets 10,3x
+expect "bench refuses an empty budget" 2 "--budgets takes up to 8 increasing seconds.*got '10,,30'" -- "$VBNL" bench --equal-time --budgets 10,,30
 # Three rounds: each cell is the median run, and the ratio line lists the three rounds' ratios.
 expect "bench equal-time --repeat reports the median of the rounds" 0 "run of median rMAE of 3 \(seeds 7..9.*path/vbnl rMAE ratio at 0.2s: [0-9.]+ \(rounds: [0-9.]+ [0-9.]+ [0-9.]+\)" -- bash -c "cd '$SRC' && '$VBNL' bench --equal-time --budgets 0.2 --size 8 --ref-time 0.3 --only cornell --methods path,vbnl --repeat 3 --out '$TMP/bench' 2>/dev/null | tr '\n' ' '"
 

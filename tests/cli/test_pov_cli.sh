@@ -155,6 +155,8 @@ expect "a bad boolean is named" 2 "Output_Alpha takes on or off" -- "$VBNL" +Is.
 expect "an image type vbnl does not write" 2 "output file type 'T' is not one vbnl writes" -- "$VBNL" +Is.pov +FT
 expect "no scene" 2 "no scene: give a .pov file" -- "$VBNL" +W8 +H8
 expect "a missing .ini" 2 "cannot open INI file 'nothere.ini'" -- "$VBNL" nothere.ini
+mkfifo fifo.ini
+expect "a FIFO .ini is refused at once" 2 "cannot open INI file 'fifo.ini': it is a FIFO, not a regular file" -- timeout 20 "$VBNL" fifo.ini
 expect "vbnl's options that POV-Ray sets otherwise are refused with the way" 2 "--width: on POV-Ray's command line give \+W or Width" -- "$VBNL" +Is.pov --width 8
 expect "an unknown vbnl option" 2 "unknown option '--frobnicate'" -- "$VBNL" +Is.pov --frobnicate
 expect "vbnl's options stand among the switches" 0 "" -- "$VBNL" --spp 2 +Is.pov --integrator path +W8 +H8 --seed 3 +Oopt.png

@@ -13,6 +13,7 @@
 
 #include "atomic_file.h"
 #include "camera_mesh.h"
+#include "read_file.h"
 
 #define BYTE_ORDER_MARK 0x01020304u
 #define BYTE_ORDER_SWAPPED 0x04030201u
@@ -304,20 +305,18 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
     return VBNL_OK;
 }
 
-/* Opens `path` for reading: a regular file, its size in *size. */
+/* Opens `path` for reading: a regular file (a FIFO is refused without waiting on it,
+ * read_file.h), its size in *size. */
 static vbnl_result open_file(const char *path, reader *r, uint64_t *size, vbnl_error *err)
 {
-    r->f = fopen(path, "rb");
+    struct stat st;
+    const char *why;
+    *size = 0;
+    r->f = vbi_read_fopen(path, &st, &why);
     r->path = path;
     r->err = err;
     if (!r->f)
-        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fileno(r->f), &st) != 0 || !S_ISREG(st.st_mode)) {
-        fclose(r->f);
-        r->f = NULL;
-        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': not a regular file", path);
-    }
+        return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, why);
     *size = (uint64_t)st.st_size;
     return VBNL_OK;
 }

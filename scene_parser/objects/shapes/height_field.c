@@ -18,6 +18,8 @@
 #include <string.h>
 #include <strings.h>
 
+#include "read_file.h"
+
 #include "pov_surface.h"
 #include "sdl_internal.h"
 
@@ -61,11 +63,9 @@ static const pov_solid_fn hf_fn = {hf_inside, hf_destroy, NULL};
 /* A PNG's heights, or NULL with *why set. */
 static float *read_png(const char *path, uint32_t *w, uint32_t *h, const char **why)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        *why = "cannot be opened";
+    FILE *f = vbi_read_fopen(path, NULL, why);
+    if (!f)
         return NULL;
-    }
     png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     float *heights = NULL;
@@ -76,7 +76,7 @@ static float *read_png(const char *path, uint32_t *w, uint32_t *h, const char **
         goto done;
     }
     if (setjmp(png_jmpbuf(png))) {
-        *why = "is not a PNG file libpng can read";
+        *why = "not a PNG file libpng can read";
         free(heights);
         heights = NULL;
         goto done;
@@ -86,7 +86,7 @@ static float *read_png(const char *path, uint32_t *w, uint32_t *h, const char **
     uint32_t W = png_get_image_width(png, info), H = png_get_image_height(png, info);
     int ct = png_get_color_type(png, info), depth = png_get_bit_depth(png, info);
     if (W < 2 || H < 2 || W > 16384 || H > 16384) {
-        *why = "has a size a height field cannot use (2 to 16384 pixels a side)";
+        *why = "a size a height field cannot use (2 to 16384 pixels a side)";
         goto done;
     }
     if (depth < 8)
@@ -373,7 +373,7 @@ vbnl_result pov_shape_height_field(const pov_shape *s)
             const char *why = NULL;
             hs.d->y = read_png(path, &hs.d->w, &hs.d->h, &why);
             if (!hs.d->y)
-                r = strcmp(why, "out of memory") ? vbnl_sdl_error(p, &nloc, "height_field: '%s' %s", path, why) : pov_oom(L);
+                r = strcmp(why, "out of memory") ? vbnl_sdl_error(p, &nloc, "height_field: cannot read '%s': %s", path, why) : pov_oom(L);
         }
         free(name);
         free(path);

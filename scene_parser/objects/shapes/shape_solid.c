@@ -152,10 +152,12 @@ double pov_box_radius(const double lo[3], const double hi[3])
     return 0.5 * sqrt(d2);
 }
 
+/* True when `path` names something other than a folder: the file is found there (a special file
+ * is refused where it is opened, with the reason, instead of "cannot find"). */
 static int is_file(const char *path)
 {
     struct stat st;
-    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+    return stat(path, &st) == 0 && !S_ISDIR(st.st_mode);
 }
 
 static int is_file_in(const char *dir, const char *name)

@@ -21,11 +21,47 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "pov_surface.h"
+#include "read_file.h"
 
 /* Flattening tolerance of the glyph outlines, in em: 1/2000 of the line height. */
 #define TEXT_TOL 5e-4
+
+/* ---- the font file: read through a descriptor of a regular file (read_file.h) ------------------- */
+
+static unsigned long font_read(FT_Stream st, unsigned long off, unsigned char *buf, unsigned long n)
+{
+    if (n == 0) /* a seek: 0 when the offset lies within the file */
+        return off > st->size;
+    ssize_t got = pread((int)st->descriptor.value, buf, n, (off_t)off);
+    return got > 0 ? (unsigned long)got : 0;
+}
+
+/* Called by FreeType when the face is done, and when FT_Open_Face fails. */
+static void font_close(FT_Stream st)
+{
+    if (st->descriptor.value >= 0)
+        close((int)st->descriptor.value);
+    st->descriptor.value = -1;
+}
+
+/* The face of the font file `path` (*why set when it is not a regular file that can be opened);
+ * `stream` must outlive the face. */
+static FT_Error font_open(FT_Library lib, const char *path, FT_StreamRec *stream, FT_Face *face, const char **why)
+{
+    struct stat st;
+    memset(stream, 0, sizeof *stream);
+    stream->descriptor.value = vbi_read_open(path, &st, why);
+    if (stream->descriptor.value < 0)
+        return FT_Err_Cannot_Open_Resource;
+    stream->size = (unsigned long)st.st_size;
+    stream->read = font_read;
+    stream->close = font_close;
+    FT_Open_Args args = {.flags = FT_OPEN_STREAM, .stream = stream};
+    return FT_Open_Face(lib, &args, 0, face);
+}
 
 /* ---- one glyph: outline, mesh, solid ------------------------------------------------------------ */
 
@@ -237,6 +273,7 @@ static vbnl_result text_make(const pov_shape *s, pov_mods *mods, pov_prim *first
     vbnl_sdl_parser *p = L->c.parser;
     FT_Library lib = NULL;
     FT_Face face = NULL;
+    FT_StreamRec stream;
     FT_Byte *hmtx = NULL;
     FT_ULong hmtx_len = 0;
     cached *cache = NULL;
@@ -252,8 +289,11 @@ static vbnl_result text_make(const pov_shape *s, pov_mods *mods, pov_prim *first
         return pov_oom(L);
     if (FT_Init_FreeType(&lib) != 0)
         return vbnl_sdl_error(p, &s->loc, "text: FreeType cannot start");
-    if (FT_New_Face(lib, ts->font, 0, &face) != 0) {
-        r = vbnl_sdl_error(p, &s->loc, "text: '%s' is not a font FreeType can read", ts->font);
+    const char *unread = NULL;
+    if (font_open(lib, ts->font, &stream, &face, &unread) != 0) {
+        face = NULL;
+        r = unread ? vbnl_sdl_error(p, &s->loc, "text: cannot read '%s': %s", ts->font, unread)
+                : vbnl_sdl_error(p, &s->loc, "text: '%s' is not a font FreeType can read", ts->font);
         goto done;
     }
     if (FT_Select_Charmap(face, FT_ENCODING_UNICODE) != 0 && face->num_charmaps > 0)

@@ -9,10 +9,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "pov_files.h"
 #include "pov_image.h"
 #include "pov_texture.h"
+#include "read_file.h"
 
 /* The path of `name` for the file at loc, or NULL after an error naming `what`. */
 static char *locate(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc, const char *what)
@@ -37,11 +39,9 @@ static char *locate(pov_ctx *c, const char *name, const vbnl_sdl_loc *loc, const
     for (size_t i = 0; i < sizeof(libs) / sizeof(libs[0]); ++i) {
         char path[POV_PATH_MAX];
         int n = snprintf(path, sizeof(path), "%s/%s", libs[i], name);
-        FILE *f = n > 0 && (size_t)n < sizeof(path) ? fopen(path, "rb") : NULL;
-        if (f) {
-            fclose(f);
+        struct stat st; /* found: a special file is refused with the reason where it is read */
+        if (n > 0 && (size_t)n < sizeof(path) && stat(path, &st) == 0 && !S_ISDIR(st.st_mode))
             return strdup(path);
-        }
     }
     vbnl_sdl_error(c->parser, loc, "%s: '%s' is %s", what, name, why ? why : "a file that does not exist");
     return NULL;
@@ -366,15 +366,19 @@ vbnl_result pov_density_read(pov_ctx *c, pov_pattern *pat, const vbnl_sdl_loc *k
     free(name);
     if (!path)
         return VBNL_ERR_PARSE;
-    FILE *f = fopen(path, "rb");
+    struct stat st;
+    const char *why = NULL;
+    FILE *f = vbi_read_fopen(path, &st, &why);
     unsigned char h[6];
     long len = -1;
-    if (f && fread(h, 1, 6, f) == 6 && fseek(f, 0, SEEK_END) == 0)
-        len = ftell(f) - 6;
+    if (f && fread(h, 1, 6, f) == 6)
+        len = (long)st.st_size - 6;
     pov_density *d = calloc(1, sizeof(*d));
     vbnl_result r = VBNL_OK;
-    if (!f || len < 0 || !d) {
-        r = vbnl_sdl_error(p, &loc, "density_file: cannot read '%s'", path);
+    if (!d) {
+        r = vbnl_sdl_error(p, &loc, "out of memory reading '%s'", path);
+    } else if (!f || len < 0) {
+        r = vbnl_sdl_error(p, &loc, "density_file: cannot read '%s': %s", path, why ? why : "it is shorter than its header");
     } else {
         /* POV-Ray's df3: three 16-bit sizes, then 8, 16 or 32-bit values (big-endian), x fastest */
         d->n[0] = (uint32_t)(h[0] << 8 | h[1]);

@@ -20,7 +20,7 @@ static void test_bad_arguments(void **state)
     vbnl_sdl_parser *p = NULL;
     assert_int_equal(vbnl_sdl_parser_create(&p, NULL), VBNL_OK);
     assert_int_equal(vbnl_sdl_parse_file(p, "/no/such/scene.pov", &err), VBNL_ERR_IO);
-    assert_string_equal(err.message, "cannot open scene file '/no/such/scene.pov'");
+    assert_string_equal(err.message, "cannot open scene file '/no/such/scene.pov': No such file or directory");
     assert_int_equal(vbnl_sdl_parse_file(p, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(vbnl_sdl_parse_text(p, "x", NULL, 5, &err), VBNL_ERR_INVALID_ARGUMENT);
     vbnl_sdl_limits l;

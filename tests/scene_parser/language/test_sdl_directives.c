@@ -119,6 +119,32 @@ static void test_version_and_messages(void **state)
     vbnl_sdl_parser_destroy(p);
 }
 
+/* Scene text reaches a terminal escaped: a control character (ESC of a colour or screen-clearing
+ * sequence, BEL, CR, the C1 CSI) shows as \xHH instead of acting; newline and tab stay. */
+static void test_messages_escape_control_characters(void **state)
+{
+    (void)state;
+    vbnl_sdl_parser *p = sdl_t_ok("#debug concat(chr(27), \"[2J\\tx\\n\")\n"
+                                  "#warning concat(\"bell\", chr(7), chr(13), chr(155), \"[31m \", chr(233))\n");
+    const vbnl_sdl_diag *d = sdl_t_find_diag(p, VBNL_SDL_NOTE);
+    assert_non_null(d);
+    assert_string_equal(d->message, "\\x1b[2J\tx\n");
+    d = sdl_t_find_diag(p, VBNL_SDL_WARNING);
+    assert_non_null(d);
+    /* U+009B is C2 9B in UTF-8, escaped byte by byte; U+00E9 (C3 A9) is printable and kept */
+    assert_string_equal(d->message, "bell\\x07\\x0d\\xc2\\x9b[31m \xc3\xa9");
+    vbnl_sdl_parser_destroy(p);
+    /* #error; a raw ESC in the source line under the message, the caret still under the column */
+    sdl_t_expect_error("#error concat(\"stop\", chr(27), \"]0;title\", chr(7))\n",
+                       "test.pov:1:1: error: #error: stop\\x1b]0;title\\x07\n"
+                       "#error concat(\"stop\", chr(27), \"]0;title\", chr(7))\n"
+                       "^\n");
+    sdl_t_expect_error("#declare A = \"\x1b[2J\"; #declare B = C;\n",
+                       "test.pov:1:35: error: undeclared identifier 'C'; did you mean 'A'?\n"
+                       "#declare A = \"\\x1b[2J\"; #declare B = C;\n"
+                       "                                     ^\n");
+}
+
 static void test_default_and_blocks(void **state)
 {
     (void)state;
@@ -298,6 +324,7 @@ int main(void)
         cmocka_unit_test(test_declare_local_undef), cmocka_unit_test(test_if_family),
         cmocka_unit_test(test_loops),               cmocka_unit_test(test_switch),
         cmocka_unit_test(test_version_and_messages), cmocka_unit_test(test_default_and_blocks),
+        cmocka_unit_test(test_messages_escape_control_characters),
         cmocka_unit_test(test_macros),              cmocka_unit_test(test_macro_scoping),
         cmocka_unit_test(test_macro_statement_text), cmocka_unit_test(test_include_and_search_path),
         cmocka_unit_test(test_standard_includes),   cmocka_unit_test(test_vbnl_version),

@@ -25,6 +25,17 @@ static const char *mcguire_scene(const char *name, char *buf, size_t n)
     return buf;
 }
 
+/* A context of one worker thread (the caller destroys it). */
+static vbnl_context *one_thread_context(void)
+{
+    vbnl_context *ctx = NULL;
+    vbnl_context_desc d;
+    vbnl_context_desc_init(&d);
+    d.threads = 1;
+    assert_int_equal(vbnl_context_create(&d, &ctx, NULL), VBNL_OK);
+    return ctx;
+}
+
 static vbnl_scene *import(vbnl_context *ctx, const char *path, vbnl_mesh_import_stats *st, vbnl_result expect)
 {
     vbnl_scene *s = NULL;
@@ -49,11 +60,7 @@ static void test_phong_to_alpha(void **state)
 static void test_cornell_original(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     char path[1024];
     vbnl_mesh_import_stats st;
     vbnl_scene *s = import(ctx, mcguire_scene("CornellBox-Original.obj", path, sizeof(path)), &st, VBNL_OK);
@@ -94,11 +101,7 @@ static const vbnl_material_desc *find_type(const vbnl_scene *s, vbnl_material_ty
 static void test_material_mapping(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     char path[1024];
     /* Mirror: tallBox has Ks 0.95, Ns 1000, illum 5 -> perfect mirror tinted 0.95 */
     vbnl_scene *s = import(ctx, mcguire_scene("CornellBox-Mirror.obj", path, sizeof(path)), NULL, VBNL_OK);
@@ -141,11 +144,7 @@ static void test_material_mapping(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_error err = {0};
@@ -179,11 +178,7 @@ static void write_file(const char *path, const char *text)
 static void test_untrusted(void **state)
 {
     (void)state;
-    vbnl_context *ctx;
-    vbnl_context_desc d;
-    vbnl_context_desc_init(&d);
-    d.threads = 1;
-    vbnl_context_create(&d, &ctx, NULL);
+    vbnl_context *ctx = one_thread_context();
     vbnl_scene *s;
     vbnl_scene_create(ctx, &s, NULL);
     vbnl_error err = {0};
@@ -268,6 +263,56 @@ static void test_untrusted(void **state)
     vbnl_context_destroy(ctx);
 }
 
+/* An OBJ file cut short says so, naming the file, instead of assimp's words for what it then
+ * lacks ("Mesh contains no faces", "mNumMeshes is 0", "all meshes are orphaned"). */
+static void expect_truncated(vbnl_scene *s, const char *name, const char *text, const char *reason)
+{
+    char p[700];
+    snprintf(p, sizeof(p), "%s/%s", g_dir, name);
+    write_file(p, text);
+    vbnl_error err = {0};
+    vbnl_result r = vbnl_mesh_import(s, p, NULL, NULL, &err);
+    if (r != VBNL_ERR_INVALID_ARGUMENT)
+        fail_msg("%s: %s (%s)", name, vbnl_result_name(r), err.message);
+    char want[900];
+    snprintf(want, sizeof(want), "cannot import '%s': %s", p, reason);
+    if (strncmp(err.message, want, strlen(want)) != 0)
+        fail_msg("got \"%s\", want \"%s...\"", err.message, want);
+    unlink(p);
+}
+
+static void test_truncated_obj(void **state)
+{
+    (void)state;
+    vbnl_context *ctx = one_thread_context();
+    vbnl_scene *s;
+    vbnl_scene_create(ctx, &s, NULL);
+    static const char *const no_faces = "no faces in it: truncated or empty OBJ?";
+    /* cut in the vertices, before any object, in an object, and an empty file */
+    expect_truncated(s, "cut1.obj", "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0", no_faces);
+    expect_truncated(s, "cut2.obj", "g a\nv 0 0 0\nv 1 0 0\n", no_faces);
+    expect_truncated(s, "cut3.obj", "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\n", no_faces);
+    expect_truncated(s, "empty.OBJ", "", no_faces);
+    /* cut inside a face statement: the last line lacks its newline */
+    expect_truncated(s, "cut4.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2",
+                     "its last line (line 5) ends without a newline: truncated OBJ?");
+    /* a whole OBJ with a bad face keeps assimp's words */
+    char p[700];
+    snprintf(p, sizeof(p), "%s/line.obj", g_dir);
+    write_file(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n");
+    vbnl_error err = {0};
+    assert_int_not_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_OK);
+    assert_null(strstr(err.message, "truncated"));
+    unlink(p);
+    /* whole files with faces import */
+    snprintf(p, sizeof(p), "%s/whole.obj", g_dir);
+    write_file(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    assert_int_equal(vbnl_mesh_import(s, p, NULL, NULL, &err), VBNL_OK);
+    unlink(p);
+    vbnl_scene_destroy(s);
+    vbnl_context_destroy(ctx);
+}
+
 int main(void)
 {
     snprintf(g_dir, sizeof(g_dir), "/tmp/vbnl-mesh-XXXXXX");
@@ -279,6 +324,7 @@ int main(void)
         cmocka_unit_test(test_material_mapping),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_untrusted),
+        cmocka_unit_test(test_truncated_obj),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     rmdir(g_dir);

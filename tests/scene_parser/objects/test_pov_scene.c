@@ -482,6 +482,53 @@ static void test_errors(void **state)
                  "test.pov:3:13: vbnl_mesh: 'no-such-file.obj' is a file that does not exist");
 }
 
+/* Numbers that are no numbers, and a world too large to trace, are errors at the statement that
+ * holds them (file:line:col, the object's keyword), never blamed on another object or the scene. */
+static void test_non_finite_and_huge(void **state)
+{
+    (void)state;
+    /* a shape's value: at the expression (a NaN box corner would otherwise vanish in fmin) */
+    expect_error(BASE "sphere { <pow(-8, 1/3), 0, 0>, 1 }", "test.pov:3:10: this vector's x is NaN, not a finite number");
+    expect_error(BASE "union { sphere { 0, 1 }\n  box { <0, pow(-8, 1/3), 0>, 1 } }",
+                 "test.pov:4:9: this vector's y is NaN, not a finite number");
+    expect_error(BASE "cylinder { 0, y, 1e400 }", "test.pov:3:18: this value is infinite, not a finite number");
+    expect_error("camera { location <0, 0, -10> look_at 0 }\nlight_source { <0, pow(-1, 0.5), -50> rgb 1 }\n",
+                 "test.pov:2:16: this vector's y is NaN, not a finite number");
+    /* a transformation, checked when the world is built: the statement that placed the object */
+    expect_error(BASE "sphere { 0, 1 }\nsphere { 0, 1 scale 1e400 }",
+                 "test.pov:4:1: sphere: its transformation (scale, rotate, translate, matrix) is not a finite number "
+                 "(NaN or infinite)");
+    expect_error(BASE "#declare O = cone { 0, 1, y, 0.5 }\nobject { O scale <1, 1, 1e300> scale 1e300 }",
+                 "test.pov:3:14: cone: its transformation (scale, rotate, translate, matrix) is not a finite number "
+                 "(NaN or infinite)");
+    /* a light too far is an error at its statement */
+    expect_error(BASE "sphere { 0, 1 }\nlight_source { <0, 0, 1e11> rgb 1 }",
+                 "test.pov:4:1: light_source: its position lies beyond 1e+10 units from the origin, farther than vbnl "
+                 "holds");
+    /* an object too large is skipped with a warning at its own statement (POV-Ray traces no farther
+     * than 1e7 either), not blamed on the light whose power it would overflow */
+    vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 }\nsphere { 0, 1e38 }\n  box { 0, 1e38 }\n"
+                                "sphere { <0, 1e11, 0>, 1 }\nplane { y, -2e10 }");
+    assert_non_null(strstr(g_diags, "test.pov:4:1: warning: sphere: its surface reaches 1e+38 units from the origin, "
+                                    "beyond the 1e+10 vbnl holds (POV-Ray traces no farther than 1e7): the object is "
+                                    "skipped\nsphere { 0, 1e38 }\n^\n"));
+    assert_non_null(strstr(g_diags, "test.pov:5:3: warning: box: its surface reaches 1e+38 units"));
+    assert_non_null(strstr(g_diags, "test.pov:6:1: warning: sphere: its surface reaches 1e+11 units"));
+    assert_non_null(strstr(g_diags, "test.pov:7:1: warning: plane: a point of it reaches 2e+10 units"));
+    vbnl_hit h;
+    assert_true(hit(s, 0, 0, -10, 0, 0, 1, &h)); /* the unit sphere alone: hit at z = -1 */
+    assert_float_equal(h.t, 9.0f, 1e-3f);
+    assert_false(hit(s, 0, 0, 0, 0, 0, 1, &h) && h.t > 2.0f); /* from inside it, nothing beyond */
+    vbnl_pov_scene_destroy(s);
+    /* a large world within the bound loads, the error's diagnostic showing the statement's line */
+    s = ok(BASE "sphere { 0, 1 }\nsphere { 0, 1e9 inverse }");
+    vbnl_pov_scene_destroy(s);
+    vbnl_error err;
+    assert_int_equal(load(BASE "sphere { 0, 1 scale <1, 1e300, 1> scale 1e300 }", &s, &err), VBNL_ERR_PARSE);
+    assert_non_null(strstr(g_diags, "test.pov:3:1: error: sphere: its transformation"));
+    assert_non_null(strstr(g_diags, "\nsphere { 0, 1 scale <1, 1e300, 1> scale 1e300 }\n^\n"));
+}
+
 /* A scene is untrusted: the files it names (read or written) lie in its own folder. */
 static void test_scene_files(void **state)
 {
@@ -701,6 +748,7 @@ int main(void)
         cmocka_unit_test(test_media),
         cmocka_unit_test(test_lighting_controls),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_non_finite_and_huge),
         cmocka_unit_test(test_scene_files),
         cmocka_unit_test(test_opened_folders),
         cmocka_unit_test(test_object_memory_limit),
