@@ -88,6 +88,8 @@ vbnl_result pov_positive(pov_loader *L, double v, const char *what, vbnl_sdl_loc
 
 /* Opaque values of `#declare`: objects (pov_obj), transforms (double[16]) and cameras (pov_cam). */
 extern const vbnl_sdl_opaque_type pov_object_type, pov_transform_type, pov_camera_type;
+/* Answers min_extent, max_extent, inside and trace about object values (query.c). */
+void pov_queries_install(vbnl_sdl_parser *p);
 /* The value of identifier `t` when it is declared with `type`, else NULL. */
 const void *pov_declared(pov_loader *L, const vbnl_sdl_token *t, const vbnl_sdl_opaque_type *type);
 void pov_object_destroy(void *ptr, void *user); /* a pov_obj value */
