@@ -12,18 +12,35 @@
  * - inside: the exact inside test CSG uses (pov_prim_inside); an object is the union of its
  *   primitives, and shapes without an inside (triangles, meshes, discs) are never inside.
  * - trace: the nearest hit over the primitives: spheres and planes analytically with their exact
- *   normal, meshes triangle by triangle (a loop over the triangles whose object-space box the ray
- *   meets) with the interpolated vertex normals, which are the exact normals of curved shapes at
- *   the vertices. The point lies on the tessellation, within its documented error bound of the
+ *   normal, meshes by their triangles (through Embree for large meshes, the hit then computed
+ *   again in double precision) with the interpolated vertex normals, which are the exact normals
+ *   of curved shapes at the vertices. The point lies on the tessellation, within its documented error bound of the
  *   exact surface. Unbounded shapes outside a CSG (made when the scene is built) are not hit.
  * Every answer is a pure function of the object, so the functions are deterministic. */
+#include <embree3/rtcore.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "pov_loader.h"
 
 #define POV_QUERY_HUGE 1e10 /* POV-Ray's infinite bounding box reaches BOUND_HUGE / 2 */
 #define POV_QUERY_TMIN 1e-6 /* hits nearer to the ray's origin are not counted (world units) */
+/* Meshes of at least this many triangles are traced through an Embree scene made on their first
+ * trace() and kept for the load; smaller ones through a loop over their triangles, which costs
+ * less than making the scene (docs/scene-language.md, "Functions that need objects"). */
+#define POV_QUERY_EMBREE_MIN 256
+
+/* Embree scenes of traced meshes, one per mesh (meshes are shared between copies of an object,
+ * so every copy a scene traces finds the same scene). Each entry holds a reference to its mesh. */
+struct pov_query_cache {
+    RTCDevice device;
+    struct {
+        pov_mesh *mesh;
+        RTCScene scene;
+    } *v;
+    size_t n, cap;
+};
 
 static const pov_obj *query_object(const vbnl_sdl_value *v)
 {
@@ -166,12 +183,13 @@ static int ray_box(const double o[3], const double d[3], const double lo[3], con
     return 1;
 }
 
-/* Nearest hit of the object-space ray o + t d with a mesh for t in (POV_QUERY_TMIN, *t): updates *t and
- * the object-space normal n; 1 when it found a nearer one. */
-static int ray_mesh(const pov_mesh *m, const double o[3], const double d[3], double *t, double n[3])
+/* Nearest hit of the object-space ray o + t d with the triangles first..end-1 of a mesh for t in
+ * (POV_QUERY_TMIN, *t): updates *t and the object-space normal n; 1 when it found a nearer one. */
+static int ray_tris(const pov_mesh *m, uint32_t first, uint32_t end, const double o[3], const double d[3], double *t,
+                    double n[3])
 {
     int found = 0;
-    for (uint32_t i = 0; i < m->nt; ++i) {
+    for (uint32_t i = first; i < end; ++i) {
         const uint32_t *ix = &m->idx[3 * i];
         double a[3], e1[3], e2[3];
         for (int k = 0; k < 3; ++k) {
@@ -209,8 +227,108 @@ static int ray_mesh(const pov_mesh *m, const double o[3], const double d[3], dou
     return found;
 }
 
+/* The Embree scene of a mesh (made on first use); NULL when Embree fails or memory runs out. */
+static RTCScene mesh_scene(pov_loader *L, pov_mesh *m)
+{
+    struct pov_query_cache *c = L->query_cache;
+    if (!c) {
+        if (!(c = calloc(1, sizeof *c)))
+            return NULL;
+        L->query_cache = c;
+    }
+    for (size_t i = 0; i < c->n; ++i)
+        if (c->v[i].mesh == m)
+            return c->v[i].scene;
+    if (!c->device && !(c->device = rtcNewDevice("threads=1")))
+        return NULL;
+    if (c->n == c->cap) {
+        size_t cap = c->cap ? 2 * c->cap : 8;
+        void *nv = realloc(c->v, cap * sizeof *c->v);
+        if (!nv)
+            return NULL;
+        c->v = nv;
+        c->cap = cap;
+    }
+    RTCScene sc = rtcNewScene(c->device);
+    RTCGeometry g = rtcNewGeometry(c->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    float *pos = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m->nv);
+    unsigned *idx = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m->nt);
+    if (!sc || !pos || !idx) {
+        rtcReleaseGeometry(g);
+        rtcReleaseScene(sc);
+        return NULL;
+    }
+    memcpy(pos, m->pos, (size_t)m->nv * 3 * sizeof(float));
+    memcpy(idx, m->idx, (size_t)m->nt * 3 * sizeof(unsigned));
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(sc, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(sc);
+    m->refs++;
+    c->v[c->n].mesh = m;
+    c->v[c->n].scene = sc;
+    c->n++;
+    return sc;
+}
+
+void pov_query_cache_free(pov_loader *L)
+{
+    struct pov_query_cache *c = L->query_cache;
+    if (!c)
+        return;
+    for (size_t i = 0; i < c->n; ++i) {
+        rtcReleaseScene(c->v[i].scene);
+        pov_mesh_unref(c->v[i].mesh);
+    }
+    free(c->v);
+    if (c->device)
+        rtcReleaseDevice(c->device);
+    free(c);
+    L->query_cache = NULL;
+}
+
+/* Nearest hit of a large mesh through its Embree scene: Embree finds the triangle, and the hit is
+ * computed again in double precision on that triangle. -1 when there is no Embree scene. */
+static int ray_mesh_embree(pov_loader *L, pov_mesh *m, const double o[3], const double d[3], double *t, double n[3])
+{
+    RTCScene sc = mesh_scene(L, m);
+    if (!sc)
+        return -1;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRayHit rh;
+    memset(&rh, 0, sizeof rh);
+    rh.ray.org_x = (float)o[0];
+    rh.ray.org_y = (float)o[1];
+    rh.ray.org_z = (float)o[2];
+    rh.ray.dir_x = (float)d[0];
+    rh.ray.dir_y = (float)d[1];
+    rh.ray.dir_z = (float)d[2];
+    rh.ray.tnear = (float)POV_QUERY_TMIN;
+    rh.ray.tfar = isfinite(*t) ? (float)*t * (1 + 1e-6f) : INFINITY;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(sc, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+    if (ray_tris(m, rh.hit.primID, rh.hit.primID + 1, o, d, t, n))
+        return 1;
+    /* on an edge the double-precision test may just miss the triangle Embree hit: keep Embree's */
+    if (!(rh.ray.tfar > POV_QUERY_TMIN && rh.ray.tfar < *t))
+        return 0;
+    const uint32_t *ix = &m->idx[3 * rh.hit.primID];
+    double u = rh.hit.u, v = rh.hit.v;
+    *t = rh.ray.tfar;
+    for (int k = 0; k < 3; ++k)
+        n[k] = m->nrm ? (1 - u - v) * m->nrm[3 * ix[0] + k] + u * m->nrm[3 * ix[1] + k] + v * m->nrm[3 * ix[2] + k]
+                      : rh.hit.Ng_x * (k == 0) + rh.hit.Ng_y * (k == 1) + rh.hit.Ng_z * (k == 2);
+    return 1;
+}
+
 /* Nearest hit of the object-space ray with a primitive for t in (POV_QUERY_TMIN, *t). */
-static int ray_prim(const pov_prim *pr, const double o[3], const double d[3], double *t, double n[3])
+static int ray_prim(pov_loader *L, const pov_prim *pr, const double o[3], const double d[3], double *t, double n[3])
 {
     if (pr->kind == POV_PRIM_SPHERE) {
         double oc[3] = { o[0] - pr->a[0], o[1] - pr->a[1], o[2] - pr->a[2] };
@@ -240,16 +358,22 @@ static int ray_prim(const pov_prim *pr, const double o[3], const double d[3], do
         return 1;
     }
     double lo[3], hi[3];
-    if (pr->kind != POV_PRIM_MESH || prim_box(pr, lo, hi) != 1 || !ray_box(o, d, lo, hi, 0, *t))
+    if (pr->kind != POV_PRIM_MESH || !pr->mesh || !pr->mesh->nt)
         return 0;
-    return ray_mesh(pr->mesh, o, d, t, n);
+    if (pr->mesh->nt >= POV_QUERY_EMBREE_MIN) {
+        int r = ray_mesh_embree(L, pr->mesh, o, d, t, n);
+        if (r >= 0)
+            return r;
+    }
+    if (prim_box(pr, lo, hi) != 1 || !ray_box(o, d, lo, hi, 0, *t))
+        return 0;
+    return ray_tris(pr->mesh, 0, pr->mesh->nt, o, d, t, n);
 }
 
 static int query_trace(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const double org[3], const double dir[3],
                        double hit[3], double normal[3], int *found, void *user)
 {
     (void)p;
-    (void)user;
     const pov_obj *o = query_object(obj);
     if (!o)
         return 0;
@@ -263,7 +387,7 @@ static int query_trace(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const doub
         /* an affine map keeps the ray parameter: t is the world distance along the unit dir */
         pov_m4_point(inv, org, lo);
         pov_m4_dir(inv, dir, ld);
-        if (ray_prim(pr, lo, ld, &best, n)) {
+        if (ray_prim(user, pr, lo, ld, &best, n)) {
             *found = 1;
             normal_to_world(inv, n, normal);
         }
@@ -274,8 +398,8 @@ static int query_trace(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const doub
     return 1;
 }
 
-void pov_queries_install(vbnl_sdl_parser *p)
+void pov_queries_install(pov_loader *L)
 {
-    vbnl_sdl_object_queries q = { NULL, query_extent, query_inside, query_trace };
-    vbnl_sdl_set_object_queries(p, &q);
+    vbnl_sdl_object_queries q = { L, query_extent, query_inside, query_trace };
+    vbnl_sdl_set_object_queries(L->c.parser, &q);
 }
