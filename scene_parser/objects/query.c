@@ -3,9 +3,9 @@
  *
  * The answers come from the primitives the object is made of, in world (POV-Ray) coordinates:
  * - Bounding box: POV-Ray's, each primitive's box in its object space with its transform applied
- *   to the 8 corners (so a rotated box or sphere gets the box of its rotated box, as in POV-Ray).
- *   Spheres use their exact box, meshes (every tessellated shape, CSG results, text) the box of
- *   their vertices. Planes and unbounded shapes outside a CSG have POV-Ray's infinite box,
+ *   to the 8 corners (so a rotated box or torus gets the box of its rotated box, as in POV-Ray).
+ *   Spheres use their exact box (also rotated or uniformly scaled: POV-Ray keeps them spheres),
+ *   meshes (every tessellated shape, CSG results, text) the box of their vertices. Planes and unbounded shapes outside a CSG have POV-Ray's infinite box,
  *   +-1e10 on every axis (POV-Ray's BOUND_HUGE / 2). Lights, skipped shapes and mesh files
  *   (vbnl_mesh, read when the scene is built) add nothing; an object with nothing else has the
  *   box <0,0,0>..<0,0,0>.
@@ -103,6 +103,17 @@ static int query_extent(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, double lo
                 hi[k] = POV_QUERY_HUGE;
             }
             break;
+        }
+        double sc;
+        if (o->v[i].kind == POV_PRIM_SPHERE && pov_m4_is_similarity(o->v[i].m, &sc)) {
+            /* a sphere rotated or scaled uniformly stays a sphere, with its exact box (POV-Ray) */
+            double c[3];
+            pov_m4_point(o->v[i].m, o->v[i].a, c);
+            for (int k = 0; k < 3; ++k) {
+                lo[k] = fmin(lo[k], c[k] - sc * o->v[i].a[3]);
+                hi[k] = fmax(hi[k], c[k] + sc * o->v[i].a[3]);
+            }
+            continue;
         }
         for (int c = 0; c < 8; ++c) {
             double q[3] = { c & 1 ? bh[0] : bl[0], c & 2 ? bh[1] : bl[1], c & 4 ? bh[2] : bl[2] }, w[3];

@@ -53,6 +53,17 @@ static void test_extent(void **state)
     CLOSE(hi[0], 1.5, 1e-9);
     CLOSE(hi[1], 2.5, 1e-9);
     CLOSE(hi[2], 3.5, 1e-9);
+    /* a rotated sphere keeps its exact box (POV-Ray 3.7 prints 2.328427 .. 3.328427 in x) */
+    extent("#declare O = sphere { <1, 2, 3>, 0.5 rotate 45 * y }", lo, hi);
+    CLOSE(lo[0], 2.828427125 - 0.5, 1e-9);
+    CLOSE(hi[0], 2.828427125 + 0.5, 1e-9);
+    CLOSE(lo[2], 1.414213562 - 0.5, 1e-9);
+    /* a torus rotated: the box of its rotated box (POV-Ray 3.7 prints the same values) */
+    extent("#declare O = torus { 1, 0.3 rotate 30 * x translate <0.2, 0.1, 0> }", lo, hi);
+    CLOSE(lo[0], -1.1, 1e-6);
+    CLOSE(hi[0], 1.5, 1e-6);
+    CLOSE(lo[1], -0.809808, 1e-6);
+    CLOSE(hi[2], 1.275833, 1e-6);
     /* a box scaled, rotated 90 degrees about z (x -> y, y -> -x) and moved */
     extent("#declare O = box { <0, 0, 0>, <1, 2, 3> scale 2 rotate 90 * z translate <10, 0, 0> }", lo, hi);
     CLOSE(lo[0], 6, 1e-6);
