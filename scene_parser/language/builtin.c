@@ -491,8 +491,9 @@ static bool object_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_
             return false;
     }
     if (r == 0 && have) {
-        sdl_errorf(p, &al[0], "argument 1 of %s() must be an object, found a %s", fn->text,
-                   a[0].kind == VBNL_SDL_OBJECT && a[0].u.obj.type ? a[0].u.obj.type->name : vbnl_sdl_kind_name(a[0].kind));
+        const char *found = a[0].kind == VBNL_SDL_OBJECT && a[0].u.obj.type ? a[0].u.obj.type->name
+                                                                             : vbnl_sdl_kind_name(a[0].kind);
+        sdl_errorf(p, &al[0], "argument 1 of %s() must be an object, found a %s", fn->text, found);
         return false;
     }
     if (!have) {

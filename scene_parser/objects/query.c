@@ -5,8 +5,9 @@
  * - Bounding box: POV-Ray's, each primitive's box in its object space with its transform applied
  *   to the 8 corners (so a rotated box or torus gets the box of its rotated box, as in POV-Ray).
  *   Spheres use their exact box (also rotated or uniformly scaled: POV-Ray keeps them spheres),
- *   meshes (every tessellated shape, CSG results, text) the box of their vertices. Planes and unbounded shapes outside a CSG have POV-Ray's infinite box,
- *   +-1e10 on every axis (POV-Ray's BOUND_HUGE / 2). Lights, skipped shapes and mesh files
+ *   meshes (every tessellated shape, CSG results, text) the box of their vertices. Planes and
+ *   unbounded shapes outside a CSG have POV-Ray's infinite box, +-1e10 on every axis (POV-Ray's
+ *   BOUND_HUGE / 2). Lights, skipped shapes and mesh files
  *   (vbnl_mesh, read when the scene is built) add nothing; an object with nothing else has the
  *   box <0,0,0>..<0,0,0>.
  * - inside: the exact inside test CSG uses (pov_prim_inside); an object is the union of its
@@ -14,8 +15,11 @@
  * - trace: the nearest hit over the primitives: spheres and planes analytically with their exact
  *   normal, meshes by their triangles (through Embree for large meshes, the hit then computed
  *   again in double precision) with the interpolated vertex normals, which are the exact normals
- *   of curved shapes at the vertices. The point lies on the tessellation, within its documented error bound of the
- *   exact surface. Unbounded shapes outside a CSG (made when the scene is built) are not hit.
+ *   of curved shapes at the vertices. Where the primitive hit has an exact inside test (solid
+ *   shapes, CSG) the point is then moved onto the exact surface by bisection along the ray
+ *   (refine_hit; the normal stays the triangles'); elsewhere it lies on the tessellation, within its documented error bound of the exact
+ *   surface. Unbounded shapes outside a CSG other than planes (made when the scene is built) are
+ *   not hit.
  * Every answer is a pure function of the object, so the functions are deterministic. */
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -27,8 +31,8 @@
 #define POV_QUERY_HUGE 1e10 /* POV-Ray's infinite bounding box reaches BOUND_HUGE / 2 */
 #define POV_QUERY_TMIN 1e-6 /* hits nearer to the ray's origin are not counted (world units) */
 /* Meshes of at least this many triangles are traced through an Embree scene made on their first
- * trace() and kept for the load; smaller ones through a loop over their triangles, which costs
- * less than making the scene (docs/scene-language.md, "Functions that need objects"). */
+ * trace() and kept for the load; smaller ones through a loop over their triangles, as fast for
+ * them and without a scene to keep (docs/scene-language.md, "Object functions"). */
 #define POV_QUERY_EMBREE_MIN 256
 
 /* Embree scenes of traced meshes, one per mesh (meshes are shared between copies of an object,
@@ -381,6 +385,41 @@ static int ray_prim(pov_loader *L, const pov_prim *pr, const double o[3], const 
     return ray_tris(pr->mesh, 0, pr->mesh->nt, o, d, t, n);
 }
 
+/* A hit t on the triangles of a primitive with an exact inside test, moved onto the exact surface:
+ * the nearest bracket t -+ delta (delta growing from 1e-4 to 0.1 of the mesh's size along the ray)
+ * whose ends the inside test tells apart, then 60 bisection steps. t unchanged when no bracket
+ * is found (the exact surface does not cross the ray there). */
+static double refine_hit(const pov_prim *pr, const double org[3], const double dir[3], const double ld[3], double t)
+{
+    double lo[3], hi[3], size = 0, dl = sqrt(ld[0] * ld[0] + ld[1] * ld[1] + ld[2] * ld[2]);
+    if (prim_box(pr, lo, hi) != 1 || !(dl > 0))
+        return t;
+    for (int k = 0; k < 3; ++k)
+        size = fmax(size, hi[k] - lo[k]);
+    size /= dl; /* in units of t */
+    for (double delta = 1e-4 * size; delta <= 0.1 * size; delta *= 4) {
+        double a = fmax(t - delta, POV_QUERY_TMIN), b = t + delta, q[3];
+        for (int k = 0; k < 3; ++k)
+            q[k] = org[k] + a * dir[k];
+        int ina = pov_prim_inside(pr, q);
+        for (int k = 0; k < 3; ++k)
+            q[k] = org[k] + b * dir[k];
+        if (ina == pov_prim_inside(pr, q))
+            continue;
+        for (int it = 0; it < 60; ++it) {
+            double m = 0.5 * (a + b);
+            for (int k = 0; k < 3; ++k)
+                q[k] = org[k] + m * dir[k];
+            if (pov_prim_inside(pr, q) == ina)
+                a = m;
+            else
+                b = m;
+        }
+        return 0.5 * (a + b);
+    }
+    return t;
+}
+
 static int query_trace(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const double org[3], const double dir[3],
                        double hit[3], double normal[3], int *found, void *user)
 {
@@ -388,7 +427,8 @@ static int query_trace(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const doub
     const pov_obj *o = query_object(obj);
     if (!o)
         return 0;
-    double best = INFINITY;
+    double best = INFINITY, best_ld[3] = { 0, 0, 0 };
+    const pov_prim *best_pr = NULL;
     *found = 0;
     for (size_t i = 0; i < o->n; ++i) {
         const pov_prim *pr = &o->v[i];
@@ -401,8 +441,13 @@ static int query_trace(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const doub
         if (ray_prim(user, pr, lo, ld, &best, n)) {
             *found = 1;
             normal_to_world(inv, n, normal);
+            best_pr = pr;
+            memcpy(best_ld, ld, sizeof best_ld);
         }
     }
+    /* the nearest hit on the triangles, then onto the exact surface (keeping its normal) */
+    if (best_pr && best_pr->kind == POV_PRIM_MESH && best_pr->solid)
+        best = refine_hit(best_pr, org, dir, best_ld, best);
     if (*found)
         for (int k = 0; k < 3; ++k)
             hit[k] = org[k] + best * dir[k];

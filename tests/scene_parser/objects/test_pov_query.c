@@ -32,8 +32,8 @@ static void extent(const char *decl, double lo[3], double hi[3])
 {
     char buf[4096];
     snprintf(buf, sizeof buf,
-             "%s\n#debug concat(\"Q:\", vstr(3, min_extent(O), \",\", 0, 9), \",\", vstr(3, max_extent(O), \",\", 0, 9), "
-             "\"\\n\")\n",
+             "%s\n#debug concat(\"Q:\", vstr(3, min_extent(O), \",\", 0, 9), \",\", "
+             "vstr(3, max_extent(O), \",\", 0, 9), \"\\n\")\n",
              decl);
     double v[6];
     values(buf, v, 6);
@@ -165,6 +165,26 @@ static void test_trace(void **state)
     double nx = sqrt(2.0) / 4, ny = sqrt(0.5), nl = sqrt(nx * nx + ny * ny);
     CLOSE(v[3], nx / nl, 1e-9);
     CLOSE(v[4], ny / nl, 1e-9);
+    /* a grazing ray down the side of a cylinder (tessellated): the point is moved onto the exact
+     * surface, y = sqrt(r^2 - x^2), which the triangles miss by about 0.01 here (POV-Ray's
+     * language/trace.pov at clock 0) */
+    values("#declare O = cylinder { -z, z, 0.5 }\n"
+           "#declare P = trace(O, <-0.499, 2, 0>, -y);\n"
+           "#debug concat(\"Q:\", vstr(3, P, \",\", 0, 12), \"\\n\")\n",
+           v, 3);
+    CLOSE(v[0], -0.499, 1e-12);
+    CLOSE(v[1], sqrt(0.25 - 0.499 * 0.499), 1e-9);
+    /* the same on a CSG whose box top (y = 0) lies just below the cylinder's exact surface: the
+     * point and the normal are the cylinder's (POV-Ray 3.7 prints -1.49900,0.03161,0.00000 and
+     * the normal -0.99800,0.06321,0; the normal here is the triangles', within 0.03) */
+    values("#declare O = difference { union { box { <-1.5, -0.6, -0.001>, <1.5, 0, 0.1> }\n"
+           "cylinder { <-1, 0, -0.003>, <-1, 0, 0.11>, 0.5 } } cylinder { <0, 0, -0.003>, <0, 0, 0.11>, 0.5 } }\n"
+           "#declare P = trace(O, <-1.499, 2, 0>, -y, N);\n"
+           "#debug concat(\"Q:\", vstr(3, P, \",\", 0, 12), \",\", vstr(3, N, \",\", 0, 12), \"\\n\")\n",
+           v, 6);
+    CLOSE(v[1], sqrt(0.25 - 0.499 * 0.499), 1e-9);
+    CLOSE(v[3], -0.998, 0.03);
+    CLOSE(v[4], 0.06321, 0.03);
     /* a plane, and the nearest of a union's members */
     values("#declare O = union { plane { y, -1 } sphere { <0, 2, 0>, 1 } }\n"
            "#declare A = trace(O, <0, 10, 0>, -y);\n#declare B = trace(O, <5, 10, 0>, -y, N);\n"
@@ -212,7 +232,11 @@ static void test_errors(void **state)
     (void)state;
     expect_error(BASE "#declare P = trace(sphere { 0, 1 }, 0, <0, 0, 0>);",
                  "test.pov:3:40: trace(): the direction must be a finite vector of non-zero length");
-    expect_error(BASE "#declare P = min_extent(3);", "test.pov:3:25: argument 1 of min_extent() must be an object, found a float");
+    expect_error(BASE "#declare P = min_extent(3);",
+                 "test.pov:3:25: argument 1 of min_extent() must be an object, found a float");
+    /* a declared transform is an object-layer value but not an object */
+    expect_error(BASE "#declare M = transform { scale 2 }\n#declare P = inside(M, 0);",
+                 "test.pov:4:21: argument 1 of inside() must be an object, found a transform");
 }
 
 int main(void)
