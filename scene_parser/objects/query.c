@@ -35,14 +35,17 @@
  * them and without a scene to keep (docs/scene-language.md, "Object functions"). */
 #define POV_QUERY_EMBREE_MIN 256
 
-/* Embree scenes of traced meshes, one per mesh (meshes are shared between copies of an object,
- * so every copy a scene traces finds the same scene). Each entry holds a reference to its mesh. */
+/* What the queries keep per mesh for the load: its box and, once traced through Embree, its
+ * Embree scene. Each entry holds a reference to its mesh. */
+typedef struct query_mesh {
+    pov_mesh *mesh;
+    double lo[3], hi[3]; /* the box of its vertices */
+    RTCScene scene;      /* NULL until its first trace through Embree */
+} query_mesh;
+
 struct pov_query_cache {
     RTCDevice device;
-    struct {
-        pov_mesh *mesh;
-        RTCScene scene;
-    } *v;
+    query_mesh *v;
     size_t n, cap;
 };
 
@@ -51,9 +54,52 @@ static const pov_obj *query_object(const vbnl_sdl_value *v)
     return v->kind == VBNL_SDL_OBJECT && v->u.obj.type == &pov_object_type ? v->u.obj.ptr : NULL;
 }
 
+static void mesh_box(const pov_mesh *m, double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = INFINITY;
+        hi[k] = -INFINITY;
+    }
+    for (uint32_t v = 0; v < m->nv; ++v)
+        for (int k = 0; k < 3; ++k) {
+            double x = m->pos[3 * v + k];
+            lo[k] = x < lo[k] ? x : lo[k];
+            hi[k] = x > hi[k] ? x : hi[k];
+        }
+}
+
+/* The cache entry of a mesh (made with its box on first use); NULL when out of memory. Meshes are
+ * shared between copies of an object, so every copy a scene asks about finds the same entry. */
+static query_mesh *mesh_entry(pov_loader *L, pov_mesh *m)
+{
+    struct pov_query_cache *c = L->query_cache;
+    if (!c) {
+        if (!(c = calloc(1, sizeof *c)))
+            return NULL;
+        L->query_cache = c;
+    }
+    for (size_t i = c->n; i-- > 0;)
+        if (c->v[i].mesh == m)
+            return &c->v[i];
+    if (c->n == c->cap) {
+        size_t cap = c->cap ? 2 * c->cap : 8;
+        query_mesh *grown = realloc(c->v, cap * sizeof *grown);
+        if (!grown)
+            return NULL;
+        c->v = grown;
+        c->cap = cap;
+    }
+    query_mesh *e = &c->v[c->n++];
+    memset(e, 0, sizeof *e);
+    e->mesh = m;
+    m->refs++;
+    mesh_box(m, e->lo, e->hi);
+    return e;
+}
+
 /* The object-space box of a primitive; 0 when it has none (lights, empty meshes), -1 when it is
  * unbounded. */
-static int prim_box(const pov_prim *pr, double lo[3], double hi[3])
+static int prim_box(pov_loader *L, const pov_prim *pr, double lo[3], double hi[3])
 {
     switch (pr->kind) {
     case POV_PRIM_SPHERE:
@@ -65,19 +111,18 @@ static int prim_box(const pov_prim *pr, double lo[3], double hi[3])
     case POV_PRIM_PLANE:
     case POV_PRIM_SURFACE:
         return -1;
-    case POV_PRIM_MESH:
+    case POV_PRIM_MESH: {
         if (!pr->mesh || !pr->mesh->nt)
             return 0;
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = INFINITY;
-            hi[k] = -INFINITY;
+        query_mesh *e = mesh_entry(L, pr->mesh);
+        if (!e) {
+            mesh_box(pr->mesh, lo, hi);
+            return 1;
         }
-        for (uint32_t v = 0; v < pr->mesh->nv; ++v)
-            for (int k = 0; k < 3; ++k) {
-                lo[k] = fmin(lo[k], pr->mesh->pos[3 * v + k]);
-                hi[k] = fmax(hi[k], pr->mesh->pos[3 * v + k]);
-            }
+        memcpy(lo, e->lo, sizeof e->lo);
+        memcpy(hi, e->hi, sizeof e->hi);
         return 1;
+    }
     default:
         return 0;
     }
@@ -86,7 +131,6 @@ static int prim_box(const pov_prim *pr, double lo[3], double hi[3])
 static int query_extent(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, double lo[3], double hi[3], void *user)
 {
     (void)p;
-    (void)user;
     const pov_obj *o = query_object(obj);
     if (!o)
         return 0;
@@ -97,7 +141,7 @@ static int query_extent(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, double lo
     }
     for (size_t i = 0; i < o->n; ++i) {
         double bl[3], bh[3];
-        int b = prim_box(&o->v[i], bl, bh);
+        int b = prim_box(user, &o->v[i], bl, bh);
         if (b == 0)
             continue;
         any = 1;
@@ -245,25 +289,14 @@ static int ray_tris(const pov_mesh *m, uint32_t first, uint32_t end, const doubl
 /* The Embree scene of a mesh (made on first use); NULL when Embree fails or memory runs out. */
 static RTCScene mesh_scene(pov_loader *L, pov_mesh *m)
 {
+    query_mesh *e = mesh_entry(L, m);
+    if (!e)
+        return NULL;
+    if (e->scene)
+        return e->scene;
     struct pov_query_cache *c = L->query_cache;
-    if (!c) {
-        if (!(c = calloc(1, sizeof *c)))
-            return NULL;
-        L->query_cache = c;
-    }
-    for (size_t i = 0; i < c->n; ++i)
-        if (c->v[i].mesh == m)
-            return c->v[i].scene;
     if (!c->device && !(c->device = rtcNewDevice("threads=1")))
         return NULL;
-    if (c->n == c->cap) {
-        size_t cap = c->cap ? 2 * c->cap : 8;
-        void *nv = realloc(c->v, cap * sizeof *c->v);
-        if (!nv)
-            return NULL;
-        c->v = nv;
-        c->cap = cap;
-    }
     RTCScene sc = rtcNewScene(c->device);
     RTCGeometry g = rtcNewGeometry(c->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     float *pos = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m->nv);
@@ -279,11 +312,7 @@ static RTCScene mesh_scene(pov_loader *L, pov_mesh *m)
     rtcAttachGeometry(sc, g);
     rtcReleaseGeometry(g);
     rtcCommitScene(sc);
-    m->refs++;
-    c->v[c->n].mesh = m;
-    c->v[c->n].scene = sc;
-    c->n++;
-    return sc;
+    return e->scene = sc;
 }
 
 void pov_query_cache_free(pov_loader *L)
@@ -292,7 +321,8 @@ void pov_query_cache_free(pov_loader *L)
     if (!c)
         return;
     for (size_t i = 0; i < c->n; ++i) {
-        rtcReleaseScene(c->v[i].scene);
+        if (c->v[i].scene)
+            rtcReleaseScene(c->v[i].scene);
         pov_mesh_unref(c->v[i].mesh);
     }
     free(c->v);
@@ -380,7 +410,7 @@ static int ray_prim(pov_loader *L, const pov_prim *pr, const double o[3], const 
         if (r >= 0)
             return r;
     }
-    if (prim_box(pr, lo, hi) != 1 || !ray_box(o, d, lo, hi, 0, *t))
+    if (prim_box(L, pr, lo, hi) != 1 || !ray_box(o, d, lo, hi, 0, *t))
         return 0;
     return ray_tris(pr->mesh, 0, pr->mesh->nt, o, d, t, n);
 }
@@ -389,10 +419,10 @@ static int ray_prim(pov_loader *L, const pov_prim *pr, const double o[3], const 
  * the nearest bracket t -+ delta (delta growing from 1e-4 to 0.1 of the mesh's size along the ray)
  * whose ends the inside test tells apart, then 60 bisection steps. t unchanged when no bracket
  * is found (the exact surface does not cross the ray there). */
-static double refine_hit(const pov_prim *pr, const double org[3], const double dir[3], const double ld[3], double t)
+static double refine_hit(pov_loader *L, const pov_prim *pr, const double org[3], const double dir[3], const double ld[3], double t)
 {
     double lo[3], hi[3], size = 0, dl = sqrt(ld[0] * ld[0] + ld[1] * ld[1] + ld[2] * ld[2]);
-    if (prim_box(pr, lo, hi) != 1 || !(dl > 0))
+    if (prim_box(L, pr, lo, hi) != 1 || !(dl > 0))
         return t;
     for (int k = 0; k < 3; ++k)
         size = fmax(size, hi[k] - lo[k]);
@@ -447,7 +477,7 @@ static int query_trace(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const doub
     }
     /* the nearest hit on the triangles, then onto the exact surface (keeping its normal) */
     if (best_pr && best_pr->kind == POV_PRIM_MESH && best_pr->solid)
-        best = refine_hit(best_pr, org, dir, best_ld, best);
+        best = refine_hit(user, best_pr, org, dir, best_ld, best);
     if (*found)
         for (int k = 0; k < 3; ++k)
             hit[k] = org[k] + best * dir[k];
