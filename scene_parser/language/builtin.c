@@ -1,4 +1,5 @@
-/* vbnl scene parser: built-in functions of SDL expressions (maths, vectors, strings, rand). */
+/* vbnl scene parser: built-in functions of SDL expressions (maths, vectors, strings, rand, and the
+ * object functions answered by the object layer's queries). */
 #include <ctype.h>
 #include <math.h>
 #include <stdlib.h>
@@ -372,24 +373,6 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         sdl_set_vector(out, 3, o);
         return true;
     }
-    case VBNL_KW_inside:
-    case VBNL_KW_trace:
-    case VBNL_KW_min_extent:
-    case VBNL_KW_max_extent: {
-        unsigned bit = kw == VBNL_KW_inside ? 1u : kw == VBNL_KW_trace ? 2u : 4u;
-        if (!(p->warned & bit)) {
-            p->warned |= bit;
-            sdl_warnf(p, &fn->loc, "%s() needs the object layer; returning %s (reported once)", fn->text,
-                      kw == VBNL_KW_inside ? "0" : "<0,0,0>");
-        }
-        if (kw == VBNL_KW_inside) {
-            r = 0;
-            break;
-        }
-        double zero[3] = { 0, 0, 0 };
-        sdl_set_vector(out, 3, zero);
-        return true;
-    }
     case VBNL_KW_select: {
         if (!need(p, &a[0], VBNL_SDL_FLOAT, fn, 0, &al[0]))
             return false;
@@ -462,6 +445,81 @@ static bool array_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_v
     return true;
 }
 
+void vbnl_sdl_set_object_queries(vbnl_sdl_parser *p, const vbnl_sdl_object_queries *q)
+{
+    if (!p)
+        return;
+    if (q)
+        p->object_queries = *q;
+    else
+        memset(&p->object_queries, 0, sizeof p->object_queries);
+}
+
+/* inside, trace, min_extent, max_extent: the object layer answers through its queries. The
+ * normal of trace() goes to the identifier `normal_name` (NULL: none); <0,0,0> on a miss. */
+static bool object_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *a, int n,
+                         const vbnl_sdl_loc *al, const char *normal_name, const vbnl_sdl_loc *normal_loc,
+                         vbnl_sdl_value *out)
+{
+    int kw = fn->keyword;
+    const vbnl_sdl_object_queries *q = &p->object_queries;
+    double v1[3], v2[3], res[3] = { 0, 0, 0 }, nrm[3] = { 0, 0, 0 };
+    int r = 0, flag = 0;
+    if (n > 1 && !sdl_to_vector(p, &a[1], 3, v1, &al[1], fn->text))
+        return false;
+    if (n > 2 && !sdl_to_vector(p, &a[2], 3, v2, &al[2], fn->text))
+        return false;
+    if (kw == VBNL_KW_trace) {
+        double l = sqrt(v2[0] * v2[0] + v2[1] * v2[1] + v2[2] * v2[2]);
+        if (!(l > 0) || !isfinite(l)) {
+            sdl_errorf(p, &al[2], "trace(): the direction must be a finite vector of non-zero length");
+            return false;
+        }
+        for (int i = 0; i < 3; i++)
+            v2[i] /= l;
+    }
+    bool have = kw == VBNL_KW_inside ? q->inside != NULL : kw == VBNL_KW_trace ? q->trace != NULL : q->extent != NULL;
+    if (have && a[0].kind == VBNL_SDL_OBJECT) {
+        double lo[3], hi[3];
+        if (kw == VBNL_KW_inside)
+            r = q->inside(p, &a[0], v1, &flag, q->user);
+        else if (kw == VBNL_KW_trace)
+            r = q->trace(p, &a[0], v1, v2, res, nrm, &flag, q->user);
+        else if ((r = q->extent(p, &a[0], lo, hi, q->user)) == 1)
+            memcpy(res, kw == VBNL_KW_min_extent ? lo : hi, sizeof res);
+        if (r < 0)
+            return false;
+    }
+    if (r == 0 && have) {
+        const char *found = a[0].kind == VBNL_SDL_OBJECT && a[0].u.obj.type ? a[0].u.obj.type->name
+                                                                             : vbnl_sdl_kind_name(a[0].kind);
+        sdl_errorf(p, &al[0], "argument 1 of %s() must be an object, found a %s", fn->text, found);
+        return false;
+    }
+    if (!have) {
+        unsigned bit = kw == VBNL_KW_inside ? 1u : kw == VBNL_KW_trace ? 2u : 4u;
+        if (!(p->warned & bit)) {
+            p->warned |= bit;
+            sdl_warnf(p, &fn->loc, "%s() needs the object layer; returning %s (reported once)", fn->text,
+                      kw == VBNL_KW_inside ? "0" : "<0,0,0>");
+        }
+    }
+    if (kw == VBNL_KW_trace && !flag) {
+        memset(res, 0, sizeof res);
+        memset(nrm, 0, sizeof nrm);
+    }
+    if (normal_name) {
+        vbnl_sdl_value nv;
+        sdl_set_vector(&nv, 3, nrm);
+        sdl_declare(p, normal_name, -1, &nv, normal_loc);
+    }
+    if (kw == VBNL_KW_inside)
+        sdl_set_float(out, flag ? 1.0 : 0.0);
+    else
+        sdl_set_vector(out, 3, res);
+    return !p->failed;
+}
+
 bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl_sdl_value *out)
 {
     const builtin *b = find(kw);
@@ -496,6 +554,8 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
     vbnl_sdl_loc *l = al;
     int n = 0, cap = 8;
     bool ok = true;
+    const char *normal_name = NULL; /* trace()'s 4th argument */
+    vbnl_sdl_loc normal_loc = fn->loc;
     if (!vbnl_sdl_accept(p, ')')) {
         for (;;) {
             if (n == cap) {
@@ -522,7 +582,6 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
             l[n] = vbnl_sdl_peek(p)->loc;
             if (kw == VBNL_KW_trace && n == 3) {
                 /* trace(Object, Start, Direction, Normal): Normal is an output identifier */
-                const char *name;
                 p->no_expand = true;
                 const vbnl_sdl_token *t = vbnl_sdl_next(p);
                 p->no_expand = false;
@@ -533,12 +592,8 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
                     ok = false;
                     break;
                 }
-                name = t->text;
-                vbnl_sdl_loc nl = t->loc;
-                vbnl_sdl_value zero;
-                double z[3] = { 0, 0, 0 };
-                sdl_set_vector(&zero, 3, z);
-                sdl_declare(p, name, -1, &zero, &nl);
+                normal_loc = t->loc;
+                normal_name = t->text; /* interned: outlives the token */
                 ok = sdl_expect_op(p, ')', "after trace() arguments");
                 break;
             }
@@ -565,7 +620,9 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
             sdl_errorf(p, &fn->loc, "%s() expects %d to %d arguments, got %d", fn->text, b->min, b->max, n);
         ok = false;
     }
-    if (ok)
+    if (ok && (kw == VBNL_KW_inside || kw == VBNL_KW_trace || kw == VBNL_KW_min_extent || kw == VBNL_KW_max_extent))
+        ok = object_query(p, fn, a, n, l, normal_name, &normal_loc, out);
+    else if (ok)
         ok = apply(p, fn, a, n, l, out);
     for (int i = 0; i < n; i++)
         vbnl_sdl_value_clear(p, &a[i]);

@@ -199,6 +199,7 @@ struct vbnl_sdl_parser {
     vbnl_sdl_hooks hooks;
     vbnl_sdl_function_block_fn function_block; /* vbnl_sdl_set_function_block_hook */
     void *function_block_user;
+    vbnl_sdl_object_queries object_queries; /* vbnl_sdl_set_object_queries */
     int in_vector; /* > 0: '>' closes a vector literal instead of comparing */
     int in_count;  /* > 0: '<' ends the float (a list count followed by vectors, as in mesh2) */
     unsigned warned; /* one-time warnings already given (bit per kind) */

@@ -236,6 +236,22 @@ static int operand_inside(const csg_operand *o, const double p[3], int depth)
     return 0;
 }
 
+int pov_prim_inside(const pov_prim *pr, const double p[3])
+{
+    if (!(pr->kind == POV_PRIM_SPHERE || pr->kind == POV_PRIM_PLANE ||
+          ((pr->kind == POV_PRIM_MESH || pr->kind == POV_PRIM_SURFACE) && pr->solid)))
+        return 0;
+    csg_test t;
+    memset(&t, 0, sizeof t);
+    t.kind = pr->kind == POV_PRIM_SPHERE ? TEST_SPHERE : pr->kind == POV_PRIM_PLANE ? TEST_PLANE : TEST_SOLID;
+    if (!pov_m4_invert(pr->m, t.inv))
+        return 0;
+    memcpy(t.a, pr->a, sizeof t.a);
+    t.inverse = pr->inverse;
+    t.solid = pr->solid;
+    return test_inside(&t, p, 0);
+}
+
 /* ---- the operands' tests ------------------------------------------------------------------- */
 
 /* The inside test of one primitive (0: it has none, or out of memory with *oom set). */

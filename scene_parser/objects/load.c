@@ -336,6 +336,7 @@ static vbnl_result load(vbnl_context *ctx, const char *name, const char *text, s
     vbnl_sdl_hooks h = {L, hook_statement, hook_rvalue, hook_default};
     vbnl_sdl_set_hooks(p, &h);
     vbnl_sdl_set_function_block_hook(p, hook_function_block, L);
+    pov_queries_install(L);
     r = text ? vbnl_sdl_parse_text(p, name, text, len, err) : vbnl_sdl_parse_file(p, name, err);
     if (r != VBNL_OK)
         goto done;
@@ -362,6 +363,7 @@ done:
     pov_obj_clear(&L->world);
     pov_camera_release(&L->cam);
     pov_shape_cache_free(L); /* before the parser: solids may hold its functions */
+    pov_query_cache_free(L);
     free(L->sphere_groups);
     free(L->warned);
     pov_sky_free(L->sky);

@@ -66,6 +66,7 @@ typedef struct pov_loader {
     uint32_t nsphere_groups;
     struct pov_shape_cache *shape_cache; /* shapes made once and shared (shapes/shape_cache.c) */
     int build_error_located; /* pov_build's error names the statement's file:line:col */
+    struct pov_query_cache *query_cache; /* Embree scenes of the meshes trace() met (query.c) */
 } pov_loader;
 
 /* ---- 3-vectors --------------------------------------------------------------------------------- */
@@ -105,6 +106,10 @@ vbnl_result pov_positive(pov_loader *L, double v, const char *what, vbnl_sdl_loc
 
 /* Opaque values of `#declare`: objects (pov_obj), transforms (double[16]) and cameras (pov_cam). */
 extern const vbnl_sdl_opaque_type pov_object_type, pov_transform_type, pov_camera_type;
+/* Answers min_extent, max_extent, inside and trace about object values (query.c) during L's
+ * parse; pov_query_cache_free frees the Embree scenes trace() made (at the end of the load). */
+void pov_queries_install(pov_loader *L);
+void pov_query_cache_free(pov_loader *L);
 /* The value of identifier `t` when it is declared with `type`, else NULL. */
 const void *pov_declared(pov_loader *L, const vbnl_sdl_token *t, const vbnl_sdl_opaque_type *type);
 void pov_object_destroy(void *ptr, void *user); /* a pov_obj value */

@@ -133,6 +133,9 @@ int pov_solid_finite(const pov_solid *s);
  * (an empty mesh when the box misses the shape's region). NULL with *why set on failure. */
 pov_mesh *pov_solid_surface(const pov_solid *s, const double m[16], const double lo[3], const double hi[3],
                             const char **why);
+/* 1 when the world point p is inside the primitive (its exact inside test, `inverse` applied; 0 for
+ * primitives without an inside: triangles, discs, meshes, lights). */
+int pov_prim_inside(const pov_prim *pr, const double p[3]);
 pov_solid *pov_solid_ref(pov_solid *s);
 void pov_solid_unref(pov_solid *s);
 

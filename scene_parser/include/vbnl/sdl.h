@@ -264,6 +264,25 @@ void vbnl_sdl_set_hooks(vbnl_sdl_parser *p, const vbnl_sdl_hooks *hooks);
 typedef int (*vbnl_sdl_function_block_fn)(vbnl_sdl_parser *p, const vbnl_sdl_token *tok, vbnl_sdl_fn_block *out,
                                           void *user);
 void vbnl_sdl_set_function_block_hook(vbnl_sdl_parser *p, vbnl_sdl_function_block_fn fn, void *user);
+/* What the object layer answers about an object value (VBNL_SDL_OBJECT, the first argument of
+ * the built-in functions min_extent, max_extent, inside and trace; POV-Ray 3.7 reference,
+ * "Functions"). Each returns 1 when it answered, 0 when `obj` is not a value it knows (the
+ * language layer then reports a wrong argument), -1 on error (after vbnl_sdl_error). They are
+ * called on the parse thread, only when a scene calls one of these functions.
+ * - extent: the corners of the object's bounding box in world (POV-Ray) coordinates.
+ * - inside: *in = 1 when q is inside the object (0 also for objects that have no inside).
+ * - trace: the first surface point of the ray org + t dir (t > 0, dir of unit length) in *hit and
+ *   the unit surface normal there in normal; *found = 0 when the ray misses. */
+typedef struct vbnl_sdl_object_queries {
+    void *user;
+    int (*extent)(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, double lo[3], double hi[3], void *user);
+    int (*inside)(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const double q[3], int *in, void *user);
+    int (*trace)(vbnl_sdl_parser *p, const vbnl_sdl_value *obj, const double org[3], const double dir[3],
+                 double hit[3], double normal[3], int *found, void *user);
+} vbnl_sdl_object_queries;
+/* Sets the object queries (copied; NULL removes them). Without them, min_extent, max_extent and
+ * trace return <0,0,0> and inside returns 0, with a warning. */
+void vbnl_sdl_set_object_queries(vbnl_sdl_parser *p, const vbnl_sdl_object_queries *q);
 
 /* Parse a whole scene. `name` labels the text in messages and gives the folder searched first
  * for includes ("scene.pov" -> "."). On failure `err` holds the first line of the error
