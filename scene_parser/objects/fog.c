@@ -26,12 +26,20 @@ static vbnl_result fog_turbulence(const pov_item *it)
     return vbnl_sdl_parse_vector(it->p, 3, ((fog_item *)it->target)->f.turbulence);
 }
 
-/* A bare colour expression (`fog { rgb <...> distance 10 }`): POV-Ray reads it as the colour. */
+/* A bare colour expression (`fog { rgb <...> distance 10 }`, `fog { distance 200 Wheat * .5 }`):
+ * POV-Ray's Parse_Fog reads any expression that is not one of its keywords as the colour. */
 static int fog_bare_colour(const pov_item *it)
 {
     const vbnl_sdl_token *t = it->tok;
-    if (!(pov_is_word(t, "rgb") || pov_is_word(t, "rgbf") || pov_is_word(t, "rgbt") || pov_is_word(t, "rgbft") ||
-          pov_is_word(t, "srgb") || pov_is_word(t, "srgbf") || pov_is_word(t, "srgbt") || pov_is_word(t, "srgbft")))
+    int starts = pov_is_word(t, "rgb") || pov_is_word(t, "rgbf") || pov_is_word(t, "rgbt") ||
+                 pov_is_word(t, "rgbft") || pov_is_word(t, "srgb") || pov_is_word(t, "srgbf") ||
+                 pov_is_word(t, "srgbt") || pov_is_word(t, "srgbft") || t->kind == VBNL_SDL_TOK_NUMBER ||
+                 pov_is_punct(t, '<') || pov_is_punct(t, '(') || pov_is_punct(t, '-');
+    if (!starts && t->kind == VBNL_SDL_TOK_IDENT && !t->keyword) {
+        const vbnl_sdl_value *v = vbnl_sdl_lookup(it->p, t->text);
+        starts = v && (v->kind == VBNL_SDL_COLOR || v->kind == VBNL_SDL_VECTOR || v->kind == VBNL_SDL_FLOAT);
+    }
+    if (!starts)
         return 0;
     return vbnl_sdl_parse_color(it->p, ((fog_item *)it->target)->f.color) == VBNL_OK ? 1 : -1;
 }
@@ -62,7 +70,7 @@ static const pov_row fog_rows[] = {
 };
 
 static const pov_row *const fog_tables[] = {fog_rows, pov_transform_rows, NULL};
-static const pov_block fog_block = {.name = "fog", .tables = fog_tables, .before = fog_bare_colour,
+static const pov_block fog_block = {.name = "fog", .tables = fog_tables, .after = fog_bare_colour,
                                     .transform = fog_transform};
 
 vbnl_result pov_fog_parse(pov_loader *L, const vbnl_sdl_loc *loc)

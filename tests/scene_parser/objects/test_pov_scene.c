@@ -373,6 +373,11 @@ static void test_fog(void **state)
     NEAR(c->fogs[1].color.x, 1.0f);
     assert_null(strstr(g_diags, "warning: 'fog'"));
     vbnl_pov_scene_destroy(s);
+    /* a colour identifier times a number after distance (lights/circular.pov) */
+    s = ok("#declare Wheat = rgb <0.96, 0.87, 0.7>;\n" BASE "fog { distance 200 Wheat * .5 }");
+    NEAR(sc(s)->fogs[0].color.x, 0.48f);
+    NEAR((float)sc(s)->fogs[0].distance, 200.0f);
+    vbnl_pov_scene_destroy(s);
     expect_error(BASE "fog { color rgb 1 }", "test.pov:3:1: fog distance must be positive, got 0");
     expect_error(BASE "fog { fog_type 3 distance 1 }", "test.pov:3:1: fog_type must be 1 (constant) or 2 (ground), got 3");
 }
