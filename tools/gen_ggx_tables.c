@@ -49,8 +49,8 @@ static double row_average(const float *row)
 {
     static const double gx[3] = {-0.7745966692414834, 0.0, 0.7745966692414834};
     static const double gw[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
-    double h = 1.0 / (VBNL_GGX_N_MU - 1), sum = 0.0;
-    for (int i = 0; i + 1 < VBNL_GGX_N_MU; ++i) {
+    double h = 1.0 / (VBI_GGX_N_MU - 1), sum = 0.0;
+    for (int i = 0; i + 1 < VBI_GGX_N_MU; ++i) {
         for (int q = 0; q < 3; ++q) {
             double f = 0.5 * (1.0 + gx[q]), t = (i + f) * h;
             double e = row[i] * (1.0 - f) + row[i + 1] * f;
@@ -60,19 +60,19 @@ static double row_average(const float *row)
     return 4.0 * sum;
 }
 
-static float conductor_E[VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU];
-static float conductor_Eavg[VBNL_GGX_N_ALPHA];
-static float coat_E[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU];
-static float coat_Eavg[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA];
+static float conductor_E[VBI_GGX_N_ALPHA][VBI_GGX_N_MU];
+static float conductor_Eavg[VBI_GGX_N_ALPHA];
+static float coat_E[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA][VBI_GGX_N_MU];
+static float coat_Eavg[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA];
 
 /* Multilinear interpolation of the freshly computed tables at fractional coordinates. */
-static float interp2(const float t[VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU], float xa, float xm)
+static float interp2(const float t[VBI_GGX_N_ALPHA][VBI_GGX_N_MU], float xa, float xm)
 {
     int ia = (int)xa, im = (int)xm;
-    if (ia > VBNL_GGX_N_ALPHA - 2)
-        ia = VBNL_GGX_N_ALPHA - 2;
-    if (im > VBNL_GGX_N_MU - 2)
-        im = VBNL_GGX_N_MU - 2;
+    if (ia > VBI_GGX_N_ALPHA - 2)
+        ia = VBI_GGX_N_ALPHA - 2;
+    if (im > VBI_GGX_N_MU - 2)
+        im = VBI_GGX_N_MU - 2;
     float fa = xa - (float)ia, fm = xm - (float)im;
     float a = t[ia][im] * (1 - fm) + t[ia][im + 1] * fm;
     float b = t[ia + 1][im] * (1 - fm) + t[ia + 1][im + 1] * fm;
@@ -102,17 +102,17 @@ static void print_array(const char *decl, const float *v, int n, int row, int ro
 int main(void)
 {
     /* Tables. */
-    for (int a = 0; a < VBNL_GGX_N_ALPHA; ++a) {
+    for (int a = 0; a < VBI_GGX_N_ALPHA; ++a) {
         float alpha = ggx_table_alpha_at((float)a);
-        for (int m = 0; m < VBNL_GGX_N_MU; ++m)
+        for (int m = 0; m < VBI_GGX_N_MU; ++m)
             conductor_E[a][m] = (float)albedo(ggx_table_mu_at((float)m), alpha, 0.0f, N_QUAD);
         conductor_Eavg[a] = (float)row_average(conductor_E[a]);
     }
-    for (int k = 0; k < VBNL_GGX_N_IOR; ++k) {
+    for (int k = 0; k < VBI_GGX_N_IOR; ++k) {
         float ior = ggx_table_ior_at((float)k);
-        for (int a = 0; a < VBNL_GGX_N_ALPHA; ++a) {
+        for (int a = 0; a < VBI_GGX_N_ALPHA; ++a) {
             float alpha = ggx_table_alpha_at((float)a);
-            for (int m = 0; m < VBNL_GGX_N_MU; ++m)
+            for (int m = 0; m < VBI_GGX_N_MU; ++m)
                 coat_E[k][a][m] = (float)albedo(ggx_table_mu_at((float)m), alpha, ior, N_QUAD);
             coat_Eavg[k][a] = (float)row_average(coat_E[k][a]);
         }
@@ -121,8 +121,8 @@ int main(void)
     /* Accuracy: interpolation error at cell centres (the worst place for linear interpolation),
      * reference integrated with the same quadrature. */
     double cond_err = 0.0, coat_err = 0.0, coat_err_ior = 0.0, cond_err_hi = 0.0, coat_err_hi = 0.0;
-    for (int a = 0; a + 1 < VBNL_GGX_N_ALPHA; ++a) {
-        for (int m = 0; m + 1 < VBNL_GGX_N_MU; ++m) {
+    for (int a = 0; a + 1 < VBI_GGX_N_ALPHA; ++a) {
+        for (int m = 0; m + 1 < VBI_GGX_N_MU; ++m) {
             float xa = (float)a + 0.5f, xm = (float)m + 0.5f;
             double ref = albedo(ggx_table_mu_at(xm), ggx_table_alpha_at(xa), 0.0f, N_QUAD / 2);
             double e = fabs(ref - interp2(conductor_E, xa, xm));
@@ -131,10 +131,10 @@ int main(void)
                 cond_err_hi = e > cond_err_hi ? e : cond_err_hi;
         }
     }
-    for (int k = 0; k + 1 < VBNL_GGX_N_IOR; ++k) {
+    for (int k = 0; k + 1 < VBI_GGX_N_IOR; ++k) {
         float xk = (float)k + 0.5f, ior = ggx_table_ior_at(xk);
-        for (int a = 0; a + 1 < VBNL_GGX_N_ALPHA; a += 2) {
-            for (int m = 0; m + 1 < VBNL_GGX_N_MU; m += 2) {
+        for (int a = 0; a + 1 < VBI_GGX_N_ALPHA; a += 2) {
+            for (int m = 0; m + 1 < VBI_GGX_N_MU; m += 2) {
                 float xa = (float)a + 0.5f, xm = (float)m + 0.5f;
                 double ref = albedo(ggx_table_mu_at(xm), ggx_table_alpha_at(xa), ior, N_QUAD / 2);
                 double v = 0.5 * (interp2(coat_E[k], xa, xm) + interp2(coat_E[k + 1], xa, xm));
@@ -152,8 +152,8 @@ int main(void)
     }
     /* Quadrature error: a few entries against a grid four times finer in each dimension. */
     double quad_err = 0.0;
-    for (int a = 0; a < VBNL_GGX_N_ALPHA; a += 5) {
-        for (int m = 0; m < VBNL_GGX_N_MU; m += 5) {
+    for (int a = 0; a < VBI_GGX_N_ALPHA; a += 5) {
+        for (int m = 0; m < VBI_GGX_N_MU; m += 5) {
             double fine = albedo(ggx_table_mu_at((float)m), ggx_table_alpha_at((float)a), 0.0f, N_QUAD * 4);
             double e = fabs(fine - conductor_E[a][m]);
             quad_err = e > quad_err ? e : quad_err;
@@ -178,16 +178,16 @@ int main(void)
            " *   coat E, ior axis alone (mid-slice, grid mu/alpha):  %.1e\n"
            " *   quadrature error vs a 4x finer grid (sampled):      %.1e\n"
            " * Coat ior is clamped to [%.2f, %.2f]. */\n\n",
-           N_QUAD, N_QUAD, cond_err, cond_err_hi, coat_err, coat_err_hi, coat_err_ior, quad_err, (double)VBNL_GGX_IOR_MIN,
-           (double)VBNL_GGX_IOR_MAX);
+           N_QUAD, N_QUAD, cond_err, cond_err_hi, coat_err, coat_err_hi, coat_err_ior, quad_err, (double)VBI_GGX_IOR_MIN,
+           (double)VBI_GGX_IOR_MAX);
     printf("#include \"microfacet.h\"\n\n");
-    print_array("const float vbnl_ggx_conductor_E[VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU]", &conductor_E[0][0],
-                VBNL_GGX_N_ALPHA * VBNL_GGX_N_MU, VBNL_GGX_N_MU, 0);
-    print_array("const float vbnl_ggx_conductor_Eavg[VBNL_GGX_N_ALPHA]", conductor_Eavg, VBNL_GGX_N_ALPHA,
-                VBNL_GGX_N_ALPHA, 0);
-    print_array("const float vbnl_ggx_coat_E[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU]", &coat_E[0][0][0],
-                VBNL_GGX_N_IOR * VBNL_GGX_N_ALPHA * VBNL_GGX_N_MU, VBNL_GGX_N_MU, VBNL_GGX_N_ALPHA);
-    print_array("const float vbnl_ggx_coat_Eavg[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA]", &coat_Eavg[0][0],
-                VBNL_GGX_N_IOR * VBNL_GGX_N_ALPHA, VBNL_GGX_N_ALPHA, 0);
+    print_array("const float vbi_ggx_conductor_E[VBI_GGX_N_ALPHA][VBI_GGX_N_MU]", &conductor_E[0][0],
+                VBI_GGX_N_ALPHA * VBI_GGX_N_MU, VBI_GGX_N_MU, 0);
+    print_array("const float vbi_ggx_conductor_Eavg[VBI_GGX_N_ALPHA]", conductor_Eavg, VBI_GGX_N_ALPHA,
+                VBI_GGX_N_ALPHA, 0);
+    print_array("const float vbi_ggx_coat_E[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA][VBI_GGX_N_MU]", &coat_E[0][0][0],
+                VBI_GGX_N_IOR * VBI_GGX_N_ALPHA * VBI_GGX_N_MU, VBI_GGX_N_MU, VBI_GGX_N_ALPHA);
+    print_array("const float vbi_ggx_coat_Eavg[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA]", &coat_Eavg[0][0],
+                VBI_GGX_N_IOR * VBI_GGX_N_ALPHA, VBI_GGX_N_ALPHA, 0);
     return 0;
 }

@@ -3,18 +3,18 @@
 
 #include "vbnl/integrator.h"
 
-extern const vbnl_integrator_class vbnl_integrator_path;
-extern const vbnl_integrator_class vbnl_integrator_vbnl;
-extern const vbnl_integrator_class vbnl_integrator_vpl;
-extern const vbnl_integrator_class vbnl_integrator_vsl;
-extern const vbnl_integrator_class vbnl_integrator_richvsl;
+extern const vbnl_integrator_class vbi_integrator_path;
+extern const vbnl_integrator_class vbi_integrator_vbnl;
+extern const vbnl_integrator_class vbi_integrator_vpl;
+extern const vbnl_integrator_class vbi_integrator_vsl;
+extern const vbnl_integrator_class vbi_integrator_richvsl;
 
 static const vbnl_integrator_class *const registry[] = {
-    &vbnl_integrator_path,
-    &vbnl_integrator_vbnl,
-    &vbnl_integrator_vpl,
-    &vbnl_integrator_vsl,
-    &vbnl_integrator_richvsl,
+    &vbi_integrator_path,
+    &vbi_integrator_vbnl,
+    &vbi_integrator_vpl,
+    &vbi_integrator_vsl,
+    &vbi_integrator_richvsl,
 };
 
 uint32_t vbnl_integrator_count(void) { return (uint32_t)(sizeof(registry) / sizeof(registry[0])); }

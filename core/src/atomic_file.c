@@ -26,7 +26,7 @@
  * A signal handler is given no context, so this table is the project's one piece of process-wide
  * mutable state (the style rule is "no globals"; a handler cannot be passed one). Being in the
  * core, it covers every file the core and the plugin write.
- * It has fixed-size slots and is walked by vbnl_atomic_file_abandon_all() with lock-free atomics
+ * It has fixed-size slots and is walked by vbi_atomic_file_abandon_all() with lock-free atomics
  * and unlink() only, both async-signal-safe.
  *
  * A slot goes FREE -> BUSY (a writer claimed it) -> ARMED (its path names a temporary file this
@@ -43,23 +43,23 @@
  * sees its slot BUSY and waits for it. So no temporary file is created, and none is renamed into
  * place, once the walk has started. */
 
-enum { VBNL_SLOT_FREE, VBNL_SLOT_BUSY, VBNL_SLOT_ARMED, VBNL_SLOT_ABANDONED };
+enum { VBI_SLOT_FREE, VBI_SLOT_BUSY, VBI_SLOT_ARMED, VBI_SLOT_ABANDONED };
 
-#define VBNL_ATOMIC_SLOTS 16
+#define VBI_ATOMIC_SLOTS 16
 
 _Static_assert(ATOMIC_INT_LOCK_FREE == 2, "the signal-handler path needs lock-free atomic ints");
 
-typedef struct vbnl_temp_slot {
+typedef struct vbi_temp_slot {
     atomic_int state;
     char path[PATH_MAX]; /* open() refuses longer paths (ENAMETOOLONG) */
-} vbnl_temp_slot;
+} vbi_temp_slot;
 
-static vbnl_temp_slot g_temps[VBNL_ATOMIC_SLOTS];
+static vbi_temp_slot g_temps[VBI_ATOMIC_SLOTS];
 static atomic_int g_abandoned;
 
 /* Blocks the asynchronous signals on this thread; faults stay deliverable (a fault while blocked
  * would kill the process without its handler). */
-static void vbnl_block_signals(sigset_t *old)
+static void vbi_block_signals(sigset_t *old)
 {
     sigset_t set;
     sigfillset(&set);
@@ -71,20 +71,20 @@ static void vbnl_block_signals(sigset_t *old)
     pthread_sigmask(SIG_BLOCK, &set, old);
 }
 
-static void vbnl_restore_signals(const sigset_t *old)
+static void vbi_restore_signals(const sigset_t *old)
 {
     pthread_sigmask(SIG_SETMASK, old, NULL);
 }
 
 /* A FREE slot made BUSY, or -1 when every slot is taken or the path cannot fit (open() will fail
  * on such a path anyway). Signals must be blocked. */
-static int vbnl_slot_claim(size_t tmp_len)
+static int vbi_slot_claim(size_t tmp_len)
 {
     if (tmp_len >= PATH_MAX)
         return -1;
-    for (int i = 0; i < VBNL_ATOMIC_SLOTS; i++) {
-        int expected = VBNL_SLOT_FREE;
-        if (atomic_compare_exchange_strong(&g_temps[i].state, &expected, VBNL_SLOT_BUSY))
+    for (int i = 0; i < VBI_ATOMIC_SLOTS; i++) {
+        int expected = VBI_SLOT_FREE;
+        if (atomic_compare_exchange_strong(&g_temps[i].state, &expected, VBI_SLOT_BUSY))
             return i;
     }
     return -1;
@@ -92,32 +92,32 @@ static int vbnl_slot_claim(size_t tmp_len)
 
 /* ARMED -> BUSY before the owner renames or removes its temporary. 0 when the handler took it
  * (ABANDONED: it removes the file). Signals must be blocked. */
-static int vbnl_slot_disarm(int slot)
+static int vbi_slot_disarm(int slot)
 {
     if (slot < 0)
         return 1;
-    int expected = VBNL_SLOT_ARMED;
-    return atomic_compare_exchange_strong(&g_temps[slot].state, &expected, VBNL_SLOT_BUSY);
+    int expected = VBI_SLOT_ARMED;
+    return atomic_compare_exchange_strong(&g_temps[slot].state, &expected, VBI_SLOT_BUSY);
 }
 
-static void vbnl_slot_release(int slot)
+static void vbi_slot_release(int slot)
 {
     if (slot >= 0)
-        atomic_store(&g_temps[slot].state, VBNL_SLOT_FREE);
+        atomic_store(&g_temps[slot].state, VBI_SLOT_FREE);
 }
 
-void vbnl_atomic_file_abandon_all(void)
+void vbi_atomic_file_abandon_all(void)
 {
     atomic_store(&g_abandoned, 1);
-    for (int i = 0; i < VBNL_ATOMIC_SLOTS; i++) {
+    for (int i = 0; i < VBI_ATOMIC_SLOTS; i++) {
         for (;;) {
             int s = atomic_load(&g_temps[i].state);
-            if (s == VBNL_SLOT_BUSY)
+            if (s == VBI_SLOT_BUSY)
                 continue; /* another thread is inside open() or rename(), signals blocked */
-            if (s != VBNL_SLOT_ARMED)
+            if (s != VBI_SLOT_ARMED)
                 break;
-            int expected = VBNL_SLOT_ARMED;
-            if (atomic_compare_exchange_strong(&g_temps[i].state, &expected, VBNL_SLOT_ABANDONED)) {
+            int expected = VBI_SLOT_ARMED;
+            if (atomic_compare_exchange_strong(&g_temps[i].state, &expected, VBI_SLOT_ABANDONED)) {
                 unlink(g_temps[i].path);
                 break;
             }
@@ -131,9 +131,9 @@ void vbnl_atomic_file_abandon_all(void)
  * stderr, so that a test can interrupt a write at a known point without depending on timing. */
 static atomic_int g_test_pause;
 
-void vbnl_atomic_file_set_test_pause(int on) { atomic_store(&g_test_pause, on != 0); }
+void vbi_atomic_file_set_test_pause(int on) { atomic_store(&g_test_pause, on != 0); }
 
-static void vbnl_test_pause_in_write(const vbnl_atomic_file *f)
+static void vbi_test_pause_in_write(const vbi_atomic_file *f)
 {
     if (!atomic_load(&g_test_pause))
         return;
@@ -145,7 +145,7 @@ static void vbnl_test_pause_in_write(const vbnl_atomic_file *f)
 
 /* ---- atomic files ---------------------------------------------------------------------------------- */
 
-static uint64_t vbnl_mix64(uint64_t x)
+static uint64_t vbi_mix64(uint64_t x)
 {
     /* splitmix64 finaliser */
     x += 0x9e3779b97f4a7c15ull;
@@ -154,13 +154,13 @@ static uint64_t vbnl_mix64(uint64_t x)
     return x ^ (x >> 31);
 }
 
-static vbnl_result vbnl_abandoned_error(vbnl_error *err, const char *path)
+static vbnl_result vbi_abandoned_error(vbnl_error *err, const char *path)
 {
     return vbnl_error_set(err, VBNL_ERR_CANCELLED, "cannot write '%s': writes were abandoned (the process is ending)",
                           path);
 }
 
-vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_error *err)
+vbnl_result vbi_atomic_file_open(vbi_atomic_file *f, const char *path, vbnl_error *err)
 {
     static const char digits[] = "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ";
     f->fd = -1;
@@ -216,25 +216,25 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
      * umask() (racy between threads). O_EXCL with our own suffix applies the umask naturally. */
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
-    uint64_t seed = vbnl_mix64(((uint64_t)ts.tv_sec << 32) ^ (uint64_t)ts.tv_nsec ^
+    uint64_t seed = vbi_mix64(((uint64_t)ts.tv_sec << 32) ^ (uint64_t)ts.tv_nsec ^
                                ((uint64_t)getpid() << 16) ^ (uint64_t)(uintptr_t)f);
 
     /* Created and registered with signals blocked: a handler never sees the file without its slot. */
     sigset_t old;
-    vbnl_block_signals(&old);
-    int slot = vbnl_slot_claim(n + sizeof(".tmp-XXXXXX") - 1);
+    vbi_block_signals(&old);
+    int slot = vbi_slot_claim(n + sizeof(".tmp-XXXXXX") - 1);
     if (atomic_load(&g_abandoned)) {
-        vbnl_slot_release(slot);
-        vbnl_restore_signals(&old);
+        vbi_slot_release(slot);
+        vbi_restore_signals(&old);
         free(f->tmp_path);
         f->tmp_path = NULL;
         free(f->target);
         f->target = NULL;
-        return vbnl_abandoned_error(err, path);
+        return vbi_abandoned_error(err, path);
     }
     int e = EEXIST;
     for (int attempt = 0; attempt < 100 && e == EEXIST; attempt++) {
-        uint64_t r = vbnl_mix64(seed + (uint64_t)attempt);
+        uint64_t r = vbi_mix64(seed + (uint64_t)attempt);
         memcpy(f->tmp_path, target, n);
         memcpy(f->tmp_path + n, ".tmp-", 5);
         for (int i = 0; i < 6; i++, r /= 62)
@@ -245,12 +245,12 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
     }
     if (f->fd >= 0 && slot >= 0) {
         memcpy(g_temps[slot].path, f->tmp_path, n + sizeof(".tmp-XXXXXX"));
-        atomic_store(&g_temps[slot].state, VBNL_SLOT_ARMED);
+        atomic_store(&g_temps[slot].state, VBI_SLOT_ARMED);
         f->slot = slot;
     } else {
-        vbnl_slot_release(slot);
+        vbi_slot_release(slot);
     }
-    vbnl_restore_signals(&old);
+    vbi_restore_signals(&old);
     if (f->fd < 0) {
         free(f->tmp_path);
         f->tmp_path = NULL;
@@ -261,41 +261,41 @@ vbnl_result vbnl_atomic_file_open(vbnl_atomic_file *f, const char *path, vbnl_er
     /* A replaced file keeps its permission bits (the umask applies only to new files). */
     if (replaces && fchmod(f->fd, keep_mode) != 0) {
         int ce = errno;
-        vbnl_atomic_file_discard(f);
+        vbi_atomic_file_discard(f);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(ce));
     }
     return VBNL_OK;
 }
 
-vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err)
+vbnl_result vbi_atomic_file_commit(vbi_atomic_file *f, vbnl_error *err)
 {
     if (f->fd < 0 || !f->tmp_path)
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': file not open", f->path);
-    vbnl_test_pause_in_write(f);
+    vbi_test_pause_in_write(f);
     /* fsync before rename, or a crash could leave a renamed but empty file. */
     if (fsync(f->fd) != 0) {
         int e = errno;
-        vbnl_atomic_file_discard(f);
+        vbi_atomic_file_discard(f);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", f->path, strerror(e));
     }
     int fd = f->fd;
     f->fd = -1;
     if (close(fd) != 0) {
         int e = errno;
-        vbnl_atomic_file_discard(f);
+        vbi_atomic_file_discard(f);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", f->path, strerror(e));
     }
     sigset_t old;
-    vbnl_block_signals(&old);
-    if (!vbnl_slot_disarm(f->slot)) {
+    vbi_block_signals(&old);
+    if (!vbi_slot_disarm(f->slot)) {
         /* abandoned: the walk has removed the temporary file */
-        vbnl_restore_signals(&old);
+        vbi_restore_signals(&old);
         f->slot = -1;
         free(f->tmp_path);
         f->tmp_path = NULL;
         free(f->target);
         f->target = NULL;
-        return vbnl_abandoned_error(err, f->path);
+        return vbi_abandoned_error(err, f->path);
     }
     int e = 0;
     if (atomic_load(&g_abandoned))
@@ -304,21 +304,21 @@ vbnl_result vbnl_atomic_file_commit(vbnl_atomic_file *f, vbnl_error *err)
         e = errno;
     if (e != 0)
         unlink(f->tmp_path);
-    vbnl_slot_release(f->slot);
-    vbnl_restore_signals(&old);
+    vbi_slot_release(f->slot);
+    vbi_restore_signals(&old);
     f->slot = -1;
     free(f->tmp_path);
     f->tmp_path = NULL;
     free(f->target);
     f->target = NULL;
     if (e < 0)
-        return vbnl_abandoned_error(err, f->path);
+        return vbi_abandoned_error(err, f->path);
     if (e > 0)
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", f->path, strerror(e));
     return VBNL_OK;
 }
 
-void vbnl_atomic_file_discard(vbnl_atomic_file *f)
+void vbi_atomic_file_discard(vbi_atomic_file *f)
 {
     if (f->fd >= 0) {
         close(f->fd);
@@ -326,12 +326,12 @@ void vbnl_atomic_file_discard(vbnl_atomic_file *f)
     }
     if (f->tmp_path) {
         sigset_t old;
-        vbnl_block_signals(&old);
-        if (vbnl_slot_disarm(f->slot)) { /* else abandoned: the walk removed it */
+        vbi_block_signals(&old);
+        if (vbi_slot_disarm(f->slot)) { /* else abandoned: the walk removed it */
             unlink(f->tmp_path);
-            vbnl_slot_release(f->slot);
+            vbi_slot_release(f->slot);
         }
-        vbnl_restore_signals(&old);
+        vbi_restore_signals(&old);
         f->slot = -1;
         free(f->tmp_path);
         f->tmp_path = NULL;

@@ -8,11 +8,11 @@
 #include <sys/mman.h>
 #endif
 
-void *vbnl_big_alloc(size_t bytes)
+void *vbi_big_alloc(size_t bytes)
 {
-    if (bytes < VBNL_BIG_ALLOC_MIN)
+    if (bytes < VBI_BIG_ALLOC_MIN)
         return aligned_alloc(64, (bytes + 63) & ~(size_t)63);
-    const size_t huge = VBNL_BIG_ALLOC_MIN;
+    const size_t huge = VBI_BIG_ALLOC_MIN;
     size_t rounded = (bytes + huge - 1) & ~(huge - 1);
     void *p = aligned_alloc(huge, rounded);
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
@@ -22,12 +22,12 @@ void *vbnl_big_alloc(size_t bytes)
     return p;
 }
 
-void *vbnl_big_calloc(size_t count, size_t size)
+void *vbi_big_calloc(size_t count, size_t size)
 {
     if (size && count > SIZE_MAX / size)
         return NULL;
     size_t bytes = count * size;
-    void *p = vbnl_big_alloc(bytes);
+    void *p = vbi_big_alloc(bytes);
     if (p)
         memset(p, 0, bytes);
     return p;

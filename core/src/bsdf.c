@@ -47,15 +47,15 @@ typedef struct table_ai {
 static table_ai table_alpha(float alpha)
 {
     table_ai t = {0, 0, 0.0f, 0.0f};
-    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &t.ia, &t.fa);
+    table_cell(ggx_table_x_alpha(alpha), VBI_GGX_N_ALPHA, &t.ia, &t.fa);
     return t;
 }
 
 static table_ai table_alpha_ior(float alpha, float ior)
 {
     table_ai t;
-    table_cell(ggx_table_x_ior(ior), VBNL_GGX_N_IOR, &t.ik, &t.fk);
-    table_cell(ggx_table_x_alpha(alpha), VBNL_GGX_N_ALPHA, &t.ia, &t.fa);
+    table_cell(ggx_table_x_ior(ior), VBI_GGX_N_IOR, &t.ik, &t.fk);
+    table_cell(ggx_table_x_alpha(alpha), VBI_GGX_N_ALPHA, &t.ia, &t.fa);
     return t;
 }
 
@@ -64,14 +64,14 @@ static float conductor_E(const table_ai *t, float mu)
 {
     int im;
     float fm;
-    table_cell(ggx_table_x_mu(mu), VBNL_GGX_N_MU, &im, &fm);
-    return lerp2(vbnl_ggx_conductor_E[t->ia], vbnl_ggx_conductor_E[t->ia + 1], im, fm, t->fa);
+    table_cell(ggx_table_x_mu(mu), VBI_GGX_N_MU, &im, &fm);
+    return lerp2(vbi_ggx_conductor_E[t->ia], vbi_ggx_conductor_E[t->ia + 1], im, fm, t->fa);
 }
 
 static float conductor_Eavg(const table_ai *t)
 {
     const int ia = t->ia;
-    return vbnl_ggx_conductor_Eavg[ia] + (vbnl_ggx_conductor_Eavg[ia + 1] - vbnl_ggx_conductor_Eavg[ia]) * t->fa;
+    return vbi_ggx_conductor_Eavg[ia] + (vbi_ggx_conductor_Eavg[ia + 1] - vbi_ggx_conductor_Eavg[ia]) * t->fa;
 }
 
 /* Albedo of the dielectric coat's specular reflection (trilinear in ior, alpha, mu). */
@@ -80,9 +80,9 @@ static float coat_E(const table_ai *t, float mu)
     int im;
     float fm;
     const int ik = t->ik, ia = t->ia;
-    table_cell(ggx_table_x_mu(mu), VBNL_GGX_N_MU, &im, &fm);
-    float e0 = lerp2(vbnl_ggx_coat_E[ik][ia], vbnl_ggx_coat_E[ik][ia + 1], im, fm, t->fa);
-    float e1 = lerp2(vbnl_ggx_coat_E[ik + 1][ia], vbnl_ggx_coat_E[ik + 1][ia + 1], im, fm, t->fa);
+    table_cell(ggx_table_x_mu(mu), VBI_GGX_N_MU, &im, &fm);
+    float e0 = lerp2(vbi_ggx_coat_E[ik][ia], vbi_ggx_coat_E[ik][ia + 1], im, fm, t->fa);
+    float e1 = lerp2(vbi_ggx_coat_E[ik + 1][ia], vbi_ggx_coat_E[ik + 1][ia + 1], im, fm, t->fa);
     return e0 + (e1 - e0) * t->fk;
 }
 
@@ -90,7 +90,7 @@ static float coat_Eavg(const table_ai *t)
 {
     const int ik = t->ik, ia = t->ia;
     const float fa = t->fa;
-    const float *r0 = vbnl_ggx_coat_Eavg[ik], *r1 = vbnl_ggx_coat_Eavg[ik + 1];
+    const float *r0 = vbi_ggx_coat_Eavg[ik], *r1 = vbi_ggx_coat_Eavg[ik + 1];
     float e0 = r0[ia] + (r0[ia + 1] - r0[ia]) * fa;
     float e1 = r1[ia] + (r1[ia + 1] - r1[ia]) * fa;
     return e0 + (e1 - e0) * t->fk;
@@ -98,7 +98,7 @@ static float coat_Eavg(const table_ai *t)
 
 /* ---- Fresnel ------------------------------------------------------------------------------ */
 
-float vbnl_fresnel_dielectric(float cos_i, float eta) { return fresnel_dielectric_inline(cos_i, eta); }
+float vbi_fresnel_dielectric(float cos_i, float eta) { return fresnel_dielectric_inline(cos_i, eta); }
 
 /* Exact unpolarised reflectance of a conductor with complex IOR eta + i k against vacuum/air
  * (pbrt-v3 FrConductor, after Born & Wolf; derivation in S. Lagarde's 2013 "Memo on Fresnel
@@ -120,7 +120,7 @@ static float fresnel_conductor(float cos_i, float eta, float k)
     return clampf(0.5f * (rp + rs), 0.0f, 1.0f);
 }
 
-static vec3 conductor_fresnel(const vbnl_bsdf *b, float cos_i)
+static vec3 conductor_fresnel(const vbi_bsdf *b, float cos_i)
 {
     if (b->use_ior)
         return v3(fresnel_conductor(cos_i, b->eta.x, b->k.x), fresnel_conductor(cos_i, b->eta.y, b->k.y),
@@ -135,7 +135,7 @@ static vec3 conductor_fresnel(const vbnl_bsdf *b, float cos_i)
  * Schlick it is F0 + (1 - F0) / 21 in closed form; for the exact conductor Fresnel it is
  * integrated with 8-point Gauss-Legendre on [0, 1] (the integrand is smooth: measured error below
  * 1e-6 against a 200k-point midpoint rule for gold and for eta, k ~ 3). */
-static vec3 conductor_favg(const vbnl_bsdf *b)
+static vec3 conductor_favg(const vbi_bsdf *b)
 {
     if (!b->use_ior)
         return v3_add(b->color, v3_scale(v3_sub(v3s(1.0f), b->color), 1.0f / 21.0f));
@@ -151,11 +151,11 @@ static vec3 conductor_favg(const vbnl_bsdf *b)
 
 /* ---- material setup ----------------------------------------------------------------------- */
 
-void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m)
+void vbi_bsdf_from_material(vbi_bsdf *b, const vbnl_material_desc *m)
 {
     b->type = m->type;
     b->color = v3_min(v3_max(v3_load(m->base_color), v3s(0.0f)), v3s(1.0f));
-    b->alpha = clampf(isfinite(m->alpha) ? m->alpha : 1.0f, VBNL_GGX_ALPHA_MIN, 1.0f);
+    b->alpha = clampf(isfinite(m->alpha) ? m->alpha : 1.0f, VBI_GGX_ALPHA_MIN, 1.0f);
     b->ior = isfinite(m->ior) && m->ior >= 1.0f ? m->ior : 1.5f;
     b->use_ior = m->conductor_use_ior;
     b->eta = v3_max(v3_load(m->eta), v3s(1e-3f));
@@ -177,9 +177,9 @@ void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m)
  * is rho cos_o^(b - 1) <= rho (the integral of cos_i^b over the hemisphere is 2 pi / (b + 1)), so
  * it reflects rho head-on and less at grazing views; b = 1 is Lambert. Sampling: cos_i with
  * density (b + 1) / (2 pi) cos_i^b, cos_i = u^(1 / (b + 1)), weight rho cos_o^(b - 1). */
-static float brilliance_norm(float b) { return (b + 1.0f) * VBNL_INV_2PI; }
+static float brilliance_norm(float b) { return (b + 1.0f) * VBI_INV_2PI; }
 
-static vec3 brilliance_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static vec3 brilliance_eval(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return v3s(0.0f);
@@ -187,19 +187,19 @@ static vec3 brilliance_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return v3_scale(b->color, brilliance_norm(b->brilliance) * powf(wi.z * wo.z, e) * wi.z);
 }
 
-static float brilliance_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static float brilliance_pdf(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return 0.0f;
     return brilliance_norm(b->brilliance) * powf(wi.z, b->brilliance);
 }
 
-static int brilliance_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
+static int brilliance_sample(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_rec *out)
 {
     if (wo.z <= 0.0f)
         return 0;
     const float c = powf(1.0f - u.x, 1.0f / (b->brilliance + 1.0f)), s = safe_sqrtf(1.0f - c * c);
-    const float phi = 2.0f * VBNL_PI * u.y;
+    const float phi = 2.0f * VBI_PI * u.y;
     vec3 wi = v3(s * cosf(phi), s * sinf(phi), c);
     float pdf = brilliance_pdf(b, wo, wi);
     if (!(wi.z > 0.0f) || !(pdf > 0.0f))
@@ -207,7 +207,7 @@ static int brilliance_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_samp
     out->wi = wi;
     out->pdf = pdf;
     out->weight = v3_scale(b->color, powf(wo.z, b->brilliance - 1.0f));
-    out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
+    out->lobe = VBI_LOBE_REFLECTION | VBI_LOBE_DIFFUSE;
     out->eta = 1.0f;
     return 1;
 }
@@ -223,7 +223,7 @@ typedef struct conductor_ctx {
     float p_cos;    /* probability of sampling the cosine (multiple-scattering) lobe */
 } conductor_ctx;
 
-static conductor_ctx conductor_setup(const vbnl_bsdf *b, vec3 wo)
+static conductor_ctx conductor_setup(const vbi_bsdf *b, vec3 wo)
 {
     conductor_ctx c;
     c.t = table_alpha(b->alpha);
@@ -242,7 +242,7 @@ static conductor_ctx conductor_setup(const vbnl_bsdf *b, vec3 wo)
     return c;
 }
 
-static inline __attribute__((always_inline)) vec3 conductor_eval_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) vec3 conductor_eval_ctx(const vbi_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_add(wo, wi);
     if (v3_len2(h) == 0.0f)
@@ -254,11 +254,11 @@ static inline __attribute__((always_inline)) vec3 conductor_eval_ctx(const vbnl_
     vec3 f = v3_scale(conductor_fresnel(b, v3_dot(wo, h)), dg);
     /* Multiple scattering (Kulla & Conty 2017), times cos theta_i. */
     float e_i = conductor_E(&c->t, wi.z);
-    float ms = (1.0f - c->e_o) * (1.0f - e_i) / (VBNL_PI * maxf(1.0f - c->e_avg, 1e-6f)) * wi.z;
+    float ms = (1.0f - c->e_o) * (1.0f - e_i) / (VBI_PI * maxf(1.0f - c->e_avg, 1e-6f)) * wi.z;
     return v3_fma(f, c->fms, ms);
 }
 
-static inline __attribute__((always_inline)) float conductor_pdf_ctx(const vbnl_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) float conductor_pdf_ctx(const vbi_bsdf *b, const conductor_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_add(wo, wi);
     if (v3_len2(h) == 0.0f)
@@ -267,7 +267,7 @@ static inline __attribute__((always_inline)) float conductor_pdf_ctx(const vbnl_
     return (1.0f - c->p_cos) * ggx_pdf_vndf_reflect(wo, h, b->alpha) + c->p_cos * pdf_cosine_hemisphere(wi);
 }
 
-static vec3 conductor_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static vec3 conductor_eval(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return v3s(0.0f);
@@ -275,7 +275,7 @@ static vec3 conductor_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return conductor_eval_ctx(b, &c, wo, wi);
 }
 
-static float conductor_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static float conductor_pdf(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return 0.0f;
@@ -284,15 +284,15 @@ static float conductor_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
 }
 
 /* Two-lobe BSDFs choose the lobe with the first coordinate of the direction's 2D number and
- * reuse it for the direction (vbnl_choose_reuse), so a stratified number stays stratified within
+ * reuse it for the direction (vbi_choose_reuse), so a stratified number stays stratified within
  * each lobe. */
-static int conductor_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
+static int conductor_sample(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_rec *out)
 {
     if (wo.z <= 0.0f)
         return 0;
     conductor_ctx c = conductor_setup(b, wo);
     vec3 wi;
-    if (vbnl_choose_reuse(&u.x, c.p_cos))
+    if (vbi_choose_reuse(&u.x, c.p_cos))
         wi = sample_cosine_hemisphere(u);
     else
         wi = reflect_about(wo, ggx_sample_vndf(wo, b->alpha, u));
@@ -304,7 +304,7 @@ static int conductor_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sampl
     out->wi = wi;
     out->pdf = pdf;
     out->weight = v3_scale(conductor_eval_ctx(b, &c, wo, wi), 1.0f / pdf);
-    out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_GLOSSY;
+    out->lobe = VBI_LOBE_REFLECTION | VBI_LOBE_GLOSSY;
     out->eta = 1.0f;
     return 1;
 }
@@ -327,7 +327,7 @@ typedef struct plastic_ctx {
     float p_spec;   /* probability of sampling the specular lobe */
 } plastic_ctx;
 
-static plastic_ctx plastic_setup(const vbnl_bsdf *b, vec3 wo)
+static plastic_ctx plastic_setup(const vbi_bsdf *b, vec3 wo)
 {
     plastic_ctx c;
     c.t = table_alpha_ior(b->alpha, b->ior);
@@ -340,23 +340,23 @@ static plastic_ctx plastic_setup(const vbnl_bsdf *b, vec3 wo)
     return c;
 }
 
-static inline __attribute__((always_inline)) vec3 plastic_eval_ctx(const vbnl_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) vec3 plastic_eval_ctx(const vbi_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_norm(v3_add(wo, wi));
-    float spec = vbnl_fresnel_dielectric(v3_dot(wo, h), b->ior) * ggx_d(h, b->alpha) *
+    float spec = vbi_fresnel_dielectric(v3_dot(wo, h), b->ior) * ggx_d(h, b->alpha) *
                  ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
     float es_i = coat_E(&c->t, wi.z);
-    float diff = (1.0f - c->es_o) * (1.0f - es_i) / maxf(1.0f - c->es_avg, 1e-6f) * VBNL_INV_PI * wi.z;
+    float diff = (1.0f - c->es_o) * (1.0f - es_i) / maxf(1.0f - c->es_avg, 1e-6f) * VBI_INV_PI * wi.z;
     return v3_add(v3s(spec), v3_scale(b->color, diff));
 }
 
-static inline __attribute__((always_inline)) float plastic_pdf_ctx(const vbnl_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
+static inline __attribute__((always_inline)) float plastic_pdf_ctx(const vbi_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_norm(v3_add(wo, wi));
     return c->p_spec * ggx_pdf_vndf_reflect(wo, h, b->alpha) + (1.0f - c->p_spec) * pdf_cosine_hemisphere(wi);
 }
 
-static vec3 plastic_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static vec3 plastic_eval(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return v3s(0.0f);
@@ -364,7 +364,7 @@ static vec3 plastic_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return plastic_eval_ctx(b, &c, wo, wi);
 }
 
-static float plastic_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static float plastic_pdf(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return 0.0f;
@@ -372,19 +372,19 @@ static float plastic_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return plastic_pdf_ctx(b, &c, wo, wi);
 }
 
-static int plastic_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
+static int plastic_sample(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_rec *out)
 {
     if (wo.z <= 0.0f)
         return 0;
     plastic_ctx c = plastic_setup(b, wo);
     vec3 wi;
     uint32_t lobe;
-    if (vbnl_choose_reuse(&u.x, c.p_spec)) {
+    if (vbi_choose_reuse(&u.x, c.p_spec)) {
         wi = reflect_about(wo, ggx_sample_vndf(wo, b->alpha, u));
-        lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_GLOSSY;
+        lobe = VBI_LOBE_REFLECTION | VBI_LOBE_GLOSSY;
     } else {
         wi = sample_cosine_hemisphere(u);
-        lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
+        lobe = VBI_LOBE_REFLECTION | VBI_LOBE_DIFFUSE;
     }
     if (wi.z <= 0.0f)
         return 0;
@@ -401,14 +401,14 @@ static int plastic_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_
 
 /* ---- delta BSDFs -------------------------------------------------------------------------- */
 
-static int mirror_sample(const vbnl_bsdf *b, vec3 wo, vbnl_bsdf_sample_rec *out)
+static int mirror_sample(const vbi_bsdf *b, vec3 wo, vbi_bsdf_sample_rec *out)
 {
     if (wo.z <= 0.0f)
         return 0;
     out->wi = reflect_z(wo);
     out->weight = b->color;
     out->pdf = 1.0f;
-    out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_SPECULAR;
+    out->lobe = VBI_LOBE_REFLECTION | VBI_LOBE_SPECULAR;
     out->eta = 1.0f;
     return 1;
 }
@@ -418,17 +418,17 @@ static int mirror_sample(const vbnl_bsdf *b, vec3 wo, vbnl_bsdf_sample_rec *out)
  * only: it stands for absorption inside the material, which light reflected at the surface
  * never enters. Refracted radiance is scaled by 1 / eta^2 (Veach 1997, Section 5.2), eta =
  * n_t / n_i of the crossing. */
-static int dielectric_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vbnl_bsdf_sample_rec *out)
+static int dielectric_sample(const vbi_bsdf *b, vec3 wo, float u_lobe, vbi_bsdf_sample_rec *out)
 {
     float cos_o = wo.z;
     if (cos_o == 0.0f)
         return 0;
-    float F = vbnl_fresnel_dielectric(cos_o, b->ior);
+    float F = vbi_fresnel_dielectric(cos_o, b->ior);
     if (u_lobe < F) {
         out->wi = reflect_z(wo);
         out->weight = v3s(1.0f);
         out->pdf = F;
-        out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_SPECULAR;
+        out->lobe = VBI_LOBE_REFLECTION | VBI_LOBE_SPECULAR;
         out->eta = 1.0f;
         return 1;
     }
@@ -440,18 +440,18 @@ static int dielectric_sample(const vbnl_bsdf *b, vec3 wo, float u_lobe, vbnl_bsd
     out->wi = v3(-wo.x / eta, -wo.y / eta, cos_o > 0.0f ? -cos_t : cos_t);
     out->weight = v3_scale(b->color, 1.0f / (eta * eta));
     out->pdf = 1.0f - F;
-    out->lobe = VBNL_LOBE_TRANSMISSION | VBNL_LOBE_SPECULAR;
+    out->lobe = VBI_LOBE_TRANSMISSION | VBI_LOBE_SPECULAR;
     out->eta = eta;
     return 1;
 }
 
 /* ---- dispatch ----------------------------------------------------------------------------- */
 
-vec3 vbnl_bsdf_eval_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+vec3 vbi_bsdf_eval_other(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
-        return vbnl_bsdf_eval(b, wo, wi);
+        return vbi_bsdf_eval(b, wo, wi);
     case VBNL_MATERIAL_CONDUCTOR:
         return conductor_eval(b, wo, wi);
     case VBNL_MATERIAL_PLASTIC:
@@ -463,11 +463,11 @@ vec3 vbnl_bsdf_eval_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     }
 }
 
-float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+float vbi_bsdf_pdf_other(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
-        return vbnl_bsdf_pdf(b, wo, wi);
+        return vbi_bsdf_pdf(b, wo, wi);
     case VBNL_MATERIAL_CONDUCTOR:
         return conductor_pdf(b, wo, wi);
     case VBNL_MATERIAL_PLASTIC:
@@ -479,11 +479,11 @@ float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     }
 }
 
-int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
+int vbi_bsdf_sample_other(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_rec *out)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
-        return vbnl_bsdf_sample(b, wo, u, out);
+        return vbi_bsdf_sample(b, wo, u, out);
     case VBNL_MATERIAL_CONDUCTOR:
         return conductor_sample(b, wo, u, out);
     case VBNL_MATERIAL_PLASTIC:
@@ -500,7 +500,7 @@ int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample
 
 /* ---- the microfacet lobe alone (bsdf.h) ---------------------------------------------------- */
 
-vec3 vbnl_bsdf_eval_microfacet(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+vec3 vbi_bsdf_eval_microfacet(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if ((b->type != VBNL_MATERIAL_CONDUCTOR && b->type != VBNL_MATERIAL_PLASTIC) || wo.z <= 0.0f || wi.z <= 0.0f)
         return v3s(0.0f);
@@ -511,10 +511,10 @@ vec3 vbnl_bsdf_eval_microfacet(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     float dg = ggx_d(h, b->alpha) * ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
     if (b->type == VBNL_MATERIAL_CONDUCTOR)
         return v3_scale(conductor_fresnel(b, v3_dot(wo, h)), dg);
-    return v3s(vbnl_fresnel_dielectric(v3_dot(wo, h), b->ior) * dg);
+    return v3s(vbi_fresnel_dielectric(v3_dot(wo, h), b->ior) * dg);
 }
 
-int vbnl_bsdf_sample_microfacet(const vbnl_bsdf *b, vec3 wo, vec2 u, vec3 *wi, float *pdf)
+int vbi_bsdf_sample_microfacet(const vbi_bsdf *b, vec3 wo, vec2 u, vec3 *wi, float *pdf)
 {
     if ((b->type != VBNL_MATERIAL_CONDUCTOR && b->type != VBNL_MATERIAL_PLASTIC) || wo.z <= 0.0f)
         return 0;
@@ -524,7 +524,7 @@ int vbnl_bsdf_sample_microfacet(const vbnl_bsdf *b, vec3 wo, vec2 u, vec3 *wi, f
     return wi->z > 0.0f && *pdf > 0.0f;
 }
 
-float vbnl_bsdf_pdf_diffuse(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+float vbi_bsdf_pdf_diffuse(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return 0.0f;
@@ -538,25 +538,25 @@ float vbnl_bsdf_pdf_diffuse(const vbnl_bsdf *b, vec3 wo, vec3 wi)
     return (1.0f - c.p_spec) * pdf_cosine_hemisphere(wi);
 }
 
-uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b)
+uint32_t vbi_bsdf_lobes(const vbi_bsdf *b)
 {
     switch (b->type) {
     case VBNL_MATERIAL_LAMBERT:
     case VBNL_MATERIAL_BRILLIANCE:
-        return VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
+        return VBI_LOBE_REFLECTION | VBI_LOBE_DIFFUSE;
     case VBNL_MATERIAL_CONDUCTOR:
-        return VBNL_LOBE_REFLECTION | VBNL_LOBE_GLOSSY;
+        return VBI_LOBE_REFLECTION | VBI_LOBE_GLOSSY;
     case VBNL_MATERIAL_PLASTIC:
-        return VBNL_LOBE_REFLECTION | VBNL_LOBE_GLOSSY | VBNL_LOBE_DIFFUSE;
+        return VBI_LOBE_REFLECTION | VBI_LOBE_GLOSSY | VBI_LOBE_DIFFUSE;
     case VBNL_MATERIAL_MIRROR:
-        return VBNL_LOBE_REFLECTION | VBNL_LOBE_SPECULAR;
+        return VBI_LOBE_REFLECTION | VBI_LOBE_SPECULAR;
     case VBNL_MATERIAL_DIELECTRIC:
-        return VBNL_LOBE_REFLECTION | VBNL_LOBE_TRANSMISSION | VBNL_LOBE_SPECULAR;
+        return VBI_LOBE_REFLECTION | VBI_LOBE_TRANSMISSION | VBI_LOBE_SPECULAR;
     }
     return 0;
 }
 
-vec3 vbnl_bsdf_albedo(const vbnl_bsdf *b)
+vec3 vbi_bsdf_albedo(const vbi_bsdf *b)
 {
     if (b->type == VBNL_MATERIAL_CONDUCTOR)
         return conductor_fresnel(b, 1.0f); /* F0 */

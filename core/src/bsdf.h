@@ -3,14 +3,14 @@
  * All directions are in the local shading frame (z = shading normal), both pointing away from
  * the surface. Convention (Mitsuba's): eval returns f(wo, wi) * |cos theta_i|; sample returns the
  * weight f * |cos theta_i| / pdf. Delta lobes (mirror, smooth glass) are never returned by
- * eval/pdf; sample reports them with VBNL_LOBE_SPECULAR and pdf = probability of picking that lobe.
+ * eval/pdf; sample reports them with VBI_LOBE_SPECULAR and pdf = probability of picking that lobe.
  *
  * Sidedness: opaque materials are one-sided: eval/pdf/sample give 0 unless wo.z > 0 (and, for
  * eval/pdf, wi.z > 0). The integrator flips the shading frame to face wo for opaque surfaces.
  * The dielectric uses the true orientation: z is the outward normal and wo.z < 0 means the ray
  * arrived from inside. Radiance transport: refraction scales by 1/eta^2 (pbrt's convention). */
-#ifndef VBNL_BSDF_H
-#define VBNL_BSDF_H
+#ifndef VBI_BSDF_H
+#define VBI_BSDF_H
 
 #include <stdint.h>
 
@@ -19,16 +19,16 @@
 #include "vmath.h"
 
 enum {
-    VBNL_LOBE_REFLECTION = 1u << 0,
-    VBNL_LOBE_TRANSMISSION = 1u << 1,
-    VBNL_LOBE_DIFFUSE = 1u << 2,
-    VBNL_LOBE_GLOSSY = 1u << 3,
-    VBNL_LOBE_SPECULAR = 1u << 4, /* a delta distribution */
+    VBI_LOBE_REFLECTION = 1u << 0,
+    VBI_LOBE_TRANSMISSION = 1u << 1,
+    VBI_LOBE_DIFFUSE = 1u << 2,
+    VBI_LOBE_GLOSSY = 1u << 3,
+    VBI_LOBE_SPECULAR = 1u << 4, /* a delta distribution */
 };
 
 /* A material resolved at a hit point: its pigment's colour applied, and, where a normal
- * perturbs it, the shading normal there (vbnl_surface_bsdf). */
-typedef struct vbnl_bsdf {
+ * perturbs it, the shading normal there (vbi_surface_bsdf). */
+typedef struct vbi_bsdf {
     vbnl_material_type type;
     vec3 color;       /* Lambert / plastic base albedo; conductor F0; mirror / glass tint */
     float alpha;      /* GGX roughness, clamped to [1e-3, 1] */
@@ -38,42 +38,42 @@ typedef struct vbnl_bsdf {
     float brilliance; /* VBNL_MATERIAL_BRILLIANCE: the exponent b */
     int bumped;       /* 1: ns replaces the hit's shading normal */
     vec3 ns;          /* the perturbed unit shading normal, on the hit's geometric side */
-} vbnl_bsdf;
+} vbi_bsdf;
 
 /* The shading normal to build the frame on: the perturbed one where a normal perturbs the
  * surface, else the hit's. */
-static inline vec3 vbnl_bsdf_shading_normal(const vbnl_bsdf *b, vec3 hit_ns) { return b->bumped ? b->ns : hit_ns; }
+static inline vec3 vbi_bsdf_shading_normal(const vbi_bsdf *b, vec3 hit_ns) { return b->bumped ? b->ns : hit_ns; }
 
-typedef struct vbnl_bsdf_sample_rec {
+typedef struct vbi_bsdf_sample_rec {
     vec3 wi;
     vec3 weight;      /* f * |cos theta_i| / pdf */
     float pdf;        /* solid-angle pdf; for delta lobes the discrete lobe probability */
-    uint32_t lobe;    /* VBNL_LOBE_* of the sampled lobe */
+    uint32_t lobe;    /* VBI_LOBE_* of the sampled lobe */
     float eta;        /* relative IOR crossed by a transmission (1 for reflections) */
-} vbnl_bsdf_sample_rec;
+} vbi_bsdf_sample_rec;
 
-void vbnl_bsdf_from_material(vbnl_bsdf *b, const vbnl_material_desc *m);
+void vbi_bsdf_from_material(vbi_bsdf *b, const vbnl_material_desc *m);
 
 /* The non-Lambertian cases of eval / pdf / sample (bsdf.c); call the inline functions below. */
-vec3 vbnl_bsdf_eval_other(const vbnl_bsdf *b, vec3 wo, vec3 wi);
-float vbnl_bsdf_pdf_other(const vbnl_bsdf *b, vec3 wo, vec3 wi);
-int vbnl_bsdf_sample_other(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out);
+vec3 vbi_bsdf_eval_other(const vbi_bsdf *b, vec3 wo, vec3 wi);
+float vbi_bsdf_pdf_other(const vbi_bsdf *b, vec3 wo, vec3 wi);
+int vbi_bsdf_sample_other(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_rec *out);
 
 /* Lambert is inline: it is every surface of most test scenes, and inlined into next-event
  * estimation the compiler keeps only the z of wi it needs (and shares it between eval and pdf). */
-static inline vec3 vbnl_bsdf_eval(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static inline vec3 vbi_bsdf_eval(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (b->type != VBNL_MATERIAL_LAMBERT)
-        return vbnl_bsdf_eval_other(b, wo, wi);
+        return vbi_bsdf_eval_other(b, wo, wi);
     if (wo.z <= 0.0f || wi.z <= 0.0f)
         return v3s(0.0f);
-    return v3_scale(b->color, VBNL_INV_PI * wi.z);
+    return v3_scale(b->color, VBI_INV_PI * wi.z);
 }
 
-static inline float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static inline float vbi_bsdf_pdf(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
     if (b->type != VBNL_MATERIAL_LAMBERT)
-        return vbnl_bsdf_pdf_other(b, wo, wi);
+        return vbi_bsdf_pdf_other(b, wo, wi);
     return wo.z > 0.0f ? pdf_cosine_hemisphere(wi) : 0.0f;
 }
 
@@ -81,13 +81,13 @@ static inline float vbnl_bsdf_pdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
  * is then rescaled within the lobe's share and reused for the direction (so a stratified u stays
  * stratified within each lobe); a smooth dielectric chooses reflection or refraction with u.x.
  * Returns 1 with *out filled, or 0 (absorbed). */
-static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsdf_sample_rec *out)
+static inline int vbi_bsdf_sample(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_rec *out)
 {
     if (b->type != VBNL_MATERIAL_LAMBERT) {
         /* through a copy, so that the caller's record need not live in memory (see
-         * vbnl_light_sample_li) */
-        vbnl_bsdf_sample_rec other;
-        int ok = vbnl_bsdf_sample_other(b, wo, u, &other);
+         * vbi_light_sample_li) */
+        vbi_bsdf_sample_rec other;
+        int ok = vbi_bsdf_sample_other(b, wo, u, &other);
         if (ok)
             *out = other;
         return ok;
@@ -100,7 +100,7 @@ static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsd
     out->wi = wi;
     out->pdf = pdf_cosine_hemisphere(wi);
     out->weight = b->color; /* (color / pi) cos / (cos / pi) */
-    out->lobe = VBNL_LOBE_REFLECTION | VBNL_LOBE_DIFFUSE;
+    out->lobe = VBI_LOBE_REFLECTION | VBI_LOBE_DIFFUSE;
     out->eta = 1.0f;
     return 1;
 }
@@ -111,27 +111,27 @@ static inline int vbnl_bsdf_sample(const vbnl_bsdf *b, vec3 wo, vec2 u, vbnl_bsd
  * the other types. The rest of those BSDFs (a conductor's multiple scattering, a plastic's base)
  * is smooth. Profile kernels integrate this lobe by sampling where it is narrower than their
  * texels (profiles.c). */
-vec3 vbnl_bsdf_eval_microfacet(const vbnl_bsdf *b, vec3 wo, vec3 wi);
-int vbnl_bsdf_sample_microfacet(const vbnl_bsdf *b, vec3 wo, vec2 u, vec3 *wi, float *pdf);
+vec3 vbi_bsdf_eval_microfacet(const vbi_bsdf *b, vec3 wo, vec3 wi);
+int vbi_bsdf_sample_microfacet(const vbi_bsdf *b, vec3 wo, vec2 u, vec3 *wi, float *pdf);
 
-/* The share of vbnl_bsdf_pdf(b, wo, wi) that comes from samples reported as VBNL_LOBE_DIFFUSE
+/* The share of vbi_bsdf_pdf(b, wo, wi) that comes from samples reported as VBI_LOBE_DIFFUSE
  * (a Lambertian's whole pdf, a plastic's base lobe times its probability; 0 for the others). */
-float vbnl_bsdf_pdf_diffuse(const vbnl_bsdf *b, vec3 wo, vec3 wi);
+float vbi_bsdf_pdf_diffuse(const vbi_bsdf *b, vec3 wo, vec3 wi);
 
 /* Union of the lobes this BSDF has. */
-uint32_t vbnl_bsdf_lobes(const vbnl_bsdf *b);
+uint32_t vbi_bsdf_lobes(const vbi_bsdf *b);
 /* True when every lobe is a delta (no point in next-event estimation). */
-static inline int vbnl_bsdf_is_delta(const vbnl_bsdf *b)
+static inline int vbi_bsdf_is_delta(const vbi_bsdf *b)
 {
     return b->type == VBNL_MATERIAL_MIRROR || b->type == VBNL_MATERIAL_DIELECTRIC;
 }
 /* Colour for the albedo AOV (the diffuse or specular tint). */
-vec3 vbnl_bsdf_albedo(const vbnl_bsdf *b);
+vec3 vbi_bsdf_albedo(const vbi_bsdf *b);
 /* True for the dielectric: the integrator must keep the geometric orientation. */
-static inline int vbnl_bsdf_is_transmissive(const vbnl_bsdf *b) { return b->type == VBNL_MATERIAL_DIELECTRIC; }
+static inline int vbi_bsdf_is_transmissive(const vbi_bsdf *b) { return b->type == VBNL_MATERIAL_DIELECTRIC; }
 
 /* Fresnel reflectance of a dielectric interface for cos_i on the side given by its sign
  * (eta = n_inside / n_outside). */
-float vbnl_fresnel_dielectric(float cos_i, float eta);
+float vbi_fresnel_dielectric(float cos_i, float eta);
 
 #endif

@@ -29,7 +29,7 @@ vbnl_result vbnl_context_create(const vbnl_context_desc *desc, vbnl_context **ou
     vbnl_context_desc d;
     vbnl_context_desc_init(&d);
     if (desc) {
-        vbnl_result r = VBNL_DESC_CHECK(desc, vbnl_context_desc, err);
+        vbnl_result r = VBI_DESC_CHECK(desc, vbnl_context_desc, err);
         if (r != VBNL_OK)
             return r;
         d = *desc;
@@ -42,25 +42,25 @@ vbnl_result vbnl_context_create(const vbnl_context_desc *desc, vbnl_context **ou
     vbnl_context *ctx = calloc(1, sizeof(*ctx));
     if (!ctx)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    ctx->pool = vbnl_pool_create(threads);
+    ctx->pool = vbi_pool_create(threads);
     if (!ctx->pool) {
         free(ctx);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot start worker threads");
     }
-    ctx->threads = vbnl_pool_thread_count(ctx->pool);
+    ctx->threads = vbi_pool_thread_count(ctx->pool);
     /* Embree's own task system builds BVHs; give it the same thread count. */
     char config[64];
     snprintf(config, sizeof(config), "threads=%u", ctx->threads);
     ctx->device = rtcNewDevice(config);
     if (!ctx->device) {
-        vbnl_pool_destroy(ctx->pool);
+        vbi_pool_destroy(ctx->pool);
         free(ctx);
         return vbnl_error_set(err, VBNL_ERR_BACKEND, "cannot create the Embree device (error %d)",
                               (int)rtcGetDeviceError(NULL));
     }
     rtcSetDeviceErrorFunction(ctx->device, embree_error_cb, ctx);
     if (d.test_hooks & VBNL_TEST_HOOK_PAUSE_WRITES)
-        vbnl_atomic_file_set_test_pause(1);
+        vbi_atomic_file_set_test_pause(1);
     *out = ctx;
     return VBNL_OK;
 }
@@ -69,7 +69,7 @@ void vbnl_context_destroy(vbnl_context *ctx)
 {
     if (!ctx)
         return;
-    vbnl_pool_destroy(ctx->pool);
+    vbi_pool_destroy(ctx->pool);
     if (ctx->device)
         rtcReleaseDevice(ctx->device);
     free(ctx);

@@ -1,6 +1,6 @@
 /* The render context (private header): worker threads and the Embree device. */
-#ifndef VBNL_CONTEXT_H
-#define VBNL_CONTEXT_H
+#ifndef VBI_CONTEXT_H
+#define VBI_CONTEXT_H
 
 #include <embree3/rtcore.h>
 
@@ -8,7 +8,7 @@
 #include "vbnl/render.h"
 
 struct vbnl_context {
-    vbnl_pool *pool;
+    vbi_pool *pool;
     RTCDevice device;
     unsigned threads;
     /* Embree reports errors through a callback: it writes the latest one here so that the call

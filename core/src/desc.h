@@ -1,7 +1,7 @@
 /* The size check of the public descriptors (vbnl/scene.h, "Descriptors"; vbnl/render.h) (private
  * header). */
-#ifndef VBNL_DESC_H
-#define VBNL_DESC_H
+#ifndef VBI_DESC_H
+#define VBI_DESC_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -11,7 +11,7 @@
 /* VBNL_OK when a descriptor `what` declares the size this build knows (`known`): a larger one
  * comes from a newer vbnl (VBNL_ERR_UNSUPPORTED), a smaller one was not filled by its init
  * function (VBNL_ERR_INVALID_ARGUMENT, naming it). */
-static inline vbnl_result vbnl_desc_check(uint32_t size, size_t known, const char *what, const char *init,
+static inline vbnl_result vbi_desc_check(uint32_t size, size_t known, const char *what, const char *init,
                                           vbnl_error *err)
 {
     if (size == known)
@@ -23,7 +23,7 @@ static inline vbnl_result vbnl_desc_check(uint32_t size, size_t known, const cha
                           size, known, init);
 }
 
-/* vbnl_desc_check of descriptor pointer d of public type `type` (whose init is type##_init). */
-#define VBNL_DESC_CHECK(d, type, err) vbnl_desc_check((d)->size, sizeof(*(d)), #type, #type "_init", (err))
+/* vbi_desc_check of descriptor pointer d of public type `type` (whose init is type##_init). */
+#define VBI_DESC_CHECK(d, type, err) vbi_desc_check((d)->size, sizeof(*(d)), #type, #type "_init", (err))
 
 #endif

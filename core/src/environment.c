@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-vbnl_env *vbnl_env_create(const vbnl_environment_desc *d, const vbnl_texture_set *tex)
+vbi_env *vbi_env_create(const vbnl_environment_desc *d, const vbi_texture_set *tex)
 {
-    vbnl_env *e = calloc(1, sizeof(*e));
+    vbi_env *e = calloc(1, sizeof(*e));
     if (!e)
         return NULL;
     e->pigments = malloc(sizeof(uint32_t) * (d->pigment_count ? d->pigment_count : 1));
@@ -28,21 +28,21 @@ vbnl_env *vbnl_env_create(const vbnl_environment_desc *d, const vbnl_texture_set
     return e;
 }
 
-void vbnl_env_unbake(vbnl_env *e)
+void vbi_env_unbake(vbi_env *e)
 {
     if (!e)
         return;
-    vbnl_alias_table_free(&e->table);
+    vbi_alias_table_free(&e->table);
     e->baked = 0;
     e->constant = 0;
     e->mean = v3s(0.0f);
 }
 
-void vbnl_env_destroy(vbnl_env *e)
+void vbi_env_destroy(vbi_env *e)
 {
     if (!e)
         return;
-    vbnl_env_unbake(e);
+    vbi_env_unbake(e);
     free(e->pigments);
     free(e);
 }
@@ -59,12 +59,12 @@ static vec3 env_clamp(const double c[3])
  * transmit sums of the layers above (a scalar, not the colour they let through), the emission
  * scales the layers' sum, and the background shows through the product of the layers' colours
  * times their filters plus their transmits. */
-static vec3 env_compose_legacy(const vbnl_env *e, dvec3 q, const vbnl_shade_point *sp)
+static vec3 env_compose_legacy(const vbi_env *e, dvec3 q, const vbi_shade_point *sp)
 {
     double col[3] = {0.0, 0.0, 0.0}, prod[5] = {1.0, 1.0, 1.0, 1.0, 1.0}, trans = 1.0;
     for (uint32_t i = e->count; i-- > 0;) {
         float c[5];
-        vbnl_pigment_eval(e->tex, e->pigments[i], q, sp, c);
+        vbi_pigment_eval(e->tex, e->pigments[i], q, sp, c);
         double att = trans * (1.0 - (double)c[3] - (double)c[4]);
         for (int k = 0; k < 5; ++k) {
             if (k < 3)
@@ -81,11 +81,11 @@ static vec3 env_compose_legacy(const vbnl_env *e, dvec3 q, const vbnl_shade_poin
 }
 
 /* The layers composed at pattern point q (environment.h), in double precision as the pigments. */
-static vec3 env_compose(const vbnl_env *e, dvec3 q, dvec3 d)
+static vec3 env_compose(const vbi_env *e, dvec3 q, dvec3 d)
 {
     /* No surface: the shade point is the sky point itself, its normal faces the viewer at the
      * sphere's centre, and the eye is that centre. */
-    vbnl_shade_point sp = {.p = q, .n = d3(-d.x, -d.y, -d.z), .u = 0.0, .v = 0.0, .eye = d3(0.0, 0.0, 0.0)};
+    vbi_shade_point sp = {.p = q, .n = d3(-d.x, -d.y, -d.z), .u = 0.0, .v = 0.0, .eye = d3(0.0, 0.0, 0.0)};
     if (e->legacy)
         return env_compose_legacy(e, q, &sp);
     double col[3] = {0.0, 0.0, 0.0}, through[3] = {1.0, 1.0, 1.0};
@@ -93,7 +93,7 @@ static vec3 env_compose(const vbnl_env *e, dvec3 q, dvec3 d)
     const float bg[3] = {e->background.x, e->background.y, e->background.z};
     for (uint32_t i = e->count; i-- > 0;) {
         float c[5];
-        vbnl_pigment_eval(e->tex, e->pigments[i], q, &sp, c);
+        vbi_pigment_eval(e->tex, e->pigments[i], q, &sp, c);
         double opacity = 1.0 - (double)c[3] - (double)c[4];
         for (int k = 0; k < 3; ++k) {
             col[k] += (double)c[k] * opacity * through[k] * em[k];
@@ -105,7 +105,7 @@ static vec3 env_compose(const vbnl_env *e, dvec3 q, dvec3 d)
     return env_clamp(col);
 }
 
-vec3 vbnl_env_radiance(const vbnl_env *e, vec3 d)
+vec3 vbi_env_radiance(const vbi_env *e, vec3 d)
 {
     if (e->constant)
         return e->mean;
@@ -115,8 +115,8 @@ vec3 vbnl_env_radiance(const vbnl_env *e, vec3 d)
 
 /* ---- the table --------------------------------------------------------------------------- */
 
-#define ENV_DPHI (2.0 * M_PI / VBNL_ENV_TABLE_COLS)
-#define ENV_DTHETA (M_PI / VBNL_ENV_TABLE_ROWS)
+#define ENV_DPHI (2.0 * M_PI / VBI_ENV_TABLE_COLS)
+#define ENV_DTHETA (M_PI / VBI_ENV_TABLE_ROWS)
 #define ENV_EDGE 1e-4
 
 /* Solid angle of the cells of `row`: dphi (cos theta0 - cos theta1). */
@@ -126,7 +126,7 @@ static double env_row_solid_angle(uint32_t row)
 }
 
 /* 1 when every layer is a solid colour: the sky is then constant. */
-static int env_is_constant(const vbnl_env *e)
+static int env_is_constant(const vbi_env *e)
 {
     for (uint32_t i = 0; i < e->count; ++i)
         if (e->tex->pigments[e->pigments[i]].kind != VBNL_PIGMENT_SOLID)
@@ -137,7 +137,7 @@ static int env_is_constant(const vbnl_env *e)
 /* One row of the table: its cells' weights (solid angle times mean radiance) and the row's
  * radiance integral per channel. */
 typedef struct env_bake_job {
-    const vbnl_env *e;
+    const vbi_env *e;
     float *w;          /* ROWS * COLS */
     double *row_sum;   /* ROWS * 3 */
 } env_bake_job;
@@ -147,7 +147,7 @@ static void env_bake_row(const env_bake_job *job, uint32_t row)
     const double omega = env_row_solid_angle(row);
     const double z0 = cos(row * ENV_DTHETA), z1 = cos((row + 1) * ENV_DTHETA);
     double sum[3] = {0.0, 0.0, 0.0};
-    for (uint32_t col = 0; col < VBNL_ENV_TABLE_COLS; ++col) {
+    for (uint32_t col = 0; col < VBI_ENV_TABLE_COLS; ++col) {
         /* a 2 x 2 grid in the cell (equal steps in cos theta and phi: equal solid angles) */
         double cell[3] = {0.0, 0.0, 0.0};
         for (int k = 0; k < 4; ++k) {
@@ -162,12 +162,12 @@ static void env_bake_row(const env_bake_job *job, uint32_t row)
         }
         for (int c = 0; c < 3; ++c)
             sum[c] += cell[c] * omega;
-        job->w[row * VBNL_ENV_TABLE_COLS + col] = (float)((cell[0] + cell[1] + cell[2]) / 3.0 * omega);
+        job->w[row * VBI_ENV_TABLE_COLS + col] = (float)((cell[0] + cell[1] + cell[2]) / 3.0 * omega);
     }
     memcpy(job->row_sum + 3 * row, sum, sizeof(sum));
 }
 
-int vbnl_env_bake(vbnl_env *e)
+int vbi_env_bake(vbi_env *e)
 {
     if (e->baked)
         return 0;
@@ -177,17 +177,17 @@ int vbnl_env_bake(vbnl_env *e)
         e->baked = 1;
         return 0;
     }
-    const uint32_t n = VBNL_ENV_TABLE_ROWS * VBNL_ENV_TABLE_COLS;
-    env_bake_job job = {e, malloc(sizeof(float) * n), malloc(sizeof(double) * 3 * VBNL_ENV_TABLE_ROWS)};
+    const uint32_t n = VBI_ENV_TABLE_ROWS * VBI_ENV_TABLE_COLS;
+    env_bake_job job = {e, malloc(sizeof(float) * n), malloc(sizeof(double) * 3 * VBI_ENV_TABLE_ROWS)};
     if (!job.w || !job.row_sum) {
         free(job.w);
         free(job.row_sum);
         return -1;
     }
-    for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row)
+    for (uint32_t row = 0; row < VBI_ENV_TABLE_ROWS; ++row)
         env_bake_row(&job, row);
     double sum[3] = {0.0, 0.0, 0.0};
-    for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row)
+    for (uint32_t row = 0; row < VBI_ENV_TABLE_ROWS; ++row)
         for (int c = 0; c < 3; ++c)
             sum[c] += job.row_sum[3 * row + c];
     free(job.row_sum);
@@ -196,12 +196,12 @@ int vbnl_env_bake(vbnl_env *e)
     double floor_radiance = 0.01 * v3_avg(e->mean);
     int rc = 0;
     if (floor_radiance > 0.0) {
-        for (uint32_t row = 0; row < VBNL_ENV_TABLE_ROWS; ++row) {
+        for (uint32_t row = 0; row < VBI_ENV_TABLE_ROWS; ++row) {
             float add = (float)(floor_radiance * env_row_solid_angle(row));
-            for (uint32_t col = 0; col < VBNL_ENV_TABLE_COLS; ++col)
-                w[row * VBNL_ENV_TABLE_COLS + col] += add;
+            for (uint32_t col = 0; col < VBI_ENV_TABLE_COLS; ++col)
+                w[row * VBI_ENV_TABLE_COLS + col] += add;
         }
-        rc = vbnl_alias_table_build(&e->table, w, n);
+        rc = vbi_alias_table_build(&e->table, w, n);
     }
     free(w);
     if (rc != 0)
@@ -210,7 +210,7 @@ int vbnl_env_bake(vbnl_env *e)
     return 0;
 }
 
-int vbnl_env_sample(const vbnl_env *e, vec2 u, vec3 *d, float *pdf)
+int vbi_env_sample(const vbi_env *e, vec2 u, vec3 *d, float *pdf)
 {
     if (e->constant || e->table.n == 0) {
         *d = sample_uniform_sphere(u);
@@ -218,13 +218,13 @@ int vbnl_env_sample(const vbnl_env *e, vec2 u, vec3 *d, float *pdf)
         return e->constant;
     }
     float pmf, rest;
-    uint32_t cell = vbnl_alias_table_sample_reuse(&e->table, u.x, &pmf, &rest);
-    uint32_t row = cell / VBNL_ENV_TABLE_COLS, col = cell % VBNL_ENV_TABLE_COLS;
+    uint32_t cell = vbi_alias_table_sample_reuse(&e->table, u.x, &pmf, &rest);
+    uint32_t row = cell / VBI_ENV_TABLE_COLS, col = cell % VBI_ENV_TABLE_COLS;
     double z0 = cos(row * ENV_DTHETA), z1 = cos((row + 1) * ENV_DTHETA);
     double z = z0 + (z1 - z0) * (ENV_EDGE + (1.0 - 2.0 * ENV_EDGE) * u.y);
     /* The alias table's leftover number has few bits (about 24 - log2(cells)) and may be exactly
      * 0; a margin of 1e-4 of the cell keeps the direction off the cell's edges, where rounding
-     * would move it into the neighbour (whose density vbnl_env_pdf would report). */
+     * would move it into the neighbour (whose density vbi_env_pdf would report). */
     double phi = (col + ENV_EDGE + (1.0 - 2.0 * ENV_EDGE) * rest) * ENV_DPHI;
     double r = sqrt(fmax(1.0 - z * z, 0.0));
     *d = v3((float)(r * cos(phi)), (float)z, (float)(r * sin(phi)));
@@ -232,7 +232,7 @@ int vbnl_env_sample(const vbnl_env *e, vec2 u, vec3 *d, float *pdf)
     return *pdf > 0.0f;
 }
 
-float vbnl_env_pdf(const vbnl_env *e, vec3 d)
+float vbi_env_pdf(const vbi_env *e, vec3 d)
 {
     if (e->constant || e->table.n == 0)
         return e->constant ? pdf_uniform_sphere() : 0.0f;
@@ -241,9 +241,9 @@ float vbnl_env_pdf(const vbnl_env *e, vec3 d)
     if (phi < 0.0)
         phi += 2.0 * M_PI;
     uint32_t row = (uint32_t)(theta / ENV_DTHETA), col = (uint32_t)(phi / ENV_DPHI);
-    if (row >= VBNL_ENV_TABLE_ROWS)
-        row = VBNL_ENV_TABLE_ROWS - 1;
-    if (col >= VBNL_ENV_TABLE_COLS)
-        col = VBNL_ENV_TABLE_COLS - 1;
-    return (float)(e->table.pmf[row * VBNL_ENV_TABLE_COLS + col] / env_row_solid_angle(row));
+    if (row >= VBI_ENV_TABLE_ROWS)
+        row = VBI_ENV_TABLE_ROWS - 1;
+    if (col >= VBI_ENV_TABLE_COLS)
+        col = VBI_ENV_TABLE_COLS - 1;
+    return (float)(e->table.pmf[row * VBI_ENV_TABLE_COLS + col] / env_row_solid_angle(row));
 }

@@ -8,11 +8,11 @@ static const char *const rgba_names[] = {"R", "G", "B", "A"};
 static const char *const xyz_names[] = {"X", "Y", "Z"};
 static const char *const z_names[] = {"Z"};
 
-vbnl_result vbnl_film_create(uint32_t width, uint32_t height, const uint32_t crop[4], vbnl_film **out,
+vbnl_result vbi_film_create(uint32_t width, uint32_t height, const uint32_t crop[4], vbnl_film **out,
                              vbnl_error *err)
 {
     if (!out)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_film_create: out is NULL");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_film_create: out is NULL");
     if (width == 0 || height == 0 || width > 65536 || height > 65536)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "image size %ux%u is out of range (1 .. 65536 per side)", width, height);
@@ -21,8 +21,8 @@ vbnl_result vbnl_film_create(uint32_t width, uint32_t height, const uint32_t cro
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     f->width = width;
     f->height = height;
-    f->tiles_x = (width + VBNL_FILM_TILE - 1) / VBNL_FILM_TILE;
-    f->tiles_y = (height + VBNL_FILM_TILE - 1) / VBNL_FILM_TILE;
+    f->tiles_x = (width + VBI_FILM_TILE - 1) / VBI_FILM_TILE;
+    f->tiles_y = (height + VBI_FILM_TILE - 1) / VBI_FILM_TILE;
     if (crop && (crop[0] | crop[1] | crop[2] | crop[3])) {
         if (crop[0] >= crop[2] || crop[1] >= crop[3] || crop[2] > width || crop[3] > height) {
             free(f);
@@ -44,7 +44,7 @@ vbnl_result vbnl_film_create(uint32_t width, uint32_t height, const uint32_t cro
     return VBNL_OK;
 }
 
-void vbnl_film_destroy(vbnl_film *f)
+void vbi_film_destroy(vbnl_film *f)
 {
     if (!f)
         return;
@@ -65,7 +65,7 @@ vbnl_result vbnl_film_add_layer(vbnl_film *f, const char *name, uint32_t channel
     for (uint32_t i = 0; i < f->layer_count; ++i)
         if (strcmp(f->layers[i].name, name) == 0)
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "layer '%s' exists already", name);
-    if (f->layer_count == VBNL_FILM_MAX_LAYERS || f->stride + channels > VBNL_FILM_MAX_CHANNELS)
+    if (f->layer_count == VBI_FILM_MAX_LAYERS || f->stride + channels > VBNL_FILM_MAX_CHANNELS)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "too many film layers");
     film_layer *l = &f->layers[f->layer_count++];
     strcpy(l->name, name);
@@ -79,10 +79,10 @@ vbnl_result vbnl_film_add_layer(vbnl_film *f, const char *name, uint32_t channel
     return VBNL_OK;
 }
 
-vbnl_result vbnl_film_allocate(vbnl_film *f, vbnl_error *err)
+vbnl_result vbi_film_allocate(vbnl_film *f, vbnl_error *err)
 {
     size_t tiles = (size_t)f->tiles_x * f->tiles_y;
-    size_t px = VBNL_FILM_TILE * VBNL_FILM_TILE;
+    size_t px = VBI_FILM_TILE * VBI_FILM_TILE;
     f->tile_doubles = (px * f->stride + 7) & ~(size_t)7; /* 64-byte multiple */
     size_t bytes = tiles * f->tile_doubles * sizeof(double);
     f->data = aligned_alloc(64, bytes);
@@ -121,8 +121,8 @@ uint32_t vbnl_film_pixel_samples(const vbnl_film *f, uint32_t x, uint32_t y)
     if (!f || !f->samples || x >= f->width || y >= f->height)
         return 0;
     size_t tile;
-    size_t px = vbnl_film_pixel_index(f, x, y, &tile);
-    return f->samples[tile * VBNL_FILM_TILE * VBNL_FILM_TILE + px];
+    size_t px = vbi_film_pixel_index(f, x, y, &tile);
+    return f->samples[tile * VBI_FILM_TILE * VBI_FILM_TILE + px];
 }
 
 vbnl_result vbnl_film_read(const vbnl_film *f, const char *layer, float *dst, size_t dst_count,
@@ -154,8 +154,8 @@ vbnl_result vbnl_film_read(const vbnl_film *f, const char *layer, float *dst, si
     for (uint32_t y = 0; y < f->height; ++y) {
         for (uint32_t x = 0; x < f->width; ++x) {
             size_t tile;
-            size_t px = vbnl_film_pixel_index(f, x, y, &tile);
-            uint32_t n = f->samples[tile * VBNL_FILM_TILE * VBNL_FILM_TILE + px];
+            size_t px = vbi_film_pixel_index(f, x, y, &tile);
+            uint32_t n = f->samples[tile * VBI_FILM_TILE * VBI_FILM_TILE + px];
             const double *d = f->data + tile * f->tile_doubles + px * f->stride + l->offset;
             float *o = dst + ((size_t)y * f->width + x) * l->channels;
             for (uint32_t c = 0; c < l->channels; ++c)

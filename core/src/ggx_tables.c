@@ -13,7 +13,7 @@
 
 #include "microfacet.h"
 
-const float vbnl_ggx_conductor_E[VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU] = {
+const float vbi_ggx_conductor_E[VBI_GGX_N_ALPHA][VBI_GGX_N_MU] = {
     { 0.97970653f, 0.89170426f, 0.96694815f, 0.99352890f, 0.99866062f, 0.99961585f,
      0.99981928f, 0.99990338f, 0.99994361f, 0.99996495f, 0.99997711f, 0.99998444f,
      0.99998909f, 0.99999213f, 0.99999422f, 0.99999571f, 0.99999672f, 0.99999750f,
@@ -208,7 +208,7 @@ const float vbnl_ggx_conductor_E[VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU] = {
      0.31963679f, 0.30686048f, },
 };
 
-const float vbnl_ggx_conductor_Eavg[VBNL_GGX_N_ALPHA] = {
+const float vbi_ggx_conductor_Eavg[VBI_GGX_N_ALPHA] = {
     0.99999511f, 0.99993891f, 0.99972874f, 0.99921811f, 0.99822152f, 0.99649161f,
      0.99361295f, 0.98473507f, 0.98048192f, 0.97398490f, 0.96296483f, 0.95056707f,
      0.93713450f, 0.92088360f, 0.90285850f, 0.88214070f, 0.85950214f, 0.83487380f,
@@ -217,7 +217,7 @@ const float vbnl_ggx_conductor_Eavg[VBNL_GGX_N_ALPHA] = {
      0.43708289f, 0.40920299f,
 };
 
-const float vbnl_ggx_coat_E[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU] = {
+const float vbi_ggx_coat_E[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA][VBI_GGX_N_MU] = {
     {
     { 0.92462850f, 0.85162818f, 0.90564978f, 0.87425333f, 0.80049223f, 0.70946723f,
      0.61134416f, 0.51284230f, 0.41915619f, 0.33411139f, 0.26006711f, 0.19799556f,
@@ -3324,7 +3324,7 @@ const float vbnl_ggx_coat_E[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU] = {
     },
 };
 
-const float vbnl_ggx_coat_Eavg[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA] = {
+const float vbi_ggx_coat_Eavg[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA] = {
     { 0.013959846f, 0.013877553f, 0.013639013f, 0.013201969f, 0.012571690f, 0.011786010f,
      0.010897243f, 0.0099469796f, 0.0090111401f, 0.0081024850f, 0.0072399722f, 0.0064463764f,
      0.0057260045f, 0.0050780196f, 0.0045012669f, 0.0039902749f, 0.0035398044f, 0.0031436875f,

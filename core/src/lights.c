@@ -7,10 +7,10 @@
  *   world_center/world_radius = the scene's bounding sphere.
  *
  * Sidedness. Rect and triangle lights emit from the side `n` points to (both when two_sided);
- * vbnl_light_Le uses the light's own `n` for them rather than the caller's hit normal, so a
+ * vbi_light_Le uses the light's own `n` for them rather than the caller's hit normal, so a
  * mesh whose winding disagrees with its emitting side cannot flip the emission. A sphere emits
  * outward; two_sided adds inward emission, which is what a closed "furnace" sphere around the
- * camera needs. For spheres vbnl_light_Le takes the caller's outward normal at the hit.
+ * camera needs. For spheres vbi_light_Le takes the caller's outward normal at the hit.
  *
  * pdf_li returns the density with which sample_li would produce the direction even when the
  * light is seen from its non-emitting side (as pbrt does): Le is zero there, so MIS weights for
@@ -36,7 +36,7 @@ static float spot_smoothstep(float x, float a, float b)
 /* Intensity scale along a direction whose cosine to the axis is cos_t: pbrt-v4's smoothstep
  * between cos_outer and cos_inner, times cos^exponent (POV-Ray "tightness") when exponent > 0.
  * A cos_inner below cos_outer is treated as a hard edge at cos_outer. */
-static float spot_falloff(const vbnl_light *l, float cos_t)
+static float spot_falloff(const vbi_light *l, float cos_t)
 {
     float co = l->cos_outer, ci = maxf(l->cos_inner, l->cos_outer);
     if (cos_t < co)
@@ -50,9 +50,9 @@ static float spot_falloff(const vbnl_light *l, float cos_t)
 /* Integral of the falloff over the sphere divided by 2 pi, i.e. int_{-1}^{1} falloff(c) dc.
  * The inner cone is done in closed form; the transition band, a cubic times c^exponent, with a
  * fixed composite 8-point Gauss-Legendre rule (exact for exponent 0 and integer exponents up to
- * 12, where the integrand is a polynomial of degree <= 15; far below 1e-6 relative otherwise), so vbnl_light_power stays a cheap pure
+ * 12, where the integrand is a polynomial of degree <= 15; far below 1e-6 relative otherwise), so vbi_light_power stays a cheap pure
  * function with no per-light precomputation. */
-static double spot_falloff_integral(const vbnl_light *l)
+static double spot_falloff_integral(const vbi_light *l)
 {
     static const double gl_x[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
                                    0.9602898564975363};
@@ -100,7 +100,7 @@ static float sphere_one_minus_cos_max(float sin2_max)
 /* ---- incident light ---------------------------------------------------------------------------- */
 
 /* Fills the parts of a delta-light sample common to point and spot lights. */
-static int sample_li_positional(const vbnl_light *l, vec3 ref, float scale, vbnl_light_li_sample *out)
+static int sample_li_positional(const vbi_light *l, vec3 ref, float scale, vbi_light_li_sample *out)
 {
     vec3 d = v3_sub(l->p, ref);
     float dist2 = v3_len2(d);
@@ -122,7 +122,7 @@ static int sample_li_positional(const vbnl_light *l, vec3 ref, float scale, vbnl
  * of it, and the cone construction degenerates there. sample_li and pdf_li must agree. */
 static int sphere_ref_inside(float dc2, float r) { return dc2 <= r * r * (1.0f + 1e-3f); }
 
-static int sample_li_sphere(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out)
+static int sample_li_sphere(const vbi_light *l, vec3 ref, vec2 u, vbi_light_li_sample *out)
 {
     vec3 c = l->p;
     float r = l->radius;
@@ -176,7 +176,7 @@ static int sample_li_sphere(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li
     }
     float cos_alpha = sin2_t / sin_max + cos_t * safe_sqrtf(1.0f - sin2_t / sin2_max);
     float sin_alpha = safe_sqrtf(1.0f - cos_alpha * cos_alpha);
-    float phi = 2.0f * VBNL_PI * u.y;
+    float phi = 2.0f * VBI_PI * u.y;
     frame f = frame_from_normal(wc);
     nq = frame_to_world(&f, v3(-sin_alpha * cosf(phi), -sin_alpha * sinf(phi), -cos_alpha));
     q = v3_fma(c, nq, r);
@@ -189,14 +189,14 @@ static int sample_li_sphere(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li
     out->p = q;
     out->n = nq;
     out->Li = l->L;
-    out->pdf = 1.0f / (2.0f * VBNL_PI * one_minus_cos_max);
+    out->pdf = 1.0f / (2.0f * VBI_PI * one_minus_cos_max);
     out->is_delta = 0;
     return isfinite(out->pdf);
 }
 
 /* Distant lights: a shadow ray must reach past the scene, so report a point two world radii
  * away (outside the bounding sphere from any point inside it). */
-static void fill_distant(const vbnl_light *l, vec3 ref, vec3 wi, vbnl_light_li_sample *out)
+static void fill_distant(const vbi_light *l, vec3 ref, vec3 wi, vbi_light_li_sample *out)
 {
     out->wi = wi;
     out->dist = INFINITY;
@@ -205,35 +205,35 @@ static void fill_distant(const vbnl_light *l, vec3 ref, vec3 wi, vbnl_light_li_s
     out->Li = l->L;
 }
 
-int vbnl_light_sample_li_other(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out)
+int vbi_light_sample_li_other(const vbi_light *l, vec3 ref, vec2 u, vbi_light_li_sample *out)
 {
     memset(out, 0, sizeof(*out));
     switch (l->type) {
-    case VBNL_LIGHT_RECT:
-    case VBNL_LIGHT_TRIANGLE:
-        return vbnl_light_sample_li(l, ref, u, out);
-    case VBNL_LIGHT_POINT:
+    case VBI_LIGHT_RECT:
+    case VBI_LIGHT_TRIANGLE:
+        return vbi_light_sample_li(l, ref, u, out);
+    case VBI_LIGHT_POINT:
         return sample_li_positional(l, ref, 1.0f, out);
-    case VBNL_LIGHT_SPOT: {
+    case VBI_LIGHT_SPOT: {
         vec3 w_out = v3_norm(v3_sub(ref, l->p)); /* direction the light leaves toward ref */
         return sample_li_positional(l, ref, spot_falloff(l, v3_dot(l->n, w_out)), out);
     }
-    case VBNL_LIGHT_SPHERE:
+    case VBI_LIGHT_SPHERE:
         return sample_li_sphere(l, ref, u, out);
-    case VBNL_LIGHT_DIRECTIONAL:
+    case VBI_LIGHT_DIRECTIONAL:
         fill_distant(l, ref, v3_neg(l->n), out);
         out->pdf = 1.0f;
         out->is_delta = 1;
         return !v3_is_black(l->L);
-    case VBNL_LIGHT_ENV:
+    case VBI_LIGHT_ENV:
         if (l->env) {
             /* the table's direction and density, the exact pattern's radiance */
             vec3 d;
             float pdf;
-            if (!vbnl_env_sample(l->env, u, &d, &pdf))
+            if (!vbi_env_sample(l->env, u, &d, &pdf))
                 return 0;
             fill_distant(l, ref, d, out);
-            out->Li = vbnl_env_radiance(l->env, d);
+            out->Li = vbi_env_radiance(l->env, d);
             out->pdf = pdf;
             return !v3_is_black(out->Li);
         }
@@ -245,17 +245,17 @@ int vbnl_light_sample_li_other(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light
     return 0;
 }
 
-float vbnl_light_pdf_li_other(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi)
+float vbi_light_pdf_li_other(const vbi_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi)
 {
     switch (l->type) {
-    case VBNL_LIGHT_POINT:
-    case VBNL_LIGHT_SPOT:
-    case VBNL_LIGHT_DIRECTIONAL:
+    case VBI_LIGHT_POINT:
+    case VBI_LIGHT_SPOT:
+    case VBI_LIGHT_DIRECTIONAL:
         return 0.0f;
-    case VBNL_LIGHT_RECT:
-    case VBNL_LIGHT_TRIANGLE:
-        return vbnl_light_pdf_li(l, ref, p_light, n_light, wi);
-    case VBNL_LIGHT_SPHERE: {
+    case VBI_LIGHT_RECT:
+    case VBI_LIGHT_TRIANGLE:
+        return vbi_light_pdf_li(l, ref, p_light, n_light, wi);
+    case VBI_LIGHT_SPHERE: {
         vec3 dc_vec = v3_sub(l->p, ref);
         float dc2 = v3_len2(dc_vec);
         float r = l->radius;
@@ -277,50 +277,50 @@ float vbnl_light_pdf_li_other(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 
         vec3 x = v3_cross(wi, dc_vec);
         if (v3_dot(wi, dc_vec) <= 0.0f || v3_len2(x) > sin2_max * dc2 * 1.001f)
             return 0.0f;
-        return 1.0f / (2.0f * VBNL_PI * sphere_one_minus_cos_max(sin2_max));
+        return 1.0f / (2.0f * VBI_PI * sphere_one_minus_cos_max(sin2_max));
     }
-    case VBNL_LIGHT_ENV:
-        return l->env ? vbnl_env_pdf(l->env, wi) : pdf_uniform_sphere();
+    case VBI_LIGHT_ENV:
+        return l->env ? vbi_env_pdf(l->env, wi) : pdf_uniform_sphere();
     }
     (void)n_light;
     return 0.0f;
 }
 
-vec3 vbnl_light_Le_other(const vbnl_light *l, vec3 n_light, vec3 w)
+vec3 vbi_light_Le_other(const vbi_light *l, vec3 n_light, vec3 w)
 {
     switch (l->type) {
-    case VBNL_LIGHT_RECT:
-    case VBNL_LIGHT_TRIANGLE:
-        return vbnl_light_Le(l, n_light, w);
-    case VBNL_LIGHT_SPHERE:
+    case VBI_LIGHT_RECT:
+    case VBI_LIGHT_TRIANGLE:
+        return vbi_light_Le(l, n_light, w);
+    case VBI_LIGHT_SPHERE:
         return (l->two_sided || v3_dot(n_light, w) > 0.0f) ? l->L : v3s(0.0f);
-    case VBNL_LIGHT_ENV:
+    case VBI_LIGHT_ENV:
         /* w leaves the light toward the receiver: the sky lies along -w */
-        return l->env ? vbnl_env_radiance(l->env, v3_neg(w)) : l->L;
+        return l->env ? vbi_env_radiance(l->env, v3_neg(w)) : l->L;
     default:
         return v3s(0.0f); /* delta lights cannot be hit */
     }
 }
 
-vec3 vbnl_light_power(const vbnl_light *l)
+vec3 vbi_light_power(const vbi_light *l)
 {
     float sides = l->two_sided ? 2.0f : 1.0f;
     switch (l->type) {
-    case VBNL_LIGHT_POINT:
-        return v3_scale(l->L, 4.0f * VBNL_PI);
-    case VBNL_LIGHT_SPOT:
+    case VBI_LIGHT_POINT:
+        return v3_scale(l->L, 4.0f * VBI_PI);
+    case VBI_LIGHT_SPOT:
         return v3_scale(l->L, (float)(2.0 * M_PI * spot_falloff_integral(l)));
-    case VBNL_LIGHT_RECT:
-    case VBNL_LIGHT_TRIANGLE:
-    case VBNL_LIGHT_SPHERE:
+    case VBI_LIGHT_RECT:
+    case VBI_LIGHT_TRIANGLE:
+    case VBI_LIGHT_SPHERE:
         /* Lambertian emitter: pi L per unit area and side. */
-        return v3_scale(l->L, sides * VBNL_PI * l->area);
-    case VBNL_LIGHT_DIRECTIONAL:
+        return v3_scale(l->L, sides * VBI_PI * l->area);
+    case VBI_LIGHT_DIRECTIONAL:
         /* Irradiance through the scene's cross-section (pbrt-v4 DistantLight::Phi). */
-        return v3_scale(l->L, VBNL_PI * sqr(l->world_radius));
-    case VBNL_LIGHT_ENV:
+        return v3_scale(l->L, VBI_PI * sqr(l->world_radius));
+    case VBI_LIGHT_ENV:
         /* Radiance from every direction through the cross-section (pbrt-v4 UniformInfiniteLight). */
-        return v3_scale(l->L, 4.0f * VBNL_PI * VBNL_PI * sqr(l->world_radius));
+        return v3_scale(l->L, 4.0f * VBI_PI * VBI_PI * sqr(l->world_radius));
     }
     return v3s(0.0f);
 }
@@ -329,15 +329,15 @@ vec3 vbnl_light_power(const vbnl_light *l)
 
 /* Cosine-weighted direction about the emitting side of a surface with unit normal n. A
  * two-sided emitter picks each side with probability 1/2 (reusing u.x), which halves pdf_dir. */
-static void sample_le_lambert(const vbnl_light *l, vec3 q, vec3 n, vec2 u, vbnl_light_le_sample *out)
+static void sample_le_lambert(const vbi_light *l, vec3 q, vec3 n, vec2 u, vbi_light_le_sample *out)
 {
     float side_pdf = 1.0f;
     if (l->two_sided) {
         side_pdf = 0.5f;
         if (u.x < 0.5f) {
-            u.x = minf(u.x * 2.0f, VBNL_ONE_MINUS_EPS);
+            u.x = minf(u.x * 2.0f, VBI_ONE_MINUS_EPS);
         } else {
-            u.x = minf(u.x * 2.0f - 1.0f, VBNL_ONE_MINUS_EPS);
+            u.x = minf(u.x * 2.0f - 1.0f, VBI_ONE_MINUS_EPS);
             n = v3_neg(n);
         }
     }
@@ -355,7 +355,7 @@ static void sample_le_lambert(const vbnl_light *l, vec3 q, vec3 n, vec2 u, vbnl_
 /* A ray of a distant light travelling along d: its origin is uniform on the disk of radius R
  * perpendicular to d, one radius behind the scene's bounding sphere, so the rays cover the
  * sphere's cross-section exactly once (pbrt-v4 DistantLight::SampleLe). */
-static int sample_le_distant(const vbnl_light *l, vec3 d, vec2 u_pos, vbnl_light_le_sample *out)
+static int sample_le_distant(const vbi_light *l, vec3 d, vec2 u_pos, vbi_light_le_sample *out)
 {
     float R = l->world_radius;
     if (!(R > 0.0f))
@@ -368,16 +368,16 @@ static int sample_le_distant(const vbnl_light *l, vec3 d, vec2 u_pos, vbnl_light
     out->n = d;
     out->dir = d;
     out->Le = l->L;
-    out->pdf_pos = 1.0f / (VBNL_PI * R * R);
+    out->pdf_pos = 1.0f / (VBI_PI * R * R);
     out->cos_at_light = 1.0f;
     return 1;
 }
 
-int vbnl_light_sample_le(const vbnl_light *l, vec2 u_pos, vec2 u_dir, vbnl_light_le_sample *out)
+int vbi_light_sample_le(const vbi_light *l, vec2 u_pos, vec2 u_dir, vbi_light_le_sample *out)
 {
     memset(out, 0, sizeof(*out));
     switch (l->type) {
-    case VBNL_LIGHT_POINT:
+    case VBI_LIGHT_POINT:
         out->p = l->p;
         out->dir = sample_uniform_sphere(u_dir);
         out->n = out->dir;
@@ -386,7 +386,7 @@ int vbnl_light_sample_le(const vbnl_light *l, vec2 u_pos, vec2 u_dir, vbnl_light
         out->pdf_dir = pdf_uniform_sphere();
         out->cos_at_light = 1.0f;
         return 1;
-    case VBNL_LIGHT_SPOT: {
+    case VBI_LIGHT_SPOT: {
         /* Uniform over the outer cone: the falloff is smooth and bounded, so matching it is
          * not worth a non-invertible warp. */
         float co = clampf(l->cos_outer, -1.0f, 1.0f);
@@ -403,33 +403,33 @@ int vbnl_light_sample_le(const vbnl_light *l, vec2 u_pos, vec2 u_dir, vbnl_light
         out->cos_at_light = 1.0f;
         return !v3_is_black(out->Le);
     }
-    case VBNL_LIGHT_RECT:
-    case VBNL_LIGHT_TRIANGLE: {
+    case VBI_LIGHT_RECT:
+    case VBI_LIGHT_TRIANGLE: {
         if (!(l->area > 0.0f))
             return 0;
-        vec2 b = l->type == VBNL_LIGHT_RECT ? u_pos : sample_uniform_triangle(u_pos);
+        vec2 b = l->type == VBI_LIGHT_RECT ? u_pos : sample_uniform_triangle(u_pos);
         vec3 q = v3_add(l->p, v3_add(v3_scale(l->e0, b.x), v3_scale(l->e1, b.y)));
         sample_le_lambert(l, q, l->n, u_dir, out);
         return out->pdf_dir > 0.0f;
     }
-    case VBNL_LIGHT_SPHERE: {
+    case VBI_LIGHT_SPHERE: {
         if (!(l->area > 0.0f))
             return 0;
         vec3 nq = sample_uniform_sphere(u_pos);
         sample_le_lambert(l, v3_fma(l->p, nq, l->radius), nq, u_dir, out);
         return out->pdf_dir > 0.0f;
     }
-    case VBNL_LIGHT_DIRECTIONAL:
+    case VBI_LIGHT_DIRECTIONAL:
         out->pdf_dir = 1.0f;
         return sample_le_distant(l, l->n, u_pos, out);
-    case VBNL_LIGHT_ENV: {
+    case VBI_LIGHT_ENV: {
         /* The ray travels along d, against the direction -d the radiance arrives from. */
         if (l->env) {
             vec3 sky;
             float pdf;
-            if (!vbnl_env_sample(l->env, u_dir, &sky, &pdf) || !sample_le_distant(l, v3_neg(sky), u_pos, out))
+            if (!vbi_env_sample(l->env, u_dir, &sky, &pdf) || !sample_le_distant(l, v3_neg(sky), u_pos, out))
                 return 0;
-            out->Le = vbnl_env_radiance(l->env, sky);
+            out->Le = vbi_env_radiance(l->env, sky);
             out->pdf_dir = pdf;
             return !v3_is_black(out->Le);
         }

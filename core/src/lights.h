@@ -1,32 +1,32 @@
 /* Light sources (private header).
  *
- * Each vbnl_light is self-contained (it keeps its own world-space geometry), so lights can be
- * sampled without the scene. Emissive meshes become one VBNL_LIGHT_TRIANGLE per triangle; the
+ * Each vbi_light is self-contained (it keeps its own world-space geometry), so lights can be
+ * sampled without the scene. Emissive meshes become one VBI_LIGHT_TRIANGLE per triangle; the
  * scene builds an alias table over light powers for selection (sampling.h).
  *
  * Conventions: `wi` points from the reference point toward the light. pdfs of area-like lights
  * are solid-angle pdfs at the reference point; delta lights (point, spot, directional) report
  * pdf = 1 and is_delta = 1 and their Li already includes the 1/r^2 falloff. */
-#ifndef VBNL_LIGHTS_H
-#define VBNL_LIGHTS_H
+#ifndef VBI_LIGHTS_H
+#define VBI_LIGHTS_H
 
 #include <stdint.h>
 
 #include "sampling.h"
 #include "vmath.h"
 
-typedef enum vbnl_light_type {
-    VBNL_LIGHT_POINT = 0,
-    VBNL_LIGHT_SPOT = 1,
-    VBNL_LIGHT_RECT = 2,        /* parallelogram p + s e0 + t e1 */
-    VBNL_LIGHT_TRIANGLE = 3,    /* p, p + e0, p + e1 */
-    VBNL_LIGHT_SPHERE = 4,      /* centre p, radius */
-    VBNL_LIGHT_DIRECTIONAL = 5, /* light travels along n */
-    VBNL_LIGHT_ENV = 6,         /* radiance from every direction: constant, or `env` */
-} vbnl_light_type;
+typedef enum vbi_light_type {
+    VBI_LIGHT_POINT = 0,
+    VBI_LIGHT_SPOT = 1,
+    VBI_LIGHT_RECT = 2,        /* parallelogram p + s e0 + t e1 */
+    VBI_LIGHT_TRIANGLE = 3,    /* p, p + e0, p + e1 */
+    VBI_LIGHT_SPHERE = 4,      /* centre p, radius */
+    VBI_LIGHT_DIRECTIONAL = 5, /* light travels along n */
+    VBI_LIGHT_ENV = 6,         /* radiance from every direction: constant, or `env` */
+} vbi_light_type;
 
-typedef struct vbnl_light {
-    vbnl_light_type type;
+typedef struct vbi_light {
+    vbi_light_type type;
     vec3 p;              /* position / corner / first vertex / centre */
     vec3 e0, e1;         /* edges of rect and triangle lights */
     vec3 n;              /* unit normal of rect/triangle (emitting side); unit direction of travel for spot/directional */
@@ -37,28 +37,28 @@ typedef struct vbnl_light {
     int two_sided;       /* rect, triangle, sphere (sphere: emits inward too) */
     vec3 world_center;   /* scene bounding sphere, for directional and env lights */
     float world_radius;
-    const struct vbnl_env *env; /* env: the directional sky (environment.h; L is then its mean
+    const struct vbi_env *env; /* env: the directional sky (environment.h; L is then its mean
                                  * radiance), NULL for a constant one */
     int shadowless;      /* casts no shadow (vbnl_scene_set_light_shadowless) */
-} vbnl_light;
+} vbi_light;
 
-typedef struct vbnl_light_li_sample {
+typedef struct vbi_light_li_sample {
     vec3 wi;             /* unit, toward the light */
     float dist;          /* distance to the sampled point (INFINITY for directional/env) */
     vec3 p, n;           /* sampled point and its normal (area lights) */
     vec3 Li;             /* incident radiance (or, for delta lights, the irradiance-like term I/r^2) */
     float pdf;           /* solid angle pdf (1 for delta lights) */
     int is_delta;
-} vbnl_light_li_sample;
+} vbi_light_li_sample;
 
 /* Every light type but rect and triangle (lights.c); call the inline functions below, which do
  * the planar lights (the emissive meshes' triangles, the commonest lights) without a call. */
-int vbnl_light_sample_li_other(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out);
-float vbnl_light_pdf_li_other(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi);
-vec3 vbnl_light_Le_other(const vbnl_light *l, vec3 n_light, vec3 w);
+int vbi_light_sample_li_other(const vbi_light *l, vec3 ref, vec2 u, vbi_light_li_sample *out);
+float vbi_light_pdf_li_other(const vbi_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi);
+vec3 vbi_light_Le_other(const vbi_light *l, vec3 n_light, vec3 w);
 
 /* Area sampling of a planar light at q converted to solid angle: pdf = r^2 / (|cos| A). */
-static inline int vbnl_light_sample_li_planar(const vbnl_light *l, vec3 ref, vec3 q, vbnl_light_li_sample *out)
+static inline int vbi_light_sample_li_planar(const vbi_light *l, vec3 ref, vec3 q, vbi_light_li_sample *out)
 {
     vec3 d = v3_sub(q, ref);
     float dist2 = v3_len2(d);
@@ -81,37 +81,37 @@ static inline int vbnl_light_sample_li_planar(const vbnl_light *l, vec3 ref, vec
     out->is_delta = 0;
     return isfinite(out->pdf);
 none:
-    *out = (vbnl_light_li_sample){0};
+    *out = (vbi_light_li_sample){0};
     return 0;
 }
 
 /* Samples incident light at ref. Returns 0 when there is none (for example the back of a
  * one-sided light, or a spot outside its cone). */
-static inline int vbnl_light_sample_li(const vbnl_light *l, vec3 ref, vec2 u, vbnl_light_li_sample *out)
+static inline int vbi_light_sample_li(const vbi_light *l, vec3 ref, vec2 u, vbi_light_li_sample *out)
 {
-    if (l->type == VBNL_LIGHT_TRIANGLE) {
+    if (l->type == VBI_LIGHT_TRIANGLE) {
         vec2 b = sample_uniform_triangle(u);
-        return vbnl_light_sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, b.x), v3_scale(l->e1, b.y))),
+        return vbi_light_sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, b.x), v3_scale(l->e1, b.y))),
                                            out);
     }
-    if (l->type == VBNL_LIGHT_RECT)
-        return vbnl_light_sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, u.x), v3_scale(l->e1, u.y))),
+    if (l->type == VBI_LIGHT_RECT)
+        return vbi_light_sample_li_planar(l, ref, v3_add(l->p, v3_add(v3_scale(l->e0, u.x), v3_scale(l->e1, u.y))),
                                            out);
     /* Through a copy: were the caller's record handed to the call, it would have to live in
      * memory, and the planar cases above would store every field (p and n too, which next-event
      * estimation never reads). */
-    vbnl_light_li_sample other;
-    int ok = vbnl_light_sample_li_other(l, ref, u, &other);
+    vbi_light_li_sample other;
+    int ok = vbi_light_sample_li_other(l, ref, u, &other);
     *out = other;
     return ok;
 }
 
 /* Solid-angle pdf that sample_li picks the point p_light (with normal n_light) seen from ref
  * along wi. 0 for delta lights. For env lights p_light/n_light are ignored. */
-static inline float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi)
+static inline float vbi_light_pdf_li(const vbi_light *l, vec3 ref, vec3 p_light, vec3 n_light, vec3 wi)
 {
-    if (l->type != VBNL_LIGHT_TRIANGLE && l->type != VBNL_LIGHT_RECT)
-        return vbnl_light_pdf_li_other(l, ref, p_light, n_light, wi);
+    if (l->type != VBI_LIGHT_TRIANGLE && l->type != VBI_LIGHT_RECT)
+        return vbi_light_pdf_li_other(l, ref, p_light, n_light, wi);
     /* The light's own normal: the plane is flat, and the caller's may be flipped. */
     float cos_l = v3_absdot(l->n, wi);
     float dist2 = v3_len2(v3_sub(p_light, ref));
@@ -124,26 +124,26 @@ static inline float vbnl_light_pdf_li(const vbnl_light *l, vec3 ref, vec3 p_ligh
  * away from the light); 0 from the back of a one-sided light. Env: radiance along any w.
  * Rect/triangle decide the side with the light's own n (n_light is ignored, so a hit normal of
  * either orientation works); spheres need the outward normal in n_light. */
-static inline vec3 vbnl_light_Le(const vbnl_light *l, vec3 n_light, vec3 w)
+static inline vec3 vbi_light_Le(const vbi_light *l, vec3 n_light, vec3 w)
 {
-    if (l->type != VBNL_LIGHT_TRIANGLE && l->type != VBNL_LIGHT_RECT)
-        return vbnl_light_Le_other(l, n_light, w);
+    if (l->type != VBI_LIGHT_TRIANGLE && l->type != VBI_LIGHT_RECT)
+        return vbi_light_Le_other(l, n_light, w);
     return (l->two_sided || v3_dot(l->n, w) > 0.0f) ? l->L : v3s(0.0f);
 }
 
 /* Total emitted power (W per channel) used for power-based selection. */
-vec3 vbnl_light_power(const vbnl_light *l);
+vec3 vbi_light_power(const vbi_light *l);
 
 /* Emission sampling for light tracing (photons, VPLs): a point and a direction leaving the light.
  * Le is the radiance (area lights), intensity (point, spot) or radiance (directional, env); the
  * estimate of the emitted flux carried by the ray is Le * |cos| / (pdf_pos * pdf_dir). */
-typedef struct vbnl_light_le_sample {
+typedef struct vbi_light_le_sample {
     vec3 p, n, dir;
     vec3 Le;
     float pdf_pos;       /* area pdf (1 for point/spot) */
     float pdf_dir;       /* solid angle pdf */
     float cos_at_light;  /* |cos| between dir and n for area lights, 1 otherwise */
-} vbnl_light_le_sample;
-int vbnl_light_sample_le(const vbnl_light *l, vec2 u_pos, vec2 u_dir, vbnl_light_le_sample *out);
+} vbi_light_le_sample;
+int vbi_light_sample_le(const vbi_light *l, vec2 u_pos, vec2 u_dir, vbi_light_le_sample *out);
 
 #endif

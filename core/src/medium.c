@@ -27,7 +27,7 @@ static void mie_shape(vbnl_phase_kind kind, float *a, int *n)
     }
 }
 
-float vbnl_phase_eval(vbnl_phase_kind kind, float g, float mu)
+float vbi_phase_eval(vbnl_phase_kind kind, float g, float mu)
 {
     mu = clampf(mu, -1.0f, 1.0f);
     switch (kind) {
@@ -37,17 +37,17 @@ float vbnl_phase_eval(vbnl_phase_kind kind, float g, float mu)
         int n;
         mie_shape(kind, &a, &n);
         float x = 0.5f * (1.0f + mu);
-        return (1.0f + a * powf(x, (float)n)) * VBNL_INV_4PI / (1.0f + a / (float)(n + 1));
+        return (1.0f + a * powf(x, (float)n)) * VBI_INV_4PI / (1.0f + a / (float)(n + 1));
     }
     case VBNL_PHASE_RAYLEIGH:
-        return 3.0f / (16.0f * VBNL_PI) * (1.0f + mu * mu);
+        return 3.0f / (16.0f * VBI_PI) * (1.0f + mu * mu);
     case VBNL_PHASE_HENYEY_GREENSTEIN: {
         float g2 = g * g, den = 1.0f + g2 - 2.0f * g * mu;
-        return VBNL_INV_4PI * (1.0f - g2) / (den * sqrtf(den));
+        return VBI_INV_4PI * (1.0f - g2) / (den * sqrtf(den));
     }
     case VBNL_PHASE_ISOTROPIC:
     default:
-        return VBNL_INV_4PI;
+        return VBI_INV_4PI;
     }
 }
 
@@ -85,30 +85,30 @@ static float phase_sample_mu(vbnl_phase_kind kind, float g, float u)
     }
 }
 
-vec3 vbnl_phase_sample(vbnl_phase_kind kind, float g, vec3 in, vec2 u, float *pdf)
+vec3 vbi_phase_sample(vbnl_phase_kind kind, float g, vec3 in, vec2 u, float *pdf)
 {
     float mu = phase_sample_mu(kind, g, u.x);
-    float s = safe_sqrtf(1.0f - mu * mu), phi = 2.0f * VBNL_PI * u.y;
+    float s = safe_sqrtf(1.0f - mu * mu), phi = 2.0f * VBI_PI * u.y;
     frame f = frame_from_normal(in);
     vec3 out = v3_norm(frame_to_world(&f, v3(s * cosf(phi), s * sinf(phi), mu)));
-    *pdf = vbnl_phase_eval(kind, g, v3_dot(in, out));
+    *pdf = vbi_phase_eval(kind, g, v3_dot(in, out));
     return out;
 }
 
 /* ---- coefficients at a point ------------------------------------------------------------------- */
 
-static vec3 part_density(const vbnl_scene *sc, const vbnl_medium_part *pt, vec3 p)
+static vec3 part_density(const vbnl_scene *sc, const vbi_medium_part *pt, vec3 p)
 {
     vec3 d = v3s(1.0f);
     if (!pt->density_count)
         return d;
-    vbnl_shade_point sp;
+    vbi_shade_point sp;
     memset(&sp, 0, sizeof(sp));
     sp.p = d3(p.x, p.y, p.z);
     sp.eye = d3(sc->camera.position[0], sc->camera.position[1], sc->camera.position[2]);
     for (uint32_t k = 0; k < pt->density_count; ++k) {
         float c[5];
-        vbnl_pigment_eval(&sc->tex, pt->density[k], sp.p, &sp, c);
+        vbi_pigment_eval(&sc->tex, pt->density[k], sp.p, &sp, c);
         d = v3_mul(d, v3_max(v3(c[0], c[1], c[2]), v3s(0.0f)));
     }
     return d;
@@ -135,7 +135,7 @@ static void medium_at(const vbnl_scene *sc, const scene_medium *m, vec3 p, coeff
     }
     c->sa = c->ss = c->em = v3s(0.0f);
     for (uint32_t k = 0; k < m->part_count; ++k) {
-        const vbnl_medium_part *pt = &m->part[k];
+        const vbi_medium_part *pt = &m->part[k];
         vec3 d = part_density(sc, pt, p);
         c->sa = v3_add(c->sa, v3_mul(pt->sigma_a, d));
         vec3 ss = v3_mul(pt->sigma_s, d);
@@ -150,7 +150,7 @@ static void medium_at(const vbnl_scene *sc, const scene_medium *m, vec3 p, coeff
  * medium's phase function is the mixture of its parts' weighted by sigma_s,k,c / sigma_s,c; the
  * part is picked with probability P_k from the channel means, and beta is multiplied by
  * (sigma_s,k,c / sigma_s,c) / P_k (1 for grey media or a single part). */
-static void pick_part(const scene_medium *m, const coeffs *c, float u, vbnl_medium_event *ev, vec3 *beta)
+static void pick_part(const scene_medium *m, const coeffs *c, float u, vbi_medium_event *ev, vec3 *beta)
 {
     float total = 0.0f;
     for (uint32_t k = 0; k < m->part_count; ++k)
@@ -178,18 +178,18 @@ static void pick_part(const scene_medium *m, const coeffs *c, float u, vbnl_medi
 
 static const scene_medium *region_medium(const vbnl_scene *sc, uint32_t region)
 {
-    if (region == VBNL_REGION_CLEAR)
+    if (region == VBI_REGION_CLEAR)
         return NULL;
-    if (region == VBNL_REGION_OUTSIDE)
+    if (region == VBI_REGION_OUTSIDE)
         return sc->atmosphere ? &sc->media[sc->atmosphere - 1] : NULL;
     return region <= sc->medium_count ? &sc->media[region - 1] : NULL;
 }
 
-int vbnl_region_is_empty(const vbnl_scene *sc, uint32_t region)
+int vbi_region_is_empty(const vbnl_scene *sc, uint32_t region)
 {
-    if (region == VBNL_REGION_CLEAR)
+    if (region == VBI_REGION_CLEAR)
         return 1;
-    if (region == VBNL_REGION_OUTSIDE && sc->fog_count)
+    if (region == VBI_REGION_OUTSIDE && sc->fog_count)
         return 0;
     return region_medium(sc, region) == NULL;
 }
@@ -214,7 +214,7 @@ static double ground_mean_density(double h1, double h2)
 
 /* The attenuation of one fog over the segment [o, o + tmax d] (tmax may be INFINITY), before the
  * transmit floor. */
-static double fog_attenuation(const vbnl_scene *sc, const vbnl_fog *f, vec3 o, vec3 d, float tmax)
+static double fog_attenuation(const vbnl_scene *sc, const vbi_fog *f, vec3 o, vec3 d, float tmax)
 {
     double width = isinf(tmax) ? 1e10 : (double)tmax; /* POV-Ray's depth of a ray that hits nothing */
     dvec3 p1 = d3(o.x, o.y, o.z), dir = d3(d.x, d.y, d.z);
@@ -228,7 +228,7 @@ static double fog_attenuation(const vbnl_scene *sc, const vbnl_fog *f, vec3 o, v
         dvec3 mid = d3_fma(p1, dir, 0.5 * width);
         dvec3 q = d3_mul(mid, f->turb.amount);
         double k = exp(-width / f->distance);
-        double t = vbnl_turbulence(sc->tex.noise, q, &f->turb, f->generator);
+        double t = vbi_turbulence(sc->tex.noise, q, &f->turb, f->generator);
         width *= 1.0 - k * fmin(1.0, t * f->turb_depth);
     }
     return exp(-width * density / f->distance);
@@ -241,7 +241,7 @@ static void fog_segment(const vbnl_scene *sc, vec3 o, vec3 d, float tmax, vec3 *
     *T = v3s(1.0f);
     *add = v3s(0.0f);
     for (uint32_t i = 0; i < sc->fog_count; ++i) {
-        const vbnl_fog *f = &sc->fogs[i];
+        const vbi_fog *f = &sc->fogs[i];
         float att = (float)fog_attenuation(sc, f, o, d, tmax);
         att = maxf(att, f->transmit);
         vec3 filt = v3_add(v3s(1.0f - f->filter), v3_scale(f->color, f->filter));
@@ -258,13 +258,13 @@ static int grey(vec3 c) { return c.x == c.y && c.y == c.z; }
 static float beer(float sigma, float d) { return sigma > 0.0f ? expf(-sigma * d) : 1.0f; }
 
 /* Exponential step of rate `rate`. */
-static float exp_step(vbnl_rand *r, float rate) { return -logf(1.0f - vbnl_rand_next(r)) / rate; }
+static float exp_step(vbi_rand *r, float rate) { return -logf(1.0f - vbi_rand_next(r)) / rate; }
 
-int vbnl_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, float tmax, vbnl_rand *r, vec3 *beta,
-                      vec3 *L, vbnl_medium_event *ev)
+int vbi_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, float tmax, vbi_rand *r, vec3 *beta,
+                      vec3 *L, vbi_medium_event *ev)
 {
-    if (region == VBNL_REGION_CLEAR)
-        return VBNL_TRACK_PASSED;
+    if (region == VBI_REGION_CLEAR)
+        return VBI_TRACK_PASSED;
     const scene_medium *m = region_medium(sc, region);
     if (m) {
         if (m->constant && grey(v3_add(m->sigma_a, m->sigma_s)) && m->extinguishes) {
@@ -277,13 +277,13 @@ int vbnl_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, flo
                 *L = v3_add(*L, v3_mul(*beta, v3_scale(m->emission, 1.0f / st)));
                 *beta = v3_mul(*beta, v3_scale(m->sigma_s, 1.0f / st));
                 if (v3_is_black(*beta))
-                    return VBNL_TRACK_ABSORBED;
+                    return VBI_TRACK_ABSORBED;
                 ev->t = t;
                 ev->p = v3_fma(o, d, t);
                 coeffs c;
                 medium_at(sc, m, ev->p, &c);
-                pick_part(m, &c, vbnl_rand_next(r), ev, beta);
-                return VBNL_TRACK_SCATTERED;
+                pick_part(m, &c, vbi_rand_next(r), ev, beta);
+                return VBI_TRACK_SCATTERED;
             }
         } else {
             /* an escaped segment ends at the far bound: sampled media are taken to end there */
@@ -299,40 +299,40 @@ int vbnl_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, flo
                 *L = v3_add(*L, v3_mul(*beta, v3_scale(c.em, 1.0f / maj)));
                 const vec3 sn = v3_max(v3_sub(v3s(maj), v3_add(c.sa, c.ss)), v3s(0.0f));
                 const float pa = v3_avg(c.sa) / maj, ps = v3_avg(c.ss) / maj, pn = v3_avg(sn) / maj;
-                const float u = vbnl_rand_next(r) * (pa + ps + pn);
+                const float u = vbi_rand_next(r) * (pa + ps + pn);
                 if (u < pa)
-                    return VBNL_TRACK_ABSORBED;
+                    return VBI_TRACK_ABSORBED;
                 if (u < pa + ps) {
                     *beta = v3_mul(*beta, v3_scale(c.ss, 1.0f / (maj * ps)));
                     ev->t = t;
                     ev->p = p;
-                    pick_part(m, &c, vbnl_rand_next(r), ev, beta);
-                    return VBNL_TRACK_SCATTERED;
+                    pick_part(m, &c, vbi_rand_next(r), ev, beta);
+                    return VBI_TRACK_SCATTERED;
                 }
                 *beta = v3_mul(*beta, v3_scale(sn, 1.0f / (maj * pn)));
                 /* Russian roulette on a weight that null collisions of chromatic media wear down */
                 const float bm = v3_max_comp(*beta);
                 if (bm < 0.1f) {
-                    if (vbnl_rand_next(r) >= bm * 10.0f)
-                        return VBNL_TRACK_ABSORBED;
+                    if (vbi_rand_next(r) >= bm * 10.0f)
+                        return VBI_TRACK_ABSORBED;
                     *beta = v3_scale(*beta, 1.0f / (bm * 10.0f));
                 }
             }
         }
     }
-    if (region == VBNL_REGION_OUTSIDE && sc->fog_count) {
+    if (region == VBI_REGION_OUTSIDE && sc->fog_count) {
         vec3 T, add;
         fog_segment(sc, o, d, tmax, &T, &add);
         *L = v3_add(*L, v3_mul(*beta, add));
         *beta = v3_mul(*beta, T);
     }
-    return VBNL_TRACK_PASSED;
+    return VBI_TRACK_PASSED;
 }
 
-vec3 vbnl_medium_transmittance(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, float tmax, vbnl_rand *r)
+vec3 vbi_medium_transmittance(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, float tmax, vbi_rand *r)
 {
     vec3 T = v3s(1.0f);
-    if (region == VBNL_REGION_CLEAR)
+    if (region == VBI_REGION_CLEAR)
         return T;
     const scene_medium *m = region_medium(sc, region);
     if (m && m->extinguishes) {
@@ -351,14 +351,14 @@ vec3 vbnl_medium_transmittance(const vbnl_scene *sc, uint32_t region, vec3 o, ve
                 T = v3_mul(T, v3_max(v3_sub(v3s(1.0f), v3_scale(v3_add(c.sa, c.ss), 1.0f / maj)), v3s(0.0f)));
                 const float tm = v3_max_comp(T);
                 if (tm < 0.1f) {
-                    if (!(tm > 0.0f) || vbnl_rand_next(r) >= tm * 10.0f)
+                    if (!(tm > 0.0f) || vbi_rand_next(r) >= tm * 10.0f)
                         return v3s(0.0f);
                     T = v3_scale(T, 1.0f / (tm * 10.0f));
                 }
             }
         }
     }
-    if (region == VBNL_REGION_OUTSIDE && sc->fog_count) {
+    if (region == VBI_REGION_OUTSIDE && sc->fog_count) {
         vec3 Tf, add;
         fog_segment(sc, o, d, tmax, &Tf, &add);
         T = v3_mul(T, Tf);
@@ -366,7 +366,7 @@ vec3 vbnl_medium_transmittance(const vbnl_scene *sc, uint32_t region, vec3 o, ve
     return T;
 }
 
-void vbnl_medium_cross(const vbnl_scene *sc, vbnl_medium_stack *s, uint32_t material, vec3 ng, vec3 d)
+void vbi_medium_cross(const vbnl_scene *sc, vbi_medium_stack *s, uint32_t material, vec3 ng, vec3 d)
 {
     if (v3_dot(d, ng) >= 0.0f) { /* leaving */
         if (s->n)
@@ -374,8 +374,8 @@ void vbnl_medium_cross(const vbnl_scene *sc, vbnl_medium_stack *s, uint32_t mate
         return;
     }
     uint32_t in = sc->materials[material].desc.interior;
-    uint32_t region = in == VBNL_INTERIOR_SAME ? vbnl_medium_region(s) : in;
-    if (s->n < VBNL_MEDIUM_STACK_MAX)
+    uint32_t region = in == VBNL_INTERIOR_SAME ? vbi_medium_region(s) : in;
+    if (s->n < VBI_MEDIUM_STACK_MAX)
         s->r[s->n++] = region;
 }
 
@@ -383,16 +383,16 @@ void vbnl_medium_cross(const vbnl_scene *sc, vbnl_medium_stack *s, uint32_t mate
 
 /* An upper bound of each channel of pigment id's colour (its map's entries, its image's texels);
  * INFINITY where there is none. */
-static vec3 pigment_bound(const vbnl_texture_set *ts, uint32_t id, uint32_t depth)
+static vec3 pigment_bound(const vbi_texture_set *ts, uint32_t id, uint32_t depth)
 {
     if (depth > VBNL_TEXTURE_DEPTH_MAX)
         return v3s(INFINITY);
-    const vbnl_pigment *pg = &ts->pigments[id];
+    const vbi_pigment *pg = &ts->pigments[id];
     if (pg->kind == VBNL_PIGMENT_SOLID)
         return v3(pg->color[0], pg->color[1], pg->color[2]);
     if (pg->kind == VBNL_PIGMENT_IMAGE) {
-        const vbnl_pattern *pt = &ts->patterns[pg->pattern - 1];
-        const vbnl_image *im = &ts->images[pt->u.image.image];
+        const vbi_pattern *pt = &ts->patterns[pg->pattern - 1];
+        const vbi_image *im = &ts->images[pt->u.image.image];
         vec3 b = v3s(0.0f);
         const uint32_t ch = im->channels;
         for (size_t i = 0; i < (size_t)im->width * im->height; ++i) {
@@ -410,7 +410,7 @@ static vec3 pigment_bound(const vbnl_texture_set *ts, uint32_t id, uint32_t dept
     return b;
 }
 
-void vbnl_media_commit(vbnl_scene *sc)
+void vbi_media_commit(vbnl_scene *sc)
 {
     /* a textured node's surface lets light into the interior of its transmission material */
     for (uint32_t i = 0; i < sc->material_count; ++i) {
@@ -434,7 +434,7 @@ void vbnl_media_commit(vbnl_scene *sc)
         m->sigma_a = m->sigma_s = m->emission = v3s(0.0f);
         m->scatters = m->emits = m->extinguishes = 0;
         for (uint32_t k = 0; k < m->part_count; ++k) {
-            const vbnl_medium_part *pt = &m->part[k];
+            const vbi_medium_part *pt = &m->part[k];
             vec3 b = v3s(1.0f);
             for (uint32_t j = 0; j < pt->density_count; ++j)
                 b = v3_mul(b, v3_max(pigment_bound(&sc->tex, pt->density[j], 0), v3s(0.0f)));
@@ -456,17 +456,17 @@ void vbnl_media_commit(vbnl_scene *sc)
 }
 
 /* 1 when pigment id may be partly clear somewhere (filter or transmit above 0). */
-static int pigment_may_pass(const vbnl_texture_set *ts, uint32_t id, uint32_t depth)
+static int pigment_may_pass(const vbi_texture_set *ts, uint32_t id, uint32_t depth)
 {
     if (depth > VBNL_TEXTURE_DEPTH_MAX)
         return 1;
-    const vbnl_pigment *pg = &ts->pigments[id];
+    const vbi_pigment *pg = &ts->pigments[id];
     if (pg->kind == VBNL_PIGMENT_SOLID)
         return pg->color[3] + pg->color[4] > 0.0f;
     if (pg->kind == VBNL_PIGMENT_IMAGE) {
-        const vbnl_pattern *pt = &ts->patterns[pg->pattern - 1];
+        const vbi_pattern *pt = &ts->patterns[pg->pattern - 1];
         return !ts->images[pt->u.image.image].opaque || pt->u.image.filter_all > 0.0 ||
-               pt->u.image.transmit_all > 0.0 || pt->u.image.wrap == VBNL_IMAGE_ONCE;
+               pt->u.image.transmit_all > 0.0 || pt->u.image.wrap == VBI_IMAGE_ONCE;
     }
     const vbnl_pigment_map_entry *map = ts->pigment_entries + pg->entry_begin;
     for (uint32_t i = 0; i < pg->entry_count; ++i)
@@ -480,12 +480,12 @@ static int material_may_pass(const vbnl_scene *sc, uint32_t m, uint32_t depth)
 {
     const scene_material *sm = &sc->materials[m];
     if (!sm->is_node)
-        return vbnl_bsdf_is_null(&sm->bsdf);
+        return vbi_bsdf_is_null(&sm->bsdf);
     if (depth > VBNL_TEXTURE_DEPTH_MAX)
         return 1;
-    const vbnl_mnode *nd = &sm->node;
+    const vbi_mnode *nd = &sm->node;
     if (nd->kind == VBNL_NODE_TEXTURED)
-        return nd->transmission && vbnl_bsdf_is_null(&sc->materials[nd->transmission - 1].bsdf) &&
+        return nd->transmission && vbi_bsdf_is_null(&sc->materials[nd->transmission - 1].bsdf) &&
                (!nd->pigment || pigment_may_pass(&sc->tex, nd->pigment - 1, 0));
     const vbnl_material_map_entry *map = sc->tex.material_entries + nd->entry_begin;
     for (uint32_t i = 0; i < nd->entry_count; ++i)
@@ -494,7 +494,7 @@ static int material_may_pass(const vbnl_scene *sc, uint32_t m, uint32_t depth)
     return 0;
 }
 
-int vbnl_media_commit_pass(vbnl_scene *sc)
+int vbi_media_commit_pass(vbnl_scene *sc)
 {
     int any = 0;
     for (uint32_t i = 0; i < sc->material_count; ++i)
@@ -539,12 +539,12 @@ static int nonneg3(const float *v)
 
 vbnl_result vbnl_scene_add_medium(vbnl_scene *s, const vbnl_medium_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_medium", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_medium", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_medium: desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_medium_desc, err)) != VBNL_OK)
+    if ((r = VBI_DESC_CHECK(d, vbnl_medium_desc, err)) != VBNL_OK)
         return r;
     if (!d->parts || d->part_count < 1 || d->part_count > VBNL_MEDIUM_PARTS_MAX)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "a medium needs 1 to %u parts (got %u)",
@@ -566,7 +566,7 @@ vbnl_result vbnl_scene_add_medium(vbnl_scene *s, const vbnl_medium_desc *d, uint
         if (pd->density_count > VBNL_MEDIUM_DENSITY_MAX || (pd->density_count && !pd->density))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "medium part %u: 0 to %u density pigments", k,
                                   VBNL_MEDIUM_DENSITY_MAX);
-        vbnl_medium_part *pt = &m.part[k];
+        vbi_medium_part *pt = &m.part[k];
         pt->sigma_a = v3_load(pd->absorption);
         pt->sigma_s = v3_load(pd->scattering);
         pt->emission = v3_load(pd->emission);
@@ -603,7 +603,7 @@ vbnl_result vbnl_scene_add_medium(vbnl_scene *s, const vbnl_medium_desc *d, uint
 
 vbnl_result vbnl_scene_set_atmosphere(vbnl_scene *s, uint32_t medium, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_atmosphere", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_atmosphere", err);
     if (r != VBNL_OK)
         return r;
     if (medium > s->medium_count)
@@ -616,12 +616,12 @@ vbnl_result vbnl_scene_set_atmosphere(vbnl_scene *s, uint32_t medium, vbnl_error
 
 vbnl_result vbnl_scene_add_fog(vbnl_scene *s, const vbnl_fog_desc *d, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_fog", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_fog", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_fog: desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_fog_desc, err)) != VBNL_OK)
+    if ((r = VBI_DESC_CHECK(d, vbnl_fog_desc, err)) != VBNL_OK)
         return r;
     if (d->kind != VBNL_FOG_CONSTANT && d->kind != VBNL_FOG_GROUND)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown fog kind %d", (int)d->kind);
@@ -634,7 +634,7 @@ vbnl_result vbnl_scene_add_fog(vbnl_scene *s, const vbnl_fog_desc *d, vbnl_error
     dvec3 up = d3(d->up[0], d->up[1], d->up[2]);
     if (!(d3_len(up) > 0.0) || !isfinite(d3_len(up)) || !isfinite(d->offset) || !isfinite(d->turb_depth))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "fog up vector must be non-zero and finite");
-    vbnl_fog f;
+    vbi_fog f;
     memset(&f, 0, sizeof(f));
     f.kind = d->kind;
     f.distance = d->distance;
@@ -654,7 +654,7 @@ vbnl_result vbnl_scene_add_fog(vbnl_scene *s, const vbnl_fog_desc *d, vbnl_error
     f.generator = d->noise_generator >= 1 && d->noise_generator <= 3 ? d->noise_generator : 2;
     if (s->fog_count == s->fog_cap) {
         uint32_t cap = s->fog_cap ? 2 * s->fog_cap : 4;
-        vbnl_fog *n = realloc(s->fogs, sizeof(*n) * cap);
+        vbi_fog *n = realloc(s->fogs, sizeof(*n) * cap);
         if (!n)
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         s->fogs = n;

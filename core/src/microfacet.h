@@ -6,8 +6,8 @@
  *
  * tools/gen_ggx_tables.c includes this header too, so the tables are computed with exactly the
  * model that bsdf.c evaluates. Everything here is static inline and stateless. */
-#ifndef VBNL_MICROFACET_H
-#define VBNL_MICROFACET_H
+#ifndef VBI_MICROFACET_H
+#define VBI_MICROFACET_H
 
 #include "vmath.h"
 
@@ -20,7 +20,7 @@ static inline float ggx_d(vec3 h, float alpha)
         return 0.0f;
     float a2 = alpha * alpha;
     float t = (h.x * h.x + h.y * h.y) / a2 + h.z * h.z;
-    return 1.0f / (VBNL_PI * a2 * t * t);
+    return 1.0f / (VBI_PI * a2 * t * t);
 }
 
 /* Smith Lambda for GGX: (-1 + sqrt(1 + a^2 tan^2 theta)) / 2 (Heitz 2014, Eq. 86), written as
@@ -58,7 +58,7 @@ static inline vec3 ggx_sample_vndf(vec3 wo, float alpha, vec2 u)
     vec3 t2 = v3_cross(vh, t1);
     /* Section 4.2: uniform point on the projected area (a disk whose lower half is squashed). */
     float r = sqrtf(u.x);
-    float phi = 2.0f * VBNL_PI * u.y;
+    float phi = 2.0f * VBI_PI * u.y;
     float p1 = r * cosf(phi);
     float p2 = r * sinf(phi);
     float s = 0.5f * (1.0f + vh.z);
@@ -110,56 +110,56 @@ static inline float fresnel_dielectric_inline(float cos_i, float eta)
  * exactly with respect to that same table.
  *
  * Axes (grid points, linear interpolation between them):
- *   mu    = t^2 with t = i / (N_MU - 1) uniform   (mu = 0 is evaluated at VBNL_GGX_MU_MIN):
+ *   mu    = t^2 with t = i / (N_MU - 1) uniform   (mu = 0 is evaluated at VBI_GGX_MU_MIN):
  *           E dips sharply just above grazing for small alpha (G2/G1 -> 1 as mu -> 0 but the
  *           shadowing of wi bites at mu ~ alpha), so the grid is dense near mu = 0;
- *   r     = sqrt(alpha), uniform on [sqrt(VBNL_GGX_ALPHA_MIN), 1]: resolution where E changes
+ *   r     = sqrt(alpha), uniform on [sqrt(VBI_GGX_ALPHA_MIN), 1]: resolution where E changes
  *           fastest (small alpha);
- *   s     = (ior - 1) / (ior + 1) = sqrt(F0), uniform on [s(VBNL_GGX_IOR_MIN), s(VBNL_GGX_IOR_MAX)]:
+ *   s     = (ior - 1) / (ior + 1) = sqrt(F0), uniform on [s(VBI_GGX_IOR_MIN), s(VBI_GGX_IOR_MAX)]:
  *           E at normal incidence is F0 = s^2, quadratic in s, so linear interpolation in s has
  *           a small bounded error, while interpolation in ior or F0 would not (E jumps near ior 1
  *           at grazing angles). */
-#define VBNL_GGX_N_MU 32
-#define VBNL_GGX_N_ALPHA 32
-#define VBNL_GGX_N_IOR 16
-#define VBNL_GGX_ALPHA_MIN 1e-3f
-#define VBNL_GGX_MU_MIN 1e-4f
-#define VBNL_GGX_IOR_MIN 1.05f
-#define VBNL_GGX_IOR_MAX 3.0f
+#define VBI_GGX_N_MU 32
+#define VBI_GGX_N_ALPHA 32
+#define VBI_GGX_N_IOR 16
+#define VBI_GGX_ALPHA_MIN 1e-3f
+#define VBI_GGX_MU_MIN 1e-4f
+#define VBI_GGX_IOR_MIN 1.05f
+#define VBI_GGX_IOR_MAX 3.0f
 
-extern const float vbnl_ggx_conductor_E[VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU];
-extern const float vbnl_ggx_conductor_Eavg[VBNL_GGX_N_ALPHA];
-extern const float vbnl_ggx_coat_E[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA][VBNL_GGX_N_MU];
-extern const float vbnl_ggx_coat_Eavg[VBNL_GGX_N_IOR][VBNL_GGX_N_ALPHA];
+extern const float vbi_ggx_conductor_E[VBI_GGX_N_ALPHA][VBI_GGX_N_MU];
+extern const float vbi_ggx_conductor_Eavg[VBI_GGX_N_ALPHA];
+extern const float vbi_ggx_coat_E[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA][VBI_GGX_N_MU];
+extern const float vbi_ggx_coat_Eavg[VBI_GGX_N_IOR][VBI_GGX_N_ALPHA];
 
 /* Continuous table coordinates in [0, N - 1] for each axis (shared by the generator and the
  * lookups so they cannot disagree). */
-static inline float ggx_table_x_mu(float mu) { return sqrtf(clampf(mu, 0.0f, 1.0f)) * (float)(VBNL_GGX_N_MU - 1); }
+static inline float ggx_table_x_mu(float mu) { return sqrtf(clampf(mu, 0.0f, 1.0f)) * (float)(VBI_GGX_N_MU - 1); }
 static inline float ggx_table_x_alpha(float alpha)
 {
-    float r0 = sqrtf(VBNL_GGX_ALPHA_MIN);
-    float r = sqrtf(clampf(alpha, VBNL_GGX_ALPHA_MIN, 1.0f));
-    return clampf((r - r0) / (1.0f - r0), 0.0f, 1.0f) * (float)(VBNL_GGX_N_ALPHA - 1);
+    float r0 = sqrtf(VBI_GGX_ALPHA_MIN);
+    float r = sqrtf(clampf(alpha, VBI_GGX_ALPHA_MIN, 1.0f));
+    return clampf((r - r0) / (1.0f - r0), 0.0f, 1.0f) * (float)(VBI_GGX_N_ALPHA - 1);
 }
 static inline float ggx_ior_to_s(float ior) { return (ior - 1.0f) / (ior + 1.0f); }
 static inline float ggx_table_x_ior(float ior)
 {
-    float s0 = ggx_ior_to_s(VBNL_GGX_IOR_MIN), s1 = ggx_ior_to_s(VBNL_GGX_IOR_MAX);
-    float s = ggx_ior_to_s(clampf(ior, VBNL_GGX_IOR_MIN, VBNL_GGX_IOR_MAX));
-    return clampf((s - s0) / (s1 - s0), 0.0f, 1.0f) * (float)(VBNL_GGX_N_IOR - 1);
+    float s0 = ggx_ior_to_s(VBI_GGX_IOR_MIN), s1 = ggx_ior_to_s(VBI_GGX_IOR_MAX);
+    float s = ggx_ior_to_s(clampf(ior, VBI_GGX_IOR_MIN, VBI_GGX_IOR_MAX));
+    return clampf((s - s0) / (s1 - s0), 0.0f, 1.0f) * (float)(VBI_GGX_N_IOR - 1);
 }
 /* Inverse maps: the parameter value at grid coordinate x (integer or not). */
-static inline float ggx_table_mu_at(float x) { return maxf(sqr(x / (float)(VBNL_GGX_N_MU - 1)), VBNL_GGX_MU_MIN); }
+static inline float ggx_table_mu_at(float x) { return maxf(sqr(x / (float)(VBI_GGX_N_MU - 1)), VBI_GGX_MU_MIN); }
 static inline float ggx_table_alpha_at(float x)
 {
-    float r0 = sqrtf(VBNL_GGX_ALPHA_MIN);
-    float r = r0 + (1.0f - r0) * x / (float)(VBNL_GGX_N_ALPHA - 1);
+    float r0 = sqrtf(VBI_GGX_ALPHA_MIN);
+    float r = r0 + (1.0f - r0) * x / (float)(VBI_GGX_N_ALPHA - 1);
     return r * r;
 }
 static inline float ggx_table_ior_at(float x)
 {
-    float s0 = ggx_ior_to_s(VBNL_GGX_IOR_MIN), s1 = ggx_ior_to_s(VBNL_GGX_IOR_MAX);
-    float s = s0 + (s1 - s0) * x / (float)(VBNL_GGX_N_IOR - 1);
+    float s0 = ggx_ior_to_s(VBI_GGX_IOR_MIN), s1 = ggx_ior_to_s(VBI_GGX_IOR_MAX);
+    float s = s0 + (s1 - s0) * x / (float)(VBI_GGX_N_IOR - 1);
     return (1.0f + s) / (1.0f - s);
 }
 

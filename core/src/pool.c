@@ -7,7 +7,7 @@
 #include <time.h>
 #include <unistd.h>
 
-struct vbnl_pool {
+struct vbi_pool {
     unsigned thread_count;
     pthread_t *threads;
     pthread_mutex_t lock;
@@ -16,7 +16,7 @@ struct vbnl_pool {
     uint64_t generation;      /* bumped per job */
     int shutdown;
     /* the current job */
-    vbnl_pool_fn fn;
+    vbi_pool_fn fn;
     void *user;
     uint64_t count;
     atomic_uint_fast64_t next;
@@ -25,7 +25,7 @@ struct vbnl_pool {
     unsigned active;          /* workers still inside the current job */
 };
 
-double vbnl_now(void)
+double vbi_now(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -33,14 +33,14 @@ double vbnl_now(void)
 }
 
 typedef struct worker_arg {
-    vbnl_pool *pool;
+    vbi_pool *pool;
     unsigned index;
 } worker_arg;
 
 static void *worker_main(void *p)
 {
     worker_arg *arg = p;
-    vbnl_pool *pool = arg->pool;
+    vbi_pool *pool = arg->pool;
     unsigned index = arg->index;
     free(arg);
     uint64_t seen = 0;
@@ -72,13 +72,13 @@ static void *worker_main(void *p)
     return NULL;
 }
 
-vbnl_pool *vbnl_pool_create(unsigned threads)
+vbi_pool *vbi_pool_create(unsigned threads)
 {
     if (threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         threads = n > 0 ? (unsigned)n : 1u;
     }
-    vbnl_pool *pool = calloc(1, sizeof(*pool));
+    vbi_pool *pool = calloc(1, sizeof(*pool));
     if (!pool)
         return NULL;
     pool->threads = calloc(threads, sizeof(pthread_t));
@@ -102,7 +102,7 @@ vbnl_pool *vbnl_pool_create(unsigned threads)
         if (!arg || pthread_create(&pool->threads[i], NULL, worker_main, arg) != 0) {
             free(arg);
             pool->thread_count = i;
-            vbnl_pool_destroy(pool);
+            vbi_pool_destroy(pool);
             return NULL;
         }
         pool->thread_count = i + 1;
@@ -110,7 +110,7 @@ vbnl_pool *vbnl_pool_create(unsigned threads)
     return pool;
 }
 
-void vbnl_pool_destroy(vbnl_pool *pool)
+void vbi_pool_destroy(vbi_pool *pool)
 {
     if (!pool)
         return;
@@ -127,10 +127,10 @@ void vbnl_pool_destroy(vbnl_pool *pool)
     free(pool);
 }
 
-unsigned vbnl_pool_thread_count(const vbnl_pool *pool) { return pool ? pool->thread_count : 0; }
+unsigned vbi_pool_thread_count(const vbi_pool *pool) { return pool ? pool->thread_count : 0; }
 
-uint64_t vbnl_pool_run(vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *user,
-                       vbnl_pool_poll_fn poll, void *poll_user, double interval)
+uint64_t vbi_pool_run(vbi_pool *pool, uint64_t count, vbi_pool_fn fn, void *user,
+                       vbi_pool_poll_fn poll, void *poll_user, double interval)
 {
     if (count == 0) {
         if (poll)
@@ -149,7 +149,7 @@ uint64_t vbnl_pool_run(vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *u
     pool->active = pool->thread_count;
     pool->generation++;
     pthread_cond_broadcast(&pool->work_cv);
-    double next_poll = vbnl_now() + interval;
+    double next_poll = vbi_now() + interval;
     while (pool->active > 0) {
         if (!poll) {
             /* nothing to report: sleep until a worker signals (no timed wake-ups) */
@@ -161,13 +161,13 @@ uint64_t vbnl_pool_run(vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *u
         ts.tv_sec = (time_t)when;
         ts.tv_nsec = (long)((when - (double)ts.tv_sec) * 1e9);
         int rc = pthread_cond_timedwait(&pool->done_cv, &pool->lock, &ts);
-        if (rc == ETIMEDOUT || vbnl_now() >= next_poll) {
+        if (rc == ETIMEDOUT || vbi_now() >= next_poll) {
             uint64_t fin = atomic_load(&pool->finished);
             pthread_mutex_unlock(&pool->lock);
             if (poll(poll_user, fin, count))
                 atomic_store(&pool->stop, 1);
             pthread_mutex_lock(&pool->lock);
-            next_poll = vbnl_now() + interval;
+            next_poll = vbi_now() + interval;
         }
     }
     pthread_mutex_unlock(&pool->lock);

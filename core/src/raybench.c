@@ -3,7 +3,7 @@
  * A path tracer traces three kinds of rays whose Embree costs differ a lot (on the McGuire
  * Cornell box, in instructions per ray: coherent camera packets ~220, occlusion rays ~430,
  * incoherent closest-hit rays ~660), so each kind is measured on its own: camera rays as 8-wide
- * packets in pixel order (as vbnl_render_camera_paths traces them), diffuse bounce rays from
+ * packets in pixel order (as vbi_render_camera_paths traces them), diffuse bounce rays from
  * the points the camera sees (rtcIntersect1), and shadow rays from the same points to points
  * sampled on the lights the way next-event estimation samples them (rtcOccluded1, ending just
  * short of the light). A renderer's ray counts per kind then give the time Embree alone would
@@ -43,7 +43,7 @@ static void trace_chunk(void *user, uint64_t item, unsigned thread)
         for (uint32_t i0 = begin; i0 < end; i0 += 8) {
             _Alignas(32) struct RTCRayHit8 rh;
             _Alignas(32) int valid[8];
-            vbnl_rayhit8_fill(&rh, valid, rs->o, rs->d, i0, end);
+            vbi_rayhit8_fill(&rh, valid, rs->o, rs->d, i0, end);
             rtcIntersect8(valid, rs->scene->world, &ictx, &rh);
             for (uint32_t k = 0; k < 8; ++k)
                 hits += valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
@@ -51,7 +51,7 @@ static void trace_chunk(void *user, uint64_t item, unsigned thread)
     } else if (rs->kind == KIND_CLOSEST) {
         for (uint32_t i = begin; i < end; ++i) {
             struct RTCRayHit rh;
-            vbnl_rayhit_init(&rh, rs->o[i], rs->d[i], INFINITY);
+            vbi_rayhit_init(&rh, rs->o[i], rs->d[i], INFINITY);
             rtcIntersect1(rs->scene->world, &ictx, &rh);
             hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
         }
@@ -89,9 +89,9 @@ static double time_set(vbnl_context *ctx, ray_set *rs)
     if (rs->count == 0)
         return 0.0;
     uint64_t chunks = (rs->count + CHUNK - 1) / CHUNK;
-    double t0 = vbnl_now();
-    vbnl_pool_run(ctx->pool, chunks, trace_chunk, rs, NULL, NULL, 1.0);
-    return vbnl_now() - t0;
+    double t0 = vbi_now();
+    vbi_pool_run(ctx->pool, chunks, trace_chunk, rs, NULL, NULL, 1.0);
+    return vbi_now() - t0;
 }
 
 /* Rays per second from the median of three run times (0 for an empty set). */
@@ -138,32 +138,32 @@ vbnl_result vbnl_scene_measure_ray_rates(vbnl_context *ctx, const vbnl_scene *sc
     /* Bounce and shadow rays leave from the points random camera rays see. The bounce rays are
      * made exactly as before the shadow rays were added (the same stream), so the closest-hit
      * figure is comparable with older measurements. */
-    vbnl_rng rng = vbnl_rng_make(0x5eed, 7), rng_light = vbnl_rng_make(0x5eed, 8);
+    vbi_rng rng = vbi_rng_make(0x5eed, 7), rng_light = vbi_rng_make(0x5eed, 8);
     const int lights = scene->light_table.n > 0;
     uint32_t n = 0, ns = 0;
     for (uint64_t attempt = 0; n < ray_count && attempt < (uint64_t)ray_count * 16; ++attempt) {
         vec3 o, d;
-        vbnl_camera_ray(&scene->camera, width, height, vbnl_rng_next(&rng) * width,
-                        vbnl_rng_next(&rng) * height, &o, &d);
-        vbnl_hit h;
-        if (!vbnl_scene_intersect(scene, o, d, INFINITY, &h))
+        vbi_camera_ray(&scene->camera, width, height, vbi_rng_next(&rng) * width,
+                        vbi_rng_next(&rng) * height, &o, &d);
+        vbi_hit h;
+        if (!vbi_scene_intersect(scene, o, d, INFINITY, &h))
             continue;
         vec3 nrm = v3_dot(h.ng, d) < 0.0f ? h.ng : v3_neg(h.ng);
         frame f = frame_from_normal(nrm);
-        vec3 w = frame_to_world(&f, sample_cosine_hemisphere(vbnl_rng_next2(&rng)));
-        bounce.o[n] = vbnl_offset_ray_origin(h.p, nrm, w);
+        vec3 w = frame_to_world(&f, sample_cosine_hemisphere(vbi_rng_next2(&rng)));
+        bounce.o[n] = vbi_offset_ray_origin(h.p, nrm, w);
         bounce.d[n] = w;
         ++n;
-        /* the shadow ray next-event estimation would trace from here (vbnl_estimate_direct) */
+        /* the shadow ray next-event estimation would trace from here (vbi_estimate_direct) */
         if (!lights)
             continue;
         float pmf;
-        uint32_t li = vbnl_scene_pick_light(scene, vbnl_rng_next(&rng_light), &pmf);
-        vbnl_light_li_sample ls;
-        if (!vbnl_light_sample_li(&scene->lights[li], h.p, vbnl_rng_next2(&rng_light), &ls) || !(ls.pdf > 0.0f) ||
+        uint32_t li = vbi_scene_pick_light(scene, vbi_rng_next(&rng_light), &pmf);
+        vbi_light_li_sample ls;
+        if (!vbi_light_sample_li(&scene->lights[li], h.p, vbi_rng_next2(&rng_light), &ls) || !(ls.pdf > 0.0f) ||
             v3_dot(ls.wi, nrm) <= 0.0f)
             continue;
-        shadow.o[ns] = vbnl_offset_ray_origin(h.p, nrm, ls.wi);
+        shadow.o[ns] = vbi_offset_ray_origin(h.p, nrm, ls.wi);
         shadow.d[ns] = ls.wi;
         shadow.tfar[ns] = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
         ++ns;
@@ -180,8 +180,8 @@ vbnl_result vbnl_scene_measure_ray_rates(vbnl_context *ctx, const vbnl_scene *sc
     const uint64_t npix = (uint64_t)width * height;
     for (uint32_t i = 0; i < ray_count; ++i) {
         uint64_t k = i % npix;
-        vbnl_camera_ray(&scene->camera, width, height, (float)(k % width) + vbnl_rng_next(&rng),
-                        (float)(k / width) + vbnl_rng_next(&rng), &cam.o[i], &cam.d[i]);
+        vbi_camera_ray(&scene->camera, width, height, (float)(k % width) + vbi_rng_next(&rng),
+                        (float)(k / width) + vbi_rng_next(&rng), &cam.o[i], &cam.d[i]);
     }
     cam.count = ray_count;
     /* the kinds take turns, so that a load that comes and goes on a shared machine falls on

@@ -37,7 +37,7 @@ struct vbnl_renderer {
     double prepare_seconds, render_seconds;
     vbnl_stage_time stages[MAX_STAGES];
     uint32_t stage_count;
-    vbnl_thread_stats *tstats;
+    vbi_thread_stats *tstats;
     int cancelled;
     int budget_cut;
     uint64_t storage_bytes;
@@ -92,7 +92,7 @@ static vbnl_result renderer_create(vbnl_context *ctx, const vbnl_scene *scene, c
     if (!ctx || !scene || !settings || !out)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_renderer_create: NULL argument");
     *out = NULL;
-    vbnl_result r = VBNL_DESC_CHECK(settings, vbnl_render_settings, err);
+    vbnl_result r = VBI_DESC_CHECK(settings, vbnl_render_settings, err);
     if (r != VBNL_OK)
         return r;
     if (!scene->committed)
@@ -137,12 +137,12 @@ static vbnl_result renderer_create(vbnl_context *ctx, const vbnl_scene *scene, c
     rd->settings.params = rd->params;
     rd->budget.renderer = rd;
     rd->budget.seconds = settings->time_budget;
-    rd->tstats = calloc(ctx->threads, sizeof(vbnl_thread_stats));
+    rd->tstats = calloc(ctx->threads, sizeof(vbi_thread_stats));
     if (!rd->tstats) {
         vbnl_renderer_destroy(rd);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     }
-    if ((r = vbnl_film_create(settings->width, settings->height, settings->crop, &rd->film, err)) != VBNL_OK) {
+    if ((r = vbi_film_create(settings->width, settings->height, settings->crop, &rd->film, err)) != VBNL_OK) {
         vbnl_renderer_destroy(rd);
         return r;
     }
@@ -153,7 +153,7 @@ static vbnl_result renderer_create(vbnl_context *ctx, const vbnl_scene *scene, c
         vbnl_renderer_destroy(rd);
         return r;
     }
-    if ((r = vbnl_film_allocate(rd->film, err)) != VBNL_OK) {
+    if ((r = vbi_film_allocate(rd->film, err)) != VBNL_OK) {
         vbnl_renderer_destroy(rd);
         return r;
     }
@@ -199,7 +199,7 @@ void vbnl_renderer_destroy(vbnl_renderer *r)
         return;
     if (r->state && r->cls->destroy)
         r->cls->destroy(r->state);
-    vbnl_film_destroy(r->film);
+    vbi_film_destroy(r->film);
     vbnl_params_destroy(r->params);
     free(r->tstats);
     free(r);
@@ -235,7 +235,7 @@ double vbnl_budget_prepare_limit(const vbnl_budget *b)
 
 double vbnl_budget_elapsed(const vbnl_budget *b)
 {
-    return b && b->renderer->t_start > 0.0 ? vbnl_now() - b->renderer->t_start : 0.0;
+    return b && b->renderer->t_start > 0.0 ? vbi_now() - b->renderer->t_start : 0.0;
 }
 
 double vbnl_budget_pixels(const vbnl_budget *b) { return b ? b->pixels : 0.0; }
@@ -272,11 +272,11 @@ vbnl_result vbnl_budget_size_lights(vbnl_budget *b, const char *name, double fal
     const int explicit_count = vbnl_params_has(r->params, name);
     /* the scene's shadow-ray rate on every worker: a short calibration (median of three runs of
      * 8192 rays of each kind, about 10 ms on the bench scenes) */
-    double t0 = vbnl_now();
+    double t0 = vbi_now();
     vbnl_ray_rates rates;
     uint32_t w = r->settings.width, h = r->settings.height;
     vbnl_result res = vbnl_scene_measure_ray_rates(r->ctx, r->scene, 8192, w, h, &rates, err);
-    record_stage(r, "calibrate", vbnl_now() - t0, 0.0, NULL);
+    record_stage(r, "calibrate", vbi_now() - t0, 0.0, NULL);
     if (res != VBNL_OK)
         return res;
     double rate = rates.shadow > 0.0 ? rates.shadow : rates.closest;
@@ -314,7 +314,7 @@ void vbnl_stage_begin(vbnl_stage_ctx *st, const char *name, double total, const 
     st->name = name;
     st->unit = unit;
     st->total = total;
-    st->start = vbnl_now();
+    st->start = vbi_now();
     st->work = 0.0;
     st->work_unit = NULL;
 }
@@ -329,7 +329,7 @@ static int stage_poll(void *user, uint64_t finished, uint64_t count)
     p.stage = st->name;
     p.unit = st->unit;
     p.total = st->total;
-    p.elapsed = vbnl_now() - st->start;
+    p.elapsed = vbi_now() - st->start;
     p.done = st->total > 0.0 && count > 0 ? st->total * (double)finished / (double)count : (double)finished;
     p.rate = p.elapsed > 0.0 ? p.done / p.elapsed : 0.0;
     p.eta = p.rate > 0.0 && p.total > 0.0 ? (p.total - p.done) / p.rate : -1.0;
@@ -344,16 +344,16 @@ int vbnl_stage_run(vbnl_stage_ctx *st, uint64_t count, vbnl_work_fn fn, void *us
 {
     if (st->cancelled)
         return -1;
-    uint64_t ran = vbnl_pool_run(st->renderer->ctx->pool, count, fn, user, stage_poll, st, st->interval);
+    uint64_t ran = vbi_pool_run(st->renderer->ctx->pool, count, fn, user, stage_poll, st, st->interval);
     return (ran < count || st->cancelled) ? -1 : 0;
 }
 
 void vbnl_stage_end(vbnl_stage_ctx *st)
 {
     if (st->record_as)
-        record_stage(st->renderer, st->record_as, vbnl_now() - st->start, 0.0, NULL);
+        record_stage(st->renderer, st->record_as, vbi_now() - st->start, 0.0, NULL);
     else
-        record_stage(st->renderer, st->name, vbnl_now() - st->start, st->work, st->work_unit);
+        record_stage(st->renderer, st->name, vbi_now() - st->start, st->work, st->work_unit);
 }
 
 void vbnl_stage_set_work(vbnl_stage_ctx *st, double work, const char *unit)
@@ -372,24 +372,24 @@ void vbnl_stage_set_storage(vbnl_stage_ctx *st, uint64_t bytes)
 
 unsigned vbnl_stage_thread_count(const vbnl_stage_ctx *st) { return st->renderer->ctx->threads; }
 
-int vbnl_run_items(vbnl_stage_ctx *st, vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *user)
+int vbi_run_items(vbnl_stage_ctx *st, vbi_pool *pool, uint64_t count, vbi_pool_fn fn, void *user)
 {
     if (st)
         return vbnl_stage_run(st, count, fn, user);
     if (pool)
-        return vbnl_pool_run(pool, count, fn, user, NULL, NULL, 1.0) == count ? 0 : -1;
+        return vbi_pool_run(pool, count, fn, user, NULL, NULL, 1.0) == count ? 0 : -1;
     for (uint64_t i = 0; i < count; ++i)
         fn(user, i, 0);
     return 0;
 }
 
-unsigned vbnl_run_thread_count(const vbnl_stage_ctx *st, const vbnl_pool *pool)
+unsigned vbi_run_thread_count(const vbnl_stage_ctx *st, const vbi_pool *pool)
 {
     if (st)
         return vbnl_stage_thread_count(st);
-    return pool ? vbnl_pool_thread_count(pool) : 1u;
+    return pool ? vbi_pool_thread_count(pool) : 1u;
 }
-uint64_t vbnl_stage_seed(const vbnl_stage_ctx *st) { return st->renderer->settings.seed; }
+uint64_t vbi_stage_seed(const vbnl_stage_ctx *st) { return st->renderer->settings.seed; }
 
 vbnl_result vbnl_renderer_prepare(vbnl_renderer *r, vbnl_progress_fn progress, void *user,
                                   vbnl_error *err)
@@ -398,7 +398,7 @@ vbnl_result vbnl_renderer_prepare(vbnl_renderer *r, vbnl_progress_fn progress, v
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_renderer_prepare: renderer is NULL");
     if (r->prepared)
         return VBNL_OK;
-    double t0 = vbnl_now();
+    double t0 = vbi_now();
     if (r->t_start == 0.0)
         r->t_start = t0;
     vbnl_result res = VBNL_OK;
@@ -415,7 +415,7 @@ vbnl_result vbnl_renderer_prepare(vbnl_renderer *r, vbnl_progress_fn progress, v
         if (res == VBNL_ERR_CANCELLED)
             r->cancelled = 1;
     }
-    r->prepare_seconds += vbnl_now() - t0;
+    r->prepare_seconds += vbi_now() - t0;
     if (res == VBNL_OK)
         r->prepared = 1;
     return res;
@@ -442,7 +442,7 @@ static void run_tile(void *user, uint64_t item, unsigned thread)
     pass_ctx *pc = user;
     vbnl_renderer *r = pc->r;
     const vbnl_film *f = r->film;
-    if (pc->deadline > 0.0 && vbnl_now() >= pc->deadline) {
+    if (pc->deadline > 0.0 && vbi_now() >= pc->deadline) {
         __atomic_store_n(&pc->cut, 1, __ATOMIC_RELAXED);
         return;
     }
@@ -451,10 +451,10 @@ static void run_tile(void *user, uint64_t item, unsigned thread)
     vbnl_tile_job job;
     job.scene = r->scene;
     job.film = r->film;
-    job.x0 = tx * VBNL_FILM_TILE;
-    job.y0 = ty * VBNL_FILM_TILE;
-    job.x1 = job.x0 + VBNL_FILM_TILE;
-    job.y1 = job.y0 + VBNL_FILM_TILE;
+    job.x0 = tx * VBI_FILM_TILE;
+    job.y0 = ty * VBI_FILM_TILE;
+    job.x1 = job.x0 + VBI_FILM_TILE;
+    job.y1 = job.y0 + VBI_FILM_TILE;
     if (job.x0 < f->crop[0])
         job.x0 = f->crop[0];
     if (job.y0 < f->crop[1])
@@ -486,17 +486,17 @@ static int pass_poll(void *user, uint64_t finished, uint64_t count)
     p.unit = "samples/pixel";
     double pass_spp = (double)(pc->sample_end - pc->sample_begin);
     p.done = (double)pc->sample_begin + pass_spp * (double)finished / (double)(count ? count : 1);
-    p.elapsed = vbnl_now() - pc->t_render_start;
+    p.elapsed = vbi_now() - pc->t_render_start;
     p.rate = p.elapsed > 0.0 ? (p.done - 0.0) / p.elapsed : 0.0;
     if (r->settings.spp > 0) {
         p.total = r->settings.spp;
         p.eta = p.rate > 0.0 ? (p.total - p.done) / p.rate : -1.0;
     } else {
         p.total = 0.0;
-        p.eta = r->settings.time_budget - (vbnl_now() - r->t_start);
+        p.eta = r->settings.time_budget - (vbi_now() - r->t_start);
     }
     if (r->settings.time_budget > 0.0 && r->settings.spp > 0) {
-        double left = r->settings.time_budget - (vbnl_now() - r->t_start);
+        double left = r->settings.time_budget - (vbi_now() - r->t_start);
         if (left < p.eta || p.eta < 0.0)
             p.eta = left;
     }
@@ -521,14 +521,14 @@ vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, vo
     pass_ctx pc;
     memset(&pc, 0, sizeof(pc));
     pc.r = r;
-    pc.tile_x0 = f->crop[0] / VBNL_FILM_TILE;
-    pc.tile_y0 = f->crop[1] / VBNL_FILM_TILE;
-    pc.tiles_x = (f->crop[2] + VBNL_FILM_TILE - 1) / VBNL_FILM_TILE - pc.tile_x0;
-    uint32_t tiles_y = (f->crop[3] + VBNL_FILM_TILE - 1) / VBNL_FILM_TILE - pc.tile_y0;
+    pc.tile_x0 = f->crop[0] / VBI_FILM_TILE;
+    pc.tile_y0 = f->crop[1] / VBI_FILM_TILE;
+    pc.tiles_x = (f->crop[2] + VBI_FILM_TILE - 1) / VBI_FILM_TILE - pc.tile_x0;
+    uint32_t tiles_y = (f->crop[3] + VBI_FILM_TILE - 1) / VBI_FILM_TILE - pc.tile_y0;
     pc.tile_count = (uint64_t)pc.tiles_x * tiles_y;
     pc.progress = progress;
     pc.user = user;
-    pc.t_render_start = vbnl_now();
+    pc.t_render_start = vbi_now();
     double interval = r->settings.progress_interval > 0.0f ? r->settings.progress_interval : 0.25;
     const uint32_t target = r->settings.spp;       /* 0 = time budget only */
     const double budget = r->settings.time_budget; /* 0 = none */
@@ -537,7 +537,7 @@ vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, vo
     while (!pc.cancelled) {
         if (target > 0 && r->spp_done >= target)
             break;
-        double now = vbnl_now();
+        double now = vbi_now();
         if (budget > 0.0 && r->spp_done > 0 && now - r->t_start >= budget)
             break;
         /* Pass size: grow geometrically for quick previews; under a time budget, aim the pass
@@ -557,9 +557,9 @@ vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, vo
         /* The budget's wall clock: after the first pass (an image needs every pixel), a tile that
          * would start after the budget is left out; the tiles in flight finish. */
         pc.deadline = budget > 0.0 && r->spp_done > 0 ? r->t_start + budget : 0.0;
-        double t0 = vbnl_now();
-        uint64_t ran = vbnl_pool_run(r->ctx->pool, pc.tile_count, run_tile, &pc, pass_poll, &pc, interval);
-        double dt = vbnl_now() - t0;
+        double t0 = vbi_now();
+        uint64_t ran = vbi_pool_run(r->ctx->pool, pc.tile_count, run_tile, &pc, pass_poll, &pc, interval);
+        double dt = vbi_now() - t0;
         r->passes++;
         if (ran < pc.tile_count)
             break; /* cancelled mid-pass: finished tiles keep their samples */
@@ -572,7 +572,7 @@ vbnl_result vbnl_renderer_render(vbnl_renderer *r, vbnl_progress_fn progress, vo
         if (pass_spp < 64 && dt < 2.0)
             pass_spp *= 2;
     }
-    double spent = vbnl_now() - pc.t_render_start;
+    double spent = vbi_now() - pc.t_render_start;
     r->render_seconds += spent;
     record_stage(r, "render", spent, 0.0, NULL);
     if (pc.cancelled) {

@@ -1,8 +1,8 @@
 /* What the core's own integrators see of the renderer beyond the public integrator ABI
  * (vbnl/integrator.h): the tile job's fields, the per-thread statistics, the samplers (private
  * header). */
-#ifndef VBNL_RENDER_INTERNAL_H
-#define VBNL_RENDER_INTERNAL_H
+#ifndef VBI_RENDER_INTERNAL_H
+#define VBI_RENDER_INTERNAL_H
 
 #include <stdint.h>
 
@@ -14,12 +14,12 @@
 #include "vbnl/integrator.h"
 
 /* Per-thread counters, padded so that threads never share a cache line. */
-typedef struct vbnl_thread_stats {
+typedef struct vbi_thread_stats {
     uint64_t rays;
     uint64_t samples;
     uint64_t camera_rays, shadow_rays; /* among rays (vbnl_render_stats) */
     char pad[32];
-} vbnl_thread_stats;
+} vbi_thread_stats;
 
 struct vbnl_tile_job {
     const vbnl_scene *scene;
@@ -30,13 +30,13 @@ struct vbnl_tile_job {
     uint64_t seed;
     vbnl_sampler_kind sampler;
     unsigned thread;
-    vbnl_thread_stats *stats;          /* this thread's counters */
+    vbi_thread_stats *stats;          /* this thread's counters */
 };
 
 /* The sampler of sample `s` of pixel (x, y): independent of tiles and threads. */
-static inline vbnl_sampler vbnl_pixel_sampler(const vbnl_tile_job *job, uint32_t x, uint32_t y, uint32_t s)
+static inline vbi_sampler vbi_pixel_sampler(const vbnl_tile_job *job, uint32_t x, uint32_t y, uint32_t s)
 {
-    return vbnl_sampler_make(job->sampler, job->seed, (uint64_t)y * job->width + x, s);
+    return vbi_sampler_make(job->sampler, job->seed, (uint64_t)y * job->width + x, s);
 }
 
 /* ---- stages of prepare -------------------------------------------------------------------- */
@@ -58,13 +58,13 @@ struct vbnl_stage_ctx {
 };
 
 /* The stage functions (vbnl_stage_begin ... vbnl_stage_thread_count) are public: integrator.h.
- * vbnl_work_fn and vbnl_pool_fn are the same function type. */
+ * vbnl_work_fn and vbi_pool_fn are the same function type. */
 
 /* Runs work items for a stage of an integrator that may also be driven without a renderer (unit
  * tests, benchmarks): through the stage when `st` is given, else on `pool` when given, else
  * serially on the calling thread (thread index 0). Returns 0, or -1 when cancelled. */
-int vbnl_run_items(vbnl_stage_ctx *st, vbnl_pool *pool, uint64_t count, vbnl_pool_fn fn, void *user);
-unsigned vbnl_run_thread_count(const vbnl_stage_ctx *st, const vbnl_pool *pool);
-uint64_t vbnl_stage_seed(const vbnl_stage_ctx *st);
+int vbi_run_items(vbnl_stage_ctx *st, vbi_pool *pool, uint64_t count, vbi_pool_fn fn, void *user);
+unsigned vbi_run_thread_count(const vbnl_stage_ctx *st, const vbi_pool *pool);
+uint64_t vbi_stage_seed(const vbnl_stage_ctx *st);
 
 #endif

@@ -3,7 +3,7 @@
  * Two samplers, chosen by name with the render setting `sampler`:
  *
  * - `random`: every number from the PCG stream of (render seed, pixel, sample index).
- * - `sobol` (default): the first VBNL_SOBOL_SLOTS draws of a sample are low-discrepancy points,
+ * - `sobol` (default): the first VBI_SOBOL_SLOTS draws of a sample are low-discrepancy points,
  *   the rest come from the same PCG stream. Each draw (one or two numbers) is a *slot* with its
  *   own sequence, "padded" as pbrt's PaddedSobolSampler pads: slot k of a pixel takes its 1D
  *   points from the first Sobol' dimension (van der Corput) or its 2D points from the first two
@@ -16,8 +16,8 @@
  *
  * The numbers depend only on (seed, pixel, sample index, draw number): an image does not depend
  * on which thread rendered which tile. */
-#ifndef VBNL_SAMPLER_H
-#define VBNL_SAMPLER_H
+#ifndef VBI_SAMPLER_H
+#define VBI_SAMPLER_H
 
 #include <stdint.h>
 #if defined(__GFNI__)
@@ -32,10 +32,10 @@
  * draws it in its 7th slot, `path` in its 5th). Measured on the glossy-floor box at 64 spp
  * (README, Samplers): 8 slots give all of `vbnl`'s gain and nearly all of `path`'s; 16, 32 and
  * 64 change the error by under 3%, and every slot costs its draws some 20-40 instructions. */
-#define VBNL_SOBOL_SLOTS 8u
+#define VBI_SOBOL_SLOTS 8u
 
-typedef struct vbnl_sampler {
-    vbnl_rng rng;         /* the draws past the slots (all draws of the random sampler); made on
+typedef struct vbi_sampler {
+    vbi_rng rng;         /* the draws past the slots (all draws of the random sampler); made on
                              first use (rng.inc is odd once it is) */
     uint64_t seed;        /* the pixel's scramble seed */
     uint64_t render_seed; /* with pixel and sample: the PCG stream's origin */
@@ -43,10 +43,10 @@ typedef struct vbnl_sampler {
     uint32_t sample;
     uint32_t rev_index;   /* the sample index, bits reversed */
     uint32_t slot;        /* the next draw's number */
-    uint32_t slots;       /* draws served by Sobol' points: VBNL_SOBOL_SLOTS, or 0 (random) */
-} vbnl_sampler;
+    uint32_t slots;       /* draws served by Sobol' points: VBI_SOBOL_SLOTS, or 0 (random) */
+} vbi_sampler;
 
-static inline uint32_t vbnl_reverse_bits32(uint32_t x)
+static inline uint32_t vbi_reverse_bits32(uint32_t x)
 {
 #if defined(__GFNI__) && defined(__SSE2__)
     /* one affine transform over GF(2) reverses the bits of every byte, then the bytes swap */
@@ -64,7 +64,7 @@ static inline uint32_t vbnl_reverse_bits32(uint32_t x)
  * the seed: Laine and Karras's hash with Vegdahl's constants (multiplications by even constants
  * xored in, an addition, a multiplication by an odd number). Applied to bit-reversed values it
  * is a nested uniform (Owen) scramble. */
-static inline uint32_t vbnl_lk_permute(uint32_t x, uint32_t seed)
+static inline uint32_t vbi_lk_permute(uint32_t x, uint32_t seed)
 {
     x ^= x * 0x3d20adeau;
     x += seed;
@@ -77,7 +77,7 @@ static inline uint32_t vbnl_lk_permute(uint32_t x, uint32_t seed)
 /* Sobol's second dimension with its bits reversed: the generator matrix is Pascal's triangle
  * mod 2, so bit j of the reversed point is the parity of the index bits k whose bit set contains
  * j's (Lucas), a superset sum over five bit planes. */
-static inline uint32_t vbnl_sobol1_reversed(uint32_t i)
+static inline uint32_t vbi_sobol1_reversed(uint32_t i)
 {
     i ^= (i >> 1) & 0x55555555u;
     i ^= (i >> 2) & 0x33333333u;
@@ -87,12 +87,12 @@ static inline uint32_t vbnl_sobol1_reversed(uint32_t i)
     return i;
 }
 
-static inline float vbnl_u32_to_unit(uint32_t x) { return (float)(x >> 8) * 0x1p-24f; }
+static inline float vbi_u32_to_unit(uint32_t x) { return (float)(x >> 8) * 0x1p-24f; }
 
 /* The sampler of sample `sample` of pixel `pixel` (y * width + x) of a render with `seed`. */
-static inline vbnl_sampler vbnl_sampler_make(vbnl_sampler_kind kind, uint64_t seed, uint64_t pixel, uint32_t sample)
+static inline vbi_sampler vbi_sampler_make(vbnl_sampler_kind kind, uint64_t seed, uint64_t pixel, uint32_t sample)
 {
-    vbnl_sampler s;
+    vbi_sampler s;
     s.rng.state = 0;
     s.rng.inc = 0; /* not made yet: most samples of VBNL never draw past the slots */
     s.render_seed = seed;
@@ -100,9 +100,9 @@ static inline vbnl_sampler vbnl_sampler_make(vbnl_sampler_kind kind, uint64_t se
     s.sample = sample;
     s.slot = 0;
     if (kind == VBNL_SAMPLER_SOBOL) {
-        s.seed = vbnl_hash64(seed ^ vbnl_hash64(pixel ^ 0x50b01u));
-        s.rev_index = vbnl_reverse_bits32(sample);
-        s.slots = VBNL_SOBOL_SLOTS;
+        s.seed = vbi_hash64(seed ^ vbi_hash64(pixel ^ 0x50b01u));
+        s.rev_index = vbi_reverse_bits32(sample);
+        s.slots = VBI_SOBOL_SLOTS;
     } else { /* every draw from the PCG stream: no scramble seed needed */
         s.seed = 0;
         s.rev_index = 0;
@@ -112,9 +112,9 @@ static inline vbnl_sampler vbnl_sampler_make(vbnl_sampler_kind kind, uint64_t se
 }
 
 /* A sampler that draws every number from `rng` (the random sampler's stream). */
-static inline vbnl_sampler vbnl_sampler_from_rng(vbnl_rng rng)
+static inline vbi_sampler vbi_sampler_from_rng(vbi_rng rng)
 {
-    vbnl_sampler s;
+    vbi_sampler s;
     s.rng = rng;
     s.seed = s.render_seed = s.pixel = 0;
     s.sample = 0;
@@ -125,15 +125,15 @@ static inline vbnl_sampler vbnl_sampler_from_rng(vbnl_rng rng)
 }
 
 /* The PCG stream of (render seed, pixel, sample), made on first use. */
-static inline vbnl_rng *vbnl_sampler_rng(vbnl_sampler *s)
+static inline vbi_rng *vbi_sampler_rng(vbi_sampler *s)
 {
     if (__builtin_expect(!(s->rng.inc & 1u), 0))
-        s->rng = vbnl_rng_for(s->render_seed, s->pixel, s->sample);
+        s->rng = vbi_rng_for(s->render_seed, s->pixel, s->sample);
     return &s->rng;
 }
 
 /* Slot k's seeds: the index shuffle, then one per dimension. */
-static inline uint64_t vbnl_sampler_slot_hash(const vbnl_sampler *s, uint32_t slot)
+static inline uint64_t vbi_sampler_slot_hash(const vbi_sampler *s, uint32_t slot)
 {
     /* the pixel's seed is already a full-avalanche hash: one multiply-xorshift round suffices */
     uint64_t h = (s->seed ^ ((uint64_t)slot * 0x9e3779b97f4a7c15ull)) * 0xbf58476d1ce4e5b9ull;
@@ -142,31 +142,31 @@ static inline uint64_t vbnl_sampler_slot_hash(const vbnl_sampler *s, uint32_t sl
 
 /* The slot's shuffled index: an Owen scramble of the sample index, which maps the first 2^m
  * indices onto an aligned block of 2^m Sobol' indices (itself a net). */
-static inline uint32_t vbnl_sampler_shuffled(const vbnl_sampler *s, uint32_t h)
+static inline uint32_t vbi_sampler_shuffled(const vbi_sampler *s, uint32_t h)
 {
-    return vbnl_reverse_bits32(vbnl_lk_permute(s->rev_index, h));
+    return vbi_reverse_bits32(vbi_lk_permute(s->rev_index, h));
 }
 
-static inline float vbnl_sampler_next(vbnl_sampler *s)
+static inline float vbi_sampler_next(vbi_sampler *s)
 {
     if (s->slot >= s->slots)
-        return vbnl_rng_next(vbnl_sampler_rng(s));
-    uint64_t h = vbnl_sampler_slot_hash(s, s->slot++);
-    uint32_t j = vbnl_sampler_shuffled(s, (uint32_t)h);
+        return vbi_rng_next(vbi_sampler_rng(s));
+    uint64_t h = vbi_sampler_slot_hash(s, s->slot++);
+    uint32_t j = vbi_sampler_shuffled(s, (uint32_t)h);
     /* van der Corput point reverse(j), Owen-scrambled: reverse(permute(reverse(reverse(j)))) */
-    return vbnl_u32_to_unit(vbnl_reverse_bits32(vbnl_lk_permute(j, (uint32_t)(h >> 32))));
+    return vbi_u32_to_unit(vbi_reverse_bits32(vbi_lk_permute(j, (uint32_t)(h >> 32))));
 }
 
-static inline vec2 vbnl_sampler_next2(vbnl_sampler *s)
+static inline vec2 vbi_sampler_next2(vbi_sampler *s)
 {
     if (s->slot >= s->slots)
-        return vbnl_rng_next2(vbnl_sampler_rng(s));
-    uint64_t h = vbnl_sampler_slot_hash(s, s->slot++);
-    uint32_t j = vbnl_sampler_shuffled(s, (uint32_t)h);
+        return vbi_rng_next2(vbi_sampler_rng(s));
+    uint64_t h = vbi_sampler_slot_hash(s, s->slot++);
+    uint32_t j = vbi_sampler_shuffled(s, (uint32_t)h);
     uint32_t h2 = (uint32_t)((h * 0x9e3779b97f4a7c15ull) >> 32);
     vec2 v;
-    v.x = vbnl_u32_to_unit(vbnl_reverse_bits32(vbnl_lk_permute(j, (uint32_t)(h >> 32))));
-    v.y = vbnl_u32_to_unit(vbnl_reverse_bits32(vbnl_lk_permute(vbnl_sobol1_reversed(j), h2)));
+    v.x = vbi_u32_to_unit(vbi_reverse_bits32(vbi_lk_permute(j, (uint32_t)(h >> 32))));
+    v.y = vbi_u32_to_unit(vbi_reverse_bits32(vbi_lk_permute(vbi_sobol1_reversed(j), h2)));
     return v;
 }
 

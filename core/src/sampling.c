@@ -3,7 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-int vbnl_alias_table_build(vbnl_alias_table *t, const float *weights, uint32_t n)
+int vbi_alias_table_build(vbi_alias_table *t, const float *weights, uint32_t n)
 {
     memset(t, 0, sizeof(*t));
     if (n == 0)
@@ -23,7 +23,7 @@ int vbnl_alias_table_build(vbnl_alias_table *t, const float *weights, uint32_t n
         free(scaled);
         free(small);
         free(large);
-        vbnl_alias_table_free(t);
+        vbi_alias_table_free(t);
         return -1;
     }
     t->n = n;
@@ -61,7 +61,7 @@ int vbnl_alias_table_build(vbnl_alias_table *t, const float *weights, uint32_t n
     return 0;
 }
 
-void vbnl_alias_table_free(vbnl_alias_table *t)
+void vbi_alias_table_free(vbi_alias_table *t)
 {
     if (!t)
         return;

@@ -2,8 +2,8 @@
  *
  * Every warp maps a uniform point of [0,1)^2 to a direction or point and has a matching pdf
  * function; tests/core/test_sampling.c checks each pair with a chi-square test. */
-#ifndef VBNL_SAMPLING_H
-#define VBNL_SAMPLING_H
+#ifndef VBI_SAMPLING_H
+#define VBI_SAMPLING_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -32,7 +32,7 @@ static inline vec2 sample_concentric_disk(vec2 u)
      * selected rather than branched on: the case is a coin flip for the branch predictor. */
     int first = fabsf(ox) > fabsf(oy);
     float r = first ? ox : oy, other = first ? oy : ox;
-    float phi = (VBNL_PI / 4.0f) * (other / r);
+    float phi = (VBI_PI / 4.0f) * (other / r);
     float s, c;
     sincos_quarter(phi, &s, &c);
     float rs = r * s, rc = r * c;
@@ -46,27 +46,27 @@ static inline vec3 sample_cosine_hemisphere(vec2 u)
     float z = safe_sqrtf(1.0f - d.x * d.x - d.y * d.y);
     return v3(d.x, d.y, z);
 }
-static inline float pdf_cosine_hemisphere(vec3 w) { return w.z > 0.0f ? w.z * VBNL_INV_PI : 0.0f; }
+static inline float pdf_cosine_hemisphere(vec3 w) { return w.z > 0.0f ? w.z * VBI_INV_PI : 0.0f; }
 
 /* Uniform sphere; pdf = 1 / (4 pi). */
 static inline vec3 sample_uniform_sphere(vec2 u)
 {
     float z = 1.0f - 2.0f * u.x;
     float r = safe_sqrtf(1.0f - z * z);
-    float phi = 2.0f * VBNL_PI * u.y;
+    float phi = 2.0f * VBI_PI * u.y;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
-static inline float pdf_uniform_sphere(void) { return VBNL_INV_4PI; }
+static inline float pdf_uniform_sphere(void) { return VBI_INV_4PI; }
 
 /* Uniform hemisphere around +z; pdf = 1 / (2 pi). */
 static inline vec3 sample_uniform_hemisphere(vec2 u)
 {
     float z = u.x;
     float r = safe_sqrtf(1.0f - z * z);
-    float phi = 2.0f * VBNL_PI * u.y;
+    float phi = 2.0f * VBI_PI * u.y;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
-static inline float pdf_uniform_hemisphere(void) { return VBNL_INV_2PI; }
+static inline float pdf_uniform_hemisphere(void) { return VBI_INV_2PI; }
 
 /* Uniform direction in the cone around +z with half-angle acos(cos_max);
  * pdf = 1 / (2 pi (1 - cos_max)) (the VBNL paper's Eq. 4). */
@@ -74,10 +74,10 @@ static inline vec3 sample_uniform_cone(vec2 u, float cos_max)
 {
     float z = 1.0f - u.x * (1.0f - cos_max);
     float r = safe_sqrtf(1.0f - z * z);
-    float phi = 2.0f * VBNL_PI * u.y;
+    float phi = 2.0f * VBI_PI * u.y;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
-static inline float pdf_uniform_cone(float cos_max) { return 1.0f / (2.0f * VBNL_PI * (1.0f - cos_max)); }
+static inline float pdf_uniform_cone(float cos_max) { return 1.0f / (2.0f * VBI_PI * (1.0f - cos_max)); }
 
 /* Uniform barycentrics on a triangle (Heitz 2019 low-distortion mapping); returns (b1, b2). */
 static inline vec2 sample_uniform_triangle(vec2 u)
@@ -103,24 +103,24 @@ static inline float power_heuristic(float pdf_f, float pdf_g)
 }
 
 /* Alias table (Walker 1977, Vose's construction): O(1) sampling of n weighted items. */
-typedef struct vbnl_alias_table {
+typedef struct vbi_alias_table {
     uint32_t n;
     float *prob;      /* acceptance probability of each slot */
     uint32_t *alias;  /* the other item of each slot */
     float *pmf;       /* normalised probability of each item */
     double total;     /* sum of the input weights */
-} vbnl_alias_table;
+} vbi_alias_table;
 
 /* Builds the table from n >= 1 non-negative weights. Returns 0 on success, -1 when out of memory
  * or when every weight is zero (the table is then left empty). */
-int vbnl_alias_table_build(vbnl_alias_table *t, const float *weights, uint32_t n);
-void vbnl_alias_table_free(vbnl_alias_table *t);
+int vbi_alias_table_build(vbi_alias_table *t, const float *weights, uint32_t n);
+void vbi_alias_table_free(vbi_alias_table *t);
 /* Samples an item with one uniform number u in [0,1); *pmf receives its probability. Inline:
  * next-event estimation picks a light with it at every vertex. */
 /* The slot a uniform number u in [0,1) draws among n >= 1 and its fraction within the slot (the
  * number compared with the slot's acceptance probability); shared with tables stored in other
  * layouts (the render records of VBNL's virtual lights). */
-static inline uint32_t vbnl_alias_slot(uint32_t n, float u, float *frac)
+static inline uint32_t vbi_alias_slot(uint32_t n, float u, float *frac)
 {
     float x = u * (float)n;
     uint32_t slot = (uint32_t)x;
@@ -135,33 +135,33 @@ static inline uint32_t vbnl_alias_slot(uint32_t n, float u, float *frac)
  * choice, so that the caller can use it again for what the choice leads to. A stratified u then
  * stays stratified within each choice (with a separate number for the choice, each would get a
  * random subset of the points). */
-static inline int vbnl_choose_reuse(float *u, float p)
+static inline int vbi_choose_reuse(float *u, float p)
 {
     float r;
     int first = *u < p;
     r = first ? *u / p : (*u - p) / (1.0f - p);
-    *u = r < VBNL_ONE_MINUS_EPS ? r : VBNL_ONE_MINUS_EPS;
+    *u = r < VBI_ONE_MINUS_EPS ? r : VBI_ONE_MINUS_EPS;
     return first;
 }
 
-/* vbnl_alias_table_sample that also returns, in *rest, u rescaled to [0,1) within the part of
- * [0,1) that drew the item (vbnl_choose_reuse on the slot's fraction): a light picked and its
+/* vbi_alias_table_sample that also returns, in *rest, u rescaled to [0,1) within the part of
+ * [0,1) that drew the item (vbi_choose_reuse on the slot's fraction): a light picked and its
  * point drawn with one 2D number. */
-static inline uint32_t vbnl_alias_table_sample_reuse(const vbnl_alias_table *t, float u, float *pmf, float *rest)
+static inline uint32_t vbi_alias_table_sample_reuse(const vbi_alias_table *t, float u, float *pmf, float *rest)
 {
     float frac;
-    uint32_t slot = vbnl_alias_slot(t->n, u, &frac);
-    uint32_t item = vbnl_choose_reuse(&frac, t->prob[slot]) ? slot : t->alias[slot];
+    uint32_t slot = vbi_alias_slot(t->n, u, &frac);
+    uint32_t item = vbi_choose_reuse(&frac, t->prob[slot]) ? slot : t->alias[slot];
     *rest = frac;
     if (pmf)
         *pmf = t->pmf[item];
     return item;
 }
 
-static inline uint32_t vbnl_alias_table_sample(const vbnl_alias_table *t, float u, float *pmf)
+static inline uint32_t vbi_alias_table_sample(const vbi_alias_table *t, float u, float *pmf)
 {
     float frac;
-    uint32_t slot = vbnl_alias_slot(t->n, u, &frac);
+    uint32_t slot = vbi_alias_slot(t->n, u, &frac);
     uint32_t item = frac < t->prob[slot] ? slot : t->alias[slot];
     if (pmf)
         *pmf = t->pmf[item];

@@ -73,7 +73,7 @@ void vbnl_camera_desc_init(vbnl_camera_desc *d)
 
 static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
 
-vbnl_result vbnl_scene_check_open(const vbnl_scene *s, const char *fn, vbnl_error *err)
+vbnl_result vbi_scene_check_open(const vbnl_scene *s, const char *fn, vbnl_error *err)
 {
     if (!s)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "%s: scene is NULL", fn);
@@ -93,8 +93,8 @@ vbnl_result vbnl_scene_create(vbnl_context *ctx, vbnl_scene **out, vbnl_error *e
     s->device = ctx->device;
     s->group_count = 1; /* the world */
     s->background_alpha = 1.0f; /* opaque, unless the front end asks for POV-Ray's +UA */
-    s->env_light = VBNL_NO_LIGHT;
-    vbnl_texture_set_init(&s->tex);
+    s->env_light = VBI_NO_LIGHT;
+    vbi_texture_set_init(&s->tex);
     *out = s;
     return VBNL_OK;
 }
@@ -123,11 +123,11 @@ void vbnl_scene_destroy(vbnl_scene *s)
                 rtcReleaseScene(s->group_rtc[i]);
         free(s->group_rtc);
     }
-    vbnl_alias_table_free(&s->light_table);
+    vbi_alias_table_free(&s->light_table);
     free(s->geoms);
     free(s->materials);
-    vbnl_env_destroy(s->env_sky);
-    vbnl_texture_set_free(&s->tex);
+    vbi_env_destroy(s->env_sky);
+    vbi_texture_set_free(&s->tex);
     free(s->lights);
     vbi_camera_mesh_free((void *)s->camera.mesh_index);
     free(s->media);
@@ -138,10 +138,10 @@ void vbnl_scene_destroy(vbnl_scene *s)
 vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, uint32_t *out_id,
                                     vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_material", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_material", err);
     if (r != VBNL_OK)
         return r;
-    if (d && (r = VBNL_DESC_CHECK(d, vbnl_material_desc, err)) != VBNL_OK)
+    if (d && (r = VBI_DESC_CHECK(d, vbnl_material_desc, err)) != VBNL_OK)
         return r;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_add_material: desc is NULL");
@@ -183,7 +183,7 @@ vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, 
     GROW(s->materials, s->material_count, s->material_capacity, scene_material);
     scene_material *m = &s->materials[s->material_count];
     m->desc = *d;
-    vbnl_bsdf_from_material(&m->bsdf, d);
+    vbi_bsdf_from_material(&m->bsdf, d);
     m->emissive = d->emission[0] > 0.0f || d->emission[1] > 0.0f || d->emission[2] > 0.0f;
     m->varies = d->base_texture != 0;
     m->is_node = 0;
@@ -251,10 +251,10 @@ static vbnl_result check_transform(const float *m, mat4 *out, mat4 *inv, vbnl_er
 vbnl_result vbnl_scene_add_mesh(vbnl_scene *s, const vbnl_mesh_desc *d, uint32_t *out_id,
                                 vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_mesh", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_mesh", err);
     if (r != VBNL_OK)
         return r;
-    if (d && (r = VBNL_DESC_CHECK(d, vbnl_mesh_desc, err)) != VBNL_OK)
+    if (d && (r = VBI_DESC_CHECK(d, vbnl_mesh_desc, err)) != VBNL_OK)
         return r;
     if (!d || !d->positions || !d->indices)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
@@ -339,7 +339,7 @@ vbnl_result vbnl_scene_add_sphere(vbnl_scene *s, const float center[3], float ra
                                   uint32_t material, uint32_t group, uint32_t *out_id,
                                   vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_sphere", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_sphere", err);
     if (r != VBNL_OK)
         return r;
     if (!center || !finite3(center) || !(radius > 0.0f) || !isfinite(radius))
@@ -360,7 +360,7 @@ vbnl_result vbnl_scene_add_sphere(vbnl_scene *s, const float center[3], float ra
     g->u.sphere.center = v3_load(center);
     g->u.sphere.radius = radius;
     g->u.sphere.material = material;
-    g->u.sphere.light = VBNL_NO_LIGHT;
+    g->u.sphere.light = VBI_NO_LIGHT;
     if (out_id)
         *out_id = s->geom_count;
     s->geom_count++;
@@ -369,7 +369,7 @@ vbnl_result vbnl_scene_add_sphere(vbnl_scene *s, const float center[3], float ra
 
 vbnl_result vbnl_scene_add_group(vbnl_scene *s, uint32_t *out_group, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_group", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_group", err);
     if (r != VBNL_OK)
         return r;
     if (!out_group)
@@ -381,7 +381,7 @@ vbnl_result vbnl_scene_add_group(vbnl_scene *s, uint32_t *out_group, vbnl_error 
 vbnl_result vbnl_scene_add_instance(vbnl_scene *s, uint32_t group, const float transform[16],
                                     uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_instance", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_instance", err);
     if (r != VBNL_OK)
         return r;
     if (!transform)
@@ -407,9 +407,9 @@ vbnl_result vbnl_scene_add_instance(vbnl_scene *s, uint32_t group, const float t
     return VBNL_OK;
 }
 
-static vbnl_result push_light(vbnl_scene *s, const vbnl_light *l, uint32_t *out_id, vbnl_error *err)
+static vbnl_result push_light(vbnl_scene *s, const vbi_light *l, uint32_t *out_id, vbnl_error *err)
 {
-    GROW(s->lights, s->light_count, s->light_capacity, vbnl_light);
+    GROW(s->lights, s->light_count, s->light_capacity, vbi_light);
     s->lights[s->light_count] = *l;
     if (out_id)
         *out_id = s->light_count;
@@ -427,16 +427,16 @@ static vbnl_result check_color(const float *c, const char *what, vbnl_error *err
 vbnl_result vbnl_scene_add_point_light(vbnl_scene *s, const float position[3],
                                        const float intensity[3], uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_point_light", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_point_light", err);
     if (r != VBNL_OK)
         return r;
     if (!position || !finite3(position))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "point light position must be finite");
     if ((r = check_color(intensity, "point light intensity", err)) != VBNL_OK)
         return r;
-    vbnl_light l;
+    vbi_light l;
     memset(&l, 0, sizeof(l));
-    l.type = VBNL_LIGHT_POINT;
+    l.type = VBI_LIGHT_POINT;
     l.p = v3_load(position);
     l.L = v3_load(intensity);
     r = push_light(s, &l, out_id, err);
@@ -447,10 +447,10 @@ vbnl_result vbnl_scene_add_point_light(vbnl_scene *s, const float position[3],
 vbnl_result vbnl_scene_add_spot_light(vbnl_scene *s, const vbnl_spot_light_desc *d, uint32_t *out_id,
                                       vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_spot_light", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_spot_light", err);
     if (r != VBNL_OK)
         return r;
-    if (d && (r = VBNL_DESC_CHECK(d, vbnl_spot_light_desc, err)) != VBNL_OK)
+    if (d && (r = VBI_DESC_CHECK(d, vbnl_spot_light_desc, err)) != VBNL_OK)
         return r;
     if (!d || !finite3(d->position) || !finite3(d->direction) || v3_len(v3_load(d->direction)) == 0.0f)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
@@ -461,9 +461,9 @@ vbnl_result vbnl_scene_add_spot_light(vbnl_scene *s, const vbnl_spot_light_desc 
           d->cos_inner <= 1.0f) || !(d->exponent >= 0.0f))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "spot light needs -1 <= cos_outer <= cos_inner <= 1, cos_outer < 1 and exponent >= 0");
-    vbnl_light l;
+    vbi_light l;
     memset(&l, 0, sizeof(l));
-    l.type = VBNL_LIGHT_SPOT;
+    l.type = VBI_LIGHT_SPOT;
     l.p = v3_load(d->position);
     l.n = v3_norm(v3_load(d->direction));
     l.L = v3_load(d->intensity);
@@ -478,10 +478,10 @@ vbnl_result vbnl_scene_add_spot_light(vbnl_scene *s, const vbnl_spot_light_desc 
 vbnl_result vbnl_scene_add_area_light(vbnl_scene *s, const vbnl_area_light_desc *d, uint32_t *out_id,
                                       vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_area_light", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_area_light", err);
     if (r != VBNL_OK)
         return r;
-    if (d && (r = VBNL_DESC_CHECK(d, vbnl_area_light_desc, err)) != VBNL_OK)
+    if (d && (r = VBI_DESC_CHECK(d, vbnl_area_light_desc, err)) != VBNL_OK)
         return r;
     if (!d || !finite3(d->corner) || !finite3(d->edge_u) || !finite3(d->edge_v))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "area light needs finite corner and edges");
@@ -501,9 +501,9 @@ vbnl_result vbnl_scene_add_area_light(vbnl_scene *s, const vbnl_area_light_desc 
     uint32_t mat;
     if ((r = vbnl_scene_add_material(s, &md, &mat, err)) != VBNL_OK)
         return r;
-    vbnl_light l;
+    vbi_light l;
     memset(&l, 0, sizeof(l));
-    l.type = VBNL_LIGHT_RECT;
+    l.type = VBI_LIGHT_RECT;
     l.p = v3_load(d->corner);
     l.e0 = eu;
     l.e1 = ev;
@@ -536,7 +536,7 @@ vbnl_result vbnl_scene_add_directional_light(vbnl_scene *s, const float directio
                                              const float irradiance[3], uint32_t *out_id,
                                              vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_directional_light", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_directional_light", err);
     if (r != VBNL_OK)
         return r;
     if (!direction || !finite3(direction) || v3_len(v3_load(direction)) == 0.0f)
@@ -544,9 +544,9 @@ vbnl_result vbnl_scene_add_directional_light(vbnl_scene *s, const float directio
                               "directional light needs a finite non-zero direction");
     if ((r = check_color(irradiance, "directional light irradiance", err)) != VBNL_OK)
         return r;
-    vbnl_light l;
+    vbi_light l;
     memset(&l, 0, sizeof(l));
-    l.type = VBNL_LIGHT_DIRECTIONAL;
+    l.type = VBI_LIGHT_DIRECTIONAL;
     l.n = v3_norm(v3_load(direction));
     l.L = v3_load(irradiance);
     r = push_light(s, &l, out_id, err);
@@ -556,13 +556,13 @@ vbnl_result vbnl_scene_add_directional_light(vbnl_scene *s, const float directio
 
 vbnl_result vbnl_scene_set_environment(vbnl_scene *s, const float radiance[3], vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_environment", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_environment", err);
     if (r != VBNL_OK)
         return r;
     if ((r = check_color(radiance, "environment radiance", err)) != VBNL_OK)
         return r;
     s->env_radiance = v3_load(radiance);
-    vbnl_env_destroy(s->env_sky);
+    vbi_env_destroy(s->env_sky);
     s->env_sky = NULL;
     return VBNL_OK;
 }
@@ -579,12 +579,12 @@ void vbnl_environment_desc_init(vbnl_environment_desc *d)
 
 vbnl_result vbnl_scene_set_environment_pigments(vbnl_scene *s, const vbnl_environment_desc *d, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_environment_pigments", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_environment_pigments", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_scene_set_environment_pigments: desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_environment_desc, err)) != VBNL_OK)
+    if ((r = VBI_DESC_CHECK(d, vbnl_environment_desc, err)) != VBNL_OK)
         return r;
     if (d->pigment_count == 0 || d->pigment_count > VBNL_ENVIRONMENT_LAYERS_MAX || !d->pigments)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "environment needs 1 to %u pigments, got %u",
@@ -602,10 +602,10 @@ vbnl_result vbnl_scene_set_environment_pigments(vbnl_scene *s, const vbnl_enviro
     if ((r = check_color(d->emission, "environment emission", err)) != VBNL_OK ||
         (r = check_color(d->background, "environment background", err)) != VBNL_OK)
         return r;
-    vbnl_env *e = vbnl_env_create(d, &s->tex);
+    vbi_env *e = vbi_env_create(d, &s->tex);
     if (!e)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    vbnl_env_destroy(s->env_sky);
+    vbi_env_destroy(s->env_sky);
     s->env_sky = e;
     s->env_radiance = v3s(0.0f);
     return VBNL_OK;
@@ -613,7 +613,7 @@ vbnl_result vbnl_scene_set_environment_pigments(vbnl_scene *s, const vbnl_enviro
 
 vbnl_result vbnl_scene_set_background_alpha(vbnl_scene *s, float alpha, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_background_alpha", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_background_alpha", err);
     if (r != VBNL_OK)
         return r;
     if (!(alpha >= 0.0f && alpha <= 1.0f))
@@ -624,7 +624,7 @@ vbnl_result vbnl_scene_set_background_alpha(vbnl_scene *s, float alpha, vbnl_err
 
 vbnl_result vbnl_scene_set_visibility(vbnl_scene *s, uint32_t geom, uint32_t flags, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_visibility", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_visibility", err);
     if (r != VBNL_OK)
         return r;
     if (geom >= s->geom_count || s->geoms[geom].kind == SCENE_GEOM_AREA_LIGHT)
@@ -640,7 +640,7 @@ vbnl_result vbnl_scene_set_visibility(vbnl_scene *s, uint32_t geom, uint32_t fla
 
 vbnl_result vbnl_scene_set_light_shadowless(vbnl_scene *s, uint32_t light, int shadowless, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_light_shadowless", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_light_shadowless", err);
     if (r != VBNL_OK)
         return r;
     if (light >= s->light_count)
@@ -679,10 +679,10 @@ vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3], 
 
 vbnl_result vbnl_scene_set_camera(vbnl_scene *s, const vbnl_camera_desc *c, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_set_camera", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_camera", err);
     if (r != VBNL_OK)
         return r;
-    if (c && (r = VBNL_DESC_CHECK(c, vbnl_camera_desc, err)) != VBNL_OK)
+    if (c && (r = VBI_DESC_CHECK(c, vbnl_camera_desc, err)) != VBNL_OK)
         return r;
     if (!c || !finite3(c->position) || !finite3(c->forward) || !finite3(c->right) || !finite3(c->up))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "camera vectors must be finite");
@@ -790,7 +790,7 @@ static int camera_pinhole(const vbnl_camera_desc *c, float sx, float sy, vec3 *o
     }
 }
 
-int vbnl_camera_ray_lens(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec2 lens,
+int vbi_camera_ray_lens(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec2 lens,
                          vec3 *o, vec3 *d)
 {
     if (c->projection == VBNL_CAMERA_MESH) {
@@ -820,7 +820,7 @@ int vbnl_camera_ray_lens(const vbnl_camera_desc *c, uint32_t width, uint32_t hei
     return ok;
 }
 
-int vbnl_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec3 *o, vec3 *d)
+int vbi_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, float px, float py, vec3 *o, vec3 *d)
 {
-    return vbnl_camera_ray_lens(c, width, height, px, py, (vec2){0.5f, 0.5f}, o, d);
+    return vbi_camera_ray_lens(c, width, height, px, py, (vec2){0.5f, 0.5f}, o, d);
 }

@@ -81,13 +81,13 @@ static RTCGeometry make_geometry(vbnl_scene *s, scene_geom *g)
     }
     }
     /* visibility flags clear the bits of the rays that must not see the geometry */
-    uint32_t mask = VBNL_RAY_ANY;
+    uint32_t mask = VBI_RAY_ANY;
     if (g->visibility & VBNL_VISIBLE_NO_SHADOW)
-        mask = (mask & ~VBNL_RAY_SHADOW) | VBNL_RAY_NO_SHADOW_PROBE;
+        mask = (mask & ~VBI_RAY_SHADOW) | VBI_RAY_NO_SHADOW_PROBE;
     if (g->visibility & VBNL_VISIBLE_NO_IMAGE)
-        mask &= ~VBNL_RAY_CAMERA;
+        mask &= ~VBI_RAY_CAMERA;
     if (g->visibility & VBNL_VISIBLE_NO_REFLECTION)
-        mask &= ~VBNL_RAY_REFLECTED;
+        mask &= ~VBI_RAY_REFLECTED;
     rtcSetGeometryMask(geom, mask);
     rtcCommitGeometry(geom);
     return geom;
@@ -100,17 +100,17 @@ static void grow_bounds(vbnl_scene *s, vec3 p)
 }
 
 /* A slot for one more light (NULL when out of memory). */
-static vbnl_light *append_light(vbnl_scene *s)
+static vbi_light *append_light(vbnl_scene *s)
 {
     if (s->light_count == s->light_capacity) {
         uint32_t cap = s->light_capacity ? s->light_capacity * 2 : 16;
-        vbnl_light *nl = realloc(s->lights, sizeof(vbnl_light) * cap);
+        vbi_light *nl = realloc(s->lights, sizeof(vbi_light) * cap);
         if (!nl)
             return NULL;
         s->lights = nl;
         s->light_capacity = cap;
     }
-    vbnl_light *l = &s->lights[s->light_count++];
+    vbi_light *l = &s->lights[s->light_count++];
     memset(l, 0, sizeof(*l));
     return l;
 }
@@ -132,7 +132,7 @@ static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
             if (!m->face_lights)
                 return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
             for (uint32_t t = 0; t < m->triangle_count; ++t) {
-                m->face_lights[t] = VBNL_NO_LIGHT;
+                m->face_lights[t] = VBI_NO_LIGHT;
                 const scene_material *mat = &s->materials[m->face_materials ? m->face_materials[t] : m->material];
                 if (!mat->emissive)
                     continue;
@@ -152,10 +152,10 @@ static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
                     if (v3_dot(ns, n) < 0.0f)
                         n = v3_neg(n);
                 }
-                vbnl_light *l = append_light(s);
+                vbi_light *l = append_light(s);
                 if (!l)
                     return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-                l->type = VBNL_LIGHT_TRIANGLE;
+                l->type = VBI_LIGHT_TRIANGLE;
                 l->p = p0;
                 l->e0 = v3_sub(p1, p0);
                 l->e1 = v3_sub(p2, p0);
@@ -167,13 +167,13 @@ static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
             }
         } else if (g->kind == SCENE_GEOM_SPHERE && s->materials[g->u.sphere.material].emissive) {
             const scene_material *mat = &s->materials[g->u.sphere.material];
-            vbnl_light *l = append_light(s);
+            vbi_light *l = append_light(s);
             if (!l)
                 return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-            l->type = VBNL_LIGHT_SPHERE;
+            l->type = VBI_LIGHT_SPHERE;
             l->p = g->u.sphere.center;
             l->radius = g->u.sphere.radius;
-            l->area = 4.0f * VBNL_PI * l->radius * l->radius;
+            l->area = 4.0f * VBI_PI * l->radius * l->radius;
             l->L = v3_load(mat->desc.emission);
             l->two_sided = mat->desc.two_sided;
             g->u.sphere.light = s->light_count - 1;
@@ -182,18 +182,18 @@ static vbnl_result add_emitters(vbnl_scene *s, vbnl_error *err)
     /* A directional sky: its table is baked here (environment.h); a sky that turns out constant
      * (solid layers) becomes the constant environment, and a black one no light at all. */
     vec3 env_L = s->env_radiance;
-    const vbnl_env *env_sky = NULL;
+    const vbi_env *env_sky = NULL;
     if (s->env_sky) {
-        if (vbnl_env_bake(s->env_sky) != 0)
+        if (vbi_env_bake(s->env_sky) != 0)
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory baking the environment");
         env_L = s->env_sky->mean;
         env_sky = s->env_sky->constant ? NULL : s->env_sky;
     }
     if (!v3_is_black(env_L)) {
-        vbnl_light *l = append_light(s);
+        vbi_light *l = append_light(s);
         if (!l)
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-        l->type = VBNL_LIGHT_ENV;
+        l->type = VBI_LIGHT_ENV;
         l->L = env_L;
         l->env = env_sky;
         s->env_light = s->light_count - 1;
@@ -219,13 +219,13 @@ static void commit_undo(vbnl_scene *s)
             free(g->u.mesh.face_lights);
             g->u.mesh.face_lights = NULL;
         } else if (g->kind == SCENE_GEOM_SPHERE) {
-            g->u.sphere.light = VBNL_NO_LIGHT;
+            g->u.sphere.light = VBI_NO_LIGHT;
         }
     }
     s->light_count = s->user_light_count;
-    s->env_light = VBNL_NO_LIGHT;
-    vbnl_env_unbake(s->env_sky);
-    vbnl_alias_table_free(&s->light_table);
+    s->env_light = VBI_NO_LIGHT;
+    vbi_env_unbake(s->env_sky);
+    vbi_alias_table_free(&s->light_table);
 }
 
 static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err);
@@ -251,7 +251,7 @@ static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
     s->ctx->embree_error[0] = '\0';
     /* textures are final now: which materials vary per hit, and the hidden leaf copies of nodes */
     s->user_material_count = s->material_count;
-    vbnl_result tr = vbnl_texture_commit(s, err);
+    vbnl_result tr = vbi_texture_commit(s, err);
     if (tr != VBNL_OK)
         return tr;
     s->group_rtc = calloc(s->group_count, sizeof(RTCScene));
@@ -295,7 +295,7 @@ static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
         grow_bounds(s, v3(b.upper_x, b.upper_y, b.upper_z));
     }
     for (uint32_t i = 0; i < s->light_count; ++i)
-        if (s->lights[i].type == VBNL_LIGHT_POINT || s->lights[i].type == VBNL_LIGHT_SPOT)
+        if (s->lights[i].type == VBI_LIGHT_POINT || s->lights[i].type == VBI_LIGHT_SPOT)
             grow_bounds(s, s->lights[i].p);
     if (s->bounds_min.x > s->bounds_max.x) {
         s->bounds_min = v3s(-1.0f);
@@ -326,18 +326,18 @@ static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
     for (uint32_t i = 0; i < s->light_count; ++i) {
         s->lights[i].world_center = center;
         s->lights[i].world_radius = radius > 0.0f ? radius : 1.0f;
-        power[i] = v3_avg(vbnl_light_power(&s->lights[i]));
+        power[i] = v3_avg(vbi_light_power(&s->lights[i]));
     }
-    int rc = vbnl_alias_table_build(&s->light_table, power, s->light_count);
+    int rc = vbi_alias_table_build(&s->light_table, power, s->light_count);
     free(power);
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "every light of the scene has zero power");
-    vbnl_media_commit(s);
+    vbi_media_commit(s);
     s->has_masks = 0;
     for (uint32_t gi = 0; gi < s->geom_count; ++gi)
         s->has_masks |= s->geoms[gi].visibility != 0;
-    s->has_null = vbnl_media_commit_pass(s);
+    s->has_null = vbi_media_commit_pass(s);
     s->committed = 1;
     return VBNL_OK;
 }
@@ -423,26 +423,26 @@ vbnl_result vbnl_scene_get_info(const vbnl_scene *s, vbnl_scene_info *out, vbnl_
 
 /* ---- queries ------------------------------------------------------------------------------ */
 
-/* The queries are vbnl_scene_intersect_inline and vbnl_scene_occluded_inline (scene_internal.h),
+/* The queries are vbi_scene_intersect_inline and vbi_scene_occluded_inline (scene_internal.h),
  * which the path tracer inlines into its bounce loop. */
-int vbnl_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbnl_hit *hit)
+int vbi_scene_intersect(const vbnl_scene *s, vec3 o, vec3 d, float tfar, vbi_hit *hit)
 {
-    return vbnl_scene_intersect_inline(s, o, d, tfar, hit);
+    return vbi_scene_intersect_inline(s, o, d, tfar, hit);
 }
 
-int vbnl_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar)
+int vbi_scene_occluded(const vbnl_scene *s, vec3 o, vec3 d, float tfar)
 {
-    return vbnl_scene_occluded_inline(s, o, d, tfar);
+    return vbi_scene_occluded_inline(s, o, d, tfar);
 }
 
-void vbnl_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
-                           vbnl_hit hits[8], int hit_mask[8])
+void vbi_scene_intersect8(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
+                           vbi_hit hits[8], int hit_mask[8])
 {
-    vbnl_scene_intersect8_mask(s, active, o, d, VBNL_RAY_ANY, hits, hit_mask);
+    vbi_scene_intersect8_mask(s, active, o, d, VBI_RAY_ANY, hits, hit_mask);
 }
 
-void vbnl_scene_intersect8_mask(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
-                                uint32_t mask, vbnl_hit hits[8], int hit_mask[8])
+void vbi_scene_intersect8_mask(const vbnl_scene *s, const int active[8], const vec3 o[8], const vec3 d[8],
+                                uint32_t mask, vbi_hit hits[8], int hit_mask[8])
 {
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
@@ -470,7 +470,7 @@ void vbnl_scene_intersect8_mask(const vbnl_scene *s, const int active[8], const 
     for (int i = 0; i < 8; ++i) {
         hit_mask[i] = active[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
         if (hit_mask[i])
-            vbnl_fill_hit(s, rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i], rh.hit.u[i], rh.hit.v[i],
+            vbi_fill_hit(s, rh.hit.geomID[i], rh.hit.primID[i], rh.hit.instID[0][i], rh.hit.u[i], rh.hit.v[i],
                           rh.ray.tfar[i], o[i], d[i], v3(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]);
     }
 }
@@ -497,7 +497,7 @@ static uint64_t fp_array(uint64_t h, const void *data, size_t n)
     return data ? fp_bytes(h, data, n) : h;
 }
 
-uint64_t vbnl_scene_fingerprint(const vbnl_scene *s)
+uint64_t vbi_scene_fingerprint(const vbnl_scene *s)
 {
     if (!s || !s->committed)
         return 0;
@@ -549,11 +549,11 @@ uint64_t vbnl_scene_fingerprint(const vbnl_scene *s)
         h = fp_u32(h, (uint32_t)d->two_sided);
         h = fp_u32(h, d->base_texture);
     }
-    h = vbnl_texture_fingerprint(s, h);
+    h = vbi_texture_fingerprint(s, h);
     h = fp_u32(h, s->light_count);
     for (uint32_t i = 0; i < s->light_count; ++i) {
         /* not the whole struct: its padding is not defined */
-        const vbnl_light *l = &s->lights[i];
+        const vbi_light *l = &s->lights[i];
         h = fp_u32(h, (uint32_t)l->type);
         h = fp_v3(fp_v3(fp_v3(fp_v3(h, l->p), l->e0), l->e1), l->n);
         h = fp_f32(fp_f32(h, l->area), l->radius);
@@ -563,7 +563,7 @@ uint64_t vbnl_scene_fingerprint(const vbnl_scene *s)
     }
     h = fp_v3(h, s->env_radiance);
     if (s->env_sky) {
-        const vbnl_env *e = s->env_sky;
+        const vbi_env *e = s->env_sky;
         h = fp_u32(h, e->count);
         for (uint32_t i = 0; i < e->count; ++i)
             h = fp_u32(h, e->pigments[i]);

@@ -2,7 +2,7 @@
 
 #include <string.h>
 
-void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_path_fn fn, void *state)
+void vbi_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbi_camera_path_fn fn, void *state)
 {
     const vbnl_scene *sc = job->scene;
     vbnl_film *film = job->film;
@@ -15,8 +15,8 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
         for (uint32_t base = 0; base < npix; base += 8) {
             int active[8], hit_mask[8], seen[8];
             vec3 o[8], d[8];
-            vbnl_hit hits[8];
-            vbnl_sampler sp[8];
+            vbi_hit hits[8];
+            vbi_sampler sp[8];
             uint32_t px[8], py[8];
             const uint32_t lanes = npix - base < 8 ? npix - base : 8;
             for (uint32_t i = 0; i < 8; ++i) {
@@ -31,18 +31,18 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                     x = job->x0;
                     ++y;
                 }
-                sp[i] = vbnl_pixel_sampler(job, px[i], py[i], smp);
-                vec2 u = vbnl_sampler_next2(&sp[i]);
+                sp[i] = vbi_pixel_sampler(job, px[i], py[i], smp);
+                vec2 u = vbi_sampler_next2(&sp[i]);
                 /* a thin lens takes the sample's second pair of numbers (a pinhole camera none), and
                  * so does a mesh camera with several rays per pixel, to pick one */
                 const int lens_numbers = sc->camera.lens_radius > 0.0f ||
                                          (sc->camera.projection == VBNL_CAMERA_MESH && sc->camera.mesh_rays_per_pixel > 1);
-                vec2 lens = lens_numbers ? vbnl_sampler_next2(&sp[i]) : (vec2){0.5f, 0.5f};
-                seen[i] = vbnl_camera_ray_lens(&sc->camera, job->width, job->height, (float)px[i] + u.x,
+                vec2 lens = lens_numbers ? vbi_sampler_next2(&sp[i]) : (vec2){0.5f, 0.5f};
+                seen[i] = vbi_camera_ray_lens(&sc->camera, job->width, job->height, (float)px[i] + u.x,
                                                (float)py[i] + u.y, lens, &o[i], &d[i]);
                 active[i] = seen[i];
             }
-            vbnl_scene_intersect8_mask(sc, active, o, d, sc->has_masks ? VBNL_RAY_CAMERA : VBNL_RAY_ANY, hits,
+            vbi_scene_intersect8_mask(sc, active, o, d, sc->has_masks ? VBI_RAY_CAMERA : VBI_RAY_ANY, hits,
                                        hit_mask);
             job->stats->rays += lanes;
             job->stats->camera_rays += lanes;
@@ -54,12 +54,12 @@ void vbnl_render_camera_paths(vbnl_tile_job *job, uint32_t stride, vbnl_camera_p
                     fn(state, &sp[i], o[i], d[i], hit_mask[i], &hits[i], values[i], job->stats);
                     values[i][3] = sc->background_alpha >= 1.0f ||
                                            (hit_mask[i] && !sc->has_media && !sc->has_null &&
-                                           !vbnl_bsdf_is_transmissive(&sc->materials[hits[i].material].bsdf) &&
+                                           !vbi_bsdf_is_transmissive(&sc->materials[hits[i].material].bsdf) &&
                                            !sc->materials[hits[i].material].varies)
                                        ? 1.0f
-                                       : vbnl_camera_alpha(sc, o[i], d[i], hit_mask[i], &hits[i], &sp[i]);
+                                       : vbi_camera_alpha(sc, o[i], d[i], hit_mask[i], &hits[i], &sp[i]);
                 }
-                vbnl_film_add(film, px[i], py[i], values[i]);
+                vbi_film_add(film, px[i], py[i], values[i]);
             }
         }
     }

@@ -3,8 +3,8 @@
  * Names are short on purpose (pbrt's Vector3f style): this header is private to core and every
  * function is static inline, so nothing here is exported. Colours use the same type as vectors
  * (x, y, z = r, g, b). */
-#ifndef VBNL_VMATH_H
-#define VBNL_VMATH_H
+#ifndef VBI_VMATH_H
+#define VBI_VMATH_H
 
 #include <math.h>
 #include <stdint.h>
@@ -12,12 +12,12 @@
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
-#define VBNL_PI 3.14159265358979323846f
-#define VBNL_INV_PI 0.31830988618379067154f
-#define VBNL_INV_2PI 0.15915494309189533577f
-#define VBNL_INV_4PI 0.07957747154594766788f
+#define VBI_PI 3.14159265358979323846f
+#define VBI_INV_PI 0.31830988618379067154f
+#define VBI_INV_2PI 0.15915494309189533577f
+#define VBI_INV_4PI 0.07957747154594766788f
 /* Largest float below 1: the upper end of [0, 1) random numbers. */
-#define VBNL_ONE_MINUS_EPS 0x1.fffffep-1f
+#define VBI_ONE_MINUS_EPS 0x1.fffffep-1f
 
 typedef struct vec3 {
     float x, y, z;

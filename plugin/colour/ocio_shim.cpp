@@ -155,12 +155,12 @@ std::string describe(const OCIO::ConstConfigRcPtr &cfg)
 
 } // namespace
 
-extern "C" const char *vbnl_ocio_builtin_config(void)
+extern "C" const char *vbi_ocio_builtin_config(void)
 {
     return kBuiltinConfig;
 }
 
-extern "C" int vbnl_ocio_describe(const char *config_path, char *buf, size_t buf_size, char *msg,
+extern "C" int vbi_ocio_describe(const char *config_path, char *buf, size_t buf_size, char *msg,
                                   size_t msg_size)
 {
     try {
@@ -174,7 +174,7 @@ extern "C" int vbnl_ocio_describe(const char *config_path, char *buf, size_t buf
     }
 }
 
-extern "C" int vbnl_ocio_apply(const char *config_path, const char *display, const char *view, float *pixels,
+extern "C" int vbi_ocio_apply(const char *config_path, const char *display, const char *view, float *pixels,
                                uint32_t width, uint32_t height, uint32_t channels, char *msg, size_t msg_size)
 {
     if (!pixels || (channels != 3 && channels != 4) || width == 0 || height == 0)

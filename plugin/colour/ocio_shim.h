@@ -1,6 +1,6 @@
 /* OpenColorIO behind a C interface (the project's only C++ lives in ocio_shim.cpp).
  *
- * vbnl_ocio_apply converts scene-linear Rec.709 pixels in place to the display-referred values of
+ * vbi_ocio_apply converts scene-linear Rec.709 pixels in place to the display-referred values of
  * a display/view pair. The config is, in this order: `config_path` when non-NULL, the file named
  * by $OCIO when set and non-empty, else the embedded config (builtin_config.yaml, made only of
  * OpenColorIO 2.1 built-in transforms): display "sRGB" with views "Standard" (the sRGB curve, no
@@ -12,8 +12,8 @@
  * Every C++ exception is caught inside the shim.
  *
  * Thread-safety: calls share nothing; each builds its own config and processor. */
-#ifndef VBNL_OCIO_SHIM_H
-#define VBNL_OCIO_SHIM_H
+#ifndef VBI_OCIO_SHIM_H
+#define VBI_OCIO_SHIM_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -23,15 +23,15 @@ extern "C" {
 #endif
 
 /* The embedded config's YAML text. */
-const char *vbnl_ocio_builtin_config(void);
+const char *vbi_ocio_builtin_config(void);
 
 /* display/view NULL: the config's default display and that display's default view. rgba holds
  * width*height*channels floats (channels 3 or 4; the 4th is left alone). Returns a vbnl_result. */
-int vbnl_ocio_apply(const char *config_path, const char *display, const char *view, float *pixels,
+int vbi_ocio_apply(const char *config_path, const char *display, const char *view, float *pixels,
                     uint32_t width, uint32_t height, uint32_t channels, char *msg, size_t msg_size);
 
 /* "display: view, view; display: ..." of the chosen config, into buf. Returns a vbnl_result. */
-int vbnl_ocio_describe(const char *config_path, char *buf, size_t buf_size, char *msg, size_t msg_size);
+int vbi_ocio_describe(const char *config_path, char *buf, size_t buf_size, char *msg, size_t msg_size);
 
 #ifdef __cplusplus
 }

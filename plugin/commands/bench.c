@@ -115,47 +115,47 @@ int cmd_bench(int argc, char **argv)
         case 'c':
             if (cli_parse_camera(optarg, cam.position, cam.target, &cam.fov_y)) {
                 fprintf(stderr, "vbnl bench: bad --camera '%s'\n", optarg);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             break;
         case 'W':
             if (bench_u32("width", optarg, &width, 1, 16384))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'H':
             if (bench_u32("height", optarg, &height, 1, 16384))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'n':
             if (bench_u32("spp", optarg, &spp, 1, 1u << 30))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'r':
             if (bench_u32("repeat", optarg, &repeat, 1, 99))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             repeat_set = 1;
             break;
         case 'T':
             if (bench_u32("threads", optarg, &threads, 0, 1024))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'm': {
             vbnl_error e = {0};
             if (vbnl_sampler_find(optarg, &sampler, &e) != VBNL_OK) {
                 fprintf(stderr, "vbnl bench: %s\n", e.message);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             break;
         }
-        case 'h': bench_usage(stdout); return VBNL_EXIT_OK;
+        case 'h': bench_usage(stdout); return VBI_EXIT_OK;
         case 'E': equal_time = 1; break;
         case 'C':
             if (bench_u32("equal-count", optarg, &count, 0, 50000000))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'P':
             if (bench_u32("count-spp", optarg, &count_spp, 1, 1000000))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'M': methods = optarg; break;
         case 'B': {
@@ -186,25 +186,25 @@ int cmd_bench(int argc, char **argv)
             if (bad) {
                 fprintf(stderr, "vbnl bench: --budgets takes up to 8 increasing seconds, e.g. 10,30,100, got '%s'\n",
                         optarg);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             break;
         }
         case 'Z':
             if (bench_u32("size", optarg, &size, 1, 8192))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'F':
             if (bench_seconds("ref-time", optarg, &ref_time))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'S':
             if (bench_u32("ref-spp", optarg, &ref_spp, 1, 16777216))
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             break;
         case 'O': out_dir = optarg; break;
         case 'Y': only = optarg; break;
-        default: bench_usage(stderr); return VBNL_EXIT_USAGE;
+        default: bench_usage(stderr); return VBI_EXIT_USAGE;
         }
     }
     if (equal_time) {
@@ -224,7 +224,7 @@ int cmd_bench(int argc, char **argv)
     vbnl_context_desc cd;
     vbnl_context_desc_init(&cd);
     cd.threads = threads;
-    int rc = VBNL_EXIT_FAILURE;
+    int rc = VBI_EXIT_FAILURE;
     if (vbnl_context_create(&cd, &ctx, &err) != VBNL_OK ||
         module_load_scene(ctx, scene_path, &cam, (float)width / (float)height, &scene, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl bench: %s\n", err.message);
@@ -286,7 +286,7 @@ int cmd_bench(int argc, char **argv)
     printf("%-34s %11.3f M/s\n", "path: samples", m_sps / 1e6);
     printf("%-34s %13.0f%%\n", "path rays / raw Embree rays", 100.0 * m_rps / m_raw);
     printf("%-34s %13.0f%%\n", "path rays / raw at path's mixture", m_mix > 0.0 ? 100.0 * m_rps / m_mix : 0.0);
-    rc = VBNL_EXIT_OK;
+    rc = VBI_EXIT_OK;
 done:
     vbnl_scene_destroy(scene);
     vbnl_context_destroy(ctx);

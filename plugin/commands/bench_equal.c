@@ -182,8 +182,8 @@ static int run_one(vbnl_context *ctx, const vbnl_scene *scene, const bench_metho
     out->stats.stage_count = 0;
     if (img && png) {
         uint8_t *px8 = malloc((size_t)size * size * 3);
-        if (px8 && vbnl_linear_to_srgb8(img, size, size, 4, 0.0f, 1, px8, 3, NULL) == VBNL_OK)
-            vbnl_png_write(png, size, size, 3, 8, px8, NULL);
+        if (px8 && vbi_linear_to_srgb8(img, size, size, 4, 0.0f, 1, px8, 3, NULL) == VBNL_OK)
+            vbi_png_write(png, size, size, 3, 8, px8, NULL);
         free(px8);
     }
     free(img);
@@ -300,17 +300,17 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
                    methods[m].integrator);
     if (mkdir(out_dir, 0777) != 0 && errno != EEXIST) {
         fprintf(stderr, "vbnl bench: cannot create '%s': %s\n", out_dir, strerror(errno));
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     vbnl_context *ctx;
     vbnl_error err = {0};
     if (vbnl_context_create(NULL, &ctx, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl bench: %s\n", err.message);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     printf("equal-time benchmark, %ux%u, %u threads, sampler %s, budgets include preparation\n\n", size, size,
            vbnl_context_thread_count(ctx), vbnl_sampler_name(o->sampler));
-    int rc = VBNL_EXIT_OK;
+    int rc = VBI_EXIT_OK;
     for (unsigned si = 0; si < sizeof(scenes) / sizeof(scenes[0]); ++si) {
         const bench_scene *bs = &scenes[si];
         if (o->only_scene && strcmp(o->only_scene, bs->name) != 0)
@@ -320,7 +320,7 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
         vbnl_scene *scene = NULL;
         if (module_load_scene(ctx, bs->file, &cam, 1.0f, &scene, &err) != VBNL_OK) {
             fprintf(stderr, "vbnl bench: %s\n", err.message);
-            rc = VBNL_EXIT_SCENE;
+            rc = VBI_EXIT_SCENE;
             continue;
         }
         /* reference: cached by scene, size and time or sample count */
@@ -331,18 +331,18 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
             snprintf(ref_path, sizeof(ref_path), "%s/%s-reference-%u-%gs.exr", out_dir, bs->name, size, o->ref_time);
         float *ref = NULL;
         uint32_t ref_spp = 0;
-        vbnl_exr_image ex;
-        if (vbnl_exr_read(ref_path, &ex, NULL) == VBNL_OK && ex.width == size && ex.height == size) {
+        vbi_exr_image ex;
+        if (vbi_exr_read(ref_path, &ex, NULL) == VBNL_OK && ex.width == size && ex.height == size) {
             ref = malloc(sizeof(float) * 4 * size * size);
             const char *names[4] = {"R", "G", "B", "A"};
             for (int c = 0; c < 4; ++c) {
-                const vbnl_exr_channel *ch = vbnl_exr_image_channel(&ex, names[c]);
+                const vbi_exr_channel *ch = vbi_exr_image_channel(&ex, names[c]);
                 for (size_t i = 0; i < (size_t)size * size; ++i)
                     ref[4 * i + c] = ch ? ch->data[i] : 1.0f;
             }
-            const vbnl_image_attr *a = vbnl_exr_image_attr(&ex, "vbnl/spp");
+            const vbi_image_attr *a = vbi_exr_image_attr(&ex, "vbnl/spp");
             ref_spp = a ? (uint32_t)a->value.i : 0;
-            vbnl_exr_image_free(&ex);
+            vbi_exr_image_free(&ex);
         } else {
             vbnl_render_settings s;
             vbnl_render_settings_init(&s);
@@ -355,7 +355,7 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
                 vbnl_renderer_render(r, NULL, NULL, &err) != VBNL_OK) {
                 fprintf(stderr, "vbnl bench: reference: %s\n", err.message);
                 vbnl_scene_destroy(scene);
-                rc = VBNL_EXIT_FAILURE;
+                rc = VBI_EXIT_FAILURE;
                 continue;
             }
             ref = read_rgba(r, size, size);
@@ -379,7 +379,7 @@ int cmd_bench_equal_time(const cmd_bench_equal_opts *o)
                 fprintf(stderr, "vbnl bench: out of memory\n");
                 free(ref);
                 vbnl_scene_destroy(scene);
-                rc = VBNL_EXIT_FAILURE;
+                rc = VBI_EXIT_FAILURE;
                 continue;
             }
 #define CELL(m, b, k) all[((size_t)(m) * 8 + (size_t)(b)) * runs + (k)]

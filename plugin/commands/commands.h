@@ -2,8 +2,8 @@
  * through the plugin ABI's command_at / run_command: they need the core's API beyond that ABI.
  * Each takes its arguments with argv[0] the command's name and returns a `vbnl` exit code
  * (common/cli.h). Internal to the module: nothing here is exported. */
-#ifndef VBNL_COMMANDS_H
-#define VBNL_COMMANDS_H
+#ifndef VBI_COMMANDS_H
+#define VBI_COMMANDS_H
 
 #include <stddef.h>
 #include <stdint.h>

@@ -224,17 +224,17 @@ static void draw_colour_bar(canvas *cv, int x0, int y0, int len, int scale)
 /* The beauty image (layer NULL) or layer `layer` of an EXR file as RGBA floats. */
 static float *read_rgb(const char *path, const char *layer, uint32_t *w, uint32_t *h)
 {
-    vbnl_exr_image ex;
+    vbi_exr_image ex;
     vbnl_error err = {0};
-    if (vbnl_exr_read(path, &ex, &err) != VBNL_OK) {
+    if (vbi_exr_read(path, &ex, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl compare: %s\n", err.message);
         return NULL;
     }
-    const vbnl_exr_channel *ch[3];
+    const vbi_exr_channel *ch[3];
     for (int c = 0; c < 3; ++c) {
         char name[160];
         snprintf(name, sizeof(name), "%s%s%c", layer ? layer : "", layer ? "." : "", "RGB"[c]);
-        ch[c] = vbnl_exr_image_channel(&ex, name);
+        ch[c] = vbi_exr_image_channel(&ex, name);
     }
     if (layer && (!ch[0] || !ch[1] || !ch[2])) {
         fprintf(stderr, "vbnl compare: '%s' has no layer '%s' (channels %s.R, %s.G, %s.B); its channels:", path,
@@ -242,14 +242,14 @@ static float *read_rgb(const char *path, const char *layer, uint32_t *w, uint32_
         for (uint32_t i = 0; i < ex.channel_count; ++i)
             fprintf(stderr, " %s", ex.channels[i].name);
         fprintf(stderr, "\n");
-        vbnl_exr_image_free(&ex);
+        vbi_exr_image_free(&ex);
         return NULL;
     }
     if (!ch[0] || !ch[1] || !ch[2]) {
-        const vbnl_exr_channel *y = vbnl_exr_image_channel(&ex, "Y");
+        const vbi_exr_channel *y = vbi_exr_image_channel(&ex, "Y");
         if (!y) {
             fprintf(stderr, "vbnl compare: '%s' has neither R, G, B nor Y channels\n", path);
-            vbnl_exr_image_free(&ex);
+            vbi_exr_image_free(&ex);
             return NULL;
         }
         ch[0] = ch[1] = ch[2] = y;
@@ -266,7 +266,7 @@ static float *read_rgb(const char *path, const char *layer, uint32_t *w, uint32_
         fprintf(stderr, "vbnl compare: out of memory\n");
     *w = ex.width;
     *h = ex.height;
-    vbnl_exr_image_free(&ex);
+    vbi_exr_image_free(&ex);
     return px;
 }
 
@@ -287,7 +287,7 @@ static void compare_usage(FILE *f)
 static int write_png(const char *path, const canvas *cv)
 {
     vbnl_error err = {0};
-    if (vbnl_png_write(path, cv->w, cv->h, 3, 8, cv->px, &err) != VBNL_OK) {
+    if (vbi_png_write(path, cv->w, cv->h, 3, 8, cv->px, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl compare: %s\n", err.message);
         return -1;
     }
@@ -316,12 +316,12 @@ int cmd_compare(int argc, char **argv)
     for (int i = 1; i < argc; ++i) {
         if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
             compare_usage(stdout);
-            return VBNL_EXIT_OK;
+            return VBI_EXIT_OK;
         } else if (!strcmp(argv[i], "--labels") || !strcmp(argv[i], "--out") || !strcmp(argv[i], "--layer") ||
                    !strcmp(argv[i], "--ref-layer")) {
             if (i + 1 >= argc || !argv[i + 1][0]) {
                 fprintf(stderr, "vbnl compare: %s needs a value\n", argv[i]);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             if (!strcmp(argv[i], "--labels"))
                 labels_arg = argv[++i];
@@ -334,11 +334,11 @@ int cmd_compare(int argc, char **argv)
         } else if (argv[i][0] == '-' && argv[i][1]) {
             fprintf(stderr, "vbnl compare: unknown option '%s'\n", argv[i]);
             compare_usage(stderr);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         } else {
             if (nfiles > MAX_CANDIDATES) {
                 fprintf(stderr, "vbnl compare: at most %d candidates\n", MAX_CANDIDATES);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             files[nfiles++] = argv[i];
         }
@@ -346,7 +346,7 @@ int cmd_compare(int argc, char **argv)
     if (nfiles < 2) {
         fprintf(stderr, "vbnl compare: give a reference and at least one candidate\n");
         compare_usage(stderr);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     const int nc = nfiles - 1;
     /* labels */
@@ -370,7 +370,7 @@ int cmd_compare(int argc, char **argv)
         }
         if (nl != nc) {
             fprintf(stderr, "vbnl compare: %d labels for %d candidates\n", nl, nc);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
     } else {
         for (int i = 0; i < nc; ++i) {
@@ -385,12 +385,12 @@ int cmd_compare(int argc, char **argv)
     /* images */
     float *img[MAX_CANDIDATES + 1] = {0};
     uint32_t w = 0, h = 0;
-    int rc = VBNL_EXIT_OK;
-    for (int i = 0; i < nfiles && rc == VBNL_EXIT_OK; ++i) {
+    int rc = VBI_EXIT_OK;
+    for (int i = 0; i < nfiles && rc == VBI_EXIT_OK; ++i) {
         uint32_t iw, ih;
         img[i] = read_rgb(files[i], i == 0 ? ref_layer : layer, &iw, &ih);
         if (!img[i]) {
-            rc = VBNL_EXIT_FAILURE;
+            rc = VBI_EXIT_FAILURE;
         } else if (i == 0) {
             w = iw;
             h = ih;
@@ -398,31 +398,31 @@ int cmd_compare(int argc, char **argv)
             fprintf(stderr, "vbnl compare: '%s' is %ux%u but the reference '%s' is %ux%u: images must have "
                             "the same size\n",
                     files[i], iw, ih, files[0], w, h);
-            rc = VBNL_EXIT_FAILURE;
+            rc = VBI_EXIT_FAILURE;
         }
     }
-    if (rc == VBNL_EXIT_OK && (size_t)w * h == 0) {
+    if (rc == VBI_EXIT_OK && (size_t)w * h == 0) {
         fprintf(stderr, "vbnl compare: '%s' has no pixels\n", files[0]);
-        rc = VBNL_EXIT_FAILURE;
+        rc = VBI_EXIT_FAILURE;
     }
     /* every metric but MSE is relative to the reference: against a black one (eps = 0) it divides 0
      * by 0, and a pixel that is not a finite number makes every mean NaN */
-    for (int i = 0; i < nfiles && rc == VBNL_EXIT_OK; ++i) {
+    for (int i = 0; i < nfiles && rc == VBI_EXIT_OK; ++i) {
         size_t bad = count_nonfinite(img[i], (size_t)w * h);
         if (bad) {
             fprintf(stderr, "vbnl compare: '%s' has %zu pixel%s that %s not finite numbers (NaN or infinite): no "
                             "error is defined against it\n",
                     files[i], bad, bad == 1 ? "" : "s", bad == 1 ? "is" : "are");
-            rc = VBNL_EXIT_FAILURE;
+            rc = VBI_EXIT_FAILURE;
         }
     }
-    if (rc == VBNL_EXIT_OK && !(cmd_rmae_eps(img[0], (size_t)w * h) > 0.0)) {
+    if (rc == VBI_EXIT_OK && !(cmd_rmae_eps(img[0], (size_t)w * h) > 0.0)) {
         fprintf(stderr, "vbnl compare: the reference '%s' is black (its mean is %s): relative errors (rMAE, relMSE, "
                         "outliers, mean/ref) are undefined against it\n",
                 files[0], cmd_rmae_eps(img[0], (size_t)w * h) < 0.0 ? "negative" : "0");
-        rc = VBNL_EXIT_FAILURE;
+        rc = VBI_EXIT_FAILURE;
     }
-    if (rc == VBNL_EXIT_OK) {
+    if (rc == VBI_EXIT_OK) {
         const size_t n = (size_t)w * h;
         printf("reference %s (%ux%u); eps = 0.01 mean(reference) = %.4g; outlier: relative error > 1\n", files[0],
                w, h, cmd_rmae_eps(img[0], n));
@@ -437,21 +437,21 @@ int cmd_compare(int argc, char **argv)
                    100.0 * m.outliers, m.energy);
         }
     }
-    if (rc == VBNL_EXIT_OK && out_dir) {
+    if (rc == VBI_EXIT_OK && out_dir) {
         if (mkdir(out_dir, 0777) != 0 && errno != EEXIST) {
             fprintf(stderr, "vbnl compare: cannot create '%s': %s\n", out_dir, strerror(errno));
-            rc = VBNL_EXIT_FAILURE;
+            rc = VBI_EXIT_FAILURE;
         }
         const int scale = w >= 512 ? 2 : 1;
         const int label_h = 11 * scale, bar_h = 6 * scale + 2 * scale + 7 * scale + 4 * scale;
         const int gap = 4;
         char path[4096], fl[64];
         /* error maps */
-        for (int i = 0; i < nc && rc == VBNL_EXIT_OK; ++i) {
+        for (int i = 0; i < nc && rc == VBI_EXIT_OK; ++i) {
             canvas cv = {calloc((size_t)w * (h + bar_h + gap) * 3, 1), w, h + (uint32_t)(bar_h + gap)};
             if (!cv.px) {
                 fprintf(stderr, "vbnl compare: out of memory\n");
-                rc = VBNL_EXIT_FAILURE;
+                rc = VBI_EXIT_FAILURE;
                 break;
             }
             blit_error(&cv, 0, 0, img[i + 1], img[0], w, h);
@@ -459,13 +459,13 @@ int cmd_compare(int argc, char **argv)
             file_label(labels[i], fl, sizeof(fl));
             snprintf(path, sizeof(path), "%s/error-%s.png", out_dir, fl);
             if (write_png(path, &cv) != 0)
-                rc = VBNL_EXIT_FAILURE;
+                rc = VBI_EXIT_FAILURE;
             else
                 printf("error map: %s\n", path);
             free(cv.px);
         }
         /* montage: row 1 the images (reference first), row 2 the error maps, labels on top */
-        if (rc == VBNL_EXIT_OK) {
+        if (rc == VBI_EXIT_OK) {
             const uint32_t cols = (uint32_t)nfiles;
             const uint32_t cw = w + gap, mw = cols * cw - gap;
             const uint32_t mh = (uint32_t)label_h + h + gap + h + gap + (uint32_t)bar_h;
@@ -474,22 +474,22 @@ int cmd_compare(int argc, char **argv)
             static const uint8_t white[3] = {255, 255, 255};
             if (!cv.px || !srgb) {
                 fprintf(stderr, "vbnl compare: out of memory\n");
-                rc = VBNL_EXIT_FAILURE;
+                rc = VBI_EXIT_FAILURE;
             }
-            for (uint32_t c = 0; c < cols && rc == VBNL_EXIT_OK; ++c) {
+            for (uint32_t c = 0; c < cols && rc == VBI_EXIT_OK; ++c) {
                 int x0 = (int)(c * cw);
                 const char *lab = c == 0 ? "reference" : labels[c - 1];
                 draw_text(&cv, x0 + 2, 2 * scale, scale, lab, white);
-                vbnl_linear_to_srgb8(img[c], w, h, 4, 0.0f, 0, srgb, 3, NULL);
+                vbi_linear_to_srgb8(img[c], w, h, 4, 0.0f, 0, srgb, 3, NULL);
                 blit_image(&cv, x0, label_h, srgb, w, h);
                 if (c > 0)
                     blit_error(&cv, x0, label_h + (int)h + gap, img[c], img[0], w, h);
             }
-            if (rc == VBNL_EXIT_OK) {
+            if (rc == VBI_EXIT_OK) {
                 draw_colour_bar(&cv, (int)cw, label_h + 2 * ((int)h + gap), (int)(mw - cw), scale);
                 snprintf(path, sizeof(path), "%s/montage.png", out_dir);
                 if (write_png(path, &cv) != 0)
-                    rc = VBNL_EXIT_FAILURE;
+                    rc = VBI_EXIT_FAILURE;
                 else
                     printf("montage: %s\n", path);
             }

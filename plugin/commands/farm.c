@@ -147,7 +147,7 @@ static int on_farm_option(void *user, int id, const char *v)
     case F_PHOTON_JOBS:
         if (parse_count(v, &f->photon_jobs, 1, 100000)) {
             fprintf(stderr, "vbnl farm: --photon-jobs takes 1..100000, got '%s'\n", v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case F_TILES: {
@@ -161,7 +161,7 @@ static int on_farm_option(void *user, int id, const char *v)
         uint32_t n;
         if (parse_count(v, &n, 1, 1u << 20)) {
             fprintf(stderr, "vbnl farm: --tiles takes N or CxR (columns x rows), got '%s'\n", v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         /* the grid closest to square: rows the largest divisor of n not above its square root */
         uint32_t rows = 1;
@@ -178,19 +178,19 @@ static int on_farm_option(void *user, int id, const char *v)
     case F_CPUS:
         if (parse_count(v, &f->cpus, 1, 4096)) {
             fprintf(stderr, "vbnl farm: --cpus-per-task takes 1..4096, got '%s'\n", v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case F_RETRIES:
         if (parse_count(v, &f->retries, 0, 100)) {
             fprintf(stderr, "vbnl farm: --retries takes 0..100, got '%s'\n", v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case F_SBATCH_ARG:
         if (f->n_sbatch_args == sizeof(f->sbatch_args) / sizeof(f->sbatch_args[0])) {
             fprintf(stderr, "vbnl farm: too many --sbatch-arg\n");
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         f->sbatch_args[f->n_sbatch_args++] = v;
         return 0;
@@ -207,7 +207,7 @@ static int on_farm_option(void *user, int id, const char *v)
                     "vbnl farm: frame numbers are whole numbers >= 0 (POV-Ray's fractional subsets are not taken), "
                     "got '%s'\n",
                     v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         f->frames_given |= id == F_INITIAL_FRAME || id == F_FINAL_FRAME;
         f->subset_end_given |= id == F_SUBSET_END;
@@ -218,7 +218,7 @@ static int on_farm_option(void *user, int id, const char *v)
         double c = strtod(v, &end);
         if (*end || end == v || !isfinite(c)) {
             fprintf(stderr, "vbnl farm: a clock takes a number, got '%s'\n", v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         *(id == F_INITIAL_CLOCK ? &f->initial_clock : &f->final_clock) = c;
         return 0;
@@ -227,7 +227,7 @@ static int on_farm_option(void *user, int id, const char *v)
         f->still_clock = strtod(v, &end);
         if (*end || end == v || !isfinite(f->still_clock)) {
             fprintf(stderr, "vbnl farm: --clock takes a number, got '%s'\n", v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         f->still_clock_given = 1;
         return 0;
@@ -280,7 +280,7 @@ static int plan_frames(farm *f)
         f->frame = malloc(sizeof(int64_t));
         f->clock = malloc(sizeof(double));
         if (!f->frame || !f->clock)
-            return VBNL_EXIT_FAILURE;
+            return VBI_EXIT_FAILURE;
         f->frame[0] = 1;
         f->clock[0] = f->still_clock;
         f->digits = 1;
@@ -289,7 +289,7 @@ static int plan_frames(farm *f)
     if (f->still_clock_given || f->a.clock_given) {
         fprintf(stderr, "vbnl farm: --clock sets a still image's clock; an animation's come from --initial-clock and "
                         "--final-clock\n");
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     const int64_t initial = f->initial_frame;
     int64_t final = f->final_frame < initial ? initial : f->final_frame;
@@ -302,13 +302,13 @@ static int plan_frames(farm *f)
     if (last - first + 1 > MAX_FRAMES) {
         fprintf(stderr, "vbnl farm: %" PRId64 " frames; at most %d per submission (use --subset-start/--subset-end)\n",
                 last - first + 1, MAX_FRAMES);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     f->frames = (uint32_t)(last - first + 1);
     f->frame = malloc(sizeof(int64_t) * f->frames);
     f->clock = malloc(sizeof(double) * f->frames);
     if (!f->frame || !f->clock)
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     f->counted_final = final;
     /* one frame from initial to final: no step of the clock */
     f->clock_delta = final > initial ? (f->final_clock - f->initial_clock) / (double)(final - initial) : 0.0;
@@ -379,26 +379,26 @@ static int check_and_resolve(farm *f)
                 "vbnl farm: %s is an option of one render: the farm chooses the tiles, prepares and loads the "
                 "lights itself, and a time budget would size each job apart (give --spp)\n",
                 a->single);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (!a->scene || !a->exr) {
         fprintf(stderr, "vbnl farm: give a scene FILE and -o OUT.exr\n%s", farm_usage);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (f->local + f->dry_run + f->wait > 1) {
         fprintf(stderr, "vbnl farm: --dry-run, --local and --wait exclude each other\n");
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (!realpath(a->scene, f->scene)) {
         fprintf(stderr, "vbnl farm: cannot read the scene '%s': %s\n", a->scene, strerror(errno));
-        return VBNL_EXIT_SCENE;
+        return VBI_EXIT_SCENE;
     }
     const char *outs[2] = {a->exr, a->png};
     char *abs_out[2] = {f->exr, f->png};
     for (int i = 0; i < 2; ++i)
         if (outs[i] && absolute(outs[i], abs_out[i], PATH_MAX)) {
             fprintf(stderr, "vbnl farm: cannot write '%s': its folder does not exist\n", outs[i]);
-            return VBNL_EXIT_FAILURE;
+            return VBI_EXIT_FAILURE;
         }
     int rc = plan_frames(f);
     if (rc)
@@ -407,12 +407,12 @@ static int check_and_resolve(farm *f)
     Dl_info di;
     if (!dladdr((void *)module_api, &di) || !di.dli_fname || !realpath(di.dli_fname, f->plugin)) {
         fprintf(stderr, "vbnl farm: cannot find the plugin module's own path\n");
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     if (f->vbnl_arg ? !realpath(f->vbnl_arg, f->vbnl) : !realpath("/proc/self/exe", f->vbnl)) {
         fprintf(stderr, "vbnl farm: cannot find the vbnl program '%s': %s\n", f->vbnl_arg ? f->vbnl_arg : "/proc/self/exe",
                 strerror(errno));
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     /* outputs: never an input, never each other, writable (every frame's) */
     char msg[2048], p1[PATH_MAX + 32], p2[PATH_MAX + 32];
@@ -422,16 +422,16 @@ static int check_and_resolve(farm *f)
             frame_path(f, f->png, i, p2, sizeof(p2));
         if (cli_same_file(p1, f->scene) || (a->png && cli_same_file(p2, f->scene))) {
             fprintf(stderr, "vbnl farm: an output is the scene file; an output never replaces an input\n");
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (a->png && cli_same_file(p1, p2)) {
             fprintf(stderr, "vbnl farm: -o and --png name the same file '%s'; give each output its own\n", p1);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (module_api()->check_writable(p1, msg, sizeof(msg)) != VBNL_PLUGIN_OK ||
             (a->png && module_api()->check_writable(p2, msg, sizeof(msg)) != VBNL_PLUGIN_OK)) {
             fprintf(stderr, "vbnl farm: %s\n", msg);
-            return VBNL_EXIT_FAILURE;
+            return VBI_EXIT_FAILURE;
         }
     }
     /* the scene, with the first frame's identifiers, and the options: what every job will load */
@@ -454,7 +454,7 @@ static int check_and_resolve(farm *f)
             fprintf(stderr, "vbnl farm: the parameter %s is set (by --set or the scene); the farm sets it itself\n",
                     farm_params[k]);
             module_api()->renderer_destroy(r);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
     if (f->lights) {
         const vbnl_integrator_class *c = vbnl_integrator_find("vbnl");
@@ -465,23 +465,23 @@ static int check_and_resolve(farm *f)
         float probe[4] = {0.5f, 0.5f, 0.5f, 1.0f};
         if (module_write_png(NULL, probe, 1, 1, &a->view, msg, sizeof(msg)) != VBNL_OK) {
             fprintf(stderr, "vbnl farm: %s\n", msg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
     }
     if (f->lights && f->photon_jobs > f->photon_paths) {
         fprintf(stderr, "vbnl farm: %u photon jobs for %" PRIu64 " photon paths would leave jobs empty\n",
                 f->photon_jobs, f->photon_paths);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (f->tiles_x > a->o.width || f->tiles_y > a->o.height) {
         fprintf(stderr, "vbnl farm: a %ux%u grid of tiles does not fit the %ux%u image\n", f->tiles_x, f->tiles_y,
                 a->o.width, a->o.height);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if ((f->animated || f->still_clock_given) && !f->dry_run && !render_takes_builtins(f)) {
         fprintf(stderr, "vbnl farm: the program '%s' takes no --builtin, which the tiles of an animation need\n",
                 f->vbnl);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     /* names and the work folder */
     char base[PATH_MAX];
@@ -492,15 +492,15 @@ static int check_and_resolve(farm *f)
     if (f->work_arg) {
         if (mkdir(f->work_arg, 0777) != 0 && errno != EEXIST) {
             fprintf(stderr, "vbnl farm: cannot create the work folder '%s': %s\n", f->work_arg, strerror(errno));
-            return VBNL_EXIT_FAILURE;
+            return VBI_EXIT_FAILURE;
         }
         if (!realpath(f->work_arg, f->work)) {
             fprintf(stderr, "vbnl farm: work folder '%s': %s\n", f->work_arg, strerror(errno));
-            return VBNL_EXIT_FAILURE;
+            return VBI_EXIT_FAILURE;
         }
     } else if (snprintf(f->work, sizeof(f->work), "%s.farm", base) >= (int)sizeof(f->work)) {
         fprintf(stderr, "vbnl farm: path too long\n");
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     const char *nm = f->name_arg ? f->name_arg : strrchr(base, '/') + 1;
     size_t k = 0;
@@ -756,7 +756,7 @@ static int run_local(const farm *f, const job *jobs, uint32_t n)
             snprintf(log, sizeof(log), "%s/logs/%s-local_%u.log", f->work, jobs[j].st->name, e);
             pid_t pid = fork();
             if (pid < 0)
-                return VBNL_EXIT_FAILURE;
+                return VBI_EXIT_FAILURE;
             if (pid == 0) {
                 char id[32];
                 snprintf(id, sizeof(id), "%u", e);
@@ -772,12 +772,12 @@ static int run_local(const farm *f, const job *jobs, uint32_t n)
             }
             if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
                 fprintf(stderr, "vbnl farm: %s element %u failed (log: %s)\n", jobs[j].st->name, e, log);
-                return VBNL_EXIT_FAILURE;
+                return VBI_EXIT_FAILURE;
             }
             if (!f->a.quiet)
                 fprintf(stderr, "vbnl farm: %s %u of %u done\n", jobs[j].st->name, e + 1, jobs[j].elements);
         }
-    return VBNL_EXIT_OK;
+    return VBI_EXIT_OK;
 }
 
 /* --wait: until squeue lists none of the jobs, then the outcome from scontrol and the outputs. */
@@ -860,14 +860,14 @@ static int wait_jobs(const farm *f, const job *jobs, uint32_t n)
     }
     if (!failed && !f->a.quiet)
         fprintf(stderr, "vbnl farm: done: %s%s\n", f->exr, f->frames > 1 ? " (every frame)" : "");
-    return failed ? VBNL_EXIT_FAILURE : VBNL_EXIT_OK;
+    return failed ? VBI_EXIT_FAILURE : VBI_EXIT_OK;
 }
 
 int cmd_farm(int argc, char **argv)
 {
     farm *f = calloc(1, sizeof(*f));
     if (!f)
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     f->photon_jobs = 4;
     f->tiles_x = f->tiles_y = 2;
     f->retries = 2;
@@ -883,14 +883,14 @@ int cmd_farm(int argc, char **argv)
 
     /* the work folder: one farm per folder */
     char path[PATH_MAX + 64];
-    rc = VBNL_EXIT_FAILURE;
+    rc = VBI_EXIT_FAILURE;
     if (make_dir(f->work))
         goto out;
     snprintf(path, sizeof(path), "%s/farm.txt", f->work);
     if (access(path, F_OK) == 0) {
         fprintf(stderr, "vbnl farm: '%s' holds the farm of an earlier submission (%s); remove it or give another "
                         "--work\n", f->work, path);
-        rc = VBNL_EXIT_USAGE;
+        rc = VBI_EXIT_USAGE;
         goto out;
     }
     static const char *const sub[] = {"jobs", "logs"};
@@ -935,11 +935,11 @@ int cmd_farm(int argc, char **argv)
     }
     fprintf(log, "vbnl farm: %s, %u frame%s, %u photon jobs, %ux%u tiles\n", f->scene, f->frames,
             f->frames > 1 ? "s" : "", f->lights ? f->photon_jobs : 0, f->tiles_x, f->tiles_y);
-    rc = VBNL_EXIT_OK;
+    rc = VBI_EXIT_OK;
     for (uint32_t i = 0; i < nj; ++i) {
         char *cmd = sbatch_command(f, &jobs[i], i ? &jobs[i - 1] : NULL);
         if (!cmd) {
-            rc = VBNL_EXIT_FAILURE;
+            rc = VBI_EXIT_FAILURE;
             break;
         }
         if (f->dry_run) {
@@ -958,7 +958,7 @@ int cmd_farm(int argc, char **argv)
             fprintf(stderr, "vbnl farm: sbatch failed for stage '%s'%s%s\n", jobs[i].st->name, id[0] ? ": " : "", id);
             fprintf(log, "cancelled the stages submitted before\n");
             cancel_jobs(f, jobs, i);
-            rc = VBNL_EXIT_FAILURE;
+            rc = VBI_EXIT_FAILURE;
             break;
         }
         id[strcspn(id, ";")] = '\0'; /* "id;cluster" */

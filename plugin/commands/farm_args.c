@@ -63,7 +63,7 @@ static const render_option render_options[] = {
 };
 #define N_RENDER_OPTIONS (sizeof(render_options) / sizeof(render_options[0]))
 
-/* One render option's value into `a`; 0, or VBNL_EXIT_USAGE after printing why. */
+/* One render option's value into `a`; 0, or VBI_EXIT_USAGE after printing why. */
 static int take(farm_args *a, const char *cmd, const render_option *ro, const char *v)
 {
     vbnl_plugin_options *o = &a->o;
@@ -83,13 +83,13 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
     case OPT_LOAD_LIGHTS:
         if (a->nsets == FARM_MAX_SETS) {
             fprintf(stderr, "%s: more than %d parameters\n", cmd, FARM_MAX_SETS);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (ro->id != OPT_SET) {
             const int save = ro->id == OPT_SAVE_LIGHTS;
             if (!*v || strlen(v) > 4096) {
                 fprintf(stderr, "%s: %s takes a file path\n", cmd, ro->name);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             snprintf(a->owned[save], sizeof(a->owned[save]), "%s=%s", save ? "save_lights" : "load_lights", v);
             v = a->owned[save];
@@ -101,7 +101,7 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
     case OPT_HEIGHT:
         if (cli_parse_u32(v, ro->id == OPT_WIDTH ? &o->width : &o->height, 1, 65536)) {
             fprintf(stderr, "%s: %s takes 1..65536, got '%s'\n", cmd, ro->name, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case OPT_SEED:
@@ -109,26 +109,26 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         o->seed = strtoull(v, &end, 10);
         if (errno || *end || end == v || v[0] == '-') {
             fprintf(stderr, "%s: --seed takes a whole number >= 0, got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case OPT_THREADS:
         if (cli_parse_u32(v, &o->threads, 0, 1024)) {
             fprintf(stderr, "%s: --threads takes 0..1024, got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         a->threads_given = 1;
         return 0;
     case OPT_SPP:
         if (cli_parse_u32(v, &o->spp, 1, 1u << 30)) {
             fprintf(stderr, "%s: --spp takes a whole number >= 1, got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case OPT_CAMERA:
         if (cli_parse_camera(v, o->camera_position, o->camera_target, &o->camera_fov_y)) {
             fprintf(stderr, "%s: --camera takes px,py,pz,tx,ty,tz,fov_degrees, got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         o->camera_given = 1;
         return 0;
@@ -148,7 +148,7 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
             if (!key) {
                 fprintf(stderr, "%s: --builtin takes NAME=VALUE with NAME one of POV-Ray's animation identifiers, "
                                 "got '%s'\n", cmd, v);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             if (!strcmp(key, "clock"))
                 a->clock_given = 1;
@@ -156,7 +156,7 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         }
         if (a->nscene == FARM_MAX_SETS) {
             fprintf(stderr, "%s: more than %d scene settings\n", cmd, FARM_MAX_SETS);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         a->scene_key[a->nscene] = key;
         a->scene_value[a->nscene++] = v;
@@ -167,20 +167,20 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         a->view.exposure = strtof(v, &end);
         if (*end || end == v || !(a->view.exposure > -64.0f && a->view.exposure < 64.0f)) {
             fprintf(stderr, "%s: --exposure takes stops in (-64, 64), got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case OPT_PNG_BITS:
         if (cli_parse_u32(v, &a->view.png_bits, 8, 16) || (a->view.png_bits != 8 && a->view.png_bits != 16)) {
             fprintf(stderr, "%s: --png-bits takes 8 or 16, got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case OPT_TIME:
         o->time_budget = strtod(v, &end);
         if (*end || !(o->time_budget > 0.0) || o->time_budget > 1e7) {
             fprintf(stderr, "%s: --time takes seconds > 0, got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         return 0;
     case OPT_CROP: {
@@ -189,7 +189,7 @@ static int take(farm_args *a, const char *cmd, const render_option *ro, const ch
         if (sscanf(v, "%u,%u,%u,%u%c", &c[0], &c[1], &c[2], &c[3], &extra) != 4 || strchr(v, '-') || c[0] >= c[2] ||
             c[1] >= c[3]) {
             fprintf(stderr, "%s: --crop takes X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1, got '%s'\n", cmd, v);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         memcpy(o->crop, c, sizeof(o->crop));
         return 0;
@@ -215,7 +215,7 @@ int farm_args_parse(farm_args *a, int argc, char **argv, const char *cmd, unsign
         if (arg[0] != '-' || !arg[1]) {
             if (a->scene) {
                 fprintf(stderr, "%s: expected one scene FILE, got '%s' and '%s'\n", cmd, a->scene, arg);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
             a->scene = arg;
             continue;
@@ -233,7 +233,7 @@ int farm_args_parse(farm_args *a, int argc, char **argv, const char *cmd, unsign
         if (!fo && !ro) {
             fprintf(stderr, "%s: unknown option '%.*s' (`vbnl %s --help` lists them)\n", cmd, (int)len, arg,
                     strchr(cmd, ' ') ? strchr(cmd, ' ') + 1 : cmd);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         const int has_arg = fo ? fo->has_arg : ro->has_arg;
         const char *v = NULL;
@@ -244,11 +244,11 @@ int farm_args_parse(farm_args *a, int argc, char **argv, const char *cmd, unsign
                 v = argv[++i];
             else {
                 fprintf(stderr, "%s: %.*s takes a value\n", cmd, (int)len, arg);
-                return VBNL_EXIT_USAGE;
+                return VBI_EXIT_USAGE;
             }
         } else if (eq) {
             fprintf(stderr, "%s: %.*s takes no value\n", cmd, (int)len, arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (fo) {
             int rc = on_own(user, fo->id, v);
@@ -258,11 +258,11 @@ int farm_args_parse(farm_args *a, int argc, char **argv, const char *cmd, unsign
         }
         if (!(ro->cls & accept)) {
             fprintf(stderr, "%s: %s is not an option of this command\n", cmd, ro->name);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (a->count == FARM_MAX_ARGS) {
             fprintf(stderr, "%s: more than %d options\n", cmd, FARM_MAX_ARGS);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if ((ro->cls & FARM_OPT_SINGLE) && !a->single)
             a->single = ro->name;
@@ -293,13 +293,13 @@ int farm_args_renderer(const farm_args *a, const char *cmd, const char *const *e
     *out = NULL;
     if (!a->scene) {
         fprintf(stderr, "%s: expected a scene FILE\n", cmd);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (api->renderer_create(&r, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
         fprintf(stderr, "%s: %s\n", cmd, msg);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
-    int rc = VBNL_EXIT_USAGE;
+    int rc = VBI_EXIT_USAGE;
     vbnl_plugin_result res = api->set_options(r, &a->o, msg, sizeof(msg));
     if (res != VBNL_PLUGIN_OK)
         goto fail;
@@ -314,12 +314,12 @@ int farm_args_renderer(const farm_args *a, const char *cmd, const char *const *e
         if ((res = api->set_param(r, extra[i], where, msg, sizeof(msg))) != VBNL_PLUGIN_OK)
             goto fail;
     if ((res = api->load_scene_file(r, a->scene, msg, sizeof(msg))) != VBNL_PLUGIN_OK) {
-        rc = VBNL_EXIT_SCENE;
+        rc = VBI_EXIT_SCENE;
         goto fail;
     }
     if ((res = api->configure(r, msg, sizeof(msg))) != VBNL_PLUGIN_OK) {
-        rc = res == VBNL_PLUGIN_ERR_UNKNOWN_NAME || res == VBNL_PLUGIN_ERR_INVALID_ARGUMENT ? VBNL_EXIT_USAGE
-                                                                                             : VBNL_EXIT_FAILURE;
+        rc = res == VBNL_PLUGIN_ERR_UNKNOWN_NAME || res == VBNL_PLUGIN_ERR_INVALID_ARGUMENT ? VBI_EXIT_USAGE
+                                                                                             : VBI_EXIT_FAILURE;
         goto fail;
     }
     *out = r;
@@ -359,8 +359,8 @@ void farm_args_write(const farm_args *a, unsigned classes, FILE *f)
 static void on_signal(int sig)
 {
     (void)sig;
-    vbnl_atomic_file_abandon_all();
-    _exit(VBNL_EXIT_INTERRUPTED);
+    vbi_atomic_file_abandon_all();
+    _exit(VBI_EXIT_INTERRUPTED);
 }
 
 void farm_on_signals(void)

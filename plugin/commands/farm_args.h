@@ -4,8 +4,8 @@
  *
  * Every option has a class that says which stage of a farm it matters to; the parser keeps the
  * options as given, in order, with their class, so that they can be passed on verbatim. */
-#ifndef VBNL_FARM_ARGS_H
-#define VBNL_FARM_ARGS_H
+#ifndef VBI_FARM_ARGS_H
+#define VBI_FARM_ARGS_H
 
 #include <stdint.h>
 #include <stdio.h>
@@ -59,13 +59,13 @@ typedef struct farm_option {
     int id;                      /* handed to the callback */
 } farm_option;
 
-/* Called for each of the command's own options; returns 0, or an exit code (VBNL_EXIT_USAGE, after
+/* Called for each of the command's own options; returns 0, or an exit code (VBI_EXIT_USAGE, after
  * printing why) to stop. */
 typedef int (*farm_own_fn)(void *user, int id, const char *value);
 
 /* Parses argv[1..argc-1] ("--name value", "--name=value", one positional scene file). `cmd` names
  * the command in messages ("vbnl farm"). Options of `accept` classes are taken; a render option of
- * another class is refused naming the command. Returns 0, or VBNL_EXIT_USAGE after printing why.
+ * another class is refused naming the command. Returns 0, or VBI_EXIT_USAGE after printing why.
  * argv must outlive `a` (its strings are kept). */
 int farm_args_parse(farm_args *a, int argc, char **argv, const char *cmd, unsigned accept, const farm_option *own,
                     farm_own_fn on_own, void *user);
@@ -73,8 +73,8 @@ int farm_args_parse(farm_args *a, int argc, char **argv, const char *cmd, unsign
 /* Creates a renderer with the options, scene settings and parameters of `a` (plus `extra`, n
  * "key=value" settings from `where`), loads the scene and configures it, printing scene messages to
  * stderr. Returns 0 with *out set, or an exit code after printing "<cmd>: <why>": the scene
- * (VBNL_EXIT_SCENE), a bad option or parameter (VBNL_EXIT_USAGE), anything else
- * (VBNL_EXIT_FAILURE). */
+ * (VBI_EXIT_SCENE), a bad option or parameter (VBI_EXIT_USAGE), anything else
+ * (VBI_EXIT_FAILURE). */
 int farm_args_renderer(const farm_args *a, const char *cmd, const char *const *extra, uint32_t n_extra,
                        const char *where, vbnl_plugin_renderer **out);
 

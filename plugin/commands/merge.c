@@ -46,13 +46,13 @@ int cmd_merge_lights(int argc, char **argv)
     ml_opts o = {0};
     const char **in = malloc(sizeof(*in) * (size_t)(argc > 1 ? argc : 1));
     uint32_t n = 0;
-    int rc = in ? 0 : VBNL_EXIT_FAILURE;
+    int rc = in ? 0 : VBI_EXIT_FAILURE;
     for (int i = 1; i < argc && !rc; ++i) {
         const char *a = argv[i];
         if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
             if (i + 1 >= argc) {
                 fprintf(stderr, "vbnl merge-lights: %s takes a file\n", a);
-                rc = VBNL_EXIT_USAGE;
+                rc = VBI_EXIT_USAGE;
             } else
                 o.out = argv[++i];
         } else if (!strncmp(a, "--output=", 9))
@@ -65,38 +65,38 @@ int cmd_merge_lights(int argc, char **argv)
             o.help = 1;
         else if (a[0] == '-' && a[1]) {
             fprintf(stderr, "vbnl merge-lights: unknown option '%s'\n", a);
-            rc = VBNL_EXIT_USAGE;
+            rc = VBI_EXIT_USAGE;
         } else
             in[n++] = a;
     }
     if (!rc && o.help) {
         printf("%s\n", usage);
         free(in);
-        return VBNL_EXIT_OK;
+        return VBI_EXIT_OK;
     }
     if (!rc && (!o.out || n == 0)) {
         fprintf(stderr, "vbnl merge-lights: give the light files and -o LIGHTS.vls\n%s\n", usage);
-        rc = VBNL_EXIT_USAGE;
+        rc = VBI_EXIT_USAGE;
     }
     for (uint32_t i = 0; !rc && i < n; ++i)
         if (cli_same_file(o.out, in[i])) {
             fprintf(stderr, "vbnl merge-lights: -o '%s' is the input '%s'; an output never replaces an input\n",
                     o.out, in[i]);
-            rc = VBNL_EXIT_USAGE;
+            rc = VBI_EXIT_USAGE;
         }
     if (rc) {
         free(in);
         return rc;
     }
     farm_on_signals();
-    vbnl_vl_file_header h;
+    vbi_vl_file_header h;
     vbnl_error err = {0};
     double t0 = farm_now();
-    vbnl_result r = vbnl_vl_file_merge(in, n, o.out, o.partial, &h, &err);
+    vbnl_result r = vbi_vl_file_merge(in, n, o.out, o.partial, &h, &err);
     free(in);
     if (r != VBNL_OK) {
         fprintf(stderr, "vbnl merge-lights: %s\n", err.message);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     if (!o.quiet)
         fprintf(stderr,
@@ -104,7 +104,7 @@ int cmd_merge_lights(int argc, char **argv)
                 " -> %s (%.2f s)\n",
                 n, h.count, h.photon_first, h.photon_first + h.photon_count, h.photon_paths, o.out,
                 farm_now() - t0);
-    return VBNL_EXIT_OK;
+    return VBI_EXIT_OK;
 }
 
 /* ---- merge-tiles ------------------------------------------------------------------------------- */
@@ -118,41 +118,41 @@ static const char *const same_attrs[] = {
 };
 #define N_SAME (sizeof(same_attrs) / sizeof(same_attrs[0]))
 
-static int attr_equal(const vbnl_image_attr *a, const vbnl_image_attr *b)
+static int attr_equal(const vbi_image_attr *a, const vbi_image_attr *b)
 {
     if (!a || !b)
         return !a && !b;
     if (a->type != b->type)
         return 0;
     switch (a->type) {
-    case VBNL_IMAGE_ATTR_STRING: return !strcmp(a->value.s, b->value.s);
-    case VBNL_IMAGE_ATTR_INT: return a->value.i == b->value.i;
-    case VBNL_IMAGE_ATTR_FLOAT: return memcmp(&a->value.f, &b->value.f, sizeof(float)) == 0;
-    case VBNL_IMAGE_ATTR_DOUBLE: return memcmp(&a->value.d, &b->value.d, sizeof(double)) == 0;
+    case VBI_IMAGE_ATTR_STRING: return !strcmp(a->value.s, b->value.s);
+    case VBI_IMAGE_ATTR_INT: return a->value.i == b->value.i;
+    case VBI_IMAGE_ATTR_FLOAT: return memcmp(&a->value.f, &b->value.f, sizeof(float)) == 0;
+    case VBI_IMAGE_ATTR_DOUBLE: return memcmp(&a->value.d, &b->value.d, sizeof(double)) == 0;
     }
     return 0;
 }
 
-static void attr_text(const vbnl_image_attr *a, char *buf, size_t n)
+static void attr_text(const vbi_image_attr *a, char *buf, size_t n)
 {
     if (!a)
         snprintf(buf, n, "(none)");
-    else if (a->type == VBNL_IMAGE_ATTR_STRING)
+    else if (a->type == VBI_IMAGE_ATTR_STRING)
         snprintf(buf, n, "'%.200s'", a->value.s);
-    else if (a->type == VBNL_IMAGE_ATTR_INT)
+    else if (a->type == VBI_IMAGE_ATTR_INT)
         snprintf(buf, n, "%d", (int)a->value.i);
     else
-        snprintf(buf, n, "%.17g", a->type == VBNL_IMAGE_ATTR_FLOAT ? (double)a->value.f : a->value.d);
+        snprintf(buf, n, "%.17g", a->type == VBI_IMAGE_ATTR_FLOAT ? (double)a->value.f : a->value.d);
 }
 
-static double attr_number(const vbnl_exr_image *img, const char *name)
+static double attr_number(const vbi_exr_image *img, const char *name)
 {
-    const vbnl_image_attr *a = vbnl_exr_image_attr(img, name);
+    const vbi_image_attr *a = vbi_exr_image_attr(img, name);
     if (!a)
         return 0.0;
-    return a->type == VBNL_IMAGE_ATTR_DOUBLE ? a->value.d
-           : a->type == VBNL_IMAGE_ATTR_FLOAT ? (double)a->value.f
-           : a->type == VBNL_IMAGE_ATTR_INT   ? (double)a->value.i
+    return a->type == VBI_IMAGE_ATTR_DOUBLE ? a->value.d
+           : a->type == VBI_IMAGE_ATTR_FLOAT ? (double)a->value.f
+           : a->type == VBI_IMAGE_ATTR_INT   ? (double)a->value.i
                                               : 0.0;
 }
 
@@ -167,7 +167,7 @@ typedef struct tile_set {
     char **channel;          /* names, in the first tile's (file) order */
     float **plane;           /* w x h each */
     uint32_t *owner;         /* w x h: 1 + the tile holding the pixel, 0 when none */
-    vbnl_exr_image first;    /* the first tile, kept for its attributes */
+    vbi_exr_image first;    /* the first tile, kept for its attributes */
     summed sums[64];
     uint32_t nsums;
     double rays;
@@ -183,7 +183,7 @@ static void tile_set_free(tile_set *t)
     free(t->channel);
     free(t->plane);
     free(t->owner);
-    vbnl_exr_image_free(&t->first);
+    vbi_exr_image_free(&t->first);
 }
 
 static void add_sum(tile_set *t, const char *name, double v)
@@ -200,11 +200,11 @@ static void add_sum(tile_set *t, const char *name, double v)
 }
 
 /* The stage seconds and work counts of a tile, summed: vbnl/time/<stage>, vbnl/<unit>/<stage>. */
-static void add_stage_figures(tile_set *t, const vbnl_exr_image *img)
+static void add_stage_figures(tile_set *t, const vbi_exr_image *img)
 {
     for (uint32_t i = 0; i < img->attr_count; ++i) {
-        const vbnl_image_attr *a = &img->attrs[i];
-        if (strncmp(a->name, "vbnl/", 5) || strchr(a->name + 5, '/') == NULL || a->type != VBNL_IMAGE_ATTR_DOUBLE)
+        const vbi_image_attr *a = &img->attrs[i];
+        if (strncmp(a->name, "vbnl/", 5) || strchr(a->name + 5, '/') == NULL || a->type != VBI_IMAGE_ATTR_DOUBLE)
             continue;
         if (!strncmp(a->name, "vbnl/lights/", 12) || !strncmp(a->name, "vbnl/budget/", 12) ||
             strstr(a->name, "_per_second/"))
@@ -215,12 +215,12 @@ static void add_stage_figures(tile_set *t, const vbnl_exr_image *img)
 
 /* The parameters text of a tile without the light file it loaded (vbnl/lights/files): what the
  * same render on one machine writes. */
-static void single_parameters(const vbnl_exr_image *first, char *out, size_t n)
+static void single_parameters(const vbi_exr_image *first, char *out, size_t n)
 {
-    const vbnl_image_attr *p = vbnl_exr_image_attr(first, "vbnl/parameters");
-    const vbnl_image_attr *f = vbnl_exr_image_attr(first, "vbnl/lights/files");
-    snprintf(out, n, "%s", p && p->type == VBNL_IMAGE_ATTR_STRING ? p->value.s : "");
-    if (!f || f->type != VBNL_IMAGE_ATTR_STRING)
+    const vbi_image_attr *p = vbi_exr_image_attr(first, "vbnl/parameters");
+    const vbi_image_attr *f = vbi_exr_image_attr(first, "vbnl/lights/files");
+    snprintf(out, n, "%s", p && p->type == VBI_IMAGE_ATTR_STRING ? p->value.s : "");
+    if (!f || f->type != VBI_IMAGE_ATTR_STRING)
         return;
     char token[4200];
     snprintf(token, sizeof(token), "load_lights=%s", f->value.s);
@@ -243,16 +243,16 @@ static void single_parameters(const vbnl_exr_image *first, char *out, size_t n)
 /* Adds one tile (read from `path`) to the set, checking it against the first. 0, or prints why. */
 static int add_tile(tile_set *t, const char *path, const char *first_path, uint32_t index)
 {
-    vbnl_exr_image img;
+    vbi_exr_image img;
     vbnl_error err = {0};
-    if (vbnl_exr_read(path, &img, &err) != VBNL_OK) {
+    if (vbi_exr_read(path, &img, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl merge-tiles: %s\n", err.message);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
-    int rc = VBNL_EXIT_FAILURE;
+    int rc = VBI_EXIT_FAILURE;
     const int is_first = index == 0;
-    const vbnl_exr_image *ref = is_first ? &img : &t->first;
-    if (!vbnl_exr_image_attr(&img, "vbnl/version") || !vbnl_exr_image_attr(&img, "vbnl/scene/fingerprint")) {
+    const vbi_exr_image *ref = is_first ? &img : &t->first;
+    if (!vbi_exr_image_attr(&img, "vbnl/version") || !vbi_exr_image_attr(&img, "vbnl/scene/fingerprint")) {
         fprintf(stderr, "vbnl merge-tiles: '%s' is not a part of a vbnl render (no vbnl/version or scene fingerprint)\n",
                 path);
         goto done;
@@ -263,9 +263,9 @@ static int add_tile(tile_set *t, const char *path, const char *first_path, uint3
         goto done;
     }
     for (size_t k = 0; !is_first && k < N_SAME; ++k) {
-        const vbnl_image_attr *x = vbnl_exr_image_attr(ref, same_attrs[k]), *y = vbnl_exr_image_attr(&img, same_attrs[k]);
+        const vbi_image_attr *x = vbi_exr_image_attr(ref, same_attrs[k]), *y = vbi_exr_image_attr(&img, same_attrs[k]);
         /* the parameters without the light file's name: the lights are compared by fingerprint */
-        vbnl_image_attr px, py;
+        vbi_image_attr px, py;
         char sx[4096], sy[4096];
         if (x && y && !strcmp(same_attrs[k], "vbnl/parameters")) {
             single_parameters(ref, sx, sizeof(sx));
@@ -325,7 +325,7 @@ static int add_tile(tile_set *t, const char *path, const char *first_path, uint3
         goto done;
     }
     for (uint32_t c = 0; c < t->channels; ++c)
-        if (!vbnl_exr_image_channel(&img, t->channel[c])) {
+        if (!vbi_exr_image_channel(&img, t->channel[c])) {
             fprintf(stderr, "vbnl merge-tiles: '%s' has no channel '%s' (which '%s' has)\n", path, t->channel[c],
                     first_path);
             goto done;
@@ -341,7 +341,7 @@ static int add_tile(tile_set *t, const char *path, const char *first_path, uint3
             t->owner[at] = index + 1;
         }
     for (uint32_t c = 0; c < t->channels; ++c) {
-        const vbnl_exr_channel *ch = vbnl_exr_image_channel(&img, t->channel[c]);
+        const vbi_exr_channel *ch = vbi_exr_image_channel(&img, t->channel[c]);
         for (uint32_t y = 0; y < img.height; ++y)
             memcpy(t->plane[c] + (size_t)(img.data_y + y) * t->w + img.data_x, ch->data + (size_t)y * img.width,
                    sizeof(float) * img.width);
@@ -355,7 +355,7 @@ done:
     if (is_first && rc == 0)
         t->first = img;
     else
-        vbnl_exr_image_free(&img);
+        vbi_exr_image_free(&img);
     return rc;
 }
 
@@ -363,7 +363,7 @@ done:
  * tiles, rays and stage figures summed over them, the preparation's from the light files), plus
  * the lights' own and vbnl/farm/tiles. */
 typedef struct header_out {
-    vbnl_image_attr a[128];
+    vbi_image_attr a[128];
     uint32_t n;
     char params[4096];
     char names[64][96];
@@ -371,7 +371,7 @@ typedef struct header_out {
 
 static void build_header(const tile_set *t, header_out *ho)
 {
-    const vbnl_exr_image *f = &t->first;
+    const vbi_exr_image *f = &t->first;
     ho->n = 0;
     single_parameters(f, ho->params, sizeof(ho->params));
     double prepare = 0.0, load = 0.0;
@@ -381,13 +381,13 @@ static void build_header(const tile_set *t, header_out *ho)
         if (!strcmp(t->sums[i].name, "vbnl/time/load"))
             load = t->sums[i].value;
     }
-    const int has_lights = vbnl_exr_image_attr(f, "vbnl/lights/fingerprint") != NULL;
+    const int has_lights = vbi_exr_image_attr(f, "vbnl/lights/fingerprint") != NULL;
     const double placement = attr_number(f, "vbnl/lights/time/placement");
     const double elimination = attr_number(f, "vbnl/lights/time/elimination");
     const double photons = attr_number(f, "vbnl/lights/time/photons");
     const double photon_rays = attr_number(f, "vbnl/lights/rays/photons");
     for (uint32_t i = 0; i < f->attr_count && ho->n < 100; ++i) {
-        vbnl_image_attr a = f->attrs[i];
+        vbi_image_attr a = f->attrs[i];
         const char *name = a.name;
         if (strncmp(name, "vbnl/", 5) || !strcmp(name, "vbnl/crop") || !strcmp(name, "vbnl/time/load") || !strcmp(name, "vbnl/rays/load") ||
             !strncmp(name, "vbnl/rays_per_second/", 21))
@@ -400,12 +400,12 @@ static void build_header(const tile_set *t, header_out *ho)
             a.value.i = t->passes;
         else if (!strcmp(name, "vbnl/time/prepare"))
             a.value.d = prepare - load + (has_lights ? placement + elimination + photons : 0.0);
-        else if (a.type == VBNL_IMAGE_ATTR_DOUBLE && strncmp(name, "vbnl/lights/", 12))
+        else if (a.type == VBI_IMAGE_ATTR_DOUBLE && strncmp(name, "vbnl/lights/", 12))
             for (uint32_t k = 0; k < t->nsums; ++k)
                 if (!strcmp(t->sums[k].name, name))
                     a.value.d = t->sums[k].value;
-        if (a.type == VBNL_IMAGE_ATTR_STRING || a.type == VBNL_IMAGE_ATTR_INT || a.type == VBNL_IMAGE_ATTR_FLOAT ||
-            a.type == VBNL_IMAGE_ATTR_DOUBLE)
+        if (a.type == VBI_IMAGE_ATTR_STRING || a.type == VBI_IMAGE_ATTR_INT || a.type == VBI_IMAGE_ATTR_FLOAT ||
+            a.type == VBI_IMAGE_ATTR_DOUBLE)
             ho->a[ho->n++] = a;
     }
     /* the preparation's stages, as a single render reports them */
@@ -421,7 +421,7 @@ static void build_header(const tile_set *t, header_out *ho)
                     {"vbnl/rays_per_second/photons", photons > 0.0 ? photon_rays / photons : 0.0}};
         for (size_t i = 0; i < sizeof(prep) / sizeof(prep[0]); ++i) {
             snprintf(ho->names[k], sizeof(ho->names[k]), "%s", prep[i].name);
-            ho->a[ho->n++] = (vbnl_image_attr){ho->names[k++], VBNL_IMAGE_ATTR_DOUBLE, {.d = prep[i].v}};
+            ho->a[ho->n++] = (vbi_image_attr){ho->names[k++], VBI_IMAGE_ATTR_DOUBLE, {.d = prep[i].v}};
         }
     }
     /* rates of the summed stages (work over machine-seconds) */
@@ -434,11 +434,11 @@ static void build_header(const tile_set *t, header_out *ho)
         for (uint32_t j = 0; j < t->nsums; ++j)
             if (!strcmp(t->sums[j].name, seconds) && t->sums[j].value > 0.0) {
                 snprintf(ho->names[k], sizeof(ho->names[k]), "vbnl/%.*s_per_second%s", (int)(slash - s), s, slash);
-                ho->a[ho->n++] = (vbnl_image_attr){ho->names[k++], VBNL_IMAGE_ATTR_DOUBLE,
+                ho->a[ho->n++] = (vbi_image_attr){ho->names[k++], VBI_IMAGE_ATTR_DOUBLE,
                                                    {.d = t->sums[i].value / t->sums[j].value}};
             }
     }
-    ho->a[ho->n++] = (vbnl_image_attr){"vbnl/farm/tiles", VBNL_IMAGE_ATTR_INT, {.i = (int32_t)t->tiles}};
+    ho->a[ho->n++] = (vbi_image_attr){"vbnl/farm/tiles", VBI_IMAGE_ATTR_INT, {.i = (int32_t)t->tiles}};
 }
 
 enum { MT_OUTPUT, MT_HELP };
@@ -469,7 +469,7 @@ int cmd_merge_tiles(int argc, char **argv)
     if (!opts || !tiles) {
         free(opts);
         free(tiles);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     int no = 1;
     uint32_t nt = 0;
@@ -502,7 +502,7 @@ int cmd_merge_tiles(int argc, char **argv)
         goto out;
     }
     a.exr = own_out[0];
-    rc = VBNL_EXIT_USAGE;
+    rc = VBI_EXIT_USAGE;
     if (!a.exr || nt == 0) {
         fprintf(stderr, "vbnl merge-tiles: give the tiles and -o OUT.exr\n%s\n", usage);
         goto out;
@@ -523,7 +523,7 @@ int cmd_merge_tiles(int argc, char **argv)
         fprintf(stderr, "vbnl merge-tiles: -o and --png name the same file '%s'\n", a.png);
         goto out;
     }
-    rc = VBNL_EXIT_FAILURE;
+    rc = VBI_EXIT_FAILURE;
     for (int o = 0; o < 2; ++o)
         if (outs[o] && module_api()->check_writable(outs[o], msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
             fprintf(stderr, "vbnl merge-tiles: %s\n", msg);
@@ -533,7 +533,7 @@ int cmd_merge_tiles(int argc, char **argv)
         float probe[4] = {0.5f, 0.5f, 0.5f, 1.0f};
         if (module_write_png(NULL, probe, 1, 1, &a.view, msg, sizeof(msg)) != VBNL_OK) {
             fprintf(stderr, "vbnl merge-tiles: %s\n", msg);
-            rc = VBNL_EXIT_USAGE;
+            rc = VBI_EXIT_USAGE;
             goto out;
         }
     }
@@ -555,13 +555,13 @@ int cmd_merge_tiles(int argc, char **argv)
                 "vbnl merge-tiles: the %u tiles hold %" PRIu64 " of the %ux%u pixels (pixel (%" PRIu64 ", %" PRIu64
                 ") is in none): a tile is missing\n",
                 nt, covered, t.w, t.h, first_hole % t.w, first_hole / t.w);
-        rc = VBNL_EXIT_FAILURE;
+        rc = VBI_EXIT_FAILURE;
         goto out;
     }
     header_out ho;
     build_header(&t, &ho);
     /* one 1-channel layer per channel: "R" is the beauty's, "albedo.G" the albedo layer's */
-    vbnl_image_layer *layers = calloc(t.channels, sizeof(*layers));
+    vbi_image_layer *layers = calloc(t.channels, sizeof(*layers));
     char (*prefix)[256] = calloc(t.channels, sizeof(*prefix));
     const char **suffix = calloc(t.channels, sizeof(*suffix));
     vbnl_error err = {0};
@@ -570,10 +570,10 @@ int cmd_merge_tiles(int argc, char **argv)
         const char *dot = strrchr(t.channel[c], '.');
         snprintf(prefix[c], sizeof(prefix[c]), "%.*s", dot ? (int)(dot - t.channel[c]) : 0, t.channel[c]);
         suffix[c] = dot ? dot + 1 : t.channel[c];
-        layers[c] = (vbnl_image_layer){prefix[c], 1, &suffix[c], t.plane[c]};
+        layers[c] = (vbi_image_layer){prefix[c], 1, &suffix[c], t.plane[c]};
     }
     if (res == VBNL_OK)
-        res = vbnl_exr_write(a.exr, t.w, t.h, layers, t.channels, ho.a, ho.n, a.half, &err);
+        res = vbi_exr_write(a.exr, t.w, t.h, layers, t.channels, ho.a, ho.n, a.half, &err);
     else
         vbnl_error_set(&err, res, "out of memory");
     free(layers);
@@ -581,7 +581,7 @@ int cmd_merge_tiles(int argc, char **argv)
     free(suffix);
     if (res != VBNL_OK) {
         fprintf(stderr, "vbnl merge-tiles: %s\n", err.message);
-        rc = VBNL_EXIT_FAILURE;
+        rc = VBI_EXIT_FAILURE;
         goto out;
     }
     if (a.png) {
@@ -607,14 +607,14 @@ int cmd_merge_tiles(int argc, char **argv)
         free(rgba);
         if (res != VBNL_OK) {
             fprintf(stderr, "vbnl merge-tiles: %s\n", msg);
-            rc = VBNL_EXIT_FAILURE;
+            rc = VBI_EXIT_FAILURE;
             goto out;
         }
     }
     if (!a.quiet)
         fprintf(stderr, "vbnl merge-tiles: %u tiles, %ux%u pixels -> %s%s%s (%.2f s)\n", nt, t.w, t.h, a.exr,
                 a.png ? ", " : "", a.png ? a.png : "", farm_now() - t0);
-    rc = VBNL_EXIT_OK;
+    rc = VBI_EXIT_OK;
 out:
     tile_set_free(&t);
     free(opts);

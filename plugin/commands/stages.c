@@ -60,13 +60,13 @@ static int run_prepare(vbnl_plugin_renderer *r, const char *cmd, int quiet)
 {
     const vbnl_plugin_api *api = module_api();
     char msg[2048];
-    int rc = VBNL_EXIT_OK;
+    int rc = VBI_EXIT_OK;
     farm_on_signals(); /* a cancelled job leaves no half-written light file */
     vbnl_plugin_result res = api->prepare(r, NULL, NULL, msg, sizeof(msg));
     vbnl_plugin_stats st = {.size = sizeof(st)};
     if (res != VBNL_PLUGIN_OK) {
         fprintf(stderr, "%s: %s\n", cmd, msg);
-        rc = VBNL_EXIT_FAILURE;
+        rc = VBI_EXIT_FAILURE;
     } else if (!quiet && api->get_stats(r, &st, msg, sizeof(msg)) == VBNL_PLUGIN_OK) {
         fprintf(stderr, "%s: prepared in %.2f s on %u threads\n", cmd, st.prepare_seconds, st.threads);
     }
@@ -89,16 +89,16 @@ static int stage_parse(farm_args *a, stage_opts *so, int argc, char **argv, cons
     }
     if (!a->scene || !so->out) {
         fprintf(stderr, "%s: give a scene FILE and -o OUT.vls\n%s\n", so->cmd, usage);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (cli_same_file(so->out, a->scene)) {
         fprintf(stderr, "%s: -o '%s' is the scene file; an output never replaces an input\n", so->cmd, so->out);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     char msg[2048];
     if (module_api()->check_writable(so->out, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
         fprintf(stderr, "%s: %s\n", so->cmd, msg);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     return 0;
 }
@@ -118,17 +118,17 @@ static int stage_renderer(const farm_args *a, const char *cmd, const char *const
                 "%s: the integrator is '%s': only 'vbnl' prepares virtual lights (choose it with --integrator vbnl; "
                 "the tiles of the other integrators need no preparation)\n",
                 cmd, s && s->integrator ? s->integrator : "?");
-        rc = VBNL_EXIT_USAGE;
+        rc = VBI_EXIT_USAGE;
     }
     char msg[2048];
     for (uint32_t i = 0; !rc && i < n; ++i)
         if (module_api()->set_param(*out, extra[i], cmd, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
             fprintf(stderr, "%s: %s\n", cmd, msg);
-            rc = VBNL_EXIT_USAGE;
+            rc = VBI_EXIT_USAGE;
         }
     if (!rc && module_api()->configure(*out, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
         fprintf(stderr, "%s: %s\n", cmd, msg);
-        rc = VBNL_EXIT_USAGE;
+        rc = VBI_EXIT_USAGE;
     }
     if (rc) {
         module_api()->renderer_destroy(*out);
@@ -147,10 +147,10 @@ int cmd_prepare(int argc, char **argv)
     stage_opts so = {.cmd = "vbnl prepare"};
     int rc = stage_parse(&a, &so, argc, argv, usage);
     if (rc)
-        return rc < 0 ? VBNL_EXIT_OK : rc;
+        return rc < 0 ? VBI_EXIT_OK : rc;
     if (so.placement || so.part || so.range) {
         fprintf(stderr, "vbnl prepare: --placement, --part and --range are options of `vbnl photons`\n");
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     char save[4200];
     snprintf(save, sizeof(save), "save_lights=%s", so.out);
@@ -160,8 +160,8 @@ int cmd_prepare(int argc, char **argv)
         return rc;
     rc = run_prepare(r, so.cmd, a.quiet);
     if (!rc && !a.quiet) {
-        vbnl_vl_file_header h;
-        if (vbnl_vl_file_read_header(so.out, 0, &h, NULL) == VBNL_OK)
+        vbi_vl_file_header h;
+        if (vbi_vl_file_read_header(so.out, 0, &h, NULL) == VBNL_OK)
             fprintf(stderr, "vbnl prepare: %u virtual lights (%u asked) for %" PRIu64 " photon paths -> %s\n", h.count,
                     h.virtual_lights, h.photon_paths, so.out);
     }
@@ -176,12 +176,12 @@ static int photon_range(const stage_opts *so, uint64_t paths, uint64_t *first, u
         unsigned long long k, n;
         if (sscanf(so->part, "%llu/%llu%c", &k, &n, &extra) != 2 || strchr(so->part, '-') || n == 0 || k >= n) {
             fprintf(stderr, "vbnl photons: --part takes K/N with 0 <= K < N, got '%s'\n", so->part);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (n > paths) {
             fprintf(stderr, "vbnl photons: --part %s: %llu parts of %" PRIu64 " photon paths leave parts empty\n",
                     so->part, n, paths);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         /* floor(k P / N) .. floor((k+1) P / N): the parts tile [0, P) exactly (128-bit products) */
         *first = (uint64_t)((unsigned __int128)paths * k / n);
@@ -195,7 +195,7 @@ static int photon_range(const stage_opts *so, uint64_t paths, uint64_t *first, u
                 "vbnl photons: --range takes FIRST,COUNT with COUNT >= 1 inside the %" PRIu64
                 " photon paths, got '%s'\n",
                 paths, so->range);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     *first = f;
     *count = c;
@@ -214,20 +214,20 @@ int cmd_photons(int argc, char **argv)
     stage_opts so = {.cmd = "vbnl photons"};
     int rc = stage_parse(&a, &so, argc, argv, usage);
     if (rc)
-        return rc < 0 ? VBNL_EXIT_OK : rc;
+        return rc < 0 ? VBI_EXIT_OK : rc;
     if (!so.placement || !so.part == !so.range) {
         fprintf(stderr, "vbnl photons: give --placement FILE and one of --part K/N or --range FIRST,COUNT\n%s\n", usage);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (cli_same_file(so.out, so.placement)) {
         fprintf(stderr, "vbnl photons: -o '%s' is the placement; an output never replaces an input\n", so.out);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
-    vbnl_vl_file_header h;
+    vbi_vl_file_header h;
     vbnl_error err = {0};
-    if (vbnl_vl_file_read_header(so.placement, 0, &h, &err) != VBNL_OK) {
+    if (vbi_vl_file_read_header(so.placement, 0, &h, &err) != VBNL_OK) {
         fprintf(stderr, "vbnl photons: %s\n", err.message);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     uint64_t first, count;
     if ((rc = photon_range(&so, h.photon_paths, &first, &count)) != 0)

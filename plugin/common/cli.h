@@ -1,19 +1,19 @@
 /* The command line's conventions, shared by the `vbnl` executable (plugin/host/) and the commands
  * that run inside the module (plugin/commands/): exit codes, the --camera argument, whether two
  * paths name one file. The executable links no module code, so cli.c is compiled into both. */
-#ifndef VBNL_CLI_H
-#define VBNL_CLI_H
+#ifndef VBI_CLI_H
+#define VBI_CLI_H
 
 #include <stdint.h>
 
 /* Exit codes of the `vbnl` command (documented in `vbnl --help` and the README). */
 enum {
-    VBNL_EXIT_OK = 0,
-    VBNL_EXIT_FAILURE = 1,     /* the render or a file operation failed */
-    VBNL_EXIT_USAGE = 2,       /* bad command line */
-    VBNL_EXIT_SCENE = 3,       /* the scene could not be loaded */
-    VBNL_EXIT_PLUGIN = 4,      /* the plugin module is missing or has another ABI */
-    VBNL_EXIT_INTERRUPTED = 130,
+    VBI_EXIT_OK = 0,
+    VBI_EXIT_FAILURE = 1,     /* the render or a file operation failed */
+    VBI_EXIT_USAGE = 2,       /* bad command line */
+    VBI_EXIT_SCENE = 3,       /* the scene could not be loaded */
+    VBI_EXIT_PLUGIN = 4,      /* the plugin module is missing or has another ABI */
+    VBI_EXIT_INTERRUPTED = 130,
 };
 
 /* Parses --camera "px,py,pz,tx,ty,tz,fov_degrees": position, target and vertical field of view.

@@ -5,8 +5,8 @@
  *
  * Threads: everything here runs on the program's main thread, except the signal handler, which
  * may run on any thread and touches only lock-free atomics and async-signal-safe calls. */
-#ifndef VBNL_HOST_H
-#define VBNL_HOST_H
+#ifndef VBI_HOST_H
+#define VBI_HOST_H
 
 #include <getopt.h>
 #include <limits.h>
@@ -80,10 +80,10 @@ extern const char host_render_options_help[];
 /* Defaults of the plugin's options and view, no parameters, no outputs. */
 void host_render_job_init(host_render_job *job, const vbnl_plugin_api *api, const char *who);
 /* Applies one option of host_render_options (`code` its getopt value, `arg` its argument or
- * NULL). Returns 0, or an exit status (VBNL_EXIT_USAGE) after saying why. The options of a file
+ * NULL). Returns 0, or an exit status (VBI_EXIT_USAGE) after saying why. The options of a file
  * name (-o, --png, --save-lights, --load-lights) keep `arg`. */
 int host_render_option(host_render_job *job, int code, const char *arg);
-/* A setting of the scene load (the plugin's set_scene_option). Returns 0, or VBNL_EXIT_USAGE
+/* A setting of the scene load (the plugin's set_scene_option). Returns 0, or VBI_EXIT_USAGE
  * when there are too many. */
 int host_render_scene_option(host_render_job *job, const char *key, const char *value);
 /* Renders: checks that no output names an input or another output and that every output can be

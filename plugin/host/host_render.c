@@ -33,7 +33,7 @@ static void on_signal(int sig)
         void (*abandon)(void) = atomic_load(&g_abandon_writes);
         if (abandon)
             abandon();
-        _exit(VBNL_EXIT_INTERRUPTED);
+        _exit(VBI_EXIT_INTERRUPTED);
     }
 }
 
@@ -175,7 +175,7 @@ int host_render_scene_option(host_render_job *job, const char *key, const char *
 {
     if (job->nscene == HOST_MAX_SCENE_OPTIONS) {
         host_say(job, "more than %d scene settings", HOST_MAX_SCENE_OPTIONS);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     job->scene_keys[job->nscene] = key;
     job->scene_values[job->nscene++] = value;
@@ -196,7 +196,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     case 'l':
         if (job->nsets == HOST_MAX_SETS) {
             host_say(job, "more than %d parameters", HOST_MAX_SETS);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (c == 's') {
             job->sets[job->nsets] = arg;
@@ -205,7 +205,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         }
         if (!*arg) {
             host_say(job, "--%s takes a file path", c == 'L' ? "save-lights" : "load-lights");
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         snprintf(job->lights_buf[c == 'L'], sizeof(job->lights_buf[0]), "%s=%s",
                  c == 'L' ? "save_lights" : "load_lights", arg);
@@ -219,7 +219,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     case 'n':
         if (cli_parse_u32(arg, &o->spp, 1, 1u << 30)) {
             host_say(job, "--spp takes a whole number >= 1, got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         job->spp_given = 1;
         break;
@@ -228,7 +228,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         o->time_budget = strtod(arg, &end);
         if (*end || !(o->time_budget > 0.0) || o->time_budget > 1e7) {
             host_say(job, "--time takes seconds > 0, got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         job->time_given = 1;
         break;
@@ -237,7 +237,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     case 'H':
         if (cli_parse_u32(arg, c == 'W' ? &o->width : &o->height, 1, 65536)) {
             host_say(job, "--%s takes 1..65536, got '%s'", c == 'W' ? "width" : "height", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         break;
     case 'S': {
@@ -246,20 +246,20 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         o->seed = strtoull(arg, &end, 10);
         if (errno || *end || end == arg || arg[0] == '-') {
             host_say(job, "--seed takes a whole number >= 0, got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         break;
     }
     case 'T':
         if (cli_parse_u32(arg, &o->threads, 0, 1024)) {
             host_say(job, "--threads takes 0..1024, got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         break;
     case 'c':
         if (cli_parse_camera(arg, o->camera_position, o->camera_target, &o->camera_fov_y)) {
             host_say(job, "--camera takes px,py,pz,tx,ty,tz,fov_degrees, got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         o->camera_given = 1;
         break;
@@ -269,7 +269,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         if (sscanf(arg, "%u,%u,%u,%u%c", &v[0], &v[1], &v[2], &v[3], &extra) != 4 || strchr(arg, '-') ||
             v[0] >= v[2] || v[1] >= v[3]) {
             host_say(job, "--crop takes X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1, got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         memcpy(o->crop, v, sizeof(o->crop));
         break;
@@ -279,7 +279,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
         view->exposure = strtof(arg, &end);
         if (*end || end == arg || !(view->exposure > -64.0f && view->exposure < 64.0f)) {
             host_say(job, "--exposure takes stops in (-64, 64), got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         break;
     }
@@ -289,7 +289,7 @@ int host_render_option(host_render_job *job, int c, const char *arg)
     case 'b':
         if (cli_parse_u32(arg, &view->png_bits, 8, 16) || (view->png_bits != 8 && view->png_bits != 16)) {
             host_say(job, "--png-bits takes 8 or 16, got '%s'", arg);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         break;
     case 'a': view->alpha = 1; break;
@@ -309,9 +309,9 @@ int host_render_option(host_render_job *job, int c, const char *arg)
                 return host_render_scene_option(job, builtins[k], eq + 1);
         host_say(job, "--builtin takes NAME=VALUE with NAME one of clock, clock_delta, clock_on, frame_number, "
                       "initial_clock, final_clock, initial_frame, final_frame; got '%s'", arg);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
-    default: return VBNL_EXIT_USAGE;
+    default: return VBI_EXIT_USAGE;
     }
     return 0;
 }
@@ -326,33 +326,33 @@ int host_render_run(const vbnl_plugin_api *api, host_render_job *job, vbnl_plugi
         o->spp = 0;
     if (o->crop[2] > o->width || o->crop[3] > o->height) {
         host_say(job, "--crop window reaches outside the %ux%u image", o->width, o->height);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     /* Refuse what cannot work before any heavy work: unwritable outputs first (within the first
      * second), then options, parameters, the scene, the colour view. */
     const char *outs[3] = {job->exr, job->png, job->save_lights};
     const char *const out_names[3] = {"-o", "--png", "--save-lights"};
     if (outputs_distinct(job, out_names, outs) != 0)
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     for (int i = 0; i < 3; ++i)
         if (outs[i] && api->check_writable(outs[i], msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
             host_say(job, "%s", msg);
-            return VBNL_EXIT_FAILURE;
+            return VBI_EXIT_FAILURE;
         }
     if (job->nscene && !VBNL_PLUGIN_HAS(api, set_scene_option)) {
         host_say(job, "the plugin (ABI %u.%u) takes no scene settings (ABI 1.3)", api->abi_major, api->abi_minor);
-        return VBNL_EXIT_PLUGIN;
+        return VBI_EXIT_PLUGIN;
     }
     if (job->view.alpha && job->view.size < offsetof(vbnl_plugin_view, alpha) + sizeof(job->view.alpha)) {
         host_say(job, "the plugin (ABI %u.%u) writes no RGBA PNG (ABI 1.3)", api->abi_major, api->abi_minor);
-        return VBNL_EXIT_PLUGIN;
+        return VBI_EXIT_PLUGIN;
     }
     vbnl_plugin_renderer *r = NULL;
     vbnl_plugin_result res;
-    int rc = VBNL_EXIT_USAGE;
+    int rc = VBI_EXIT_USAGE;
     if (api->renderer_create(&r, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
         host_say(job, "%s", msg);
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     if (api->set_options(r, o, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
         host_say(job, "%s", msg);
@@ -371,13 +371,13 @@ int host_render_run(const vbnl_plugin_api *api, host_render_job *job, vbnl_plugi
         }
     if (api->load_scene_file(r, job->scene, msg, sizeof(msg)) != VBNL_PLUGIN_OK) {
         host_say(job, "%s", msg);
-        rc = VBNL_EXIT_SCENE;
+        rc = VBI_EXIT_SCENE;
         goto cleanup;
     }
     if ((res = api->configure(r, msg, sizeof(msg))) != VBNL_PLUGIN_OK) {
         host_say(job, "%s", msg);
-        rc = res == VBNL_PLUGIN_ERR_UNKNOWN_NAME || res == VBNL_PLUGIN_ERR_INVALID_ARGUMENT ? VBNL_EXIT_USAGE
-                                                                                             : VBNL_EXIT_FAILURE;
+        rc = res == VBNL_PLUGIN_ERR_UNKNOWN_NAME || res == VBNL_PLUGIN_ERR_INVALID_ARGUMENT ? VBI_EXIT_USAGE
+                                                                                             : VBI_EXIT_FAILURE;
         goto cleanup;
     }
     if (job->png) {
@@ -388,12 +388,12 @@ int host_render_run(const vbnl_plugin_api *api, host_render_job *job, vbnl_plugi
         free(probe);
         if (res != VBNL_PLUGIN_OK) {
             host_say(job, "%s", probe ? msg : "out of memory");
-            rc = res == VBNL_PLUGIN_ERR_UNKNOWN_NAME ? VBNL_EXIT_USAGE : VBNL_EXIT_FAILURE;
+            rc = res == VBNL_PLUGIN_ERR_UNKNOWN_NAME ? VBI_EXIT_USAGE : VBI_EXIT_FAILURE;
             goto cleanup;
         }
     }
 
-    rc = VBNL_EXIT_FAILURE;
+    rc = VBI_EXIT_FAILURE;
     host_signals_install(api);
     res = api->prepare(r, job->progress, job->progress_user, msg, sizeof(msg));
     if (res == VBNL_PLUGIN_OK)
@@ -426,7 +426,7 @@ int host_render_run(const vbnl_plugin_api *api, host_render_job *job, vbnl_plugi
                 fprintf(stderr, "%s\n", line);
         }
     }
-    rc = partial ? VBNL_EXIT_INTERRUPTED : VBNL_EXIT_OK;
+    rc = partial ? VBI_EXIT_INTERRUPTED : VBI_EXIT_OK;
 cleanup:
     api->renderer_destroy(r);
     return rc;

@@ -255,11 +255,11 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     while ((c = getopt_long(argc, argv, "o:qh", opts, NULL)) != -1) {
         if (c == 'h') {
             render_usage(stdout);
-            return VBNL_EXIT_OK;
+            return VBI_EXIT_OK;
         }
         if (c == '?' || c == ':') {
             render_usage(stderr);
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if ((rc = host_render_option(&job, c, optarg)) != 0)
             return rc;
@@ -267,11 +267,11 @@ static int cmd_render(const plugin *pl, int argc, char **argv)
     if (optind != argc - 1) {
         fprintf(stderr, "vbnl render: expected exactly one scene FILE\n");
         render_usage(stderr);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     if (!job.exr && !job.png) {
         fprintf(stderr, "vbnl render: give an output: -o OUT.exr and/or --png OUT.png\n");
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     job.scene = argv[optind];
     progress_state ps = {job.quiet, isatty(STDERR_FILENO), -1e9, "", 0};
@@ -311,7 +311,7 @@ static int cmd_info(const plugin *pl, int argc, char **argv)
     (void)argv;
     if (argc > 1) {
         fprintf(stderr, "vbnl info: takes no arguments\n");
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     const vbnl_plugin_api *api = pl->api;
     printf("vbnl %s, plugin %s (ABI %u.%u)\n\n", api->version(), pl->path, api->abi_major, api->abi_minor);
@@ -329,7 +329,7 @@ static int cmd_info(const plugin *pl, int argc, char **argv)
         }
         printf("\n");
     }
-    return VBNL_EXIT_OK;
+    return VBI_EXIT_OK;
 }
 
 /* ---- dispatch ------------------------------------------------------------------------------------ */
@@ -361,7 +361,7 @@ int main(int argc, char **argv)
     plugin pl = {0};
     if (a >= argc) {
         usage(stderr, NULL);
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     }
     const char *cmd = argv[a];
     if (!strcmp(cmd, "-h") || !strcmp(cmd, "--help") || !strcmp(cmd, "help")) {
@@ -369,13 +369,13 @@ int main(int argc, char **argv)
         g_silent = 1;
         int ok = load_plugin(plugin_path, &pl) == 0;
         usage(stdout, ok ? &pl : NULL);
-        return VBNL_EXIT_OK;
+        return VBI_EXIT_OK;
     }
     if (load_plugin(plugin_path, &pl) != 0)
-        return VBNL_EXIT_PLUGIN;
+        return VBI_EXIT_PLUGIN;
     if (!strcmp(cmd, "--version")) {
         printf("vbnl %s (plugin %s, ABI %u.%u)\n", pl.api->version(), pl.path, pl.api->abi_major, pl.api->abi_minor);
-        return VBNL_EXIT_OK;
+        return VBI_EXIT_OK;
     }
     for (size_t i = 0; i < sizeof(host_commands) / sizeof(host_commands[0]); ++i)
         if (!strcmp(cmd, host_commands[i].name))
@@ -388,5 +388,5 @@ int main(int argc, char **argv)
         return pov_cli_main(&pl, argc - a, argv + a);
     fprintf(stderr, "vbnl: unknown command '%s'\n", cmd);
     usage(stderr, &pl);
-    return VBNL_EXIT_USAGE;
+    return VBI_EXIT_USAGE;
 }

@@ -279,7 +279,7 @@ static void pov_usage(FILE *f)
 }
 
 /* One of vbnl's --options at argv[*i]: its code and argument into r. */
-static int vbnl_option(pov_run *r, int argc, char **argv, int *i)
+static int vbi_option(pov_run *r, int argc, char **argv, int *i)
 {
     const char *a = argv[*i] + 2;
     size_t nl = strcspn(a, "=");
@@ -375,7 +375,7 @@ static int pov_job(pov_run *r, host_render_job *job, const pov_frames *f, long f
     job->opt.width = (uint32_t)s->width;
     job->opt.height = (uint32_t)s->height;
     if (pov_window(s, job->opt.width, job->opt.height, job->opt.crop) != 0)
-        return VBNL_EXIT_USAGE;
+        return VBI_EXIT_USAGE;
     if (s->threads > 0)
         job->opt.threads = (uint32_t)s->threads;
     job->view.png_bits = (uint32_t)s->bits;
@@ -383,7 +383,7 @@ static int pov_job(pov_run *r, host_render_job *job, const pov_frames *f, long f
     if (s->output_to_file) {
         if (pov_output_name(s, f, frame, image, n) != 0) {
             fprintf(stderr, "vbnl: the output file name is too long\n");
-            return VBNL_EXIT_USAGE;
+            return VBI_EXIT_USAGE;
         }
         if (s->file_type == 'E')
             job->exr = image;
@@ -461,16 +461,16 @@ int pov_cli_main(const plugin *pl, int argc, char **argv)
     pov_run *r = calloc(1, sizeof(*r));
     if (!r) {
         fprintf(stderr, "vbnl: out of memory\n");
-        return VBNL_EXIT_FAILURE;
+        return VBI_EXIT_FAILURE;
     }
     r->pl = pl;
     pov_settings_init(&r->set);
-    int rc = VBNL_EXIT_USAGE;
+    int rc = VBI_EXIT_USAGE;
     for (int i = 0; i < argc; ++i) {
-        int e = argv[i][0] == '-' && argv[i][1] == '-' ? vbnl_option(r, argc, argv, &i)
+        int e = argv[i][0] == '-' && argv[i][1] == '-' ? vbi_option(r, argc, argv, &i)
                                                        : pov_settings_argument(&r->set, argv[i]);
         if (e == -2) {
-            rc = VBNL_EXIT_OK;
+            rc = VBI_EXIT_OK;
             goto done;
         }
         if (e != 0)
@@ -499,8 +499,8 @@ int pov_cli_main(const plugin *pl, int argc, char **argv)
     pov_banner(r, &f, first);
     long total = f.animation ? (f.end - f.start) / f.step + 1 : 1;
     long index = 0;
-    rc = VBNL_EXIT_OK;
-    for (long frame = f.start; rc == VBNL_EXIT_OK && frame <= f.end; frame += f.step, ++index) {
+    rc = VBI_EXIT_OK;
+    for (long frame = f.start; rc == VBI_EXIT_OK && frame <= f.end; frame += f.step, ++index) {
         host_render_job job;
         char image[4096] = "", numbers[8][48];
         if ((rc = pov_job(r, &job, &f, frame, image, sizeof(image), numbers)) != 0)
@@ -513,7 +513,7 @@ int pov_cli_main(const plugin *pl, int argc, char **argv)
         r->last_stage[0] = '\0';
         r->last_pct = -2;
         rc = host_render_run(pl->api, &job, NULL);
-        if (rc == VBNL_EXIT_OK && image[0])
+        if (rc == VBI_EXIT_OK && image[0])
             out(r, stdout, "Wrote %s\n", image);
     }
 done:

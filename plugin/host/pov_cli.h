@@ -8,8 +8,8 @@
  * frame of an animation is one render (host_render_run) with POV-Ray's clock values, written
  * to POV-Ray's numbered file names. The mapping of every key and switch is in
  * docs/povray-command-line.md. */
-#ifndef VBNL_POV_CLI_H
-#define VBNL_POV_CLI_H
+#ifndef VBI_POV_CLI_H
+#define VBI_POV_CLI_H
 
 #include "host.h"
 

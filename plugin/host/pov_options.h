@@ -5,8 +5,8 @@
  * Every key of POV-Ray 3.7's table is known: a key that matters for vbnl's render is honoured,
  * any other is accepted with one note saying that it does not apply; a key or switch POV-Ray does
  * not have is an error naming it and where it stands. */
-#ifndef VBNL_POV_OPTIONS_H
-#define VBNL_POV_OPTIONS_H
+#ifndef VBI_POV_OPTIONS_H
+#define VBI_POV_OPTIONS_H
 
 #include <stddef.h>
 

@@ -1,8 +1,8 @@
 /* What the module's files share beyond the plugin ABI (module/plugin.c, the table) and what its
  * commands (plugin/commands/) use: loading scenes and writing a render's files with the core's
  * public API. Internal to the module: nothing here is exported. */
-#ifndef VBNL_MODULE_H
-#define VBNL_MODULE_H
+#ifndef VBI_MODULE_H
+#define VBI_MODULE_H
 
 #include "vbnl/vbnl.h"
 #include "vbnl/vbnl_plugin.h"

@@ -13,10 +13,10 @@
 
 vbnl_result module_check_writable(const char *path, vbnl_error *err)
 {
-    vbnl_atomic_file f;
-    vbnl_result r = vbnl_atomic_file_open(&f, path, err);
+    vbi_atomic_file f;
+    vbnl_result r = vbi_atomic_file_open(&f, path, err);
     if (r == VBNL_OK)
-        vbnl_atomic_file_discard(&f);
+        vbi_atomic_file_discard(&f);
     return r;
 }
 
@@ -52,8 +52,8 @@ static int read_lights_info(const vbnl_params *p, lights_info *li)
     uint64_t first = UINT64_MAX, count = 0, paths = 0, set = 0, prep = 0;
     int n = 0;
     for (char *save = NULL, *f = strtok_r(list, ":", &save); f; f = strtok_r(NULL, ":", &save), ++n) {
-        vbnl_vl_file_header h;
-        if (vbnl_vl_file_read_header(f, 0, &h, NULL) != VBNL_OK)
+        vbi_vl_file_header h;
+        if (vbi_vl_file_read_header(f, 0, &h, NULL) != VBNL_OK)
             return 0;
         first = h.photon_count && h.photon_first < first ? h.photon_first : first;
         count += h.photon_count;
@@ -91,7 +91,7 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
     const vbnl_film *film = vbnl_renderer_film(r);
     uint32_t w = vbnl_film_width(film), h = vbnl_film_height(film);
     uint32_t nl = vbnl_film_layer_count(film);
-    vbnl_image_layer layers[16];
+    vbi_image_layer layers[16];
     float *data[16] = {0}, *part[16] = {0};
     vbnl_result res = VBNL_OK;
     /* a crop render writes its window as the EXR's data window (the display window is the image) */
@@ -125,7 +125,7 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
     if (exr_path) {
         vbnl_render_stats st;
         vbnl_renderer_get_stats(r, &st, NULL);
-        vbnl_image_attr attrs[MAX_ATTRS];
+        vbi_image_attr attrs[MAX_ATTRS];
         uint32_t na = 0;
         char params[2048] = "", seed[32], stage_names[32][64], work_names[8][2][96];
         char scene_fp[24], camera_fp[24], crop[64];
@@ -142,62 +142,62 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
                 snprintf(params + len, sizeof(params) - len, "%s%s=%.17g", len ? " " : "", name, num);
         }
         snprintf(seed, sizeof(seed), "%llu", (unsigned long long)s->seed);
-        attrs[na++] = (vbnl_image_attr){"vbnl/version", VBNL_IMAGE_ATTR_STRING, {.s = VBNL_VERSION_STRING}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/integrator", VBNL_IMAGE_ATTR_STRING,
+        attrs[na++] = (vbi_image_attr){"vbnl/version", VBI_IMAGE_ATTR_STRING, {.s = VBNL_VERSION_STRING}};
+        attrs[na++] = (vbi_image_attr){"vbnl/integrator", VBI_IMAGE_ATTR_STRING,
                                         {.s = s->integrator ? s->integrator : "path"}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/parameters", VBNL_IMAGE_ATTR_STRING, {.s = params}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/seed", VBNL_IMAGE_ATTR_STRING, {.s = seed}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/sampler", VBNL_IMAGE_ATTR_STRING, {.s = vbnl_sampler_name(s->sampler)}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/spp", VBNL_IMAGE_ATTR_INT, {.i = (int32_t)st.spp}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/passes", VBNL_IMAGE_ATTR_INT, {.i = (int32_t)st.passes}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/rays", VBNL_IMAGE_ATTR_DOUBLE, {.d = (double)st.rays}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/partial", VBNL_IMAGE_ATTR_INT, {.i = partial ? 1 : 0}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/time_budget", VBNL_IMAGE_ATTR_DOUBLE, {.d = s->time_budget}};
-        attrs[na++] = (vbnl_image_attr){"vbnl/time/prepare", VBNL_IMAGE_ATTR_DOUBLE, {.d = st.prepare_seconds}};
+        attrs[na++] = (vbi_image_attr){"vbnl/parameters", VBI_IMAGE_ATTR_STRING, {.s = params}};
+        attrs[na++] = (vbi_image_attr){"vbnl/seed", VBI_IMAGE_ATTR_STRING, {.s = seed}};
+        attrs[na++] = (vbi_image_attr){"vbnl/sampler", VBI_IMAGE_ATTR_STRING, {.s = vbnl_sampler_name(s->sampler)}};
+        attrs[na++] = (vbi_image_attr){"vbnl/spp", VBI_IMAGE_ATTR_INT, {.i = (int32_t)st.spp}};
+        attrs[na++] = (vbi_image_attr){"vbnl/passes", VBI_IMAGE_ATTR_INT, {.i = (int32_t)st.passes}};
+        attrs[na++] = (vbi_image_attr){"vbnl/rays", VBI_IMAGE_ATTR_DOUBLE, {.d = (double)st.rays}};
+        attrs[na++] = (vbi_image_attr){"vbnl/partial", VBI_IMAGE_ATTR_INT, {.i = partial ? 1 : 0}};
+        attrs[na++] = (vbi_image_attr){"vbnl/time_budget", VBI_IMAGE_ATTR_DOUBLE, {.d = s->time_budget}};
+        attrs[na++] = (vbi_image_attr){"vbnl/time/prepare", VBI_IMAGE_ATTR_DOUBLE, {.d = st.prepare_seconds}};
         lights_info li;
         const int lights = read_lights_info(p, &li);
         /* what a part of an image belongs to (docs/farm.md: `vbnl merge-tiles` joins only parts
          * that agree); a whole image rendered here needs no such check, and the scene's
          * fingerprint reads all its geometry */
         if (scene && (cropped || lights)) {
-            snprintf(scene_fp, sizeof(scene_fp), "%016llx", (unsigned long long)vbnl_vl_file_scene_fingerprint(scene));
+            snprintf(scene_fp, sizeof(scene_fp), "%016llx", (unsigned long long)vbi_vl_file_scene_fingerprint(scene));
             snprintf(camera_fp, sizeof(camera_fp), "%016llx",
-                     (unsigned long long)vbnl_vl_file_camera_fingerprint(scene));
-            attrs[na++] = (vbnl_image_attr){"vbnl/scene/fingerprint", VBNL_IMAGE_ATTR_STRING, {.s = scene_fp}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/camera/fingerprint", VBNL_IMAGE_ATTR_STRING, {.s = camera_fp}};
+                     (unsigned long long)vbi_vl_file_camera_fingerprint(scene));
+            attrs[na++] = (vbi_image_attr){"vbnl/scene/fingerprint", VBI_IMAGE_ATTR_STRING, {.s = scene_fp}};
+            attrs[na++] = (vbi_image_attr){"vbnl/camera/fingerprint", VBI_IMAGE_ATTR_STRING, {.s = camera_fp}};
         }
         if (cropped) {
             snprintf(crop, sizeof(crop), "%u,%u,%u,%u", win[0], win[1], win[2], win[3]);
-            attrs[na++] = (vbnl_image_attr){"vbnl/crop", VBNL_IMAGE_ATTR_STRING, {.s = crop}};
+            attrs[na++] = (vbi_image_attr){"vbnl/crop", VBI_IMAGE_ATTR_STRING, {.s = crop}};
         }
         if (lights) {
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/fingerprint", VBNL_IMAGE_ATTR_STRING, {.s = li.set}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/preparation", VBNL_IMAGE_ATTR_STRING, {.s = li.preparation}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/photons", VBNL_IMAGE_ATTR_STRING, {.s = li.photons}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/files", VBNL_IMAGE_ATTR_STRING, {.s = li.files}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/time/placement", VBNL_IMAGE_ATTR_DOUBLE, {.d = li.placement}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/time/elimination", VBNL_IMAGE_ATTR_DOUBLE,
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/fingerprint", VBI_IMAGE_ATTR_STRING, {.s = li.set}};
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/preparation", VBI_IMAGE_ATTR_STRING, {.s = li.preparation}};
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/photons", VBI_IMAGE_ATTR_STRING, {.s = li.photons}};
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/files", VBI_IMAGE_ATTR_STRING, {.s = li.files}};
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/time/placement", VBI_IMAGE_ATTR_DOUBLE, {.d = li.placement}};
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/time/elimination", VBI_IMAGE_ATTR_DOUBLE,
                                             {.d = li.elimination}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/time/photons", VBNL_IMAGE_ATTR_DOUBLE,
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/time/photons", VBI_IMAGE_ATTR_DOUBLE,
                                             {.d = li.photon_seconds}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/lights/rays/photons", VBNL_IMAGE_ATTR_DOUBLE, {.d = li.photon_rays}};
+            attrs[na++] = (vbi_image_attr){"vbnl/lights/rays/photons", VBI_IMAGE_ATTR_DOUBLE, {.d = li.photon_rays}};
         }
         /* under a budget: the preparation's bound, what the integrator chose and why, and whether
          * the last pass was cut at the budget (docs/time-budget.md) */
         char choice_names[8][2][96];
         if (s->time_budget > 0.0) {
-            attrs[na++] = (vbnl_image_attr){"vbnl/budget/prepare_limit", VBNL_IMAGE_ATTR_DOUBLE, {.d = st.prepare_limit}};
-            attrs[na++] = (vbnl_image_attr){"vbnl/budget/cut", VBNL_IMAGE_ATTR_INT, {.i = st.budget_cut ? 1 : 0}};
+            attrs[na++] = (vbi_image_attr){"vbnl/budget/prepare_limit", VBI_IMAGE_ATTR_DOUBLE, {.d = st.prepare_limit}};
+            attrs[na++] = (vbi_image_attr){"vbnl/budget/cut", VBI_IMAGE_ATTR_INT, {.i = st.budget_cut ? 1 : 0}};
             for (uint32_t i = 0; i < st.choice_count && i < 8 && na + 2 <= MAX_ATTRS; ++i) {
                 snprintf(choice_names[i][0], sizeof(choice_names[i][0]), "vbnl/budget/%s", st.choices[i].name);
                 snprintf(choice_names[i][1], sizeof(choice_names[i][1]), "vbnl/budget/%s/why", st.choices[i].name);
-                attrs[na++] = (vbnl_image_attr){choice_names[i][0], VBNL_IMAGE_ATTR_DOUBLE, {.d = st.choices[i].value}};
-                attrs[na++] = (vbnl_image_attr){choice_names[i][1], VBNL_IMAGE_ATTR_STRING, {.s = st.choices[i].why}};
+                attrs[na++] = (vbi_image_attr){choice_names[i][0], VBI_IMAGE_ATTR_DOUBLE, {.d = st.choices[i].value}};
+                attrs[na++] = (vbi_image_attr){choice_names[i][1], VBI_IMAGE_ATTR_STRING, {.s = st.choices[i].why}};
             }
         }
         for (uint32_t i = 0; i < st.stage_count && na < MAX_ATTRS && i < 32; ++i) {
             snprintf(stage_names[i], sizeof(stage_names[i]), "vbnl/time/%s", st.stages[i].name);
-            attrs[na++] = (vbnl_image_attr){stage_names[i], VBNL_IMAGE_ATTR_DOUBLE, {.d = st.stages[i].seconds}};
+            attrs[na++] = (vbi_image_attr){stage_names[i], VBI_IMAGE_ATTR_DOUBLE, {.d = st.stages[i].seconds}};
         }
         /* the stages that counted their work: the count and the rate per second beside the time
          * (the photon stage's rays/s, to compare with `vbnl bench`'s raw Embree rates) */
@@ -207,12 +207,12 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
                 continue;
             snprintf(work_names[k][0], sizeof(work_names[k][0]), "vbnl/%s/%s", sg->work_unit, sg->name);
             snprintf(work_names[k][1], sizeof(work_names[k][1]), "vbnl/%s_per_second/%s", sg->work_unit, sg->name);
-            attrs[na++] = (vbnl_image_attr){work_names[k][0], VBNL_IMAGE_ATTR_DOUBLE, {.d = sg->work}};
-            attrs[na++] = (vbnl_image_attr){work_names[k][1], VBNL_IMAGE_ATTR_DOUBLE,
+            attrs[na++] = (vbi_image_attr){work_names[k][0], VBI_IMAGE_ATTR_DOUBLE, {.d = sg->work}};
+            attrs[na++] = (vbi_image_attr){work_names[k][1], VBI_IMAGE_ATTR_DOUBLE,
                                             {.d = sg->seconds > 0.0 ? sg->work / sg->seconds : 0.0}};
             ++k;
         }
-        if ((res = vbnl_exr_write_window(exr_path, w, h, win, layers, nl, attrs, na, half, err)) != VBNL_OK)
+        if ((res = vbi_exr_write_window(exr_path, w, h, win, layers, nl, attrs, na, half, err)) != VBNL_OK)
             goto done;
     }
     if (png_path) {
@@ -221,9 +221,9 @@ vbnl_result module_write_outputs(const vbnl_renderer *r, const vbnl_render_setti
             res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
             goto done;
         }
-        res = vbnl_linear_to_srgb8(data[0], w, h, 4, exposure, 1, px, 3, err);
+        res = vbi_linear_to_srgb8(data[0], w, h, 4, exposure, 1, px, 3, err);
         if (res == VBNL_OK)
-            res = vbnl_png_write(png_path, w, h, 3, 8, px, err);
+            res = vbi_png_write(png_path, w, h, 3, 8, px, err);
         free(px);
     }
 done:

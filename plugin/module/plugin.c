@@ -18,10 +18,10 @@
 #include "vbnl/vbnl.h"
 #include "vbnl/vbnl_plugin.h"
 
-#define VBNL_PLUGIN_EXPORT __attribute__((visibility("default")))
+#define VBI_PLUGIN_EXPORT __attribute__((visibility("default")))
 /* VBNL_PLUGIN_ABI_MAJOR.MINOR as text, for messages */
-#define VBNL_PLUGIN_ABI_STR "1.3"
-_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 3u, "update VBNL_PLUGIN_ABI_STR");
+#define VBI_PLUGIN_ABI_STR "1.3"
+_Static_assert(VBNL_PLUGIN_ABI_MAJOR == 1u && VBNL_PLUGIN_ABI_MINOR == 3u, "update VBI_PLUGIN_ABI_STR");
 _Static_assert(VBNL_PLUGIN_TEST_PAUSE_WRITES == (unsigned)VBNL_TEST_HOOK_PAUSE_WRITES, "test hooks must match");
 
 /* The plugin's result codes are the core's. */
@@ -718,7 +718,7 @@ static vbnl_result view_in_place(const vbnl_plugin_view *v, float *rgba, uint32_
     for (size_t i = 0; i < (size_t)w * h; ++i)
         for (int c = 0; c < 3; ++c)
             rgba[4 * i + c] *= scale;
-    return (vbnl_result)vbnl_ocio_apply(v->config, v->display, v->view, rgba, w, h, 4, msg, n);
+    return (vbnl_result)vbi_ocio_apply(v->config, v->display, v->view, rgba, w, h, 4, msg, n);
 }
 
 static vbnl_plugin_result p_apply_view(const vbnl_plugin_renderer *r, const vbnl_plugin_view *view, float *dst,
@@ -763,11 +763,11 @@ vbnl_result module_write_png(const char *path, float *rgba, uint32_t w, uint32_t
         return VBNL_OK;
     }
     /* Views may leave [0, 1] (Standard passes values above 1, ACES gives negatives for saturated
-     * colours): vbnl_display_quantise clamps before quantising. */
+     * colours): vbi_display_quantise clamps before quantising. */
     if (res == VBNL_OK) {
-        res = vbnl_display_quantise(rgba, w, h, 4, v.png_bits, v.dither, q, channels, &e);
+        res = vbi_display_quantise(rgba, w, h, 4, v.png_bits, v.dither, q, channels, &e);
         if (res == VBNL_OK)
-            res = vbnl_png_write(path, w, h, channels, v.png_bits, q, &e);
+            res = vbi_png_write(path, w, h, channels, v.png_bits, q, &e);
         to_msg(res, &e, msg, n);
     }
     free(q);
@@ -797,7 +797,7 @@ static vbnl_plugin_result p_write_png(const vbnl_plugin_renderer *r, const char 
 
 /* Async-signal-safe (see vbnl_plugin.h): the registry of temporaries lives in the core
  * (core/src/atomic_file.c) and lists every file the module writes, the save_lights file included. */
-static void p_abandon_writes(void) { vbnl_atomic_file_abandon_all(); }
+static void p_abandon_writes(void) { vbi_atomic_file_abandon_all(); }
 
 /* ---- what the module's commands see of a renderer (module.h) ---------------------------------- */
 
@@ -838,7 +838,7 @@ static int p_run_command(const char *name, int argc, char **argv)
         if (!strcmp(commands[i].name, name))
             return commands[i].main(argc, argv);
     fprintf(stderr, "vbnl: the plugin has no command '%s'\n", name ? name : "(null)");
-    return VBNL_EXIT_USAGE;
+    return VBI_EXIT_USAGE;
 }
 
 /* ---- the table -------------------------------------------------------------------------------- */
@@ -879,7 +879,7 @@ static const vbnl_plugin_api api = {
 
 const vbnl_plugin_api *module_api(void) { return &api; }
 
-VBNL_PLUGIN_EXPORT const vbnl_plugin_api *vbnl_plugin_entry(uint32_t host_abi_major, const char **why);
+VBI_PLUGIN_EXPORT const vbnl_plugin_api *vbnl_plugin_entry(uint32_t host_abi_major, const char **why);
 
 const vbnl_plugin_api *vbnl_plugin_entry(uint32_t host_abi_major, const char **why)
 {
@@ -888,9 +888,9 @@ const vbnl_plugin_api *vbnl_plugin_entry(uint32_t host_abi_major, const char **w
         if (why)
             *why = host_abi_major < VBNL_PLUGIN_ABI_MAJOR
                        ? "the host was built for an older plugin ABI major version than this module's ("
-                         "module ABI " VBNL_PLUGIN_ABI_STR "); rebuild the host against this vbnl_plugin.h"
+                         "module ABI " VBI_PLUGIN_ABI_STR "); rebuild the host against this vbnl_plugin.h"
                        : "the host was built for a newer plugin ABI major version than this module's ("
-                         "module ABI " VBNL_PLUGIN_ABI_STR "); install a matching vbnl plugin";
+                         "module ABI " VBI_PLUGIN_ABI_STR "); install a matching vbnl plugin";
         return NULL;
     }
     if (why)

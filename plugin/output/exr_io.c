@@ -16,13 +16,13 @@
 #include "image_io.h"
 #include "read_file.h"
 
-#define VBNL_EXR_MAX_CHANNELS_PER_LAYER 64u
-#define VBNL_EXR_MAX_NAME 255u
+#define VBI_EXR_MAX_CHANNELS_PER_LAYER 64u
+#define VBI_EXR_MAX_NAME 255u
 
 /* ---------------------------------------------------------------------------------------------- */
 /* Half precision (IEEE 754 binary16), done here so the library's conversion paths are not used.   */
 
-static uint16_t vbnl_float_to_half(float f)
+static uint16_t vbi_float_to_half(float f)
 {
     uint32_t x;
     memcpy(&x, &f, 4);
@@ -52,7 +52,7 @@ static uint16_t vbnl_float_to_half(float f)
     return (uint16_t)(sign | h);
 }
 
-static float vbnl_half_to_float(uint16_t h)
+static float vbi_half_to_float(uint16_t h)
 {
     uint32_t sign = (uint32_t)(h & 0x8000u) << 16;
     uint32_t e = (h >> 10) & 0x1fu, m = h & 0x3ffu, x;
@@ -80,34 +80,34 @@ static float vbnl_half_to_float(uint16_t h)
 /* ---------------------------------------------------------------------------------------------- */
 /* Per-call state: our write callback gets it as user_data, the error callback as below.          */
 
-typedef struct vbnl_exr_io {
+typedef struct vbi_exr_io {
     int fd;
     int64_t size; /* reading: the file's size */
     int write_errno;
     int read_errno; /* reading: errno of a failed read (not a file that ends early, which is damage) */
     exr_result_t code; /* first error the library reported */
     char msg[512];
-} vbnl_exr_io;
+} vbi_exr_io;
 
 /* The error callback cannot use exr_get_user_data: in write mode OpenEXR 3.1 calls the callback
  * with the context's non-recursive mutex held and exr_get_user_data takes it again (deadlock). So
  * the per-call record is reached through a thread-local pointer that only lives for one call. */
-static _Thread_local vbnl_exr_io *vbnl_exr_current_io;
+static _Thread_local vbi_exr_io *vbi_exr_current_io;
 
-static void vbnl_exr_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+static void vbi_exr_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
     (void)ctxt;
-    vbnl_exr_io *io = vbnl_exr_current_io;
+    vbi_exr_io *io = vbi_exr_current_io;
     if (io && io->code == EXR_ERR_SUCCESS) {
         io->code = code;
         snprintf(io->msg, sizeof io->msg, "%s", msg ? msg : "");
     }
 }
 
-static int64_t vbnl_exr_pwrite(exr_const_context_t ctxt, void *userdata, const void *buffer,
+static int64_t vbi_exr_pwrite(exr_const_context_t ctxt, void *userdata, const void *buffer,
                                uint64_t sz, uint64_t offset, exr_stream_error_func_ptr_t error_cb)
 {
-    vbnl_exr_io *io = userdata;
+    vbi_exr_io *io = userdata;
     const char *p = buffer;
     uint64_t done = 0;
     while (done < sz) {
@@ -126,10 +126,10 @@ static int64_t vbnl_exr_pwrite(exr_const_context_t ctxt, void *userdata, const v
 }
 
 /* Reading through our descriptor (read_file.h: a regular file, opened without waiting on a FIFO). */
-static int64_t vbnl_exr_pread(exr_const_context_t ctxt, void *userdata, void *buffer, uint64_t sz,
+static int64_t vbi_exr_pread(exr_const_context_t ctxt, void *userdata, void *buffer, uint64_t sz,
                               uint64_t offset, exr_stream_error_func_ptr_t error_cb)
 {
-    vbnl_exr_io *io = userdata;
+    vbi_exr_io *io = userdata;
     char *p = buffer;
     uint64_t done = 0;
     while (done < sz) {
@@ -149,14 +149,14 @@ static int64_t vbnl_exr_pread(exr_const_context_t ctxt, void *userdata, void *bu
     return (int64_t)done;
 }
 
-static int64_t vbnl_exr_size(exr_const_context_t ctxt, void *userdata)
+static int64_t vbi_exr_size(exr_const_context_t ctxt, void *userdata)
 {
     (void)ctxt;
-    return ((const vbnl_exr_io *)userdata)->size;
+    return ((const vbi_exr_io *)userdata)->size;
 }
 
 /* Library failure -> vbnl error, preferring the specific message the callback captured. */
-static vbnl_result vbnl_exr_fail(vbnl_error *err, const vbnl_exr_io *io, exr_result_t rv,
+static vbnl_result vbi_exr_fail(vbnl_error *err, const vbi_exr_io *io, exr_result_t rv,
                                  vbnl_result code, const char *verb, const char *path)
 {
     if (io->write_errno)
@@ -170,23 +170,23 @@ static vbnl_result vbnl_exr_fail(vbnl_error *err, const vbnl_exr_io *io, exr_res
 /* ---------------------------------------------------------------------------------------------- */
 /* Writing                                                                                        */
 
-typedef struct vbnl_exr_out_channel {
-    char name[VBNL_EXR_MAX_NAME + 1];
+typedef struct vbi_exr_out_channel {
+    char name[VBI_EXR_MAX_NAME + 1];
     uint32_t layer, component;
-} vbnl_exr_out_channel;
+} vbi_exr_out_channel;
 
-static const char *const vbnl_default_names[5][4] = {
+static const char *const vbi_default_names[5][4] = {
     {NULL}, {"Y"}, {NULL}, {"R", "G", "B"}, {"R", "G", "B", "A"},
 };
 
-static const char *vbnl_layer_channel_name(const vbnl_image_layer *l, uint32_t c)
+static const char *vbi_layer_channel_name(const vbi_image_layer *l, uint32_t c)
 {
     if (l->channel_names)
         return l->channel_names[c];
-    return l->channels <= 4 ? vbnl_default_names[l->channels][c] : NULL;
+    return l->channels <= 4 ? vbi_default_names[l->channels][c] : NULL;
 }
 
-static int vbnl_is_reserved_attr(const char *name)
+static int vbi_is_reserved_attr(const char *name)
 {
     static const char *const reserved[] = {
         "channels", "compression", "dataWindow", "displayWindow", "lineOrder",
@@ -199,9 +199,9 @@ static int vbnl_is_reserved_attr(const char *name)
     return 0;
 }
 
-static vbnl_result vbnl_exr_check_write_args(const char *path, uint32_t width, uint32_t height,
-                                             const vbnl_image_layer *layers, uint32_t layer_count,
-                                             const vbnl_image_attr *attrs, uint32_t attr_count,
+static vbnl_result vbi_exr_check_write_args(const char *path, uint32_t width, uint32_t height,
+                                             const vbi_image_layer *layers, uint32_t layer_count,
+                                             const vbi_image_attr *attrs, uint32_t attr_count,
                                              vbnl_error *err)
 {
     const char *p = path ? path : "(null)";
@@ -217,16 +217,16 @@ static vbnl_result vbnl_exr_check_write_args(const char *path, uint32_t width, u
                               "cannot write '%s': attrs is NULL but attr_count is %u", p,
                               attr_count);
     for (uint32_t i = 0; i < layer_count; i++) {
-        const vbnl_image_layer *l = &layers[i];
+        const vbi_image_layer *l = &layers[i];
         if (!l->name || !l->data)
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                   "cannot write '%s': layer %u has a NULL name or data", p, i);
-        if (l->channels == 0 || l->channels > VBNL_EXR_MAX_CHANNELS_PER_LAYER)
+        if (l->channels == 0 || l->channels > VBI_EXR_MAX_CHANNELS_PER_LAYER)
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                   "cannot write '%s': layer '%s' has %u channels", p, l->name,
                                   l->channels);
         for (uint32_t c = 0; c < l->channels; c++) {
-            const char *cn = vbnl_layer_channel_name(l, c);
+            const char *cn = vbi_layer_channel_name(l, c);
             if (!cn || !cn[0])
                 return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                       "cannot write '%s': layer '%s' channel %u has no name", p,
@@ -234,15 +234,15 @@ static vbnl_result vbnl_exr_check_write_args(const char *path, uint32_t width, u
         }
     }
     for (uint32_t i = 0; i < attr_count; i++) {
-        const vbnl_image_attr *a = &attrs[i];
-        if (!a->name || !a->name[0] || strlen(a->name) > VBNL_EXR_MAX_NAME)
+        const vbi_image_attr *a = &attrs[i];
+        if (!a->name || !a->name[0] || strlen(a->name) > VBI_EXR_MAX_NAME)
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                   "cannot write '%s': attribute %u has no or too long a name", p, i);
-        if (vbnl_is_reserved_attr(a->name))
+        if (vbi_is_reserved_attr(a->name))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                   "cannot write '%s': attribute name '%s' is reserved", p, a->name);
-        if ((unsigned)a->type > VBNL_IMAGE_ATTR_DOUBLE ||
-            (a->type == VBNL_IMAGE_ATTR_STRING && !a->value.s))
+        if ((unsigned)a->type > VBI_IMAGE_ATTR_DOUBLE ||
+            (a->type == VBI_IMAGE_ATTR_STRING && !a->value.s))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                   "cannot write '%s': attribute '%s' has a bad type or value", p,
                                   a->name);
@@ -255,14 +255,14 @@ static vbnl_result vbnl_exr_check_write_args(const char *path, uint32_t width, u
 }
 
 /* Flattens the layers into full channel names; checks length and uniqueness. */
-static vbnl_result vbnl_exr_plan_channels(const char *path, const vbnl_image_layer *layers,
-                                          uint32_t layer_count, vbnl_exr_out_channel **out,
+static vbnl_result vbi_exr_plan_channels(const char *path, const vbi_image_layer *layers,
+                                          uint32_t layer_count, vbi_exr_out_channel **out,
                                           uint32_t *out_count, int *long_names, vbnl_error *err)
 {
     uint32_t n = 0;
     for (uint32_t i = 0; i < layer_count; i++)
         n += layers[i].channels;
-    vbnl_exr_out_channel *ch = calloc(n, sizeof *ch);
+    vbi_exr_out_channel *ch = calloc(n, sizeof *ch);
     if (!ch)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot write '%s': out of memory",
                               path);
@@ -270,15 +270,15 @@ static vbnl_result vbnl_exr_plan_channels(const char *path, const vbnl_image_lay
     *long_names = 0;
     for (uint32_t i = 0; i < layer_count; i++) {
         for (uint32_t c = 0; c < layers[i].channels; c++, k++) {
-            const char *cn = vbnl_layer_channel_name(&layers[i], c);
+            const char *cn = vbi_layer_channel_name(&layers[i], c);
             int len = layers[i].name[0]
                           ? snprintf(ch[k].name, sizeof ch[k].name, "%s.%s", layers[i].name, cn)
                           : snprintf(ch[k].name, sizeof ch[k].name, "%s", cn);
-            if (len < 0 || (size_t)len > VBNL_EXR_MAX_NAME) {
+            if (len < 0 || (size_t)len > VBI_EXR_MAX_NAME) {
                 free(ch);
                 return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                                       "cannot write '%s': channel name '%s.%s' is longer than %u "
-                                      "bytes", path, layers[i].name, cn, VBNL_EXR_MAX_NAME);
+                                      "bytes", path, layers[i].name, cn, VBI_EXR_MAX_NAME);
             }
             if (len > 31) /* the EXR limit unless the "long names" flag is set */
                 *long_names = 1;
@@ -301,9 +301,9 @@ static vbnl_result vbnl_exr_plan_channels(const char *path, const vbnl_image_lay
 }
 
 /* Writes every scanline chunk. `src[k]` is the base of output channel k's layer (float or half). */
-static exr_result_t vbnl_exr_write_chunks(exr_context_t ctxt, uint32_t width, int32_t y0, uint32_t height,
-                                          const vbnl_exr_out_channel *ch, uint32_t n,
-                                          const vbnl_image_layer *layers,
+static exr_result_t vbi_exr_write_chunks(exr_context_t ctxt, uint32_t width, int32_t y0, uint32_t height,
+                                          const vbi_exr_out_channel *ch, uint32_t n,
+                                          const vbi_image_layer *layers,
                                           const uint8_t *const *layer_base, int half_float)
 {
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
@@ -325,7 +325,7 @@ static exr_result_t vbnl_exr_write_chunks(exr_context_t ctxt, uint32_t width, in
         /* The pipeline's channels are in file order (sorted by name): match ours by name. */
         for (int16_t c = 0; c < enc.channel_count; c++) {
             exr_coding_channel_info_t *ec = &enc.channels[c];
-            const vbnl_exr_out_channel *oc = NULL;
+            const vbi_exr_out_channel *oc = NULL;
             for (uint32_t k = 0; k < n && !oc; k++)
                 if (strcmp(ch[k].name, ec->channel_name) == 0)
                     oc = &ch[k];
@@ -333,7 +333,7 @@ static exr_result_t vbnl_exr_write_chunks(exr_context_t ctxt, uint32_t width, in
                 rv = EXR_ERR_INVALID_ARGUMENT;
                 break;
             }
-            const vbnl_image_layer *l = &layers[oc->layer];
+            const vbi_image_layer *l = &layers[oc->layer];
             size_t row = (size_t)width * l->channels * (size_t)elem;
             ec->user_bytes_per_element = (int16_t)elem;
             ec->user_data_type = (uint16_t)(half_float ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT);
@@ -353,30 +353,30 @@ static exr_result_t vbnl_exr_write_chunks(exr_context_t ctxt, uint32_t width, in
     return rv;
 }
 
-static exr_result_t vbnl_exr_set_attr(exr_context_t ctxt, const vbnl_image_attr *a)
+static exr_result_t vbi_exr_set_attr(exr_context_t ctxt, const vbi_image_attr *a)
 {
     switch (a->type) {
-    case VBNL_IMAGE_ATTR_STRING: return exr_attr_set_string(ctxt, 0, a->name, a->value.s);
-    case VBNL_IMAGE_ATTR_INT: return exr_attr_set_int(ctxt, 0, a->name, a->value.i);
-    case VBNL_IMAGE_ATTR_FLOAT: return exr_attr_set_float(ctxt, 0, a->name, a->value.f);
-    case VBNL_IMAGE_ATTR_DOUBLE: return exr_attr_set_double(ctxt, 0, a->name, a->value.d);
+    case VBI_IMAGE_ATTR_STRING: return exr_attr_set_string(ctxt, 0, a->name, a->value.s);
+    case VBI_IMAGE_ATTR_INT: return exr_attr_set_int(ctxt, 0, a->name, a->value.i);
+    case VBI_IMAGE_ATTR_FLOAT: return exr_attr_set_float(ctxt, 0, a->name, a->value.f);
+    case VBI_IMAGE_ATTR_DOUBLE: return exr_attr_set_double(ctxt, 0, a->name, a->value.d);
     }
     return EXR_ERR_INVALID_ARGUMENT;
 }
 
-vbnl_result vbnl_exr_write(const char *path, uint32_t width, uint32_t height,
-                           const vbnl_image_layer *layers, uint32_t layer_count,
-                           const vbnl_image_attr *attrs, uint32_t attr_count, int half_float,
+vbnl_result vbi_exr_write(const char *path, uint32_t width, uint32_t height,
+                           const vbi_image_layer *layers, uint32_t layer_count,
+                           const vbi_image_attr *attrs, uint32_t attr_count, int half_float,
                            vbnl_error *err)
 {
     const uint32_t whole[4] = {0, 0, width, height};
-    return vbnl_exr_write_window(path, width, height, whole, layers, layer_count, attrs, attr_count,
+    return vbi_exr_write_window(path, width, height, whole, layers, layer_count, attrs, attr_count,
                                  half_float, err);
 }
 
-vbnl_result vbnl_exr_write_window(const char *path, uint32_t display_width, uint32_t display_height,
-                                  const uint32_t window[4], const vbnl_image_layer *layers,
-                                  uint32_t layer_count, const vbnl_image_attr *attrs,
+vbnl_result vbi_exr_write_window(const char *path, uint32_t display_width, uint32_t display_height,
+                                  const uint32_t window[4], const vbi_image_layer *layers,
+                                  uint32_t layer_count, const vbi_image_attr *attrs,
                                   uint32_t attr_count, int half_float, vbnl_error *err)
 {
     if (!window || window[0] >= window[2] || window[1] >= window[3] || window[2] > display_width ||
@@ -386,14 +386,14 @@ vbnl_result vbnl_exr_write_window(const char *path, uint32_t display_width, uint
                               "%ux%u image", path ? path : "(null)", display_width, display_height);
     const uint32_t width = window[2] - window[0], height = window[3] - window[1];
     vbnl_result r =
-        vbnl_exr_check_write_args(path, width, height, layers, layer_count, attrs, attr_count, err);
+        vbi_exr_check_write_args(path, width, height, layers, layer_count, attrs, attr_count, err);
     if (r != VBNL_OK)
         return r;
 
-    vbnl_exr_out_channel *ch = NULL;
+    vbi_exr_out_channel *ch = NULL;
     uint32_t n = 0;
     int long_names = 0;
-    r = vbnl_exr_plan_channels(path, layers, layer_count, &ch, &n, &long_names, err);
+    r = vbi_exr_plan_channels(path, layers, layer_count, &ch, &n, &long_names, err);
     if (r != VBNL_OK)
         return r;
     for (uint32_t i = 0; i < attr_count; i++)
@@ -421,25 +421,25 @@ vbnl_result vbnl_exr_write_window(const char *path, uint32_t display_width, uint
             goto out;
         }
         for (size_t j = 0; j < count; j++)
-            halves[i][j] = vbnl_float_to_half(layers[i].data[j]);
+            halves[i][j] = vbi_float_to_half(layers[i].data[j]);
         base[i] = (const uint8_t *)halves[i];
     }
 
-    vbnl_atomic_file tmp;
-    r = vbnl_atomic_file_open(&tmp, path, err);
+    vbi_atomic_file tmp;
+    r = vbi_atomic_file_open(&tmp, path, err);
     if (r != VBNL_OK)
         goto out;
 
-    vbnl_exr_io io = {.fd = tmp.fd};
+    vbi_exr_io io = {.fd = tmp.fd};
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = vbnl_exr_on_error;
+    init.error_handler_fn = vbi_exr_on_error;
     init.user_data = &io;
-    init.write_fn = vbnl_exr_pwrite; /* our fd: we own the temp file, fsync and rename */
+    init.write_fn = vbi_exr_pwrite; /* our fd: we own the temp file, fsync and rename */
 
     exr_context_t ctxt = NULL;
     int part = 0;
-    vbnl_exr_io *outer_io = vbnl_exr_current_io;
-    vbnl_exr_current_io = &io;
+    vbi_exr_io *outer_io = vbi_exr_current_io;
+    vbi_exr_current_io = &io;
     exr_result_t rv = exr_start_write(&ctxt, path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_add_part(ctxt, NULL, EXR_STORAGE_SCANLINE, &part);
@@ -470,29 +470,29 @@ vbnl_result vbnl_exr_write_window(const char *path, uint32_t display_width, uint
         rv = exr_attr_set_chromaticities(ctxt, part, "chromaticities", &rec709);
     }
     for (uint32_t i = 0; rv == EXR_ERR_SUCCESS && i < attr_count; i++)
-        rv = vbnl_exr_set_attr(ctxt, &attrs[i]);
+        rv = vbi_exr_set_attr(ctxt, &attrs[i]);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_write_header(ctxt);
     if (rv == EXR_ERR_SUCCESS)
-        rv = vbnl_exr_write_chunks(ctxt, width, (int32_t)window[1], height, ch, n, layers, base,
+        rv = vbi_exr_write_chunks(ctxt, width, (int32_t)window[1], height, ch, n, layers, base,
                                    half_float);
     /* exr_finish writes the chunk offset table: it must run (and succeed) before the rename, and
      * must run on failure too, to free the context. */
     exr_result_t frv = exr_finish(&ctxt);
-    vbnl_exr_current_io = outer_io;
+    vbi_exr_current_io = outer_io;
     if (rv == EXR_ERR_SUCCESS)
         rv = frv;
     if (rv != EXR_ERR_SUCCESS) {
-        vbnl_atomic_file_discard(&tmp);
+        vbi_atomic_file_discard(&tmp);
         vbnl_result code = rv == EXR_ERR_OUT_OF_MEMORY ? VBNL_ERR_OUT_OF_MEMORY
                            : (rv == EXR_ERR_INVALID_ARGUMENT || rv == EXR_ERR_NAME_TOO_LONG ||
                               rv == EXR_ERR_ARGUMENT_OUT_OF_RANGE)
                                ? VBNL_ERR_INVALID_ARGUMENT
                                : VBNL_ERR_BACKEND;
-        r = vbnl_exr_fail(err, &io, rv, code, "write", path);
+        r = vbi_exr_fail(err, &io, rv, code, "write", path);
         goto out;
     }
-    r = vbnl_atomic_file_commit(&tmp, err);
+    r = vbi_atomic_file_commit(&tmp, err);
 
 out:
     if (halves)
@@ -507,7 +507,7 @@ out:
 /* ---------------------------------------------------------------------------------------------- */
 /* Reading                                                                                        */
 
-void vbnl_exr_image_free(vbnl_exr_image *img)
+void vbi_exr_image_free(vbi_exr_image *img)
 {
     if (!img)
         return;
@@ -518,14 +518,14 @@ void vbnl_exr_image_free(vbnl_exr_image *img)
     free(img->channels);
     for (uint32_t i = 0; i < img->attr_count && img->attrs; i++) {
         free((char *)img->attrs[i].name);
-        if (img->attrs[i].type == VBNL_IMAGE_ATTR_STRING)
+        if (img->attrs[i].type == VBI_IMAGE_ATTR_STRING)
             free((char *)img->attrs[i].value.s);
     }
     free(img->attrs);
     memset(img, 0, sizeof *img);
 }
 
-const vbnl_exr_channel *vbnl_exr_image_channel(const vbnl_exr_image *img, const char *name)
+const vbi_exr_channel *vbi_exr_image_channel(const vbi_exr_image *img, const char *name)
 {
     if (!img || !name)
         return NULL;
@@ -535,7 +535,7 @@ const vbnl_exr_channel *vbnl_exr_image_channel(const vbnl_exr_image *img, const 
     return NULL;
 }
 
-const vbnl_image_attr *vbnl_exr_image_attr(const vbnl_exr_image *img, const char *name)
+const vbi_image_attr *vbi_exr_image_attr(const vbi_exr_image *img, const char *name)
 {
     if (!img || !name)
         return NULL;
@@ -545,7 +545,7 @@ const vbnl_image_attr *vbnl_exr_image_attr(const vbnl_exr_image *img, const char
     return NULL;
 }
 
-static vbnl_result vbnl_exr_read_attrs(exr_context_t ctxt, vbnl_exr_image *img, const char *path,
+static vbnl_result vbi_exr_read_attrs(exr_context_t ctxt, vbi_exr_image *img, const char *path,
                                        vbnl_error *err)
 {
     int32_t count = 0;
@@ -568,12 +568,12 @@ static vbnl_result vbnl_exr_read_attrs(exr_context_t ctxt, vbnl_exr_image *img, 
             img->has_chromaticities = 1;
             continue;
         }
-        vbnl_image_attr out = {0};
+        vbi_image_attr out = {0};
         switch (a->type) {
         case EXR_ATTR_STRING:
             if (!a->string)
                 continue;
-            out.type = VBNL_IMAGE_ATTR_STRING;
+            out.type = VBI_IMAGE_ATTR_STRING;
             /* EXR strings carry a length and need not be NUL-terminated */
             out.value.s = strndup(a->string->str ? a->string->str : "",
                                   (size_t)(a->string->length > 0 ? a->string->length : 0));
@@ -581,14 +581,14 @@ static vbnl_result vbnl_exr_read_attrs(exr_context_t ctxt, vbnl_exr_image *img, 
                 return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
                                       "cannot read '%s': out of memory", path);
             break;
-        case EXR_ATTR_INT: out.type = VBNL_IMAGE_ATTR_INT; out.value.i = a->i; break;
-        case EXR_ATTR_FLOAT: out.type = VBNL_IMAGE_ATTR_FLOAT; out.value.f = a->f; break;
-        case EXR_ATTR_DOUBLE: out.type = VBNL_IMAGE_ATTR_DOUBLE; out.value.d = a->d; break;
+        case EXR_ATTR_INT: out.type = VBI_IMAGE_ATTR_INT; out.value.i = a->i; break;
+        case EXR_ATTR_FLOAT: out.type = VBI_IMAGE_ATTR_FLOAT; out.value.f = a->f; break;
+        case EXR_ATTR_DOUBLE: out.type = VBI_IMAGE_ATTR_DOUBLE; out.value.d = a->d; break;
         default: continue;
         }
         out.name = strdup(a->name);
         if (!out.name) {
-            if (out.type == VBNL_IMAGE_ATTR_STRING)
+            if (out.type == VBI_IMAGE_ATTR_STRING)
                 free((char *)out.value.s);
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory",
                                   path);
@@ -601,9 +601,9 @@ static vbnl_result vbnl_exr_read_attrs(exr_context_t ctxt, vbnl_exr_image *img, 
 /* Decodes one chunk planar, each channel in its stored type, into `scratch`, then converts into
  * the image. Never asks the library to convert or interleave (the 3.1 HALF->FLOAT interleaved
  * path reverses channel order). */
-static exr_result_t vbnl_exr_decode_chunk(exr_context_t ctxt, exr_decode_pipeline_t *dec,
+static exr_result_t vbi_exr_decode_chunk(exr_context_t ctxt, exr_decode_pipeline_t *dec,
                                           int *initialised, const exr_chunk_info_t *cinfo,
-                                          int32_t x0, int32_t y0, vbnl_exr_image *img,
+                                          int32_t x0, int32_t y0, vbi_exr_image *img,
                                           uint8_t **scratch, size_t *scratch_size)
 {
     exr_result_t rv = *initialised ? exr_decoding_update(ctxt, 0, cinfo, dec)
@@ -643,7 +643,7 @@ static exr_result_t vbnl_exr_decode_chunk(exr_context_t ctxt, exr_decode_pipelin
     for (int16_t c = 0; c < dec->channel_count; c++) {
         const exr_coding_channel_info_t *dc = &dec->channels[c];
         /* decoder channel c is file channel c, but look it up by name all the same */
-        vbnl_exr_channel *oc = NULL;
+        vbi_exr_channel *oc = NULL;
         if (strcmp(img->channels[c].name, dc->channel_name) == 0)
             oc = &img->channels[c];
         for (uint32_t k = 0; k < img->channel_count && !oc; k++)
@@ -659,7 +659,7 @@ static exr_result_t vbnl_exr_decode_chunk(exr_context_t ctxt, exr_decode_pipelin
                 if (dc->data_type == EXR_PIXEL_HALF) {
                     uint16_t h;
                     memcpy(&h, src + i * 2u, 2);
-                    dst[x] = vbnl_half_to_float(h);
+                    dst[x] = vbi_half_to_float(h);
                 } else if (dc->data_type == EXR_PIXEL_FLOAT) {
                     memcpy(&dst[x], src + i * 4u, 4);
                 } else {
@@ -673,8 +673,8 @@ static exr_result_t vbnl_exr_decode_chunk(exr_context_t ctxt, exr_decode_pipelin
     return EXR_ERR_SUCCESS;
 }
 
-static exr_result_t vbnl_exr_read_pixels(exr_context_t ctxt, exr_storage_t storage,
-                                         exr_attr_box2i_t dw, vbnl_exr_image *img)
+static exr_result_t vbi_exr_read_pixels(exr_context_t ctxt, exr_storage_t storage,
+                                         exr_attr_box2i_t dw, vbi_exr_image *img)
 {
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
     int initialised = 0;
@@ -691,7 +691,7 @@ static exr_result_t vbnl_exr_read_pixels(exr_context_t ctxt, exr_storage_t stora
         for (int64_t y = dw.min.y; rv == EXR_ERR_SUCCESS && y <= dw.max.y; y += lines) {
             rv = exr_read_scanline_chunk_info(ctxt, 0, (int)y, &cinfo);
             if (rv == EXR_ERR_SUCCESS)
-                rv = vbnl_exr_decode_chunk(ctxt, &dec, &initialised, &cinfo, 0,
+                rv = vbi_exr_decode_chunk(ctxt, &dec, &initialised, &cinfo, 0,
                                            (int32_t)(cinfo.start_y - dw.min.y), img, &scratch,
                                            &scratch_size);
         }
@@ -709,7 +709,7 @@ static exr_result_t vbnl_exr_read_pixels(exr_context_t ctxt, exr_storage_t stora
                 rv = exr_read_tile_chunk_info(ctxt, 0, (int)tx, (int)ty, 0, 0, &cinfo);
                 /* the chunk's start_x/start_y are tile indices here: use our own origin */
                 if (rv == EXR_ERR_SUCCESS)
-                    rv = vbnl_exr_decode_chunk(ctxt, &dec, &initialised, &cinfo,
+                    rv = vbi_exr_decode_chunk(ctxt, &dec, &initialised, &cinfo,
                                                (int32_t)(tx * tw), (int32_t)(ty * th), img,
                                                &scratch, &scratch_size);
             }
@@ -721,7 +721,7 @@ static exr_result_t vbnl_exr_read_pixels(exr_context_t ctxt, exr_storage_t stora
     return rv;
 }
 
-vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err)
+vbnl_result vbi_exr_read(const char *path, vbi_exr_image *out, vbnl_error *err)
 {
     if (out)
         memset(out, 0, sizeof *out);
@@ -729,21 +729,21 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "cannot read EXR: %s is NULL", !path ? "path" : "out");
 
-    vbnl_exr_io io = {.fd = -1};
+    vbi_exr_io io = {.fd = -1};
     struct stat st;
     const char *why;
     if ((io.fd = vbi_read_open(path, &st, &why)) < 0)
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, why);
     io.size = (int64_t)st.st_size;
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = vbnl_exr_on_error;
+    init.error_handler_fn = vbi_exr_on_error;
     init.user_data = &io;
-    init.read_fn = vbnl_exr_pread;
-    init.size_fn = vbnl_exr_size;
+    init.read_fn = vbi_exr_pread;
+    init.size_fn = vbi_exr_size;
 
     exr_context_t ctxt = NULL;
-    vbnl_exr_io *outer_io = vbnl_exr_current_io;
-    vbnl_exr_current_io = &io;
+    vbi_exr_io *outer_io = vbi_exr_current_io;
+    vbi_exr_current_io = &io;
     exr_result_t rv = exr_start_read(&ctxt, path, &init);
     if (rv != EXR_ERR_SUCCESS) {
         /* a short read is a file that ends early (damage); only a failed read is an I/O error */
@@ -752,11 +752,11 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
                                                                       : VBNL_ERR_CORRUPT;
         exr_finish(&ctxt);
         close(io.fd);
-        vbnl_exr_current_io = outer_io;
-        return vbnl_exr_fail(err, &io, rv, code, "read", path);
+        vbi_exr_current_io = outer_io;
+        return vbi_exr_fail(err, &io, rv, code, "read", path);
     }
 
-    vbnl_exr_image img = {0};
+    vbi_exr_image img = {0};
     vbnl_result r = VBNL_OK;
     exr_storage_t storage = EXR_STORAGE_SCANLINE;
     exr_attr_box2i_t dw;
@@ -770,7 +770,7 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_get_channels(ctxt, 0, &chl);
     if (rv != EXR_ERR_SUCCESS || !chl) {
-        r = vbnl_exr_fail(err, &io, rv ? rv : EXR_ERR_MISSING_REQ_ATTR, VBNL_ERR_CORRUPT, "read",
+        r = vbi_exr_fail(err, &io, rv ? rv : EXR_ERR_MISSING_REQ_ATTR, VBNL_ERR_CORRUPT, "read",
                           path);
         goto done;
     }
@@ -814,9 +814,9 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
                                "subsampled", path, e->name.length, e->name.str);
             goto done;
         }
-        vbnl_exr_channel *oc = &img.channels[img.channel_count++];
+        vbi_exr_channel *oc = &img.channels[img.channel_count++];
         oc->name = strndup(e->name.str, (size_t)e->name.length);
-        oc->stored_type = (vbnl_exr_pixel_type)e->pixel_type;
+        oc->stored_type = (vbi_exr_pixel_type)e->pixel_type;
         oc->data = calloc((size_t)w * (size_t)h, sizeof(float));
         if (!oc->name || !oc->data) {
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory",
@@ -824,12 +824,12 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
             goto done;
         }
     }
-    r = vbnl_exr_read_attrs(ctxt, &img, path, err);
+    r = vbi_exr_read_attrs(ctxt, &img, path, err);
     if (r != VBNL_OK)
         goto done;
-    rv = vbnl_exr_read_pixels(ctxt, storage, dw, &img);
+    rv = vbi_exr_read_pixels(ctxt, storage, dw, &img);
     if (rv != EXR_ERR_SUCCESS) {
-        r = vbnl_exr_fail(err, &io, rv,
+        r = vbi_exr_fail(err, &io, rv,
                           rv == EXR_ERR_OUT_OF_MEMORY ? VBNL_ERR_OUT_OF_MEMORY : VBNL_ERR_CORRUPT,
                           "read", path);
         goto done;
@@ -838,9 +838,9 @@ vbnl_result vbnl_exr_read(const char *path, vbnl_exr_image *out, vbnl_error *err
 done:
     exr_finish(&ctxt);
     close(io.fd);
-    vbnl_exr_current_io = outer_io;
+    vbi_exr_current_io = outer_io;
     if (r != VBNL_OK) {
-        vbnl_exr_image_free(&img);
+        vbi_exr_image_free(&img);
         return r;
     }
     *out = img;

@@ -17,25 +17,25 @@
 
 /* libpng reports errors by calling this and expecting it not to return: keep the message, longjmp
  * back to the setjmp in the calling function. */
-typedef struct vbnl_png_ctx {
+typedef struct vbi_png_ctx {
     char msg[256];
-} vbnl_png_ctx;
+} vbi_png_ctx;
 
-static void vbnl_png_on_error(png_structp png, png_const_charp msg)
+static void vbi_png_on_error(png_structp png, png_const_charp msg)
 {
-    vbnl_png_ctx *ctx = png_get_error_ptr(png);
+    vbi_png_ctx *ctx = png_get_error_ptr(png);
     if (ctx && !ctx->msg[0])
         snprintf(ctx->msg, sizeof ctx->msg, "%s", msg ? msg : "libpng error");
     png_longjmp(png, 1);
 }
 
-static void vbnl_png_on_warning(png_structp png, png_const_charp msg)
+static void vbi_png_on_warning(png_structp png, png_const_charp msg)
 {
     (void)png;
     (void)msg; /* warnings (e.g. unknown chunks) do not make a call fail; stay silent */
 }
 
-static int vbnl_png_color_type(uint32_t channels)
+static int vbi_png_color_type(uint32_t channels)
 {
     return channels == 1 ? PNG_COLOR_TYPE_GRAY
            : channels == 3 ? PNG_COLOR_TYPE_RGB
@@ -43,11 +43,11 @@ static int vbnl_png_color_type(uint32_t channels)
 }
 
 /* The libpng part of a write, apart so that only `png`, `info` and `fp` live across setjmp. */
-static int vbnl_png_encode(FILE *fp, vbnl_png_ctx *ctx, uint32_t width, uint32_t height,
+static int vbi_png_encode(FILE *fp, vbi_png_ctx *ctx, uint32_t width, uint32_t height,
                            uint32_t channels, uint32_t bit_depth, const void *pixels)
 {
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, ctx, vbnl_png_on_error,
-                                              vbnl_png_on_warning);
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, ctx, vbi_png_on_error,
+                                              vbi_png_on_warning);
     if (!png) {
         snprintf(ctx->msg, sizeof ctx->msg, "out of memory");
         return -1;
@@ -63,7 +63,7 @@ static int vbnl_png_encode(FILE *fp, vbnl_png_ctx *ctx, uint32_t width, uint32_t
         return -1;
     }
     png_init_io(png, fp);
-    png_set_IHDR(png, info, width, height, (int)bit_depth, vbnl_png_color_type(channels),
+    png_set_IHDR(png, info, width, height, (int)bit_depth, vbi_png_color_type(channels),
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     /* sRGB chunk; libpng also writes the matching gAMA and cHRM for older readers */
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -81,7 +81,7 @@ static int vbnl_png_encode(FILE *fp, vbnl_png_ctx *ctx, uint32_t width, uint32_t
     return 0;
 }
 
-vbnl_result vbnl_png_write(const char *path, uint32_t width, uint32_t height, uint32_t channels,
+vbnl_result vbi_png_write(const char *path, uint32_t width, uint32_t height, uint32_t channels,
                            uint32_t bit_depth, const void *pixels, vbnl_error *err)
 {
     if (!path || !path[0] || !pixels)
@@ -97,8 +97,8 @@ vbnl_result vbnl_png_write(const char *path, uint32_t width, uint32_t height, ui
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "cannot write '%s': bit depth %u (8 or 16 expected)", path, bit_depth);
 
-    vbnl_atomic_file tmp;
-    vbnl_result r = vbnl_atomic_file_open(&tmp, path, err);
+    vbi_atomic_file tmp;
+    vbnl_result r = vbi_atomic_file_open(&tmp, path, err);
     if (r != VBNL_OK)
         return r;
     int fd = dup(tmp.fd); /* fclose closes this one; the atomic file keeps its own for fsync */
@@ -107,26 +107,26 @@ vbnl_result vbnl_png_write(const char *path, uint32_t width, uint32_t height, ui
         int e = errno;
         if (fd >= 0)
             close(fd);
-        vbnl_atomic_file_discard(&tmp);
+        vbi_atomic_file_discard(&tmp);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
     }
-    vbnl_png_ctx ctx = {{0}};
-    int rc = vbnl_png_encode(fp, &ctx, width, height, channels, bit_depth, pixels);
+    vbi_png_ctx ctx = {{0}};
+    int rc = vbi_png_encode(fp, &ctx, width, height, channels, bit_depth, pixels);
     int io_errno = ferror(fp) ? errno : 0;
     if (fclose(fp) != 0 && !io_errno)
         io_errno = errno;
     if (rc != 0 || io_errno) {
-        vbnl_atomic_file_discard(&tmp);
+        vbi_atomic_file_discard(&tmp);
         if (io_errno)
             return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path,
                                   strerror(io_errno));
         return vbnl_error_set(err, VBNL_ERR_BACKEND, "cannot write '%s': libpng: %s", path,
                               ctx.msg);
     }
-    return vbnl_atomic_file_commit(&tmp, err);
+    return vbi_atomic_file_commit(&tmp, err);
 }
 
-void vbnl_png_image_free(vbnl_png_image *img)
+void vbi_png_image_free(vbi_png_image *img)
 {
     if (!img)
         return;
@@ -135,10 +135,10 @@ void vbnl_png_image_free(vbnl_png_image *img)
 }
 
 /* Decoding; `out->pixels` is the only allocation that must survive a longjmp, so it lives in *out. */
-static int vbnl_png_decode(FILE *fp, vbnl_png_ctx *ctx, vbnl_png_image *out, png_bytep **rows)
+static int vbi_png_decode(FILE *fp, vbi_png_ctx *ctx, vbi_png_image *out, png_bytep **rows)
 {
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, ctx, vbnl_png_on_error,
-                                             vbnl_png_on_warning);
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, ctx, vbi_png_on_error,
+                                             vbi_png_on_warning);
     if (!png) {
         snprintf(ctx->msg, sizeof ctx->msg, "out of memory");
         return -1;
@@ -193,7 +193,7 @@ static int vbnl_png_decode(FILE *fp, vbnl_png_ctx *ctx, vbnl_png_image *out, png
     return 0;
 }
 
-vbnl_result vbnl_png_read(const char *path, vbnl_png_image *out, vbnl_error *err)
+vbnl_result vbi_png_read(const char *path, vbi_png_image *out, vbnl_error *err)
 {
     if (out)
         memset(out, 0, sizeof *out);
@@ -210,13 +210,13 @@ vbnl_result vbnl_png_read(const char *path, vbnl_png_image *out, vbnl_error *err
         return vbnl_error_set(err, VBNL_ERR_CORRUPT, "cannot read '%s': not a PNG file", path);
     }
     rewind(fp);
-    vbnl_png_ctx ctx = {{0}};
+    vbi_png_ctx ctx = {{0}};
     png_bytep *rows = NULL;
-    int rc = vbnl_png_decode(fp, &ctx, out, &rows);
+    int rc = vbi_png_decode(fp, &ctx, out, &rows);
     free(rows);
     fclose(fp);
     if (rc != 0) {
-        vbnl_png_image_free(out);
+        vbi_png_image_free(out);
         return vbnl_error_set(err, strcmp(ctx.msg, "out of memory") == 0 ? VBNL_ERR_OUT_OF_MEMORY
                                                                           : VBNL_ERR_CORRUPT,
                               "cannot read '%s': %s", path, ctx.msg);

@@ -6,7 +6,7 @@
 #include "image_io.h"
 
 /* IEC 61966-2-1 encoding function, v in [0,1]. */
-static float vbnl_srgb_oetf(float v)
+static float vbi_srgb_oetf(float v)
 {
     if (v >= 1.0f) /* 1.055 - 0.055 is not exactly 1 in float: keep white exact */
         return 1.0f;
@@ -15,7 +15,7 @@ static float vbnl_srgb_oetf(float v)
 
 /* Triangular noise in (-1, 1) LSB from (x, y, c) alone: the sum of two uniforms from a hash
  * (lowbias32), so a tile rendered on any thread dithers the same way. */
-static float vbnl_tpdf(uint32_t x, uint32_t y, uint32_t c)
+static float vbi_tpdf(uint32_t x, uint32_t y, uint32_t c)
 {
     uint32_t h = x * 0x9E3779B1u ^ (y + 0x7F4A7C15u) * 0x85EBCA77u ^ (c + 1u) * 0xC2B2AE3Du;
     h ^= h >> 16;
@@ -28,24 +28,24 @@ static float vbnl_tpdf(uint32_t x, uint32_t y, uint32_t c)
     return u1 - u2;
 }
 
-static uint8_t vbnl_quantise(float v01, int dither, uint32_t x, uint32_t y, uint32_t c)
+static uint8_t vbi_quantise(float v01, int dither, uint32_t x, uint32_t y, uint32_t c)
 {
     float s = v01 * 255.0f;
     /* no noise at exact black and white: flat backgrounds and clipped highlights stay clean */
     if (dither && s > 0.0f && s < 255.0f)
-        s += vbnl_tpdf(x, y, c);
+        s += vbi_tpdf(x, y, c);
     s = floorf(s + 0.5f);
     return (uint8_t)(s < 0.0f ? 0.0f : s > 255.0f ? 255.0f : s);
 }
 
-static float vbnl_clamp01(float v)
+static float vbi_clamp01(float v)
 {
     if (!(v > 0.0f)) /* also NaN */
         return 0.0f;
     return v < 1.0f ? v : 1.0f;
 }
 
-vbnl_result vbnl_linear_to_srgb8(const float *src, uint32_t width, uint32_t height,
+vbnl_result vbi_linear_to_srgb8(const float *src, uint32_t width, uint32_t height,
                                  uint32_t src_channels, float exposure_stops, int dither,
                                  uint8_t *dst, uint32_t dst_channels, vbnl_error *err)
 {
@@ -66,15 +66,15 @@ vbnl_result vbnl_linear_to_srgb8(const float *src, uint32_t width, uint32_t heig
             const float *p = src + i * src_channels;
             uint8_t *q = dst + i * dst_channels;
             for (uint32_t c = 0; c < 3; c++)
-                q[c] = vbnl_quantise(vbnl_srgb_oetf(vbnl_clamp01(p[c] * scale)), dither, x, y, c);
+                q[c] = vbi_quantise(vbi_srgb_oetf(vbi_clamp01(p[c] * scale)), dither, x, y, c);
             if (dst_channels == 4)
-                q[3] = src_channels == 4 ? vbnl_quantise(vbnl_clamp01(p[3]), dither, x, y, 3) : 255;
+                q[3] = src_channels == 4 ? vbi_quantise(vbi_clamp01(p[3]), dither, x, y, 3) : 255;
         }
     }
     return VBNL_OK;
 }
 
-vbnl_result vbnl_display_quantise(const float *src, uint32_t width, uint32_t height, uint32_t src_channels,
+vbnl_result vbi_display_quantise(const float *src, uint32_t width, uint32_t height, uint32_t src_channels,
                                   uint32_t bits, int dither, void *dst, uint32_t dst_channels,
                                   vbnl_error *err)
 {
@@ -91,9 +91,9 @@ vbnl_result vbnl_display_quantise(const float *src, uint32_t width, uint32_t hei
             size_t i = (size_t)y * width + x;
             const float *p = src + i * src_channels;
             for (uint32_t c = 0; c < dst_channels; c++) {
-                float s = c < 3 || src_channels == 4 ? vbnl_clamp01(p[c]) * maxv : maxv;
+                float s = c < 3 || src_channels == 4 ? vbi_clamp01(p[c]) * maxv : maxv;
                 if (dither && s > 0.0f && s < maxv)
-                    s += vbnl_tpdf(x, y, c);
+                    s += vbi_tpdf(x, y, c);
                 s = floorf(s + 0.5f);
                 s = s < 0.0f ? 0.0f : s > maxv ? maxv : s;
                 if (bits == 8)

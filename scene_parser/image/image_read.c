@@ -20,8 +20,8 @@
 #include "pov_image.h"
 #include "read_file.h"
 
-#ifndef VBNL_IMAGE_MODULE_DIR
-#define VBNL_IMAGE_MODULE_DIR "/usr/local/lib/x86_64-linux-gnu/vbnl"
+#ifndef VBI_IMAGE_MODULE_DIR
+#define VBI_IMAGE_MODULE_DIR "/usr/local/lib/x86_64-linux-gnu/vbnl"
 #endif
 #define MODULE_NAME "vbnl_image_oiio.so"
 
@@ -208,7 +208,7 @@ static void load_module(void)
                 return;
         }
     }
-    snprintf(path, sizeof(path), "%s/" MODULE_NAME, VBNL_IMAGE_MODULE_DIR);
+    snprintf(path, sizeof(path), "%s/" MODULE_NAME, VBI_IMAGE_MODULE_DIR);
     if (try_module(path))
         return;
     if (!module_error[0])

@@ -7,8 +7,8 @@
  * image, empty, larger than 65536 on a side or 2^28 values in all, or of a format other than PNG
  * when OpenImageIO's module cannot be loaded). Every C++ exception is caught inside the module.
  * Thread-safety: calls share nothing but the module, loaded once. */
-#ifndef VBNL_POV_IMAGE_H
-#define VBNL_POV_IMAGE_H
+#ifndef VBI_POV_IMAGE_H
+#define VBI_POV_IMAGE_H
 
 #include <stddef.h>
 #include <stdint.h>

@@ -16,23 +16,23 @@ typedef struct builtin {
 } builtin;
 
 static const builtin builtins[] = {
-    { VBNL_KW_abs, 1, 1 }, { VBNL_KW_acos, 1, 1 }, { VBNL_KW_acosh, 1, 1 }, { VBNL_KW_asc, 1, 1 },
-    { VBNL_KW_asin, 1, 1 }, { VBNL_KW_asinh, 1, 1 }, { VBNL_KW_atan, 1, 1 }, { VBNL_KW_atan2, 2, 2 },
-    { VBNL_KW_atanh, 1, 1 }, { VBNL_KW_bitwise_and, 2, -1 }, { VBNL_KW_bitwise_or, 2, -1 },
-    { VBNL_KW_bitwise_xor, 2, -1 }, { VBNL_KW_ceil, 1, 1 }, { VBNL_KW_chr, 1, 1 },
-    { VBNL_KW_concat, 1, -1 }, { VBNL_KW_cos, 1, 1 }, { VBNL_KW_cosh, 1, 1 }, { VBNL_KW_defined, 1, 1 },
-    { VBNL_KW_degrees, 1, 1 }, { VBNL_KW_dimension_size, 2, 2 }, { VBNL_KW_dimensions, 1, 1 },
-    { VBNL_KW_div, 2, 2 }, { VBNL_KW_exp, 1, 1 }, { VBNL_KW_file_exists, 1, 1 }, { VBNL_KW_floor, 1, 1 },
-    { VBNL_KW_inside, 2, 2 }, { VBNL_KW_int, 1, 1 }, { VBNL_KW_ln, 1, 1 }, { VBNL_KW_log, 1, 1 },
-    { VBNL_KW_max, 1, -1 }, { VBNL_KW_min, 1, -1 }, { VBNL_KW_mod, 2, 2 }, { VBNL_KW_pow, 2, 2 },
-    { VBNL_KW_radians, 1, 1 }, { VBNL_KW_rand, 1, 1 }, { VBNL_KW_seed, 1, 1 }, { VBNL_KW_select, 3, 4 },
-    { VBNL_KW_sin, 1, 1 }, { VBNL_KW_sinh, 1, 1 }, { VBNL_KW_sqrt, 1, 1 }, { VBNL_KW_sqr, 1, 1 },
-    { VBNL_KW_str, 3, 3 }, { VBNL_KW_strcmp, 2, 2 }, { VBNL_KW_strlen, 1, 1 }, { VBNL_KW_strlwr, 1, 1 },
-    { VBNL_KW_strupr, 1, 1 }, { VBNL_KW_substr, 3, 3 }, { VBNL_KW_tan, 1, 1 }, { VBNL_KW_tanh, 1, 1 },
-    { VBNL_KW_val, 1, 1 }, { VBNL_KW_vaxis_rotate, 3, 3 }, { VBNL_KW_vcross, 2, 2 }, { VBNL_KW_vdot, 2, 2 },
-    { VBNL_KW_vlength, 1, 1 }, { VBNL_KW_vnormalize, 1, 1 }, { VBNL_KW_vrotate, 2, 2 },
-    { VBNL_KW_vstr, 5, 5 }, { VBNL_KW_vturbulence, 4, 4 }, { VBNL_KW_now, 0, 0 }, { VBNL_KW_datetime, 1, 2 },
-    { VBNL_KW_trace, 3, 4 }, { VBNL_KW_min_extent, 1, 1 }, { VBNL_KW_max_extent, 1, 1 },
+    { VBI_KW_abs, 1, 1 }, { VBI_KW_acos, 1, 1 }, { VBI_KW_acosh, 1, 1 }, { VBI_KW_asc, 1, 1 },
+    { VBI_KW_asin, 1, 1 }, { VBI_KW_asinh, 1, 1 }, { VBI_KW_atan, 1, 1 }, { VBI_KW_atan2, 2, 2 },
+    { VBI_KW_atanh, 1, 1 }, { VBI_KW_bitwise_and, 2, -1 }, { VBI_KW_bitwise_or, 2, -1 },
+    { VBI_KW_bitwise_xor, 2, -1 }, { VBI_KW_ceil, 1, 1 }, { VBI_KW_chr, 1, 1 },
+    { VBI_KW_concat, 1, -1 }, { VBI_KW_cos, 1, 1 }, { VBI_KW_cosh, 1, 1 }, { VBI_KW_defined, 1, 1 },
+    { VBI_KW_degrees, 1, 1 }, { VBI_KW_dimension_size, 2, 2 }, { VBI_KW_dimensions, 1, 1 },
+    { VBI_KW_div, 2, 2 }, { VBI_KW_exp, 1, 1 }, { VBI_KW_file_exists, 1, 1 }, { VBI_KW_floor, 1, 1 },
+    { VBI_KW_inside, 2, 2 }, { VBI_KW_int, 1, 1 }, { VBI_KW_ln, 1, 1 }, { VBI_KW_log, 1, 1 },
+    { VBI_KW_max, 1, -1 }, { VBI_KW_min, 1, -1 }, { VBI_KW_mod, 2, 2 }, { VBI_KW_pow, 2, 2 },
+    { VBI_KW_radians, 1, 1 }, { VBI_KW_rand, 1, 1 }, { VBI_KW_seed, 1, 1 }, { VBI_KW_select, 3, 4 },
+    { VBI_KW_sin, 1, 1 }, { VBI_KW_sinh, 1, 1 }, { VBI_KW_sqrt, 1, 1 }, { VBI_KW_sqr, 1, 1 },
+    { VBI_KW_str, 3, 3 }, { VBI_KW_strcmp, 2, 2 }, { VBI_KW_strlen, 1, 1 }, { VBI_KW_strlwr, 1, 1 },
+    { VBI_KW_strupr, 1, 1 }, { VBI_KW_substr, 3, 3 }, { VBI_KW_tan, 1, 1 }, { VBI_KW_tanh, 1, 1 },
+    { VBI_KW_val, 1, 1 }, { VBI_KW_vaxis_rotate, 3, 3 }, { VBI_KW_vcross, 2, 2 }, { VBI_KW_vdot, 2, 2 },
+    { VBI_KW_vlength, 1, 1 }, { VBI_KW_vnormalize, 1, 1 }, { VBI_KW_vrotate, 2, 2 },
+    { VBI_KW_vstr, 5, 5 }, { VBI_KW_vturbulence, 4, 4 }, { VBI_KW_now, 0, 0 }, { VBI_KW_datetime, 1, 2 },
+    { VBI_KW_trace, 3, 4 }, { VBI_KW_min_extent, 1, 1 }, { VBI_KW_max_extent, 1, 1 },
 };
 
 static const builtin *find(int kw)
@@ -118,14 +118,14 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
     double x = 0, y = 0, r = 0, v1[3], v2[3];
     /* Float-only functions */
     switch (kw) {
-    case VBNL_KW_abs: case VBNL_KW_acos: case VBNL_KW_acosh: case VBNL_KW_asin: case VBNL_KW_asinh:
-    case VBNL_KW_atan: case VBNL_KW_atan2: case VBNL_KW_atanh: case VBNL_KW_ceil: case VBNL_KW_cos:
-    case VBNL_KW_cosh: case VBNL_KW_degrees: case VBNL_KW_div: case VBNL_KW_exp: case VBNL_KW_floor:
-    case VBNL_KW_int: case VBNL_KW_ln: case VBNL_KW_log: case VBNL_KW_mod: case VBNL_KW_pow:
-    case VBNL_KW_radians: case VBNL_KW_sin: case VBNL_KW_sinh: case VBNL_KW_sqrt: case VBNL_KW_sqr:
-    case VBNL_KW_tan: case VBNL_KW_tanh: case VBNL_KW_chr: case VBNL_KW_seed: case VBNL_KW_rand:
-    case VBNL_KW_min: case VBNL_KW_max: case VBNL_KW_bitwise_and: case VBNL_KW_bitwise_or:
-    case VBNL_KW_bitwise_xor:
+    case VBI_KW_abs: case VBI_KW_acos: case VBI_KW_acosh: case VBI_KW_asin: case VBI_KW_asinh:
+    case VBI_KW_atan: case VBI_KW_atan2: case VBI_KW_atanh: case VBI_KW_ceil: case VBI_KW_cos:
+    case VBI_KW_cosh: case VBI_KW_degrees: case VBI_KW_div: case VBI_KW_exp: case VBI_KW_floor:
+    case VBI_KW_int: case VBI_KW_ln: case VBI_KW_log: case VBI_KW_mod: case VBI_KW_pow:
+    case VBI_KW_radians: case VBI_KW_sin: case VBI_KW_sinh: case VBI_KW_sqrt: case VBI_KW_sqr:
+    case VBI_KW_tan: case VBI_KW_tanh: case VBI_KW_chr: case VBI_KW_seed: case VBI_KW_rand:
+    case VBI_KW_min: case VBI_KW_max: case VBI_KW_bitwise_and: case VBI_KW_bitwise_or:
+    case VBI_KW_bitwise_xor:
         for (int i = 0; i < n; i++)
             if (!need(p, &a[i], VBNL_SDL_FLOAT, fn, i, &al[i]))
                 return false;
@@ -136,54 +136,54 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         break;
     }
     switch (kw) {
-    case VBNL_KW_abs: r = fabs(x); break;
-    case VBNL_KW_acos: if (!domain(p, x >= -1 && x <= 1, fn, x, &al[0])) return false; r = acos(x); break;
-    case VBNL_KW_asin: if (!domain(p, x >= -1 && x <= 1, fn, x, &al[0])) return false; r = asin(x); break;
-    case VBNL_KW_acosh: if (!domain(p, x >= 1, fn, x, &al[0])) return false; r = acosh(x); break;
-    case VBNL_KW_atanh: if (!domain(p, x > -1 && x < 1, fn, x, &al[0])) return false; r = atanh(x); break;
-    case VBNL_KW_asinh: r = asinh(x); break;
-    case VBNL_KW_atan: r = atan(x); break;
-    case VBNL_KW_atan2: r = atan2(x, y); break;
-    case VBNL_KW_ceil: r = ceil(x); break;
-    case VBNL_KW_cos: r = cos(x); break;
-    case VBNL_KW_cosh: r = cosh(x); break;
-    case VBNL_KW_degrees: r = x * 180.0 / M_PI; break;
-    case VBNL_KW_radians: r = x * M_PI / 180.0; break;
-    case VBNL_KW_div:
+    case VBI_KW_abs: r = fabs(x); break;
+    case VBI_KW_acos: if (!domain(p, x >= -1 && x <= 1, fn, x, &al[0])) return false; r = acos(x); break;
+    case VBI_KW_asin: if (!domain(p, x >= -1 && x <= 1, fn, x, &al[0])) return false; r = asin(x); break;
+    case VBI_KW_acosh: if (!domain(p, x >= 1, fn, x, &al[0])) return false; r = acosh(x); break;
+    case VBI_KW_atanh: if (!domain(p, x > -1 && x < 1, fn, x, &al[0])) return false; r = atanh(x); break;
+    case VBI_KW_asinh: r = asinh(x); break;
+    case VBI_KW_atan: r = atan(x); break;
+    case VBI_KW_atan2: r = atan2(x, y); break;
+    case VBI_KW_ceil: r = ceil(x); break;
+    case VBI_KW_cos: r = cos(x); break;
+    case VBI_KW_cosh: r = cosh(x); break;
+    case VBI_KW_degrees: r = x * 180.0 / M_PI; break;
+    case VBI_KW_radians: r = x * M_PI / 180.0; break;
+    case VBI_KW_div:
         if (y == 0) { sdl_errorf(p, &al[1], "division by zero in div()"); return false; }
         r = trunc(x / y);
         break;
-    case VBNL_KW_mod:
+    case VBI_KW_mod:
         if (y == 0) { sdl_errorf(p, &al[1], "division by zero in mod()"); return false; }
         r = fmod(x, y);
         break;
-    case VBNL_KW_exp: r = exp(x); break;
-    case VBNL_KW_floor: r = floor(x); break;
-    case VBNL_KW_int: r = trunc(x); break;
-    case VBNL_KW_ln: if (!domain(p, x > 0, fn, x, &al[0])) return false; r = log(x); break;
-    case VBNL_KW_log: if (!domain(p, x > 0, fn, x, &al[0])) return false; r = log10(x); break;
-    case VBNL_KW_pow: r = pow(x, y); break;
-    case VBNL_KW_sin: r = sin(x); break;
-    case VBNL_KW_sinh: r = sinh(x); break;
-    case VBNL_KW_sqrt: if (!domain(p, x >= 0, fn, x, &al[0])) return false; r = sqrt(x); break;
-    case VBNL_KW_sqr: r = x * x; break;
-    case VBNL_KW_tan: r = tan(x); break;
-    case VBNL_KW_tanh: r = tanh(x); break;
-    case VBNL_KW_min: case VBNL_KW_max:
+    case VBI_KW_exp: r = exp(x); break;
+    case VBI_KW_floor: r = floor(x); break;
+    case VBI_KW_int: r = trunc(x); break;
+    case VBI_KW_ln: if (!domain(p, x > 0, fn, x, &al[0])) return false; r = log(x); break;
+    case VBI_KW_log: if (!domain(p, x > 0, fn, x, &al[0])) return false; r = log10(x); break;
+    case VBI_KW_pow: r = pow(x, y); break;
+    case VBI_KW_sin: r = sin(x); break;
+    case VBI_KW_sinh: r = sinh(x); break;
+    case VBI_KW_sqrt: if (!domain(p, x >= 0, fn, x, &al[0])) return false; r = sqrt(x); break;
+    case VBI_KW_sqr: r = x * x; break;
+    case VBI_KW_tan: r = tan(x); break;
+    case VBI_KW_tanh: r = tanh(x); break;
+    case VBI_KW_min: case VBI_KW_max:
         r = x;
         for (int i = 1; i < n; i++)
-            r = kw == VBNL_KW_min ? fmin(r, a[i].v[0]) : fmax(r, a[i].v[0]);
+            r = kw == VBI_KW_min ? fmin(r, a[i].v[0]) : fmax(r, a[i].v[0]);
         break;
-    case VBNL_KW_bitwise_and: case VBNL_KW_bitwise_or: case VBNL_KW_bitwise_xor: {
+    case VBI_KW_bitwise_and: case VBI_KW_bitwise_or: case VBI_KW_bitwise_xor: {
         long long acc = (long long)x;
         for (int i = 1; i < n; i++) {
             long long b = fabs(a[i].v[0]) < 9e18 ? (long long)a[i].v[0] : 0;
-            acc = kw == VBNL_KW_bitwise_and ? (acc & b) : kw == VBNL_KW_bitwise_or ? (acc | b) : (acc ^ b);
+            acc = kw == VBI_KW_bitwise_and ? (acc & b) : kw == VBI_KW_bitwise_or ? (acc | b) : (acc ^ b);
         }
         r = (double)acc;
         break;
     }
-    case VBNL_KW_seed: {
+    case VBI_KW_seed: {
         if (p->nrngs == p->caprngs) {
             int cap = p->caprngs ? p->caprngs * 2 : 8;
             if (cap > 1000000) { sdl_errorf(p, &fn->loc, "too many random streams"); return false; }
@@ -197,7 +197,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         r = p->nrngs++;
         break;
     }
-    case VBNL_KW_rand: {
+    case VBI_KW_rand: {
         if (!(x >= 0) || x >= p->nrngs || x != floor(x)) {
             sdl_errorf(p, &al[0], "rand() needs a stream created by seed(), found %g", x);
             return false;
@@ -205,7 +205,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         r = sdl_rng_next(&p->rngs[(int)x]);
         break;
     }
-    case VBNL_KW_chr: {
+    case VBI_KW_chr: {
         if (!(x >= 1 && x < 0x110000)) { sdl_errorf(p, &al[0], "chr(%g): character code out of range", x); return false; }
         unsigned cp = (unsigned)x;
         char b[4];
@@ -216,16 +216,16 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         return sdl_set_string(p, out, b, len);
     }
     /* strings */
-    case VBNL_KW_asc: case VBNL_KW_strlen: case VBNL_KW_strlwr: case VBNL_KW_strupr: case VBNL_KW_val:
-    case VBNL_KW_file_exists: {
+    case VBI_KW_asc: case VBI_KW_strlen: case VBI_KW_strlwr: case VBI_KW_strupr: case VBI_KW_val:
+    case VBI_KW_file_exists: {
         if (!need(p, &a[0], VBNL_SDL_STRING, fn, 0, &al[0]))
             return false;
         const char *s = a[0].u.str.s;
         size_t len = a[0].u.str.len;
-        if (kw == VBNL_KW_asc) { r = len ? (unsigned char)s[0] : 0; break; }
-        if (kw == VBNL_KW_strlen) { r = (double)len; break; }
-        if (kw == VBNL_KW_val) { r = strtod(s, NULL); break; }
-        if (kw == VBNL_KW_file_exists) {
+        if (kw == VBI_KW_asc) { r = len ? (unsigned char)s[0] : 0; break; }
+        if (kw == VBI_KW_strlen) { r = (double)len; break; }
+        if (kw == VBI_KW_val) { r = strtod(s, NULL); break; }
+        if (kw == VBI_KW_file_exists) {
             /* only files a scene may read exist for it (sdl_path_readable) */
             struct stat st;
             char path[4096];
@@ -243,16 +243,16 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         if (!sdl_set_string(p, out, s, len))
             return false;
         for (size_t i = 0; i < len; i++)
-            out->u.str.s[i] = (char)(kw == VBNL_KW_strupr ? toupper((unsigned char)s[i]) : tolower((unsigned char)s[i]));
+            out->u.str.s[i] = (char)(kw == VBI_KW_strupr ? toupper((unsigned char)s[i]) : tolower((unsigned char)s[i]));
         return true;
     }
-    case VBNL_KW_strcmp:
+    case VBI_KW_strcmp:
         if (!need(p, &a[0], VBNL_SDL_STRING, fn, 0, &al[0]) || !need(p, &a[1], VBNL_SDL_STRING, fn, 1, &al[1]))
             return false;
         r = strcmp(a[0].u.str.s, a[1].u.str.s);
         r = r < 0 ? -1 : r > 0 ? 1 : 0;
         break;
-    case VBNL_KW_concat: {
+    case VBI_KW_concat: {
         size_t total = 0;
         for (int i = 0; i < n; i++) {
             if (!need(p, &a[i], VBNL_SDL_STRING, fn, i, &al[i]))
@@ -273,7 +273,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         out->u.str.len = total;
         return true;
     }
-    case VBNL_KW_substr: {
+    case VBI_KW_substr: {
         if (!need(p, &a[0], VBNL_SDL_STRING, fn, 0, &al[0]) || !need(p, &a[1], VBNL_SDL_FLOAT, fn, 1, &al[1]) ||
             !need(p, &a[2], VBNL_SDL_FLOAT, fn, 2, &al[2]))
             return false;
@@ -286,7 +286,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         }
         return sdl_set_string(p, out, a[0].u.str.s + (size_t)pos - 1, (size_t)len);
     }
-    case VBNL_KW_str: {
+    case VBI_KW_str: {
         for (int i = 0; i < 3; i++)
             if (!need(p, &a[i], VBNL_SDL_FLOAT, fn, i, &al[i]))
                 return false;
@@ -294,7 +294,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         format_float(b, sizeof b, a[0].v[0], (int)fmax(-64, fmin(64, a[1].v[0])), (int)fmax(-1, fmin(30, a[2].v[0])));
         return sdl_set_string(p, out, b, strlen(b));
     }
-    case VBNL_KW_vstr: {
+    case VBI_KW_vstr: {
         if (!need(p, &a[0], VBNL_SDL_FLOAT, fn, 0, &al[0]) || !need(p, &a[2], VBNL_SDL_STRING, fn, 2, &al[2]) ||
             !need(p, &a[3], VBNL_SDL_FLOAT, fn, 3, &al[3]) || !need(p, &a[4], VBNL_SDL_FLOAT, fn, 4, &al[4]))
             return false;
@@ -318,23 +318,23 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         return sdl_set_string(p, out, b, o);
     }
     /* vectors */
-    case VBNL_KW_vlength:
+    case VBI_KW_vlength:
         if (!sdl_to_vector(p, &a[0], 3, v1, &al[0], "vlength()"))
             return false;
         r = sqrt(v1[0] * v1[0] + v1[1] * v1[1] + v1[2] * v1[2]);
         break;
-    case VBNL_KW_vdot:
+    case VBI_KW_vdot:
         if (!sdl_to_vector(p, &a[0], 3, v1, &al[0], "vdot()") || !sdl_to_vector(p, &a[1], 3, v2, &al[1], "vdot()"))
             return false;
         r = v1[0] * v2[0] + v1[1] * v2[1] + v1[2] * v2[2];
         break;
-    case VBNL_KW_vnormalize: case VBNL_KW_vcross: case VBNL_KW_vrotate: case VBNL_KW_vaxis_rotate: {
+    case VBI_KW_vnormalize: case VBI_KW_vcross: case VBI_KW_vrotate: case VBI_KW_vaxis_rotate: {
         double o[3];
         if (!sdl_to_vector(p, &a[0], 3, v1, &al[0], fn->text))
             return false;
         if (n > 1 && !sdl_to_vector(p, &a[1], 3, v2, &al[1], fn->text))
             return false;
-        if (kw == VBNL_KW_vnormalize) {
+        if (kw == VBI_KW_vnormalize) {
             double l = sqrt(v1[0] * v1[0] + v1[1] * v1[1] + v1[2] * v1[2]);
             if (l == 0) {
                 sdl_warnf(p, &al[0], "vnormalize() of a zero-length vector returns <0,0,0>");
@@ -342,11 +342,11 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
             }
             for (int i = 0; i < 3; i++)
                 o[i] = v1[i] / l;
-        } else if (kw == VBNL_KW_vcross) {
+        } else if (kw == VBI_KW_vcross) {
             o[0] = v1[1] * v2[2] - v1[2] * v2[1];
             o[1] = v1[2] * v2[0] - v1[0] * v2[2];
             o[2] = v1[0] * v2[1] - v1[1] * v2[0];
-        } else if (kw == VBNL_KW_vrotate) {
+        } else if (kw == VBI_KW_vrotate) {
             rotate_xyz(v1, v2, o);
         } else {
             if (!need(p, &a[2], VBNL_SDL_FLOAT, fn, 2, &al[2]))
@@ -365,7 +365,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         sdl_set_vector(out, 3, o);
         return true;
     }
-    case VBNL_KW_vturbulence: { /* POV-Ray's DTurbulence, octaves clamped to 1..10 */
+    case VBI_KW_vturbulence: { /* POV-Ray's DTurbulence, octaves clamped to 1..10 */
         double q[3], o[3];
         if (!sdl_to_vector(p, &a[3], 3, q, &al[3], "vturbulence()"))
             return false;
@@ -373,7 +373,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         sdl_set_vector(out, 3, o);
         return true;
     }
-    case VBNL_KW_select: {
+    case VBI_KW_select: {
         if (!need(p, &a[0], VBNL_SDL_FLOAT, fn, 0, &al[0]))
             return false;
         double c = a[0].v[0];
@@ -382,7 +382,7 @@ static bool apply(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_value *
         memset(&a[pick], 0, sizeof a[pick]);
         return true;
     }
-    case VBNL_KW_datetime: {
+    case VBI_KW_datetime: {
         if (!need(p, &a[0], VBNL_SDL_FLOAT, fn, 0, &al[0]) || (n > 1 && !need(p, &a[1], VBNL_SDL_STRING, fn, 1, &al[1])))
             return false;
         double days = a[0].v[0];
@@ -424,7 +424,7 @@ static bool array_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_v
     int rank = s->val.u.array->rank;
     size_t dims[5];
     memcpy(dims, s->val.u.array->dims, sizeof dims);
-    if (fn->keyword == VBNL_KW_dimensions) {
+    if (fn->keyword == VBI_KW_dimensions) {
         if (!sdl_expect_op(p, ')', "after dimensions() argument"))
             return false;
         sdl_set_float(out, rank);
@@ -469,7 +469,7 @@ static bool object_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_
         return false;
     if (n > 2 && !sdl_to_vector(p, &a[2], 3, v2, &al[2], fn->text))
         return false;
-    if (kw == VBNL_KW_trace) {
+    if (kw == VBI_KW_trace) {
         double l = sqrt(v2[0] * v2[0] + v2[1] * v2[1] + v2[2] * v2[2]);
         if (!(l > 0) || !isfinite(l)) {
             sdl_errorf(p, &al[2], "trace(): the direction must be a finite vector of non-zero length");
@@ -478,15 +478,15 @@ static bool object_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_
         for (int i = 0; i < 3; i++)
             v2[i] /= l;
     }
-    bool have = kw == VBNL_KW_inside ? q->inside != NULL : kw == VBNL_KW_trace ? q->trace != NULL : q->extent != NULL;
+    bool have = kw == VBI_KW_inside ? q->inside != NULL : kw == VBI_KW_trace ? q->trace != NULL : q->extent != NULL;
     if (have && a[0].kind == VBNL_SDL_OBJECT) {
         double lo[3], hi[3];
-        if (kw == VBNL_KW_inside)
+        if (kw == VBI_KW_inside)
             r = q->inside(p, &a[0], v1, &flag, q->user);
-        else if (kw == VBNL_KW_trace)
+        else if (kw == VBI_KW_trace)
             r = q->trace(p, &a[0], v1, v2, res, nrm, &flag, q->user);
         else if ((r = q->extent(p, &a[0], lo, hi, q->user)) == 1)
-            memcpy(res, kw == VBNL_KW_min_extent ? lo : hi, sizeof res);
+            memcpy(res, kw == VBI_KW_min_extent ? lo : hi, sizeof res);
         if (r < 0)
             return false;
     }
@@ -497,14 +497,14 @@ static bool object_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_
         return false;
     }
     if (!have) {
-        unsigned bit = kw == VBNL_KW_inside ? 1u : kw == VBNL_KW_trace ? 2u : 4u;
+        unsigned bit = kw == VBI_KW_inside ? 1u : kw == VBI_KW_trace ? 2u : 4u;
         if (!(p->warned & bit)) {
             p->warned |= bit;
             sdl_warnf(p, &fn->loc, "%s() needs the object layer; returning %s (reported once)", fn->text,
-                      kw == VBNL_KW_inside ? "0" : "<0,0,0>");
+                      kw == VBI_KW_inside ? "0" : "<0,0,0>");
         }
     }
-    if (kw == VBNL_KW_trace && !flag) {
+    if (kw == VBI_KW_trace && !flag) {
         memset(res, 0, sizeof res);
         memset(nrm, 0, sizeof nrm);
     }
@@ -513,7 +513,7 @@ static bool object_query(vbnl_sdl_parser *p, const vbnl_sdl_token *fn, vbnl_sdl_
         sdl_set_vector(&nv, 3, nrm);
         sdl_declare(p, normal_name, -1, &nv, normal_loc);
     }
-    if (kw == VBNL_KW_inside)
+    if (kw == VBI_KW_inside)
         sdl_set_float(out, flag ? 1.0 : 0.0);
     else
         sdl_set_vector(out, 3, res);
@@ -524,13 +524,13 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
 {
     const builtin *b = find(kw);
     memset(out, 0, sizeof *out);
-    if (kw == VBNL_KW_now) {
+    if (kw == VBI_KW_now) {
         sdl_set_float(out, ((double)time(NULL) - 946684800.0) / 86400.0);
         return true;
     }
-    if (!sdl_expect_op(p, '(', kw == VBNL_KW_defined ? "after 'defined'" : "after function name"))
+    if (!sdl_expect_op(p, '(', kw == VBI_KW_defined ? "after 'defined'" : "after function name"))
         return false;
-    if (kw == VBNL_KW_defined) {
+    if (kw == VBI_KW_defined) {
         p->no_expand = true;
         const vbnl_sdl_token *t = vbnl_sdl_next(p);
         p->no_expand = false;
@@ -546,7 +546,7 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
         sdl_set_float(out, def);
         return true;
     }
-    if (kw == VBNL_KW_dimension_size || kw == VBNL_KW_dimensions)
+    if (kw == VBI_KW_dimension_size || kw == VBI_KW_dimensions)
         return array_query(p, fn, out);
     vbnl_sdl_value args[8];
     vbnl_sdl_loc al[8];
@@ -580,7 +580,7 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
                 cap = nc;
             }
             l[n] = vbnl_sdl_peek(p)->loc;
-            if (kw == VBNL_KW_trace && n == 3) {
+            if (kw == VBI_KW_trace && n == 3) {
                 /* trace(Object, Start, Direction, Normal): Normal is an output identifier */
                 p->no_expand = true;
                 const vbnl_sdl_token *t = vbnl_sdl_next(p);
@@ -597,8 +597,8 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
                 ok = sdl_expect_op(p, ')', "after trace() arguments");
                 break;
             }
-            if ((kw == VBNL_KW_inside || kw == VBNL_KW_trace || kw == VBNL_KW_min_extent ||
-                 kw == VBNL_KW_max_extent) && n == 0)
+            if ((kw == VBI_KW_inside || kw == VBI_KW_trace || kw == VBI_KW_min_extent ||
+                 kw == VBI_KW_max_extent) && n == 0)
                 ok = sdl_parse_rvalue(p, &a[n]);
             else
                 ok = sdl_expr(p, &a[n]);
@@ -620,7 +620,7 @@ bool sdl_builtin_call(vbnl_sdl_parser *p, int kw, const vbnl_sdl_token *fn, vbnl
             sdl_errorf(p, &fn->loc, "%s() expects %d to %d arguments, got %d", fn->text, b->min, b->max, n);
         ok = false;
     }
-    if (ok && (kw == VBNL_KW_inside || kw == VBNL_KW_trace || kw == VBNL_KW_min_extent || kw == VBNL_KW_max_extent))
+    if (ok && (kw == VBI_KW_inside || kw == VBI_KW_trace || kw == VBI_KW_min_extent || kw == VBI_KW_max_extent))
         ok = object_query(p, fn, a, n, l, normal_name, &normal_loc, out);
     else if (ok)
         ok = apply(p, fn, a, n, l, out);

@@ -4,7 +4,7 @@
 
 #include "sdl_internal.h"
 
-#define VBNL_SDL_MAX_STORED_DIAGS 1000
+#define VBI_SDL_MAX_STORED_DIAGS 1000
 
 /* Placeholder when a strdup failed; never freed (an empty message may be allocated). */
 static const char no_text[] = "";
@@ -145,7 +145,7 @@ void sdl_diag_emit(vbnl_sdl_parser *p, vbnl_sdl_severity sev, const vbnl_sdl_loc
     if (sev == VBNL_SDL_WARNING)
         p->diags.warnings++;
     /* nobody will see it: a #debug or #warning in a long loop must stay cheap */
-    if (sev != VBNL_SDL_ERROR && !p->diag_fn && p->diags.count >= VBNL_SDL_MAX_STORED_DIAGS)
+    if (sev != VBNL_SDL_ERROR && !p->diag_fn && p->diags.count >= VBI_SDL_MAX_STORED_DIAGS)
         return;
     /* the message (a #debug's text, a name from the scene) with its control characters escaped */
     sbuf clean = { 0 };
@@ -216,7 +216,7 @@ static void deliver(vbnl_sdl_parser *p, const vbnl_sdl_diag *dp, char *m, char *
     if (p->diag_fn)
         p->diag_fn(&d, p->diag_user);
     sdl_diag_store *st = &p->diags;
-    if (st->count < VBNL_SDL_MAX_STORED_DIAGS || d.severity == VBNL_SDL_ERROR) {
+    if (st->count < VBI_SDL_MAX_STORED_DIAGS || d.severity == VBNL_SDL_ERROR) {
         if (st->count == st->cap) {
             size_t cap = st->cap ? st->cap * 2 : 16;
             vbnl_sdl_diag *q = realloc(st->items, cap * sizeof *q);

@@ -30,16 +30,16 @@ int sdl_skip_to(vbnl_sdl_parser *p, bool stop_at_else, vbnl_sdl_loc *kwloc)
             *kwloc = k.loc;
         free_tok(&k);
         switch (kw) {
-        case VBNL_KW_if: case VBNL_KW_ifdef: case VBNL_KW_ifndef: case VBNL_KW_while:
-        case VBNL_KW_for: case VBNL_KW_switch: case VBNL_KW_macro:
+        case VBI_KW_if: case VBI_KW_ifdef: case VBI_KW_ifndef: case VBI_KW_while:
+        case VBI_KW_for: case VBI_KW_switch: case VBI_KW_macro:
             depth++;
             break;
-        case VBNL_KW_end:
+        case VBI_KW_end:
             if (depth == 0)
                 return kw;
             depth--;
             break;
-        case VBNL_KW_else: case VBNL_KW_elseif: case VBNL_KW_case: case VBNL_KW_range: case VBNL_KW_break:
+        case VBI_KW_else: case VBI_KW_elseif: case VBI_KW_case: case VBI_KW_range: case VBI_KW_break:
             if (depth == 0 && stop_at_else)
                 return kw;
             break;
@@ -52,7 +52,7 @@ int sdl_skip_to(vbnl_sdl_parser *p, bool stop_at_else, vbnl_sdl_loc *kwloc)
 /* Skips to the #end matching an open construct; reports `what` when the file ends first. */
 static bool skip_to_end(vbnl_sdl_parser *p, const vbnl_sdl_loc *open, const char *what)
 {
-    if (sdl_skip_to(p, false, NULL) == VBNL_KW_end)
+    if (sdl_skip_to(p, false, NULL) == VBI_KW_end)
         return true;
     sdl_errorf(p, open, "missing #end for %s", what);
     return false;
@@ -164,9 +164,9 @@ bool sdl_parse_rvalue(vbnl_sdl_parser *p, vbnl_sdl_value *out)
         ;
     t = vbnl_sdl_peek(p);
     if (t->kind == VBNL_SDL_TOK_IDENT) {
-        if (t->keyword == VBNL_KW_array)
+        if (t->keyword == VBI_KW_array)
             return sdl_parse_array_decl(p, out, &t->loc);
-        if (t->keyword == VBNL_KW_function)
+        if (t->keyword == VBI_KW_function)
             return sdl_parse_function(p, out, &t->loc);
         if (!t->keyword && !sdl_lookup(p, t->text)) {
             if (p->hooks.rvalue) {
@@ -275,9 +275,9 @@ static void do_declare(vbnl_sdl_parser *p, bool local, int fi, const vbnl_sdl_lo
     const char *name;
     vbnl_sdl_loc loc;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    if (t->kind == VBNL_SDL_TOK_IDENT && t->keyword == VBNL_KW_deprecated) {
+    if (t->kind == VBNL_SDL_TOK_IDENT && t->keyword == VBI_KW_deprecated) {
         vbnl_sdl_next(p);
-        if (vbnl_sdl_peek(p)->keyword == VBNL_KW_once)
+        if (vbnl_sdl_peek(p)->keyword == VBI_KW_once)
             vbnl_sdl_next(p);
         if (vbnl_sdl_peek(p)->kind == VBNL_SDL_TOK_STRING)
             vbnl_sdl_next(p);
@@ -362,7 +362,7 @@ static void do_macro(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
             bool opt = false;
             if (m->nparams > 0 && vbnl_sdl_accept(p, ')'))
                 break; /* trailing comma, accepted by POV-Ray */
-            if (vbnl_sdl_peek(p)->keyword == VBNL_KW_optional) {
+            if (vbnl_sdl_peek(p)->keyword == VBI_KW_optional) {
                 vbnl_sdl_next(p);
                 opt = true;
             }
@@ -423,7 +423,7 @@ static void find_if_branch(vbnl_sdl_parser *p)
         sdl_frame *f = sdl_top(p);
         sdl_cond c = f->conds[f->nconds - 1];
         int k = sdl_skip_to(p, true, &kl);
-        if (k == VBNL_KW_end) {
+        if (k == VBI_KW_end) {
             sdl_cond_pop(p);
             return;
         }
@@ -432,11 +432,11 @@ static void find_if_branch(vbnl_sdl_parser *p)
                 sdl_errorf(p, &c.loc, "missing #end for #if");
             return;
         }
-        if (k == VBNL_KW_else) {
+        if (k == VBI_KW_else) {
             sdl_top(p)->conds[sdl_top(p)->nconds - 1].taken = true;
             return;
         }
-        if (k == VBNL_KW_elseif) {
+        if (k == VBI_KW_elseif) {
             bool b;
             if (!paren_cond(p, &b, "in #elseif"))
                 return;
@@ -453,7 +453,7 @@ static void find_if_branch(vbnl_sdl_parser *p)
 
 static bool case_matches(vbnl_sdl_parser *p, int k, double value, bool *match)
 {
-    if (k == VBNL_KW_case) {
+    if (k == VBI_KW_case) {
         double c;
         if (!paren_float(p, &c, "in #case"))
             return false;
@@ -480,7 +480,7 @@ static void find_switch_case(vbnl_sdl_parser *p)
         sdl_frame *f = sdl_top(p);
         sdl_cond c = f->conds[f->nconds - 1];
         int k = sdl_skip_to(p, true, &kl);
-        if (k == VBNL_KW_end) {
+        if (k == VBI_KW_end) {
             sdl_cond_pop(p);
             return;
         }
@@ -489,11 +489,11 @@ static void find_switch_case(vbnl_sdl_parser *p)
                 sdl_errorf(p, &c.loc, "missing #end for #switch");
             return;
         }
-        if (k == VBNL_KW_else) {
+        if (k == VBI_KW_else) {
             sdl_top(p)->conds[sdl_top(p)->nconds - 1].taken = true;
             return;
         }
-        if (k == VBNL_KW_case || k == VBNL_KW_range) {
+        if (k == VBI_KW_case || k == VBI_KW_range) {
             bool match;
             if (!case_matches(p, k, c.value, &match))
                 return;
@@ -503,7 +503,7 @@ static void find_switch_case(vbnl_sdl_parser *p)
             }
             continue;
         }
-        if (k == VBNL_KW_elseif) {
+        if (k == VBI_KW_elseif) {
             sdl_errorf(p, &kl, "#elseif inside #switch");
             return;
         }
@@ -654,9 +654,9 @@ static void do_message(vbnl_sdl_parser *p, int kw, const vbnl_sdl_loc *hash)
         free(s);
         return;
     }
-    if (kw == VBNL_KW_error)
+    if (kw == VBI_KW_error)
         sdl_errorf(p, hash, "#error: %s", s);
-    else if (kw == VBNL_KW_warning)
+    else if (kw == VBI_KW_warning)
         sdl_warnf(p, hash, "%s", s);
     else if (!p->failed)
         sdl_diag_emit(p, VBNL_SDL_NOTE, hash, s);
@@ -781,13 +781,13 @@ static void do_file_io(vbnl_sdl_parser *p, int kw, const vbnl_sdl_loc *hash)
     p->frames[fi].in_directive++;
     const char *name;
     vbnl_sdl_loc loc;
-    if (kw == VBNL_KW_fopen) {
+    if (kw == VBI_KW_fopen) {
         char *path = NULL;
         if (expect_name(p, "after #fopen", &name, &loc) && vbnl_sdl_parse_string(p, &path) == VBNL_OK) {
             const vbnl_sdl_token *m = vbnl_sdl_next(p);
-            if (m->keyword == VBNL_KW_read) {
+            if (m->keyword == VBI_KW_read) {
                 sdl_errorf(p, &m->loc, "#fopen for reading is not supported by vbnl ('%s')", path);
-            } else if (m->keyword != VBNL_KW_write && m->keyword != VBNL_KW_append) {
+            } else if (m->keyword != VBI_KW_write && m->keyword != VBI_KW_append) {
                 char b[80];
                 sdl_errorf(p, &m->loc, "expected read, write or append in #fopen, found %s", sdl_token_describe(m, b, sizeof b));
             } else {
@@ -798,9 +798,9 @@ static void do_file_io(vbnl_sdl_parser *p, int kw, const vbnl_sdl_loc *hash)
             }
         }
         free(path);
-    } else if (kw == VBNL_KW_fclose) {
+    } else if (kw == VBI_KW_fclose) {
         expect_name(p, "after #fclose", &name, &loc);
-    } else if (kw == VBNL_KW_write) {
+    } else if (kw == VBI_KW_write) {
         if (sdl_expect_op(p, '(', "after #write") && expect_name(p, "in #write", &name, &loc)) {
             /* commas are optional in POV-Ray */
             while (!p->failed && !vbnl_sdl_accept(p, ')')) {
@@ -848,14 +848,14 @@ static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
     sdl_frame *f = sdl_top(p);
     sdl_cond *top = f->nconds ? &f->conds[f->nconds - 1] : NULL;
     switch (kw) {
-    case VBNL_KW_declare:
-    case VBNL_KW_local:
+    case VBI_KW_declare:
+    case VBI_KW_local:
         p->frames[fi].in_directive++;
-        do_declare(p, kw == VBNL_KW_local, fi, hash);
+        do_declare(p, kw == VBI_KW_local, fi, hash);
         if (fi < p->nframes)
             p->frames[fi].in_directive--;
         break;
-    case VBNL_KW_undef: {
+    case VBI_KW_undef: {
         const char *name;
         vbnl_sdl_loc loc;
         p->frames[fi].in_directive++;
@@ -869,8 +869,8 @@ static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
         p->frames[fi].in_directive--;
         break;
     }
-    case VBNL_KW_include: do_include(p, hash); break;
-    case VBNL_KW_version: {
+    case VBI_KW_include: do_include(p, hash); break;
+    case VBI_KW_version: {
         double v;
         p->frames[fi].in_directive++;
         if (sdl_expr_float(p, &v, "#version")) {
@@ -880,7 +880,7 @@ static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
         p->frames[fi].in_directive--;
         break;
     }
-    case VBNL_KW_if: {
+    case VBI_KW_if: {
         bool b;
         if (!paren_cond(p, &b, "in #if"))
             break;
@@ -892,20 +892,20 @@ static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
             find_if_branch(p);
         break;
     }
-    case VBNL_KW_ifdef: do_ifdef(p, true, hash); break;
-    case VBNL_KW_ifndef: do_ifdef(p, false, hash); break;
-    case VBNL_KW_elseif:
-    case VBNL_KW_else:
+    case VBI_KW_ifdef: do_ifdef(p, true, hash); break;
+    case VBI_KW_ifndef: do_ifdef(p, false, hash); break;
+    case VBI_KW_elseif:
+    case VBI_KW_else:
         if (top && top->kind == SDL_COND_IF) {
             if (skip_to_end(p, &top->loc, "#if"))
                 sdl_cond_pop(p);
-        } else if (top && top->kind == SDL_COND_SWITCH && kw == VBNL_KW_else) {
+        } else if (top && top->kind == SDL_COND_SWITCH && kw == VBI_KW_else) {
             /* POV-Ray: a running case falls through #else as through #case, up to #break. */
         } else {
             sdl_errorf(p, hash, "#%s without matching #if", t.text);
         }
         break;
-    case VBNL_KW_while: {
+    case VBI_KW_while: {
         sdl_pos pos = sdl_tell(p);
         bool b;
         if (!paren_cond(p, &b, "in #while"))
@@ -921,8 +921,8 @@ static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
         }
         break;
     }
-    case VBNL_KW_for: do_for(p, hash); break;
-    case VBNL_KW_switch: {
+    case VBI_KW_for: do_for(p, hash); break;
+    case VBI_KW_switch: {
         double v;
         if (!paren_float(p, &v, "in #switch"))
             break;
@@ -933,8 +933,8 @@ static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
         find_switch_case(p);
         break;
     }
-    case VBNL_KW_case:
-    case VBNL_KW_range:
+    case VBI_KW_case:
+    case VBI_KW_range:
         if (top && top->kind == SDL_COND_SWITCH) {
             bool match; /* falling through from the previous case: the test is ignored */
             case_matches(p, kw, top->value, &match);
@@ -942,21 +942,21 @@ static void directive(vbnl_sdl_parser *p, const vbnl_sdl_loc *hash)
             sdl_errorf(p, hash, "#%s outside #switch", t.text);
         }
         break;
-    case VBNL_KW_break: do_break(p, hash); break;
-    case VBNL_KW_end: do_end(p, hash); break;
-    case VBNL_KW_macro: do_macro(p, hash); break;
-    case VBNL_KW_debug:
-    case VBNL_KW_warning:
-    case VBNL_KW_error:
-    case VBNL_KW_render:
-    case VBNL_KW_statistics:
+    case VBI_KW_break: do_break(p, hash); break;
+    case VBI_KW_end: do_end(p, hash); break;
+    case VBI_KW_macro: do_macro(p, hash); break;
+    case VBI_KW_debug:
+    case VBI_KW_warning:
+    case VBI_KW_error:
+    case VBI_KW_render:
+    case VBI_KW_statistics:
         do_message(p, kw, hash);
         break;
-    case VBNL_KW_default: do_default(p, hash); break;
-    case VBNL_KW_fopen:
-    case VBNL_KW_fclose:
-    case VBNL_KW_write:
-    case VBNL_KW_read:
+    case VBI_KW_default: do_default(p, hash); break;
+    case VBI_KW_fopen:
+    case VBI_KW_fclose:
+    case VBI_KW_write:
+    case VBI_KW_read:
         do_file_io(p, kw, hash);
         break;
     default: {

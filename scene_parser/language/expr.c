@@ -9,7 +9,7 @@
 
 #include "sdl_internal.h"
 
-#define VBNL_SDL_EPSILON 1e-10
+#define VBI_SDL_EPSILON 1e-10
 
 static bool ternary(vbnl_sdl_parser *p, vbnl_sdl_value *out);
 static bool additive(vbnl_sdl_parser *p, vbnl_sdl_value *out);
@@ -63,7 +63,7 @@ static const char *kind_of(const vbnl_sdl_value *v)
 bool sdl_truth(vbnl_sdl_parser *p, const vbnl_sdl_value *v, const vbnl_sdl_loc *loc)
 {
     if (v->kind == VBNL_SDL_FLOAT)
-        return fabs(v->v[0]) > VBNL_SDL_EPSILON;
+        return fabs(v->v[0]) > VBI_SDL_EPSILON;
     if (!p->failed)
         sdl_errorf(p, loc, "expected a float condition, found a %s", kind_of(v));
     return false;
@@ -156,8 +156,8 @@ static bool binop(vbnl_sdl_parser *p, int op, vbnl_sdl_value *a, vbnl_sdl_value 
         case VBNL_SDL_OP_GE: r = x >= y; break;
         case '=': case VBNL_SDL_OP_EQ2: r = x == y; break;
         case VBNL_SDL_OP_NE: r = x != y; break;
-        case '&': r = fabs(x) > VBNL_SDL_EPSILON && fabs(y) > VBNL_SDL_EPSILON; break;
-        case '|': r = fabs(x) > VBNL_SDL_EPSILON || fabs(y) > VBNL_SDL_EPSILON; break;
+        case '&': r = fabs(x) > VBI_SDL_EPSILON && fabs(y) > VBI_SDL_EPSILON; break;
+        case '|': r = fabs(x) > VBI_SDL_EPSILON || fabs(y) > VBI_SDL_EPSILON; break;
         default: break;
         }
         a->v[i] = r;
@@ -210,25 +210,25 @@ static bool color_body_inner(vbnl_sdl_parser *p, vbnl_sdl_value *out, bool keywo
         int kw = t->kind == VBNL_SDL_TOK_IDENT ? t->keyword : 0;
         int first = -1, count = 0, srgb = 0;
         switch (kw) {
-        case VBNL_KW_srgb: srgb = 1; /* fall through */
-        case VBNL_KW_rgb: first = 0; count = 3; break;
-        case VBNL_KW_srgbf: srgb = 1; /* fall through */
-        case VBNL_KW_rgbf: first = 0; count = 4; break;
-        case VBNL_KW_srgbt: srgb = 1; /* fall through */
-        case VBNL_KW_rgbt: first = 0; count = -4; break;
-        case VBNL_KW_srgbft: srgb = 1; /* fall through */
-        case VBNL_KW_rgbft: first = 0; count = 5; break;
-        case VBNL_KW_red: first = 0; count = 1; break;
-        case VBNL_KW_green: first = 1; count = 1; break;
-        case VBNL_KW_blue: first = 2; count = 1; break;
-        case VBNL_KW_filter: first = 3; count = 1; break;
-        case VBNL_KW_transmit: first = 4; count = 1; break;
+        case VBI_KW_srgb: srgb = 1; /* fall through */
+        case VBI_KW_rgb: first = 0; count = 3; break;
+        case VBI_KW_srgbf: srgb = 1; /* fall through */
+        case VBI_KW_rgbf: first = 0; count = 4; break;
+        case VBI_KW_srgbt: srgb = 1; /* fall through */
+        case VBI_KW_rgbt: first = 0; count = -4; break;
+        case VBI_KW_srgbft: srgb = 1; /* fall through */
+        case VBI_KW_rgbft: first = 0; count = 5; break;
+        case VBI_KW_red: first = 0; count = 1; break;
+        case VBI_KW_green: first = 1; count = 1; break;
+        case VBI_KW_blue: first = 2; count = 1; break;
+        case VBI_KW_filter: first = 3; count = 1; break;
+        case VBI_KW_transmit: first = 4; count = 1; break;
         default: break;
         }
         vbnl_sdl_value v;
         if (first < 0) {
             bool start = t->kind == VBNL_SDL_TOK_NUMBER ||
-                         (t->kind == VBNL_SDL_TOK_IDENT && !(t->keyword >= VBNL_KW_declare && t->keyword <= VBNL_KW_optional)) ||
+                         (t->kind == VBNL_SDL_TOK_IDENT && !(t->keyword >= VBI_KW_declare && t->keyword <= VBI_KW_optional)) ||
                          (t->kind == VBNL_SDL_TOK_PUNCT && (t->op == '<' || t->op == '(' || t->op == '-' || t->op == '+'));
             if (any || !start)
                 break;
@@ -302,7 +302,7 @@ vbnl_result vbnl_sdl_parse_color(vbnl_sdl_parser *p, double out[5])
     if (!p || !out)
         return VBNL_ERR_INVALID_ARGUMENT;
     const vbnl_sdl_token *t = vbnl_sdl_peek(p);
-    bool kw = t->keyword == VBNL_KW_color || t->keyword == VBNL_KW_colour;
+    bool kw = t->keyword == VBI_KW_color || t->keyword == VBI_KW_colour;
     if (kw)
         vbnl_sdl_next(p);
     vbnl_sdl_value v;
@@ -353,8 +353,8 @@ static bool vector_literal(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_s
             return true;
         }
         /* POV-Ray tolerates missing commas: <1 2 3> */
-        if (t->kind == VBNL_SDL_TOK_NUMBER || (t->kind == VBNL_SDL_TOK_IDENT && t->keyword < VBNL_KW_declare) ||
-            (t->kind == VBNL_SDL_TOK_IDENT && t->keyword > VBNL_KW_optional) ||
+        if (t->kind == VBNL_SDL_TOK_NUMBER || (t->kind == VBNL_SDL_TOK_IDENT && t->keyword < VBI_KW_declare) ||
+            (t->kind == VBNL_SDL_TOK_IDENT && t->keyword > VBI_KW_optional) ||
             (t->kind == VBNL_SDL_TOK_PUNCT && t->op == '(')) {
             if (t->kind != VBNL_SDL_TOK_IDENT || t->keyword != 0 || sdl_lookup(p, t->text))
                 continue;
@@ -372,12 +372,12 @@ static bool component(vbnl_sdl_parser *p, vbnl_sdl_value *v, const vbnl_sdl_toke
     int idx = -1;
     bool gray = false;
     switch (name->keyword) {
-    case VBNL_KW_x: case VBNL_KW_u: case VBNL_KW_red: idx = 0; break;
-    case VBNL_KW_y: case VBNL_KW_v: case VBNL_KW_green: idx = 1; break;
-    case VBNL_KW_z: case VBNL_KW_blue: idx = 2; break;
-    case VBNL_KW_t: case VBNL_KW_filter: idx = 3; break;
-    case VBNL_KW_transmit: idx = 4; break;
-    case VBNL_KW_gray: case VBNL_KW_grey: gray = true; break;
+    case VBI_KW_x: case VBI_KW_u: case VBI_KW_red: idx = 0; break;
+    case VBI_KW_y: case VBI_KW_v: case VBI_KW_green: idx = 1; break;
+    case VBI_KW_z: case VBI_KW_blue: idx = 2; break;
+    case VBI_KW_t: case VBI_KW_filter: idx = 3; break;
+    case VBI_KW_transmit: idx = 4; break;
+    case VBI_KW_gray: case VBI_KW_grey: gray = true; break;
     default: break;
     }
     if (idx < 0 && !gray) {
@@ -565,43 +565,43 @@ static bool primary(vbnl_sdl_parser *p, vbnl_sdl_value *out)
             vbnl_sdl_token id = *vbnl_sdl_next(p);
             return identifier(p, &id, out);
         }
-        case VBNL_KW_pi: vbnl_sdl_next(p); sdl_set_float(out, M_PI); return true;
-        case VBNL_KW_tau: vbnl_sdl_next(p); sdl_set_float(out, 2 * M_PI); return true;
-        case VBNL_KW_true: case VBNL_KW_yes: case VBNL_KW_on:
+        case VBI_KW_pi: vbnl_sdl_next(p); sdl_set_float(out, M_PI); return true;
+        case VBI_KW_tau: vbnl_sdl_next(p); sdl_set_float(out, 2 * M_PI); return true;
+        case VBI_KW_true: case VBI_KW_yes: case VBI_KW_on:
             vbnl_sdl_next(p); sdl_set_float(out, 1); return true;
-        case VBNL_KW_false: case VBNL_KW_no: case VBNL_KW_off:
+        case VBI_KW_false: case VBI_KW_no: case VBI_KW_off:
             vbnl_sdl_next(p); sdl_set_float(out, 0); return true;
-        case VBNL_KW_clock: vbnl_sdl_next(p); sdl_set_float(out, p->clock); return true;
-        case VBNL_KW_clock_delta: vbnl_sdl_next(p); sdl_set_float(out, p->clock_delta); return true;
-        case VBNL_KW_clock_on: vbnl_sdl_next(p); sdl_set_float(out, p->clock_on); return true;
-        case VBNL_KW_initial_clock: vbnl_sdl_next(p); sdl_set_float(out, p->initial_clock); return true;
-        case VBNL_KW_final_clock: vbnl_sdl_next(p); sdl_set_float(out, p->final_clock); return true;
-        case VBNL_KW_frame_number: vbnl_sdl_next(p); sdl_set_float(out, p->frame_number); return true;
-        case VBNL_KW_initial_frame: vbnl_sdl_next(p); sdl_set_float(out, p->initial_frame); return true;
-        case VBNL_KW_final_frame: vbnl_sdl_next(p); sdl_set_float(out, p->final_frame); return true;
-        case VBNL_KW_image_width: vbnl_sdl_next(p); sdl_set_float(out, p->image_width); return true;
-        case VBNL_KW_image_height: vbnl_sdl_next(p); sdl_set_float(out, p->image_height); return true;
-        case VBNL_KW_version: vbnl_sdl_next(p); sdl_set_float(out, p->language_version); return true;
-        case VBNL_KW_x: c[0] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 3, c); return true;
-        case VBNL_KW_y: c[1] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 3, c); return true;
-        case VBNL_KW_z: c[2] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 3, c); return true;
-        case VBNL_KW_t: c[3] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 4, c); return true;
-        case VBNL_KW_u: c[0] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 2, c); return true;
-        case VBNL_KW_v: c[1] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 2, c); return true;
-        case VBNL_KW_input_file_name: {
+        case VBI_KW_clock: vbnl_sdl_next(p); sdl_set_float(out, p->clock); return true;
+        case VBI_KW_clock_delta: vbnl_sdl_next(p); sdl_set_float(out, p->clock_delta); return true;
+        case VBI_KW_clock_on: vbnl_sdl_next(p); sdl_set_float(out, p->clock_on); return true;
+        case VBI_KW_initial_clock: vbnl_sdl_next(p); sdl_set_float(out, p->initial_clock); return true;
+        case VBI_KW_final_clock: vbnl_sdl_next(p); sdl_set_float(out, p->final_clock); return true;
+        case VBI_KW_frame_number: vbnl_sdl_next(p); sdl_set_float(out, p->frame_number); return true;
+        case VBI_KW_initial_frame: vbnl_sdl_next(p); sdl_set_float(out, p->initial_frame); return true;
+        case VBI_KW_final_frame: vbnl_sdl_next(p); sdl_set_float(out, p->final_frame); return true;
+        case VBI_KW_image_width: vbnl_sdl_next(p); sdl_set_float(out, p->image_width); return true;
+        case VBI_KW_image_height: vbnl_sdl_next(p); sdl_set_float(out, p->image_height); return true;
+        case VBI_KW_version: vbnl_sdl_next(p); sdl_set_float(out, p->language_version); return true;
+        case VBI_KW_x: c[0] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 3, c); return true;
+        case VBI_KW_y: c[1] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 3, c); return true;
+        case VBI_KW_z: c[2] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 3, c); return true;
+        case VBI_KW_t: c[3] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 4, c); return true;
+        case VBI_KW_u: c[0] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 2, c); return true;
+        case VBI_KW_v: c[1] = 1; vbnl_sdl_next(p); sdl_set_vector(out, 2, c); return true;
+        case VBI_KW_input_file_name: {
             vbnl_sdl_next(p);
             const char *n = p->nframes ? p->frames[0].file->name : "";
             return sdl_set_string(p, out, n, strlen(n));
         }
-        case VBNL_KW_color: case VBNL_KW_colour:
+        case VBI_KW_color: case VBI_KW_colour:
             vbnl_sdl_next(p);
             return color_body(p, out, true);
-        case VBNL_KW_rgb: case VBNL_KW_rgbf: case VBNL_KW_rgbt: case VBNL_KW_rgbft:
-        case VBNL_KW_srgb: case VBNL_KW_srgbf: case VBNL_KW_srgbt: case VBNL_KW_srgbft:
-        case VBNL_KW_red: case VBNL_KW_green: case VBNL_KW_blue: case VBNL_KW_filter: case VBNL_KW_transmit:
+        case VBI_KW_rgb: case VBI_KW_rgbf: case VBI_KW_rgbt: case VBI_KW_rgbft:
+        case VBI_KW_srgb: case VBI_KW_srgbf: case VBI_KW_srgbt: case VBI_KW_srgbft:
+        case VBI_KW_red: case VBI_KW_green: case VBI_KW_blue: case VBI_KW_filter: case VBI_KW_transmit:
             return color_body(p, out, true);
-        case VBNL_KW_array: return sdl_parse_array_decl(p, out, &loc);
-        case VBNL_KW_function: return sdl_parse_function(p, out, &loc);
+        case VBI_KW_array: return sdl_parse_array_decl(p, out, &loc);
+        case VBI_KW_function: return sdl_parse_function(p, out, &loc);
         default:
             if (sdl_is_builtin(kw)) {
                 vbnl_sdl_token id = *vbnl_sdl_next(p);
@@ -661,7 +661,7 @@ static bool unary(vbnl_sdl_parser *p, vbnl_sdl_value *out)
         }
         int n = out->kind == VBNL_SDL_FLOAT ? 1 : out->dim;
         for (int i = 0; i < n; i++)
-            out->v[i] = op == '-' ? -out->v[i] : (fabs(out->v[i]) > VBNL_SDL_EPSILON ? 0.0 : 1.0);
+            out->v[i] = op == '-' ? -out->v[i] : (fabs(out->v[i]) > VBI_SDL_EPSILON ? 0.0 : 1.0);
         return true;
     }
     return postfix(p, out);
@@ -820,7 +820,7 @@ bool sdl_parse_array_decl(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sd
 {
     memset(out, 0, sizeof *out);
     vbnl_sdl_next(p); /* array */
-    if (vbnl_sdl_peek(p)->keyword == VBNL_KW_mixed)
+    if (vbnl_sdl_peek(p)->keyword == VBI_KW_mixed)
         vbnl_sdl_next(p);
     size_t dims[5];
     int rank = 0;

@@ -180,11 +180,11 @@ static int call_args(fn_ctx *c, int *first)
 }
 
 static const int fn_builtins[] = {
-    VBNL_KW_abs, VBNL_KW_acos, VBNL_KW_acosh, VBNL_KW_asin, VBNL_KW_asinh, VBNL_KW_atan, VBNL_KW_atan2,
-    VBNL_KW_atanh, VBNL_KW_ceil, VBNL_KW_cos, VBNL_KW_cosh, VBNL_KW_degrees, VBNL_KW_div, VBNL_KW_exp,
-    VBNL_KW_floor, VBNL_KW_int, VBNL_KW_ln, VBNL_KW_log, VBNL_KW_max, VBNL_KW_min, VBNL_KW_mod, VBNL_KW_pow,
-    VBNL_KW_radians, VBNL_KW_select, VBNL_KW_sin, VBNL_KW_sinh, VBNL_KW_sqrt, VBNL_KW_sqr, VBNL_KW_tan,
-    VBNL_KW_tanh, VBNL_KW_bitwise_and, VBNL_KW_bitwise_or, VBNL_KW_bitwise_xor, 0
+    VBI_KW_abs, VBI_KW_acos, VBI_KW_acosh, VBI_KW_asin, VBI_KW_asinh, VBI_KW_atan, VBI_KW_atan2,
+    VBI_KW_atanh, VBI_KW_ceil, VBI_KW_cos, VBI_KW_cosh, VBI_KW_degrees, VBI_KW_div, VBI_KW_exp,
+    VBI_KW_floor, VBI_KW_int, VBI_KW_ln, VBI_KW_log, VBI_KW_max, VBI_KW_min, VBI_KW_mod, VBI_KW_pow,
+    VBI_KW_radians, VBI_KW_select, VBI_KW_sin, VBI_KW_sinh, VBI_KW_sqrt, VBI_KW_sqr, VBI_KW_tan,
+    VBI_KW_tanh, VBI_KW_bitwise_and, VBI_KW_bitwise_or, VBI_KW_bitwise_xor, 0
 };
 
 static int f_primary(fn_ctx *c)
@@ -220,21 +220,21 @@ static int f_primary(fn_ctx *c)
             return n;
         }
     }
-    if (c->default_params && (tok.keyword == VBNL_KW_u || tok.keyword == VBNL_KW_v)) {
+    if (c->default_params && (tok.keyword == VBI_KW_u || tok.keyword == VBI_KW_v)) {
         int n = node(c, FN_PARAM);
         if (n >= 0)
-            c->f->nodes[n].op = tok.keyword == VBNL_KW_u ? 0 : 1;
+            c->f->nodes[n].op = tok.keyword == VBI_KW_u ? 0 : 1;
         return n;
     }
     switch (tok.keyword) {
-    case VBNL_KW_pi: return num_node(c, M_PI);
-    case VBNL_KW_tau: return num_node(c, 2 * M_PI);
-    case VBNL_KW_true: case VBNL_KW_yes: case VBNL_KW_on: return num_node(c, 1);
-    case VBNL_KW_false: case VBNL_KW_no: case VBNL_KW_off: return num_node(c, 0);
-    case VBNL_KW_clock: return num_node(c, p->clock);
-    case VBNL_KW_image_width: return num_node(c, p->image_width);
-    case VBNL_KW_image_height: return num_node(c, p->image_height);
-    case VBNL_KW_internal: {
+    case VBI_KW_pi: return num_node(c, M_PI);
+    case VBI_KW_tau: return num_node(c, 2 * M_PI);
+    case VBI_KW_true: case VBI_KW_yes: case VBI_KW_on: return num_node(c, 1);
+    case VBI_KW_false: case VBI_KW_no: case VBI_KW_off: return num_node(c, 0);
+    case VBI_KW_clock: return num_node(c, p->clock);
+    case VBI_KW_image_width: return num_node(c, p->image_width);
+    case VBI_KW_image_height: return num_node(c, p->image_height);
+    case VBI_KW_internal: {
         double id;
         if (!sdl_expect_op(p, '(', "after 'internal'") || !sdl_expr_float(p, &id, "internal()") ||
             !sdl_expect_op(p, ')', "after internal() argument"))
@@ -282,8 +282,8 @@ static int f_primary(fn_ctx *c)
     if ((s->val.kind == VBNL_SDL_VECTOR || s->val.kind == VBNL_SDL_COLOR) && vbnl_sdl_accept(p, '.')) {
         const vbnl_sdl_token *cn = vbnl_sdl_next(p);
         static const struct { int kw, idx; } comps[] = {
-            { VBNL_KW_x, 0 }, { VBNL_KW_y, 1 }, { VBNL_KW_z, 2 }, { VBNL_KW_t, 3 }, { VBNL_KW_u, 0 }, { VBNL_KW_v, 1 },
-            { VBNL_KW_red, 0 }, { VBNL_KW_green, 1 }, { VBNL_KW_blue, 2 }, { VBNL_KW_filter, 3 }, { VBNL_KW_transmit, 4 },
+            { VBI_KW_x, 0 }, { VBI_KW_y, 1 }, { VBI_KW_z, 2 }, { VBI_KW_t, 3 }, { VBI_KW_u, 0 }, { VBI_KW_v, 1 },
+            { VBI_KW_red, 0 }, { VBI_KW_green, 1 }, { VBI_KW_blue, 2 }, { VBI_KW_filter, 3 }, { VBI_KW_transmit, 4 },
         };
         for (size_t i = 0; i < sizeof comps / sizeof comps[0]; i++)
             if (cn->keyword == comps[i].kw && comps[i].idx < s->val.dim)
@@ -306,14 +306,14 @@ static int f_primary(fn_ctx *c)
         if (vbnl_sdl_accept(p, '.')) { /* a component of a pigment (or spline) function's value */
             const vbnl_sdl_token *cn = vbnl_sdl_next(p);
             static const struct { int kw, idx; } comps[] = {
-                { VBNL_KW_x, 0 }, { VBNL_KW_y, 1 }, { VBNL_KW_z, 2 }, { VBNL_KW_t, 4 }, { VBNL_KW_red, 0 },
-                { VBNL_KW_green, 1 }, { VBNL_KW_blue, 2 }, { VBNL_KW_filter, 3 }, { VBNL_KW_transmit, 4 },
+                { VBI_KW_x, 0 }, { VBI_KW_y, 1 }, { VBI_KW_z, 2 }, { VBI_KW_t, 4 }, { VBI_KW_red, 0 },
+                { VBI_KW_green, 1 }, { VBI_KW_blue, 2 }, { VBI_KW_filter, 3 }, { VBI_KW_transmit, 4 },
             };
             int idx = -1;
             for (size_t i = 0; i < sizeof comps / sizeof comps[0]; i++)
                 if (cn->keyword == comps[i].kw)
                     idx = comps[i].idx;
-            if (cn->keyword == VBNL_KW_gray)
+            if (cn->keyword == VBI_KW_gray)
                 idx = 5;
             /* a block function (pigment, spline) gives a colour or a vector; a float function none */
             if (idx < 0 || !callee->block || (callee->has_ext && callee->ext.dims < 5)) {
@@ -436,9 +436,9 @@ bool sdl_parse_function_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl
             for (;;) {
                 const vbnl_sdl_token *t = vbnl_sdl_next(p);
                 /* x, y, z, u, v are keywords but legal parameter names */
-                if (t->kind != VBNL_SDL_TOK_IDENT || (t->keyword && t->keyword != VBNL_KW_x && t->keyword != VBNL_KW_y &&
-                                                      t->keyword != VBNL_KW_z && t->keyword != VBNL_KW_u &&
-                                                      t->keyword != VBNL_KW_v && t->keyword != VBNL_KW_t)) {
+                if (t->kind != VBNL_SDL_TOK_IDENT || (t->keyword && t->keyword != VBI_KW_x && t->keyword != VBI_KW_y &&
+                                                      t->keyword != VBI_KW_z && t->keyword != VBI_KW_u &&
+                                                      t->keyword != VBI_KW_v && t->keyword != VBI_KW_t)) {
                     char b[80];
                     sdl_errorf(p, &t->loc, "expected a parameter name in function(...), found %s", sdl_token_describe(t, b, sizeof b));
                     goto fail;
@@ -457,9 +457,9 @@ bool sdl_parse_function_body(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl
         }
     } else {
         f->arity = 3;
-        f->params[0] = p->kw[VBNL_KW_x];
-        f->params[1] = p->kw[VBNL_KW_y];
-        f->params[2] = p->kw[VBNL_KW_z];
+        f->params[0] = p->kw[VBI_KW_x];
+        f->params[1] = p->kw[VBI_KW_y];
+        f->params[2] = p->kw[VBI_KW_z];
     }
     if (!sdl_expect_op(p, '{', "to start the function body"))
         goto fail;
@@ -656,7 +656,7 @@ static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, 
         double av[64];
         int k = nd->nargs;
         av[0] = 0;
-        if (nd->op == VBNL_KW_select) {
+        if (nd->op == VBI_KW_select) {
             double s = eval(e, f, f->argv[nd->args], args, nargs);
             int pick = k == 3 ? (s < 0 ? 1 : 2) : (s < 0 ? 1 : s == 0 ? 2 : 3);
             r = pick < k ? eval(e, f, f->argv[nd->args + pick], args, nargs) : 0;
@@ -666,43 +666,43 @@ static double eval(fn_eval *e, vbnl_sdl_function *f, int n, const double *args, 
             av[i] = eval(e, f, f->argv[nd->args + i], args, nargs);
         double x = av[0], y = k > 1 ? av[1] : 0;
         switch (nd->op) {
-        case VBNL_KW_abs: r = fabs(x); break;
-        case VBNL_KW_acos: r = acos(x); break;
-        case VBNL_KW_acosh: r = acosh(x); break;
-        case VBNL_KW_asin: r = asin(x); break;
-        case VBNL_KW_asinh: r = asinh(x); break;
-        case VBNL_KW_atan: r = atan(x); break;
-        case VBNL_KW_atan2: r = atan2(x, y); break;
-        case VBNL_KW_atanh: r = atanh(x); break;
-        case VBNL_KW_ceil: r = ceil(x); break;
-        case VBNL_KW_cos: r = cos(x); break;
-        case VBNL_KW_cosh: r = cosh(x); break;
-        case VBNL_KW_degrees: r = x * 180 / M_PI; break;
-        case VBNL_KW_radians: r = x * M_PI / 180; break;
-        case VBNL_KW_div: r = trunc(x / y); break;
-        case VBNL_KW_mod: r = fmod(x, y); break;
-        case VBNL_KW_exp: r = exp(x); break;
-        case VBNL_KW_floor: r = floor(x); break;
-        case VBNL_KW_int: r = trunc(x); break;
-        case VBNL_KW_ln: r = log(x); break;
-        case VBNL_KW_log: r = log10(x); break;
-        case VBNL_KW_pow: r = pow(x, y); break;
-        case VBNL_KW_sin: r = sin(x); break;
-        case VBNL_KW_sinh: r = sinh(x); break;
-        case VBNL_KW_sqrt: r = sqrt(x); break;
-        case VBNL_KW_sqr: r = x * x; break;
-        case VBNL_KW_tan: r = tan(x); break;
-        case VBNL_KW_tanh: r = tanh(x); break;
-        case VBNL_KW_min: case VBNL_KW_max:
+        case VBI_KW_abs: r = fabs(x); break;
+        case VBI_KW_acos: r = acos(x); break;
+        case VBI_KW_acosh: r = acosh(x); break;
+        case VBI_KW_asin: r = asin(x); break;
+        case VBI_KW_asinh: r = asinh(x); break;
+        case VBI_KW_atan: r = atan(x); break;
+        case VBI_KW_atan2: r = atan2(x, y); break;
+        case VBI_KW_atanh: r = atanh(x); break;
+        case VBI_KW_ceil: r = ceil(x); break;
+        case VBI_KW_cos: r = cos(x); break;
+        case VBI_KW_cosh: r = cosh(x); break;
+        case VBI_KW_degrees: r = x * 180 / M_PI; break;
+        case VBI_KW_radians: r = x * M_PI / 180; break;
+        case VBI_KW_div: r = trunc(x / y); break;
+        case VBI_KW_mod: r = fmod(x, y); break;
+        case VBI_KW_exp: r = exp(x); break;
+        case VBI_KW_floor: r = floor(x); break;
+        case VBI_KW_int: r = trunc(x); break;
+        case VBI_KW_ln: r = log(x); break;
+        case VBI_KW_log: r = log10(x); break;
+        case VBI_KW_pow: r = pow(x, y); break;
+        case VBI_KW_sin: r = sin(x); break;
+        case VBI_KW_sinh: r = sinh(x); break;
+        case VBI_KW_sqrt: r = sqrt(x); break;
+        case VBI_KW_sqr: r = x * x; break;
+        case VBI_KW_tan: r = tan(x); break;
+        case VBI_KW_tanh: r = tanh(x); break;
+        case VBI_KW_min: case VBI_KW_max:
             r = x;
             for (int i = 1; i < k; i++)
-                r = nd->op == VBNL_KW_min ? fmin(r, av[i]) : fmax(r, av[i]);
+                r = nd->op == VBI_KW_min ? fmin(r, av[i]) : fmax(r, av[i]);
             break;
-        case VBNL_KW_bitwise_and: case VBNL_KW_bitwise_or: case VBNL_KW_bitwise_xor: {
+        case VBI_KW_bitwise_and: case VBI_KW_bitwise_or: case VBI_KW_bitwise_xor: {
             long long acc = fabs(x) < 9e18 ? (long long)x : 0;
             for (int i = 1; i < k; i++) {
                 long long v = fabs(av[i]) < 9e18 ? (long long)av[i] : 0;
-                acc = nd->op == VBNL_KW_bitwise_and ? (acc & v) : nd->op == VBNL_KW_bitwise_or ? (acc | v) : (acc ^ v);
+                acc = nd->op == VBI_KW_bitwise_and ? (acc & v) : nd->op == VBI_KW_bitwise_or ? (acc | v) : (acc ^ v);
             }
             r = (double)acc;
             break;

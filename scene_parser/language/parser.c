@@ -42,9 +42,9 @@ void sdl_leave(vbnl_sdl_parser *p)
 
 static const char *const keyword_names[] = {
     "",
-#define VBNL_KW_NAME(n) #n,
-    VBNL_SDL_KEYWORDS(VBNL_KW_NAME)
-#undef VBNL_KW_NAME
+#define VBI_KW_NAME(n) #n,
+    VBI_SDL_KEYWORDS(VBI_KW_NAME)
+#undef VBI_KW_NAME
 };
 
 static void detect_system_dir(vbnl_sdl_parser *p)
@@ -90,7 +90,7 @@ vbnl_result vbnl_sdl_parser_create(vbnl_sdl_parser **out, vbnl_error *err)
     p->cur.text = "";
     p->peek.text = "";
     sdl_table_init(&p->globals);
-    for (int k = 1; k < VBNL_KW_COUNT; k++) {
+    for (int k = 1; k < VBI_KW_COUNT; k++) {
         p->kw[k] = sdl_intern_keyword(p, keyword_names[k], k);
         if (!p->kw[k]) {
             vbnl_sdl_parser_destroy(p);

@@ -1,6 +1,6 @@
 /* vbnl scene parser: private declarations shared by the language-layer files. Never installed. */
-#ifndef VBNL_SDL_INTERNAL_H
-#define VBNL_SDL_INTERNAL_H
+#ifndef VBI_SDL_INTERNAL_H
+#define VBI_SDL_INTERNAL_H
 
 #include <stdarg.h>
 #include <stdbool.h>
@@ -10,7 +10,7 @@
 #include "vbnl/sdl.h"
 
 /* Keywords the language layer interprets. Object keywords are plain identifiers here. */
-#define VBNL_SDL_KEYWORDS(X)                                                                      \
+#define VBI_SDL_KEYWORDS(X)                                                                      \
     X(declare) X(local) X(undef) X(include) X(version) X(if) X(ifdef) X(ifndef) X(elseif)          \
     X(else) X(end) X(while) X(for) X(switch) X(case) X(range) X(break) X(macro) X(debug)           \
     X(warning) X(error) X(default) X(fopen) X(fclose) X(read) X(write) X(render) X(statistics)     \
@@ -29,11 +29,11 @@
     X(hf) X(trace) X(min_extent) X(max_extent) X(prod) X(sum) X(input_file_name) X(append) X(mixed)
 
 enum {
-    VBNL_KW_NONE = 0,
-#define VBNL_KW_ENUM(n) VBNL_KW_##n,
-    VBNL_SDL_KEYWORDS(VBNL_KW_ENUM)
-#undef VBNL_KW_ENUM
-    VBNL_KW_COUNT
+    VBI_KW_NONE = 0,
+#define VBI_KW_ENUM(n) VBI_KW_##n,
+    VBI_SDL_KEYWORDS(VBI_KW_ENUM)
+#undef VBI_KW_ENUM
+    VBI_KW_COUNT
 };
 
 /* ---- interned names, files --------------------------------------------------------------- */
@@ -155,7 +155,7 @@ struct vbnl_sdl_parser {
     /* names */
     sdl_name *names;
     size_t names_cap, names_count;
-    const char *kw[VBNL_KW_COUNT];
+    const char *kw[VBI_KW_COUNT];
     char **name_blocks; /* storage of interned strings */
     size_t name_blocks_count, name_blocks_cap;
     /* files */

@@ -10,7 +10,7 @@
 
 #include "sdl_internal.h"
 
-enum { VBNL_SPLINE_LINEAR, VBNL_SPLINE_QUADRATIC, VBNL_SPLINE_CUBIC, VBNL_SPLINE_NATURAL };
+enum { VBI_SPLINE_LINEAR, VBI_SPLINE_QUADRATIC, VBI_SPLINE_CUBIC, VBI_SPLINE_NATURAL };
 
 struct vbnl_sdl_spline {
     int refs;
@@ -77,7 +77,7 @@ bool sdl_parse_spline(vbnl_sdl_parser *p, vbnl_sdl_value *out, const vbnl_sdl_lo
     bool ok = s != NULL;
     if (s) {
         s->refs = 1;
-        s->type = VBNL_SPLINE_LINEAR;
+        s->type = VBI_SPLINE_LINEAR;
         s->dim = 1;
     }
     while (ok && !p->failed) {
@@ -197,7 +197,7 @@ static void spline_eval(const vbnl_sdl_spline *s, int type, double t, double *ou
     if (s->n == 0)
         return;
     int a = 0, b = s->n - 1;
-    if (type == VBNL_SPLINE_CUBIC && s->n >= 4) {
+    if (type == VBI_SPLINE_CUBIC && s->n >= 4) {
         a = 1;
         b = s->n - 2;
     }
@@ -213,12 +213,12 @@ static void spline_eval(const vbnl_sdl_spline *s, int type, double t, double *ou
     while (i < b - 1 && s->t[i + 1] < t)
         i++;
     double t0 = s->t[i], t1 = s->t[i + 1], f = (t - t0) / (t1 - t0);
-    if (type == VBNL_SPLINE_LINEAR || s->n < 3) {
+    if (type == VBI_SPLINE_LINEAR || s->n < 3) {
         for (int k = 0; k < 5; k++)
             out[k] = s->v[i][k] + (s->v[i + 1][k] - s->v[i][k]) * f;
         return;
     }
-    if (type == VBNL_SPLINE_CUBIC) {
+    if (type == VBI_SPLINE_CUBIC) {
         int im = i > 0 ? i - 1 : i, ip = i + 2 < s->n ? i + 2 : i + 1;
         double h = t1 - t0, f2 = f * f, f3 = f2 * f;
         for (int k = 0; k < 5; k++) {

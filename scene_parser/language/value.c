@@ -323,7 +323,7 @@ vbnl_sdl_loc vbnl_sdl_block_loc(const vbnl_sdl_block *b)
 
 /* ---- symbol tables (open addressing on interned pointers) -------------------------------- */
 
-#define VBNL_SDL_TOMB ((const char *)1)
+#define VBI_SDL_TOMB ((const char *)1)
 
 void sdl_table_init(sdl_table *t)
 {
@@ -333,7 +333,7 @@ void sdl_table_init(sdl_table *t)
 void sdl_table_free(vbnl_sdl_parser *p, sdl_table *t)
 {
     for (size_t i = 0; i < t->cap; i++)
-        if (t->slots[i].name && t->slots[i].name != VBNL_SDL_TOMB)
+        if (t->slots[i].name && t->slots[i].name != VBI_SDL_TOMB)
             vbnl_sdl_value_clear(p, &t->slots[i].val);
     free(t->slots);
     memset(t, 0, sizeof *t);
@@ -373,7 +373,7 @@ sdl_sym *sdl_table_insert(vbnl_sdl_parser *p, sdl_table *t, const char *name)
             return NULL;
         }
         for (size_t i = 0; i < t->cap; i++) {
-            if (!t->slots[i].name || t->slots[i].name == VBNL_SDL_TOMB)
+            if (!t->slots[i].name || t->slots[i].name == VBI_SDL_TOMB)
                 continue;
             size_t h = ptr_hash(t->slots[i].name) & (cap - 1);
             while (ns[h].name)
@@ -386,7 +386,7 @@ sdl_sym *sdl_table_insert(vbnl_sdl_parser *p, sdl_table *t, const char *name)
         t->used = t->count;
     }
     size_t h = ptr_hash(name) & (t->cap - 1);
-    while (t->slots[h].name && t->slots[h].name != VBNL_SDL_TOMB)
+    while (t->slots[h].name && t->slots[h].name != VBI_SDL_TOMB)
         h = (h + 1) & (t->cap - 1);
     if (!t->slots[h].name)
         t->used++;
@@ -403,7 +403,7 @@ bool sdl_table_remove(vbnl_sdl_parser *p, sdl_table *t, const char *name)
     if (!s)
         return false;
     vbnl_sdl_value_clear(p, &s->val);
-    s->name = VBNL_SDL_TOMB;
+    s->name = VBI_SDL_TOMB;
     t->count--;
     return true;
 }

@@ -1,6 +1,6 @@
 /* A PLY file checked before assimp reads it (private to mesh_import/). */
-#ifndef VBNL_PLY_CHECK_H
-#define VBNL_PLY_CHECK_H
+#ifndef VBI_PLY_CHECK_H
+#define VBI_PLY_CHECK_H
 
 #include <stddef.h>
 #include <stdint.h>

@@ -8,8 +8,8 @@
  * through `unknown`. Shapes, object modifiers, the camera, lights, global_settings and every
  * texture block (pigment, finish, interior, ...) are read this way, so a new keyword is one row
  * and a new block is one table. */
-#ifndef VBNL_POV_BLOCK_H
-#define VBNL_POV_BLOCK_H
+#ifndef VBI_POV_BLOCK_H
+#define VBI_POV_BLOCK_H
 
 #include <stddef.h>
 #include <string.h>

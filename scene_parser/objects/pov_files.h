@@ -7,8 +7,8 @@
  * are refused with the reason. The user widens this as POV-Ray's I/O restriction settings do, by
  * opening folders to the scene (vbnl_sdl_permit_dir; the command line's --read-dir and
  * --write-dir): a name that leads into one of them is accepted. */
-#ifndef VBNL_POV_FILES_H
-#define VBNL_POV_FILES_H
+#ifndef VBI_POV_FILES_H
+#define VBI_POV_FILES_H
 
 #include "sdl_internal.h"
 

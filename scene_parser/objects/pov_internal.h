@@ -14,8 +14,8 @@
  * left-handed world maps onto the core's (keeping coordinates unchanged works: the core camera
  * takes explicit forward/right/up vectors) and passes that map to pov_appearance_material as
  * world_from_pov, so patterns stay attached to their objects. */
-#ifndef VBNL_POV_INTERNAL_H
-#define VBNL_POV_INTERNAL_H
+#ifndef VBI_POV_INTERNAL_H
+#define VBI_POV_INTERNAL_H
 
 #include <stdint.h>
 

@@ -1,8 +1,8 @@
 /* vbnl object layer: the state of one load and the functions the object part's files share
  * (objects, shapes, modifiers, transforms, camera, lights, global settings, the environment,
  * building the core scene). The texture part is reached through pov_internal.h only. */
-#ifndef VBNL_POV_LOADER_H
-#define VBNL_POV_LOADER_H
+#ifndef VBI_POV_LOADER_H
+#define VBI_POV_LOADER_H
 
 #include <math.h>
 #include <stddef.h>

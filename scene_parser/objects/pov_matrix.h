@@ -1,7 +1,7 @@
 /* vbnl object layer: 4x4 row-major affine matrices (p' = M p, as in vbnl/scene.h), shared by the
  * object and texture parts (matrix.c). */
-#ifndef VBNL_POV_MATRIX_H
-#define VBNL_POV_MATRIX_H
+#ifndef VBI_POV_MATRIX_H
+#define VBI_POV_MATRIX_H
 
 void pov_m4_identity(double m[16]);
 void pov_m4_mul(const double a[16], const double b[16], double out[16]); /* out = a b */

@@ -4,8 +4,8 @@
  * coordinates, kept unchanged in the core) and appearance (NULL: inherited from a CSG parent or
  * the #default in effect). Unions concatenate their children's lists; transforms of a parent
  * are composed into every primitive. Meshes are shared (reference counted) between copies. */
-#ifndef VBNL_POV_OBJECT_H
-#define VBNL_POV_OBJECT_H
+#ifndef VBI_POV_OBJECT_H
+#define VBI_POV_OBJECT_H
 
 #include <stddef.h>
 #include <stdint.h>

@@ -1,8 +1,8 @@
 /* vbnl object layer: what the object part's transforms (transform.c) and the texture part's
  * (texture/transform.c) share. Each part has its own rows: an object's `scale 0` becomes 1 and
  * its `transform` may name a declared transform; in an appearance both are errors. */
-#ifndef VBNL_POV_TRANSFORM_H
-#define VBNL_POV_TRANSFORM_H
+#ifndef VBI_POV_TRANSFORM_H
+#define VBI_POV_TRANSFORM_H
 
 #include "pov_block.h"
 #include "pov_matrix.h"

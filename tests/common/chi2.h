@@ -1,12 +1,12 @@
 /* Pearson chi-square goodness-of-fit helpers for sampling tests (header-only, test code only).
  *
  * Usage: bin the samples, compute each bin's expected count by integrating the claimed pdf over
- * it, then call vbnl_chi2_test(). Bins with small expected counts are pooled (Pearson's test
+ * it, then call vbi_chi2_test(). Bins with small expected counts are pooled (Pearson's test
  * needs about 5 per bin), as in Mitsuba's ChiSquare class (Jakob 2010-2014). Samples in a bin
  * whose expected count is zero fail outright unless they are a vanishing fraction (1e-5) of the
  * total, which tolerates rounding at the edge of a pdf's support. */
-#ifndef VBNL_TEST_CHI2_H
-#define VBNL_TEST_CHI2_H
+#ifndef VBI_TEST_CHI2_H
+#define VBI_TEST_CHI2_H
 
 #include <math.h>
 #include <stdio.h>
@@ -15,7 +15,7 @@
 
 /* Regularised upper incomplete gamma function Q(a, x) (Numerical Recipes 6.2: series below
  * a + 1, Lentz continued fraction above). The chi-square p-value is Q(dof / 2, chi2 / 2). */
-static double vbnl_chi2_gamma_q(double a, double x)
+static double vbi_chi2_gamma_q(double a, double x)
 {
     if (x <= 0.0)
         return 1.0;
@@ -51,31 +51,31 @@ static double vbnl_chi2_gamma_q(double a, double x)
     return exp(log_pref) * h;
 }
 
-typedef struct vbnl_chi2_result {
+typedef struct vbi_chi2_result {
     double chi2;
     int dof;
     double p_value;  /* -1 when samples fell where none were expected */
     char msg[256];
-} vbnl_chi2_result;
+} vbi_chi2_result;
 
-typedef struct vbnl_chi2_bin_ {
+typedef struct vbi_chi2_bin_ {
     double e;
     int i;
-} vbnl_chi2_bin_;
+} vbi_chi2_bin_;
 
-static int vbnl_chi2_cmp_(const void *a, const void *b)
+static int vbi_chi2_cmp_(const void *a, const void *b)
 {
-    double x = ((const vbnl_chi2_bin_ *)a)->e, y = ((const vbnl_chi2_bin_ *)b)->e;
+    double x = ((const vbi_chi2_bin_ *)a)->e, y = ((const vbi_chi2_bin_ *)b)->e;
     return (x > y) - (x < y);
 }
 
 /* Pearson's test of observed counts against expected counts (both over n bins, same total).
  * Returns 1 when the hypothesis survives at `significance` (e.g. 0.01), 0 otherwise; details
  * go to *res (may be NULL). */
-static int vbnl_chi2_test(const double *observed, const double *expected, int n,
-                          double min_expected, double significance, vbnl_chi2_result *res)
+static int vbi_chi2_test(const double *observed, const double *expected, int n,
+                          double min_expected, double significance, vbi_chi2_result *res)
 {
-    vbnl_chi2_result local;
+    vbi_chi2_result local;
     if (!res)
         res = &local;
     memset(res, 0, sizeof(*res));
@@ -83,10 +83,10 @@ static int vbnl_chi2_test(const double *observed, const double *expected, int n,
     for (int i = 0; i < n; ++i)
         total += observed[i];
     /* Pool from the smallest expected count upward. */
-    vbnl_chi2_bin_ *idx = malloc(sizeof(*idx) * (size_t)n);
+    vbi_chi2_bin_ *idx = malloc(sizeof(*idx) * (size_t)n);
     for (int i = 0; i < n; ++i)
-        idx[i] = (vbnl_chi2_bin_){expected[i], i};
-    qsort(idx, (size_t)n, sizeof(*idx), vbnl_chi2_cmp_);
+        idx[i] = (vbi_chi2_bin_){expected[i], i};
+    qsort(idx, (size_t)n, sizeof(*idx), vbi_chi2_cmp_);
 
     double pooled_obs = 0.0, pooled_exp = 0.0, chi2 = 0.0;
     int cells = 0;
@@ -122,7 +122,7 @@ static int vbnl_chi2_test(const double *observed, const double *expected, int n,
         res->p_value = -1.0;
         return 0;
     }
-    res->p_value = vbnl_chi2_gamma_q(0.5 * res->dof, 0.5 * chi2);
+    res->p_value = vbi_chi2_gamma_q(0.5 * res->dof, 0.5 * chi2);
     snprintf(res->msg, sizeof(res->msg), "chi2 = %.1f, dof = %d, p = %.4g", chi2, res->dof,
              res->p_value);
     return res->p_value >= significance;
@@ -132,14 +132,14 @@ static int vbnl_chi2_test(const double *observed, const double *expected, int n,
  * [0, 2 pi)): nz x nphi bins covering z in [zmin, 1], plus one extra bin (index nz * nphi) for
  * z < zmin, so a pdf concentrated near the axis still gets fine bins. Bin areas are equal
  * solid angles because dw = dz dphi. */
-typedef struct vbnl_chi2_grid {
+typedef struct vbi_chi2_grid {
     int nz, nphi;
     double zmin;
-} vbnl_chi2_grid;
+} vbi_chi2_grid;
 
-static inline int vbnl_chi2_grid_bins(const vbnl_chi2_grid *g) { return g->nz * g->nphi + 1; }
+static inline int vbi_chi2_grid_bins(const vbi_chi2_grid *g) { return g->nz * g->nphi + 1; }
 
-static inline int vbnl_chi2_grid_bin(const vbnl_chi2_grid *g, double z, double phi)
+static inline int vbi_chi2_grid_bin(const vbi_chi2_grid *g, double z, double phi)
 {
     if (z < g->zmin)
         return g->nz * g->nphi;
@@ -158,7 +158,7 @@ static inline int vbnl_chi2_grid_bin(const vbnl_chi2_grid *g, double z, double p
  * each bin, by the midpoint rule on sub x sub points per bin. Midpoints keep the error small
  * for pdfs with discontinuities (light outlines); the extra bin uses a grid of the same density
  * in phi and 4 * sub rows in z. Returns the integral of the pdf over the whole sphere. */
-static inline double vbnl_chi2_grid_integrate(const vbnl_chi2_grid *g, double (*pdf)(void *, double, double),
+static inline double vbi_chi2_grid_integrate(const vbi_chi2_grid *g, double (*pdf)(void *, double, double),
                                        void *ctx, int sub, double count, double *expected)
 {
     const double two_pi = 6.283185307179586;

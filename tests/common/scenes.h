@@ -1,6 +1,6 @@
 /* Small scenes built through the public API, shared by the tests (header-only). */
-#ifndef VBNL_TEST_SCENES_H
-#define VBNL_TEST_SCENES_H
+#ifndef VBI_TEST_SCENES_H
+#define VBI_TEST_SCENES_H
 
 #include <string.h>
 

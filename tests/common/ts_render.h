@@ -1,7 +1,7 @@
 /* One render through the public API for the tests (header-only, cmocka): the film's beauty
  * image (RGBA) or one of its layers (RGB), malloc'd; a failure fails the test with the error. */
-#ifndef VBNL_TEST_TS_RENDER_H
-#define VBNL_TEST_TS_RENDER_H
+#ifndef VBI_TEST_TS_RENDER_H
+#define VBI_TEST_TS_RENDER_H
 
 #include <stdlib.h>
 

@@ -88,26 +88,26 @@ int main(int argc, char **argv)
         vbnl_pov_scene *s = NULL;
         double ms = load_ms(ctx, cases[c].sky, &s);
         const vbnl_scene *sc = vbnl_pov_scene_get(s);
-        const vbnl_light *l = &sc->lights[sc->env_light];
-        vbnl_rng rng = vbnl_rng_make(1, 2);
+        const vbi_light *l = &sc->lights[sc->env_light];
+        vbi_rng rng = vbi_rng_make(1, 2);
         double sink = 0.0, t0 = now();
         for (uint32_t i = 0; i < n; ++i) {
-            vbnl_light_li_sample ls;
-            vec2 u = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)};
-            if (vbnl_light_sample_li(l, v3s(0.0f), u, &ls))
+            vbi_light_li_sample ls;
+            vec2 u = {vbi_rng_next(&rng), vbi_rng_next(&rng)};
+            if (vbi_light_sample_li(l, v3s(0.0f), u, &ls))
                 sink += ls.Li.x / ls.pdf;
         }
         double t_sample = (now() - t0) * 1e9 / n;
         t0 = now();
         for (uint32_t i = 0; i < n; ++i) {
-            vec3 w = sample_uniform_sphere((vec2){vbnl_rng_next(&rng), vbnl_rng_next(&rng)});
-            sink += vbnl_light_Le(l, v3s(0.0f), w).y;
+            vec3 w = sample_uniform_sphere((vec2){vbi_rng_next(&rng), vbi_rng_next(&rng)});
+            sink += vbi_light_Le(l, v3s(0.0f), w).y;
         }
         double t_le = (now() - t0) * 1e9 / n;
         t0 = now();
         for (uint32_t i = 0; i < n; ++i) {
-            vec3 w = sample_uniform_sphere((vec2){vbnl_rng_next(&rng), vbnl_rng_next(&rng)});
-            sink += vbnl_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), w);
+            vec3 w = sample_uniform_sphere((vec2){vbi_rng_next(&rng), vbi_rng_next(&rng)});
+            sink += vbi_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), w);
         }
         double t_pdf = (now() - t0) * 1e9 / n;
         printf("%-40s %9.1f %12.1f %10.1f %10.1f%s\n", cases[c].name, ms - base, t_sample, t_le, t_pdf,

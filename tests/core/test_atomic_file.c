@@ -43,12 +43,12 @@ static void in_dir(const char *name, char *out, size_t n) { snprintf(out, n, "%s
 
 static vbnl_result write_text(const char *path, const char *text, vbnl_error *err)
 {
-    vbnl_atomic_file f;
-    vbnl_result r = vbnl_atomic_file_open(&f, path, err);
+    vbi_atomic_file f;
+    vbnl_result r = vbi_atomic_file_open(&f, path, err);
     if (r != VBNL_OK)
         return r;
     assert_int_equal(write(f.fd, text, strlen(text)), (ssize_t)strlen(text));
-    return vbnl_atomic_file_commit(&f, err);
+    return vbi_atomic_file_commit(&f, err);
 }
 
 static void expect_content(const char *path, const char *text)
@@ -135,11 +135,11 @@ static void test_not_regular(void **state)
     assert_int_equal(mkfifo(fifo, 0600), 0);
     assert_int_equal(mkdir(sub, 0700), 0);
     vbnl_error err = {0};
-    vbnl_atomic_file f;
-    assert_int_equal(vbnl_atomic_file_open(&f, fifo, &err), VBNL_ERR_IO);
+    vbi_atomic_file f;
+    assert_int_equal(vbi_atomic_file_open(&f, fifo, &err), VBNL_ERR_IO);
     assert_non_null(strstr(err.message, "not a regular file"));
-    assert_int_equal(vbnl_atomic_file_open(&f, "/dev/null", &err), VBNL_ERR_IO);
-    assert_int_equal(vbnl_atomic_file_open(&f, sub, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_atomic_file_open(&f, "/dev/null", &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_atomic_file_open(&f, sub, &err), VBNL_ERR_IO);
     assert_non_null(strstr(err.message, "is a folder"));
     struct stat st;
     assert_int_equal(lstat(fifo, &st), 0);
@@ -158,11 +158,11 @@ static void test_discard_keeps_old(void **state)
     in_dir("kept.txt", p, sizeof(p));
     vbnl_error err = {0};
     assert_int_equal(write_text(p, "kept", &err), VBNL_OK);
-    vbnl_atomic_file f;
-    assert_int_equal(vbnl_atomic_file_open(&f, p, &err), VBNL_OK);
+    vbi_atomic_file f;
+    assert_int_equal(vbi_atomic_file_open(&f, p, &err), VBNL_OK);
     assert_int_equal(write(f.fd, "half", 4), 4);
-    vbnl_atomic_file_discard(&f);
-    vbnl_atomic_file_discard(&f); /* twice is safe */
+    vbi_atomic_file_discard(&f);
+    vbi_atomic_file_discard(&f); /* twice is safe */
     expect_content(p, "kept");
     expect_no_temporaries();
 }
@@ -177,12 +177,12 @@ static void test_abandon(void **state)
     in_dir("later.txt", q, sizeof(q));
     vbnl_error err = {0};
     assert_int_equal(write_text(p, "before", &err), VBNL_OK);
-    vbnl_atomic_file f;
-    assert_int_equal(vbnl_atomic_file_open(&f, p, &err), VBNL_OK);
+    vbi_atomic_file f;
+    assert_int_equal(vbi_atomic_file_open(&f, p, &err), VBNL_OK);
     assert_int_equal(write(f.fd, "after", 5), 5);
-    vbnl_atomic_file_abandon_all();
+    vbi_atomic_file_abandon_all();
     expect_no_temporaries();
-    assert_int_equal(vbnl_atomic_file_commit(&f, &err), VBNL_ERR_CANCELLED);
+    assert_int_equal(vbi_atomic_file_commit(&f, &err), VBNL_ERR_CANCELLED);
     expect_content(p, "before");
     assert_int_equal(write_text(q, "x", &err), VBNL_ERR_CANCELLED);
     assert_int_equal(access(q, F_OK), -1);

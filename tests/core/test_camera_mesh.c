@@ -216,7 +216,7 @@ static void test_refused(void **state)
     memset(copy, 0, sizeof pos);
     free(copy);
     vec3 o, d;
-    assert_int_equal(vbnl_camera_ray(&s->camera, 1, 1, 0.5f, 0.5f, &o, &d), 1);
+    assert_int_equal(vbi_camera_ray(&s->camera, 1, 1, 0.5f, 0.5f, &o, &d), 1);
     assert_float_equal(o.x, 1.0f / 3.0f, 1e-6f);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);

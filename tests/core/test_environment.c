@@ -106,13 +106,13 @@ static void set_sky(vbnl_scene *s, const uint32_t *ids, uint32_t n)
     assert_int_equal(vbnl_scene_set_environment_pigments(s, &d, NULL), VBNL_OK);
 }
 
-static const vbnl_light *env_light(const vbnl_scene *s)
+static const vbi_light *env_light(const vbnl_scene *s)
 {
-    assert_true(s->env_light != VBNL_NO_LIGHT);
+    assert_true(s->env_light != VBI_NO_LIGHT);
     return &s->lights[s->env_light];
 }
 
-static vec3 sky_Le(const vbnl_light *l, vec3 d) { return vbnl_light_Le(l, v3s(0.0f), v3_neg(d)); }
+static vec3 sky_Le(const vbi_light *l, vec3 d) { return vbi_light_Le(l, v3s(0.0f), v3_neg(d)); }
 
 /* ---- layers -------------------------------------------------------------------------------------- */
 
@@ -130,7 +130,7 @@ static void test_layers(void **state)
     d.background[0] = d.background[1] = d.background[2] = 1.0f;
     assert_int_equal(vbnl_scene_set_environment_pigments(s, &d, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    const vbnl_light *l = env_light(s);
+    const vbi_light *l = env_light(s);
     /* top: (1, .5, 0) * (1 - .75) * 2 = (.5, .25, 0), lets (1, .5, 0) * .5 + .25 = (.75, .5, .25)
      * through; bottom: (.2, .4, .6) * 2 * that = (.3, .4, .3), opaque: no background */
     assert_null(l->env); /* solid layers: the constant fast path */
@@ -215,16 +215,16 @@ static void test_layers(void **state)
 
 static double pdf_at(void *ctx, double z, double phi)
 {
-    const vbnl_light *l = ctx;
+    const vbi_light *l = ctx;
     double r = sqrt(fmax(1.0 - z * z, 0.0));
     vec3 w = v3((float)(r * cos(phi)), (float)z, (float)(r * sin(phi)));
-    return vbnl_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), w);
+    return vbi_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), w);
 }
 
 /* Expected counts of grid g when the pdf is constant on the table's cells (rows of equal theta
  * about +y, columns of equal phi): each bin is cut at the cell edges and every piece gets the pdf
  * at its middle times its solid angle dz dphi, which is exact. Returns the integral. */
-static double table_expected(const vbnl_chi2_grid *g, const vbnl_light *l, double count, double *expected)
+static double table_expected(const vbi_chi2_grid *g, const vbi_light *l, double count, double *expected)
 {
     const double two_pi = 2.0 * PI_D;
     double dz = (1.0 - g->zmin) / g->nz, dphi = two_pi / g->nphi, total = 0.0;
@@ -235,13 +235,13 @@ static double table_expected(const vbnl_chi2_grid *g, const vbnl_light *l, doubl
             for (double z0 = za; z0 < zb;) {
                 /* the next row edge above z0: cos of the row edge below theta(z0) */
                 double th = acos(fmin(fmax(z0, -1.0), 1.0));
-                int row = (int)floor(th / (PI_D / VBNL_ENV_TABLE_ROWS) - 1e-9);
-                double z1 = fmin(zb, cos(row * (PI_D / VBNL_ENV_TABLE_ROWS)));
+                int row = (int)floor(th / (PI_D / VBI_ENV_TABLE_ROWS) - 1e-9);
+                double z1 = fmin(zb, cos(row * (PI_D / VBI_ENV_TABLE_ROWS)));
                 if (!(z1 > z0))
                     z1 = fmin(zb, z0 + 1e-9);
                 for (double p0 = pa; p0 < pb;) {
-                    double p1 = fmin(pb, (floor(p0 / (two_pi / VBNL_ENV_TABLE_COLS) + 1e-9) + 1.0) *
-                                             (two_pi / VBNL_ENV_TABLE_COLS));
+                    double p1 = fmin(pb, (floor(p0 / (two_pi / VBI_ENV_TABLE_COLS) + 1e-9) + 1.0) *
+                                             (two_pi / VBI_ENV_TABLE_COLS));
                     sum += pdf_at((void *)l, 0.5 * (z0 + z1), 0.5 * (p0 + p1)) * (z1 - z0) * (p1 - p0);
                     p0 = p1;
                 }
@@ -265,31 +265,31 @@ static void test_sampling_chi2(void **state)
     uint32_t id = gradient_pigment(s, dim, bright, 0.85f);
     set_sky(s, &id, 1);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    const vbnl_light *l = env_light(s);
+    const vbi_light *l = env_light(s);
     assert_non_null(l->env);
 
     /* the chi2 grid's z is y here (the table's pole); phi = atan2(z, x) as the table */
-    vbnl_chi2_grid g = {24, 48, -1.0};
-    int nb = vbnl_chi2_grid_bins(&g);
+    vbi_chi2_grid g = {24, 48, -1.0};
+    int nb = vbi_chi2_grid_bins(&g);
     double *obs = calloc((size_t)nb, sizeof(double)), *exp_ = calloc((size_t)nb, sizeof(double));
     assert_non_null(obs);
     assert_non_null(exp_);
     const int n = 400000;
-    vbnl_rng rng = vbnl_rng_make(11, 3);
+    vbi_rng rng = vbi_rng_make(11, 3);
     double worst = 0.0;
     for (int i = 0; i < n; ++i) {
-        vec2 u = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)};
-        vbnl_light_li_sample ls;
-        assert_true(vbnl_light_sample_li(l, v3s(0.0f), u, &ls));
-        double pdf = vbnl_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), ls.wi);
+        vec2 u = {vbi_rng_next(&rng), vbi_rng_next(&rng)};
+        vbi_light_li_sample ls;
+        assert_true(vbi_light_sample_li(l, v3s(0.0f), u, &ls));
+        double pdf = vbi_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), ls.wi);
         double rel = fabs(ls.pdf / pdf - 1.0);
         if (rel > worst)
             worst = rel;
-        obs[vbnl_chi2_grid_bin(&g, ls.wi.y, atan2(ls.wi.z, ls.wi.x))] += 1.0;
+        obs[vbi_chi2_grid_bin(&g, ls.wi.y, atan2(ls.wi.z, ls.wi.x))] += 1.0;
     }
     double total = table_expected(&g, l, n, exp_);
-    vbnl_chi2_result res;
-    int pass = vbnl_chi2_test(obs, exp_, nb, 5.0, 0.01, &res);
+    vbi_chi2_result res;
+    int pass = vbi_chi2_test(obs, exp_, nb, 5.0, 0.01, &res);
     print_message("# env sampling: %s; pdf integral %.5f; worst sample pdf / pdf_li - 1 = %.2e\n", res.msg, total,
                   worst);
     assert_true(pass);
@@ -313,32 +313,32 @@ static void test_irradiance_estimators(void **state)
     uint32_t id = gradient_pigment(s, SKY_A, SKY_B, 0.0f);
     set_sky(s, &id, 1);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    const vbnl_light *l = env_light(s);
+    const vbi_light *l = env_light(s);
     const vec3 n = v3(0, 1, 0);
     const frame f = frame_from_normal(n);
     const int N = 200000;
     double sum[3][3] = {{0}}, sq[3][3] = {{0}};
-    vbnl_rng rng = vbnl_rng_make(5, 1);
+    vbi_rng rng = vbi_rng_make(5, 1);
     for (int i = 0; i < N; ++i) {
         vec3 e[3] = {v3s(0.0f), v3s(0.0f), v3s(0.0f)}; /* light only, cosine only, MIS */
-        vbnl_light_li_sample ls;
-        vec2 u = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)};
-        if (vbnl_light_sample_li(l, v3s(0.0f), u, &ls)) {
+        vbi_light_li_sample ls;
+        vec2 u = {vbi_rng_next(&rng), vbi_rng_next(&rng)};
+        if (vbi_light_sample_li(l, v3s(0.0f), u, &ls)) {
             float c = v3_dot(ls.wi, n);
             if (c > 0.0f) {
                 e[0] = v3_scale(ls.Li, c / ls.pdf);
-                float pb = c * VBNL_INV_PI;
+                float pb = c * VBI_INV_PI;
                 e[2] = v3_add(e[2], v3_scale(ls.Li, c / ls.pdf * power_heuristic(ls.pdf, pb)));
             }
         }
-        vec2 ub = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)};
+        vec2 ub = {vbi_rng_next(&rng), vbi_rng_next(&rng)};
         vec3 wl = sample_cosine_hemisphere(ub);
         vec3 w = frame_to_world(&f, wl);
         float pb = pdf_cosine_hemisphere(wl);
         if (pb > 0.0f) {
             vec3 Le = sky_Le(l, w);
             e[1] = v3_scale(Le, wl.z / pb);
-            float pl = vbnl_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), w);
+            float pl = vbi_light_pdf_li(l, v3s(0.0f), v3s(0.0f), v3s(0.0f), w);
             e[2] = v3_add(e[2], v3_scale(Le, wl.z / pb * power_heuristic(pb, pl)));
         }
         for (int m = 0; m < 3; ++m)
@@ -364,14 +364,14 @@ static void test_irradiance_estimators(void **state)
     double flux[3] = {0, 0, 0};
     const int M = 200000;
     for (int i = 0; i < M; ++i) {
-        vbnl_light_le_sample le;
-        vec2 up = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)}, ud = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)};
-        if (!vbnl_light_sample_le(l, up, ud, &le))
+        vbi_light_le_sample le;
+        vec2 up = {vbi_rng_next(&rng), vbi_rng_next(&rng)}, ud = {vbi_rng_next(&rng), vbi_rng_next(&rng)};
+        if (!vbi_light_sample_le(l, up, ud, &le))
             continue;
         for (int k = 0; k < 3; ++k)
             flux[k] += v3_comp(le.Le, k) * le.cos_at_light / (le.pdf_pos * le.pdf_dir) / M;
     }
-    vec3 power = vbnl_light_power(l);
+    vec3 power = vbi_light_power(l);
     for (int k = 0; k < 3; ++k) {
         print_message("# sample_le flux channel %d: %.4f, power %.4f\n", k, flux[k], v3_comp(power, k));
         assert_true(fabs(flux[k] / v3_comp(power, k) - 1.0) < 0.01);
@@ -398,26 +398,26 @@ static void test_shadowed_consistency(void **state)
     uint32_t id = gradient_pigment(s, dim, bright, 0.7f);
     set_sky(s, &id, 1);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    const vbnl_light *l = env_light(s);
+    const vbi_light *l = env_light(s);
     const vec3 n = v3(0, 1, 0);
     const frame f = frame_from_normal(n);
     const int N = 6000;
-    vbnl_rng rng = vbnl_rng_make(9, 4);
+    vbi_rng rng = vbi_rng_make(9, 4);
     double worst = 0.0, sum_a = 0.0, sum_b = 0.0;
     for (int px = 0; px < 6; ++px)
         for (int pz = 0; pz < 6; ++pz) {
             vec3 p = v3(-1.5f + 0.6f * px, 1e-3f, -1.5f + 0.6f * pz);
             double a = 0, a2 = 0, b = 0, b2 = 0;
-            vbnl_hit hit;
+            vbi_hit hit;
             for (int i = 0; i < N; ++i) {
-                vbnl_light_li_sample ls;
+                vbi_light_li_sample ls;
                 double ea = 0.0, eb = 0.0;
-                vec2 u = {vbnl_rng_next(&rng), vbnl_rng_next(&rng)};
-                if (vbnl_light_sample_li(l, p, u, &ls) && ls.wi.y > 0.0f && !vbnl_scene_intersect(s, p, ls.wi, INFINITY, &hit))
+                vec2 u = {vbi_rng_next(&rng), vbi_rng_next(&rng)};
+                if (vbi_light_sample_li(l, p, u, &ls) && ls.wi.y > 0.0f && !vbi_scene_intersect(s, p, ls.wi, INFINITY, &hit))
                     ea = v3_avg(ls.Li) * ls.wi.y / ls.pdf;
-                vec3 wl = sample_cosine_hemisphere((vec2){vbnl_rng_next(&rng), vbnl_rng_next(&rng)});
+                vec3 wl = sample_cosine_hemisphere((vec2){vbi_rng_next(&rng), vbi_rng_next(&rng)});
                 vec3 w = frame_to_world(&f, wl);
-                if (wl.z > 0.0f && !vbnl_scene_intersect(s, p, w, INFINITY, &hit))
+                if (wl.z > 0.0f && !vbi_scene_intersect(s, p, w, INFINITY, &hit))
                     eb = v3_avg(sky_Le(l, w)) * PI_D;
                 a += ea;
                 a2 += ea * ea;

@@ -21,7 +21,7 @@ static void test_layers(void **state)
     (void)state;
     vbnl_film *f = NULL;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_film_create(40, 20, NULL, &f, &err), VBNL_OK);
+    assert_int_equal(vbi_film_create(40, 20, NULL, &f, &err), VBNL_OK);
     /* the standard layers at the public offsets */
     assert_int_equal(vbnl_film_layer_count(f), 4);
     const char *names[4] = {"", "albedo", "normal", "depth"};
@@ -63,12 +63,12 @@ static void test_layers(void **state)
     }
     assert_int_equal(r, VBNL_ERR_INVALID_ARGUMENT);
     assert_true(vbnl_film_record_size(f) <= VBNL_FILM_MAX_CHANNELS);
-    assert_true(vbnl_film_layer_count(f) <= VBNL_FILM_MAX_LAYERS);
+    assert_true(vbnl_film_layer_count(f) <= VBI_FILM_MAX_LAYERS);
     /* after allocation no layer may be added */
-    assert_int_equal(vbnl_film_allocate(f, &err), VBNL_OK);
+    assert_int_equal(vbi_film_allocate(f, &err), VBNL_OK);
     assert_int_equal(vbnl_film_add_layer(f, "late", 1, one_name, &off, &err), VBNL_ERR_STATE);
-    vbnl_film_destroy(f);
-    vbnl_film_destroy(NULL);
+    vbi_film_destroy(f);
+    vbi_film_destroy(NULL);
 }
 
 /* Samples in pixels on both sides of tile boundaries (tiles of 16: x 15 / 16, y 15 / 16): each
@@ -77,10 +77,10 @@ static void test_accumulate(void **state)
 {
     (void)state;
     vbnl_film *f = NULL;
-    assert_int_equal(vbnl_film_create(40, 20, NULL, &f, NULL), VBNL_OK);
+    assert_int_equal(vbi_film_create(40, 20, NULL, &f, NULL), VBNL_OK);
     uint32_t ao = 0;
     assert_int_equal(vbnl_film_add_layer(f, "ao", 1, one_name, &ao, NULL), VBNL_OK);
-    assert_int_equal(vbnl_film_allocate(f, NULL), VBNL_OK);
+    assert_int_equal(vbi_film_allocate(f, NULL), VBNL_OK);
     const uint32_t px[4][2] = {{15, 15}, {16, 15}, {15, 16}, {39, 19}};
     float rec[VBNL_FILM_MAX_CHANNELS];
     for (uint32_t k = 0; k < 4; ++k)
@@ -88,7 +88,7 @@ static void test_accumulate(void **state)
             memset(rec, 0, sizeof(rec));
             for (uint32_t c = 0; c < vbnl_film_record_size(f); ++c)
                 rec[c] = (float)(100 * k + 10 * s + c);
-            vbnl_film_add(f, px[k][0], px[k][1], rec);
+            vbi_film_add(f, px[k][0], px[k][1], rec);
         }
     float beauty[40 * 20 * 4], aov[40 * 20];
     assert_int_equal(vbnl_film_read(f, "", beauty, sizeof(beauty) / sizeof(beauty[0]), NULL), VBNL_OK);
@@ -120,10 +120,10 @@ static void test_accumulate(void **state)
     /* the tile layout: blocks aligned to cache lines, none shared by two tiles */
     assert_int_equal((uintptr_t)f->data % 64, 0);
     assert_int_equal(f->tile_doubles % 8, 0);
-    assert_true(f->tile_doubles >= (size_t)VBNL_FILM_TILE * VBNL_FILM_TILE * f->stride);
+    assert_true(f->tile_doubles >= (size_t)VBI_FILM_TILE * VBI_FILM_TILE * f->stride);
     assert_int_equal(f->tiles_x, 3);
     assert_int_equal(f->tiles_y, 2);
-    vbnl_film_destroy(f);
+    vbi_film_destroy(f);
 }
 
 /* Sizes and crop windows. */
@@ -132,14 +132,14 @@ static void test_create(void **state)
     (void)state;
     vbnl_film *f = (vbnl_film *)1;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_film_create(0, 10, NULL, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_film_create(10, 65537, NULL, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_film_create(0, 10, NULL, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_film_create(10, 65537, NULL, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
     const uint32_t outside[4] = {0, 0, 11, 5}, empty[4] = {3, 3, 3, 5}, ok[4] = {2, 3, 7, 9};
-    assert_int_equal(vbnl_film_create(10, 10, outside, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_film_create(10, 10, outside, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "does not lie inside"));
-    assert_int_equal(vbnl_film_create(10, 10, empty, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_film_create(10, 10, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_film_create(10, 10, ok, &f, &err), VBNL_OK);
+    assert_int_equal(vbi_film_create(10, 10, empty, &f, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_film_create(10, 10, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_film_create(10, 10, ok, &f, &err), VBNL_OK);
     assert_memory_equal(f->crop, ok, sizeof(ok));
     assert_int_equal(vbnl_film_width(f), 10);
     assert_int_equal(vbnl_film_height(f), 10);
@@ -148,12 +148,12 @@ static void test_create(void **state)
     v[0] = 1.0f;
     assert_int_equal(vbnl_film_read(f, "depth", v, 100, &err), VBNL_OK);
     assert_true(v[0] == 0.0f);
-    vbnl_film_destroy(f);
+    vbi_film_destroy(f);
     const uint32_t none[4] = {0, 0, 0, 0}; /* all zero: the whole image */
-    assert_int_equal(vbnl_film_create(10, 6, none, &f, &err), VBNL_OK);
+    assert_int_equal(vbi_film_create(10, 6, none, &f, &err), VBNL_OK);
     assert_int_equal(f->crop[2], 10);
     assert_int_equal(f->crop[3], 6);
-    vbnl_film_destroy(f);
+    vbi_film_destroy(f);
 }
 
 int main(void)

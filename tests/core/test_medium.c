@@ -69,21 +69,21 @@ static void test_phase_normalised(void **state)
         double integral = 0.0, mean_mu = 0.0;
         for (int i = 0; i < n; ++i) {
             double mu = -1.0 + (i + 0.5) * 2.0 / n;
-            double p = vbnl_phase_eval(kinds[k], g, (float)mu);
+            double p = vbi_phase_eval(kinds[k], g, (float)mu);
             integral += 2.0 * M_PI * p * 2.0 / n;
             mean_mu += 2.0 * M_PI * p * mu * 2.0 / n;
         }
         assert_true(fabs(integral - 1.0) < 1e-3);
         /* the sampler: its mean cosine, and pdf = eval */
         const vec3 in = v3_norm(v3(0.3f, -0.5f, 0.8f));
-        vbnl_rng rng = vbnl_rng_for(7, (uint64_t)k, 0);
+        vbi_rng rng = vbi_rng_for(7, (uint64_t)k, 0);
         const int m = 400000;
         double smu = 0.0;
         for (int i = 0; i < m; ++i) {
             float pdf;
-            vec3 out = vbnl_phase_sample(kinds[k], g, in, vbnl_rng_next2(&rng), &pdf);
+            vec3 out = vbi_phase_sample(kinds[k], g, in, vbi_rng_next2(&rng), &pdf);
             float mu = v3_dot(in, out);
-            assert_true(fabsf(pdf - vbnl_phase_eval(kinds[k], g, mu)) <= 1e-3f * pdf + 1e-6f);
+            assert_true(fabsf(pdf - vbi_phase_eval(kinds[k], g, mu)) <= 1e-3f * pdf + 1e-6f);
             smu += mu;
         }
         smu /= m;
@@ -204,20 +204,20 @@ static void test_shadow_transmittance(void **state)
     medium_sphere(s, chrom, 1.0f);
     narrow_camera(s);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    vbnl_thread_stats stats;
+    vbi_thread_stats stats;
     memset(&stats, 0, sizeof(stats));
-    vbnl_rng rng = vbnl_rng_for(11, 0, 0);
-    vbnl_rand r = {NULL, &rng};
+    vbi_rng rng = vbi_rng_for(11, 0, 0);
+    vbi_rand r = {NULL, &rng};
     /* along the x axis through the centre: chord 2 */
     const vec3 o = v3(-3.0f, 0.0f, 0.0f), d = v3(1.0f, 0.0f, 0.0f);
-    vec3 T = vbnl_shadow_transmittance(s, NULL, o, d, 6.0f, &r, &stats, NULL);
+    vec3 T = vbi_shadow_transmittance(s, NULL, o, d, 6.0f, &r, &stats, NULL);
     for (int c = 0; c < 3; ++c)
         assert_true(fabsf(v3_get(T, c) - expf(-2.0f * sa[c])) < 1e-3f);
     /* ratio tracking directly on the medium with a density-free majorant: the mean is exact */
     double acc[3] = {0, 0, 0};
     const int n = 20000;
     for (int i = 0; i < n; ++i) {
-        vec3 t = vbnl_medium_transmittance(s, chrom + 1, v3s(0.0f), d, 1.5f, &r);
+        vec3 t = vbi_medium_transmittance(s, chrom + 1, v3s(0.0f), d, 1.5f, &r);
         for (int c = 0; c < 3; ++c)
             acc[c] += v3_get(t, c) / n;
     }
@@ -366,23 +366,23 @@ static void test_brilliance(void **state)
     md.type = VBNL_MATERIAL_BRILLIANCE;
     md.brilliance = 4.0f;
     md.base_color[0] = md.base_color[1] = md.base_color[2] = 0.9f;
-    vbnl_bsdf b;
-    vbnl_bsdf_from_material(&b, &md);
+    vbi_bsdf b;
+    vbi_bsdf_from_material(&b, &md);
     const vec3 wo = v3_norm(v3(0.5f, 0.1f, 0.6f));
-    vbnl_rng rng = vbnl_rng_for(3, 0, 0);
+    vbi_rng rng = vbi_rng_for(3, 0, 0);
     const int n = 200000;
     double albedo = 0.0, est = 0.0;
     for (int i = 0; i < n; ++i) {
-        vbnl_bsdf_sample_rec rec;
+        vbi_bsdf_sample_rec rec;
         memset(&rec, 0, sizeof(rec));
-        assert_true(vbnl_bsdf_sample(&b, wo, vbnl_rng_next2(&rng), &rec));
-        vec3 f = vbnl_bsdf_eval(&b, wo, rec.wi);
+        assert_true(vbi_bsdf_sample(&b, wo, vbi_rng_next2(&rng), &rec));
+        vec3 f = vbi_bsdf_eval(&b, wo, rec.wi);
         assert_true(fabsf(f.x / rec.pdf - rec.weight.x) <= 1e-3f * rec.weight.x + 1e-6f);
         albedo += rec.weight.x / n;
         /* the same albedo by uniform hemisphere sampling of eval (eval includes cos_i) */
-        vec2 u = vbnl_rng_next2(&rng);
+        vec2 u = vbi_rng_next2(&rng);
         float z = u.x, r = sqrtf(fmaxf(0.0f, 1.0f - z * z)), phi = 2.0f * (float)M_PI * u.y;
-        est += vbnl_bsdf_eval(&b, wo, v3(r * cosf(phi), r * sinf(phi), z)).x * 2.0 * M_PI / n;
+        est += vbi_bsdf_eval(&b, wo, v3(r * cosf(phi), r * sinf(phi), z)).x * 2.0 * M_PI / n;
     }
     const double want = 0.9 * pow(wo.z, 3.0);
     assert_true(fabs(albedo - want) < 1e-4);

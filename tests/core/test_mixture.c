@@ -111,9 +111,9 @@ static uint32_t textured(vbnl_scene *s, uint32_t leaf, float r, float g, float b
     return node(s, &nd);
 }
 
-static vbnl_hit hit_at(uint32_t material, vec3 p, vec3 n, uint32_t seed)
+static vbi_hit hit_at(uint32_t material, vec3 p, vec3 n, uint32_t seed)
 {
-    vbnl_hit h;
+    vbi_hit h;
     memset(&h, 0, sizeof(h));
     h.p = p;
     h.ng = h.ns = n;
@@ -127,7 +127,7 @@ static vbnl_hit hit_at(uint32_t material, vec3 p, vec3 n, uint32_t seed)
 
 #define MIX_MAX 4
 typedef struct mixture {
-    const vbnl_bsdf *bsdf[MIX_MAX];
+    const vbi_bsdf *bsdf[MIX_MAX];
     double p[MIX_MAX];
     int n;
     vec3 wo;
@@ -140,7 +140,7 @@ static double mixture_pdf(void *ctx, double z, double phi)
     vec3 wi = v3((float)(r * cos(phi)), (float)(r * sin(phi)), (float)z);
     double pdf = 0.0;
     for (int i = 0; i < m->n; ++i)
-        pdf += m->p[i] * (double)vbnl_bsdf_pdf(m->bsdf[i], m->wo, wi);
+        pdf += m->p[i] * (double)vbi_bsdf_pdf(m->bsdf[i], m->wo, wi);
     return pdf;
 }
 
@@ -149,28 +149,28 @@ static double mixture_pdf(void *ctx, double z, double phi)
 static vec3 check_mixture(const vbnl_scene *s, uint32_t material, vec3 p, mixture *m, const char *what)
 {
     enum { COUNT = 400000 };
-    const vbnl_chi2_grid grid = {12, 24, 0.0};
-    const int nb = vbnl_chi2_grid_bins(&grid);
+    const vbi_chi2_grid grid = {12, 24, 0.0};
+    const int nb = vbi_chi2_grid_bins(&grid);
     double *obs = calloc((size_t)nb, sizeof(double)), *exp_ = calloc((size_t)nb, sizeof(double));
     assert_non_null(obs);
     assert_non_null(exp_);
-    vbnl_rng rng = vbnl_rng_make(11, 3);
+    vbi_rng rng = vbi_rng_make(11, 3);
     double col[3] = {0, 0, 0};
     for (uint32_t k = 0; k < COUNT; ++k) {
-        vbnl_hit h = hit_at(material, p, v3(0, 0, 1), k);
-        vbnl_bsdf storage;
-        const vbnl_bsdf *b = vbnl_surface_bsdf(s, &h, &storage);
+        vbi_hit h = hit_at(material, p, v3(0, 0, 1), k);
+        vbi_bsdf storage;
+        const vbi_bsdf *b = vbi_surface_bsdf(s, &h, &storage);
         col[0] += b->color.x;
         col[1] += b->color.y;
         col[2] += b->color.z;
-        vbnl_bsdf_sample_rec rec;
-        if (!vbnl_bsdf_sample(b, m->wo, vbnl_rng_next2(&rng), &rec))
+        vbi_bsdf_sample_rec rec;
+        if (!vbi_bsdf_sample(b, m->wo, vbi_rng_next2(&rng), &rec))
             continue;
-        obs[vbnl_chi2_grid_bin(&grid, rec.wi.z, atan2(rec.wi.y, rec.wi.x))] += 1.0;
+        obs[vbi_chi2_grid_bin(&grid, rec.wi.z, atan2(rec.wi.y, rec.wi.x))] += 1.0;
     }
-    vbnl_chi2_grid_integrate(&grid, mixture_pdf, m, 8, COUNT, exp_);
-    vbnl_chi2_result res;
-    int ok = vbnl_chi2_test(obs, exp_, nb, 5.0, 0.01 / 2.0, &res);
+    vbi_chi2_grid_integrate(&grid, mixture_pdf, m, 8, COUNT, exp_);
+    vbi_chi2_result res;
+    int ok = vbi_chi2_test(obs, exp_, nb, 5.0, 0.01 / 2.0, &res);
     print_message("# %s: %s\n", what, res.msg);
     free(obs);
     free(exp_);
@@ -201,7 +201,7 @@ static void test_chi2_map(void **state)
     nd.map = map;
     nd.map_count = 2;
     uint32_t m = node(s, &nd);
-    assert_int_equal(vbnl_texture_commit(s, NULL), VBNL_OK);
+    assert_int_equal(vbi_texture_commit(s, NULL), VBNL_OK);
     const float theta = 0.7f;
     mixture mx = {{&s->materials[lam].bsdf, &s->materials[con].bsdf}, {0.7, 0.3}, 2, v3(sinf(theta), 0, cosf(theta))};
     vec3 c = check_mixture(s, m, v3(0.3f, 0.1f, 0.2f), &mx, "texture map (0.7 Lambert, 0.3 conductor)");
@@ -226,7 +226,7 @@ static void test_chi2_layers(void **state)
     nd.layers = layers;
     nd.layer_count = 2;
     uint32_t m = node(s, &nd);
-    assert_int_equal(vbnl_texture_commit(s, NULL), VBNL_OK);
+    assert_int_equal(vbi_texture_commit(s, NULL), VBNL_OK);
     const float theta = 1.1f;
     mixture mx = {{&s->materials[lam].bsdf, &s->materials[pla].bsdf}, {0.4, 0.6}, 2, v3(0, sinf(theta), cosf(theta))};
     vec3 c = check_mixture(s, m, v3(0.3f, 0.1f, 0.2f), &mx, "layers (0.4 Lambert, 0.6 plastic)");
@@ -448,15 +448,15 @@ static void test_bump_side(void **state)
     nd.material = leaf;
     nd.normal = nrm + 1;
     uint32_t m = node(s, &nd);
-    assert_int_equal(vbnl_texture_commit(s, NULL), VBNL_OK);
+    assert_int_equal(vbi_texture_commit(s, NULL), VBNL_OK);
     const double k = -5.0 * 0.02 * 4.0 / 3.0, len = sqrt(1.0 + k * k);
     for (int side = 0; side < 2; ++side) {
         const float sg = side ? -1.0f : 1.0f;
-        vbnl_hit h = hit_at(m, v3(0.5f, 0.3f, 0.2f), v3(0, 0, sg), 0);
-        vbnl_bsdf storage;
-        const vbnl_bsdf *b = vbnl_surface_bsdf(s, &h, &storage);
+        vbi_hit h = hit_at(m, v3(0.5f, 0.3f, 0.2f), v3(0, 0, sg), 0);
+        vbi_bsdf storage;
+        const vbi_bsdf *b = vbi_surface_bsdf(s, &h, &storage);
         assert_true(b->bumped);
-        vec3 n = vbnl_bsdf_shading_normal(b, h.ns);
+        vec3 n = vbi_bsdf_shading_normal(b, h.ns);
         /* the perturbation is added in space (POV-Ray adds it to the surface's normal): the same
          * tilt on either side, and the normal stays on the hit's side */
         assert_float_equal(n.x, k / len, 1e-5);

@@ -412,7 +412,7 @@ static int teardown(void **state)
     return 0;
 }
 
-static const vbnl_pattern *add_pattern(fixture *f, const vbnl_pattern_desc *d)
+static const vbi_pattern *add_pattern(fixture *f, const vbnl_pattern_desc *d)
 {
     uint32_t id;
     vbnl_error err = {0};
@@ -424,16 +424,16 @@ static const vbnl_pattern *add_pattern(fixture *f, const vbnl_pattern_desc *d)
 static void test_against_povray(void **state)
 {
     fixture *f = *state;
-    const vbnl_texture_set *ts = &f->scene->tex;
-    const vbnl_shade_point sp = {{0, 0, 0}, {0, 1, 0}, 0, 0, {0, 0, -10}};
+    const vbi_texture_set *ts = &f->scene->tex;
+    const vbi_shade_point sp = {{0, 0, 0}, {0, 1, 0}, 0, 0, {0, 0, -10}};
     int bad = 0;
     for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); ++c) {
         built b;
         if (!build(cases[c].name, &b))
             fail_msg("no description for case %s", cases[c].name);
-        const vbnl_pattern *pt = add_pattern(f, &b.d);
+        const vbi_pattern *pt = add_pattern(f, &b.d);
         for (int i = 0; i < 8; ++i) {
-            double v = vbnl_pattern_value(ts, pt, d3(points[i][0], points[i][1], points[i][2]), &sp, NULL);
+            double v = vbi_pattern_value(ts, pt, d3(points[i][0], points[i][1], points[i][2]), &sp, NULL);
             double e = cases[c].expect[i];
             if (!(fabs(v - e) <= 1e-9 + 1e-9 * fabs(e))) {
                 print_error("%s at point %d: %.12f, POV-Ray %.12f\n", cases[c].name, i, v, e);
@@ -481,17 +481,17 @@ static const tiling_ref tiling_refs[] = {
 static void test_tilings(void **state)
 {
     fixture *f = *state;
-    const vbnl_texture_set *ts = &f->scene->tex;
+    const vbi_texture_set *ts = &f->scene->tex;
     double worst = 0.0;
     for (size_t c = 0; c < sizeof(tiling_refs) / sizeof(tiling_refs[0]); ++c) {
         vbnl_pattern_desc d;
         vbnl_pattern_desc_init(&d);
         d.kind = VBNL_PATTERN_TILING;
         d.tiling = tiling_refs[c].type;
-        const vbnl_pattern *pt = add_pattern(f, &d);
+        const vbi_pattern *pt = add_pattern(f, &d);
         for (int i = 0; i < 6; ++i) {
             const double *r = tiling_refs[c].p[i];
-            double v = vbnl_pattern_value(ts, pt, d3(r[0], 0.0, r[1]), NULL, NULL);
+            double v = vbi_pattern_value(ts, pt, d3(r[0], 0.0, r[1]), NULL, NULL);
             worst = fmax(worst, fabs(v - r[2]));
             if (!(fabs(v - r[2]) <= 1e-5)) /* the PNG's quantisation: 1 / 131070 */
                 fail_msg("tiling %d at (%g, %g): %.6f, POV-Ray %.6f", tiling_refs[c].type, r[0], r[1], v, r[2]);
@@ -512,15 +512,15 @@ static void test_tilings(void **state)
 static void test_noise_statistics(void **state)
 {
     (void)state;
-    const vbnl_noise_tables *t = vbnl_noise_tables_get();
-    vbnl_rng rng = vbnl_rng_for(7, 0, 0);
+    const vbi_noise_tables *t = vbi_noise_tables_get();
+    vbi_rng rng = vbi_rng_for(7, 0, 0);
     const int n = 200000;
     for (int gen = 1; gen <= 3; ++gen) {
         double sum = 0, sum2 = 0, lo = 1, hi = 0;
         for (int i = 0; i < n; ++i) {
-            dvec3 p = d3(200.0 * vbnl_rng_next(&rng) - 100.0, 200.0 * vbnl_rng_next(&rng) - 100.0,
-                         200.0 * vbnl_rng_next(&rng) - 100.0);
-            double v = vbnl_noise(t, p, gen);
+            dvec3 p = d3(200.0 * vbi_rng_next(&rng) - 100.0, 200.0 * vbi_rng_next(&rng) - 100.0,
+                         200.0 * vbi_rng_next(&rng) - 100.0);
+            double v = vbi_noise(t, p, gen);
             sum += v;
             sum2 += v * v;
             lo = fmin(lo, v);
@@ -538,12 +538,12 @@ static void test_noise_statistics(void **state)
     /* the gradient noise has zero mean in each component, and turbulence of n octaves with omega
      * 1/2 stays below 2 - 2^(1-n) times the first octave's range */
     dvec3 acc = d3(0, 0, 0);
-    vbnl_turb tb = {{1, 1, 1}, 6, 0.5, 2.0};
+    vbi_turb tb = {{1, 1, 1}, 6, 0.5, 2.0};
     double tmax = 0;
     for (int i = 0; i < n; ++i) {
-        dvec3 p = d3(100.0 * vbnl_rng_next(&rng), 100.0 * vbnl_rng_next(&rng), 100.0 * vbnl_rng_next(&rng));
-        acc = d3_add(acc, vbnl_dnoise(t, p));
-        tmax = fmax(tmax, vbnl_turbulence(t, p, &tb, 1));
+        dvec3 p = d3(100.0 * vbi_rng_next(&rng), 100.0 * vbi_rng_next(&rng), 100.0 * vbi_rng_next(&rng));
+        acc = d3_add(acc, vbi_dnoise(t, p));
+        tmax = fmax(tmax, vbi_turbulence(t, p, &tb, 1));
     }
     print_message("# dnoise mean (%.4f %.4f %.4f), turbulence max %.3f\n", acc.x / n, acc.y / n, acc.z / n, tmax);
     assert_true(fabs(acc.x / n) < 0.02 && fabs(acc.y / n) < 0.02 && fabs(acc.z / n) < 0.02);
@@ -555,7 +555,7 @@ static void test_noise_statistics(void **state)
 static void test_tables(void **state)
 {
     (void)state;
-    const vbnl_noise_tables *t = vbnl_noise_tables_get();
+    const vbi_noise_tables *t = vbi_noise_tables_get();
     int seen[4096] = {0};
     for (int i = 0; i < 4096; ++i) {
         assert_true(t->hash[i] < 4096);
@@ -567,11 +567,11 @@ static void test_tables(void **state)
     assert_true(t->rands[0] == 3499211612.0 / 4294967296.0);
     assert_true(t->rands[1] == 581869302.0 / 4294967296.0);
     double m = 0;
-    for (int i = 0; i < VBNL_PATTERN_RANDS; ++i)
+    for (int i = 0; i < VBI_PATTERN_RANDS; ++i)
         m += t->rands[i];
-    assert_true(fabs(m / VBNL_PATTERN_RANDS - 0.5) < 0.01);
+    assert_true(fabs(m / VBI_PATTERN_RANDS - 0.5) < 0.01);
     /* the gradients of generator 3 are unit vectors */
-    for (int i = 0; i < VBNL_NOISE_SOLID_SIZE; ++i) {
+    for (int i = 0; i < VBI_NOISE_SOLID_SIZE; ++i) {
         const double *g = t->solid_grad[i];
         assert_true(fabs(g[0] * g[0] + g[1] * g[1] + g[2] * g[2] - 1.0) < 1e-12);
     }
@@ -582,9 +582,9 @@ static void test_waves(void **state)
 {
     (void)state;
     for (double v = -3.0; v <= 3.0; v += 0.0625) {
-        assert_true(fabs(vbnl_cycloidal(v) - sin(2.0 * M_PI * v)) < 1e-12);
+        assert_true(fabs(vbi_cycloidal(v) - sin(2.0 * M_PI * v)) < 1e-12);
         double f = v - floor(v), tri = f < 0.5 ? 2.0 * f : 2.0 * (1.0 - f);
-        assert_true(fabs(vbnl_triangle_wave(v) - tri) < 1e-12);
+        assert_true(fabs(vbi_triangle_wave(v) - tri) < 1e-12);
     }
 }
 

@@ -64,19 +64,19 @@ static void reset(probe *p, unsigned threads)
 static void test_every_item_once(void **state)
 {
     (void)state;
-    vbnl_pool *pool = vbnl_pool_create(3);
+    vbi_pool *pool = vbi_pool_create(3);
     assert_non_null(pool);
-    assert_int_equal(vbnl_pool_thread_count(pool), 3);
+    assert_int_equal(vbi_pool_thread_count(pool), 3);
     probe *p = &g_probe;
     reset(p, 3);
     for (int round = 0; round < 3; ++round)
-        assert_int_equal(vbnl_pool_run(pool, 10000, item, p, NULL, NULL, 0.1), 10000);
+        assert_int_equal(vbi_pool_run(pool, 10000, item, p, NULL, NULL, 0.1), 10000);
     for (int i = 0; i < 10000; ++i)
         assert_int_equal(atomic_load(&p->hits[i]), 3);
     assert_int_equal(atomic_load(&p->bad_thread), 0);
-    vbnl_pool_destroy(pool);
-    vbnl_pool_destroy(NULL);
-    assert_int_equal(vbnl_pool_thread_count(NULL), 0);
+    vbi_pool_destroy(pool);
+    vbi_pool_destroy(NULL);
+    assert_int_equal(vbi_pool_thread_count(NULL), 0);
 }
 
 /* The caller polls on its own thread with finished counts that never go back, and a last time at
@@ -84,21 +84,21 @@ static void test_every_item_once(void **state)
 static void test_polls(void **state)
 {
     (void)state;
-    vbnl_pool *pool = vbnl_pool_create(2);
+    vbi_pool *pool = vbi_pool_create(2);
     probe *p = &g_probe;
     reset(p, 2);
-    assert_int_equal(vbnl_pool_run(pool, 100, slow_item, p, poll_fn, p, 0.01), 100);
+    assert_int_equal(vbi_pool_run(pool, 100, slow_item, p, poll_fn, p, 0.01), 100);
     assert_true(p->polls >= 2); /* 100 items of 2 ms on 2 threads: ~100 ms, polls every 10 ms */
     assert_int_equal(p->not_caller, 0);
     assert_int_equal(p->backwards, 0);
     assert_int_equal(p->last_finished, 100);
     assert_int_equal(p->last_count, 100);
     reset(p, 2);
-    assert_int_equal(vbnl_pool_run(pool, 0, item, p, poll_fn, p, 0.01), 0);
+    assert_int_equal(vbi_pool_run(pool, 0, item, p, poll_fn, p, 0.01), 0);
     assert_int_equal(p->polls, 1);
     assert_int_equal(p->last_finished, 0);
     assert_int_equal(p->last_count, 0);
-    vbnl_pool_destroy(pool);
+    vbi_pool_destroy(pool);
 }
 
 /* A poll that returns non-zero stops the handing out of items: the run returns how many ran,
@@ -106,11 +106,11 @@ static void test_polls(void **state)
 static void test_cancel(void **state)
 {
     (void)state;
-    vbnl_pool *pool = vbnl_pool_create(3);
+    vbi_pool *pool = vbi_pool_create(3);
     probe *p = &g_probe;
     reset(p, 3);
     p->stop_after = 1;
-    uint64_t ran = vbnl_pool_run(pool, 2000, slow_item, p, poll_fn, p, 0.01);
+    uint64_t ran = vbi_pool_run(pool, 2000, slow_item, p, poll_fn, p, 0.01);
     assert_true(ran < 2000);
     uint64_t counted = 0;
     for (int i = 0; i < 2000; ++i)
@@ -124,8 +124,8 @@ static void test_cancel(void **state)
     assert_int_equal(later, ran);
     /* the pool works again after a cancelled run */
     reset(p, 3);
-    assert_int_equal(vbnl_pool_run(pool, 50, item, p, NULL, NULL, 0.1), 50);
-    vbnl_pool_destroy(pool);
+    assert_int_equal(vbi_pool_run(pool, 50, item, p, NULL, NULL, 0.1), 50);
+    vbi_pool_destroy(pool);
 }
 
 /* Without a poll function the caller sleeps until the workers are done (no timed wake-ups): its
@@ -133,35 +133,35 @@ static void test_cancel(void **state)
 static void test_caller_sleeps(void **state)
 {
     (void)state;
-    vbnl_pool *pool = vbnl_pool_create(1);
+    vbi_pool *pool = vbi_pool_create(1);
     probe *p = &g_probe;
     reset(p, 1);
     struct timespec c0, c1;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
-    double t0 = vbnl_now();
-    assert_int_equal(vbnl_pool_run(pool, 60, slow_item, p, NULL, NULL, 0.001), 60);
-    double wall = vbnl_now() - t0;
+    double t0 = vbi_now();
+    assert_int_equal(vbi_pool_run(pool, 60, slow_item, p, NULL, NULL, 0.001), 60);
+    double wall = vbi_now() - t0;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
     double cpu = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
     print_message("# caller: %.1f ms of CPU over %.1f ms\n", 1e3 * cpu, 1e3 * wall);
     assert_true(wall >= 0.11);     /* 60 items of 2 ms on one worker */
     assert_true(cpu < 0.25 * wall); /* a spinning caller would use all of it */
-    vbnl_pool_destroy(pool);
+    vbi_pool_destroy(pool);
 }
 
-/* 0 threads: one per online core. vbnl_now: monotonic seconds. */
+/* 0 threads: one per online core. vbi_now: monotonic seconds. */
 static void test_defaults(void **state)
 {
     (void)state;
-    vbnl_pool *pool = vbnl_pool_create(0);
+    vbi_pool *pool = vbi_pool_create(0);
     assert_non_null(pool);
     long n = sysconf(_SC_NPROCESSORS_ONLN);
-    assert_int_equal(vbnl_pool_thread_count(pool), (unsigned)(n > 0 ? n : 1));
-    vbnl_pool_destroy(pool);
-    double a = vbnl_now();
+    assert_int_equal(vbi_pool_thread_count(pool), (unsigned)(n > 0 ? n : 1));
+    vbi_pool_destroy(pool);
+    double a = vbi_now();
     struct timespec ts = {0, 20000000};
     nanosleep(&ts, NULL);
-    double b = vbnl_now();
+    double b = vbi_now();
     assert_true(b - a >= 0.019 && b - a < 5.0);
 }
 

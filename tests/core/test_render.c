@@ -14,7 +14,7 @@
 #include "scenes.h"
 #include "vbnl/vbnl.h"
 
-#define VBNL_TEST_PI 3.14159265358979323846
+#define VBI_TEST_PI 3.14159265358979323846
 
 static vbnl_context *make_ctx(unsigned threads)
 {
@@ -101,8 +101,8 @@ static void test_furnace(void **state)
 static double panel_irradiance(double a, double b, double h)
 {
     double X = 0.5 * a / h, Y = 0.5 * b / h, sx = sqrt(1.0 + X * X), sy = sqrt(1.0 + Y * Y);
-    double F = (X / sx * atan(Y / sx) + Y / sy * atan(X / sy)) / (2.0 * VBNL_TEST_PI);
-    return VBNL_TEST_PI * 4.0 * F;
+    double F = (X / sx * atan(Y / sx) + Y / sy * atan(X / sy)) / (2.0 * VBI_TEST_PI);
+    return VBI_TEST_PI * 4.0 * F;
 }
 
 /* Direct light from a panel close above a floor, near the origin and far from it: the radiance
@@ -142,7 +142,7 @@ static void test_close_light(void **state)
             double sum = 0.0;
             for (int i = 0; i < 16; ++i)
                 sum += px[4 * i];
-            const double got = sum / 16.0, want = rho * panel_irradiance(0.8, 0.6, g) / VBNL_TEST_PI;
+            const double got = sum / 16.0, want = rho * panel_irradiance(0.8, 0.6, g) / VBI_TEST_PI;
             print_message("# close light at y %.0f, gap %.2f: %.5f, expected %.5f\n", (double)y0, (double)g, got,
                           want);
             assert_true(fabs(got / want - 1.0) < 0.01);
@@ -248,16 +248,16 @@ static void test_camera_rays(void **state)
     float pos[3] = {1, 2, 3}, target[3] = {1, 2, -7}, up[3] = {0, 1, 0};
     assert_int_equal(vbnl_camera_look_at(&c, pos, target, up, 90.0f, 2.0f, NULL), VBNL_OK);
     vec3 o, d;
-    vbnl_camera_ray(&c, 200, 100, 100.0f, 50.0f, &o, &d); /* image centre */
+    vbi_camera_ray(&c, 200, 100, 100.0f, 50.0f, &o, &d); /* image centre */
     assert_float_equal(o.x, 1.0f, 0);
     assert_float_equal(d.x, 0.0f, 1e-6f);
     assert_float_equal(d.y, 0.0f, 1e-6f);
     assert_float_equal(d.z, -1.0f, 1e-6f);
     /* top edge centre: 45 degrees up (vertical fov 90) */
-    vbnl_camera_ray(&c, 200, 100, 100.0f, 0.0f, &o, &d);
+    vbi_camera_ray(&c, 200, 100, 100.0f, 0.0f, &o, &d);
     assert_float_equal(atan2f(d.y, -d.z), (float)M_PI / 4.0f, 1e-5f);
     /* right edge centre: horizontal half-angle atan(aspect * tan(45)) = atan(2), toward +x */
-    vbnl_camera_ray(&c, 200, 100, 200.0f, 50.0f, &o, &d);
+    vbi_camera_ray(&c, 200, 100, 200.0f, 50.0f, &o, &d);
     assert_float_equal(atan2f(d.x, -d.z), atanf(2.0f), 1e-5f);
     /* degenerate cameras are refused */
     vbnl_error err = {0};
@@ -275,7 +275,7 @@ static void test_camera_projections(void **state)
     vbnl_camera_desc c = {.size = sizeof(vbnl_camera_desc), .position = {0, 0, 0}, .forward = {0, 0, 2}, .right = {1, 0, 0}, .up = {0, 1, 0}};
     vec3 o, d;
     c.projection = VBNL_CAMERA_ORTHOGRAPHIC;
-    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 75.0f, 25.0f, &o, &d), 1);
+    assert_int_equal(vbi_camera_ray(&c, 100, 100, 75.0f, 25.0f, &o, &d), 1);
     assert_float_equal(o.x, 0.25f, 1e-6f);
     assert_float_equal(o.y, 0.25f, 1e-6f);
     assert_float_equal(d.z, 1.0f, 1e-6f);
@@ -283,29 +283,29 @@ static void test_camera_projections(void **state)
      * lies outside the circle and has no ray */
     c.projection = VBNL_CAMERA_FISHEYE;
     c.angle[0] = 180.0f;
-    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 50.0f, 50.0f, &o, &d), 1);
+    assert_int_equal(vbi_camera_ray(&c, 100, 100, 50.0f, 50.0f, &o, &d), 1);
     assert_float_equal(d.z, 1.0f, 1e-6f);
-    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 100.0f, 50.0f, &o, &d), 1);
+    assert_int_equal(vbi_camera_ray(&c, 100, 100, 100.0f, 50.0f, &o, &d), 1);
     assert_float_equal(d.x, 1.0f, 1e-5f);
-    assert_int_equal(vbnl_camera_ray(&c, 100, 100, 99.0f, 1.0f, &o, &d), 0);
+    assert_int_equal(vbi_camera_ray(&c, 100, 100, 99.0f, 1.0f, &o, &d), 0);
     /* panoramic: the left edge looks along -right, the centre forward */
     c.projection = VBNL_CAMERA_PANORAMIC;
-    vbnl_camera_ray(&c, 100, 100, 0.0f, 50.0f, &o, &d);
+    vbi_camera_ray(&c, 100, 100, 0.0f, 50.0f, &o, &d);
     assert_float_equal(d.x, -1.0f, 1e-5f);
-    vbnl_camera_ray(&c, 100, 100, 50.0f, 50.0f, &o, &d);
+    vbi_camera_ray(&c, 100, 100, 50.0f, 50.0f, &o, &d);
     assert_float_equal(d.z, 1.0f, 1e-5f);
     /* spherical 360 x 180: the right edge is 180 degrees around (behind), the top straight up */
     c.projection = VBNL_CAMERA_SPHERICAL;
     c.angle[0] = 360.0f;
     c.angle[1] = 180.0f;
-    vbnl_camera_ray(&c, 100, 100, 75.0f, 50.0f, &o, &d);
+    vbi_camera_ray(&c, 100, 100, 75.0f, 50.0f, &o, &d);
     assert_float_equal(d.x, 1.0f, 1e-5f);
-    vbnl_camera_ray(&c, 100, 100, 50.0f, 0.0f, &o, &d);
+    vbi_camera_ray(&c, 100, 100, 50.0f, 0.0f, &o, &d);
     assert_float_equal(d.y, 1.0f, 1e-5f);
     /* cylinder 3: orthographic along up, 90 degrees around it across the width */
     c.projection = VBNL_CAMERA_CYLINDER_3;
     c.angle[0] = 90.0f;
-    vbnl_camera_ray(&c, 100, 100, 100.0f, 0.0f, &o, &d);
+    vbi_camera_ray(&c, 100, 100, 100.0f, 0.0f, &o, &d);
     assert_float_equal(o.y, 0.5f, 1e-6f);
     assert_float_equal(atan2f(d.x, d.z), (float)M_PI / 4.0f, 1e-5f);
     /* thin lens: rays from across the lens meet at the pinhole ray's point at the focal distance */
@@ -316,7 +316,7 @@ static void test_camera_projections(void **state)
     float spread = 0.0f;
     for (int i = 0; i < 16; ++i) {
         vec2 lens = {(float)(i % 4) / 4.0f + 0.1f, (float)(i / 4) / 4.0f + 0.1f};
-        assert_int_equal(vbnl_camera_ray_lens(&c, 100, 100, 75.0f, 50.0f, lens, &o, &d), 1);
+        assert_int_equal(vbi_camera_ray_lens(&c, 100, 100, 75.0f, 50.0f, lens, &o, &d), 1);
         vec3 to = v3_sub(focus, o);
         float t = v3_len(to);
         assert_float_equal(v3_dot(v3_scale(to, 1.0f / t), d), 1.0f, 1e-5f);
@@ -367,50 +367,50 @@ static void test_intersection(void **state)
     vbnl_camera_look_at(&cam, pos, target, up, 40.0f, 1.0f, NULL);
     vbnl_scene_set_camera(s, &cam, NULL);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    vbnl_hit h;
+    vbi_hit h;
     /* from outside */
-    assert_true(vbnl_scene_intersect(s, v3(0, 0, -5), v3(0, 0, 1), INFINITY, &h));
+    assert_true(vbi_scene_intersect(s, v3(0, 0, -5), v3(0, 0, 1), INFINITY, &h));
     assert_float_equal(h.t, 4.0f, 1e-4f);
     assert_float_equal(h.ng.z, -1.0f, 1e-5f);
     assert_int_equal(h.geom, sphere);
-    assert_int_equal(h.light, VBNL_NO_LIGHT);
+    assert_int_equal(h.light, VBI_NO_LIGHT);
     /* from inside: the far wall, outward normal */
-    assert_true(vbnl_scene_intersect(s, v3(0, 0, 0), v3(0, 1, 0), INFINITY, &h));
+    assert_true(vbi_scene_intersect(s, v3(0, 0, 0), v3(0, 1, 0), INFINITY, &h));
     assert_float_equal(h.t, 1.0f, 1e-4f);
     assert_float_equal(h.ng.y, 1.0f, 1e-5f);
     /* the emissive quad is a light */
-    assert_true(vbnl_scene_intersect(s, v3(3, 0.2f, 0.3f), v3(1, 0, 0), INFINITY, &h));
+    assert_true(vbi_scene_intersect(s, v3(3, 0.2f, 0.3f), v3(1, 0, 0), INFINITY, &h));
     assert_float_equal(h.t, 2.0f, 1e-4f);
-    assert_true(h.light != VBNL_NO_LIGHT);
+    assert_true(h.light != VBI_NO_LIGHT);
     assert_float_equal(fabsf(h.ng.x), 1.0f, 1e-5f);
     /* the instance: ellipsoid with x semi-axis 2 centred at (0,10,0) */
-    assert_true(vbnl_scene_intersect(s, v3(-5, 10, 0), v3(1, 0, 0), INFINITY, &h));
+    assert_true(vbi_scene_intersect(s, v3(-5, 10, 0), v3(1, 0, 0), INFINITY, &h));
     assert_float_equal(h.t, 3.0f, 1e-3f);
     assert_float_equal(h.ng.x, -1.0f, 1e-4f);
     /* at 45 degrees on the ellipse x = 2 cos t, y = sin t the normal is (cos t / 2, sin t) normalised */
     float t = 0.7f;
     vec3 p = v3(2.0f * cosf(t), 10.0f + sinf(t), 0.0f);
-    assert_true(vbnl_scene_intersect(s, v3(p.x + 3.0f, p.y, 0), v3(-1, 0, 0), INFINITY, &h));
+    assert_true(vbi_scene_intersect(s, v3(p.x + 3.0f, p.y, 0), v3(-1, 0, 0), INFINITY, &h));
     vec3 n = v3_norm(v3(cosf(t) / 2.0f, sinf(t), 0.0f));
     assert_float_equal(h.ng.x, n.x, 1e-3f);
     assert_float_equal(h.ng.y, n.y, 1e-3f);
     /* misses and occlusion */
-    assert_false(vbnl_scene_intersect(s, v3(0, -5, 20), v3(0, 0, 1), INFINITY, &h));
-    assert_true(vbnl_scene_occluded(s, v3(0, 0, -5), v3(0, 0, 1), 10.0f));
-    assert_false(vbnl_scene_occluded(s, v3(0, 0, -5), v3(0, 0, 1), 3.9f));
+    assert_false(vbi_scene_intersect(s, v3(0, -5, 20), v3(0, 0, 1), INFINITY, &h));
+    assert_true(vbi_scene_occluded(s, v3(0, 0, -5), v3(0, 0, 1), 10.0f));
+    assert_false(vbi_scene_occluded(s, v3(0, 0, -5), v3(0, 0, 1), 3.9f));
     /* the 8-wide packet agrees with single rays */
     int active[8], mask[8];
     vec3 o[8], d[8];
-    vbnl_hit hits[8];
+    vbi_hit hits[8];
     for (int i = 0; i < 8; ++i) {
         active[i] = i != 5;
         o[i] = v3(-0.9f + 0.25f * (float)i, 0.1f, 5.0f);
         d[i] = v3(0, 0, -1);
     }
-    vbnl_scene_intersect8(s, active, o, d, hits, mask);
+    vbi_scene_intersect8(s, active, o, d, hits, mask);
     for (int i = 0; i < 8; ++i) {
-        vbnl_hit one;
-        int got = vbnl_scene_intersect(s, o[i], d[i], INFINITY, &one);
+        vbi_hit one;
+        int got = vbi_scene_intersect(s, o[i], d[i], INFINITY, &one);
         assert_int_equal(mask[i], active[i] && got);
         if (mask[i])
             assert_float_equal(hits[i].t, one.t, 1e-5f);

@@ -26,16 +26,16 @@
 /* Draws `count` numbers of slot `slot` (its kind: 1 or 2 numbers) of sample `sample`. */
 static void draw_slot(uint64_t pixel, uint32_t sample, uint32_t slot, int two, float *u)
 {
-    vbnl_sampler s = vbnl_sampler_make(VBNL_SAMPLER_SOBOL, SEED, pixel, sample);
+    vbi_sampler s = vbi_sampler_make(VBNL_SAMPLER_SOBOL, SEED, pixel, sample);
     /* earlier slots of the same kind, so that slot numbers line up */
     for (uint32_t k = 0; k < slot; ++k)
-        (void)vbnl_sampler_next(&s);
+        (void)vbi_sampler_next(&s);
     if (two) {
-        vec2 v = vbnl_sampler_next2(&s);
+        vec2 v = vbi_sampler_next2(&s);
         u[0] = v.x;
         u[1] = v.y;
     } else {
-        u[0] = vbnl_sampler_next(&s);
+        u[0] = vbi_sampler_next(&s);
     }
 }
 
@@ -66,7 +66,7 @@ static void test_blocks_are_nets(void **state)
     float *pts = malloc(sizeof(float) * 2 * 4096);
     int checked = 0;
     for (uint64_t pixel = 0; pixel < 3; ++pixel)
-        for (uint32_t slot = 0; slot < VBNL_SOBOL_SLOTS; ++slot)
+        for (uint32_t slot = 0; slot < VBI_SOBOL_SLOTS; ++slot)
             for (int two = 0; two <= 1; ++two)
                 for (int m = 2; m <= 12; m += 5) {
                     int n = 1 << m;
@@ -92,10 +92,10 @@ static void test_random_is_not_a_net(void **state)
 {
     (void)state;
     float pts[2 * 256];
-    vbnl_rng r = vbnl_rng_make(SEED, 3);
+    vbi_rng r = vbi_rng_make(SEED, 3);
     for (int i = 0; i < 256; ++i) {
-        pts[2 * i] = vbnl_rng_next(&r);
-        pts[2 * i + 1] = vbnl_rng_next(&r);
+        pts[2 * i] = vbi_rng_next(&r);
+        pts[2 * i + 1] = vbi_rng_next(&r);
     }
     assert_true(net_defects(pts, 2, 8) > 0);
 }
@@ -106,25 +106,25 @@ static void test_streams(void **state)
 {
     (void)state;
     for (uint32_t sample = 0; sample < 5; ++sample) {
-        vbnl_rng ref = vbnl_rng_for(SEED, 77, sample);
-        vbnl_sampler rnd = vbnl_sampler_make(VBNL_SAMPLER_RANDOM, SEED, 77, sample);
+        vbi_rng ref = vbi_rng_for(SEED, 77, sample);
+        vbi_sampler rnd = vbi_sampler_make(VBNL_SAMPLER_RANDOM, SEED, 77, sample);
         for (int k = 0; k < 40; ++k) {
-            float a = vbnl_rng_next(&ref), b = vbnl_sampler_next(&rnd);
+            float a = vbi_rng_next(&ref), b = vbi_sampler_next(&rnd);
             assert_memory_equal(&a, &b, sizeof(a));
         }
-        ref = vbnl_rng_for(SEED, 77, sample);
-        vbnl_sampler sob = vbnl_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 77, sample);
-        for (uint32_t k = 0; k < VBNL_SOBOL_SLOTS; ++k)
-            (void)vbnl_sampler_next2(&sob);
+        ref = vbi_rng_for(SEED, 77, sample);
+        vbi_sampler sob = vbi_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 77, sample);
+        for (uint32_t k = 0; k < VBI_SOBOL_SLOTS; ++k)
+            (void)vbi_sampler_next2(&sob);
         for (int k = 0; k < 20; ++k) {
-            float a = vbnl_rng_next(&ref), b = vbnl_sampler_next(&sob);
+            float a = vbi_rng_next(&ref), b = vbi_sampler_next(&sob);
             assert_memory_equal(&a, &b, sizeof(a));
         }
         /* the same (seed, pixel, sample) gives the same numbers */
-        vbnl_sampler s1 = vbnl_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 77, sample);
-        vbnl_sampler s2 = vbnl_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 77, sample);
+        vbi_sampler s1 = vbi_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 77, sample);
+        vbi_sampler s2 = vbi_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 77, sample);
         for (int k = 0; k < 12; ++k) {
-            vec2 a = vbnl_sampler_next2(&s1), b = vbnl_sampler_next2(&s2);
+            vec2 a = vbi_sampler_next2(&s1), b = vbi_sampler_next2(&s2);
             assert_memory_equal(&a, &b, sizeof(a));
         }
     }
@@ -141,8 +141,8 @@ static int uniform_pairs(const float *u, const float *v, int n, const char *what
     }
     for (int b = 0; b < 256; ++b)
         expd[b] = n / 256.0;
-    vbnl_chi2_result res;
-    int ok = vbnl_chi2_test(obs, expd, 256, 5.0, 0.01, &res);
+    vbi_chi2_result res;
+    int ok = vbi_chi2_test(obs, expd, 256, 5.0, 0.01, &res);
     printf("#   %-44s %s\n", what, res.msg);
     return ok;
 }
@@ -155,8 +155,8 @@ static void test_uniform_and_independent(void **state)
     int pass = 1;
     /* the same sample index across pixels: the pixels' scrambles are independent */
     for (int p = 0; p < PIXELS; ++p) {
-        vbnl_sampler s = vbnl_sampler_make(VBNL_SAMPLER_SOBOL, SEED, (uint64_t)p, 0);
-        vec2 v = vbnl_sampler_next2(&s);
+        vbi_sampler s = vbi_sampler_make(VBNL_SAMPLER_SOBOL, SEED, (uint64_t)p, 0);
+        vec2 v = vbi_sampler_next2(&s);
         a[p] = v.x;
         b[p] = v.y;
     }
@@ -164,10 +164,10 @@ static void test_uniform_and_independent(void **state)
     /* two slots of the same samples: decorrelated by the shuffles */
     for (int p = 0, i = 0; p < PIXELS; ++p)
         for (uint32_t smp = 0; smp < SAMPLES; ++smp, ++i) {
-            vbnl_sampler s = vbnl_sampler_make(VBNL_SAMPLER_SOBOL, SEED, (uint64_t)p, smp);
-            vec2 v0 = vbnl_sampler_next2(&s);
-            float x1 = vbnl_sampler_next(&s);
-            vec2 v2 = vbnl_sampler_next2(&s);
+            vbi_sampler s = vbi_sampler_make(VBNL_SAMPLER_SOBOL, SEED, (uint64_t)p, smp);
+            vec2 v0 = vbi_sampler_next2(&s);
+            float x1 = vbi_sampler_next(&s);
+            vec2 v2 = vbi_sampler_next2(&s);
             a[i] = v0.x;
             b[i] = x1;
             c[i] = v2.y;
@@ -178,9 +178,9 @@ static void test_uniform_and_independent(void **state)
     pass &= uniform_pairs(a, c, N, "slot 0 x against slot 2 y");
     /* within one pixel, one slot's 4096 samples: x against y (a net: uniform, stratified) */
     for (uint32_t smp = 0; smp < N; ++smp) {
-        vbnl_sampler s = vbnl_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 5, smp);
-        (void)vbnl_sampler_next(&s);
-        vec2 v = vbnl_sampler_next2(&s);
+        vbi_sampler s = vbi_sampler_make(VBNL_SAMPLER_SOBOL, SEED, 5, smp);
+        (void)vbi_sampler_next(&s);
+        vec2 v = vbi_sampler_next2(&s);
         a[smp] = v.x;
         b[smp] = v.y;
     }
@@ -204,10 +204,10 @@ static void rms_error(vbnl_sampler_kind kind, int n, int pixels, double *rms, do
     for (int p = 0; p < pixels; ++p) {
         double est = 0.0;
         for (int i = 0; i < n; ++i) {
-            vbnl_sampler s = vbnl_sampler_make(kind, SEED, (uint64_t)p, (uint32_t)i);
-            vec2 pix = vbnl_sampler_next2(&s); /* the pixel position, unused here */
+            vbi_sampler s = vbi_sampler_make(kind, SEED, (uint64_t)p, (uint32_t)i);
+            vec2 pix = vbi_sampler_next2(&s); /* the pixel position, unused here */
             (void)pix;
-            vec2 w = vbnl_sampler_next2(&s);
+            vec2 w = vbi_sampler_next2(&s);
             est += integrand(w.x, w.y);
         }
         est /= n;

@@ -43,21 +43,21 @@ static double grid_pdf(void *ctx, double z, double phi)
 /* Returns 1 when the warp passes. */
 static int run_warp_chi2(const warp_case *c, int n_samples, uint64_t seed)
 {
-    vbnl_chi2_grid g = {16, 32, c->zmin};
-    int nb = vbnl_chi2_grid_bins(&g);
+    vbi_chi2_grid g = {16, 32, c->zmin};
+    int nb = vbi_chi2_grid_bins(&g);
     double *obs = calloc((size_t)nb, sizeof(double));
     double *expd = calloc((size_t)nb, sizeof(double));
-    double total = vbnl_chi2_grid_integrate(&g, grid_pdf, (void *)c, 8, n_samples, expd);
-    vbnl_rng rng = vbnl_rng_make(seed, 7);
+    double total = vbi_chi2_grid_integrate(&g, grid_pdf, (void *)c, 8, n_samples, expd);
+    vbi_rng rng = vbi_rng_make(seed, 7);
     int bad = 0;
     for (int i = 0; i < n_samples; ++i) {
-        vec3 w = c->sample(vbnl_rng_next2(&rng), c->param);
+        vec3 w = c->sample(vbi_rng_next2(&rng), c->param);
         if (fabsf(v3_len(w) - 1.0f) > 1e-4f || !(c->pdf(w, c->param) > 0.0))
             ++bad;
-        obs[vbnl_chi2_grid_bin(&g, w.z, atan2(w.y, w.x))] += 1.0;
+        obs[vbi_chi2_grid_bin(&g, w.z, atan2(w.y, w.x))] += 1.0;
     }
-    vbnl_chi2_result res;
-    int ok = vbnl_chi2_test(obs, expd, nb, MIN_EXPECTED, SIGNIFICANCE, &res);
+    vbi_chi2_result res;
+    int ok = vbi_chi2_test(obs, expd, nb, MIN_EXPECTED, SIGNIFICANCE, &res);
     printf("#   %-28s pdf integral %.5f, %s\n", c->name, total, res.msg);
     if (bad)
         printf("#   %-28s %d samples not unit or with pdf 0\n", c->name, bad);
@@ -121,17 +121,17 @@ static void test_chi2_detects_wrong_pdf(void **state)
 
     static const float claimed = 0.3f, actual = 0.31f;
     warp_case e = {"cone", w_cone, p_cone, &claimed, 0.0};
-    vbnl_chi2_grid g = {16, 32, 0.0};
-    int nb = vbnl_chi2_grid_bins(&g);
+    vbi_chi2_grid g = {16, 32, 0.0};
+    int nb = vbi_chi2_grid_bins(&g);
     double *obs = calloc((size_t)nb, sizeof(double)), *expd = calloc((size_t)nb, sizeof(double));
-    vbnl_chi2_grid_integrate(&g, grid_pdf, &e, 8, 200000, expd);
-    vbnl_rng rng = vbnl_rng_make(11, 7);
+    vbi_chi2_grid_integrate(&g, grid_pdf, &e, 8, 200000, expd);
+    vbi_rng rng = vbi_rng_make(11, 7);
     for (int i = 0; i < 200000; ++i) {
-        vec3 w = sample_uniform_cone(vbnl_rng_next2(&rng), actual);
-        obs[vbnl_chi2_grid_bin(&g, w.z, atan2(w.y, w.x))] += 1.0;
+        vec3 w = sample_uniform_cone(vbi_rng_next2(&rng), actual);
+        obs[vbi_chi2_grid_bin(&g, w.z, atan2(w.y, w.x))] += 1.0;
     }
-    vbnl_chi2_result res;
-    assert_false(vbnl_chi2_test(obs, expd, nb, MIN_EXPECTED, SIGNIFICANCE, &res));
+    vbi_chi2_result res;
+    assert_false(vbi_chi2_test(obs, expd, nb, MIN_EXPECTED, SIGNIFICANCE, &res));
     printf("#   cone 0.31 vs 0.3 (must fail) %s\n", res.msg);
     free(obs);
     free(expd);
@@ -141,10 +141,10 @@ static void test_chi2_p_values(void **state)
 {
     (void)state;
     /* Tabulated 1% critical values of the chi-square distribution. */
-    assert_true(fabs(vbnl_chi2_gamma_q(0.5, 6.635 / 2) - 0.01) < 1e-4);
-    assert_true(fabs(vbnl_chi2_gamma_q(5.0, 23.209 / 2) - 0.01) < 1e-4);
-    assert_true(fabs(vbnl_chi2_gamma_q(50.0, 135.807 / 2) - 0.01) < 1e-4);
-    assert_true(fabs(vbnl_chi2_gamma_q(5.0, 9.342 / 2) - 0.5) < 1e-3);
+    assert_true(fabs(vbi_chi2_gamma_q(0.5, 6.635 / 2) - 0.01) < 1e-4);
+    assert_true(fabs(vbi_chi2_gamma_q(5.0, 23.209 / 2) - 0.01) < 1e-4);
+    assert_true(fabs(vbi_chi2_gamma_q(50.0, 135.807 / 2) - 0.01) < 1e-4);
+    assert_true(fabs(vbi_chi2_gamma_q(5.0, 9.342 / 2) - 0.5) < 1e-3);
 }
 
 /* ---- disk and triangle --------------------------------------------------------------------- */
@@ -157,9 +157,9 @@ static void test_concentric_disk(void **state)
     double obs[NR * NP] = {0}, expd[NR * NP];
     for (int i = 0; i < NR * NP; ++i)
         expd[i] = (double)N / (NR * NP);
-    vbnl_rng rng = vbnl_rng_make(21, 3);
+    vbi_rng rng = vbi_rng_make(21, 3);
     for (int i = 0; i < N; ++i) {
-        vec2 d = sample_concentric_disk(vbnl_rng_next2(&rng));
+        vec2 d = sample_concentric_disk(vbi_rng_next2(&rng));
         double r2 = (double)d.x * d.x + (double)d.y * d.y;
         assert_true(r2 <= 1.0 + 1e-6);
         double phi = atan2(d.y, d.x);
@@ -170,8 +170,8 @@ static void test_concentric_disk(void **state)
         ip = ip >= NP ? NP - 1 : ip;
         obs[ir * NP + ip] += 1.0;
     }
-    vbnl_chi2_result res;
-    int ok = vbnl_chi2_test(obs, expd, NR * NP, MIN_EXPECTED, SIGNIFICANCE, &res);
+    vbi_chi2_result res;
+    int ok = vbi_chi2_test(obs, expd, NR * NP, MIN_EXPECTED, SIGNIFICANCE, &res);
     printf("#   concentric disk              %s\n", res.msg);
     assert_true(ok);
 }
@@ -189,10 +189,10 @@ static void test_uniform_triangle(void **state)
             double frac = i + j + 2 <= G ? 1.0 : (i + j + 1 == G ? 0.5 : 0.0);
             expd[i * G + j] = N * frac / (G * G) / 0.5;
         }
-    vbnl_rng rng = vbnl_rng_make(22, 3);
+    vbi_rng rng = vbi_rng_make(22, 3);
     int outside = 0;
     for (int k = 0; k < N; ++k) {
-        vec2 b = sample_uniform_triangle(vbnl_rng_next2(&rng));
+        vec2 b = sample_uniform_triangle(vbi_rng_next2(&rng));
         if (b.x < 0.0f || b.y < 0.0f || b.x + b.y > 1.0f)
             ++outside;
         int i = (int)(b.x * G), j = (int)(b.y * G);
@@ -200,8 +200,8 @@ static void test_uniform_triangle(void **state)
         j = j < 0 ? 0 : (j >= G ? G - 1 : j);
         obs[i * G + j] += 1.0;
     }
-    vbnl_chi2_result res;
-    int ok = vbnl_chi2_test(obs, expd, G * G, MIN_EXPECTED, SIGNIFICANCE, &res);
+    vbi_chi2_result res;
+    int ok = vbi_chi2_test(obs, expd, G * G, MIN_EXPECTED, SIGNIFICANCE, &res);
     printf("#   uniform triangle             %s\n", res.msg);
     assert_int_equal(outside, 0);
     assert_true(ok);
@@ -214,18 +214,18 @@ static void test_alias_table_frequencies(void **state)
     (void)state;
     enum { N_ITEMS = 50, N = 1000000 };
     float w[N_ITEMS];
-    vbnl_rng rng = vbnl_rng_make(31, 1);
+    vbi_rng rng = vbi_rng_make(31, 1);
     for (int i = 0; i < N_ITEMS; ++i) {
         /* Spread over three decades, with every seventh weight zero. */
-        w[i] = i % 7 == 3 ? 0.0f : powf(10.0f, 3.0f * vbnl_rng_next(&rng));
+        w[i] = i % 7 == 3 ? 0.0f : powf(10.0f, 3.0f * vbi_rng_next(&rng));
     }
     w[N_ITEMS - 1] = 0.0f; /* a zero at the very end too */
     double total = 0.0;
     for (int i = 0; i < N_ITEMS; ++i)
         total += w[i];
 
-    vbnl_alias_table t;
-    assert_int_equal(vbnl_alias_table_build(&t, w, N_ITEMS), 0);
+    vbi_alias_table t;
+    assert_int_equal(vbi_alias_table_build(&t, w, N_ITEMS), 0);
     assert_int_equal(t.n, N_ITEMS);
     assert_true(fabs(t.total - total) < 1e-6 * total);
     for (int i = 0; i < N_ITEMS; ++i)
@@ -237,7 +237,7 @@ static void test_alias_table_frequencies(void **state)
     int pmf_mismatch = 0;
     for (int k = 0; k < N; ++k) {
         float pmf;
-        uint32_t i = vbnl_alias_table_sample(&t, vbnl_rng_next(&rng), &pmf);
+        uint32_t i = vbi_alias_table_sample(&t, vbi_rng_next(&rng), &pmf);
         assert_true(i < N_ITEMS);
         if (pmf != t.pmf[i])
             ++pmf_mismatch;
@@ -248,14 +248,14 @@ static void test_alias_table_frequencies(void **state)
             assert_true(obs[i] == 0.0); /* a zero-weight item is never sampled */
     assert_int_equal(pmf_mismatch, 0);
     /* The ends of [0, 1) map to valid items with non-zero weight. */
-    assert_true(t.pmf[vbnl_alias_table_sample(&t, 0.0f, NULL)] > 0.0f);
-    assert_true(t.pmf[vbnl_alias_table_sample(&t, VBNL_ONE_MINUS_EPS, NULL)] > 0.0f);
+    assert_true(t.pmf[vbi_alias_table_sample(&t, 0.0f, NULL)] > 0.0f);
+    assert_true(t.pmf[vbi_alias_table_sample(&t, VBI_ONE_MINUS_EPS, NULL)] > 0.0f);
 
-    vbnl_chi2_result res;
-    int ok = vbnl_chi2_test(obs, expd, N_ITEMS, MIN_EXPECTED, SIGNIFICANCE, &res);
+    vbi_chi2_result res;
+    int ok = vbi_chi2_test(obs, expd, N_ITEMS, MIN_EXPECTED, SIGNIFICANCE, &res);
     printf("#   alias table (50 items)       %s\n", res.msg);
     assert_true(ok);
-    vbnl_alias_table_free(&t);
+    vbi_alias_table_free(&t);
 }
 
 /* sample_reuse: the same item as sample for the same u, and the rescaled rest uniform within each
@@ -266,60 +266,60 @@ static void test_alias_table_reuse(void **state)
     (void)state;
     enum { N_ITEMS = 12, BINS = 10, N = 600000 };
     float w[N_ITEMS];
-    vbnl_rng rng = vbnl_rng_make(37, 3);
+    vbi_rng rng = vbi_rng_make(37, 3);
     for (int i = 0; i < N_ITEMS; ++i)
-        w[i] = 0.2f + 3.0f * vbnl_rng_next(&rng);
-    vbnl_alias_table t;
-    assert_int_equal(vbnl_alias_table_build(&t, w, N_ITEMS), 0);
+        w[i] = 0.2f + 3.0f * vbi_rng_next(&rng);
+    vbi_alias_table t;
+    assert_int_equal(vbi_alias_table_build(&t, w, N_ITEMS), 0);
     static double obs[N_ITEMS * BINS], raw[N_ITEMS * BINS], expd[N_ITEMS * BINS];
     for (int k = 0; k < N; ++k) {
-        float u = vbnl_rng_next(&rng), pmf, rest, frac;
-        uint32_t i = vbnl_alias_table_sample_reuse(&t, u, &pmf, &rest);
-        assert_int_equal(i, vbnl_alias_table_sample(&t, u, NULL));
+        float u = vbi_rng_next(&rng), pmf, rest, frac;
+        uint32_t i = vbi_alias_table_sample_reuse(&t, u, &pmf, &rest);
+        assert_int_equal(i, vbi_alias_table_sample(&t, u, NULL));
         assert_true(rest >= 0.0f && rest < 1.0f && pmf == t.pmf[i]);
         obs[i * BINS + (int)(rest * BINS)] += 1.0;
-        vbnl_alias_slot(t.n, u, &frac);
+        vbi_alias_slot(t.n, u, &frac);
         raw[i * BINS + (int)(frac * BINS)] += 1.0;
     }
     for (int i = 0; i < N_ITEMS; ++i)
         for (int b = 0; b < BINS; ++b)
             expd[i * BINS + b] = N * (double)t.pmf[i] / BINS;
-    vbnl_chi2_result res, bad;
-    int ok = vbnl_chi2_test(obs, expd, N_ITEMS * BINS, MIN_EXPECTED, SIGNIFICANCE, &res);
-    int raw_ok = vbnl_chi2_test(raw, expd, N_ITEMS * BINS, MIN_EXPECTED, SIGNIFICANCE, &bad);
+    vbi_chi2_result res, bad;
+    int ok = vbi_chi2_test(obs, expd, N_ITEMS * BINS, MIN_EXPECTED, SIGNIFICANCE, &res);
+    int raw_ok = vbi_chi2_test(raw, expd, N_ITEMS * BINS, MIN_EXPECTED, SIGNIFICANCE, &bad);
     printf("#   alias reuse (item x rest)    %s\n", res.msg);
     printf("#   raw slot fraction (must fail) %s\n", bad.msg);
     assert_true(ok);
     assert_false(raw_ok);
-    vbnl_alias_table_free(&t);
+    vbi_alias_table_free(&t);
 }
 
 static void test_alias_table_edge_cases(void **state)
 {
     (void)state;
-    vbnl_alias_table t;
+    vbi_alias_table t;
     float zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
-    assert_int_equal(vbnl_alias_table_build(&t, zeros, 4), -1);
+    assert_int_equal(vbi_alias_table_build(&t, zeros, 4), -1);
     assert_null(t.prob);
     assert_int_equal(t.n, 0);
-    vbnl_alias_table_free(&t); /* freeing a failed table is harmless */
-    vbnl_alias_table_free(NULL);
-    assert_int_equal(vbnl_alias_table_build(&t, zeros, 0), -1);
+    vbi_alias_table_free(&t); /* freeing a failed table is harmless */
+    vbi_alias_table_free(NULL);
+    assert_int_equal(vbi_alias_table_build(&t, zeros, 0), -1);
 
     /* Negative weights count as zero. */
     float mixed[3] = {-1.0f, 2.0f, 0.0f};
-    assert_int_equal(vbnl_alias_table_build(&t, mixed, 3), 0);
+    assert_int_equal(vbi_alias_table_build(&t, mixed, 3), 0);
     for (int k = 0; k < 1000; ++k) {
         float pmf;
-        assert_int_equal(vbnl_alias_table_sample(&t, (k + 0.5f) / 1000.0f, &pmf), 1);
+        assert_int_equal(vbi_alias_table_sample(&t, (k + 0.5f) / 1000.0f, &pmf), 1);
         assert_true(pmf == 1.0f);
     }
-    vbnl_alias_table_free(&t);
+    vbi_alias_table_free(&t);
 
     float one = 3.0f;
-    assert_int_equal(vbnl_alias_table_build(&t, &one, 1), 0);
-    assert_int_equal(vbnl_alias_table_sample(&t, VBNL_ONE_MINUS_EPS, NULL), 0);
-    vbnl_alias_table_free(&t);
+    assert_int_equal(vbi_alias_table_build(&t, &one, 1), 0);
+    assert_int_equal(vbi_alias_table_sample(&t, VBI_ONE_MINUS_EPS, NULL), 0);
+    vbi_alias_table_free(&t);
 }
 
 int main(void)

@@ -83,7 +83,7 @@ static void test_emitters_and_power(void **state)
     /* power: the point light 4 pi I; each triangle (area 2) pi Le A one-sided; the sphere pi Le 4 pi r^2 */
     double power[5], total = 0.0;
     for (uint32_t k = 0; k < 5; ++k) {
-        power[k] = v3_avg(vbnl_light_power(&s->lights[k]));
+        power[k] = v3_avg(vbi_light_power(&s->lights[k]));
         total += power[k];
     }
     assert_float_equal(power[0], 4.0 * M_PI, 1e-4);
@@ -91,15 +91,15 @@ static void test_emitters_and_power(void **state)
     assert_float_equal(power[2], M_PI * 2.0 * 2.0, 1e-4);
     assert_float_equal(power[3], M_PI * 2.0 * 4.0 * M_PI * 0.25, 1e-3);
     for (uint32_t k = 0; k < 5; ++k)
-        assert_float_equal(vbnl_scene_light_pmf(s, k), power[k] / total, 1e-5);
+        assert_float_equal(vbi_scene_light_pmf(s, k), power[k] / total, 1e-5);
     assert_int_equal(s->env_light, 4);
     /* a ray down onto the quad hits a light's triangle; the degenerate one is nobody's light */
-    vbnl_hit h;
-    assert_true(vbnl_scene_intersect(s, v3(0.5f, -0.2f, 1.0f), v3(0, 0, -1), INFINITY, &h));
+    vbi_hit h;
+    assert_true(vbi_scene_intersect(s, v3(0.5f, -0.2f, 1.0f), v3(0, 0, -1), INFINITY, &h));
     assert_true(h.light == 1 || h.light == 2);
     assert_float_equal(h.t, 1.0, 1e-6);
     assert_int_equal(s->geoms[0].kind, SCENE_GEOM_MESH);
-    assert_int_equal(s->geoms[0].u.mesh.face_lights[2], VBNL_NO_LIGHT);
+    assert_int_equal(s->geoms[0].u.mesh.face_lights[2], VBI_NO_LIGHT);
     /* committed: no more changes, no second commit */
     vbnl_error err = {0};
     assert_int_equal(vbnl_scene_commit(s, &err), VBNL_ERR_STATE);
@@ -147,11 +147,11 @@ static void test_instances(void **state)
     assert_float_equal(info.bounds_max[0], 6.0, 1e-5);  /* the shifted one: x in [4, 6] */
     assert_float_equal(info.bounds_min[1], -2.0, 1e-5);
     assert_float_equal(info.bounds_max[2], 3.0, 1e-5);  /* the point light */
-    vbnl_hit h;
-    assert_true(vbnl_scene_intersect(s, v3(5.5f, 0.5f, 1.0f), v3(0, 0, -1), INFINITY, &h));
+    vbi_hit h;
+    assert_true(vbi_scene_intersect(s, v3(5.5f, 0.5f, 1.0f), v3(0, 0, -1), INFINITY, &h));
     assert_float_equal(h.p.x, 5.5, 1e-5);
-    assert_false(vbnl_scene_intersect(s, v3(2.5f, 0.5f, 1.0f), v3(0, 0, -1), INFINITY, &h));
-    assert_true(vbnl_scene_intersect(s, v3(-6.5f, 1.5f, 1.0f), v3(0, 0, -1), INFINITY, &h));
+    assert_false(vbi_scene_intersect(s, v3(2.5f, 0.5f, 1.0f), v3(0, 0, -1), INFINITY, &h));
+    assert_true(vbi_scene_intersect(s, v3(-6.5f, 1.5f, 1.0f), v3(0, 0, -1), INFINITY, &h));
     vbnl_scene_destroy(s);
 }
 
@@ -197,13 +197,13 @@ static void test_fingerprint(void **state)
     (void)state;
     vbnl_scene *a = fingerprint_scene(3.0f, -0.2f), *b = fingerprint_scene(3.0f, -0.2f);
     vbnl_scene *other_cam = fingerprint_scene(2.0f, -0.2f), *moved = fingerprint_scene(3.0f, -0.2000001f);
-    assert_true(vbnl_scene_fingerprint(a) != 0);
-    assert_true(vbnl_scene_fingerprint(a) == vbnl_scene_fingerprint(b));
-    assert_true(vbnl_scene_fingerprint(a) == vbnl_scene_fingerprint(other_cam));
-    assert_true(vbnl_scene_fingerprint(a) != vbnl_scene_fingerprint(moved));
+    assert_true(vbi_scene_fingerprint(a) != 0);
+    assert_true(vbi_scene_fingerprint(a) == vbi_scene_fingerprint(b));
+    assert_true(vbi_scene_fingerprint(a) == vbi_scene_fingerprint(other_cam));
+    assert_true(vbi_scene_fingerprint(a) != vbi_scene_fingerprint(moved));
     vbnl_scene *open = ts_box_scene(g_ctx, 1.0f);
-    assert_true(vbnl_scene_fingerprint(open) == 0);
-    assert_true(vbnl_scene_fingerprint(NULL) == 0);
+    assert_true(vbi_scene_fingerprint(open) == 0);
+    assert_true(vbi_scene_fingerprint(NULL) == 0);
     vbnl_scene_destroy(a);
     vbnl_scene_destroy(b);
     vbnl_scene_destroy(other_cam);

@@ -57,18 +57,18 @@ static uint32_t add(fixture *f, const vbnl_texture_desc *d)
 /* The pigment's colour at world point p with mesh coordinates uv. */
 static vec3 eval_at(const fixture *f, uint32_t id, vec3 p, vec2 uv)
 {
-    vbnl_shade_point sp = {d3(p.x, p.y, p.z), d3(0, 0, 1), uv.x, uv.y, d3(0, 0, 10)};
+    vbi_shade_point sp = {d3(p.x, p.y, p.z), d3(0, 0, 1), uv.x, uv.y, d3(0, 0, 10)};
     float c[5];
-    vbnl_pigment_at(&f->scene->tex, id, &sp, c);
+    vbi_pigment_at(&f->scene->tex, id, &sp, c);
     return v3(c[0], c[1], c[2]);
 }
 
 /* The raw value of the pigment's pattern at world point p. */
 static float pattern_at(const fixture *f, uint32_t id, vec3 p)
 {
-    const vbnl_texture_set *ts = &f->scene->tex;
-    const vbnl_pattern *pt = &ts->patterns[ts->pigments[id].pattern - 1];
-    return (float)vbnl_pattern_raw(ts, pt, vbnl_pattern_point(ts, pt, d3(p.x, p.y, p.z)), NULL);
+    const vbi_texture_set *ts = &f->scene->tex;
+    const vbi_pattern *pt = &ts->patterns[ts->pigments[id].pattern - 1];
+    return (float)vbi_pattern_raw(ts, pt, vbi_pattern_point(ts, pt, d3(p.x, p.y, p.z)), NULL);
 }
 
 /* An image texture's colour at (u, v). */
@@ -313,24 +313,24 @@ static void test_surface_bsdf_and_fingerprint(void **state)
 {
     fixture *f = *state;
     vbnl_scene *s = plane_scene(f->ctx, two_colors, 0.5f);
-    vbnl_hit hit;
-    assert_true(vbnl_scene_intersect(s, v3(0.1f, 0.1f, 1), v3(0, 0, -1), INFINITY, &hit));
-    vbnl_bsdf store;
-    const vbnl_bsdf *b = vbnl_surface_bsdf(s, &hit, &store);
+    vbi_hit hit;
+    assert_true(vbi_scene_intersect(s, v3(0.1f, 0.1f, 1), v3(0, 0, -1), INFINITY, &hit));
+    vbi_bsdf store;
+    const vbi_bsdf *b = vbi_surface_bsdf(s, &hit, &store);
     assert_ptr_equal(b, &store);
     expect_color(b->color, 0.5f, 0, 0, 1e-6f);
     vec3 tint;
-    assert_int_equal(vbnl_surface_light_material(s, &hit, &tint), hit.material);
+    assert_int_equal(vbi_surface_light_material(s, &hit, &tint), hit.material);
     expect_color(tint, 1, 0, 0, 0);
-    assert_true(vbnl_scene_intersect(s, v3(0.6f, 0.1f, 1), v3(0, 0, -1), INFINITY, &hit));
-    b = vbnl_surface_bsdf(s, &hit, &store);
+    assert_true(vbi_scene_intersect(s, v3(0.6f, 0.1f, 1), v3(0, 0, -1), INFINITY, &hit));
+    b = vbi_surface_bsdf(s, &hit, &store);
     expect_color(b->color, 0, 0, 0.5f, 1e-6f);
-    uint64_t h1 = vbnl_scene_fingerprint(s);
+    uint64_t h1 = vbi_scene_fingerprint(s);
     vbnl_scene *s2 = plane_scene(f->ctx, ramp, 0.5f);
-    uint64_t h2 = vbnl_scene_fingerprint(s2);
+    uint64_t h2 = vbi_scene_fingerprint(s2);
     vbnl_scene *s3 = plane_scene(f->ctx, two_colors, 0.5f);
     assert_true(h1 != h2);
-    assert_true(h1 == vbnl_scene_fingerprint(s3));
+    assert_true(h1 == vbi_scene_fingerprint(s3));
     vbnl_scene_destroy(s);
     vbnl_scene_destroy(s2);
     vbnl_scene_destroy(s3);

@@ -25,38 +25,38 @@
 static void test_lambert_table_energy(void **state)
 {
     (void)state;
-    vbnl_hemioct *map = NULL, *inc = NULL;
-    assert_int_equal(vbnl_hemioct_create(32, &map), VBNL_OK);
-    assert_int_equal(vbnl_hemioct_create(RV_INCIDENT_RES, &inc), VBNL_OK);
+    vbi_hemioct *map = NULL, *inc = NULL;
+    assert_int_equal(vbi_hemioct_create(32, &map), VBNL_OK);
+    assert_int_equal(vbi_hemioct_create(RV_INCIDENT_RES, &inc), VBNL_OK);
     vbnl_material_desc md;
     vbnl_material_desc_init(&md);
     md.type = VBNL_MATERIAL_LAMBERT;
     md.base_color[0] = 0.7f;
     md.base_color[1] = 0.5f;
     md.base_color[2] = 0.3f;
-    vbnl_bsdf bsdf;
-    vbnl_bsdf_from_material(&bsdf, &md);
+    vbi_bsdf bsdf;
+    vbi_bsdf_from_material(&bsdf, &md);
     const vec3 n = v3_norm(v3(0.3f, -0.5f, 0.8f));
     frame f = frame_from_normal(n);
-    vbnl_rng rng = vbnl_rng_make(7, 3);
+    vbi_rng rng = vbi_rng_make(7, 3);
     enum { NG = 300 };
     rv_gathered g[NG];
     vec3 total = v3s(0.0f);
     for (int j = 0; j < NG; ++j) {
-        vec3 wl = sample_cosine_hemisphere(vbnl_rng_next2(&rng));
+        vec3 wl = sample_cosine_hemisphere(vbi_rng_next2(&rng));
         wl.z = fmaxf(wl.z, 0.01f);
         g[j].wi = frame_to_world(&f, v3_norm(wl));
-        g[j].flux = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+        g[j].flux = v3(vbi_rng_next(&rng), vbi_rng_next(&rng), vbi_rng_next(&rng));
         total = v3_add(total, g[j].flux);
     }
     float *rgb = malloc(sizeof(float) * 3 * 32 * 32);
     rv_emission_table(map, inc, &bsdf, n, g, NG, rgb);
     double omega_sum[3] = {0, 0, 0}, proj_sum[3] = {0, 0, 0};
-    const vec3 *dirs = vbnl_hemioct_texel_dirs(map);
+    const vec3 *dirs = vbi_hemioct_texel_dirs(map);
     for (uint32_t t = 0; t < 32 * 32; ++t)
         for (int c = 0; c < 3; ++c) {
-            omega_sum[c] += rgb[3 * t + c] * dirs[t].z * vbnl_hemioct_texel_solid_angle(map, t);
-            proj_sum[c] += rgb[3 * t + c] * vbnl_hemioct_texel_bilinear_projected(map, t);
+            omega_sum[c] += rgb[3 * t + c] * dirs[t].z * vbi_hemioct_texel_solid_angle(map, t);
+            proj_sum[c] += rgb[3 * t + c] * vbi_hemioct_texel_bilinear_projected(map, t);
         }
     const float rho[3] = {0.7f, 0.5f, 0.3f}, phi[3] = {total.x, total.y, total.z};
     vec3 li = rv_lambert_intensity(&bsdf, n, g, NG);
@@ -68,11 +68,11 @@ static void test_lambert_table_energy(void **state)
         assert_true(fabs(omega_sum[c] / want - 1.0) < 2e-3);
         assert_true(fabs(proj_sum[c] / want - 1.0) < 1e-4);
         /* the flux-only Lambertian light equals the table */
-        assert_true(fabs(lic[c] * VBNL_PI / want - 1.0) < 1e-4);
+        assert_true(fabs(lic[c] * VBI_PI / want - 1.0) < 1e-4);
     }
     free(rgb);
-    vbnl_hemioct_destroy(map);
-    vbnl_hemioct_destroy(inc);
+    vbi_hemioct_destroy(map);
+    vbi_hemioct_destroy(inc);
 }
 
 /* A glossy table never emits more than the flux it gathered (energy conservation of the BSDF),
@@ -80,39 +80,39 @@ static void test_lambert_table_energy(void **state)
 static void test_glossy_table(void **state)
 {
     (void)state;
-    vbnl_hemioct *map = NULL, *inc = NULL;
-    assert_int_equal(vbnl_hemioct_create(32, &map), VBNL_OK);
-    assert_int_equal(vbnl_hemioct_create(RV_INCIDENT_RES, &inc), VBNL_OK);
+    vbi_hemioct *map = NULL, *inc = NULL;
+    assert_int_equal(vbi_hemioct_create(32, &map), VBNL_OK);
+    assert_int_equal(vbi_hemioct_create(RV_INCIDENT_RES, &inc), VBNL_OK);
     vbnl_material_desc md;
     vbnl_material_desc_init(&md);
     md.type = VBNL_MATERIAL_CONDUCTOR;
     md.base_color[0] = md.base_color[1] = md.base_color[2] = 0.9f;
     md.alpha = 0.3f;
-    vbnl_bsdf bsdf;
-    vbnl_bsdf_from_material(&bsdf, &md);
+    vbi_bsdf bsdf;
+    vbi_bsdf_from_material(&bsdf, &md);
     const vec3 n = v3(0.0f, 0.0f, 1.0f);
     /* one incident direction: a bin centre of the incident map, so binning does not smear it */
-    const vec3 wi = vbnl_hemioct_texel_dirs(inc)[3 * RV_INCIDENT_RES + 1];
+    const vec3 wi = vbi_hemioct_texel_dirs(inc)[3 * RV_INCIDENT_RES + 1];
     rv_gathered g = {wi, v3s(1.0f)};
     float *rgb = malloc(sizeof(float) * 3 * 32 * 32);
     rv_emission_table(map, inc, &bsdf, n, &g, 1, rgb);
     double power = 0.0;
     uint32_t best = 0;
     for (uint32_t t = 0; t < 32 * 32; ++t) {
-        power += rgb[3 * t] * vbnl_hemioct_texel_bilinear_projected(map, t);
+        power += rgb[3 * t] * vbi_hemioct_texel_bilinear_projected(map, t);
         if (rgb[3 * t] > rgb[3 * best])
             best = t;
     }
     vec3 mirror = v3(-wi.x, -wi.y, wi.z);
-    float cos_peak = v3_dot(vbnl_hemioct_texel_dirs(map)[best], mirror);
+    float cos_peak = v3_dot(vbi_hemioct_texel_dirs(map)[best], mirror);
     print_message("# glossy table: emitted %.4f of 1 (directional albedo), peak %.2f deg from the mirror "
                   "direction\n",
-                  power, acosf(fminf(1.0f, cos_peak)) * 180.0f / VBNL_PI);
+                  power, acosf(fminf(1.0f, cos_peak)) * 180.0f / VBI_PI);
     assert_true(power > 0.3 && power <= 1.0);
-    assert_true(cos_peak > cosf(15.0f * VBNL_PI / 180.0f));
+    assert_true(cos_peak > cosf(15.0f * VBI_PI / 180.0f));
     free(rgb);
-    vbnl_hemioct_destroy(map);
-    vbnl_hemioct_destroy(inc);
+    vbi_hemioct_destroy(map);
+    vbi_hemioct_destroy(inc);
 }
 
 /* A near-mirror conductor tabulated by BSDF sampling per photon: the table's power (with the
@@ -122,43 +122,43 @@ static void test_glossy_table(void **state)
 static void test_sampled_table(void **state)
 {
     (void)state;
-    vbnl_hemioct *map = NULL;
-    assert_int_equal(vbnl_hemioct_create(32, &map), VBNL_OK);
+    vbi_hemioct *map = NULL;
+    assert_int_equal(vbi_hemioct_create(32, &map), VBNL_OK);
     vbnl_material_desc md;
     vbnl_material_desc_init(&md);
     md.type = VBNL_MATERIAL_CONDUCTOR;
     md.base_color[0] = md.base_color[1] = md.base_color[2] = 0.9f;
     md.alpha = 0.02f;
-    vbnl_bsdf bsdf;
-    vbnl_bsdf_from_material(&bsdf, &md);
+    vbi_bsdf bsdf;
+    vbi_bsdf_from_material(&bsdf, &md);
     const vec3 wi = v3_norm(v3(0.5f, 0.2f, 0.8f));
     rv_gathered g = {wi, v3s(1.0f)};
     float *rgb = malloc(sizeof(float) * 3 * 32 * 32);
-    vbnl_rng rng = vbnl_rng_make(3, 4);
+    vbi_rng rng = vbi_rng_make(3, 4);
     rv_emission_table_sampled(map, &bsdf, v3(0.0f, 0.0f, 1.0f), &g, 1, 4096, &rng, rgb);
     double power = 0.0, albedo = 0.0;
     uint32_t best = 0;
     for (uint32_t t = 0; t < 32 * 32; ++t) {
-        power += rgb[3 * t] * vbnl_hemioct_texel_bilinear_projected(map, t);
+        power += rgb[3 * t] * vbi_hemioct_texel_bilinear_projected(map, t);
         if (rgb[3 * t] > rgb[3 * best])
             best = t;
     }
-    vbnl_rng r2 = vbnl_rng_make(8, 8);
+    vbi_rng r2 = vbi_rng_make(8, 8);
     for (int k = 0; k < 200000; ++k) {
-        vbnl_bsdf_sample_rec bs;
-        vec2 u = vbnl_rng_next2(&r2);
-        if (vbnl_bsdf_sample(&bsdf, wi, u, &bs) && bs.wi.z > 0.0f)
+        vbi_bsdf_sample_rec bs;
+        vec2 u = vbi_rng_next2(&r2);
+        if (vbi_bsdf_sample(&bsdf, wi, u, &bs) && bs.wi.z > 0.0f)
             albedo += bs.weight.x;
     }
     albedo /= 200000.0;
     vec3 mirror = v3(-wi.x, -wi.y, wi.z);
-    float cos_peak = v3_dot(vbnl_hemioct_texel_dirs(map)[best], mirror);
+    float cos_peak = v3_dot(vbi_hemioct_texel_dirs(map)[best], mirror);
     print_message("# sampled table (alpha 0.02): power %.4f, directional albedo %.4f, peak %.2f deg from mirror\n",
-                  power, albedo, acosf(fminf(1.0f, cos_peak)) * 180.0f / VBNL_PI);
+                  power, albedo, acosf(fminf(1.0f, cos_peak)) * 180.0f / VBI_PI);
     assert_true(fabs(power / albedo - 1.0) < 0.02);
-    assert_true(cos_peak > cosf(6.0f * VBNL_PI / 180.0f));
+    assert_true(cos_peak > cosf(6.0f * VBI_PI / 180.0f));
     free(rgb);
-    vbnl_hemioct_destroy(map);
+    vbi_hemioct_destroy(map);
 }
 
 /* ---- placement ------------------------------------------------------------------------------ */
@@ -172,21 +172,21 @@ static void test_importance_normalisation(void **state)
     rv_maps m;
     memset(&m, 0, sizeof(m));
     m.imp_count = G * G;
-    m.imp_pts = malloc(sizeof(vbnl_kd_pt) * m.imp_count);
+    m.imp_pts = malloc(sizeof(vbi_kd_pt) * m.imp_count);
     m.imp_w = malloc(sizeof(float) * m.imp_count);
-    vbnl_rng rng = vbnl_rng_make(11, 1);
+    vbi_rng rng = vbi_rng_make(11, 1);
     for (uint32_t i = 0; i < m.imp_count; ++i) {
-        m.imp_pts[i].p[0] = ((float)(i % G) + vbnl_rng_next(&rng)) / G;
-        m.imp_pts[i].p[1] = ((float)(i / G) + vbnl_rng_next(&rng)) / G;
+        m.imp_pts[i].p[0] = ((float)(i % G) + vbi_rng_next(&rng)) / G;
+        m.imp_pts[i].p[1] = ((float)(i / G) + vbi_rng_next(&rng)) / G;
         m.imp_pts[i].p[2] = 0.0f;
         m.imp_pts[i].id = i;
         m.imp_w[i] = 1.0f / (float)m.imp_count;
     }
-    assert_int_equal(vbnl_kd_build(&m.imp_tree, m.imp_pts, m.imp_count), 0);
+    assert_int_equal(vbi_kd_build(&m.imp_tree, m.imp_pts, m.imp_count), 0);
     m.ph_count = 2000;
     m.ph = calloc(m.ph_count, sizeof(rv_photon));
     for (uint32_t i = 0; i < m.ph_count; ++i)
-        m.ph[i].hit.p = v3(0.1f + 0.8f * vbnl_rng_next(&rng), 0.1f + 0.8f * vbnl_rng_next(&rng), 0.0f);
+        m.ph[i].hit.p = v3(0.1f + 0.8f * vbi_rng_next(&rng), 0.1f + 0.8f * vbi_rng_next(&rng), 0.0f);
     float *W = malloc(sizeof(float) * m.ph_count);
     double W_mean = 0.0;
     vbnl_error err = {0};
@@ -270,20 +270,20 @@ static void test_relaxation(void **state)
     (void)state;
     enum { NP = 40000, NL = 400 };
     vec3 *pos = malloc(sizeof(vec3) * NP);
-    vbnl_kd_pt *pts = malloc(sizeof(vbnl_kd_pt) * NP);
-    vbnl_rng rng = vbnl_rng_make(5, 5);
+    vbi_kd_pt *pts = malloc(sizeof(vbi_kd_pt) * NP);
+    vbi_rng rng = vbi_rng_make(5, 5);
     for (uint32_t i = 0; i < NP; ++i) {
-        pos[i] = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        pos[i] = sample_uniform_sphere(vbi_rng_next2(&rng));
         pts[i].p[0] = pos[i].x;
         pts[i].p[1] = pos[i].y;
         pts[i].p[2] = pos[i].z;
         pts[i].id = i;
     }
-    vbnl_kd_tree tree;
-    assert_int_equal(vbnl_kd_build(&tree, pts, NP), 0);
+    vbi_kd_tree tree;
+    assert_int_equal(vbi_kd_build(&tree, pts, NP), 0);
     uint32_t ids[NL];
     for (uint32_t i = 0; i < NL; ++i) /* distinct photons, as one trial per photon gives */
-        ids[i] = (uint32_t)((uint64_t)i * NP / NL + vbnl_rng_uniform_u32(&rng, NP / NL));
+        ids[i] = (uint32_t)((uint64_t)i * NP / NL + vbi_rng_uniform_u32(&rng, NP / NL));
     double min0, mean0 = nn_stats(pos, ids, NL, &min0);
     vbnl_error err = {0};
     assert_int_equal(rv_relax(&tree, pos, ids, NL, 6, 20, NULL, NULL, &err), VBNL_OK);
@@ -303,7 +303,7 @@ static void test_relaxation(void **state)
     assert_true(mean1 > 1.2 * mean0);
     assert_true(min1 > 3.0 * min0);
     assert_true(distinct == NL);
-    vbnl_kd_free(&tree);
+    vbi_kd_free(&tree);
     free(pts);
     free(pos);
 }

@@ -68,17 +68,17 @@ static void make_raw_rays(raw_rays *rr, uint32_t count)
 {
     rr->o = malloc(sizeof(vec3) * count);
     rr->d = malloc(sizeof(vec3) * count);
-    vbnl_rng rng = vbnl_rng_make(0x5eed, 7);
+    vbi_rng rng = vbi_rng_make(0x5eed, 7);
     for (uint64_t attempt = 0; rr->n < count && attempt < (uint64_t)count * 16; ++attempt) {
         vec3 o, d;
-        vbnl_camera_ray(&rr->s->camera, 512, 512, vbnl_rng_next(&rng) * 512, vbnl_rng_next(&rng) * 512, &o, &d);
-        vbnl_hit h;
-        if (!vbnl_scene_intersect(rr->s, o, d, INFINITY, &h))
+        vbi_camera_ray(&rr->s->camera, 512, 512, vbi_rng_next(&rng) * 512, vbi_rng_next(&rng) * 512, &o, &d);
+        vbi_hit h;
+        if (!vbi_scene_intersect(rr->s, o, d, INFINITY, &h))
             continue;
         vec3 nrm = v3_dot(h.ng, d) < 0.0f ? h.ng : v3_neg(h.ng);
         frame f = frame_from_normal(nrm);
-        vec3 w = frame_to_world(&f, sample_cosine_hemisphere(vbnl_rng_next2(&rng)));
-        rr->o[rr->n] = vbnl_offset_ray_origin(h.p, nrm, w);
+        vec3 w = frame_to_world(&f, sample_cosine_hemisphere(vbi_rng_next2(&rng)));
+        rr->o[rr->n] = vbi_offset_ray_origin(h.p, nrm, w);
         rr->d[rr->n] = w;
         rr->n++;
     }
@@ -94,7 +94,7 @@ static void raw_chunk(void *user, uint64_t item, unsigned thread)
     if (!rr->packet) {
         for (uint32_t i = b; i < e; ++i) {
             struct RTCRayHit rh;
-            vbnl_rayhit_init(&rh, rr->o[i], rr->d[i], INFINITY);
+            vbi_rayhit_init(&rh, rr->o[i], rr->d[i], INFINITY);
             rtcIntersect1(rr->s->world, &ictx, &rh);
         }
         return;
@@ -102,7 +102,7 @@ static void raw_chunk(void *user, uint64_t item, unsigned thread)
     for (uint32_t i0 = b; i0 < e; i0 += 8) {
         _Alignas(32) struct RTCRayHit8 rh;
         _Alignas(32) int valid[8];
-        vbnl_rayhit8_fill(&rh, valid, rr->o, rr->d, i0, e);
+        vbi_rayhit8_fill(&rh, valid, rr->o, rr->d, i0, e);
         rtcIntersect8(valid, rr->s->world, &ictx, &rh);
     }
 }
@@ -116,9 +116,9 @@ static void raw_rate(vbnl_context *ctx, raw_rays *rr, double *wall, double *cpu)
         rr->packet = packet;
         double w[3], c[3];
         for (int k = 0; k < 3; ++k) {
-            double t0 = vbnl_now(), c0 = cpu_now();
-            vbnl_pool_run(ctx->pool, (rr->n + 4095u) / 4096u, raw_chunk, (void *)rr, NULL, NULL, 1.0);
-            w[k] = rr->n / (vbnl_now() - t0);
+            double t0 = vbi_now(), c0 = cpu_now();
+            vbi_pool_run(ctx->pool, (rr->n + 4095u) / 4096u, raw_chunk, (void *)rr, NULL, NULL, 1.0);
+            w[k] = rr->n / (vbi_now() - t0);
             c[k] = rr->n / (cpu_now() - c0);
         }
         for (int a = 0; a < 3; ++a)
@@ -203,11 +203,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "bench_splitting: lights must be 'camera' or 'pipeline', got '%s'\n", argv[7]);
         return 2;
     }
-    vbnl_vl_set vls;
+    vbi_vl_set vls;
     memset(&vls, 0, sizeof(vls));
     if (pipeline) {
-        vbnl_prepare_params pp = {nvl, 10u * nvl, 4, 0.15f, 4, VBNL_ELIM_ADAPTIVE, 1, 32, 0.8f, 2.0f, 512, 512, 1};
-        if (vbnl_prepare_lights(s, &pp, NULL, ctx->pool, &vls, NULL, &err) != VBNL_OK) {
+        vbi_prepare_params pp = {nvl, 10u * nvl, 4, 0.15f, 4, VBI_ELIM_ADAPTIVE, 1, 32, 0.8f, 2.0f, 512, 512, 1};
+        if (vbi_prepare_lights(s, &pp, NULL, ctx->pool, &vls, NULL, &err) != VBNL_OK) {
             fprintf(stderr, "%s\n", err.message);
             return 1;
         }
@@ -217,7 +217,7 @@ int main(int argc, char **argv)
     float *r = malloc(sizeof(float) * nvl);
     uint8_t *glossy = malloc(nvl);
     float rad = 2.0f * sqrtf((float)(area / (2.0 * sqrt(3.0) * nvl)));
-    vbnl_rng rng = vbnl_rng_make(3, 3);
+    vbi_rng rng = vbi_rng_make(3, 3);
     uint32_t k = 0;
     for (; pipeline && k < nvl; ++k) {
         c[k] = vls.position[k];
@@ -235,16 +235,16 @@ int main(int argc, char **argv)
             return 1;
         }
         vec3 o, d;
-        vbnl_camera_ray(&s->camera, 512, 512, vbnl_rng_next(&rng) * 512, vbnl_rng_next(&rng) * 512, &o, &d);
-        vbnl_hit h;
-        if (!vbnl_scene_intersect(s, o, d, INFINITY, &h))
+        vbi_camera_ray(&s->camera, 512, 512, vbi_rng_next(&rng) * 512, vbi_rng_next(&rng) * 512, &o, &d);
+        vbi_hit h;
+        if (!vbi_scene_intersect(s, o, d, INFINITY, &h))
             continue;
         vec3 ng = v3_dot(h.ng, d) > 0.0f ? v3_neg(h.ng) : h.ng;
         frame f = frame_from_normal(ng);
-        vec3 d2 = frame_to_world(&f, sample_cosine_hemisphere(vbnl_rng_next2(&rng)));
-        vbnl_hit h2;
-        if (!vbnl_scene_intersect(s, vbnl_offset_ray_origin(h.p, ng, d2), d2, INFINITY, &h2) ||
-            vbnl_bsdf_is_delta(&s->materials[h2.material].bsdf))
+        vec3 d2 = frame_to_world(&f, sample_cosine_hemisphere(vbi_rng_next2(&rng)));
+        vbi_hit h2;
+        if (!vbi_scene_intersect(s, vbi_offset_ray_origin(h.p, ng, d2), d2, INFINITY, &h2) ||
+            vbi_bsdf_is_delta(&s->materials[h2.material].bsdf))
             continue;
         c[k] = h2.p;
         n[k] = v3_dot(h2.ng, d2) > 0.0f ? v3_neg(h2.ng) : h2.ng;
@@ -285,40 +285,40 @@ int main(int argc, char **argv)
            "is the ceiling)\n",
            raw * 1e-6, raw_single * 1e-6, raw_packet * 1e-6);
 
-    vbnl_hemioct *map = NULL;
-    vbnl_hemioct_create(16, &map);
-    double unit = vbnl_split_photon_unit(s, paths);
+    vbi_hemioct *map = NULL;
+    vbi_hemioct_create(16, &map);
+    double unit = vbi_split_photon_unit(s, paths);
     struct {
         const char *name;
-        vbnl_vl_index_kind kind;
+        vbi_vl_index_kind kind;
         float cell_scale;
         uint32_t count;
     } variants[] = {
-        {"tracing only (no VLs)", VBNL_VL_INDEX_GRID, 2.0f, 0},
-        {"grid, cell = 2 r", VBNL_VL_INDEX_GRID, 2.0f, nvl},
-        {"grid, cell = 1 r", VBNL_VL_INDEX_GRID, 1.0f, nvl},
-        {"embree point query", VBNL_VL_INDEX_EMBREE, 0.0f, nvl},
+        {"tracing only (no VLs)", VBI_VL_INDEX_GRID, 2.0f, 0},
+        {"grid, cell = 2 r", VBI_VL_INDEX_GRID, 2.0f, nvl},
+        {"grid, cell = 1 r", VBI_VL_INDEX_GRID, 1.0f, nvl},
+        {"embree point query", VBI_VL_INDEX_EMBREE, 0.0f, nvl},
     };
     /* Per variant that ran: CPU nanoseconds per traced ray (threads x median seconds / rays). */
     double ns_per_ray[sizeof(variants) / sizeof(variants[0])] = {0};
     for (size_t v = 0; v < sizeof(variants) / sizeof(variants[0]); ++v) {
         if (mask && !(mask >> v & 1u))
             continue;
-        vbnl_vl_index_desc xd = {c, r, n, variants[v].count, variants[v].kind, variants[v].cell_scale, ctx->device,
-                                 VBNL_VL_INDEX_LEVELS_AUTO};
-        vbnl_vl_index *idx = NULL;
-        double tb = vbnl_now();
-        if (vbnl_vl_index_create(&xd, &idx) != VBNL_OK)
+        vbi_vl_index_desc xd = {c, r, n, variants[v].count, variants[v].kind, variants[v].cell_scale, ctx->device,
+                                 VBI_VL_INDEX_LEVELS_AUTO};
+        vbi_vl_index *idx = NULL;
+        double tb = vbi_now();
+        if (vbi_vl_index_create(&xd, &idx) != VBNL_OK)
             return 1;
-        tb = vbnl_now() - tb;
+        tb = vbi_now() - tb;
         double times[15], ratios[15], cpu_ratios[15];
-        vbnl_split_stats st;
+        vbi_split_stats st;
         size_t pbytes = 0;
         for (int run = 0; run < runs; ++run) {
-            vbnl_profile_set *ps = NULL;
-            vbnl_profile_set_create_fixed(map, variants[v].count, glossy, unit, &ps);
-            vbnl_split_desc d;
-            vbnl_split_desc_init(&d);
+            vbi_profile_set *ps = NULL;
+            vbi_profile_set_create_fixed(map, variants[v].count, glossy, unit, &ps);
+            vbi_split_desc d;
+            vbi_split_desc_init(&d);
             d.scene = s;
             d.index = idx;
             d.vl_normals = n;
@@ -331,13 +331,13 @@ int main(int argc, char **argv)
             if (want_raw)
                 raw_rate(ctx, &rr, &raw_run, &raw_cpu);
             double c0 = cpu_now();
-            vbnl_split_photons(&d, ctx->pool, NULL, &st);
+            vbi_split_photons(&d, ctx->pool, NULL, &st);
             double split_cpu = cpu_now() - c0;
             times[run] = st.seconds;
             ratios[run] = raw_run > 0.0 ? st.rays / st.seconds / raw_run : 0.0;
             cpu_ratios[run] = raw_cpu > 0.0 ? st.rays / split_cpu / raw_cpu : 0.0;
-            pbytes = vbnl_profile_set_bytes(ps);
-            vbnl_profile_set_destroy(ps);
+            pbytes = vbi_profile_set_bytes(ps);
+            vbi_profile_set_destroy(ps);
         }
         qsort(times, (size_t)runs, sizeof(double), cmp_double);
         qsort(ratios, (size_t)runs, sizeof(double), cmp_double);
@@ -350,9 +350,9 @@ int main(int argc, char **argv)
                raw > 0.0 ? 100.0 * st.rays / t / raw : 0.0, 100.0 * ratio, 100.0 * cpu_ratio, st.deposits / t * 1e-6, (double)st.hits / st.paths,
                100.0 * st.simd_hits / (st.hits ? st.hits : 1), 100.0 * st.covered_hits / (st.hits ? st.hits : 1),
                (double)st.deposits / (st.covered_hits ? st.covered_hits : 1), (unsigned long long)st.overflow,
-               vbnl_vl_index_bytes(idx) / 1048576.0, vbnl_vl_index_level_count(idx), tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
+               vbi_vl_index_bytes(idx) / 1048576.0, vbi_vl_index_level_count(idx), tb, pbytes / 1048576.0, st.scratch_bytes / 1048576.0);
         ns_per_ray[v] = st.rays ? 1e9 * nthreads * t / (double)st.rays : 0.0;
-        vbnl_vl_index_destroy(idx);
+        vbi_vl_index_destroy(idx);
     }
     /* Where a ray's time goes, against the target: at half the ceiling a ray may take twice what
      * Embree alone needs, so the walk (emission, hit set-up, bounce) and the deposit together must
@@ -366,12 +366,12 @@ int main(int argc, char **argv)
                 printf("; %s %.0f ns (deposit %.0f ns)", variants[v].name, ns_per_ray[v], ns_per_ray[v] - ns_per_ray[0]);
         printf(". Half the ceiling leaves %.0f ns for walk and deposit together\n", embree);
     }
-    vbnl_hemioct_destroy(map);
+    vbi_hemioct_destroy(map);
     free(c);
     free(n);
     free(r);
     free(glossy);
-    vbnl_vl_set_free(&vls);
+    vbi_vl_set_free(&vls);
     free(rr.o);
     free(rr.d);
     vbnl_scene_destroy(s);

@@ -128,7 +128,7 @@ static void test_clamp_never_brightens(void **state)
     free(b);
 }
 
-static void vpl_params_default(vbnl_vpl_params *p)
+static void vpl_params_default(vbi_vpl_params *p)
 {
     memset(p, 0, sizeof(*p));
     p->target = 500;
@@ -146,20 +146,20 @@ static void vpl_params_default(vbnl_vpl_params *p)
 static void test_acceptance_epsilon_one_is_plain_ir(void **state)
 {
     fixture *f = *state;
-    vbnl_vpl_params p;
+    vbi_vpl_params p;
     vpl_params_default(&p);
-    vbnl_vpl_set plain, gs1, gs;
+    vbi_vpl_set plain, gs1, gs;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_vpl_set_build(f->scene, &p, NULL, &plain, &err), VBNL_OK);
+    assert_int_equal(vbi_vpl_set_build(f->scene, &p, NULL, &plain, &err), VBNL_OK);
     p.acceptance = 1;
     p.epsilon = 1.0f;
-    assert_int_equal(vbnl_vpl_set_build(f->scene, &p, NULL, &gs1, &err), VBNL_OK);
+    assert_int_equal(vbi_vpl_set_build(f->scene, &p, NULL, &gs1, &err), VBNL_OK);
     assert_int_equal(plain.count, gs1.count);
     assert_int_equal(plain.paths, gs1.paths);
-    assert_memory_equal(plain.vpls, gs1.vpls, sizeof(vbnl_vpl) * plain.count);
+    assert_memory_equal(plain.vpls, gs1.vpls, sizeof(vbi_vpl) * plain.count);
     assert_true(gs1.mean_acceptance == 1.0);
     p.epsilon = 0.05f;
-    assert_int_equal(vbnl_vpl_set_build(f->scene, &p, NULL, &gs, &err), VBNL_OK);
+    assert_int_equal(vbi_vpl_set_build(f->scene, &p, NULL, &gs, &err), VBNL_OK);
     print_message("# acceptance eps=0.05: %u VPLs from %llu candidates (%llu paths vs %llu), mean p %.3f\n",
                   gs.count, (unsigned long long)gs.candidates, (unsigned long long)gs.paths,
                   (unsigned long long)plain.paths, gs.mean_acceptance);
@@ -168,9 +168,9 @@ static void test_acceptance_epsilon_one_is_plain_ir(void **state)
     assert_true(gs.paths > plain.paths);
     assert_true(gs.candidates > gs.count);
     assert_true(plain.count == p.target);
-    vbnl_vpl_set_free(&plain);
-    vbnl_vpl_set_free(&gs1);
-    vbnl_vpl_set_free(&gs);
+    vbi_vpl_set_free(&plain);
+    vbi_vpl_set_free(&gs1);
+    vbi_vpl_set_free(&gs);
 }
 
 /* Oracle 4, in expectation: the acceptance keeps the expected image of plain IR (the 1/p weight).

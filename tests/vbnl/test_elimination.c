@@ -3,7 +3,7 @@
  * Blue-noise quality is measured as the relative radius of Lagae and Dutre: a kept point's
  * nearest-neighbour distance over 2 r_max (hexagonal packing = 1, random subset ~ 0.47). The
  * metric is computed here by an independent sweep over x-sorted points, and compared once with
- * vbnl_elim_measure. Inputs come from fixed seeds, so every outcome is deterministic. */
+ * vbi_elim_measure. Inputs come from fixed seeds, so every outcome is deterministic. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -27,9 +27,9 @@ static vec3 *make_plane(uint32_t M, uint64_t seed, int dense_left)
 {
     vec3 *p = malloc((size_t)M * sizeof(vec3));
     assert_non_null(p);
-    vbnl_rng rng = vbnl_rng_make(seed, 11);
+    vbi_rng rng = vbi_rng_make(seed, 11);
     for (uint32_t i = 0; i < M; ++i) {
-        float x = vbnl_rng_next(&rng), y = vbnl_rng_next(&rng);
+        float x = vbi_rng_next(&rng), y = vbi_rng_next(&rng);
         if (dense_left)
             x = i < M / 5 * 4 ? 0.5f * x : 0.5f + 0.5f * x;
         p[i] = v3(x, y, 0.0f);
@@ -42,10 +42,10 @@ static vec3 *make_bumpy(uint32_t M, uint64_t seed)
 {
     vec3 *p = malloc((size_t)M * sizeof(vec3));
     assert_non_null(p);
-    vbnl_rng rng = vbnl_rng_make(seed, 13);
+    vbi_rng rng = vbi_rng_make(seed, 13);
     for (uint32_t i = 0; i < M; ++i) {
-        float x = vbnl_rng_next(&rng), y = vbnl_rng_next(&rng);
-        p[i] = v3(x, y, 0.08f * sinf(6.0f * VBNL_PI * x) * sinf(4.0f * VBNL_PI * y));
+        float x = vbi_rng_next(&rng), y = vbi_rng_next(&rng);
+        p[i] = v3(x, y, 0.08f * sinf(6.0f * VBI_PI * x) * sinf(4.0f * VBI_PI * y));
     }
     return p;
 }
@@ -53,21 +53,21 @@ static vec3 *make_bumpy(uint32_t M, uint64_t seed)
 typedef struct run {
     uint32_t *kept;
     float *rmax;
-    vbnl_elim_stats stats;
+    vbi_elim_stats stats;
 } run;
 
-static vbnl_result run_elim(const vec3 *pts, uint32_t M, const vbnl_elim_params *p, vbnl_pool *pool,
+static vbnl_result run_elim(const vec3 *pts, uint32_t M, const vbi_elim_params *p, vbi_pool *pool,
                             run *out)
 {
     out->kept = malloc((size_t)p->target * sizeof(uint32_t));
     out->rmax = malloc((size_t)p->target * sizeof(float));
     assert_non_null(out->kept);
     assert_non_null(out->rmax);
-    vbnl_elim_exec ex = vbnl_elim_exec_pool(pool);
+    vbi_elim_exec ex = vbi_elim_exec_pool(pool);
     vbnl_error err = {0};
-    vbnl_result r = vbnl_eliminate(pts, M, p, &ex, out->kept, out->rmax, &out->stats, &err);
+    vbnl_result r = vbi_eliminate(pts, M, p, &ex, out->kept, out->rmax, &out->stats, &err);
     if (r != VBNL_OK)
-        print_message("# vbnl_eliminate: %s\n", err.message);
+        print_message("# vbi_eliminate: %s\n", err.message);
     return r;
 }
 
@@ -133,28 +133,28 @@ static void check_kept(const run *r, uint32_t M, uint32_t N)
 static void test_keeps_exactly_n(void **state)
 {
     (void)state;
-    vbnl_pool *pool = vbnl_pool_create(2);
+    vbi_pool *pool = vbi_pool_create(2);
     assert_non_null(pool);
     const uint32_t sizes[][2] = {{40000, 4000}, {5000, 777}, {300, 299}, {300, 300}, {2000, 1}};
     for (size_t s = 0; s < sizeof(sizes) / sizeof(sizes[0]); ++s) {
         uint32_t M = sizes[s][0], N = sizes[s][1];
         vec3 *pts = make_bumpy(M, 100 + s);
-        for (int mode = VBNL_ELIM_NONE; mode <= VBNL_ELIM_ADAPTIVE; ++mode)
+        for (int mode = VBI_ELIM_NONE; mode <= VBI_ELIM_ADAPTIVE; ++mode)
             for (int par = 0; par < 2; ++par) {
-                vbnl_elim_params p;
-                vbnl_elim_params_default(&p, N);
-                p.mode = (vbnl_elim_mode)mode;
+                vbi_elim_params p;
+                vbi_elim_params_default(&p, N);
+                p.mode = (vbi_elim_mode)mode;
                 p.parallel = par;
                 run r;
                 assert_int_equal(run_elim(pts, M, &p, par ? pool : NULL, &r), VBNL_OK);
                 check_kept(&r, M, N);
-                if (par && mode != VBNL_ELIM_NONE && N < M)
+                if (par && mode != VBI_ELIM_NONE && N < M)
                     assert_int_equal(r.stats.levels, M >= 32768 ? 3 : (M >= 4096 ? 2 : 1));
                 run_free(&r);
             }
         free(pts);
     }
-    vbnl_pool_destroy(pool);
+    vbi_pool_destroy(pool);
 }
 
 /* 100K uniform candidates on a plane -> 10K: elimination gives blue noise (relative mean NN
@@ -165,12 +165,12 @@ static void test_blue_noise_plane(void **state)
     const uint32_t M = 100000, N = 10000;
     vec3 *pts = make_plane(M, 7, 0);
     /* blue: 1 = default (weight limiting), 2 = plain weight of the notes (limit 0.72), 0 = none */
-    const struct { vbnl_elim_mode mode; double area; int blue; } cases[] = {
-        {VBNL_ELIM_UNIFORM, 1.0, 1}, {VBNL_ELIM_UNIFORM, 0.0, 1}, {VBNL_ELIM_ADAPTIVE, 0.0, 1},
-        {VBNL_ELIM_ADAPTIVE, 0.0, 2}, {VBNL_ELIM_NONE, 0.0, 0}};
+    const struct { vbi_elim_mode mode; double area; int blue; } cases[] = {
+        {VBI_ELIM_UNIFORM, 1.0, 1}, {VBI_ELIM_UNIFORM, 0.0, 1}, {VBI_ELIM_ADAPTIVE, 0.0, 1},
+        {VBI_ELIM_ADAPTIVE, 0.0, 2}, {VBI_ELIM_NONE, 0.0, 0}};
     for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); ++c) {
-        vbnl_elim_params p;
-        vbnl_elim_params_default(&p, N);
+        vbi_elim_params p;
+        vbi_elim_params_default(&p, N);
         p.mode = cases[c].mode;
         p.surface_area = cases[c].area;
         p.weight_limit = cases[c].blue != 2;
@@ -178,7 +178,7 @@ static void test_blue_noise_plane(void **state)
         assert_int_equal(run_elim(pts, M, &p, NULL, &r), VBNL_OK);
         double mean, mn, mean2, mn2;
         quality(pts, &r, N, &mean, &mn);
-        assert_int_equal(vbnl_elim_measure(pts, r.kept, r.rmax, N, &mean2, &mn2, NULL), VBNL_OK);
+        assert_int_equal(vbi_elim_measure(pts, r.kept, r.rmax, N, &mean2, &mn2, NULL), VBNL_OK);
         assert_true(fabs(mean - mean2) < 1e-5 && fabs(mn - mn2) < 1e-5);
         print_message("#   mode %d area %.1f limit %d: mean NN/2r_max %.4f  min %.4f  (area used %.4f)\n",
                       (int)cases[c].mode, cases[c].area, p.weight_limit, mean, mn, r.stats.area);
@@ -188,7 +188,7 @@ static void test_blue_noise_plane(void **state)
             assert_true(mean >= 0.72);
         else
             assert_true(mean < 0.6);
-        if (cases[c].mode == VBNL_ELIM_UNIFORM && cases[c].area == 0.0)
+        if (cases[c].mode == VBI_ELIM_UNIFORM && cases[c].area == 0.0)
             assert_true(fabs(r.stats.area - 1.0) < 0.05); /* estimate of the unit square */
         run_free(&r);
     }
@@ -202,12 +202,12 @@ static void test_serial_vs_parallel(void **state)
     (void)state;
     const uint32_t M = 130000, N = 13000;
     vec3 *pts = make_bumpy(M, 8);
-    vbnl_pool *pool = vbnl_pool_create(2);
+    vbi_pool *pool = vbi_pool_create(2);
     assert_non_null(pool);
     double mean[2], mn[2];
     for (int par = 0; par < 2; ++par) {
-        vbnl_elim_params p;
-        vbnl_elim_params_default(&p, N);
+        vbi_elim_params p;
+        vbi_elim_params_default(&p, N);
         p.parallel = par;
         run r;
         assert_int_equal(run_elim(pts, M, &p, pool, &r), VBNL_OK);
@@ -220,7 +220,7 @@ static void test_serial_vs_parallel(void **state)
     print_message("#   parallel/serial: mean %.4f  min-distance ratio %.4f\n", mean[1] / mean[0], mn[1] / mn[0]);
     assert_true(fabs(mean[1] / mean[0] - 1.0) <= 0.05);
     assert_true(mean[0] >= 0.7 && mean[1] >= 0.7);
-    vbnl_pool_destroy(pool);
+    vbi_pool_destroy(pool);
     free(pts);
 }
 
@@ -242,13 +242,13 @@ static void test_adaptive_density(void **state)
     (void)state;
     const uint32_t M = 100000, N = 10000;
     vec3 *pts = make_plane(M, 9, 1);
-    vbnl_pool *pool = vbnl_pool_create(2);
+    vbi_pool *pool = vbi_pool_create(2);
     assert_non_null(pool);
-    const struct { vbnl_elim_mode mode; int parallel; } cases[] = {
-        {VBNL_ELIM_ADAPTIVE, 0}, {VBNL_ELIM_ADAPTIVE, 1}, {VBNL_ELIM_UNIFORM, 0}, {VBNL_ELIM_UNIFORM, 1}};
+    const struct { vbi_elim_mode mode; int parallel; } cases[] = {
+        {VBI_ELIM_ADAPTIVE, 0}, {VBI_ELIM_ADAPTIVE, 1}, {VBI_ELIM_UNIFORM, 0}, {VBI_ELIM_UNIFORM, 1}};
     for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); ++c) {
-        vbnl_elim_params p;
-        vbnl_elim_params_default(&p, N);
+        vbi_elim_params p;
+        vbi_elim_params_default(&p, N);
         p.mode = cases[c].mode;
         p.parallel = cases[c].parallel;
         p.surface_area = 1.0;
@@ -258,9 +258,9 @@ static void test_adaptive_density(void **state)
         density_ratio(pts, &r, N, &ratio);
         quality(pts, &r, N, &mean, &mn);
         print_message("#   %s %s: dense/sparse kept %.3f  mean NN/2r_max %.4f\n",
-                      cases[c].mode == VBNL_ELIM_ADAPTIVE ? "adaptive" : "uniform ",
+                      cases[c].mode == VBI_ELIM_ADAPTIVE ? "adaptive" : "uniform ",
                       cases[c].parallel ? "parallel" : "serial  ", ratio, mean);
-        if (cases[c].mode == VBNL_ELIM_ADAPTIVE) {
+        if (cases[c].mode == VBI_ELIM_ADAPTIVE) {
             assert_true(fabs(ratio / 4.0 - 1.0) <= 0.15);
             assert_true(mean >= 0.7);
         } else {
@@ -268,7 +268,7 @@ static void test_adaptive_density(void **state)
         }
         run_free(&r);
     }
-    vbnl_pool_destroy(pool);
+    vbi_pool_destroy(pool);
     free(pts);
 }
 
@@ -278,13 +278,13 @@ static void test_determinism(void **state)
     (void)state;
     const uint32_t M = 60000, N = 6000;
     vec3 *pts = make_bumpy(M, 10);
-    vbnl_pool *p1 = vbnl_pool_create(1), *p2 = vbnl_pool_create(2);
+    vbi_pool *p1 = vbi_pool_create(1), *p2 = vbi_pool_create(2);
     assert_non_null(p1);
     assert_non_null(p2);
-    for (int mode = VBNL_ELIM_NONE; mode <= VBNL_ELIM_ADAPTIVE; ++mode) {
-        vbnl_elim_params p;
-        vbnl_elim_params_default(&p, N);
-        p.mode = (vbnl_elim_mode)mode;
+    for (int mode = VBI_ELIM_NONE; mode <= VBI_ELIM_ADAPTIVE; ++mode) {
+        vbi_elim_params p;
+        vbi_elim_params_default(&p, N);
+        p.mode = (vbi_elim_mode)mode;
         p.parallel = 1;
         p.seed = 42;
         run a, b, c;
@@ -294,7 +294,7 @@ static void test_determinism(void **state)
         assert_memory_equal(a.kept, b.kept, N * sizeof(uint32_t));
         assert_memory_equal(a.rmax, b.rmax, N * sizeof(float));
         assert_memory_equal(a.kept, c.kept, N * sizeof(uint32_t));
-        if (mode == VBNL_ELIM_NONE) { /* the seed matters there, and only there */
+        if (mode == VBI_ELIM_NONE) { /* the seed matters there, and only there */
             run d;
             p.seed = 43;
             assert_int_equal(run_elim(pts, M, &p, p2, &d), VBNL_OK);
@@ -305,23 +305,23 @@ static void test_determinism(void **state)
         run_free(&b);
         run_free(&c);
     }
-    vbnl_pool_destroy(p1);
-    vbnl_pool_destroy(p2);
+    vbi_pool_destroy(p1);
+    vbi_pool_destroy(p2);
     free(pts);
 }
 
-static void expect_error(const vec3 *pts, uint32_t M, const vbnl_elim_params *p, uint32_t *kept,
+static void expect_error(const vec3 *pts, uint32_t M, const vbi_elim_params *p, uint32_t *kept,
                          vbnl_result code, const char *word)
 {
     vbnl_error err = {0};
-    vbnl_result r = vbnl_eliminate(pts, M, p, NULL, kept, NULL, NULL, &err);
+    vbnl_result r = vbi_eliminate(pts, M, p, NULL, kept, NULL, NULL, &err);
     assert_int_equal(r, code);
     assert_int_equal(err.code, code);
     if (!strstr(err.message, word))
         print_message("# message \"%s\" lacks \"%s\"\n", err.message, word);
     assert_non_null(strstr(err.message, word));
     /* a NULL error record is allowed too */
-    assert_int_equal(vbnl_eliminate(pts, M, p, NULL, kept, NULL, NULL, NULL), code);
+    assert_int_equal(vbi_eliminate(pts, M, p, NULL, kept, NULL, NULL, NULL), code);
 }
 
 static void test_bad_inputs(void **state)
@@ -330,13 +330,13 @@ static void test_bad_inputs(void **state)
     const uint32_t M = 1000;
     vec3 *pts = make_plane(M, 12, 0);
     uint32_t kept[M];
-    vbnl_elim_params p, q;
-    vbnl_elim_params_default(&p, 100);
+    vbi_elim_params p, q;
+    vbi_elim_params_default(&p, 100);
     vbnl_error err = {0};
-    assert_int_equal(vbnl_eliminate(NULL, M, &p, NULL, kept, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_eliminate(NULL, M, &p, NULL, kept, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "points"));
-    assert_int_equal(vbnl_eliminate(pts, M, NULL, NULL, kept, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_eliminate(pts, M, &p, NULL, NULL, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_eliminate(pts, M, NULL, NULL, kept, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_eliminate(pts, M, &p, NULL, NULL, NULL, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "out_kept"));
     expect_error(pts, 0, &p, kept, VBNL_ERR_INVALID_ARGUMENT, "M = 0");
     q = p; q.target = 0;
@@ -359,7 +359,7 @@ static void test_bad_inputs(void **state)
     expect_error(pts, M, &q, kept, VBNL_ERR_INVALID_ARGUMENT, "surface_area");
     q = p; q.surface_area = INFINITY;
     expect_error(pts, M, &q, kept, VBNL_ERR_INVALID_ARGUMENT, "surface_area");
-    q = p; q.mode = (vbnl_elim_mode)7;
+    q = p; q.mode = (vbi_elim_mode)7;
     expect_error(pts, M, &q, kept, VBNL_ERR_INVALID_ARGUMENT, "mode");
     pts[517].y = NAN;
     expect_error(pts, M, &p, kept, VBNL_ERR_INVALID_ARGUMENT, "candidate 517");
@@ -373,10 +373,10 @@ static void test_bad_inputs(void **state)
     /* One candidate: Eq. 2 has no neighbour; uniform with a given area works. */
     q = p; q.target = 1;
     expect_error(pts, 1, &q, kept, VBNL_ERR_INVALID_ARGUMENT, "neighbour");
-    q.mode = VBNL_ELIM_UNIFORM;
+    q.mode = VBI_ELIM_UNIFORM;
     q.surface_area = 1.0;
     float rm;
-    assert_int_equal(vbnl_eliminate(pts, 1, &q, NULL, kept, &rm, NULL, NULL), VBNL_OK);
+    assert_int_equal(vbi_eliminate(pts, 1, &q, NULL, kept, &rm, NULL, NULL), VBNL_OK);
     assert_int_equal(kept[0], 0);
     /* All candidates at one spot: no area to spread lights over. */
     vec3 same[50];
@@ -384,17 +384,17 @@ static void test_bad_inputs(void **state)
         same[i] = v3(1, 2, 3);
     q = p; q.target = 5;
     expect_error(same, 50, &q, kept, VBNL_ERR_INVALID_ARGUMENT, "coincide");
-    q.mode = VBNL_ELIM_UNIFORM;
+    q.mode = VBI_ELIM_UNIFORM;
     expect_error(same, 50, &q, kept, VBNL_ERR_INVALID_ARGUMENT, "coincide");
     /* measure */
     double a, b;
-    assert_int_equal(vbnl_elim_measure(pts, kept, &rm, 1, &a, &b, NULL), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_elim_measure(NULL, kept, &rm, 5, &a, &b, NULL), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_elim_measure(pts, kept, &rm, 1, &a, &b, NULL), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_elim_measure(NULL, kept, &rm, 5, &a, &b, NULL), VBNL_ERR_INVALID_ARGUMENT);
     free(pts);
 }
 
 /* A cancelling exec makes the call fail with VBNL_ERR_CANCELLED. */
-static int cancel_run(void *ctx, uint64_t count, vbnl_pool_fn fn, void *user)
+static int cancel_run(void *ctx, uint64_t count, vbi_pool_fn fn, void *user)
 {
     (void)ctx;
     (void)count;
@@ -410,11 +410,11 @@ static void test_cancel(void **state)
     vec3 *pts = make_plane(M, 14, 0);
     uint32_t *kept = malloc(M * sizeof(uint32_t));
     assert_non_null(kept);
-    vbnl_elim_params p;
-    vbnl_elim_params_default(&p, 500);
-    vbnl_elim_exec ex = {cancel_run, NULL};
+    vbi_elim_params p;
+    vbi_elim_params_default(&p, 500);
+    vbi_elim_exec ex = {cancel_run, NULL};
     vbnl_error err = {0};
-    assert_int_equal(vbnl_eliminate(pts, M, &p, &ex, kept, NULL, NULL, &err), VBNL_ERR_CANCELLED);
+    assert_int_equal(vbi_eliminate(pts, M, &p, &ex, kept, NULL, NULL, &err), VBNL_ERR_CANCELLED);
     free(kept);
     free(pts);
 }
@@ -423,24 +423,24 @@ static void test_cancel(void **state)
 static void test_radius_density(void **state)
 {
     (void)state;
-    assert_float_equal(vbnl_vl_radius(0.25f, VBNL_VL_DEFAULT_RADIUS_SCALE), 0.5f, 1e-7);
-    assert_float_equal(vbnl_vl_density(0.5f, 2.0f), 4.0f / (2.0f * sqrtf(3.0f) * 0.25f), 1e-5);
-    assert_float_equal(vbnl_vl_density(0.0f, 2.0f), 0.0f, 0.0);
+    assert_float_equal(vbi_vl_radius(0.25f, VBI_VL_DEFAULT_RADIUS_SCALE), 0.5f, 1e-7);
+    assert_float_equal(vbi_vl_density(0.5f, 2.0f), 4.0f / (2.0f * sqrtf(3.0f) * 0.25f), 1e-5);
+    assert_float_equal(vbi_vl_density(0.0f, 2.0f), 0.0f, 0.0);
     const uint32_t M = 20000, N = 2000;
     vec3 *pts = make_plane(M, 15, 0);
-    vbnl_elim_params p;
-    vbnl_elim_params_default(&p, N);
-    p.mode = VBNL_ELIM_UNIFORM;
+    vbi_elim_params p;
+    vbi_elim_params_default(&p, N);
+    p.mode = VBI_ELIM_UNIFORM;
     p.surface_area = 2.0;
     run r;
     assert_int_equal(run_elim(pts, M, &p, NULL, &r), VBNL_OK);
     double area = 0.0; /* sum of 1 / rho_i over the lights = A (Eq. 1 with Eq. 8) */
     for (uint32_t i = 0; i < N; ++i)
-        area += 1.0 / vbnl_vl_density(vbnl_vl_radius(r.rmax[i], 2.0f), 2.0f);
+        area += 1.0 / vbi_vl_density(vbi_vl_radius(r.rmax[i], 2.0f), 2.0f);
     assert_true(fabs(area - 2.0) < 1e-3);
     run_free(&r);
     /* Adaptive on a uniform plane: Eq. 2 radii scatter around Eq. 1's. */
-    p.mode = VBNL_ELIM_ADAPTIVE;
+    p.mode = VBI_ELIM_ADAPTIVE;
     assert_int_equal(run_elim(pts, M, &p, NULL, &r), VBNL_OK);
     double sum = 0.0, r1 = sqrt(1.0 / (2.0 * sqrt(3.0) * N));
     for (uint32_t i = 0; i < N; ++i)
@@ -471,7 +471,7 @@ static void test_kdtree(void **state)
     for (uint32_t i = 0; i < 200; ++i)
         src[n - 1 - i] = src[i]; /* duplicates */
     for (int parts = 0; parts < 2; ++parts) {
-        vbnl_kd_pt *pts = malloc(n * sizeof(vbnl_kd_pt));
+        vbi_kd_pt *pts = malloc(n * sizeof(vbi_kd_pt));
         uint32_t *qi = malloc(n * sizeof(uint32_t));
         float *qd = malloc(n * sizeof(float)), *all = malloc(n * sizeof(float)), knn_d2[64];
         uint32_t knn_i[64];
@@ -482,31 +482,31 @@ static void test_kdtree(void **state)
             pts[i].p[2] = src[i].z;
             pts[i].id = i;
         }
-        vbnl_kd_tree t;
+        vbi_kd_tree t;
         if (parts) {
-            vbnl_kd_subtree jobs[8];
+            vbi_kd_subtree jobs[8];
             uint32_t nj;
-            assert_int_equal(vbnl_kd_build_top(&t, pts, n, 3, jobs, &nj), 0);
+            assert_int_equal(vbi_kd_build_top(&t, pts, n, 3, jobs, &nj), 0);
             assert_int_equal(nj, 8);
             for (uint32_t j = nj; j-- > 0;)
-                vbnl_kd_build_subtree(&t, &jobs[j]);
+                vbi_kd_build_subtree(&t, &jobs[j]);
         } else {
-            assert_int_equal(vbnl_kd_build(&t, pts, n), 0);
+            assert_int_equal(vbi_kd_build(&t, pts, n), 0);
         }
         for (uint32_t i = 0; i < n; i += 37) {
             uint32_t cnt = 0;
             for (uint32_t j = 0; j < n; ++j)
                 if (j != i)
-                    all[cnt++] = vbnl_kd_dist2(pts[i].p, pts[j].p);
+                    all[cnt++] = vbi_kd_dist2(pts[i].p, pts[j].p);
             qsort(all, cnt, sizeof(float), cmp_float);
             for (uint32_t m = 1; m <= 64; m = 2 * m + 1)
-                assert_true(vbnl_kd_mth_dist2(&t, i, m, knn_i, knn_d2) == all[m - 1]);
+                assert_true(vbi_kd_mth_dist2(&t, i, m, knn_i, knn_d2) == all[m - 1]);
             float r2 = all[20];
-            uint32_t c = vbnl_kd_radius(&t, pts[i].p, r2, qi, qd, n), expect = 1; /* itself */
+            uint32_t c = vbi_kd_radius(&t, pts[i].p, r2, qi, qd, n), expect = 1; /* itself */
             for (uint32_t j = 0; j < cnt; ++j)
                 expect += all[j] <= r2;
             assert_int_equal(c, expect);
-            assert_int_equal(vbnl_kd_radius(&t, pts[i].p, r2, qi, qd, 5), 6); /* capped */
+            assert_int_equal(vbi_kd_radius(&t, pts[i].p, r2, qi, qd, 5), 6); /* capped */
         }
         /* Box gathers against brute force, around every leaf's box. */
         float *pr2 = malloc(n * sizeof(float)), *nr2 = malloc(t.node_count * sizeof(float));
@@ -515,9 +515,9 @@ static void test_kdtree(void **state)
         for (uint32_t i = 0; i < n; ++i)
             pr2[i] = (0.002f + 0.03f * (float)(i % 7) / 6.0f) * (0.002f + 0.03f * (float)(i % 7) / 6.0f);
         for (uint32_t k = t.node_count; k-- > 0;) { /* children follow their parent */
-            const vbnl_kd_node *nd = &t.nodes[k];
+            const vbi_kd_node *nd = &t.nodes[k];
             float r2 = 0.0f;
-            if (nd->axis == VBNL_KD_LEAF_AXIS)
+            if (nd->axis == VBI_KD_LEAF_AXIS)
                 for (uint32_t i = nd->begin; i < nd->end; ++i)
                     r2 = pr2[i] > r2 ? pr2[i] : r2;
             else
@@ -525,34 +525,34 @@ static void test_kdtree(void **state)
             nr2[k] = r2;
         }
         for (uint32_t k = 0; k < t.node_count; k += 5) {
-            if (t.nodes[k].axis != VBNL_KD_LEAF_AXIS)
+            if (t.nodes[k].axis != VBI_KD_LEAF_AXIS)
                 continue;
             const float *lo = t.box + 6 * (size_t)k, *hi = lo + 3;
             for (uint32_t i = t.nodes[k].begin; i < t.nodes[k].end; ++i)
                 for (int a = 0; a < 3; ++a)
                     assert_true(pts[i].p[a] >= lo[a] && pts[i].p[a] <= hi[a]);
             const float r2 = 0.0004f;
-            uint32_t c = vbnl_kd_gather_box(&t, lo, hi, r2, qi, n), expect = 0;
+            uint32_t c = vbi_kd_gather_box(&t, lo, hi, r2, qi, n), expect = 0;
             memset(hit, 0, n);
             for (uint32_t j = 0; j < c; ++j) {
                 assert_true(qi[j] < n && !hit[qi[j]]);
                 hit[qi[j]] = 1;
             }
             for (uint32_t i = 0; i < n; ++i) {
-                int in = vbnl_kd_box_dist2(lo, hi, pts[i].p) <= r2;
+                int in = vbi_kd_box_dist2(lo, hi, pts[i].p) <= r2;
                 expect += in;
                 assert_int_equal(hit[i], in);
             }
             assert_int_equal(c, expect);
             if (expect > 2)
-                assert_int_equal(vbnl_kd_gather_box(&t, lo, hi, r2, qi, expect - 1), expect);
-            c = vbnl_kd_gather_reach(&t, lo, hi, nr2, pr2, qi, n);
+                assert_int_equal(vbi_kd_gather_box(&t, lo, hi, r2, qi, expect - 1), expect);
+            c = vbi_kd_gather_reach(&t, lo, hi, nr2, pr2, qi, n);
             memset(hit, 0, n);
             for (uint32_t j = 0; j < c; ++j)
                 hit[qi[j]] = 1;
             expect = 0;
             for (uint32_t i = 0; i < n; ++i) {
-                int in = vbnl_kd_box_dist2(lo, hi, pts[i].p) < pr2[i];
+                int in = vbi_kd_box_dist2(lo, hi, pts[i].p) < pr2[i];
                 expect += in;
                 assert_int_equal(hit[i], in);
             }
@@ -561,14 +561,14 @@ static void test_kdtree(void **state)
         free(hit);
         free(nr2);
         free(pr2);
-        vbnl_kd_free(&t);
+        vbi_kd_free(&t);
         free(all);
         free(qd);
         free(qi);
         free(pts);
     }
-    /* Splitting jobs level by level builds the tree vbnl_kd_build makes. */
-    vbnl_kd_pt *a = malloc(n * sizeof(vbnl_kd_pt)), *b = malloc(n * sizeof(vbnl_kd_pt));
+    /* Splitting jobs level by level builds the tree vbi_kd_build makes. */
+    vbi_kd_pt *a = malloc(n * sizeof(vbi_kd_pt)), *b = malloc(n * sizeof(vbi_kd_pt));
     assert_true(a && b);
     for (uint32_t i = 0; i < n; ++i) {
         a[i].p[0] = src[i].x;
@@ -576,16 +576,16 @@ static void test_kdtree(void **state)
         a[i].p[2] = src[i].z;
         a[i].id = i;
     }
-    memcpy(b, a, n * sizeof(vbnl_kd_pt));
-    vbnl_kd_tree ta, tb;
-    assert_int_equal(vbnl_kd_build(&ta, a, n), 0);
-    vbnl_kd_subtree jobs[2][16];
+    memcpy(b, a, n * sizeof(vbi_kd_pt));
+    vbi_kd_tree ta, tb;
+    assert_int_equal(vbi_kd_build(&ta, a, n), 0);
+    vbi_kd_subtree jobs[2][16];
     uint32_t nj, nout[8];
-    assert_int_equal(vbnl_kd_build_top(&tb, b, n, 1, jobs[0], &nj), 0);
+    assert_int_equal(vbi_kd_build_top(&tb, b, n, 1, jobs[0], &nj), 0);
     for (int lev = 0; lev < 3; ++lev) {
         uint32_t k = 0;
         for (uint32_t j = 0; j < nj; ++j)
-            vbnl_kd_build_split(&tb, &jobs[lev & 1][j], jobs[(lev + 1) & 1] + 2 * j, &nout[j]);
+            vbi_kd_build_split(&tb, &jobs[lev & 1][j], jobs[(lev + 1) & 1] + 2 * j, &nout[j]);
         for (uint32_t j = 0; j < nj; ++j)
             for (uint32_t c = 0; c < nout[j]; ++c)
                 jobs[(lev + 1) & 1][k++] = jobs[(lev + 1) & 1][2 * j + c];
@@ -593,13 +593,13 @@ static void test_kdtree(void **state)
     }
     assert_int_equal(nj, 16);
     for (uint32_t j = nj; j-- > 0;)
-        vbnl_kd_build_subtree(&tb, &jobs[1][j]);
+        vbi_kd_build_subtree(&tb, &jobs[1][j]);
     assert_int_equal(ta.node_count, tb.node_count);
-    assert_memory_equal(a, b, n * sizeof(vbnl_kd_pt));
-    assert_memory_equal(ta.nodes, tb.nodes, ta.node_count * sizeof(vbnl_kd_node));
+    assert_memory_equal(a, b, n * sizeof(vbi_kd_pt));
+    assert_memory_equal(ta.nodes, tb.nodes, ta.node_count * sizeof(vbi_kd_node));
     assert_memory_equal(ta.box, tb.box, ta.node_count * 6 * sizeof(float));
-    vbnl_kd_free(&ta);
-    vbnl_kd_free(&tb);
+    vbi_kd_free(&ta);
+    vbi_kd_free(&tb);
     free(a);
     free(b);
     free(src);

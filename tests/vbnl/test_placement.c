@@ -11,9 +11,9 @@
 #include "placement.h"
 #include "scenes.h"
 
-static vbnl_placement_params default_params(uint32_t count)
+static vbi_placement_params default_params(uint32_t count)
 {
-    vbnl_placement_params p;
+    vbi_placement_params p;
     memset(&p, 0, sizeof(p));
     p.count = count;
     p.tile_size = 4;
@@ -42,12 +42,12 @@ static void test_on_surfaces(void **state)
     (void)state;
     vbnl_context *ctx;
     vbnl_scene *s = box(&ctx);
-    vbnl_placement_params p = default_params(20000);
-    vbnl_candidate *c;
+    vbi_placement_params p = default_params(20000);
+    vbi_candidate *c;
     uint32_t n;
-    vbnl_placement_stats st;
+    vbi_placement_stats st;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, NULL, &c, &n, &st, &err), VBNL_OK);
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, NULL, &c, &n, &st, &err), VBNL_OK);
     assert_int_equal(st.paths, 20000);
     assert_int_equal(st.candidates, n);
     assert_true(n > 19000); /* a closed box: only absorbed paths fail */
@@ -75,17 +75,17 @@ static void test_determinism_and_strata(void **state)
     (void)state;
     vbnl_context *ctx;
     vbnl_scene *s = box(&ctx);
-    vbnl_placement_params p = default_params(30000);
-    vbnl_candidate *c[3];
+    vbi_placement_params p = default_params(30000);
+    vbi_candidate *c[3];
     uint32_t n[3];
-    vbnl_pool *pool2 = vbnl_pool_create(2), *pool3 = vbnl_pool_create(3);
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, NULL, &c[0], &n[0], NULL, NULL), VBNL_OK);
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, pool2, &c[1], &n[1], NULL, NULL), VBNL_OK);
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, pool3, &c[2], &n[2], NULL, NULL), VBNL_OK);
+    vbi_pool *pool2 = vbi_pool_create(2), *pool3 = vbi_pool_create(3);
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, NULL, &c[0], &n[0], NULL, NULL), VBNL_OK);
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, pool2, &c[1], &n[1], NULL, NULL), VBNL_OK);
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, pool3, &c[2], &n[2], NULL, NULL), VBNL_OK);
     assert_int_equal(n[0], n[1]);
     assert_int_equal(n[0], n[2]);
-    assert_memory_equal(c[0], c[1], sizeof(vbnl_candidate) * n[0]);
-    assert_memory_equal(c[0], c[2], sizeof(vbnl_candidate) * n[0]);
+    assert_memory_equal(c[0], c[1], sizeof(vbi_candidate) * n[0]);
+    assert_memory_equal(c[0], c[2], sizeof(vbi_candidate) * n[0]);
     /* 256 tiles of 4x4 pixels: every tile started ceil or floor of 30000/256 paths */
     uint32_t hist[256] = {0};
     for (uint32_t i = 0; i < n[0]; ++i) {
@@ -96,15 +96,15 @@ static void test_determinism_and_strata(void **state)
         assert_true(hist[t] <= 118 && hist[t] >= 100);
     /* another seed moves them */
     p.seed = 12;
-    vbnl_candidate *other;
+    vbi_candidate *other;
     uint32_t no;
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, pool2, &other, &no, NULL, NULL), VBNL_OK);
-    assert_true(no != n[0] || memcmp(other, c[0], sizeof(vbnl_candidate) * no) != 0);
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, pool2, &other, &no, NULL, NULL), VBNL_OK);
+    assert_true(no != n[0] || memcmp(other, c[0], sizeof(vbi_candidate) * no) != 0);
     free(other);
     for (int i = 0; i < 3; ++i)
         free(c[i]);
-    vbnl_pool_destroy(pool2);
-    vbnl_pool_destroy(pool3);
+    vbi_pool_destroy(pool2);
+    vbi_pool_destroy(pool3);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }
@@ -142,20 +142,20 @@ static void test_mirror_pass_through(void **state)
     vbnl_camera_look_at(&cam, pos, target, up, 90.0f, 1.0f, NULL); /* sees walls and mirror */
     vbnl_scene_set_camera(s, &cam, NULL);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    vbnl_placement_params p = default_params(20000);
-    vbnl_candidate *c;
+    vbi_placement_params p = default_params(20000);
+    vbi_candidate *c;
     uint32_t n;
-    vbnl_placement_stats st;
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, NULL, &c, &n, &st, NULL), VBNL_OK);
+    vbi_placement_stats st;
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, NULL, &c, &n, &st, NULL), VBNL_OK);
     for (uint32_t i = 0; i < n; ++i)
         assert_int_not_equal(c[i].material, mirror);
     assert_true(st.through_specular > n / 10); /* much of the view is the mirror */
     /* with no pass-through allowed, paths that meet the mirror give nothing */
     p.max_specular_chain = 0;
-    vbnl_candidate *c0;
+    vbi_candidate *c0;
     uint32_t n0;
     vbnl_error e2 = {0};
-    vbnl_result r2 = vbnl_place_candidates(s, &p, NULL, NULL, &c0, &n0, &st, &e2);
+    vbnl_result r2 = vbi_place_candidates(s, &p, NULL, NULL, &c0, &n0, &st, &e2);
     if (r2 != VBNL_OK)
         fail_msg("%s", e2.message);
     assert_int_equal(st.through_specular, 0);
@@ -171,15 +171,15 @@ static void test_bad_arguments(void **state)
     (void)state;
     vbnl_context *ctx;
     vbnl_scene *s = box(&ctx);
-    vbnl_placement_params p = default_params(0);
-    vbnl_candidate *c;
+    vbi_placement_params p = default_params(0);
+    vbi_candidate *c;
     uint32_t n;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, NULL, &c, &n, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, NULL, &c, &n, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     p = default_params(10);
     p.tile_size = 0;
-    assert_int_equal(vbnl_place_candidates(s, &p, NULL, NULL, &c, &n, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_place_candidates(NULL, &p, NULL, NULL, &c, &n, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_place_candidates(s, &p, NULL, NULL, &c, &n, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_place_candidates(NULL, &p, NULL, NULL, &c, &n, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }

@@ -23,24 +23,24 @@
 #include "rng.h"
 #include "sampling.h"
 
-static vbnl_hemioct *make_map(uint32_t res)
+static vbi_hemioct *make_map(uint32_t res)
 {
-    vbnl_hemioct *m = NULL;
-    assert_int_equal(vbnl_hemioct_create(res, &m), VBNL_OK);
+    vbi_hemioct *m = NULL;
+    assert_int_equal(vbi_hemioct_create(res, &m), VBNL_OK);
     return m;
 }
 
-static vbnl_bsdf make_bsdf(vbnl_material_type type, vec3 c, float alpha, float ior)
+static vbi_bsdf make_bsdf(vbnl_material_type type, vec3 c, float alpha, float ior)
 {
     return tb_bsdf(type, c.x, c.y, c.z, alpha, ior);
 }
 
-static vec3 uniform_dir(vbnl_rng *r) { return sample_uniform_hemisphere(vbnl_rng_next2(r)); }
+static vec3 uniform_dir(vbi_rng *r) { return sample_uniform_hemisphere(vbi_rng_next2(r)); }
 
 /* f(wo, wi) without cosines (bsdf.h: eval = f |cos theta_i|). */
-static vec3 brdf(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static vec3 brdf(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
-    return wi.z > 0.0f ? v3_scale(vbnl_bsdf_eval(b, wo, wi), 1.0f / wi.z) : v3s(0.0f);
+    return wi.z > 0.0f ? v3_scale(vbi_bsdf_eval(b, wo, wi), 1.0f / wi.z) : v3s(0.0f);
 }
 
 /* Photons arriving around a tilted axis (a cosine-power lobe) plus a diffuse background. */
@@ -54,22 +54,22 @@ typedef struct photons {
 static photons make_photons(int n, uint64_t seed)
 {
     photons p = {n, malloc(n * sizeof(vec3)), malloc(n * sizeof(vec3)), v3s(0.0f)};
-    vbnl_rng rng = vbnl_rng_make(seed, 77);
-    float th = 35.0f * VBNL_PI / 180.0f, ph = 20.0f * VBNL_PI / 180.0f;
+    vbi_rng rng = vbi_rng_make(seed, 77);
+    float th = 35.0f * VBI_PI / 180.0f, ph = 20.0f * VBI_PI / 180.0f;
     frame f = frame_from_normal(v3(sinf(th) * cosf(ph), sinf(th) * sinf(ph), cosf(th)));
     for (int k = 0; k < n; ++k) {
         vec3 w;
         do {
-            if (vbnl_rng_next(&rng) < 0.7f) {
-                vec2 u = vbnl_rng_next2(&rng);
+            if (vbi_rng_next(&rng) < 0.7f) {
+                vec2 u = vbi_rng_next2(&rng);
                 float z = powf(u.x, 1.0f / 21.0f), s = sqrtf(fmaxf(0.0f, 1.0f - z * z));
                 w = frame_to_world(&f, v3(s * cosf(6.2831853f * u.y), s * sinf(6.2831853f * u.y), z));
             } else {
-                w = sample_cosine_hemisphere(vbnl_rng_next2(&rng));
+                w = sample_cosine_hemisphere(vbi_rng_next2(&rng));
             }
         } while (!(w.z > 0.01f));
         p.wi[k] = v3_norm(w);
-        p.power[k] = v3_scale(v3(1.0f, 0.8f, 0.6f), (0.5f + vbnl_rng_next(&rng)) * 5.0f / n);
+        p.power[k] = v3_scale(v3(1.0f, 0.8f, 0.6f), (0.5f + vbi_rng_next(&rng)) * 5.0f / n);
         p.total = v3_add(p.total, p.power[k]);
     }
     return p;
@@ -81,7 +81,7 @@ static void free_photons(photons *p)
     free(p->power);
 }
 
-static vec3 j_ref(const vbnl_bsdf *b, const photons *p, vec3 wo)
+static vec3 j_ref(const vbi_bsdf *b, const photons *p, vec3 wo)
 {
     double acc[3] = {0, 0, 0};
     for (int k = 0; k < p->n; ++k) {
@@ -98,26 +98,26 @@ static vec3 j_ref(const vbnl_bsdf *b, const photons *p, vec3 wo)
 static void test_lambert(void **state)
 {
     (void)state;
-    vbnl_hemioct *m = make_map(16);
+    vbi_hemioct *m = make_map(16);
     vec3 rho = v3(0.8f, 0.5f, 0.2f);
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_LAMBERT, rho, 0.1f, 1.5f);
-    vbnl_profile_kernel *k = NULL;
-    assert_int_equal(vbnl_profile_kernel_create(m, &b, 1, &k), VBNL_OK);
+    vbi_bsdf b = make_bsdf(VBNL_MATERIAL_LAMBERT, rho, 0.1f, 1.5f);
+    vbi_profile_kernel *k = NULL;
+    assert_int_equal(vbi_profile_kernel_create(m, &b, 1, &k), VBNL_OK);
     /* VL 0: Lambertian slot (no map); VL 1: a map converted with the same Lambertian BSDF. */
     uint8_t glossy[2] = {0, 1};
-    vbnl_profile_set *s = NULL;
-    assert_int_equal(vbnl_profile_set_create(m, 2, glossy, &s), VBNL_OK);
+    vbi_profile_set *s = NULL;
+    assert_int_equal(vbi_profile_set_create(m, 2, glossy, &s), VBNL_OK);
     photons p = make_photons(5000, 1);
     for (int i = 0; i < p.n; ++i) {
-        vbnl_profile_deposit(s, 0, p.wi[i], p.power[i]);
-        vbnl_profile_deposit(s, 1, p.wi[i], p.power[i]);
+        vbi_profile_deposit(s, 0, p.wi[i], p.power[i]);
+        vbi_profile_deposit(s, 1, p.wi[i], p.power[i]);
     }
-    vec3 phi = vbnl_profile_incident_power(s, 0);
+    vec3 phi = vbi_profile_incident_power(s, 0);
     assert_true(fabsf(phi.x / p.total.x - 1.0f) < 1e-5f);
-    vbnl_rng rng = vbnl_rng_make(5, 5);
+    vbi_rng rng = vbi_rng_make(5, 5);
     for (int n = 0; n < 1000; ++n) {
         vec3 wo = uniform_dir(&rng);
-        vec3 j = vbnl_profile_eval(s, 0, k, wo), in = vbnl_profile_intensity(s, 0, k, wo);
+        vec3 j = vbi_profile_eval(s, 0, k, wo), in = vbi_profile_intensity(s, 0, k, wo);
         /* J = rho / pi Phi_in, I = J cos theta_o (profiles.h). */
         for (int c = 0; c < 3; ++c) {
             double jr = v3_comp(rho, c) / M_PI * v3_comp(phi, c);
@@ -125,19 +125,19 @@ static void test_lambert(void **state)
             assert_true(fabs(v3_comp(in, c) - jr * wo.z) <= 1e-6 * jr);
         }
         /* The map version agrees to the RGBE precision (1/256 of the largest channel). */
-        vec3 j1 = vbnl_profile_eval(s, 1, k, wo);
+        vec3 j1 = vbi_profile_eval(s, 1, k, wo);
         assert_true(fabsf(j1.x - j.x) <= j.x / 256.0f + 1e-7f && fabsf(j1.z - j.z) <= j.x / 256.0f + 1e-7f);
     }
-    assert_true(v3_is_black(vbnl_profile_eval(s, 0, k, v3(0.0f, 0.6f, -0.8f))));
+    assert_true(v3_is_black(vbi_profile_eval(s, 0, k, v3(0.0f, 0.6f, -0.8f))));
     /* Energy conservation: P = rho Phi_in, and the quadrature of I over the hemisphere agrees. */
     for (uint32_t vl = 0; vl < 2; ++vl) {
-        vec3 pw = vbnl_profile_power(s, vl, k);
+        vec3 pw = vbi_profile_power(s, vl, k);
         double q[3] = {0, 0, 0};
         const int g = 200;
         for (int i = 0; i < g; ++i)
             for (int jj = 0; jj < g; ++jj) {
                 vec3 wo = sample_uniform_hemisphere((vec2){(i + 0.5f) / g, (jj + 0.5f) / g});
-                vec3 in = vbnl_profile_intensity(s, vl, k, wo);
+                vec3 in = vbi_profile_intensity(s, vl, k, wo);
                 q[0] += in.x;
                 q[1] += in.y;
                 q[2] += in.z;
@@ -155,9 +155,9 @@ static void test_lambert(void **state)
         }
     }
     free_photons(&p);
-    vbnl_profile_set_destroy(s);
-    vbnl_profile_kernel_destroy(k);
-    vbnl_hemioct_destroy(m);
+    vbi_profile_set_destroy(s);
+    vbi_profile_kernel_destroy(k);
+    vbi_hemioct_destroy(m);
 }
 
 /* ---- glossy against brute force ----------------------------------------------------------- */
@@ -173,34 +173,34 @@ typedef struct glossy_case {
 
 static void run_glossy(const glossy_case *gc)
 {
-    vbnl_hemioct *m = make_map(gc->res);
-    uint32_t cnt = vbnl_hemioct_texel_count(m);
-    vbnl_bsdf b = make_bsdf(gc->type, gc->color, gc->alpha, gc->ior);
-    vbnl_profile_kernel *k = NULL;
-    assert_int_equal(vbnl_profile_kernel_create(m, &b, 1, &k), VBNL_OK);
+    vbi_hemioct *m = make_map(gc->res);
+    uint32_t cnt = vbi_hemioct_texel_count(m);
+    vbi_bsdf b = make_bsdf(gc->type, gc->color, gc->alpha, gc->ior);
+    vbi_profile_kernel *k = NULL;
+    assert_int_equal(vbi_profile_kernel_create(m, &b, 1, &k), VBNL_OK);
     uint8_t glossy = 1;
-    vbnl_profile_set *s = NULL;
-    assert_int_equal(vbnl_profile_set_create(m, 1, &glossy, &s), VBNL_OK);
+    vbi_profile_set *s = NULL;
+    assert_int_equal(vbi_profile_set_create(m, 1, &glossy, &s), VBNL_OK);
     photons p = make_photons(600, 2);
     for (int i = 0; i < p.n; ++i)
-        vbnl_profile_deposit(s, 0, p.wi[i], p.power[i]);
-    vbnl_profile_convert(s, 0, k);
+        vbi_profile_deposit(s, 0, p.wi[i], p.power[i]);
+    vbi_profile_convert(s, 0, k);
 
     /* Texel centres, weighted by solid angle (luminance). */
     double num = 0.0, den = 0.0;
     for (uint32_t t = 0; t < cnt; ++t) {
-        vec3 wo = vbnl_hemioct_texel_dir(m, t);
-        double om = vbnl_hemioct_texel_solid_angle(m, t);
-        num += fabs(v3_luminance(vbnl_profile_texel(s, 0, k, t)) - v3_luminance(j_ref(&b, &p, wo))) * om;
+        vec3 wo = vbi_hemioct_texel_dir(m, t);
+        double om = vbi_hemioct_texel_solid_angle(m, t);
+        num += fabs(v3_luminance(vbi_profile_texel(s, 0, k, t)) - v3_luminance(j_ref(&b, &p, wo))) * om;
         den += v3_luminance(j_ref(&b, &p, wo)) * om;
     }
     double err_centres = num / den;
     /* Bilinear evaluation at random directions. */
-    vbnl_rng rng = vbnl_rng_make(9, 9);
+    vbi_rng rng = vbi_rng_make(9, 9);
     num = den = 0.0;
     for (int n = 0; n < 3000; ++n) {
         vec3 wo = uniform_dir(&rng);
-        num += fabs(v3_luminance(vbnl_profile_eval(s, 0, k, wo)) - v3_luminance(j_ref(&b, &p, wo)));
+        num += fabs(v3_luminance(vbi_profile_eval(s, 0, k, wo)) - v3_luminance(j_ref(&b, &p, wo)));
         den += v3_luminance(j_ref(&b, &p, wo));
     }
     double err_eval = num / den;
@@ -209,19 +209,19 @@ static void run_glossy(const glossy_case *gc)
     double pref[3] = {0, 0, 0};
     for (int i = 0; i < g; ++i)
         for (int jj = 0; jj < g; ++jj) {
-            vec2 u = {(i + vbnl_rng_next(&rng)) / g, (jj + vbnl_rng_next(&rng)) / g};
+            vec2 u = {(i + vbi_rng_next(&rng)) / g, (jj + vbi_rng_next(&rng)) / g};
             vec3 wo = sample_uniform_hemisphere(u);
             vec3 jr = j_ref(&b, &p, wo);
             pref[0] += jr.x * wo.z;
             pref[1] += jr.y * wo.z;
             pref[2] += jr.z * wo.z;
         }
-    vec3 pw = vbnl_profile_power(s, 0, k);
+    vec3 pw = vbi_profile_power(s, 0, k);
     /* The stored (RGBE) profile integrates to the same power: sum_t J_t C_t. */
     double pstored[3] = {0, 0, 0};
     for (uint32_t t = 0; t < cnt; ++t) {
-        vec3 j = vbnl_profile_texel(s, 0, k, t);
-        double c = vbnl_hemioct_texel_bilinear_projected(m, t);
+        vec3 j = vbi_profile_texel(s, 0, k, t);
+        double c = vbi_hemioct_texel_bilinear_projected(m, t);
         pstored[0] += j.x * c;
         pstored[1] += j.y * c;
         pstored[2] += j.z * c;
@@ -232,13 +232,13 @@ static void run_glossy(const glossy_case *gc)
     double amax[3] = {0, 0, 0};
     const int ga = 32;
     for (uint32_t i = 0; i < cnt; i += (cnt > 256 ? 4 : 1)) {
-        vec3 wi = vbnl_hemioct_texel_dir(m, i);
+        vec3 wi = vbi_hemioct_texel_dir(m, i);
         double a[3] = {0, 0, 0};
         for (int x = 0; x < ga; ++x)
             for (int y = 0; y < ga; ++y) {
-                vbnl_bsdf_sample_rec rec;
-                vec2 u = {(x + vbnl_rng_next(&rng)) / ga, (y + vbnl_rng_next(&rng)) / ga};
-                if (vbnl_bsdf_sample(&b, wi, u, &rec)) {
+                vbi_bsdf_sample_rec rec;
+                vec2 u = {(x + vbi_rng_next(&rng)) / ga, (y + vbi_rng_next(&rng)) / ga};
+                if (vbi_bsdf_sample(&b, wi, u, &rec)) {
                     a[0] += rec.weight.x;
                     a[1] += rec.weight.y;
                     a[2] += rec.weight.z;
@@ -261,9 +261,9 @@ static void run_glossy(const glossy_case *gc)
         assert_true(v3_comp(pw, c) <= phi);
     }
     free_photons(&p);
-    vbnl_profile_set_destroy(s);
-    vbnl_profile_kernel_destroy(k);
-    vbnl_hemioct_destroy(m);
+    vbi_profile_set_destroy(s);
+    vbi_profile_kernel_destroy(k);
+    vbi_hemioct_destroy(m);
 }
 
 static void test_conductor_brute_force(void **state)
@@ -288,8 +288,8 @@ static void test_plastic_brute_force(void **state)
 /* ---- lazy vs eager ------------------------------------------------------------------------- */
 
 typedef struct lazy_job {
-    vbnl_profile_set *s;
-    const vbnl_profile_kernel *k;
+    vbi_profile_set *s;
+    const vbi_profile_kernel *k;
     uint32_t vl, texels;
     uint64_t seed;
 } lazy_job;
@@ -297,12 +297,12 @@ typedef struct lazy_job {
 static void *lazy_worker(void *arg)
 {
     lazy_job *j = arg;
-    vbnl_rng rng = vbnl_rng_make(j->seed, 3);
+    vbi_rng rng = vbi_rng_make(j->seed, 3);
     for (int n = 0; n < 40; ++n) {
         if (n & 1)
-            vbnl_profile_eval(j->s, j->vl, j->k, uniform_dir(&rng));
+            vbi_profile_eval(j->s, j->vl, j->k, uniform_dir(&rng));
         else
-            vbnl_profile_texel(j->s, j->vl, j->k, vbnl_rng_uniform_u32(&rng, j->texels));
+            vbi_profile_texel(j->s, j->vl, j->k, vbi_rng_uniform_u32(&rng, j->texels));
     }
     return NULL;
 }
@@ -310,32 +310,32 @@ static void *lazy_worker(void *arg)
 static void test_lazy_equals_eager(void **state)
 {
     (void)state;
-    vbnl_hemioct *m = make_map(16);
-    uint32_t cnt = vbnl_hemioct_texel_count(m);
+    vbi_hemioct *m = make_map(16);
+    uint32_t cnt = vbi_hemioct_texel_count(m);
     /* alpha 0.4: point-sampled at 16 x 16 (narrower lobes always keep the matrix, profiles.c) */
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, v3(0.9f, 0.7f, 0.4f), 0.4f, 1.5f);
-    vbnl_profile_kernel *kc = NULL, *ku = NULL;
-    assert_int_equal(vbnl_profile_kernel_create(m, &b, 1, &kc), VBNL_OK);
-    assert_int_equal(vbnl_profile_kernel_create(m, &b, 0, &ku), VBNL_OK);
-    assert_true(vbnl_profile_kernel_bytes(kc) > vbnl_profile_kernel_bytes(ku));
-    print_message("# kernel bytes at 16x16: cached %zu, uncached %zu\n", vbnl_profile_kernel_bytes(kc),
-                  vbnl_profile_kernel_bytes(ku));
+    vbi_bsdf b = make_bsdf(VBNL_MATERIAL_CONDUCTOR, v3(0.9f, 0.7f, 0.4f), 0.4f, 1.5f);
+    vbi_profile_kernel *kc = NULL, *ku = NULL;
+    assert_int_equal(vbi_profile_kernel_create(m, &b, 1, &kc), VBNL_OK);
+    assert_int_equal(vbi_profile_kernel_create(m, &b, 0, &ku), VBNL_OK);
+    assert_true(vbi_profile_kernel_bytes(kc) > vbi_profile_kernel_bytes(ku));
+    print_message("# kernel bytes at 16x16: cached %zu, uncached %zu\n", vbi_profile_kernel_bytes(kc),
+                  vbi_profile_kernel_bytes(ku));
     /* Same incident data in VLs 0 (eager), 1 (lazy from 4 threads), 2 (lazy, uncached kernel). */
     uint8_t glossy[3] = {1, 1, 1};
-    vbnl_profile_set *s = NULL;
-    assert_int_equal(vbnl_profile_set_create(m, 3, glossy, &s), VBNL_OK);
+    vbi_profile_set *s = NULL;
+    assert_int_equal(vbi_profile_set_create(m, 3, glossy, &s), VBNL_OK);
     photons p = make_photons(3000, 4);
     for (int i = 0; i < p.n; ++i)
         for (uint32_t vl = 0; vl < 3; ++vl)
-            vbnl_profile_deposit(s, vl, p.wi[i], p.power[i]);
-    assert_int_equal(memcmp(vbnl_profile_incident_map_fixed(s, 0), vbnl_profile_incident_map_fixed(s, 1), cnt * 24), 0);
+            vbi_profile_deposit(s, vl, p.wi[i], p.power[i]);
+    assert_int_equal(memcmp(vbi_profile_incident_map_fixed(s, 0), vbi_profile_incident_map_fixed(s, 1), cnt * 24), 0);
 
-    vbnl_profile_convert(s, 0, kc);
+    vbi_profile_convert(s, 0, kc);
     for (uint32_t t = 0; t < cnt; ++t) {
-        assert_true(vbnl_profile_texel_converted(s, 0, t));
-        assert_false(vbnl_profile_texel_converted(s, 1, t));
+        assert_true(vbi_profile_texel_converted(s, 0, t));
+        assert_false(vbi_profile_texel_converted(s, 1, t));
     }
-    assert_int_equal(vbnl_profile_set_release_incident(s), VBNL_ERR_STATE);
+    assert_int_equal(vbi_profile_set_release_incident(s), VBNL_ERR_STATE);
 
     /* Lazy reads from 4 threads: with the cached kernel (VL 1) the first read converts the whole
      * light; with the uncached one (VL 2) only the texels read. */
@@ -351,7 +351,7 @@ static void test_lazy_equals_eager(void **state)
             pthread_join(th[i], NULL);
         uint32_t touched = 0;
         for (uint32_t t = 0; t < cnt; ++t)
-            touched += (uint32_t)vbnl_profile_texel_converted(s, vl, t);
+            touched += (uint32_t)vbi_profile_texel_converted(s, vl, t);
         print_message("# lazy, %s kernel: %u of %u texels converted by the threads\n", vl == 1 ? "cached" : "uncached",
                       touched, cnt);
         if (vl == 1)
@@ -360,40 +360,40 @@ static void test_lazy_equals_eager(void **state)
             assert_true(touched > 0 && touched < cnt); /* the loop below converts the rest */
     }
 
-    vbnl_rng rng = vbnl_rng_make(8, 8);
+    vbi_rng rng = vbi_rng_make(8, 8);
     vec3 before[64];
     vec3 dirs[64];
     for (int n = 0; n < 64; ++n) {
         dirs[n] = uniform_dir(&rng);
-        before[n] = vbnl_profile_eval(s, 0, kc, dirs[n]);
+        before[n] = vbi_profile_eval(s, 0, kc, dirs[n]);
     }
-    vec3 power_before = vbnl_profile_power(s, 0, kc);
+    vec3 power_before = vbi_profile_power(s, 0, kc);
     for (uint32_t t = 0; t < cnt; ++t) {
-        vec3 e = vbnl_profile_texel(s, 0, kc, t);
-        vec3 l = vbnl_profile_texel(s, 1, kc, t);
-        vec3 u = vbnl_profile_texel(s, 2, ku, t);
+        vec3 e = vbi_profile_texel(s, 0, kc, t);
+        vec3 l = vbi_profile_texel(s, 1, kc, t);
+        vec3 u = vbi_profile_texel(s, 2, ku, t);
         assert_int_equal(memcmp(&e, &l, sizeof(vec3)), 0);
         assert_int_equal(memcmp(&e, &u, sizeof(vec3)), 0);
     }
     /* Every texel is converted now: the incident maps can go; values stay. */
-    size_t bytes_before = vbnl_profile_set_bytes(s);
-    assert_int_equal(vbnl_profile_set_release_incident(s), VBNL_OK);
-    assert_null(vbnl_profile_incident_map_fixed(s, 0));
-    size_t bytes_after = vbnl_profile_set_bytes(s);
+    size_t bytes_before = vbi_profile_set_bytes(s);
+    assert_int_equal(vbi_profile_set_release_incident(s), VBNL_OK);
+    assert_null(vbi_profile_incident_map_fixed(s, 0));
+    size_t bytes_after = vbi_profile_set_bytes(s);
     print_message("# set bytes (3 glossy VLs): %zu before release, %zu after\n", bytes_before, bytes_after);
     assert_int_equal(bytes_before - bytes_after, 3 * cnt * 24); /* 64-bit fixed-point RGB */
     for (int n = 0; n < 64; ++n) {
-        vec3 v = vbnl_profile_eval(s, 0, kc, dirs[n]);
+        vec3 v = vbi_profile_eval(s, 0, kc, dirs[n]);
         assert_int_equal(memcmp(&v, &before[n], sizeof(vec3)), 0);
     }
-    vec3 power_after = vbnl_profile_power(s, 0, kc);
+    vec3 power_after = vbi_profile_power(s, 0, kc);
     assert_true(fabsf(power_after.x / power_before.x - 1.0f) < 1.0f / 256.0f);
 
     free_photons(&p);
-    vbnl_profile_set_destroy(s);
-    vbnl_profile_kernel_destroy(kc);
-    vbnl_profile_kernel_destroy(ku);
-    vbnl_hemioct_destroy(m);
+    vbi_profile_set_destroy(s);
+    vbi_profile_kernel_destroy(kc);
+    vbi_profile_kernel_destroy(ku);
+    vbi_hemioct_destroy(m);
 }
 
 /* ---- memory and arguments ------------------------------------------------------------------ */
@@ -404,38 +404,38 @@ static void test_memory_and_arguments(void **state)
     const uint32_t n = 1000;
     uint32_t res[3] = {8, 16, 32};
     for (int r = 0; r < 3; ++r) {
-        vbnl_hemioct *m = make_map(res[r]);
+        vbi_hemioct *m = make_map(res[r]);
         uint8_t *glossy = malloc(n);
         memset(glossy, 1, n);
-        vbnl_profile_set *sg = NULL, *sl = NULL;
-        assert_int_equal(vbnl_profile_set_create(m, n, glossy, &sg), VBNL_OK);
-        assert_int_equal(vbnl_profile_set_create(m, n, NULL, &sl), VBNL_OK);
-        size_t per_lambert = (vbnl_profile_set_bytes(sl) - sizeof(void *) * 0) / n;
-        size_t per_glossy = (vbnl_profile_set_bytes(sg) - vbnl_profile_set_bytes(sl)) / n;
+        vbi_profile_set *sg = NULL, *sl = NULL;
+        assert_int_equal(vbi_profile_set_create(m, n, glossy, &sg), VBNL_OK);
+        assert_int_equal(vbi_profile_set_create(m, n, NULL, &sl), VBNL_OK);
+        size_t per_lambert = (vbi_profile_set_bytes(sl) - sizeof(void *) * 0) / n;
+        size_t per_glossy = (vbi_profile_set_bytes(sg) - vbi_profile_set_bytes(sl)) / n;
         print_message("# R=%u: Lambertian VL ~%zu B; glossy VL +%zu B while incident maps exist, +%u B after "
                       "release\n", res[r], per_lambert, per_glossy, res[r] * res[r] * 4);
         assert_int_equal(per_glossy, (size_t)res[r] * res[r] * 28); /* 4 B RGBE + 24 B fixed-point RGB */
-        assert_true(vbnl_profile_is_glossy(sg, 5) && !vbnl_profile_is_glossy(sl, 5));
-        assert_int_equal(vbnl_profile_set_count(sg), n);
-        vbnl_profile_set_destroy(sg);
-        vbnl_profile_set_destroy(sl);
+        assert_true(vbi_profile_is_glossy(sg, 5) && !vbi_profile_is_glossy(sl, 5));
+        assert_int_equal(vbi_profile_set_count(sg), n);
+        vbi_profile_set_destroy(sg);
+        vbi_profile_set_destroy(sl);
         free(glossy);
-        vbnl_hemioct_destroy(m);
+        vbi_hemioct_destroy(m);
     }
-    vbnl_profile_set *s = (vbnl_profile_set *)1;
-    assert_int_equal(vbnl_profile_set_create(NULL, 4, NULL, &s), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_profile_set *s = (vbi_profile_set *)1;
+    assert_int_equal(vbi_profile_set_create(NULL, 4, NULL, &s), VBNL_ERR_INVALID_ARGUMENT);
     assert_null(s);
-    assert_int_equal(vbnl_profile_set_create(NULL, 4, NULL, NULL), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_profile_kernel *k = (vbnl_profile_kernel *)1;
-    assert_int_equal(vbnl_profile_kernel_create(NULL, NULL, 0, &k), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_profile_set_create(NULL, 4, NULL, NULL), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_profile_kernel *k = (vbi_profile_kernel *)1;
+    assert_int_equal(vbi_profile_kernel_create(NULL, NULL, 0, &k), VBNL_ERR_INVALID_ARGUMENT);
     assert_null(k);
-    vbnl_profile_set_destroy(NULL);
-    vbnl_profile_kernel_destroy(NULL);
-    assert_int_equal(vbnl_profile_set_release_incident(NULL), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_profile_set_destroy(NULL);
+    vbi_profile_kernel_destroy(NULL);
+    assert_int_equal(vbi_profile_set_release_incident(NULL), VBNL_ERR_INVALID_ARGUMENT);
 }
 
 /* Splats into private 32-bit maps with plain adds, their carries past 2^32 into the set, the
- * low halves added into the set afterwards (vbnl_profile_add_incident_lo32; photon splitting's
+ * low halves added into the set afterwards (vbi_profile_add_incident_lo32; photon splitting's
  * per-thread maps), equal atomic splats into the set bit for bit; prepare by slot into a 32-bit
  * map gives the shares and offsets of prepare by VL into the set. The deposits are large enough
  * (up to 2^34 steps) that carries happen often. */
@@ -443,32 +443,32 @@ static void test_private_map_copies(void **state)
 {
     (void)state;
     const uint32_t n = 40;
-    vbnl_hemioct *m = make_map(16);
+    vbi_hemioct *m = make_map(16);
     uint8_t glossy[40];
     for (uint32_t j = 0; j < n; ++j)
         glossy[j] = j % 3 != 0;
-    vbnl_profile_set *direct = NULL, *merged = NULL;
-    assert_int_equal(vbnl_profile_set_create(m, n, glossy, &direct), VBNL_OK);
-    assert_int_equal(vbnl_profile_set_create(m, n, glossy, &merged), VBNL_OK);
-    const size_t bytes = vbnl_profile_incident_bytes(merged);
-    assert_int_equal(bytes, (size_t)26 * vbnl_hemioct_texel_count(m) * 3 * sizeof(uint64_t)); /* 26 glossy */
+    vbi_profile_set *direct = NULL, *merged = NULL;
+    assert_int_equal(vbi_profile_set_create(m, n, glossy, &direct), VBNL_OK);
+    assert_int_equal(vbi_profile_set_create(m, n, glossy, &merged), VBNL_OK);
+    const size_t bytes = vbi_profile_incident_bytes(merged);
+    assert_int_equal(bytes, (size_t)26 * vbi_hemioct_texel_count(m) * 3 * sizeof(uint64_t)); /* 26 glossy */
     uint32_t *lo[2] = {calloc(bytes / 2, 1), calloc(bytes / 2, 1)};
     assert_non_null(lo[0]);
     assert_non_null(lo[1]);
-    const uint64_t *set_maps = vbnl_profile_incident_maps(merged);
-    vbnl_rng rng = vbnl_rng_make(9, 1);
+    const uint64_t *set_maps = vbi_profile_incident_maps(merged);
+    vbi_rng rng = vbi_rng_make(9, 1);
     int splats = 0;
     for (int k = 0; k < 20000; ++k) {
-        uint32_t j = (uint32_t)(vbnl_rng_next(&rng) * n) % n;
+        uint32_t j = (uint32_t)(vbi_rng_next(&rng) * n) % n;
         vec3 wi = uniform_dir(&rng);
         uint64_t q[3] = {1000003u + (uint64_t)k * 7919u, 17u * (uint64_t)k, (uint64_t)k << 20};
-        vbnl_profile_deposit_map_fixed(direct, j, wi, q);
+        vbi_profile_deposit_map_fixed(direct, j, wi, q);
         /* by VL into the set's maps (not applied) and by slot into a 32-bit map: the same shares
          * at the same offsets, the carries into the set's texels */
-        vbnl_profile_splat a;
-        vbnl_profile_splat32 b;
-        int ha = vbnl_profile_splat_prepare(merged, j, wi, q, &a);
-        int hb = vbnl_profile_splat_prepare_lo32(merged, lo[k & 1], vbnl_profile_slot(merged, j), wi, q, &b);
+        vbi_profile_splat a;
+        vbi_profile_splat32 b;
+        int ha = vbi_profile_splat_prepare(merged, j, wi, q, &a);
+        int hb = vbi_profile_splat_prepare_lo32(merged, lo[k & 1], vbi_profile_slot(merged, j), wi, q, &b);
         assert_int_equal(ha, glossy[j]);
         assert_int_equal(hb, glossy[j]);
         if (hb) {
@@ -477,7 +477,7 @@ static void test_private_map_copies(void **state)
                 assert_true(a.texel[t] - set_maps == b.texel[t] - lo[k & 1]);
                 assert_ptr_equal(b.carry[t], a.texel[t]);
             }
-            vbnl_profile_splat_apply_lo32(&b);
+            vbi_profile_splat_apply_lo32(&b);
             ++splats;
         }
     }
@@ -491,23 +491,23 @@ static void test_private_map_copies(void **state)
     print_message("# %d splats, %llu texel channels carried past 2^32\n", splats, (unsigned long long)carried);
     assert_true(carried > 100);
     for (int c = 0; c < 2; ++c)
-        assert_int_equal(vbnl_profile_add_incident_lo32(merged, lo[c]), VBNL_OK);
+        assert_int_equal(vbi_profile_add_incident_lo32(merged, lo[c]), VBNL_OK);
     for (uint32_t j = 0; j < n; ++j) {
-        const uint64_t *x = vbnl_profile_incident_map_fixed(direct, j), *y = vbnl_profile_incident_map_fixed(merged, j);
+        const uint64_t *x = vbi_profile_incident_map_fixed(direct, j), *y = vbi_profile_incident_map_fixed(merged, j);
         assert_true((x == NULL) == (y == NULL));
         if (x)
-            assert_memory_equal(x, y, 3 * sizeof(uint64_t) * vbnl_hemioct_texel_count(m));
+            assert_memory_equal(x, y, 3 * sizeof(uint64_t) * vbi_hemioct_texel_count(m));
     }
-    assert_int_equal(vbnl_profile_add_incident_lo32(merged, NULL), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_profile_set *lambert = NULL;
-    assert_int_equal(vbnl_profile_set_create(m, n, NULL, &lambert), VBNL_OK);
-    assert_int_equal(vbnl_profile_incident_bytes(lambert), 0); /* nothing to copy */
-    vbnl_profile_set_destroy(lambert);
+    assert_int_equal(vbi_profile_add_incident_lo32(merged, NULL), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_profile_set *lambert = NULL;
+    assert_int_equal(vbi_profile_set_create(m, n, NULL, &lambert), VBNL_OK);
+    assert_int_equal(vbi_profile_incident_bytes(lambert), 0); /* nothing to copy */
+    vbi_profile_set_destroy(lambert);
     free(lo[0]);
     free(lo[1]);
-    vbnl_profile_set_destroy(direct);
-    vbnl_profile_set_destroy(merged);
-    vbnl_hemioct_destroy(m);
+    vbi_profile_set_destroy(direct);
+    vbi_profile_set_destroy(merged);
+    vbi_hemioct_destroy(m);
 }
 
 /* A Lambertian slot given a glossy kernel falls back to the diffuse approximation: power
@@ -515,22 +515,22 @@ static void test_private_map_copies(void **state)
 static void test_diffuse_fallback(void **state)
 {
     (void)state;
-    vbnl_hemioct *m = make_map(16);
-    vbnl_bsdf b = make_bsdf(VBNL_MATERIAL_PLASTIC, v3(0.5f, 0.3f, 0.2f), 0.3f, 1.5f);
-    vbnl_profile_kernel *k = NULL;
-    assert_int_equal(vbnl_profile_kernel_create(m, &b, 0, &k), VBNL_OK);
-    vbnl_profile_set *s = NULL;
-    assert_int_equal(vbnl_profile_set_create(m, 1, NULL, &s), VBNL_OK);
-    vbnl_profile_deposit(s, 0, v3(0, 0, 1), v3s(2.0f));
-    vec3 rho = vbnl_profile_kernel_diffuse_albedo(k);
+    vbi_hemioct *m = make_map(16);
+    vbi_bsdf b = make_bsdf(VBNL_MATERIAL_PLASTIC, v3(0.5f, 0.3f, 0.2f), 0.3f, 1.5f);
+    vbi_profile_kernel *k = NULL;
+    assert_int_equal(vbi_profile_kernel_create(m, &b, 0, &k), VBNL_OK);
+    vbi_profile_set *s = NULL;
+    assert_int_equal(vbi_profile_set_create(m, 1, NULL, &s), VBNL_OK);
+    vbi_profile_deposit(s, 0, v3(0, 0, 1), v3s(2.0f));
+    vec3 rho = vbi_profile_kernel_diffuse_albedo(k);
     assert_true(rho.x > 0.3f && rho.x < 1.0f && rho.x > rho.z);
-    vec3 pw = vbnl_profile_power(s, 0, k);
+    vec3 pw = vbi_profile_power(s, 0, k);
     assert_true(fabsf(pw.x - 2.0f * rho.x) < 1e-6f);
-    vec3 j = vbnl_profile_eval(s, 0, k, v3(0.6f, 0.0f, 0.8f));
-    assert_true(fabsf(j.y - 2.0f * rho.y / VBNL_PI) < 1e-6f);
-    vbnl_profile_set_destroy(s);
-    vbnl_profile_kernel_destroy(k);
-    vbnl_hemioct_destroy(m);
+    vec3 j = vbi_profile_eval(s, 0, k, v3(0.6f, 0.0f, 0.8f));
+    assert_true(fabsf(j.y - 2.0f * rho.y / VBI_PI) < 1e-6f);
+    vbi_profile_set_destroy(s);
+    vbi_profile_kernel_destroy(k);
+    vbi_hemioct_destroy(m);
 }
 
 int main(void)

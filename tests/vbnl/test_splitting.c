@@ -52,13 +52,13 @@ static void set_camera(vbnl_scene *s, float z)
 
 /* ---- index against brute force ------------------------------------------------------------ */
 
-/* vbnl_vl_index_query_batch against one vbnl_vl_index_query_found per point: same totals, same
+/* vbi_vl_index_query_batch against one vbi_vl_index_query_found per point: same totals, same
  * sets of records (the batch keeps rank order), ids and ranks consistent. */
 typedef struct batch_pt {
     vec3 p, n, wi;
 } batch_pt;
 typedef struct batch_check {
-    const vbnl_vl_index *x;
+    const vbi_vl_index *x;
     const batch_pt *pts;
     const uint32_t *order;
     int filter;
@@ -67,19 +67,19 @@ typedef struct batch_check {
 
 static int cmp_found(const void *a, const void *b)
 {
-    const vbnl_vl_found *x = a, *y = b;
+    const vbi_vl_found *x = a, *y = b;
     return (x->id > y->id) - (x->id < y->id);
 }
 
-static void batch_cb(void *user, uint32_t k, uint32_t total, const vbnl_vl_found *found, uint32_t n)
+static void batch_cb(void *user, uint32_t k, uint32_t total, const vbi_vl_found *found, uint32_t n)
 {
     batch_check *c = user;
     assert_int_equal(k, c->calls);
     c->calls++;
     const batch_pt *q = &c->pts[c->order[k]];
-    vbnl_vl_filter f = {q->n, q->wi, 0.2f, 1};
-    vbnl_vl_found ref[64], got[64];
-    uint32_t rt = vbnl_vl_index_query_found(c->x, q->p, c->filter ? &f : NULL, c->max_out, ref);
+    vbi_vl_filter f = {q->n, q->wi, 0.2f, 1};
+    vbi_vl_found ref[64], got[64];
+    uint32_t rt = vbi_vl_index_query_found(c->x, q->p, c->filter ? &f : NULL, c->max_out, ref);
     assert_int_equal(total, rt);
     uint32_t rn = rt < c->max_out ? rt : c->max_out;
     assert_int_equal(n, rn);
@@ -87,30 +87,30 @@ static void batch_cb(void *user, uint32_t k, uint32_t total, const vbnl_vl_found
     qsort(got, n, sizeof(*got), cmp_found);
     assert_memory_equal(got, ref, n * sizeof(*got)); /* ref is in id order */
     for (uint32_t i = 0; i < n; ++i) {
-        assert_int_equal(vbnl_vl_index_rank(c->x, got[i].id), got[i].rank);
-        assert_int_equal(vbnl_vl_index_id(c->x, got[i].rank), got[i].id);
+        assert_int_equal(vbi_vl_index_rank(c->x, got[i].id), got[i].rank);
+        assert_int_equal(vbi_vl_index_id(c->x, got[i].rank), got[i].id);
     }
 }
 
-static void check_batch(const vbnl_vl_index *x, const vec3 *pts, uint32_t npts)
+static void check_batch(const vbi_vl_index *x, const vec3 *pts, uint32_t npts)
 {
     batch_pt *bp = malloc(npts * sizeof(*bp));
     uint32_t *order = malloc(npts * sizeof(uint32_t));
-    vbnl_rng rng = vbnl_rng_make(5, 9);
+    vbi_rng rng = vbi_rng_make(5, 9);
     for (uint32_t k = 0; k < npts; ++k) {
         bp[k].p = pts[k];
-        bp[k].n = sample_uniform_sphere(vbnl_rng_next2(&rng));
-        bp[k].wi = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        bp[k].n = sample_uniform_sphere(vbi_rng_next2(&rng));
+        bp[k].wi = sample_uniform_sphere(vbi_rng_next2(&rng));
         order[k] = k;
     }
     for (uint32_t k = npts; k > 1; --k) { /* a random order */
-        uint32_t j = vbnl_rng_uniform_u32(&rng, k), t = order[k - 1];
+        uint32_t j = vbi_rng_uniform_u32(&rng, k), t = order[k - 1];
         order[k - 1] = order[j];
         order[j] = t;
     }
     for (int variant = 0; variant < 4; ++variant) {
         batch_check c = {x, bp, order, variant & 1, (variant & 2) ? 2u : 64u, 0};
-        vbnl_vl_batch b;
+        vbi_vl_batch b;
         memset(&b, 0, sizeof(b));
         b.count = npts;
         b.order = order;
@@ -123,75 +123,75 @@ static void check_batch(const vbnl_vl_index *x, const vec3 *pts, uint32_t npts)
         b.normal_cos = 0.2f;
         b.facing = 1;
         b.max_out = c.max_out;
-        vbnl_vl_index_query_batch(x, &b, batch_cb, &c);
+        vbi_vl_index_query_batch(x, &b, batch_cb, &c);
         assert_int_equal(c.calls, npts);
     }
-    for (uint32_t r = 0; r < vbnl_vl_index_count(x); ++r)
-        assert_int_equal(vbnl_vl_index_rank(x, vbnl_vl_index_id(x, r)), r);
+    for (uint32_t r = 0; r < vbi_vl_index_count(x); ++r)
+        assert_int_equal(vbi_vl_index_rank(x, vbi_vl_index_id(x, r)), r);
     free(bp);
     free(order);
 }
 
-static uint32_t check_index_levels(vbnl_vl_index_kind kind, vbnl_vl_index_levels levels, RTCDevice dev, const vec3 *c,
+static uint32_t check_index_levels(vbi_vl_index_kind kind, vbi_vl_index_levels levels, RTCDevice dev, const vec3 *c,
                                const float *r, const vec3 *nrm, uint32_t n, const vec3 *pts, uint32_t npts)
 {
-    vbnl_vl_index_desc d = {c, r, nrm, n, kind, 0.0f, dev, levels};
-    vbnl_vl_index *x = NULL;
-    assert_int_equal(vbnl_vl_index_create(&d, &x), VBNL_OK);
+    vbi_vl_index_desc d = {c, r, nrm, n, kind, 0.0f, dev, levels};
+    vbi_vl_index *x = NULL;
+    assert_int_equal(vbi_vl_index_create(&d, &x), VBNL_OK);
     uint32_t ids[256], ref[256];
     float d2[256], rd2[256];
-    vbnl_vl_found rf[256];
+    vbi_vl_found rf[256];
     uint64_t total = 0;
     uint32_t most = 0;
     for (uint32_t k = 0; k < npts; ++k) {
         /* the reference: brute force over every sphere (reference.h) */
-        uint32_t m = vbnl_vl_query_reference(c, r, nrm, n, pts[k], NULL, 256, rf);
+        uint32_t m = vbi_vl_query_reference(c, r, nrm, n, pts[k], NULL, 256, rf);
         assert_true(m <= 256);
         for (uint32_t q = 0; q < m; ++q) {
             ref[q] = rf[q].id;
             rd2[q] = rf[q].d2;
         }
-        uint32_t got = vbnl_vl_index_query(x, pts[k], 256, ids, d2);
+        uint32_t got = vbi_vl_index_query(x, pts[k], 256, ids, d2);
         assert_int_equal(got, m);
         assert_memory_equal(ids, ref, m * sizeof(uint32_t));
         assert_memory_equal(d2, rd2, m * sizeof(float));
         /* Capped output: the smallest ids, the full count. */
         if (m > 2) {
             uint32_t few[2];
-            assert_int_equal(vbnl_vl_index_query(x, pts[k], 2, few, NULL), m);
+            assert_int_equal(vbi_vl_index_query(x, pts[k], 2, few, NULL), m);
             assert_int_equal(few[0], ref[0]);
             assert_int_equal(few[1], ref[1]);
         }
         total += m;
         most = m > most ? m : most;
         /* Filtered query (splitting): the reference with the same filter. */
-        vbnl_vl_filter f = {v3_norm(v3(0.3f, 1.0f, -0.2f)), v3_norm(v3(-0.5f, 0.6f, 0.4f)), 0.2f, 1};
-        uint32_t mf = vbnl_vl_query_reference(c, r, nrm, n, pts[k], &f, 256, rf);
+        vbi_vl_filter f = {v3_norm(v3(0.3f, 1.0f, -0.2f)), v3_norm(v3(-0.5f, 0.6f, 0.4f)), 0.2f, 1};
+        uint32_t mf = vbi_vl_query_reference(c, r, nrm, n, pts[k], &f, 256, rf);
         for (uint32_t q = 0; q < mf; ++q)
             ref[q] = rf[q].id;
-        assert_int_equal(vbnl_vl_index_query_filtered(x, pts[k], &f, 256, ids, NULL), mf);
+        assert_int_equal(vbi_vl_index_query_filtered(x, pts[k], &f, 256, ids, NULL), mf);
         assert_memory_equal(ids, ref, mf * sizeof(uint32_t));
     }
     print_message("# %s (%u levels): %u spheres, %u points, %.2f spheres per point (max %u), %zu bytes\n",
-                  kind == VBNL_VL_INDEX_GRID ? "grid" : "embree", vbnl_vl_index_level_count(x), n, npts,
-                  (double)total / npts, most, vbnl_vl_index_bytes(x));
+                  kind == VBI_VL_INDEX_GRID ? "grid" : "embree", vbi_vl_index_level_count(x), n, npts,
+                  (double)total / npts, most, vbi_vl_index_bytes(x));
     assert_true(total > npts / 4); /* the test points do hit spheres */
     check_batch(x, pts, npts);
-    uint32_t levels_built = vbnl_vl_index_level_count(x);
-    vbnl_vl_index_destroy(x);
+    uint32_t levels_built = vbi_vl_index_level_count(x);
+    vbi_vl_index_destroy(x);
     return levels_built;
 }
 
 /* The grid with each level policy (vl_index.h, "Levels"), or the Embree variant; returns the
  * levels AUTO built. */
-static uint32_t check_index(vbnl_vl_index_kind kind, RTCDevice dev, const vec3 *c, const float *r, const vec3 *nrm,
+static uint32_t check_index(vbi_vl_index_kind kind, RTCDevice dev, const vec3 *c, const float *r, const vec3 *nrm,
                             uint32_t n, const vec3 *pts, uint32_t npts)
 {
-    if (kind != VBNL_VL_INDEX_GRID)
-        return check_index_levels(kind, VBNL_VL_INDEX_LEVELS_AUTO, dev, c, r, nrm, n, pts, npts);
-    uint32_t aut = check_index_levels(kind, VBNL_VL_INDEX_LEVELS_AUTO, dev, c, r, nrm, n, pts, npts);
-    uint32_t classes = check_index_levels(kind, VBNL_VL_INDEX_LEVELS_CLASSES, dev, c, r, nrm, n, pts, npts);
-    assert_int_equal(check_index_levels(kind, VBNL_VL_INDEX_LEVELS_ONE, dev, c, r, nrm, n, pts, npts), 1);
+    if (kind != VBI_VL_INDEX_GRID)
+        return check_index_levels(kind, VBI_VL_INDEX_LEVELS_AUTO, dev, c, r, nrm, n, pts, npts);
+    uint32_t aut = check_index_levels(kind, VBI_VL_INDEX_LEVELS_AUTO, dev, c, r, nrm, n, pts, npts);
+    uint32_t classes = check_index_levels(kind, VBI_VL_INDEX_LEVELS_CLASSES, dev, c, r, nrm, n, pts, npts);
+    assert_int_equal(check_index_levels(kind, VBI_VL_INDEX_LEVELS_ONE, dev, c, r, nrm, n, pts, npts), 1);
     assert_true(aut == 1 || aut == classes);
     return aut;
 }
@@ -202,29 +202,29 @@ static void test_index_brute_force(void **state)
     enum { N = 3000, P = 20000 };
     vec3 *c = malloc(N * sizeof(vec3)), *pts = malloc(P * sizeof(vec3)), *nrm = malloc(N * sizeof(vec3));
     float *r = malloc(N * sizeof(float));
-    vbnl_rng rng = vbnl_rng_make(11, 3);
+    vbi_rng rng = vbi_rng_make(11, 3);
     for (uint32_t j = 0; j < N; ++j) {
-        c[j] = v3(vbnl_rng_next(&rng) * 2 - 1, vbnl_rng_next(&rng) * 2 - 1, vbnl_rng_next(&rng) * 2 - 1);
+        c[j] = v3(vbi_rng_next(&rng) * 2 - 1, vbi_rng_next(&rng) * 2 - 1, vbi_rng_next(&rng) * 2 - 1);
         /* radii over a factor 16 (several grid levels), a few degenerate ones */
-        r[j] = 0.03f * exp2f(4.0f * vbnl_rng_next(&rng));
-        nrm[j] = sample_uniform_sphere(vbnl_rng_next2(&rng));
+        r[j] = 0.03f * exp2f(4.0f * vbi_rng_next(&rng));
+        nrm[j] = sample_uniform_sphere(vbi_rng_next2(&rng));
         if (j % 97 == 0)
             r[j] = (j % 2) ? 0.0f : -1.0f;
     }
     for (uint32_t k = 0; k < P; ++k) {
         if (k % 2) { /* right at a sphere's boundary: stresses the cell assignment */
-            uint32_t j = vbnl_rng_uniform_u32(&rng, N);
-            vec3 w = sample_uniform_sphere(vbnl_rng_next2(&rng));
-            pts[k] = v3_fma(c[j], w, r[j] * (1.0f + (vbnl_rng_next(&rng) - 0.5f) * 2e-6f));
+            uint32_t j = vbi_rng_uniform_u32(&rng, N);
+            vec3 w = sample_uniform_sphere(vbi_rng_next2(&rng));
+            pts[k] = v3_fma(c[j], w, r[j] * (1.0f + (vbi_rng_next(&rng) - 0.5f) * 2e-6f));
         } else {
-            pts[k] = v3(vbnl_rng_next(&rng) * 2.4f - 1.2f, vbnl_rng_next(&rng) * 2.4f - 1.2f,
-                        vbnl_rng_next(&rng) * 2.4f - 1.2f);
+            pts[k] = v3(vbi_rng_next(&rng) * 2.4f - 1.2f, vbi_rng_next(&rng) * 2.4f - 1.2f,
+                        vbi_rng_next(&rng) * 2.4f - 1.2f);
         }
     }
     RTCDevice dev = rtcNewDevice(NULL);
     /* radii over a factor 16: one level costs less than twice the classes' listings */
-    assert_int_equal(check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, N, pts, P), 1);
-    check_index(VBNL_VL_INDEX_EMBREE, dev, c, r, nrm, N, pts, P);
+    assert_int_equal(check_index(VBI_VL_INDEX_GRID, NULL, c, r, nrm, N, pts, P), 1);
+    check_index(VBI_VL_INDEX_EMBREE, dev, c, r, nrm, N, pts, P);
     /* one radius class (the pipelined single-level query) and three classes (pipelined, <= 4
      * levels; the set above has 5 and takes the plain path) */
     {
@@ -233,8 +233,8 @@ static void test_index_brute_force(void **state)
             r1[j] = r[j] > 0.0f ? 0.12f : r[j];
             r3[j] = r[j] > 0.0f ? 0.05f * exp2f(2.0f * (float)(j % 11) / 11.0f) : r[j];
         }
-        check_index(VBNL_VL_INDEX_GRID, NULL, c, r1, nrm, N, pts, P);
-        check_index(VBNL_VL_INDEX_GRID, NULL, c, r3, nrm, N, pts, P);
+        check_index(VBI_VL_INDEX_GRID, NULL, c, r1, nrm, N, pts, P);
+        check_index(VBI_VL_INDEX_GRID, NULL, c, r3, nrm, N, pts, P);
         free(r1);
         free(r3);
     }
@@ -246,15 +246,15 @@ static void test_index_brute_force(void **state)
     }
     /* radii 0.5 to 2.5: one level with the cells of the most populated class would hold more
      * than twice the classes' listings, so AUTO keeps the classes */
-    assert_true(check_index(VBNL_VL_INDEX_GRID, NULL, c, r, nrm, 200, pts, 400) > 1);
+    assert_true(check_index(VBI_VL_INDEX_GRID, NULL, c, r, nrm, 200, pts, 400) > 1);
     /* bad arguments */
-    vbnl_vl_index *x = (vbnl_vl_index *)1;
-    vbnl_vl_index_desc bad = {c, r, NULL, N, VBNL_VL_INDEX_EMBREE, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
-    assert_int_equal(vbnl_vl_index_create(&bad, &x), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_vl_index_desc bad_levels = {c, r, NULL, N, VBNL_VL_INDEX_GRID, 0.0f, NULL, (vbnl_vl_index_levels)3};
-    assert_int_equal(vbnl_vl_index_create(&bad_levels, &x), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_vl_index *x = (vbi_vl_index *)1;
+    vbi_vl_index_desc bad = {c, r, NULL, N, VBI_VL_INDEX_EMBREE, 0.0f, NULL, VBI_VL_INDEX_LEVELS_AUTO};
+    assert_int_equal(vbi_vl_index_create(&bad, &x), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_vl_index_desc bad_levels = {c, r, NULL, N, VBI_VL_INDEX_GRID, 0.0f, NULL, (vbi_vl_index_levels)3};
+    assert_int_equal(vbi_vl_index_create(&bad_levels, &x), VBNL_ERR_INVALID_ARGUMENT);
     assert_null(x);
-    vbnl_vl_index_destroy(NULL);
+    vbi_vl_index_destroy(NULL);
     rtcReleaseDevice(dev);
     free(c);
     free(r);
@@ -273,11 +273,11 @@ static vec3 fibonacci(uint32_t i, uint32_t n)
     return v3(s * cosf(phi), s * sinf(phi), z);
 }
 
-static void sum_phi(const vbnl_profile_set *s, uint64_t out[3])
+static void sum_phi(const vbi_profile_set *s, uint64_t out[3])
 {
     out[0] = out[1] = out[2] = 0;
-    for (uint32_t v = 0; v < vbnl_profile_set_count(s); ++v) {
-        const uint64_t *q = vbnl_profile_incident_power_fixed(s, v);
+    for (uint32_t v = 0; v < vbi_profile_set_count(s); ++v) {
+        const uint64_t *q = vbi_profile_incident_power_fixed(s, v);
         for (int c = 0; c < 3; ++c)
             out[c] += q[c];
     }
@@ -329,24 +329,24 @@ static void test_closed_sphere(void **state)
         n[j] = v3_neg(u);
         r[j] = r_vl;
     }
-    vbnl_vl_index_desc xd = {c, r, n, N, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
-    vbnl_vl_index *idx = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
-    vbnl_hemioct *map = NULL;
-    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
-    vbnl_profile_set *ps = NULL;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, N, NULL, vbnl_split_photon_unit(s, paths), &ps), VBNL_OK);
+    vbi_vl_index_desc xd = {c, r, n, N, VBI_VL_INDEX_GRID, 0.0f, NULL, VBI_VL_INDEX_LEVELS_AUTO};
+    vbi_vl_index *idx = NULL;
+    assert_int_equal(vbi_vl_index_create(&xd, &idx), VBNL_OK);
+    vbi_hemioct *map = NULL;
+    assert_int_equal(vbi_hemioct_create(16, &map), VBNL_OK);
+    vbi_profile_set *ps = NULL;
+    assert_int_equal(vbi_profile_set_create_fixed(map, N, NULL, vbi_split_photon_unit(s, paths), &ps), VBNL_OK);
 
-    vbnl_split_desc d;
-    vbnl_split_desc_init(&d);
+    vbi_split_desc d;
+    vbi_split_desc_init(&d);
     d.scene = s;
     d.index = idx;
     d.vl_normals = n;
     d.profiles = ps;
     d.photon_paths = paths;
     d.seed = 1234;
-    vbnl_split_stats st;
-    assert_int_equal(vbnl_split_photons(&d, ctx->pool, NULL, &st), VBNL_OK);
+    vbi_split_stats st;
+    assert_int_equal(vbi_split_photons(&d, ctx->pool, NULL, &st), VBNL_OK);
     print_message("# closed sphere: %llu paths, %llu hits (%llu covered), %llu deposits, %.2f s, %.2f Mpaths/s\n",
                   (unsigned long long)st.paths, (unsigned long long)st.hits, (unsigned long long)st.covered_hits,
                   (unsigned long long)st.deposits, st.seconds, st.paths / st.seconds * 1e-6);
@@ -360,9 +360,9 @@ static void test_closed_sphere(void **state)
     for (int ch = 0; ch < 3; ++ch)
         assert_true(sum[ch] == st.covered_power[ch]);
 
-    vbnl_bsdf lam = s->materials[mat].bsdf;
-    vbnl_profile_kernel *k = NULL;
-    assert_int_equal(vbnl_profile_kernel_create(map, &lam, 0, &k), VBNL_OK);
+    vbi_bsdf lam = s->materials[mat].bsdf;
+    vbi_profile_kernel *k = NULL;
+    assert_int_equal(vbi_profile_kernel_create(map, &lam, 0, &k), VBNL_OK);
     double worst = 0.0, worst_L = 0.0, worst_eff = 0.0, worst_area = 0.0, mean[3] = {0, 0, 0};
     const double Aj = area / N;
     /* A_j by quadrature: the partition-of-unity weight of VL j integrated over the sphere
@@ -374,7 +374,7 @@ static void test_closed_sphere(void **state)
         vec3 p = v3_scale(fibonacci(i, M), R);
         uint32_t ids[64];
         float d2[64], w[64], sw = 0.0f;
-        uint32_t m = vbnl_vl_index_query(idx, p, 64, ids, d2);
+        uint32_t m = vbi_vl_index_query(idx, p, 64, ids, d2);
         for (uint32_t q = 0; q < m; ++q) {
             w[q] = v3_dot(n[ids[q]], v3_neg(p)) > 0.7f ? 1.0f - d2[q] / (r_vl * r_vl) : 0.0f;
             sw += w[q];
@@ -383,8 +383,8 @@ static void test_closed_sphere(void **state)
             aeff[ids[q]] += w[q] / sw * area / M;
     }
     for (uint32_t j = 0; j < N; ++j) {
-        vec3 phi = vbnl_profile_incident_power(ps, j);
-        vec3 J = vbnl_profile_eval(ps, j, k, v3(0.3f, 0.2f, 0.9f));
+        vec3 phi = vbi_profile_incident_power(ps, j);
+        vec3 J = vbi_profile_eval(ps, j, k, v3(0.3f, 0.2f, 0.9f));
         for (int ch = 0; ch < 3; ++ch) {
             double rc = v3_comp(rho, ch);
             double E = M_PI * Le / (1.0 - rc);
@@ -405,10 +405,10 @@ static void test_closed_sphere(void **state)
     assert_true(worst_L < 0.02);
     for (int ch = 0; ch < 3; ++ch)
         assert_true(fabs(mean[ch] - 1.0) < 0.005);
-    vbnl_profile_kernel_destroy(k);
-    vbnl_profile_set_destroy(ps);
-    vbnl_hemioct_destroy(map);
-    vbnl_vl_index_destroy(idx);
+    vbi_profile_kernel_destroy(k);
+    vbi_profile_set_destroy(ps);
+    vbi_hemioct_destroy(map);
+    vbi_vl_index_destroy(idx);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }
@@ -425,14 +425,14 @@ typedef struct vl_list {
 /* VLs at the camera's primary hits (normal facing the camera), radius 2 r_max of Eq. 1. */
 static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area)
 {
-    vbnl_rng rng = vbnl_rng_make(77, 1);
+    vbi_rng rng = vbi_rng_make(77, 1);
     v->n = 0;
     float rad = 2.0f * sqrtf(area / (2.0f * sqrtf(3.0f) * (float)want));
     while (v->n < want) {
         vec3 o, d;
-        vbnl_camera_ray(&s->camera, 64, 64, vbnl_rng_next(&rng) * 64, vbnl_rng_next(&rng) * 64, &o, &d);
-        vbnl_hit h;
-        if (!vbnl_scene_intersect(s, o, d, INFINITY, &h) || vbnl_bsdf_is_delta(&s->materials[h.material].bsdf))
+        vbi_camera_ray(&s->camera, 64, 64, vbi_rng_next(&rng) * 64, vbi_rng_next(&rng) * 64, &o, &d);
+        vbi_hit h;
+        if (!vbi_scene_intersect(s, o, d, INFINITY, &h) || vbi_bsdf_is_delta(&s->materials[h.material].bsdf))
             continue;
         vec3 nn = v3_dot(h.ng, d) > 0.0f ? v3_neg(h.ng) : h.ng;
         v->c[v->n] = h.p;
@@ -443,18 +443,18 @@ static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area
     }
 }
 
-static int g_atomic_deposits; /* run_split_chunk: vbnl_split_desc.atomic_deposits */
-static int g_general_walk;    /* run_split_chunk: vbnl_split_desc.general_walk */
+static int g_atomic_deposits; /* run_split_chunk: vbi_split_desc.atomic_deposits */
+static int g_general_walk;    /* run_split_chunk: vbi_split_desc.general_walk */
 
-static vbnl_profile_set *run_split_chunk(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
-                                         const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
+static vbi_profile_set *run_split_chunk(const vbnl_scene *s, const vbi_vl_index *idx, const vl_list *v,
+                                         const vbi_hemioct *map, double unit, vbi_pool *pool, uint64_t seed,
                                          uint64_t paths, uint64_t first, uint64_t count, uint32_t chunk,
-                                         vbnl_split_stats *st)
+                                         vbi_split_stats *st)
 {
-    vbnl_profile_set *ps = NULL;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, v->n, v->glossy, unit, &ps), VBNL_OK);
-    vbnl_split_desc d;
-    vbnl_split_desc_init(&d);
+    vbi_profile_set *ps = NULL;
+    assert_int_equal(vbi_profile_set_create_fixed(map, v->n, v->glossy, unit, &ps), VBNL_OK);
+    vbi_split_desc d;
+    vbi_split_desc_init(&d);
     d.scene = s;
     d.index = idx;
     d.vl_normals = v->nrm;
@@ -466,23 +466,23 @@ static vbnl_profile_set *run_split_chunk(const vbnl_scene *s, const vbnl_vl_inde
     d.chunk = chunk;
     d.atomic_deposits = g_atomic_deposits;
     d.general_walk = g_general_walk;
-    assert_int_equal(vbnl_split_photons(&d, pool, NULL, st), VBNL_OK);
+    assert_int_equal(vbi_split_photons(&d, pool, NULL, st), VBNL_OK);
     return ps;
 }
 
-static vbnl_profile_set *run_split(const vbnl_scene *s, const vbnl_vl_index *idx, const vl_list *v,
-                                   const vbnl_hemioct *map, double unit, vbnl_pool *pool, uint64_t seed,
-                                   uint64_t paths, uint64_t first, uint64_t count, vbnl_split_stats *st)
+static vbi_profile_set *run_split(const vbnl_scene *s, const vbi_vl_index *idx, const vl_list *v,
+                                   const vbi_hemioct *map, double unit, vbi_pool *pool, uint64_t seed,
+                                   uint64_t paths, uint64_t first, uint64_t count, vbi_split_stats *st)
 {
     return run_split_chunk(s, idx, v, map, unit, pool, seed, paths, first, count, 1000, st);
 }
 
-static int sets_equal(const vbnl_profile_set *a, const vbnl_profile_set *b, uint32_t texels)
+static int sets_equal(const vbi_profile_set *a, const vbi_profile_set *b, uint32_t texels)
 {
-    for (uint32_t v = 0; v < vbnl_profile_set_count(a); ++v) {
-        if (memcmp(vbnl_profile_incident_power_fixed(a, v), vbnl_profile_incident_power_fixed(b, v), 24))
+    for (uint32_t v = 0; v < vbi_profile_set_count(a); ++v) {
+        if (memcmp(vbi_profile_incident_power_fixed(a, v), vbi_profile_incident_power_fixed(b, v), 24))
             return 0;
-        const uint64_t *ma = vbnl_profile_incident_map_fixed(a, v), *mb = vbnl_profile_incident_map_fixed(b, v);
+        const uint64_t *ma = vbi_profile_incident_map_fixed(a, v), *mb = vbi_profile_incident_map_fixed(b, v);
         if ((ma == NULL) != (mb == NULL) || (ma && memcmp(ma, mb, texels * 24u)))
             return 0;
     }
@@ -491,13 +491,13 @@ static int sets_equal(const vbnl_profile_set *a, const vbnl_profile_set *b, uint
 
 /* 3000 VLs placed from the camera of committed scene s (place_vls), their grid index, and a
  * 16 x 16 octahedral map in *map. */
-static vbnl_vl_index *place_and_index(const vbnl_scene *s, vl_list *v, vbnl_hemioct **map)
+static vbi_vl_index *place_and_index(const vbnl_scene *s, vl_list *v, vbi_hemioct **map)
 {
     place_vls(s, v, 3000, 24.0f);
-    vbnl_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
-    vbnl_vl_index *x = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &x), VBNL_OK);
-    assert_int_equal(vbnl_hemioct_create(16, map), VBNL_OK);
+    vbi_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, VBI_VL_INDEX_GRID, 0.0f, NULL, VBI_VL_INDEX_LEVELS_AUTO};
+    vbi_vl_index *x = NULL;
+    assert_int_equal(vbi_vl_index_create(&xd, &x), VBNL_OK);
+    assert_int_equal(vbi_hemioct_create(16, map), VBNL_OK);
     return x;
 }
 
@@ -508,15 +508,15 @@ static void test_determinism_and_merge(void **state)
     vbnl_scene *s = ts_box_scene(ctx, 1.0f);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;
-    vbnl_hemioct *map = NULL;
-    vbnl_vl_index *idx = place_and_index(s, &v, &map);
-    const uint32_t texels = vbnl_hemioct_texel_count(map);
+    vbi_hemioct *map = NULL;
+    vbi_vl_index *idx = place_and_index(s, &v, &map);
+    const uint32_t texels = vbi_hemioct_texel_count(map);
     const uint64_t P = 200000;
-    double unit = vbnl_split_photon_unit(s, P);
-    vbnl_pool *p1 = vbnl_pool_create(1), *p2 = vbnl_pool_create(2);
-    vbnl_split_stats s1, s2, sa, sb, sc;
-    vbnl_profile_set *one = run_split(s, idx, &v, map, unit, p1, 5, P, 0, 0, &s1);
-    vbnl_profile_set *two = run_split(s, idx, &v, map, unit, p2, 5, P, 0, 0, &s2);
+    double unit = vbi_split_photon_unit(s, P);
+    vbi_pool *p1 = vbi_pool_create(1), *p2 = vbi_pool_create(2);
+    vbi_split_stats s1, s2, sa, sb, sc;
+    vbi_profile_set *one = run_split(s, idx, &v, map, unit, p1, 5, P, 0, 0, &s1);
+    vbi_profile_set *two = run_split(s, idx, &v, map, unit, p2, 5, P, 0, 0, &s2);
     print_message("# box: %llu paths, %llu rays, %llu hits (%llu covered, %llu on delta), %llu deposits\n",
                   (unsigned long long)s1.paths, (unsigned long long)s1.rays, (unsigned long long)s1.hits,
                   (unsigned long long)s1.covered_hits, (unsigned long long)s1.delta_hits,
@@ -529,11 +529,11 @@ static void test_determinism_and_merge(void **state)
     /* Work items of 7 paths (tiny batches) on 3 threads, and the default chunk (batches that fill
      * up within an item) with atomic deposits instead of per-thread sums: the same bits. */
     {
-        vbnl_pool *p3 = vbnl_pool_create(3);
-        vbnl_split_stats s3, s4;
-        vbnl_profile_set *three = run_split_chunk(s, idx, &v, map, unit, p3, 5, P, 0, 0, 7, &s3);
+        vbi_pool *p3 = vbi_pool_create(3);
+        vbi_split_stats s3, s4;
+        vbi_profile_set *three = run_split_chunk(s, idx, &v, map, unit, p3, 5, P, 0, 0, 7, &s3);
         g_atomic_deposits = 1; /* the fallback without per-thread sums */
-        vbnl_profile_set *dflt = run_split_chunk(s, idx, &v, map, unit, p2, 5, P, 0, 0, 0, &s4);
+        vbi_profile_set *dflt = run_split_chunk(s, idx, &v, map, unit, p2, 5, P, 0, 0, 0, &s4);
         g_atomic_deposits = 0;
         assert_true(sets_equal(one, three, texels));
         assert_true(sets_equal(one, dflt, texels));
@@ -541,16 +541,16 @@ static void test_determinism_and_merge(void **state)
         assert_memory_equal(s1.covered_power, s4.covered_power, sizeof(s1.covered_power));
         assert_int_equal(s1.deposits, s3.deposits);
         assert_int_equal(s1.overflow, s4.overflow);
-        vbnl_profile_set_destroy(three);
-        vbnl_profile_set_destroy(dflt);
-        vbnl_pool_destroy(p3);
+        vbi_profile_set_destroy(three);
+        vbi_profile_set_destroy(dflt);
+        vbi_pool_destroy(p3);
     }
     /* Every hit through the general walk instead of the SIMD step where it applies (Lambertian
      * mesh faces: here nearly all): the same paths, hits and bits. */
     {
-        vbnl_split_stats s5;
+        vbi_split_stats s5;
         g_general_walk = 1;
-        vbnl_profile_set *gen = run_split_chunk(s, idx, &v, map, unit, p2, 5, P, 0, 0, 0, &s5);
+        vbi_profile_set *gen = run_split_chunk(s, idx, &v, map, unit, p2, 5, P, 0, 0, 0, &s5);
         g_general_walk = 0;
         print_message("# box: %llu of %llu hits in the SIMD step\n", (unsigned long long)s1.simd_hits,
                       (unsigned long long)s1.hits);
@@ -563,23 +563,23 @@ static void test_determinism_and_merge(void **state)
         assert_int_equal(s1.rays, s5.rays);
         assert_int_equal(s1.hits, s5.hits);
         assert_int_equal(s1.deposits, s5.deposits);
-        vbnl_profile_set_destroy(gen);
+        vbi_profile_set_destroy(gen);
     }
     /* Large shares: units 2^6 and 2^12 times finer than the default, so that the thread maps'
      * 32-bit texels wrap every few photons (the carry into the set's maps) and, at 2^12, shares
      * reach 2^31 (splitting.c: then the general splat form instead of the vector rows). The
      * private maps give the same bits as atomic splats into the set. */
     for (int fine = 6; fine <= 12; fine += 6) {
-        vbnl_split_stats s6, s7;
+        vbi_split_stats s6, s7;
         const double u2 = ldexp(unit, -fine);
-        vbnl_profile_set *priv = run_split(s, idx, &v, map, u2, p2, 7, 40000, 0, 0, &s6);
+        vbi_profile_set *priv = run_split(s, idx, &v, map, u2, p2, 7, 40000, 0, 0, &s6);
         g_atomic_deposits = 1;
-        vbnl_profile_set *atom = run_split(s, idx, &v, map, u2, p2, 7, 40000, 0, 0, &s7);
+        vbi_profile_set *atom = run_split(s, idx, &v, map, u2, p2, 7, 40000, 0, 0, &s7);
         g_atomic_deposits = 0;
         assert_true(sets_equal(priv, atom, texels));
         assert_memory_equal(s6.covered_power, s7.covered_power, sizeof(s6.covered_power));
-        vbnl_profile_set_destroy(priv);
-        vbnl_profile_set_destroy(atom);
+        vbi_profile_set_destroy(priv);
+        vbi_profile_set_destroy(atom);
     }
     /* Exact bookkeeping: VL sums == covered photon power; each glossy map sums to its Phi_in. */
     uint64_t sum[3];
@@ -587,7 +587,7 @@ static void test_determinism_and_merge(void **state)
     assert_memory_equal(sum, s1.covered_power, sizeof(sum));
     uint32_t n_glossy = 0;
     for (uint32_t j = 0; j < v.n; ++j) {
-        const uint64_t *m = vbnl_profile_incident_map_fixed(one, j);
+        const uint64_t *m = vbi_profile_incident_map_fixed(one, j);
         if (!m)
             continue;
         ++n_glossy;
@@ -595,52 +595,52 @@ static void test_determinism_and_merge(void **state)
         for (uint32_t t = 0; t < texels; ++t)
             for (int ch = 0; ch < 3; ++ch)
                 t3[ch] += m[3 * t + ch];
-        assert_memory_equal(t3, vbnl_profile_incident_power_fixed(one, j), sizeof(t3));
+        assert_memory_equal(t3, vbi_profile_incident_power_fixed(one, j), sizeof(t3));
     }
     assert_true(n_glossy > 100);
     /* Paths [0, 70000) and [70000, P) in two runs, merged: the same as one run. */
-    vbnl_profile_set *a = run_split(s, idx, &v, map, unit, p2, 5, P, 0, 70000, &sa);
-    vbnl_profile_set *b = run_split(s, idx, &v, map, unit, p1, 5, P, 70000, 0, &sb);
+    vbi_profile_set *a = run_split(s, idx, &v, map, unit, p2, 5, P, 0, 70000, &sa);
+    vbi_profile_set *b = run_split(s, idx, &v, map, unit, p1, 5, P, 70000, 0, &sb);
     assert_int_equal(sa.paths + sb.paths, P);
-    assert_int_equal(vbnl_profile_set_merge(a, b), VBNL_OK);
+    assert_int_equal(vbi_profile_set_merge(a, b), VBNL_OK);
     assert_true(sets_equal(a, one, texels));
     /* A run with another seed merged into it: every integer is the sum of the two. */
-    vbnl_profile_set *c = run_split(s, idx, &v, map, unit, p2, 6, P, 0, 50000, &sc);
-    assert_int_equal(vbnl_profile_set_merge(c, a), VBNL_OK);
+    vbi_profile_set *c = run_split(s, idx, &v, map, unit, p2, 6, P, 0, 50000, &sc);
+    assert_int_equal(vbi_profile_set_merge(c, a), VBNL_OK);
     {
         /* exact: merge(C, A) - A == C as run, cell by cell */
-        vbnl_split_stats sc2;
-        vbnl_profile_set *c_again = run_split(s, idx, &v, map, unit, p1, 6, P, 0, 50000, &sc2);
+        vbi_split_stats sc2;
+        vbi_profile_set *c_again = run_split(s, idx, &v, map, unit, p1, 6, P, 0, 50000, &sc2);
         for (uint32_t j = 0; j < v.n; ++j) {
-            const uint64_t *qc = vbnl_profile_incident_power_fixed(c, j), *qa = vbnl_profile_incident_power_fixed(a, j),
-                           *q0 = vbnl_profile_incident_power_fixed(c_again, j);
+            const uint64_t *qc = vbi_profile_incident_power_fixed(c, j), *qa = vbi_profile_incident_power_fixed(a, j),
+                           *q0 = vbi_profile_incident_power_fixed(c_again, j);
             for (int ch = 0; ch < 3; ++ch)
                 assert_true(qc[ch] == qa[ch] + q0[ch]);
-            const uint64_t *mc = vbnl_profile_incident_map_fixed(c, j), *ma = vbnl_profile_incident_map_fixed(a, j),
-                           *m0 = vbnl_profile_incident_map_fixed(c_again, j);
+            const uint64_t *mc = vbi_profile_incident_map_fixed(c, j), *ma = vbi_profile_incident_map_fixed(a, j),
+                           *m0 = vbi_profile_incident_map_fixed(c_again, j);
             if (mc)
                 for (uint32_t t = 0; t < 3 * texels; ++t)
                     assert_true(mc[t] == ma[t] + m0[t]);
         }
-        vbnl_profile_set_destroy(c_again);
+        vbi_profile_set_destroy(c_again);
     }
     /* mismatched sets are refused */
-    vbnl_profile_set *other = NULL;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, v.n, v.glossy, unit * 2.0, &other), VBNL_OK);
-    assert_int_equal(vbnl_profile_set_merge(other, a), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_profile_set *bad = NULL;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, 3, NULL, 3.0, &bad), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_profile_set *other = NULL;
+    assert_int_equal(vbi_profile_set_create_fixed(map, v.n, v.glossy, unit * 2.0, &other), VBNL_OK);
+    assert_int_equal(vbi_profile_set_merge(other, a), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_profile_set *bad = NULL;
+    assert_int_equal(vbi_profile_set_create_fixed(map, 3, NULL, 3.0, &bad), VBNL_ERR_INVALID_ARGUMENT);
     assert_null(bad);
-    vbnl_profile_set_destroy(other);
-    vbnl_profile_set_destroy(one);
-    vbnl_profile_set_destroy(two);
-    vbnl_profile_set_destroy(a);
-    vbnl_profile_set_destroy(b);
-    vbnl_profile_set_destroy(c);
-    vbnl_pool_destroy(p1);
-    vbnl_pool_destroy(p2);
-    vbnl_hemioct_destroy(map);
-    vbnl_vl_index_destroy(idx);
+    vbi_profile_set_destroy(other);
+    vbi_profile_set_destroy(one);
+    vbi_profile_set_destroy(two);
+    vbi_profile_set_destroy(a);
+    vbi_profile_set_destroy(b);
+    vbi_profile_set_destroy(c);
+    vbi_pool_destroy(p1);
+    vbi_pool_destroy(p2);
+    vbi_hemioct_destroy(map);
+    vbi_vl_index_destroy(idx);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }
@@ -662,7 +662,7 @@ static double simd_step_sphere(vbnl_material_type type, const char *name)
     const float c[3] = {-0.45f, 0.45f, 0.25f}, R = 0.35f;
     for (int j = 0, k = 0; j <= NV; ++j)
         for (int i = 0; i <= NU; ++i, ++k) {
-            float th = VBNL_PI * (float)j / NV, ph = 2.0f * VBNL_PI * (float)i / NU;
+            float th = VBI_PI * (float)j / NV, ph = 2.0f * VBI_PI * (float)i / NU;
             float n3[3] = {sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph)};
             float sg = k % 7 == 3 ? -1.0f : 1.0f, tilt = k % 5 == 1 ? 0.6f : 0.0f;
             for (int a = 0; a < 3; ++a) {
@@ -689,15 +689,15 @@ static double simd_step_sphere(vbnl_material_type type, const char *name)
     assert_int_equal(vbnl_scene_add_mesh(s, &m, NULL, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;
-    vbnl_hemioct *map = NULL;
-    vbnl_vl_index *x = place_and_index(s, &v, &map);
+    vbi_hemioct *map = NULL;
+    vbi_vl_index *x = place_and_index(s, &v, &map);
     const uint64_t P = 100000;
-    const double unit = vbnl_split_photon_unit(s, P);
-    vbnl_pool *pool = vbnl_pool_create(2);
-    vbnl_split_stats sa, sb;
-    vbnl_profile_set *a = run_split_chunk(s, x, &v, map, unit, pool, 9, P, 0, 0, 0, &sa);
+    const double unit = vbi_split_photon_unit(s, P);
+    vbi_pool *pool = vbi_pool_create(2);
+    vbi_split_stats sa, sb;
+    vbi_profile_set *a = run_split_chunk(s, x, &v, map, unit, pool, 9, P, 0, 0, 0, &sa);
     g_general_walk = 1;
-    vbnl_profile_set *b = run_split_chunk(s, x, &v, map, unit, pool, 9, P, 0, 0, 0, &sb);
+    vbi_profile_set *b = run_split_chunk(s, x, &v, map, unit, pool, 9, P, 0, 0, 0, &sb);
     g_general_walk = 0;
     print_message("# shaded %s sphere: %llu of %llu hits in the SIMD step, %llu covered\n", name,
                   (unsigned long long)sa.simd_hits, (unsigned long long)sa.hits, (unsigned long long)sa.covered_hits);
@@ -709,12 +709,12 @@ static double simd_step_sphere(vbnl_material_type type, const char *name)
     assert_int_equal(sa.hits, sb.hits);
     assert_int_equal(sa.deposits, sb.deposits);
     assert_memory_equal(sa.covered_power, sb.covered_power, sizeof(sa.covered_power));
-    assert_true(sets_equal(a, b, vbnl_hemioct_texel_count(map)));
-    vbnl_profile_set_destroy(a);
-    vbnl_profile_set_destroy(b);
-    vbnl_pool_destroy(pool);
-    vbnl_hemioct_destroy(map);
-    vbnl_vl_index_destroy(x);
+    assert_true(sets_equal(a, b, vbi_hemioct_texel_count(map)));
+    vbi_profile_set_destroy(a);
+    vbi_profile_set_destroy(b);
+    vbi_pool_destroy(pool);
+    vbi_hemioct_destroy(map);
+    vbi_vl_index_destroy(x);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
     return (double)(sa.hits - sa.simd_hits) / (double)sa.hits; /* the general walk's share */
@@ -770,33 +770,33 @@ static void test_glossy_directions(void **state)
     vec3 c = v3(0, 0, 0), nrm = v3(0, 1, 0);
     float r = 0.2f;
     uint8_t glossy = 1;
-    vbnl_vl_index_desc xd = {&c, &r, &nrm, 1, VBNL_VL_INDEX_EMBREE, 0.0f, ctx->device, VBNL_VL_INDEX_LEVELS_AUTO};
-    vbnl_vl_index *idx = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
-    vbnl_hemioct *map = NULL;
-    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
+    vbi_vl_index_desc xd = {&c, &r, &nrm, 1, VBI_VL_INDEX_EMBREE, 0.0f, ctx->device, VBI_VL_INDEX_LEVELS_AUTO};
+    vbi_vl_index *idx = NULL;
+    assert_int_equal(vbi_vl_index_create(&xd, &idx), VBNL_OK);
+    vbi_hemioct *map = NULL;
+    assert_int_equal(vbi_hemioct_create(16, &map), VBNL_OK);
     const uint64_t P = 1000000;
-    vbnl_profile_set *ps = NULL;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, 1, &glossy, vbnl_split_photon_unit(s, P), &ps), VBNL_OK);
-    vbnl_split_desc d;
-    vbnl_split_desc_init(&d);
+    vbi_profile_set *ps = NULL;
+    assert_int_equal(vbi_profile_set_create_fixed(map, 1, &glossy, vbi_split_photon_unit(s, P), &ps), VBNL_OK);
+    vbi_split_desc d;
+    vbi_split_desc_init(&d);
     d.scene = s;
     d.index = idx;
     d.vl_normals = &nrm;
     d.profiles = ps;
     d.photon_paths = P;
     d.seed = 9;
-    vbnl_split_stats st;
-    assert_int_equal(vbnl_split_photons(&d, ctx->pool, NULL, &st), VBNL_OK);
+    vbi_split_stats st;
+    assert_int_equal(vbi_split_photons(&d, ctx->pool, NULL, &st), VBNL_OK);
 
     frame f = frame_from_normal(nrm);
     vec3 to_light = frame_to_local(&f, v3_norm(v3(0.5f, 1.0f, 0.0f)));
-    uint32_t texels = vbnl_hemioct_texel_count(map);
+    uint32_t texels = vbi_hemioct_texel_count(map);
     vec3 mean = v3s(0.0f);
     double total = 0.0, near = 0.0;
     for (uint32_t t = 0; t < texels; ++t) {
-        double p = vbnl_profile_incident_texel(ps, 0, t).x;
-        vec3 w = vbnl_hemioct_texel_dir(map, t);
+        double p = vbi_profile_incident_texel(ps, 0, t).x;
+        vec3 w = vbi_hemioct_texel_dir(map, t);
         mean = v3_fma(mean, w, (float)p);
         total += p;
         if (v3_dot(w, to_light) > cosf(15.0f * (float)M_PI / 180.0f))
@@ -820,21 +820,21 @@ static void test_glossy_directions(void **state)
                 }
             ref += E * (2.0 * r / gd) * (2.0 * r / gd);
         }
-    double phi = vbnl_profile_incident_power(ps, 0).x;
+    double phi = vbi_profile_incident_power(ps, 0).x;
     print_message("# glossy VL: mean direction %.2f deg from the light, %.4f of the power within 15 deg, "
                   "Phi_in %.5f vs %.5f (quadrature)\n", ang, near / total, phi, ref);
     assert_true(ang < 3.0f);
     assert_true(near / total > 0.95);
     assert_true(fabs(phi / ref - 1.0) < 0.02);
     assert_true(fabs(total / phi - 1.0) < 1e-5);
-    vbnl_profile_set_destroy(ps);
-    vbnl_hemioct_destroy(map);
-    vbnl_vl_index_destroy(idx);
+    vbi_profile_set_destroy(ps);
+    vbi_hemioct_destroy(map);
+    vbi_vl_index_destroy(idx);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }
 
-/* vbnl_vl_key_bin (photon splitting's inline bins) equals the top bits of the spatial key,
+/* vbi_vl_key_bin (photon splitting's inline bins) equals the top bits of the spatial key,
  * also for points outside the key cube (clamped) and NaN. */
 static void test_key_bin(void **state)
 {
@@ -842,24 +842,24 @@ static void test_key_bin(void **state)
     enum { N = 500 };
     vec3 c[N];
     float r[N];
-    vbnl_rng rng = vbnl_rng_make(5, 9);
+    vbi_rng rng = vbi_rng_make(5, 9);
     for (uint32_t j = 0; j < N; ++j) {
-        c[j] = v3(vbnl_rng_next(&rng) * 3 - 1, vbnl_rng_next(&rng) * 2, vbnl_rng_next(&rng) - 4);
+        c[j] = v3(vbi_rng_next(&rng) * 3 - 1, vbi_rng_next(&rng) * 2, vbi_rng_next(&rng) - 4);
         r[j] = 0.05f;
     }
-    vbnl_vl_index_desc xd = {c, r, NULL, N, VBNL_VL_INDEX_GRID, 0.0f, NULL, VBNL_VL_INDEX_LEVELS_AUTO};
-    vbnl_vl_index *idx = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
-    vbnl_vl_key_grid g = vbnl_vl_index_key_grid(idx);
+    vbi_vl_index_desc xd = {c, r, NULL, N, VBI_VL_INDEX_GRID, 0.0f, NULL, VBI_VL_INDEX_LEVELS_AUTO};
+    vbi_vl_index *idx = NULL;
+    assert_int_equal(vbi_vl_index_create(&xd, &idx), VBNL_OK);
+    vbi_vl_key_grid g = vbi_vl_index_key_grid(idx);
     for (uint32_t k = 0; k < 20000; ++k) {
-        vec3 p = v3(vbnl_rng_next(&rng) * 5 - 2, vbnl_rng_next(&rng) * 4 - 1, vbnl_rng_next(&rng) * 3 - 5);
+        vec3 p = v3(vbi_rng_next(&rng) * 5 - 2, vbi_rng_next(&rng) * 4 - 1, vbi_rng_next(&rng) * 3 - 5);
         if (k == 0)
             p.x = NAN;
-        uint64_t key = vbnl_vl_index_spatial_key(idx, p);
+        uint64_t key = vbi_vl_index_spatial_key(idx, p);
         for (unsigned b = 1; b <= 8; ++b)
-            assert_int_equal(vbnl_vl_key_bin(&g, p, b), key >> (63 - 3 * b));
+            assert_int_equal(vbi_vl_key_bin(&g, p, b), key >> (63 - 3 * b));
     }
-    vbnl_vl_index_destroy(idx);
+    vbi_vl_index_destroy(idx);
 }
 
 /* The rule for the private 32-bit glossy maps: none without maps, threads x half the maps
@@ -868,33 +868,33 @@ static void test_map_copy_rule(void **state)
 {
     (void)state;
     /* a 32-bit map (half the set's 64-bit maps) per thread */
-    assert_int_equal(vbnl_split_map_copy_bytes(1000, 0), 0);
-    assert_int_equal(vbnl_split_map_copy_bytes(0, 8), 0);
-    assert_int_equal(vbnl_split_map_copy_bytes(1000, 1), 500);
-    assert_int_equal(vbnl_split_map_copy_bytes(1000, 2), 1000);
-    assert_int_equal(vbnl_split_map_copy_bytes(1000, 4), 2000);
-    const uint64_t budget = VBNL_SPLIT_MAX_MAP_COPY_BYTES;
+    assert_int_equal(vbi_split_map_copy_bytes(1000, 0), 0);
+    assert_int_equal(vbi_split_map_copy_bytes(0, 8), 0);
+    assert_int_equal(vbi_split_map_copy_bytes(1000, 1), 500);
+    assert_int_equal(vbi_split_map_copy_bytes(1000, 2), 1000);
+    assert_int_equal(vbi_split_map_copy_bytes(1000, 4), 2000);
+    const uint64_t budget = VBI_SPLIT_MAX_MAP_COPY_BYTES;
     const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
     if (phys >= 8.0 * (double)budget) /* else the eighth of memory is the smaller cap */
-        assert_int_equal(vbnl_split_map_copy_bytes(budget, 2), budget); /* exactly the budget */
-    assert_int_equal(vbnl_split_map_copy_bytes(budget + 2, 2), 0);       /* two bytes over */
-    assert_int_equal(vbnl_split_map_copy_bytes(budget, 33), 0);
+        assert_int_equal(vbi_split_map_copy_bytes(budget, 2), budget); /* exactly the budget */
+    assert_int_equal(vbi_split_map_copy_bytes(budget + 2, 2), 0);       /* two bytes over */
+    assert_int_equal(vbi_split_map_copy_bytes(budget, 33), 0);
     /* hit batches: the largest while all threads' fit the budget, then fewer, never below the
      * minimum */
-    assert_int_equal(vbnl_split_batch_hits(0), VBNL_SPLIT_BATCH_HITS);
-    assert_int_equal(vbnl_split_batch_hits(1), VBNL_SPLIT_BATCH_HITS);
-    assert_int_equal(vbnl_split_batch_hits(4096), VBNL_SPLIT_BATCH_HITS_MIN);
+    assert_int_equal(vbi_split_batch_hits(0), VBI_SPLIT_BATCH_HITS);
+    assert_int_equal(vbi_split_batch_hits(1), VBI_SPLIT_BATCH_HITS);
+    assert_int_equal(vbi_split_batch_hits(4096), VBI_SPLIT_BATCH_HITS_MIN);
     for (unsigned th = 1; th <= 64; ++th) {
-        uint32_t h = vbnl_split_batch_hits(th);
-        assert_true(h >= VBNL_SPLIT_BATCH_HITS_MIN && h <= VBNL_SPLIT_BATCH_HITS);
-        if (h > VBNL_SPLIT_BATCH_HITS_MIN)
-            assert_true((uint64_t)th * vbnl_split_batch_bytes(h) <= VBNL_SPLIT_MAX_BATCH_BYTES);
-        if (h < VBNL_SPLIT_BATCH_HITS) /* 1024 more would not have fitted */
-            assert_true((uint64_t)th * vbnl_split_batch_bytes(h + 1024u) > VBNL_SPLIT_MAX_BATCH_BYTES);
+        uint32_t h = vbi_split_batch_hits(th);
+        assert_true(h >= VBI_SPLIT_BATCH_HITS_MIN && h <= VBI_SPLIT_BATCH_HITS);
+        if (h > VBI_SPLIT_BATCH_HITS_MIN)
+            assert_true((uint64_t)th * vbi_split_batch_bytes(h) <= VBI_SPLIT_MAX_BATCH_BYTES);
+        if (h < VBI_SPLIT_BATCH_HITS) /* 1024 more would not have fitted */
+            assert_true((uint64_t)th * vbi_split_batch_bytes(h + 1024u) > VBI_SPLIT_MAX_BATCH_BYTES);
     }
 }
 
-/* photon_fast.h's inline intersection fills the same hit as vbnl_scene_intersect (meshes inline,
+/* photon_fast.h's inline intersection fills the same hit as vbi_scene_intersect (meshes inline,
  * the sphere and the area light through the general call). */
 static void test_photon_fast(void **state)
 {
@@ -902,15 +902,15 @@ static void test_photon_fast(void **state)
     vbnl_context *ctx = make_ctx(1);
     vbnl_scene *s = ts_box_scene(ctx, 1.0f);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
-    vbnl_rng rng = vbnl_rng_make(17, 1);
+    vbi_rng rng = vbi_rng_make(17, 1);
     uint32_t hits = 0, spheres = 0;
     for (uint32_t k = 0; k < 200000; ++k) {
-        vec3 o = v3(vbnl_rng_next(&rng) * 1.8f - 0.9f, vbnl_rng_next(&rng) * 1.8f + 0.1f, vbnl_rng_next(&rng) * 1.8f - 0.9f);
-        vec3 d = sample_uniform_sphere(vbnl_rng_next2(&rng));
-        vbnl_hit a, b;
+        vec3 o = v3(vbi_rng_next(&rng) * 1.8f - 0.9f, vbi_rng_next(&rng) * 1.8f + 0.1f, vbi_rng_next(&rng) * 1.8f - 0.9f);
+        vec3 d = sample_uniform_sphere(vbi_rng_next2(&rng));
+        vbi_hit a, b;
         memset(&a, 0, sizeof a);
         memset(&b, 0, sizeof b);
-        int ha = vbnl_scene_intersect(s, o, d, INFINITY, &a), hb = vbnl_photon_intersect(s, o, d, &b);
+        int ha = vbi_scene_intersect(s, o, d, INFINITY, &a), hb = vbi_photon_intersect(s, o, d, &b);
         assert_int_equal(ha, hb);
         if (ha) {
             assert_memory_equal(&a, &b, sizeof a);

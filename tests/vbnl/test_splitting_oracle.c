@@ -1,11 +1,11 @@
 /* Photon splitting (splitting.h) against its plain reference (reference.h,
- * vbnl_split_photons_reference): the same 64-bit fixed-point incident power of every VL, the same
+ * vbi_split_photons_reference): the same 64-bit fixed-point incident power of every VL, the same
  * incident direction maps texel for texel, and the same counters, for every way a hit can go
  * through the optimised code:
  *   - VL indexes: one dense grid level (hits carry their cell), several levels (the index's
  *     pipeline, candidates level by level), more levels than the pipeline takes and the Embree
  *     variant (plain queries, answers in id order);
- *   - hits inside more than VBNL_SPLIT_QUERY_MAX spheres (the smallest ids), max_vls selections
+ *   - hits inside more than VBI_SPLIT_QUERY_MAX spheres (the smallest ids), max_vls selections
  *     that drop the smallest or pick the largest, filters off, the support test;
  *   - 1 and 3 threads, work items of 7 paths, atomic deposits instead of per-thread sums, every
  *     hit through the general walk, shares large enough for the general splat form;
@@ -85,17 +85,17 @@ static vbnl_scene *oracle_scene(vbnl_context *ctx)
  * r0 x 2^(spread x u) for uniform u (spread 0: one radius). */
 static void place(const vbnl_scene *s, vl_list *v, uint32_t n, float r0, float spread)
 {
-    vbnl_rng rng = vbnl_rng_make(123, 4);
+    vbi_rng rng = vbi_rng_make(123, 4);
     v->n = 0;
     while (v->n < n) {
         vec3 o, d;
-        vbnl_camera_ray(&s->camera, 64, 64, vbnl_rng_next(&rng) * 64, vbnl_rng_next(&rng) * 64, &o, &d);
-        vbnl_hit h;
-        if (!vbnl_scene_intersect(s, o, d, INFINITY, &h) || vbnl_bsdf_is_delta(&s->materials[h.material].bsdf))
+        vbi_camera_ray(&s->camera, 64, 64, vbi_rng_next(&rng) * 64, vbi_rng_next(&rng) * 64, &o, &d);
+        vbi_hit h;
+        if (!vbi_scene_intersect(s, o, d, INFINITY, &h) || vbi_bsdf_is_delta(&s->materials[h.material].bsdf))
             continue;
         v->c[v->n] = h.p;
         v->nrm[v->n] = v3_dot(h.ng, d) > 0.0f ? v3_neg(h.ng) : h.ng;
-        v->r[v->n] = r0 * exp2f(spread * vbnl_rng_next(&rng));
+        v->r[v->n] = r0 * exp2f(spread * vbi_rng_next(&rng));
         v->material[v->n] = h.material;
         v->glossy[v->n] = s->materials[h.material].bsdf.type != VBNL_MATERIAL_LAMBERT;
         v->n++;
@@ -105,8 +105,8 @@ static void place(const vbnl_scene *s, vl_list *v, uint32_t n, float r0, float s
 /* How one comparison runs. */
 typedef struct oracle_case {
     const char *name;
-    vbnl_vl_index_kind kind;
-    vbnl_vl_index_levels levels;
+    vbi_vl_index_kind kind;
+    vbi_vl_index_levels levels;
     uint32_t max_vls;
     float normal_cos;
     int facing, support;
@@ -117,12 +117,12 @@ typedef struct oracle_case {
     int fine; /* unit 2^-fine of the default: large shares */
 } oracle_case;
 
-static int sets_equal(const vbnl_profile_set *a, const vbnl_profile_set *b, uint32_t texels)
+static int sets_equal(const vbi_profile_set *a, const vbi_profile_set *b, uint32_t texels)
 {
-    for (uint32_t j = 0; j < vbnl_profile_set_count(a); ++j) {
-        if (memcmp(vbnl_profile_incident_power_fixed(a, j), vbnl_profile_incident_power_fixed(b, j), 24))
+    for (uint32_t j = 0; j < vbi_profile_set_count(a); ++j) {
+        if (memcmp(vbi_profile_incident_power_fixed(a, j), vbi_profile_incident_power_fixed(b, j), 24))
             return 0;
-        const uint64_t *ma = vbnl_profile_incident_map_fixed(a, j), *mb = vbnl_profile_incident_map_fixed(b, j);
+        const uint64_t *ma = vbi_profile_incident_map_fixed(a, j), *mb = vbi_profile_incident_map_fixed(b, j);
         if ((ma == NULL) != (mb == NULL) || (ma && memcmp(ma, mb, texels * 24u)))
             return 0;
     }
@@ -131,28 +131,28 @@ static int sets_equal(const vbnl_profile_set *a, const vbnl_profile_set *b, uint
 
 /* Runs case c on VLs v, optimised and reference, and compares. Returns the optimised run's
  * statistics for the callers' checks that the case reached what it is meant to. */
-static vbnl_split_stats run_case(const vbnl_scene *s, const vl_list *v, const vbnl_hemioct *map, uint64_t paths,
+static vbi_split_stats run_case(const vbnl_scene *s, const vl_list *v, const vbi_hemioct *map, uint64_t paths,
                                  const oracle_case *c)
 {
-    vbnl_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, c->kind, 0.0f, s->ctx->device, c->levels};
-    vbnl_vl_index *x = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &x), VBNL_OK);
-    vbnl_vl_support *sup = NULL;
+    vbi_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, c->kind, 0.0f, s->ctx->device, c->levels};
+    vbi_vl_index *x = NULL;
+    assert_int_equal(vbi_vl_index_create(&xd, &x), VBNL_OK);
+    vbi_vl_support *sup = NULL;
     if (c->support) { /* every other VL takes the test at its radius; all keep their material */
         sup = calloc(v->n, sizeof(*sup));
         assert_non_null(sup);
         for (uint32_t r = 0; r < v->n; ++r) {
-            const uint32_t id = vbnl_vl_index_id(x, r);
+            const uint32_t id = vbi_vl_index_id(x, r);
             sup[r].material = v->material[id];
             sup[r].tau = id % 2 ? v->r[id] : 0.0f;
         }
     }
-    const double unit = ldexp(vbnl_split_photon_unit(s, paths), -c->fine);
-    vbnl_profile_set *opt = NULL, *ref = NULL;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, v->n, v->glossy, unit, &opt), VBNL_OK);
-    assert_int_equal(vbnl_profile_set_create_fixed(map, v->n, v->glossy, unit, &ref), VBNL_OK);
-    vbnl_split_desc d;
-    vbnl_split_desc_init(&d);
+    const double unit = ldexp(vbi_split_photon_unit(s, paths), -c->fine);
+    vbi_profile_set *opt = NULL, *ref = NULL;
+    assert_int_equal(vbi_profile_set_create_fixed(map, v->n, v->glossy, unit, &opt), VBNL_OK);
+    assert_int_equal(vbi_profile_set_create_fixed(map, v->n, v->glossy, unit, &ref), VBNL_OK);
+    vbi_split_desc d;
+    vbi_split_desc_init(&d);
     d.scene = s;
     d.index = x;
     d.vl_normals = v->nrm;
@@ -165,16 +165,16 @@ static vbnl_split_stats run_case(const vbnl_scene *s, const vl_list *v, const vb
     d.chunk = c->chunk;
     d.atomic_deposits = c->atomic;
     d.general_walk = c->general;
-    vbnl_pool *pool = vbnl_pool_create(c->threads);
-    vbnl_split_stats so, sr;
+    vbi_pool *pool = vbi_pool_create(c->threads);
+    vbi_split_stats so, sr;
     d.profiles = opt;
-    assert_int_equal(vbnl_split_photons(&d, pool, NULL, &so), VBNL_OK);
+    assert_int_equal(vbi_split_photons(&d, pool, NULL, &so), VBNL_OK);
     d.profiles = ref;
-    assert_int_equal(vbnl_split_photons_reference(&d, &sr), VBNL_OK);
+    assert_int_equal(vbi_split_photons_reference(&d, &sr), VBNL_OK);
     print_message("# %-28s %6llu hits, %6llu covered, %7llu deposits, %4llu overflow, %5llu support tests\n", c->name,
                   (unsigned long long)so.hits, (unsigned long long)so.covered_hits, (unsigned long long)so.deposits,
                   (unsigned long long)so.overflow, (unsigned long long)so.support_tests);
-    assert_true(sets_equal(opt, ref, vbnl_hemioct_texel_count(map)));
+    assert_true(sets_equal(opt, ref, vbi_hemioct_texel_count(map)));
     assert_int_equal(so.paths, sr.paths);
     assert_int_equal(so.rays, sr.rays);
     assert_int_equal(so.hits, sr.hits);
@@ -186,11 +186,11 @@ static vbnl_split_stats run_case(const vbnl_scene *s, const vl_list *v, const vb
     assert_int_equal(so.support_rejects, sr.support_rejects);
     assert_memory_equal(so.covered_power, sr.covered_power, sizeof(so.covered_power));
     assert_true(so.covered_hits > 0 && so.delta_hits > 0);
-    vbnl_pool_destroy(pool);
-    vbnl_profile_set_destroy(opt);
-    vbnl_profile_set_destroy(ref);
+    vbi_pool_destroy(pool);
+    vbi_profile_set_destroy(opt);
+    vbi_profile_set_destroy(ref);
     free(sup);
-    vbnl_vl_index_destroy(x);
+    vbi_vl_index_destroy(x);
     return so;
 }
 
@@ -200,12 +200,12 @@ static void test_oracle(void **state)
     vbnl_context *ctx = ts_context(2);
     assert_non_null(ctx);
     vbnl_scene *s = oracle_scene(ctx);
-    vbnl_hemioct *map = NULL;
-    assert_int_equal(vbnl_hemioct_create(8, &map), VBNL_OK);
+    vbi_hemioct *map = NULL;
+    assert_int_equal(vbi_hemioct_create(8, &map), VBNL_OK);
     static vl_list v;
     const uint64_t P = 6000;
-    const vbnl_vl_index_kind G = VBNL_VL_INDEX_GRID;
-    const vbnl_vl_index_levels AUTO = VBNL_VL_INDEX_LEVELS_AUTO, CLASSES = VBNL_VL_INDEX_LEVELS_CLASSES;
+    const vbi_vl_index_kind G = VBI_VL_INDEX_GRID;
+    const vbi_vl_index_levels AUTO = VBI_VL_INDEX_LEVELS_AUTO, CLASSES = VBI_VL_INDEX_LEVELS_CLASSES;
 
     /* one radius: one dense level, the hits carry their cell */
     place(s, &v, 1500, 0.12f, 0.0f);
@@ -217,10 +217,10 @@ static void test_oracle(void **state)
         {"one level, large shares", G, AUTO, 8, 0.7f, 1, 0, 2, 0, 0, 0, 12},
         {"one level, support test", G, AUTO, 8, 0.7f, 1, 1, 2, 0, 0, 0, 0},
         {"one level, no filters", G, AUTO, 3, -2.0f, 0, 0, 2, 0, 0, 0, 0},
-        {"embree", VBNL_VL_INDEX_EMBREE, AUTO, 8, 0.7f, 1, 1, 2, 0, 0, 0, 0},
+        {"embree", VBI_VL_INDEX_EMBREE, AUTO, 8, 0.7f, 1, 1, 2, 0, 0, 0, 0},
     };
     for (size_t i = 0; i < sizeof(one) / sizeof(one[0]); ++i) {
-        vbnl_split_stats st = run_case(s, &v, map, P, &one[i]);
+        vbi_split_stats st = run_case(s, &v, map, P, &one[i]);
         if (i == 5)
             assert_true(st.support_tests > 0 && st.support_rejects > 0);
     }
@@ -230,7 +230,7 @@ static void test_oracle(void **state)
     run_case(s, &v, map, P, &(oracle_case){"2-3 levels", G, CLASSES, 8, 0.7f, 1, 1, 2, 0, 0, 0, 0});
     place(s, &v, 1500, 0.02f, 8.0f);
     run_case(s, &v, map, P, &(oracle_case){"many levels", G, CLASSES, 8, 0.7f, 1, 0, 2, 0, 0, 0, 0});
-    /* large spheres: more than VBNL_SPLIT_QUERY_MAX around a hit, and max_vls selections of both
+    /* large spheres: more than VBI_SPLIT_QUERY_MAX around a hit, and max_vls selections of both
      * kinds (drop the smallest: 10 of >= 11; pick the largest: 2 of > 4) */
     place(s, &v, 1500, 0.5f, 0.5f);
     const oracle_case big[] = {
@@ -239,12 +239,12 @@ static void test_oracle(void **state)
         {"big spheres, keep 2, classes", G, CLASSES, 2, 0.7f, 1, 0, 2, 0, 0, 0, 0},
     };
     for (size_t i = 0; i < sizeof(big) / sizeof(big[0]); ++i) {
-        vbnl_split_stats st = run_case(s, &v, map, P, &big[i]);
+        vbi_split_stats st = run_case(s, &v, map, P, &big[i]);
         assert_true(st.deposits > (uint64_t)big[i].max_vls * st.covered_hits * 9 / 10); /* mostly capped */
         if (i == 0)
             assert_true(st.overflow > 0);
     }
-    vbnl_hemioct_destroy(map);
+    vbi_hemioct_destroy(map);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }
@@ -260,41 +260,41 @@ static void test_index_oracle(void **state)
     vbnl_scene *s = oracle_scene(ctx);
     static vl_list v;
     place(s, &v, 1500, 0.05f, 3.0f);
-    const vbnl_vl_index_levels pol[3] = {VBNL_VL_INDEX_LEVELS_AUTO, VBNL_VL_INDEX_LEVELS_CLASSES,
-                                         VBNL_VL_INDEX_LEVELS_ONE};
-    vbnl_rng rng = vbnl_rng_make(8, 8);
+    const vbi_vl_index_levels pol[3] = {VBI_VL_INDEX_LEVELS_AUTO, VBI_VL_INDEX_LEVELS_CLASSES,
+                                         VBI_VL_INDEX_LEVELS_ONE};
+    vbi_rng rng = vbi_rng_make(8, 8);
     for (int variant = 0; variant < 4; ++variant) {
-        vbnl_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, variant < 3 ? VBNL_VL_INDEX_GRID : VBNL_VL_INDEX_EMBREE, 0.0f,
+        vbi_vl_index_desc xd = {v.c, v.r, v.nrm, v.n, variant < 3 ? VBI_VL_INDEX_GRID : VBI_VL_INDEX_EMBREE, 0.0f,
                                  s->ctx->device, pol[variant % 3]};
-        vbnl_vl_index *x = NULL;
-        assert_int_equal(vbnl_vl_index_create(&xd, &x), VBNL_OK);
+        vbi_vl_index *x = NULL;
+        assert_int_equal(vbi_vl_index_create(&xd, &x), VBNL_OK);
         uint64_t found_total = 0;
         for (uint32_t k = 0; k < 4000; ++k) {
             /* near a VL's centre, at its boundary, or anywhere in the box */
-            const uint32_t j = vbnl_rng_uniform_u32(&rng, v.n);
-            vec3 p = k % 3 == 0 ? v3_fma(v.c[j], sample_uniform_sphere(vbnl_rng_next2(&rng)), v.r[j])
-                     : k % 3 == 1 ? v3_fma(v.c[j], sample_uniform_sphere(vbnl_rng_next2(&rng)), 0.5f * v.r[j])
-                                  : v3(2.0f * vbnl_rng_next(&rng) - 1.0f, 2.0f * vbnl_rng_next(&rng),
-                                       2.0f * vbnl_rng_next(&rng) - 1.0f);
-            const vbnl_vl_filter f = {sample_uniform_sphere(vbnl_rng_next2(&rng)), sample_uniform_sphere(vbnl_rng_next2(&rng)),
+            const uint32_t j = vbi_rng_uniform_u32(&rng, v.n);
+            vec3 p = k % 3 == 0 ? v3_fma(v.c[j], sample_uniform_sphere(vbi_rng_next2(&rng)), v.r[j])
+                     : k % 3 == 1 ? v3_fma(v.c[j], sample_uniform_sphere(vbi_rng_next2(&rng)), 0.5f * v.r[j])
+                                  : v3(2.0f * vbi_rng_next(&rng) - 1.0f, 2.0f * vbi_rng_next(&rng),
+                                       2.0f * vbi_rng_next(&rng) - 1.0f);
+            const vbi_vl_filter f = {sample_uniform_sphere(vbi_rng_next2(&rng)), sample_uniform_sphere(vbi_rng_next2(&rng)),
                                       0.2f, 1};
             for (int filt = 0; filt < 2; ++filt)
                 for (uint32_t cap = 2; cap <= 64; cap += 62) {
-                    vbnl_vl_found a[64], b[64];
-                    const vbnl_vl_filter *fp = filt ? &f : NULL;
-                    uint32_t na = vbnl_vl_index_query_found(x, p, fp, cap, a);
-                    uint32_t nb = vbnl_vl_query_reference(v.c, v.r, v.nrm, v.n, p, fp, cap, b);
+                    vbi_vl_found a[64], b[64];
+                    const vbi_vl_filter *fp = filt ? &f : NULL;
+                    uint32_t na = vbi_vl_index_query_found(x, p, fp, cap, a);
+                    uint32_t nb = vbi_vl_query_reference(v.c, v.r, v.nrm, v.n, p, fp, cap, b);
                     assert_int_equal(na, nb);
                     for (uint32_t i = 0; i < (na < cap ? na : cap); ++i) {
                         assert_int_equal(a[i].id, b[i].id);
                         assert_true(a[i].d2 == b[i].d2 && a[i].r == b[i].r);
-                        assert_int_equal(vbnl_vl_index_rank(x, a[i].id), a[i].rank);
+                        assert_int_equal(vbi_vl_index_rank(x, a[i].id), a[i].rank);
                     }
                     found_total += na;
                 }
         }
         assert_true(found_total > 4000); /* the points do fall into spheres */
-        vbnl_vl_index_destroy(x);
+        vbi_vl_index_destroy(x);
     }
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);

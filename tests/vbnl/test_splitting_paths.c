@@ -45,15 +45,15 @@ typedef struct vl_list {
  * factor in [1, spread) (spread 1: uniform radii, one grid level). */
 static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area, float spread)
 {
-    vbnl_rng rng = vbnl_rng_make(77, 1);
+    vbi_rng rng = vbi_rng_make(77, 1);
     v->n = 0;
     float rad = 2.0f * sqrtf(area / (2.0f * sqrtf(3.0f) * (float)want));
     while (v->n < want) {
         vec3 o, d;
-        vbnl_camera_ray(&s->camera, 64, 64, vbnl_rng_next(&rng) * 64, vbnl_rng_next(&rng) * 64, &o, &d);
-        float u = vbnl_rng_next(&rng);
-        vbnl_hit h;
-        if (!vbnl_scene_intersect(s, o, d, INFINITY, &h) || vbnl_bsdf_is_delta(&s->materials[h.material].bsdf))
+        vbi_camera_ray(&s->camera, 64, 64, vbi_rng_next(&rng) * 64, vbi_rng_next(&rng) * 64, &o, &d);
+        float u = vbi_rng_next(&rng);
+        vbi_hit h;
+        if (!vbi_scene_intersect(s, o, d, INFINITY, &h) || vbi_bsdf_is_delta(&s->materials[h.material].bsdf))
             continue;
         v->c[v->n] = h.p;
         v->nrm[v->n] = v3_dot(h.ng, d) > 0.0f ? v3_neg(h.ng) : h.ng;
@@ -63,23 +63,23 @@ static void place_vls(const vbnl_scene *s, vl_list *v, uint32_t want, float area
     }
 }
 
-static vbnl_profile_set *run(const vbnl_context *ctx, const vbnl_scene *s, const vl_list *v, vbnl_vl_index_kind kind,
-                             vbnl_vl_index_levels levels, uint32_t expect_levels, const vbnl_hemioct *map,
-                             vbnl_pool *pool, uint64_t paths, vbnl_split_stats *st)
+static vbi_profile_set *run(const vbnl_context *ctx, const vbnl_scene *s, const vl_list *v, vbi_vl_index_kind kind,
+                             vbi_vl_index_levels levels, uint32_t expect_levels, const vbi_hemioct *map,
+                             vbi_pool *pool, uint64_t paths, vbi_split_stats *st)
 {
-    vbnl_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, kind, 0.0f, ctx->device, levels};
-    vbnl_vl_index *idx = NULL;
-    assert_int_equal(vbnl_vl_index_create(&xd, &idx), VBNL_OK);
-    if (kind == VBNL_VL_INDEX_GRID) { /* the path this test means to take */
-        uint32_t nl = vbnl_vl_index_level_count(idx);
+    vbi_vl_index_desc xd = {v->c, v->r, v->nrm, v->n, kind, 0.0f, ctx->device, levels};
+    vbi_vl_index *idx = NULL;
+    assert_int_equal(vbi_vl_index_create(&xd, &idx), VBNL_OK);
+    if (kind == VBI_VL_INDEX_GRID) { /* the path this test means to take */
+        uint32_t nl = vbi_vl_index_level_count(idx);
         print_message("# grid levels: %u\n", nl);
         assert_true(expect_levels == 1 ? nl == 1 : nl > 1);
     }
-    vbnl_profile_set *ps = NULL;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, v->n, v->glossy, vbnl_split_photon_unit(s, paths), &ps),
+    vbi_profile_set *ps = NULL;
+    assert_int_equal(vbi_profile_set_create_fixed(map, v->n, v->glossy, vbi_split_photon_unit(s, paths), &ps),
                      VBNL_OK);
-    vbnl_split_desc d;
-    vbnl_split_desc_init(&d);
+    vbi_split_desc d;
+    vbi_split_desc_init(&d);
     d.scene = s;
     d.index = idx;
     d.vl_normals = v->nrm;
@@ -87,28 +87,28 @@ static vbnl_profile_set *run(const vbnl_context *ctx, const vbnl_scene *s, const
     d.photon_paths = paths;
     d.seed = 99;
     d.chunk = 2000;
-    assert_int_equal(vbnl_split_photons(&d, pool, NULL, st), VBNL_OK);
-    vbnl_vl_index_destroy(idx);
+    assert_int_equal(vbi_split_photons(&d, pool, NULL, st), VBNL_OK);
+    vbi_vl_index_destroy(idx);
     /* exact bookkeeping of this run */
     uint64_t sum[3] = {0, 0, 0};
     for (uint32_t j = 0; j < v->n; ++j)
         for (int c = 0; c < 3; ++c)
-            sum[c] += vbnl_profile_incident_power_fixed(ps, j)[c];
+            sum[c] += vbi_profile_incident_power_fixed(ps, j)[c];
     for (int c = 0; c < 3; ++c)
         assert_true(sum[c] == st->covered_power[c]);
     return ps;
 }
 
-static uint64_t map_sum(const vbnl_profile_set *ps, uint32_t j, uint32_t texels, int c)
+static uint64_t map_sum(const vbi_profile_set *ps, uint32_t j, uint32_t texels, int c)
 {
-    const uint64_t *m = vbnl_profile_incident_map_fixed(ps, j);
+    const uint64_t *m = vbi_profile_incident_map_fixed(ps, j);
     uint64_t s = 0;
     for (uint32_t t = 0; m && t < texels; ++t)
         s += m[3 * (size_t)t + (size_t)c];
     return s;
 }
 
-static void compare_paths(float spread, vbnl_vl_index_levels levels, uint32_t expect_levels)
+static void compare_paths(float spread, vbi_vl_index_levels levels, uint32_t expect_levels)
 {
     vbnl_context *ctx = ts_context(2);
     assert_non_null(ctx);
@@ -116,14 +116,14 @@ static void compare_paths(float spread, vbnl_vl_index_levels levels, uint32_t ex
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
     static vl_list v;
     place_vls(s, &v, 3000, 24.0f, spread);
-    vbnl_hemioct *map = NULL;
-    assert_int_equal(vbnl_hemioct_create(8, &map), VBNL_OK);
-    const uint32_t texels = vbnl_hemioct_texel_count(map);
-    vbnl_pool *pool = vbnl_pool_create(2);
+    vbi_hemioct *map = NULL;
+    assert_int_equal(vbi_hemioct_create(8, &map), VBNL_OK);
+    const uint32_t texels = vbi_hemioct_texel_count(map);
+    vbi_pool *pool = vbi_pool_create(2);
     const uint64_t P = 150000;
-    vbnl_split_stats sg, se;
-    vbnl_profile_set *g = run(ctx, s, &v, VBNL_VL_INDEX_GRID, levels, expect_levels, map, pool, P, &sg);
-    vbnl_profile_set *e = run(ctx, s, &v, VBNL_VL_INDEX_EMBREE, levels, 0, map, pool, P, &se);
+    vbi_split_stats sg, se;
+    vbi_profile_set *g = run(ctx, s, &v, VBI_VL_INDEX_GRID, levels, expect_levels, map, pool, P, &sg);
+    vbi_profile_set *e = run(ctx, s, &v, VBI_VL_INDEX_EMBREE, levels, 0, map, pool, P, &se);
     print_message("# spread %.1f: %llu hits, %llu covered, %llu deposits (grid) / %llu (embree)\n", (double)spread,
                   (unsigned long long)sg.hits, (unsigned long long)sg.covered_hits,
                   (unsigned long long)sg.deposits, (unsigned long long)se.deposits);
@@ -136,7 +136,7 @@ static void compare_paths(float spread, vbnl_vl_index_levels levels, uint32_t ex
     double worst = 0.0;
     uint32_t glossy_seen = 0;
     for (uint32_t j = 0; j < v.n; ++j) {
-        const uint64_t *a = vbnl_profile_incident_power_fixed(g, j), *b = vbnl_profile_incident_power_fixed(e, j);
+        const uint64_t *a = vbi_profile_incident_power_fixed(g, j), *b = vbi_profile_incident_power_fixed(e, j);
         for (int c = 0; c < 3; ++c) {
             double da = (double)a[c], db = (double)b[c], diff = fabs(da - db);
             double tol = 1e-5 * (da > db ? da : db) + 256.0;
@@ -155,10 +155,10 @@ static void compare_paths(float spread, vbnl_vl_index_levels levels, uint32_t ex
     }
     print_message("# largest relative difference of a VL's power: %.2e; %u glossy VLs lit\n", worst, glossy_seen);
     assert_true(glossy_seen > 10);
-    vbnl_profile_set_destroy(g);
-    vbnl_profile_set_destroy(e);
-    vbnl_pool_destroy(pool);
-    vbnl_hemioct_destroy(map);
+    vbi_profile_set_destroy(g);
+    vbi_profile_set_destroy(e);
+    vbi_pool_destroy(pool);
+    vbi_hemioct_destroy(map);
     vbnl_scene_destroy(s);
     vbnl_context_destroy(ctx);
 }
@@ -167,7 +167,7 @@ static void compare_paths(float spread, vbnl_vl_index_levels levels, uint32_t ex
 static void test_cell_path_vs_plain(void **state)
 {
     (void)state;
-    compare_paths(1.0f, VBNL_VL_INDEX_LEVELS_AUTO, 1);
+    compare_paths(1.0f, VBI_VL_INDEX_LEVELS_AUTO, 1);
 }
 
 /* Radii over a factor 6 in one level (the default for such a spread, vl_index.h "Levels"):
@@ -175,14 +175,14 @@ static void test_cell_path_vs_plain(void **state)
 static void test_cell_path_mixed_radii_vs_plain(void **state)
 {
     (void)state;
-    compare_paths(6.0f, VBNL_VL_INDEX_LEVELS_AUTO, 1);
+    compare_paths(6.0f, VBI_VL_INDEX_LEVELS_AUTO, 1);
 }
 
 /* Radii over a factor 6 in one level per radius class: the index pipeline vs plain queries. */
 static void test_level_path_vs_plain(void **state)
 {
     (void)state;
-    compare_paths(6.0f, VBNL_VL_INDEX_LEVELS_CLASSES, 2);
+    compare_paths(6.0f, VBI_VL_INDEX_LEVELS_CLASSES, 2);
 }
 
 int main(void)

@@ -211,9 +211,9 @@ static void test_cornell_against_path(void **state)
 static void test_mis_weights(void **state)
 {
     (void)state;
-    vbnl_rng rng = vbnl_rng_make(5, 9);
+    vbi_rng rng = vbi_rng_make(5, 9);
     for (int i = 0; i < 100000; ++i) {
-        float a = expf(20.0f * (vbnl_rng_next(&rng) - 0.5f)), b = expf(20.0f * (vbnl_rng_next(&rng) - 0.5f));
+        float a = expf(20.0f * (vbi_rng_next(&rng) - 0.5f)), b = expf(20.0f * (vbi_rng_next(&rng) - 0.5f));
         assert_float_equal(power_heuristic(a, b) + power_heuristic(b, a), 1.0f, 1e-6f);
     }
     assert_float_equal(power_heuristic(1.0f, 0.0f), 1.0f, 0.0f);
@@ -286,7 +286,7 @@ static void test_determinism(void **state)
 static void test_sizing_rule(void **state)
 {
     (void)state;
-    vbnl_sizing_in in;
+    vbi_sizing_in in;
     memset(&in, 0, sizeof(in));
     in.budget = 10.0;
     in.prepare_limit = VBNL_BUDGET_PREPARE_SHARE * in.budget;
@@ -294,44 +294,44 @@ static void test_sizing_rule(void **state)
     in.elapsed = 0.05;
     in.seconds_per_light = 20e-6;
     in.seconds_per_path = 2e-6;
-    vbnl_sizing_out out;
-    vbnl_size_to_budget(&in, &out);
+    vbi_sizing_out out;
+    vbi_size_to_budget(&in, &out);
     assert_true(out.fits);
     assert_true(fabs(out.lights - 20000.0) < 0.5);
-    assert_true(fabs(out.paths - floor(VBNL_SIZING_PHOTON_SHARE * 10.0 / (2e-6 * VBNL_SIZING_MARGIN))) < 1.0);
+    assert_true(fabs(out.paths - floor(VBI_SIZING_PHOTON_SHARE * 10.0 / (2e-6 * VBI_SIZING_MARGIN))) < 1.0);
     assert_true(out.estimate <= in.prepare_limit);
     /* a quarter of the pixels: a quarter of the lights (above the minimum) */
     in.pixels = 256.0 * 256.0;
-    vbnl_size_to_budget(&in, &out);
+    vbi_size_to_budget(&in, &out);
     assert_true(fabs(out.lights - 5000.0) < 0.5);
     /* slow placement: lights lowered so that they take at most half of what the bound leaves */
     in.pixels = 512.0 * 512.0;
     in.seconds_per_light = 1e-3;
-    vbnl_size_to_budget(&in, &out);
+    vbi_size_to_budget(&in, &out);
     assert_true(out.lights < 20000.0);
-    assert_true(out.lights * in.seconds_per_light * VBNL_SIZING_MARGIN <= 0.5 * (in.prepare_limit - in.elapsed) + 1e-9);
+    assert_true(out.lights * in.seconds_per_light * VBI_SIZING_MARGIN <= 0.5 * (in.prepare_limit - in.elapsed) + 1e-9);
     assert_true(out.estimate <= in.prepare_limit);
     assert_true(strstr(out.lights_why, "lowered") != NULL);
     /* a long budget: more lights, photons capped */
     in.seconds_per_light = 20e-6;
     in.budget = 1000.0;
     in.prepare_limit = VBNL_BUDGET_PREPARE_SHARE * in.budget;
-    vbnl_size_to_budget(&in, &out);
+    vbi_size_to_budget(&in, &out);
     assert_true(fabs(out.lights - 130000.0) < 0.5);
-    assert_true(out.paths <= VBNL_SIZING_PATHS_MAX);
+    assert_true(out.paths <= VBI_SIZING_PATHS_MAX);
     /* set counts are kept; when they cannot fit, the plan says so */
     in.budget = 10.0;
     in.prepare_limit = VBNL_BUDGET_PREPARE_SHARE * in.budget;
     in.paths_set = 1;
     in.paths = 2e7; /* 40 s at 2 us per path */
-    vbnl_size_to_budget(&in, &out);
+    vbi_size_to_budget(&in, &out);
     assert_true(out.paths == 2e7);
     assert_false(out.fits);
     assert_true(out.estimate > 40.0);
     in.paths = 1e5;
     in.lights_set = 1;
     in.lights = 3000;
-    vbnl_size_to_budget(&in, &out);
+    vbi_size_to_budget(&in, &out);
     assert_true(out.fits && out.lights == 3000 && out.paths == 1e5);
     assert_true(strstr(out.lights_why, "explicitly") != NULL);
 }

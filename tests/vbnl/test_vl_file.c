@@ -146,9 +146,9 @@ static float *run_ok(const fixture *f, uint32_t spp, const char *const *settings
 static void expect_load_error(const fixture *f, const vbnl_scene *scene, const char *paths, vbnl_result code,
                               const char *pattern)
 {
-    vbnl_vl_file_data d;
+    vbi_vl_file_data d;
     vbnl_error err = {0};
-    vbnl_result r = vbnl_vl_file_load(paths, scene ? scene : f->scene, &d, &err);
+    vbnl_result r = vbi_vl_file_load(paths, scene ? scene : f->scene, &d, &err);
     print_message("# %s -> %s: %s\n", paths, vbnl_result_name(r), err.message);
     assert_int_equal(r, code);
     if (!strstr(err.message, pattern))
@@ -184,31 +184,31 @@ static void test_round_trip_arrays(void **state)
 {
     fixture *f = *state;
     const uint32_t n = 701;
-    vbnl_vl_set vls;
-    assert_int_equal(vbnl_vl_set_alloc(&vls, n, NULL), VBNL_OK);
+    vbi_vl_set vls;
+    assert_int_equal(vbi_vl_set_alloc(&vls, n, NULL), VBNL_OK);
     uint8_t *glossy = malloc(n);
-    vbnl_rng rng = vbnl_rng_for(11, 0, 0);
+    vbi_rng rng = vbi_rng_for(11, 0, 0);
     for (uint32_t j = 0; j < n; ++j) {
-        vls.position[j] = v3(vbnl_rng_next(&rng), 2.0f * vbnl_rng_next(&rng), -vbnl_rng_next(&rng));
-        vls.normal[j] = v3_norm(v3(vbnl_rng_next(&rng) - 0.5f, 1.0f, vbnl_rng_next(&rng) - 0.5f));
+        vls.position[j] = v3(vbi_rng_next(&rng), 2.0f * vbi_rng_next(&rng), -vbi_rng_next(&rng));
+        vls.normal[j] = v3_norm(v3(vbi_rng_next(&rng) - 0.5f, 1.0f, vbi_rng_next(&rng) - 0.5f));
         vls.material[j] = j % f->scene->material_count;
-        vls.tint[j] = v3(vbnl_rng_next(&rng), 1.0f, 0.25f);
-        vls.radius[j] = 0.01f + 0.1f * vbnl_rng_next(&rng);
+        vls.tint[j] = v3(vbi_rng_next(&rng), 1.0f, 0.25f);
+        vls.radius[j] = 0.01f + 0.1f * vbi_rng_next(&rng);
         vls.density[j] = 1.0f / vls.radius[j];
         glossy[j] = (uint8_t)(j % 2);
     }
-    vbnl_hemioct *map;
-    assert_int_equal(vbnl_hemioct_create(16, &map), VBNL_OK);
-    vbnl_profile_set *ps;
-    assert_int_equal(vbnl_profile_set_create_fixed(map, n, glossy, 0x1p-30, &ps), VBNL_OK);
+    vbi_hemioct *map;
+    assert_int_equal(vbi_hemioct_create(16, &map), VBNL_OK);
+    vbi_profile_set *ps;
+    assert_int_equal(vbi_profile_set_create_fixed(map, n, glossy, 0x1p-30, &ps), VBNL_OK);
     for (int k = 0; k < 20000; ++k) {
-        uint32_t j = (uint32_t)(vbnl_rng_next(&rng) * n) % n;
-        vec3 wi = v3_norm(v3(vbnl_rng_next(&rng) - 0.5f, vbnl_rng_next(&rng) - 0.5f, vbnl_rng_next(&rng) + 0.05f));
-        vbnl_profile_deposit(ps, j, wi, v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), 0.5f));
+        uint32_t j = (uint32_t)(vbi_rng_next(&rng) * n) % n;
+        vec3 wi = v3_norm(v3(vbi_rng_next(&rng) - 0.5f, vbi_rng_next(&rng) - 0.5f, vbi_rng_next(&rng) + 0.05f));
+        vbi_profile_deposit(ps, j, wi, v3(vbi_rng_next(&rng), vbi_rng_next(&rng), 0.5f));
     }
-    vbnl_vl_file_header h;
+    vbi_vl_file_header h;
     memset(&h, 0, sizeof(h));
-    h.fingerprint = vbnl_scene_fingerprint(f->scene);
+    h.fingerprint = vbi_scene_fingerprint(f->scene);
     h.virtual_lights = 800;
     h.profile_resolution = 16;
     h.photon_paths = 1000;
@@ -229,13 +229,13 @@ static void test_round_trip_arrays(void **state)
     char path[400];
     path_in(f, "set.vls", path, sizeof(path));
     vbnl_error err = {0};
-    assert_int_equal(vbnl_vl_file_save(path, &h, &vls, ps, &err), VBNL_OK);
+    assert_int_equal(vbi_vl_file_save(path, &h, &vls, ps, &err), VBNL_OK);
 
-    vbnl_vl_file_data d;
-    if (vbnl_vl_file_load(path, f->scene, &d, &err) != VBNL_OK)
+    vbi_vl_file_data d;
+    if (vbi_vl_file_load(path, f->scene, &d, &err) != VBNL_OK)
         fail_msg("%s", err.message);
     assert_int_equal(d.vls.count, n);
-    assert_int_equal(d.header.version, VBNL_VL_FILE_VERSION);
+    assert_int_equal(d.header.version, VBI_VL_FILE_VERSION);
     assert_int_equal(d.header.virtual_lights, 800);
     assert_int_equal(d.header.seed, 77);
     assert_int_equal(d.header.photon_paths, 1000);
@@ -250,8 +250,8 @@ static void test_round_trip_arrays(void **state)
     assert_int_equal(d.header.count, n);
     assert_int_equal(d.header.glossy_count, n / 2); /* the odd lights */
     /* the header alone reads back the same, with the set fingerprint the save computed */
-    vbnl_vl_file_header only;
-    assert_int_equal(vbnl_vl_file_read_header(path, 1, &only, &err), VBNL_OK);
+    vbi_vl_file_header only;
+    assert_int_equal(vbi_vl_file_read_header(path, 1, &only, &err), VBNL_OK);
     assert_int_equal(only.count, n);
     assert_true(only.set == d.header.set && only.set != 0);
     assert_true(only.camera == h.camera && only.photon_count == 1000);
@@ -263,19 +263,19 @@ static void test_round_trip_arrays(void **state)
     assert_memory_equal(d.vls.density, vls.density, sizeof(float) * n);
     uint64_t nonzero = 0;
     for (uint32_t j = 0; j < n; ++j) {
-        assert_int_equal(vbnl_profile_is_glossy(d.profiles, j), glossy[j]);
-        assert_memory_equal(vbnl_profile_incident_power_fixed(d.profiles, j),
-                            vbnl_profile_incident_power_fixed(ps, j), 3 * sizeof(uint64_t));
-        nonzero += vbnl_profile_incident_power_fixed(ps, j)[0] != 0;
+        assert_int_equal(vbi_profile_is_glossy(d.profiles, j), glossy[j]);
+        assert_memory_equal(vbi_profile_incident_power_fixed(d.profiles, j),
+                            vbi_profile_incident_power_fixed(ps, j), 3 * sizeof(uint64_t));
+        nonzero += vbi_profile_incident_power_fixed(ps, j)[0] != 0;
         if (glossy[j])
-            assert_memory_equal(vbnl_profile_incident_map_fixed(d.profiles, j),
-                                vbnl_profile_incident_map_fixed(ps, j), 3 * 256 * sizeof(uint64_t));
+            assert_memory_equal(vbi_profile_incident_map_fixed(d.profiles, j),
+                                vbi_profile_incident_map_fixed(ps, j), 3 * 256 * sizeof(uint64_t));
     }
     assert_true(nonzero > n / 2); /* the comparison saw real data */
-    vbnl_vl_file_data_free(&d);
-    vbnl_profile_set_destroy(ps);
-    vbnl_hemioct_destroy(map);
-    vbnl_vl_set_free(&vls);
+    vbi_vl_file_data_free(&d);
+    vbi_profile_set_destroy(ps);
+    vbi_hemioct_destroy(map);
+    vbi_vl_set_free(&vls);
     free(glossy);
 }
 
@@ -376,10 +376,10 @@ static void test_wrong_version(void **state)
     unsigned char *b = read_all(path, &n);
     uint32_t v;
     memcpy(&v, b + 8, 4);
-    assert_int_equal(v, VBNL_VL_FILE_VERSION);
-    v = VBNL_VL_FILE_VERSION - 1;
+    assert_int_equal(v, VBI_VL_FILE_VERSION);
+    v = VBI_VL_FILE_VERSION - 1;
     memcpy(b + 8, &v, 4);
-    uint64_t h = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, b, n - 8);
+    uint64_t h = vbi_vl_file_hash(VBI_VL_FILE_HASH_INIT, b, n - 8);
     memcpy(b + n - 8, &h, 8);
     write_all(path, b, n);
     expect_load_error(f, NULL, path, VBNL_ERR_CORRUPT, "was written by format version 3; this build reads version 4");
@@ -401,7 +401,7 @@ static void test_other_scene(void **state)
     float c[3] = {-0.5f, 0.3f, 0.2f};
     vbnl_scene_add_sphere(other, c, 0.2f, 0, VBNL_GROUP_WORLD, NULL, NULL);
     assert_int_equal(vbnl_scene_commit(other, NULL), VBNL_OK);
-    assert_true(vbnl_scene_fingerprint(other) != vbnl_scene_fingerprint(f->scene));
+    assert_true(vbi_scene_fingerprint(other) != vbi_scene_fingerprint(f->scene));
     expect_load_error(f, other, path, VBNL_ERR_INVALID_ARGUMENT, "was prepared for another scene (fingerprint");
     vbnl_scene_destroy(other);
 
@@ -427,11 +427,11 @@ static void test_other_scene(void **state)
     vbnl_camera_look_at(&cam, pos, target, up, 50.0f, 1.0f, NULL);
     vbnl_scene_set_camera(other, &cam, NULL);
     assert_int_equal(vbnl_scene_commit(other, NULL), VBNL_OK);
-    assert_true(vbnl_scene_fingerprint(other) == vbnl_scene_fingerprint(f->scene));
-    vbnl_vl_file_data d;
+    assert_true(vbi_scene_fingerprint(other) == vbi_scene_fingerprint(f->scene));
+    vbi_vl_file_data d;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_vl_file_load(path, other, &d, &err), VBNL_OK);
-    vbnl_vl_file_data_free(&d);
+    assert_int_equal(vbi_vl_file_load(path, other, &d, &err), VBNL_OK);
+    vbi_vl_file_data_free(&d);
     char load[420];
     snprintf(load, sizeof(load), "load_lights=%s", path);
     const char *const plain[] = {load, NULL};
@@ -475,33 +475,33 @@ static void test_photon_ranges_merge(void **state)
     free(run_ok(f, 0, c));
     free(run_ok(f, 0, d3));
 
-    vbnl_vl_file_data one, sum;
+    vbi_vl_file_data one, sum;
     vbnl_error err = {0};
     char list[1300];
     snprintf(list, sizeof(list), "%s:%s", p2, p1); /* any order */
-    assert_int_equal(vbnl_vl_file_load(full, f->scene, &one, &err), VBNL_OK);
-    if (vbnl_vl_file_load(list, f->scene, &sum, &err) != VBNL_OK)
+    assert_int_equal(vbi_vl_file_load(full, f->scene, &one, &err), VBNL_OK);
+    if (vbi_vl_file_load(list, f->scene, &sum, &err) != VBNL_OK)
         fail_msg("%s", err.message);
     assert_int_equal(sum.header.photon_first, 0);
     assert_int_equal(sum.header.photon_count, 100000);
     assert_int_equal(one.vls.count, sum.vls.count);
     uint32_t n = one.vls.count, glossy = 0;
-    const uint32_t texels = vbnl_hemioct_texel_count(one.map);
+    const uint32_t texels = vbi_hemioct_texel_count(one.map);
     uint64_t total = 0;
     for (uint32_t j = 0; j < n; ++j) {
-        assert_memory_equal(vbnl_profile_incident_power_fixed(one.profiles, j),
-                            vbnl_profile_incident_power_fixed(sum.profiles, j), 3 * sizeof(uint64_t));
-        total += vbnl_profile_incident_power_fixed(one.profiles, j)[1];
-        if (vbnl_profile_is_glossy(one.profiles, j)) {
+        assert_memory_equal(vbi_profile_incident_power_fixed(one.profiles, j),
+                            vbi_profile_incident_power_fixed(sum.profiles, j), 3 * sizeof(uint64_t));
+        total += vbi_profile_incident_power_fixed(one.profiles, j)[1];
+        if (vbi_profile_is_glossy(one.profiles, j)) {
             ++glossy;
-            assert_memory_equal(vbnl_profile_incident_map_fixed(one.profiles, j),
-                                vbnl_profile_incident_map_fixed(sum.profiles, j), 3 * texels * sizeof(uint64_t));
+            assert_memory_equal(vbi_profile_incident_map_fixed(one.profiles, j),
+                                vbi_profile_incident_map_fixed(sum.profiles, j), 3 * texels * sizeof(uint64_t));
         }
     }
     print_message("# %u lights, %u glossy\n", n, glossy);
     assert_true(total > 0 && glossy > 0);
-    vbnl_vl_file_data_free(&one);
-    vbnl_vl_file_data_free(&sum);
+    vbi_vl_file_data_free(&one);
+    vbi_vl_file_data_free(&sum);
 
     char load[1320];
     snprintf(load, sizeof(load), "load_lights=%s", list);
@@ -536,7 +536,7 @@ static void test_photon_ranges_merge(void **state)
 }
 
 /* Prepare once, trace photons apart: a placement (placement_only) holds the set and no photon;
- * processes that load it trace disjoint photon ranges; vbnl_vl_file_merge sums their files
+ * processes that load it trace disjoint photon ranges; vbi_vl_file_merge sums their files
  * without the scene. The sum, and a render from it, equal one run bit for bit. Files of another
  * scene or preparation, missing and overlapping ranges are refused by the merge. */
 static void test_placement_then_photons(void **state)
@@ -555,16 +555,16 @@ static void test_placement_then_photons(void **state)
     snprintf(set, sizeof(set), "save_lights=%s", place);
     const char *const pl[] = {LIGHTS, PHOTONS, set, "placement_only=on", NULL};
     free(run_ok(f, 0, pl));
-    vbnl_vl_file_header hp, hf;
+    vbi_vl_file_header hp, hf;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_vl_file_read_header(place, 1, &hp, &err), VBNL_OK);
-    assert_int_equal(vbnl_vl_file_read_header(full, 0, &hf, &err), VBNL_OK);
+    assert_int_equal(vbi_vl_file_read_header(place, 1, &hp, &err), VBNL_OK);
+    assert_int_equal(vbi_vl_file_read_header(full, 0, &hf, &err), VBNL_OK);
     assert_int_equal(hp.photon_first, 0);
     assert_int_equal(hp.photon_count, 0);
     assert_int_equal(hp.photon_paths, 100000);
     assert_true(hp.set == hf.set && hp.preparation == hf.preparation); /* the same lights as the full run */
     assert_int_equal(hp.width, W);
-    assert_true(hp.camera == vbnl_vl_file_camera_fingerprint(f->scene) && hp.camera != 0);
+    assert_true(hp.camera == vbi_vl_file_camera_fingerprint(f->scene) && hp.camera != 0);
     assert_true(hp.placement_seconds > 0.0 && hp.photon_seconds == 0.0);
     assert_true(hf.photon_rays > 0.0 && hf.photon_seconds > 0.0);
 
@@ -582,8 +582,8 @@ static void test_placement_then_photons(void **state)
         free(run_ok(f, 0, job));
     }
     const char *const list[] = {part[2], part[0], place, part[1]}; /* any order; the placement adds nothing */
-    vbnl_vl_file_header hm;
-    if (vbnl_vl_file_merge(list, 4, merged, 0, &hm, &err) != VBNL_OK)
+    vbi_vl_file_header hm;
+    if (vbi_vl_file_merge(list, 4, merged, 0, &hm, &err) != VBNL_OK)
         fail_msg("%s", err.message);
     assert_int_equal(hm.photon_first, 0);
     assert_int_equal(hm.photon_count, 100000);
@@ -591,23 +591,23 @@ static void test_placement_then_photons(void **state)
     assert_true(hm.photon_rays > 0.0);
 
     /* the merged file holds the full run's photon data bit for bit */
-    vbnl_vl_file_data a, b;
-    assert_int_equal(vbnl_vl_file_load(full, f->scene, &a, &err), VBNL_OK);
-    assert_int_equal(vbnl_vl_file_load(merged, f->scene, &b, &err), VBNL_OK);
+    vbi_vl_file_data a, b;
+    assert_int_equal(vbi_vl_file_load(full, f->scene, &a, &err), VBNL_OK);
+    assert_int_equal(vbi_vl_file_load(merged, f->scene, &b, &err), VBNL_OK);
     assert_int_equal(a.vls.count, b.vls.count);
     uint64_t total = 0;
     for (uint32_t j = 0; j < a.vls.count; ++j) {
-        assert_memory_equal(vbnl_profile_incident_power_fixed(a.profiles, j),
-                            vbnl_profile_incident_power_fixed(b.profiles, j), 3 * sizeof(uint64_t));
-        total += vbnl_profile_incident_power_fixed(a.profiles, j)[0];
-        if (vbnl_profile_is_glossy(a.profiles, j))
-            assert_memory_equal(vbnl_profile_incident_map_fixed(a.profiles, j),
-                                vbnl_profile_incident_map_fixed(b.profiles, j),
-                                3 * vbnl_hemioct_texel_count(a.map) * sizeof(uint64_t));
+        assert_memory_equal(vbi_profile_incident_power_fixed(a.profiles, j),
+                            vbi_profile_incident_power_fixed(b.profiles, j), 3 * sizeof(uint64_t));
+        total += vbi_profile_incident_power_fixed(a.profiles, j)[0];
+        if (vbi_profile_is_glossy(a.profiles, j))
+            assert_memory_equal(vbi_profile_incident_map_fixed(a.profiles, j),
+                                vbi_profile_incident_map_fixed(b.profiles, j),
+                                3 * vbi_hemioct_texel_count(a.map) * sizeof(uint64_t));
     }
     assert_true(total > 0);
-    vbnl_vl_file_data_free(&a);
-    vbnl_vl_file_data_free(&b);
+    vbi_vl_file_data_free(&a);
+    vbi_vl_file_data_free(&b);
     /* and renders the same image */
     snprintf(load, sizeof(load), "load_lights=%s", merged);
     const char *const from_merged[] = {load, NULL};
@@ -621,18 +621,18 @@ static void test_placement_then_photons(void **state)
 
     /* a missing range, overlaps, files of another scene or preparation, only placements */
     const char *const missing[] = {part[0], part[2]};
-    assert_int_equal(vbnl_vl_file_merge(missing, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_vl_file_merge(missing, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "leave [20001, 70001)"));
-    assert_int_equal(vbnl_vl_file_merge(missing, 2, merged, 1, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_vl_file_merge(missing, 2, merged, 1, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "a file of that range is missing"));
     const char *const first_two[] = {part[1], part[0]};
-    assert_int_equal(vbnl_vl_file_merge(first_two, 2, merged, 1, &hm, &err), VBNL_OK); /* partial: [0, 70001) */
+    assert_int_equal(vbi_vl_file_merge(first_two, 2, merged, 1, &hm, &err), VBNL_OK); /* partial: [0, 70001) */
     assert_int_equal(hm.photon_count, 70001);
     const char *const twice[] = {part[0], full};
-    assert_int_equal(vbnl_vl_file_merge(twice, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_vl_file_merge(twice, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "count those photons twice"));
     const char *const places[] = {place, place};
-    assert_int_equal(vbnl_vl_file_merge(places, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_vl_file_merge(places, 2, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "placement without photons"));
 
     vbnl_scene *other = ts_box_scene(f->ctx, 1.0f);
@@ -648,7 +648,7 @@ static void test_placement_then_photons(void **state)
     assert_int_equal(res, VBNL_OK);
     vbnl_scene_destroy(other);
     const char *const mixed[] = {part[0], foreign, part[2]};
-    assert_int_equal(vbnl_vl_file_merge(mixed, 3, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_vl_file_merge(mixed, 3, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "was prepared for another scene than"));
     /* another seed of the same scene: another preparation */
     char seeded[400];
@@ -658,7 +658,7 @@ static void test_placement_then_photons(void **state)
     free(run_as(f, f->scene, 0, se, W, 9, &res, &err));
     assert_int_equal(res, VBNL_OK);
     const char *const reseeded[] = {part[0], seeded, part[2]};
-    assert_int_equal(vbnl_vl_file_merge(reseeded, 3, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_vl_file_merge(reseeded, 3, merged, 0, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "another seed"));
 
     /* rendering loads a placement alone, not in a list; placement_only needs save_lights */
@@ -686,15 +686,15 @@ static int count_entries(const char *dir)
 
 /* A tiny set to save: three lights, empty profiles. */
 typedef struct tiny_set {
-    vbnl_vl_set vls;
-    vbnl_hemioct *map;
-    vbnl_profile_set *ps;
-    vbnl_vl_file_header h;
+    vbi_vl_set vls;
+    vbi_hemioct *map;
+    vbi_profile_set *ps;
+    vbi_vl_file_header h;
 } tiny_set;
 
 static void tiny_set_make(tiny_set *t)
 {
-    assert_int_equal(vbnl_vl_set_alloc(&t->vls, 3, NULL), VBNL_OK);
+    assert_int_equal(vbi_vl_set_alloc(&t->vls, 3, NULL), VBNL_OK);
     for (uint32_t j = 0; j < 3; ++j) {
         t->vls.position[j] = v3((float)j, 0, 0);
         t->vls.normal[j] = v3(0, 1, 0);
@@ -702,19 +702,19 @@ static void tiny_set_make(tiny_set *t)
         t->vls.tint[j] = v3s(1.0f);
         t->vls.radius[j] = t->vls.density[j] = 1.0f;
     }
-    assert_int_equal(vbnl_hemioct_create(8, &t->map), VBNL_OK);
-    assert_int_equal(vbnl_profile_set_create(t->map, 3, NULL, &t->ps), VBNL_OK);
+    assert_int_equal(vbi_hemioct_create(8, &t->map), VBNL_OK);
+    assert_int_equal(vbi_profile_set_create(t->map, 3, NULL, &t->ps), VBNL_OK);
     memset(&t->h, 0, sizeof(t->h));
     t->h.profile_resolution = 8;
     t->h.photon_paths = t->h.photon_count = 1;
-    t->h.unit = VBNL_PROFILE_DEFAULT_UNIT;
+    t->h.unit = VBI_PROFILE_DEFAULT_UNIT;
 }
 
 static void tiny_set_free(tiny_set *t)
 {
-    vbnl_profile_set_destroy(t->ps);
-    vbnl_hemioct_destroy(t->map);
-    vbnl_vl_set_free(&t->vls);
+    vbi_profile_set_destroy(t->ps);
+    vbi_hemioct_destroy(t->map);
+    vbi_vl_set_free(&t->vls);
 }
 
 /* An unwritable path fails with VBNL_ERR_IO and leaves no file (not even the temporary). */
@@ -727,7 +727,7 @@ static void test_unwritable(void **state)
     char sub[400], path[500];
     /* a folder that does not exist */
     path_in(f, "no/such/folder/x.vls", path, sizeof(path));
-    assert_int_equal(vbnl_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_ERR_IO);
     assert_non_null(strstr(err.message, "cannot write"));
     /* the final rename fails (the path is a folder): the temporary is removed */
     path_in(f, "sub", sub, sizeof(sub));
@@ -735,13 +735,13 @@ static void test_unwritable(void **state)
     snprintf(path, sizeof(path), "%s/x.vls", sub);
     assert_int_equal(mkdir(path, 0755), 0);
     int before = count_entries(sub);
-    assert_int_equal(vbnl_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_ERR_IO);
     print_message("# %s\n", err.message);
     assert_int_equal(count_entries(sub), before);
     rmdir(path);
     assert_int_equal(count_entries(sub), 0);
     /* and it works when the path is writable, leaving exactly one file */
-    assert_int_equal(vbnl_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_OK);
+    assert_int_equal(vbi_vl_file_save(path, &t.h, &t.vls, t.ps, &err), VBNL_OK);
     assert_int_equal(count_entries(sub), 1);
     unlink(path);
     rmdir(sub);
@@ -775,7 +775,7 @@ static int setup_dir(void **state)
 static void on_signal_abandon(int sig)
 {
     (void)sig;
-    vbnl_atomic_file_abandon_all();
+    vbi_atomic_file_abandon_all();
     _exit(42);
 }
 
@@ -795,7 +795,7 @@ static int child_save_paused(const tiny_set *t, const char *path, int err_fd)
     if (sigaction(SIGUSR1, &sa, NULL) != 0 || dup2(err_fd, STDERR_FILENO) < 0 ||
         vbnl_context_create(&cd, &ctx, NULL) != VBNL_OK)
         return 1;
-    vbnl_vl_file_save(path, &t->h, &t->vls, t->ps, NULL);
+    vbi_vl_file_save(path, &t->h, &t->vls, t->ps, NULL);
     return 2; /* the pause lasts 30 s: the signal comes long before */
 }
 
@@ -803,12 +803,12 @@ static int child_save_paused(const tiny_set *t, const char *path, int err_fd)
 static int child_save_after_abandon(const tiny_set *t, const char *fresh, const char *existing)
 {
     vbnl_error err = {0};
-    vbnl_atomic_file_abandon_all();
-    if (vbnl_vl_file_save(existing, &t->h, &t->vls, t->ps, &err) != VBNL_ERR_CANCELLED)
+    vbi_atomic_file_abandon_all();
+    if (vbi_vl_file_save(existing, &t->h, &t->vls, t->ps, &err) != VBNL_ERR_CANCELLED)
         return 1;
     if (!strstr(err.message, "cannot write") || !strstr(err.message, existing) || !strstr(err.message, "abandoned"))
         return 2;
-    if (vbnl_vl_file_save(fresh, &t->h, &t->vls, t->ps, &err) != VBNL_ERR_CANCELLED)
+    if (vbi_vl_file_save(fresh, &t->h, &t->vls, t->ps, &err) != VBNL_ERR_CANCELLED)
         return 3;
     return 0;
 }
@@ -912,7 +912,7 @@ static void test_abandoned_saves(void **state)
 
     /* this process abandoned nothing: its saves still work */
     vbnl_error err = {0};
-    assert_int_equal(vbnl_vl_file_save(fresh, &t.h, &t.vls, t.ps, &err), VBNL_OK);
+    assert_int_equal(vbi_vl_file_save(fresh, &t.h, &t.vls, t.ps, &err), VBNL_OK);
     assert_int_equal(count_entries(f->dir), 2);
     tiny_set_free(&t);
 }

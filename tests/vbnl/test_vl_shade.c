@@ -30,71 +30,71 @@
 #define N_LIGHTS 400u
 
 typedef struct fixture {
-    vbnl_hemioct *map;
-    vbnl_profile_kernel *kernels[2]; /* 0: Lambertian, 1: GGX conductor */
-    vbnl_profile_set *profiles;
-    vbnl_vl_set set;
-    vbnl_vl_index *index;
+    vbi_hemioct *map;
+    vbi_profile_kernel *kernels[2]; /* 0: Lambertian, 1: GGX conductor */
+    vbi_profile_set *profiles;
+    vbi_vl_set set;
+    vbi_vl_index *index;
     float power[N_LIGHTS];
 } fixture;
 
-static vbnl_bsdf make_bsdf(vbnl_material_type type, vec3 c, float alpha)
+static vbi_bsdf make_bsdf(vbnl_material_type type, vec3 c, float alpha)
 {
     return tb_bsdf(type, c.x, c.y, c.z, alpha, 1.5f);
 }
 
-static vec3 random_unit(vbnl_rng *r) { return sample_uniform_sphere(vbnl_rng_next2(r)); }
+static vec3 random_unit(vbi_rng *r) { return sample_uniform_sphere(vbi_rng_next2(r)); }
 
 /* Every third light glossy; light 5 receives no photon (power 0). */
 static void fixture_make(fixture *f)
 {
     memset(f, 0, sizeof(*f));
-    assert_int_equal(vbnl_hemioct_create(16, &f->map), VBNL_OK);
-    vbnl_bsdf lam = make_bsdf(VBNL_MATERIAL_LAMBERT, v3(0.7f, 0.5f, 0.3f), 1.0f);
-    vbnl_bsdf ggx = make_bsdf(VBNL_MATERIAL_CONDUCTOR, v3(0.9f, 0.8f, 0.6f), 0.3f);
-    assert_int_equal(vbnl_profile_kernel_create(f->map, &lam, 1, &f->kernels[0]), VBNL_OK);
-    assert_int_equal(vbnl_profile_kernel_create(f->map, &ggx, 1, &f->kernels[1]), VBNL_OK);
-    assert_int_equal(vbnl_vl_set_alloc(&f->set, N_LIGHTS, NULL), VBNL_OK);
+    assert_int_equal(vbi_hemioct_create(16, &f->map), VBNL_OK);
+    vbi_bsdf lam = make_bsdf(VBNL_MATERIAL_LAMBERT, v3(0.7f, 0.5f, 0.3f), 1.0f);
+    vbi_bsdf ggx = make_bsdf(VBNL_MATERIAL_CONDUCTOR, v3(0.9f, 0.8f, 0.6f), 0.3f);
+    assert_int_equal(vbi_profile_kernel_create(f->map, &lam, 1, &f->kernels[0]), VBNL_OK);
+    assert_int_equal(vbi_profile_kernel_create(f->map, &ggx, 1, &f->kernels[1]), VBNL_OK);
+    assert_int_equal(vbi_vl_set_alloc(&f->set, N_LIGHTS, NULL), VBNL_OK);
     uint8_t glossy[N_LIGHTS];
-    vbnl_rng rng = vbnl_rng_make(11, 3);
+    vbi_rng rng = vbi_rng_make(11, 3);
     for (uint32_t j = 0; j < N_LIGHTS; ++j) {
         glossy[j] = j % 3 == 0;
-        f->set.position[j] = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+        f->set.position[j] = v3(vbi_rng_next(&rng), vbi_rng_next(&rng), vbi_rng_next(&rng));
         f->set.normal[j] = random_unit(&rng);
         f->set.material[j] = glossy[j];
-        f->set.tint[j] = v3(0.5f + 0.5f * vbnl_rng_next(&rng), 1.0f, 0.25f + vbnl_rng_next(&rng));
-        f->set.radius[j] = 0.01f + 0.05f * vbnl_rng_next(&rng);
-        f->set.density[j] = 100.0f * vbnl_rng_next(&rng);
+        f->set.tint[j] = v3(0.5f + 0.5f * vbi_rng_next(&rng), 1.0f, 0.25f + vbi_rng_next(&rng));
+        f->set.radius[j] = 0.01f + 0.05f * vbi_rng_next(&rng);
+        f->set.density[j] = 100.0f * vbi_rng_next(&rng);
     }
-    assert_int_equal(vbnl_profile_set_create(f->map, N_LIGHTS, glossy, &f->profiles), VBNL_OK);
+    assert_int_equal(vbi_profile_set_create(f->map, N_LIGHTS, glossy, &f->profiles), VBNL_OK);
     for (uint32_t j = 0; j < N_LIGHTS; ++j) {
         if (j == 5)
             continue;
-        int photons = 1 + (int)(20.0f * vbnl_rng_next(&rng));
+        int photons = 1 + (int)(20.0f * vbi_rng_next(&rng));
         for (int p = 0; p < photons; ++p) {
-            vec3 wi = sample_uniform_hemisphere(vbnl_rng_next2(&rng));
-            vec3 pw = v3s(0.1f + vbnl_rng_next(&rng));
-            vbnl_profile_deposit(f->profiles, j, wi, pw);
+            vec3 wi = sample_uniform_hemisphere(vbi_rng_next2(&rng));
+            vec3 pw = v3s(0.1f + vbi_rng_next(&rng));
+            vbi_profile_deposit(f->profiles, j, wi, pw);
         }
     }
     for (uint32_t j = 0; j < N_LIGHTS; ++j) {
-        const vbnl_profile_kernel *k = f->kernels[f->set.material[j]];
-        f->power[j] = v3_max_comp(v3_mul(vbnl_profile_power(f->profiles, j, k), f->set.tint[j]));
+        const vbi_profile_kernel *k = f->kernels[f->set.material[j]];
+        f->power[j] = v3_max_comp(v3_mul(vbi_profile_power(f->profiles, j, k), f->set.tint[j]));
     }
     /* one level per radius class: test_candidates checks the staged lookup over several levels */
-    vbnl_vl_index_desc d = {f->set.position, f->set.radius, f->set.normal, N_LIGHTS, VBNL_VL_INDEX_GRID, 0.0f, NULL,
-                            VBNL_VL_INDEX_LEVELS_CLASSES};
-    assert_int_equal(vbnl_vl_index_create(&d, &f->index), VBNL_OK);
+    vbi_vl_index_desc d = {f->set.position, f->set.radius, f->set.normal, N_LIGHTS, VBI_VL_INDEX_GRID, 0.0f, NULL,
+                            VBI_VL_INDEX_LEVELS_CLASSES};
+    assert_int_equal(vbi_vl_index_create(&d, &f->index), VBNL_OK);
 }
 
 static void fixture_free(fixture *f)
 {
-    vbnl_vl_index_destroy(f->index);
-    vbnl_profile_set_destroy(f->profiles);
-    vbnl_vl_set_free(&f->set);
-    vbnl_profile_kernel_destroy(f->kernels[0]);
-    vbnl_profile_kernel_destroy(f->kernels[1]);
-    vbnl_hemioct_destroy(f->map);
+    vbi_vl_index_destroy(f->index);
+    vbi_profile_set_destroy(f->profiles);
+    vbi_vl_set_free(&f->set);
+    vbi_profile_kernel_destroy(f->kernels[0]);
+    vbi_profile_kernel_destroy(f->kernels[1]);
+    vbi_hemioct_destroy(f->map);
 }
 
 /* Records in rank order with their light's data; radiance as the unpacked formula. */
@@ -103,22 +103,22 @@ static void test_records(void **state)
     (void)state;
     fixture f;
     fixture_make(&f);
-    vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
+    vbi_vl_shade t;
+    assert_int_equal(vbi_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
     assert_int_equal(t.n, N_LIGHTS);
-    assert_int_equal(vbnl_vl_shade_bytes(&t), N_LIGHTS * (64u + 8u)); /* records and the alias table */
-    assert_int_equal(sizeof(vbnl_vl_shade_rec), 64);
+    assert_int_equal(vbi_vl_shade_bytes(&t), N_LIGHTS * (64u + 8u)); /* records and the alias table */
+    assert_int_equal(sizeof(vbi_vl_shade_rec), 64);
     assert_int_equal((uintptr_t)t.rec % 64u, 0);
     double total = 0.0, pmf_sum = 0.0;
     for (uint32_t j = 0; j < N_LIGHTS; ++j)
         total += f.power[j];
-    vbnl_rng rng = vbnl_rng_make(4, 9);
+    vbi_rng rng = vbi_rng_make(4, 9);
     int glossy_seen = 0, lambert_seen = 0;
     for (uint32_t r = 0; r < N_LIGHTS; ++r) {
-        const vbnl_vl_shade_rec *e = &t.rec[r];
-        uint32_t id = vbnl_vl_index_id(f.index, r);
-        assert_int_equal(e->slot, vbnl_profile_slot(f.profiles, id));
-        assert_int_equal(e->slot != VBNL_PROFILE_NO_SLOT, vbnl_profile_is_glossy(f.profiles, id));
+        const vbi_vl_shade_rec *e = &t.rec[r];
+        uint32_t id = vbi_vl_index_id(f.index, r);
+        assert_int_equal(e->slot, vbi_profile_slot(f.profiles, id));
+        assert_int_equal(e->slot != VBI_PROFILE_NO_SLOT, vbi_profile_is_glossy(f.profiles, id));
         assert_memory_equal(&e->position, &f.set.position[id], sizeof(vec3));
         assert_memory_equal(&e->normal, &f.set.normal[id], sizeof(vec3));
         assert_true(e->radius == f.set.radius[id]);
@@ -126,20 +126,20 @@ static void test_records(void **state)
         assert_true(fabs(e->pmf - f.power[id] / total) <= 1e-6 * (f.power[id] / total) + 1e-12);
         assert_true(t.alias[r].prob >= 0.0f && t.alias[r].alias < N_LIGHTS);
         pmf_sum += e->pmf;
-        int glossy = vbnl_profile_is_glossy(f.profiles, id);
+        int glossy = vbi_profile_is_glossy(f.profiles, id);
         assert_int_equal(e->material, f.set.material[id]);
         glossy_seen += glossy;
         lambert_seen += !glossy;
-        float inv_area = 1.0f / (VBNL_PI * f.set.radius[id] * f.set.radius[id]);
+        float inv_area = 1.0f / (VBI_PI * f.set.radius[id] * f.set.radius[id]);
         frame fr = frame_from_normal(f.set.normal[id]);
         for (int k = 0; k < 40; ++k) {
             vec3 w = random_unit(&rng); /* from the shading point toward the light */
             vec3 wo = frame_to_local(&fr, v3_neg(w));
             vec3 want = wo.z <= 0.0f ? v3s(0.0f)
-                                     : v3_scale(v3_mul(vbnl_profile_eval(f.profiles, id, f.kernels[f.set.material[id]], wo),
+                                     : v3_scale(v3_mul(vbi_profile_eval(f.profiles, id, f.kernels[f.set.material[id]], wo),
                                                        f.set.tint[id]),
                                                 inv_area);
-            vec3 got = vbnl_vl_shade_radiance(e, f.profiles, f.kernels, w);
+            vec3 got = vbi_vl_shade_radiance(e, f.profiles, f.kernels, w);
             /* glossy: the local direction may differ in its last bits (contraction of the frame
              * arithmetic), which moves the bilinear weights on a steep lobe */
             float tol = glossy ? 2e-5f : 1e-6f;
@@ -151,7 +151,7 @@ static void test_records(void **state)
     }
     assert_true(glossy_seen > 100 && lambert_seen > 200);
     assert_true(fabs(pmf_sum - 1.0) < 1e-5);
-    vbnl_vl_shade_free(&t);
+    vbi_vl_shade_free(&t);
     assert_null(t.rec);
     assert_int_equal(t.n, 0);
     fixture_free(&f);
@@ -163,16 +163,16 @@ static void test_pick_frequencies(void **state)
     (void)state;
     fixture f;
     fixture_make(&f);
-    vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
+    vbi_vl_shade t;
+    assert_int_equal(vbi_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
     const int draws = 2000000;
     double *obs = calloc(N_LIGHTS, sizeof(double)), *exp_pmf = malloc(sizeof(double) * N_LIGHTS),
            *exp_uniform = malloc(sizeof(double) * N_LIGHTS);
-    vbnl_rng rng = vbnl_rng_make(21, 1);
+    vbi_rng rng = vbi_rng_make(21, 1);
     for (int i = 0; i < draws; ++i) {
-        float u = vbnl_rng_next(&rng);
-        uint32_t r = vbnl_vl_shade_pick_finish(&t, vbnl_vl_shade_pick_start(&t, u));
-        assert_int_equal(r, vbnl_vl_shade_pick(&t, u));
+        float u = vbi_rng_next(&rng);
+        uint32_t r = vbi_vl_shade_pick_finish(&t, vbi_vl_shade_pick_start(&t, u));
+        assert_int_equal(r, vbi_vl_shade_pick(&t, u));
         assert_true(r < N_LIGHTS);
         obs[r] += 1.0;
     }
@@ -180,25 +180,25 @@ static void test_pick_frequencies(void **state)
         exp_pmf[r] = t.rec[r].pmf * (double)draws;
         exp_uniform[r] = (double)draws / N_LIGHTS;
     }
-    uint32_t zero_rank = vbnl_vl_index_rank(f.index, 5);
+    uint32_t zero_rank = vbi_vl_index_rank(f.index, 5);
     assert_true(t.rec[zero_rank].pmf == 0.0f);
     assert_true(obs[zero_rank] == 0.0); /* a light without photons is never picked */
-    vbnl_chi2_result res;
-    int ok = vbnl_chi2_test(obs, exp_pmf, N_LIGHTS, 5.0, 0.01, &res);
+    vbi_chi2_result res;
+    int ok = vbi_chi2_test(obs, exp_pmf, N_LIGHTS, 5.0, 0.01, &res);
     print_message("# pick vs pmf: %s\n", res.msg);
     assert_true(ok);
-    int wrong = vbnl_chi2_test(obs, exp_uniform, N_LIGHTS, 5.0, 0.01, &res);
+    int wrong = vbi_chi2_test(obs, exp_uniform, N_LIGHTS, 5.0, 0.01, &res);
     print_message("# pick vs uniform (must fail): %s\n", res.msg);
     assert_false(wrong);
     free(obs);
     free(exp_pmf);
     free(exp_uniform);
-    vbnl_vl_shade_free(&t);
+    vbi_vl_shade_free(&t);
     fixture_free(&f);
 }
 
 /* The index's candidate ranks, tested on the records, give the index's own answer: the same
- * set as vbnl_vl_index_query_found with and without the filter, each rank once. */
+ * set as vbi_vl_index_query_found with and without the filter, each rank once. */
 static int cmp_u32(const void *a, const void *b)
 {
     uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
@@ -213,32 +213,32 @@ static void test_lookup_unstaged(void **state)
     enum { N = 3000 };
     vec3 *c = malloc(sizeof(vec3) * N);
     float *r = malloc(sizeof(float) * N);
-    vbnl_rng rng = vbnl_rng_make(31, 2);
+    vbi_rng rng = vbi_rng_make(31, 2);
     for (uint32_t j = 0; j < N; ++j) {
-        c[j] = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+        c[j] = v3(vbi_rng_next(&rng), vbi_rng_next(&rng), vbi_rng_next(&rng));
         r[j] = 1e-4f * (float)(1u << (j % 12)); /* 12 radius classes */
     }
     RTCDevice dev = rtcNewDevice(NULL);
     for (int kind = 0; kind < 2; ++kind) {
-        vbnl_vl_index_desc d = {c, r, NULL, N, kind ? VBNL_VL_INDEX_EMBREE : VBNL_VL_INDEX_GRID, 0.0f, dev,
-                                VBNL_VL_INDEX_LEVELS_CLASSES};
-        vbnl_vl_index *x;
-        assert_int_equal(vbnl_vl_index_create(&d, &x), VBNL_OK);
+        vbi_vl_index_desc d = {c, r, NULL, N, kind ? VBI_VL_INDEX_EMBREE : VBI_VL_INDEX_GRID, 0.0f, dev,
+                                VBI_VL_INDEX_LEVELS_CLASSES};
+        vbi_vl_index *x;
+        assert_int_equal(vbi_vl_index_create(&d, &x), VBNL_OK);
         uint32_t nonempty = 0;
         for (int q = 0; q < 4000; ++q) {
-            vec3 p = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
+            vec3 p = v3(vbi_rng_next(&rng), vbi_rng_next(&rng), vbi_rng_next(&rng));
             uint32_t a[64], b[64];
-            vbnl_vl_lookup lk;
-            vbnl_vl_index_lookup_begin(x, p, &lk);
-            vbnl_vl_index_lookup_fetch(x, &lk);
+            vbi_vl_lookup lk;
+            vbi_vl_index_lookup_begin(x, p, &lk);
+            vbi_vl_index_lookup_fetch(x, &lk);
             assert_int_equal(lk.levels, 0);
-            uint32_t na = vbnl_vl_index_candidates(x, p, 64, a), nb = vbnl_vl_index_lookup_candidates(x, &lk, 64, b);
+            uint32_t na = vbi_vl_index_candidates(x, p, 64, a), nb = vbi_vl_index_lookup_candidates(x, &lk, 64, b);
             assert_int_equal(na, nb);
             assert_memory_equal(a, b, sizeof(uint32_t) * (na < 64 ? na : 64));
             nonempty += na > 0;
         }
         assert_true(nonempty > 100);
-        vbnl_vl_index_destroy(x);
+        vbi_vl_index_destroy(x);
     }
     rtcReleaseDevice(dev);
     free(c);
@@ -250,37 +250,37 @@ static void test_candidates(void **state)
     (void)state;
     fixture f;
     fixture_make(&f);
-    vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
-    vbnl_rng rng = vbnl_rng_make(8, 8);
+    vbi_vl_shade t;
+    assert_int_equal(vbi_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
+    vbi_rng rng = vbi_rng_make(8, 8);
     uint32_t nonempty = 0, rejected = 0;
     for (int q = 0; q < 20000; ++q) {
-        vec3 p = v3(1.2f * vbnl_rng_next(&rng) - 0.1f, 1.2f * vbnl_rng_next(&rng) - 0.1f, 1.2f * vbnl_rng_next(&rng) - 0.1f);
-        vbnl_vl_filter fl = {random_unit(&rng), random_unit(&rng), 0.0f, 1};
+        vec3 p = v3(1.2f * vbi_rng_next(&rng) - 0.1f, 1.2f * vbi_rng_next(&rng) - 0.1f, 1.2f * vbi_rng_next(&rng) - 0.1f);
+        vbi_vl_filter fl = {random_unit(&rng), random_unit(&rng), 0.0f, 1};
         for (int filtered = 0; filtered < 2; ++filtered) {
             uint32_t cand[256], mine[256], theirs[64];
-            uint32_t nc = vbnl_vl_index_candidates(f.index, p, 256, cand);
+            uint32_t nc = vbi_vl_index_candidates(f.index, p, 256, cand);
             assert_true(nc <= 256);
             /* the staged lookup lists the same ranks in the same order */
             uint32_t staged[256];
-            vbnl_vl_lookup lk;
-            vbnl_vl_index_lookup_begin(f.index, p, &lk);
-            vbnl_vl_index_lookup_fetch(f.index, &lk);
+            vbi_vl_lookup lk;
+            vbi_vl_index_lookup_begin(f.index, p, &lk);
+            vbi_vl_index_lookup_fetch(f.index, &lk);
             assert_true(lk.levels > 1); /* radii of several classes: several levels, staged */
-            assert_int_equal(vbnl_vl_index_lookup_candidates(f.index, &lk, 256, staged), nc);
+            assert_int_equal(vbi_vl_index_lookup_candidates(f.index, &lk, 256, staged), nc);
             assert_memory_equal(staged, cand, sizeof(uint32_t) * nc);
             uint32_t m = 0;
             for (uint32_t k = 0; k < nc; ++k) {
-                const vbnl_vl_shade_rec *e = &t.rec[cand[k]];
+                const vbi_vl_shade_rec *e = &t.rec[cand[k]];
                 double d2;
-                if (vbnl_vl_contains(e->position, e->radius, p, &d2) &&
-                    (!filtered || vbnl_vl_filter_passes(&fl, e->normal)))
+                if (vbi_vl_contains(e->position, e->radius, p, &d2) &&
+                    (!filtered || vbi_vl_filter_passes(&fl, e->normal)))
                     mine[m++] = cand[k];
                 else
                     rejected++;
             }
-            vbnl_vl_found found[64];
-            uint32_t n = vbnl_vl_index_query_found(f.index, p, filtered ? &fl : NULL, 64, found);
+            vbi_vl_found found[64];
+            uint32_t n = vbi_vl_index_query_found(f.index, p, filtered ? &fl : NULL, 64, found);
             assert_true(n <= 64);
             assert_int_equal(m, n);
             for (uint32_t k = 0; k < n; ++k)
@@ -301,12 +301,12 @@ static void test_candidates(void **state)
     uint32_t small[1] = {UINT32_MAX};
     uint32_t big = 0;
     for (int q = 0; q < 20000 && !big; ++q) {
-        vec3 p = v3(vbnl_rng_next(&rng), vbnl_rng_next(&rng), vbnl_rng_next(&rng));
-        uint32_t nc = vbnl_vl_index_candidates(f.index, p, 1, small);
+        vec3 p = v3(vbi_rng_next(&rng), vbi_rng_next(&rng), vbi_rng_next(&rng));
+        uint32_t nc = vbi_vl_index_candidates(f.index, p, 1, small);
         big = nc > 1 ? nc : 0;
     }
     assert_true(big > 1 && small[0] < N_LIGHTS);
-    vbnl_vl_shade_free(&t);
+    vbi_vl_shade_free(&t);
     fixture_free(&f);
 }
 
@@ -317,12 +317,12 @@ static void test_no_power(void **state)
     fixture f;
     fixture_make(&f);
     memset(f.power, 0, sizeof(f.power));
-    vbnl_vl_shade t;
-    assert_int_equal(vbnl_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
+    vbi_vl_shade t;
+    assert_int_equal(vbi_vl_shade_build(&t, &f.set, f.index, f.profiles, f.kernels, f.power, NULL), VBNL_OK);
     assert_int_equal(t.n, 0);
     assert_null(t.rec);
-    assert_int_equal(vbnl_vl_shade_bytes(&t), 0);
-    vbnl_vl_shade_free(&t);
+    assert_int_equal(vbi_vl_shade_bytes(&t), 0);
+    vbi_vl_shade_free(&t);
     fixture_free(&f);
 }
 

@@ -5,72 +5,72 @@
 #include <stdlib.h>
 
 /* Traversal stacks grow by at most one entry per level: depth + 1 <= 33 for 2^32 points. */
-#define VBNL_KD_STACK 96
+#define VBI_KD_STACK 96
 
 /* Quickselect (Hoare partition, median-of-three pivot): afterwards a[k] has its sorted place,
  * a[0..k) <= a[k] <= a(k..n) on axis `ax`. Deterministic. */
-static void vbnl_kd_select(vbnl_kd_pt *a, uint32_t n, uint32_t k, int ax)
+static void vbi_kd_select(vbi_kd_pt *a, uint32_t n, uint32_t k, int ax)
 {
-#define VBNL_KEY(i) (a[i].p[ax])
-#define VBNL_SWAP(i, j) do { vbnl_kd_pt t_ = a[i]; a[i] = a[j]; a[j] = t_; } while (0)
+#define VBI_KEY(i) (a[i].p[ax])
+#define VBI_SWAP(i, j) do { vbi_kd_pt t_ = a[i]; a[i] = a[j]; a[j] = t_; } while (0)
     uint32_t l = 0, ir = n - 1;
     for (;;) {
         if (ir <= l + 1) {
-            if (ir == l + 1 && VBNL_KEY(ir) < VBNL_KEY(l))
-                VBNL_SWAP(l, ir);
+            if (ir == l + 1 && VBI_KEY(ir) < VBI_KEY(l))
+                VBI_SWAP(l, ir);
             return;
         }
         uint32_t mid = (l + ir) >> 1;
-        VBNL_SWAP(mid, l + 1);
-        if (VBNL_KEY(l) > VBNL_KEY(ir)) VBNL_SWAP(l, ir);
-        if (VBNL_KEY(l + 1) > VBNL_KEY(ir)) VBNL_SWAP(l + 1, ir);
-        if (VBNL_KEY(l) > VBNL_KEY(l + 1)) VBNL_SWAP(l, l + 1);
+        VBI_SWAP(mid, l + 1);
+        if (VBI_KEY(l) > VBI_KEY(ir)) VBI_SWAP(l, ir);
+        if (VBI_KEY(l + 1) > VBI_KEY(ir)) VBI_SWAP(l + 1, ir);
+        if (VBI_KEY(l) > VBI_KEY(l + 1)) VBI_SWAP(l, l + 1);
         uint32_t i = l + 1, j = ir;
-        vbnl_kd_pt pivot = a[l + 1];
+        vbi_kd_pt pivot = a[l + 1];
         float pk = pivot.p[ax];
         for (;;) {
-            do i++; while (VBNL_KEY(i) < pk);
-            do j--; while (VBNL_KEY(j) > pk);
+            do i++; while (VBI_KEY(i) < pk);
+            do j--; while (VBI_KEY(j) > pk);
             if (j < i)
                 break;
-            VBNL_SWAP(i, j);
+            VBI_SWAP(i, j);
         }
         a[l + 1] = a[j];
         a[j] = pivot;
         if (j >= k) ir = j - 1;
         if (j <= k) l = i;
     }
-#undef VBNL_KEY
-#undef VBNL_SWAP
+#undef VBI_KEY
+#undef VBI_SWAP
 }
 
 /* Nodes of the tree over n points (the build's exact depth-first layout). */
-static uint32_t vbnl_kd_node_count(uint32_t n)
+static uint32_t vbi_kd_node_count(uint32_t n)
 {
-    return n <= VBNL_KD_LEAF ? 1u : 1u + vbnl_kd_node_count(n / 2) + vbnl_kd_node_count(n - n / 2);
+    return n <= VBI_KD_LEAF ? 1u : 1u + vbi_kd_node_count(n / 2) + vbi_kd_node_count(n - n / 2);
 }
 
 /* Builds the subtree over pts[b, e) at node *next. Nodes at depth `defer` with more than a leaf
  * of points are only reserved and recorded in jobs[] (their subtree size is known in advance). */
-static uint32_t vbnl_kd_build_rec(vbnl_kd_tree *t, uint32_t *next, uint32_t b, uint32_t e,
-                                  uint32_t depth, uint32_t defer, vbnl_kd_subtree *jobs,
+static uint32_t vbi_kd_build_rec(vbi_kd_tree *t, uint32_t *next, uint32_t b, uint32_t e,
+                                  uint32_t depth, uint32_t defer, vbi_kd_subtree *jobs,
                                   uint32_t *njobs)
 {
     uint32_t ni = (*next)++;
-    vbnl_kd_node *nd = &t->nodes[ni];
+    vbi_kd_node *nd = &t->nodes[ni];
     nd->begin = b;
     nd->end = e;
     nd->right = 0;
     nd->split = 0.0f;
-    if (e - b > VBNL_KD_LEAF && depth == defer) {
+    if (e - b > VBI_KD_LEAF && depth == defer) {
         jobs[*njobs].node = ni;
         jobs[*njobs].begin = b;
         jobs[*njobs].end = e;
         (*njobs)++;
-        *next = ni + vbnl_kd_node_count(e - b);
+        *next = ni + vbi_kd_node_count(e - b);
         return ni; /* its box too is written by the job */
     }
-    /* The bounding box: kept for box queries (vbnl_kd_gather_*), and it picks the split axis. */
+    /* The bounding box: kept for box queries (vbi_kd_gather_*), and it picks the split axis. */
     float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
     for (uint32_t i = b; i < e; ++i)
         for (int a = 0; a < 3; ++a) {
@@ -83,8 +83,8 @@ static uint32_t vbnl_kd_build_rec(vbnl_kd_tree *t, uint32_t *next, uint32_t b, u
         bx[a] = lo[a];
         bx[3 + a] = hi[a];
     }
-    if (e - b <= VBNL_KD_LEAF) {
-        nd->axis = VBNL_KD_LEAF_AXIS;
+    if (e - b <= VBI_KD_LEAF) {
+        nd->axis = VBI_KD_LEAF_AXIS;
         return ni;
     }
     /* Split at the median along the axis of largest extent (a balanced tree: section 3.2 uses
@@ -94,55 +94,55 @@ static uint32_t vbnl_kd_build_rec(vbnl_kd_tree *t, uint32_t *next, uint32_t b, u
         if (hi[a] - lo[a] > hi[ax] - lo[ax])
             ax = a;
     uint32_t mid = b + (e - b) / 2;
-    vbnl_kd_select(t->pts + b, e - b, mid - b, ax);
+    vbi_kd_select(t->pts + b, e - b, mid - b, ax);
     t->nodes[ni].split = t->pts[mid].p[ax];
     t->nodes[ni].axis = (uint32_t)ax;
-    vbnl_kd_build_rec(t, next, b, mid, depth + 1, defer, jobs, njobs);
-    uint32_t r = vbnl_kd_build_rec(t, next, mid, e, depth + 1, defer, jobs, njobs);
+    vbi_kd_build_rec(t, next, b, mid, depth + 1, defer, jobs, njobs);
+    uint32_t r = vbi_kd_build_rec(t, next, mid, e, depth + 1, defer, jobs, njobs);
     t->nodes[ni].right = r;
     return ni;
 }
 
-int vbnl_kd_build_top(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n, uint32_t levels,
-                      vbnl_kd_subtree *jobs, uint32_t *njobs)
+int vbi_kd_build_top(vbi_kd_tree *t, vbi_kd_pt *pts, uint32_t n, uint32_t levels,
+                      vbi_kd_subtree *jobs, uint32_t *njobs)
 {
     t->pts = pts;
     t->n = n;
-    t->node_count = n > 0 ? vbnl_kd_node_count(n) : 0;
-    t->nodes = malloc(((size_t)t->node_count + 1) * sizeof(vbnl_kd_node));
+    t->node_count = n > 0 ? vbi_kd_node_count(n) : 0;
+    t->nodes = malloc(((size_t)t->node_count + 1) * sizeof(vbi_kd_node));
     t->box = malloc(((size_t)t->node_count + 1) * 6 * sizeof(float));
     if (njobs)
         *njobs = 0;
     if (!t->nodes || !t->box) {
-        vbnl_kd_free(t);
+        vbi_kd_free(t);
         return -1;
     }
     uint32_t next = 0;
     if (n > 0)
-        vbnl_kd_build_rec(t, &next, 0, n, 0, levels, jobs, njobs);
+        vbi_kd_build_rec(t, &next, 0, n, 0, levels, jobs, njobs);
     return 0;
 }
 
-void vbnl_kd_build_split(vbnl_kd_tree *t, const vbnl_kd_subtree *job, vbnl_kd_subtree *out,
+void vbi_kd_build_split(vbi_kd_tree *t, const vbi_kd_subtree *job, vbi_kd_subtree *out,
                          uint32_t *nout)
 {
     uint32_t next = job->node;
     *nout = 0;
-    vbnl_kd_build_rec(t, &next, job->begin, job->end, 0, 1, out, nout);
+    vbi_kd_build_rec(t, &next, job->begin, job->end, 0, 1, out, nout);
 }
 
-void vbnl_kd_build_subtree(vbnl_kd_tree *t, const vbnl_kd_subtree *job)
+void vbi_kd_build_subtree(vbi_kd_tree *t, const vbi_kd_subtree *job)
 {
     uint32_t next = job->node;
-    vbnl_kd_build_rec(t, &next, job->begin, job->end, 0, UINT32_MAX, NULL, NULL);
+    vbi_kd_build_rec(t, &next, job->begin, job->end, 0, UINT32_MAX, NULL, NULL);
 }
 
-int vbnl_kd_build(vbnl_kd_tree *t, vbnl_kd_pt *pts, uint32_t n)
+int vbi_kd_build(vbi_kd_tree *t, vbi_kd_pt *pts, uint32_t n)
 {
-    return vbnl_kd_build_top(t, pts, n, UINT32_MAX, NULL, NULL);
+    return vbi_kd_build_top(t, pts, n, UINT32_MAX, NULL, NULL);
 }
 
-void vbnl_kd_free(vbnl_kd_tree *t)
+void vbi_kd_free(vbi_kd_tree *t)
 {
     free(t->nodes);
     free(t->box);
@@ -152,19 +152,19 @@ void vbnl_kd_free(vbnl_kd_tree *t)
 
 /* All points with squared distance <= r2 of q: local indices and squared distances, at most
  * `cap` of them (the output arrays' size); returns the count, or cap + 1 when more were found. */
-uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_t *out_i,
+uint32_t vbi_kd_radius(const vbi_kd_tree *t, const float *q, float r2, uint32_t *out_i,
                         float *out_d2, uint32_t cap)
 {
-    uint32_t stack[VBNL_KD_STACK];
+    uint32_t stack[VBI_KD_STACK];
     int sp = 0;
     uint32_t cnt = 0;
     stack[sp++] = 0;
     while (sp > 0) {
         uint32_t ni = stack[--sp];
-        const vbnl_kd_node *nd = &t->nodes[ni];
-        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+        const vbi_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBI_KD_LEAF_AXIS) {
             for (uint32_t i = nd->begin; i < nd->end; ++i) {
-                float d2 = vbnl_kd_dist2(q, t->pts[i].p);
+                float d2 = vbi_kd_dist2(q, t->pts[i].p);
                 if (d2 <= r2) {
                     if (cnt == cap)
                         return cap + 1;
@@ -191,9 +191,9 @@ uint32_t vbnl_kd_radius(const vbnl_kd_tree *t, const float *q, float r2, uint32_
 }
 
 /* The k best so far are a max-heap in (out_i, out_d2) ordered by (distance, id), the order of
- * vbnl_kd_knn's answer: the root is the k-th best, the bound of the search. Entry j's id is
+ * vbi_kd_knn's answer: the root is the k-th best, the bound of the search. Entry j's id is
  * t->pts[out_i[j]].id, read only on equal distances. */
-static inline int vbnl_kd_heap_before(const vbnl_kd_tree *t, const uint32_t *hi, const float *hd, uint32_t a,
+static inline int vbi_kd_heap_before(const vbi_kd_tree *t, const uint32_t *hi, const float *hd, uint32_t a,
                                       uint32_t b)
 {
     if (hd[a] != hd[b])
@@ -203,7 +203,7 @@ static inline int vbnl_kd_heap_before(const vbnl_kd_tree *t, const uint32_t *hi,
 
 /* Puts (vi, vd) at the root of the heap of n entries and sifts it down (moving entries up into
  * the hole instead of swapping). */
-static inline void vbnl_kd_heap_replace_top(const vbnl_kd_tree *t, uint32_t *hi, float *hd, uint32_t n, uint32_t vi,
+static inline void vbi_kd_heap_replace_top(const vbi_kd_tree *t, uint32_t *hi, float *hd, uint32_t n, uint32_t vi,
                                             float vd)
 {
     const uint32_t vid = t->pts[vi].id;
@@ -212,7 +212,7 @@ static inline void vbnl_kd_heap_replace_top(const vbnl_kd_tree *t, uint32_t *hi,
         uint32_t c = 2 * j + 1;
         if (c >= n)
             break;
-        if (c + 1 < n && vbnl_kd_heap_before(t, hi, hd, c, c + 1))
+        if (c + 1 < n && vbi_kd_heap_before(t, hi, hd, c, c + 1))
             c++;
         if (!(vd < hd[c] || (vd == hd[c] && vid < t->pts[hi[c]].id)))
             break;
@@ -227,7 +227,7 @@ static inline void vbnl_kd_heap_replace_top(const vbnl_kd_tree *t, uint32_t *hi,
 /* The k-nearest search: a depth-first descent, near side first, that skips a subtree whose box
  * distance exceeds the k-th distance found so far (ties are still visited, so ties by id are
  * exact), keeping the k best in a max-heap in (out_i, out_d2). Returns their count. */
-static uint32_t vbnl_kd_knn_heap(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip,
+static uint32_t vbi_kd_knn_heap(const vbi_kd_tree *t, const float q[3], uint32_t k, uint32_t skip,
                                  uint32_t *out_i, float *out_d2)
 {
     if (!t->nodes || t->n == 0 || k == 0)
@@ -235,7 +235,7 @@ static uint32_t vbnl_kd_knn_heap(const vbnl_kd_tree *t, const float q[3], uint32
     struct {
         uint32_t node;
         float d2;
-    } stack[VBNL_KD_STACK];
+    } stack[VBI_KD_STACK];
     int sp = 0;
     uint32_t cnt = 0;
     stack[sp].node = 0;
@@ -246,12 +246,12 @@ static uint32_t vbnl_kd_knn_heap(const vbnl_kd_tree *t, const float q[3], uint32
         uint32_t ni = stack[sp].node;
         if (cnt == k && stack[sp].d2 > out_d2[0])
             continue;
-        const vbnl_kd_node *nd = &t->nodes[ni];
-        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+        const vbi_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBI_KD_LEAF_AXIS) {
             for (uint32_t i = nd->begin; i < nd->end; ++i) {
                 if (i == skip)
                     continue;
-                const float d2 = vbnl_kd_dist2(q, t->pts[i].p);
+                const float d2 = vbi_kd_dist2(q, t->pts[i].p);
                 if (cnt < k) { /* push: sift up through the hole */
                     const uint32_t id = t->pts[i].id;
                     uint32_t j = cnt++;
@@ -266,7 +266,7 @@ static uint32_t vbnl_kd_knn_heap(const vbnl_kd_tree *t, const float q[3], uint32
                     out_i[j] = i;
                     out_d2[j] = d2;
                 } else if (d2 < out_d2[0] || (d2 == out_d2[0] && t->pts[i].id < t->pts[out_i[0]].id)) {
-                    vbnl_kd_heap_replace_top(t, out_i, out_d2, k, i, d2); /* replaces the k-th best */
+                    vbi_kd_heap_replace_top(t, out_i, out_d2, k, i, d2); /* replaces the k-th best */
                 }
             }
             continue;
@@ -286,24 +286,24 @@ static uint32_t vbnl_kd_knn_heap(const vbnl_kd_tree *t, const float q[3], uint32
     return cnt;
 }
 
-uint32_t vbnl_kd_knn(const vbnl_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
+uint32_t vbi_kd_knn(const vbi_kd_tree *t, const float q[3], uint32_t k, uint32_t skip, uint32_t *out_i,
                      float *out_d2)
 {
-    const uint32_t cnt = vbnl_kd_knn_heap(t, q, k, skip, out_i, out_d2);
+    const uint32_t cnt = vbi_kd_knn_heap(t, q, k, skip, out_i, out_d2);
     /* heap sort: the largest to the end, one at a time */
     for (uint32_t n = cnt; n > 1; --n) {
         const uint32_t top_i = out_i[0];
         const float top_d = out_d2[0];
-        vbnl_kd_heap_replace_top(t, out_i, out_d2, n - 1, out_i[n - 1], out_d2[n - 1]);
+        vbi_kd_heap_replace_top(t, out_i, out_d2, n - 1, out_i[n - 1], out_d2[n - 1]);
         out_i[n - 1] = top_i;
         out_d2[n - 1] = top_d;
     }
     return cnt;
 }
 
-float vbnl_kd_mth_dist2(const vbnl_kd_tree *t, uint32_t self, uint32_t m, uint32_t *idx, float *d2)
+float vbi_kd_mth_dist2(const vbi_kd_tree *t, uint32_t self, uint32_t m, uint32_t *idx, float *d2)
 {
-    const uint32_t cnt = vbnl_kd_knn_heap(t, t->pts[self].p, m, self, idx, d2);
+    const uint32_t cnt = vbi_kd_knn_heap(t, t->pts[self].p, m, self, idx, d2);
     float worst = 0.0f; /* the heap's root once full; the largest of fewer otherwise */
     for (uint32_t j = 0; j < (cnt == m ? 1u : cnt); ++j)
         worst = d2[j] > worst ? d2[j] : worst;
@@ -311,7 +311,7 @@ float vbnl_kd_mth_dist2(const vbnl_kd_tree *t, uint32_t self, uint32_t m, uint32
 }
 
 /* Squared distance between two boxes (0 when they overlap). */
-static inline float vbnl_kd_box_box_dist2(const float *alo, const float *ahi, const float *b)
+static inline float vbi_kd_box_box_dist2(const float *alo, const float *ahi, const float *b)
 {
     float s = 0.0f;
     for (int a = 0; a < 3; ++a) {
@@ -321,22 +321,22 @@ static inline float vbnl_kd_box_box_dist2(const float *alo, const float *ahi, co
     return s;
 }
 
-uint32_t vbnl_kd_gather_box(const vbnl_kd_tree *t, const float *lo, const float *hi, float r2,
+uint32_t vbi_kd_gather_box(const vbi_kd_tree *t, const float *lo, const float *hi, float r2,
                             uint32_t *out_i, uint32_t cap)
 {
-    uint32_t stack[VBNL_KD_STACK];
+    uint32_t stack[VBI_KD_STACK];
     int sp = 0;
     uint32_t cnt = 0;
     stack[sp++] = 0;
     while (sp > 0) {
         uint32_t ni = stack[--sp];
-        if (vbnl_kd_box_box_dist2(lo, hi, t->box + 6 * (size_t)ni) > r2)
+        if (vbi_kd_box_box_dist2(lo, hi, t->box + 6 * (size_t)ni) > r2)
             continue;
-        const vbnl_kd_node *nd = &t->nodes[ni];
-        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+        const vbi_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBI_KD_LEAF_AXIS) {
             if (cnt + (nd->end - nd->begin) > cap) { /* close to the cap: test and stop exactly */
                 for (uint32_t i = nd->begin; i < nd->end; ++i)
-                    if (vbnl_kd_box_dist2(lo, hi, t->pts[i].p) <= r2) {
+                    if (vbi_kd_box_dist2(lo, hi, t->pts[i].p) <= r2) {
                         if (cnt == cap)
                             return cap + 1;
                         out_i[cnt++] = i;
@@ -345,7 +345,7 @@ uint32_t vbnl_kd_gather_box(const vbnl_kd_tree *t, const float *lo, const float 
             }
             for (uint32_t i = nd->begin; i < nd->end; ++i) { /* branchless: the test is unpredictable */
                 out_i[cnt] = i;
-                cnt += vbnl_kd_box_dist2(lo, hi, t->pts[i].p) <= r2;
+                cnt += vbi_kd_box_dist2(lo, hi, t->pts[i].p) <= r2;
             }
             continue;
         }
@@ -355,23 +355,23 @@ uint32_t vbnl_kd_gather_box(const vbnl_kd_tree *t, const float *lo, const float 
     return cnt;
 }
 
-uint32_t vbnl_kd_gather_reach(const vbnl_kd_tree *t, const float *lo, const float *hi,
+uint32_t vbi_kd_gather_reach(const vbi_kd_tree *t, const float *lo, const float *hi,
                               const float *node_r2, const float *pt_r2, uint32_t *out_i,
                               uint32_t cap)
 {
-    uint32_t stack[VBNL_KD_STACK];
+    uint32_t stack[VBI_KD_STACK];
     int sp = 0;
     uint32_t cnt = 0;
     stack[sp++] = 0;
     while (sp > 0) {
         uint32_t ni = stack[--sp];
-        if (!(vbnl_kd_box_box_dist2(lo, hi, t->box + 6 * (size_t)ni) < node_r2[ni]))
+        if (!(vbi_kd_box_box_dist2(lo, hi, t->box + 6 * (size_t)ni) < node_r2[ni]))
             continue;
-        const vbnl_kd_node *nd = &t->nodes[ni];
-        if (nd->axis == VBNL_KD_LEAF_AXIS) {
+        const vbi_kd_node *nd = &t->nodes[ni];
+        if (nd->axis == VBI_KD_LEAF_AXIS) {
             if (cnt + (nd->end - nd->begin) > cap) {
                 for (uint32_t i = nd->begin; i < nd->end; ++i)
-                    if (vbnl_kd_box_dist2(lo, hi, t->pts[i].p) < pt_r2[i]) {
+                    if (vbi_kd_box_dist2(lo, hi, t->pts[i].p) < pt_r2[i]) {
                         if (cnt == cap)
                             return cap + 1;
                         out_i[cnt++] = i;
@@ -380,7 +380,7 @@ uint32_t vbnl_kd_gather_reach(const vbnl_kd_tree *t, const float *lo, const floa
             }
             for (uint32_t i = nd->begin; i < nd->end; ++i) {
                 out_i[cnt] = i;
-                cnt += vbnl_kd_box_dist2(lo, hi, t->pts[i].p) < pt_r2[i];
+                cnt += vbi_kd_box_dist2(lo, hi, t->pts[i].p) < pt_r2[i];
             }
             continue;
         }

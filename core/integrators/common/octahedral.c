@@ -5,7 +5,7 @@
 #include <math.h>
 #include <stdlib.h>
 
-struct vbnl_hemioct {
+struct vbi_hemioct {
     uint32_t res;
     uint32_t count;        /* res * res */
     vec3 *dir;             /* texel centre directions */
@@ -14,17 +14,17 @@ struct vbnl_hemioct {
     float *bil_proj;       /* C_t */
 };
 
-struct vbnl_hemioct_dist {
-    const vbnl_hemioct *map;
+struct vbi_hemioct_dist {
+    const vbi_hemioct *map;
     float *pmf;            /* count entries */
     float *cdf;            /* count + 1 entries, cdf[count] = 1 */
 };
 
 /* ---- mapping ------------------------------------------------------------------------------- */
 
-vec2 vbnl_hemioct_encode(vec3 w) { return vbnl_hemioct_encode_inline(w); }
+vec2 vbi_hemioct_encode(vec3 w) { return vbi_hemioct_encode_inline(w); }
 
-vec3 vbnl_hemioct_decode(vec2 u)
+vec3 vbi_hemioct_decode(vec2 u)
 {
     float ex = 2.0f * clampf(u.x, 0.0f, 1.0f) - 1.0f, ey = 2.0f * clampf(u.y, 0.0f, 1.0f) - 1.0f;
     float tx = 0.5f * (ex + ey), ty = 0.5f * (ex - ey);
@@ -54,7 +54,7 @@ static void decode_unit_d(double ux, double uy, double v[3])
 /* d(omega) = dA cos / |p|^2 on the face plane; with dA = sqrt(3) dt, the plane's distance
  * 1 / sqrt(3) and |dt/du| = 2 (e = 2u - 1 scales areas by 4, the 45-degree rotation by 1/2),
  * the Jacobian is 2 / |p|^3. */
-float vbnl_hemioct_jacobian(vec2 u)
+float vbi_hemioct_jacobian(vec2 u)
 {
     float ex = 2.0f * clampf(u.x, 0.0f, 1.0f) - 1.0f, ey = 2.0f * clampf(u.y, 0.0f, 1.0f) - 1.0f;
     float tx = 0.5f * (ex + ey), ty = 0.5f * (ex - ey);
@@ -98,7 +98,7 @@ static double texel_solid_angle_d(uint32_t res, uint32_t i, uint32_t j)
  * sub-cell boundaries then contain the texel-centre lines (the kinks of the bilinear basis) and
  * the diagonals cross sub-cells only along their own diagonals (the Jacobian's kinks). Measured:
  * sum(B) = 2 pi and sum(C) = pi to 2e-8 relative for R = 8, 16, 32. */
-static void bilinear_tables(vbnl_hemioct *m)
+static void bilinear_tables(vbi_hemioct *m)
 {
     uint32_t sub = 2;
     while (m->res * sub < 512)
@@ -124,7 +124,7 @@ static void bilinear_tables(vbnl_hemioct *m)
             double l = sqrt(l2);
             double dw = 2.0 / (l2 * l) * du * du; /* Jacobian 2 / |p|^3 */
             double cosv = p[2] / l;
-            /* Bilinear weights in double, same footprint rule as vbnl_hemioct_footprint (octahedral.h). */
+            /* Bilinear weights in double, same footprint rule as vbi_hemioct_footprint (octahedral.h). */
             double fxp = ux * m->res - 0.5, fyp = uy * m->res - 0.5;
             double x0f = floor(fxp), y0f = floor(fyp);
             double fx = fxp - x0f, fy = fyp - y0f;
@@ -151,14 +151,14 @@ static void bilinear_tables(vbnl_hemioct *m)
     free(b);
 }
 
-vbnl_result vbnl_hemioct_create(uint32_t res, vbnl_hemioct **out)
+vbnl_result vbi_hemioct_create(uint32_t res, vbi_hemioct **out)
 {
     if (!out)
         return VBNL_ERR_INVALID_ARGUMENT;
     *out = NULL;
-    if (res < VBNL_HEMIOCT_MIN_RES || res > VBNL_HEMIOCT_MAX_RES)
+    if (res < VBI_HEMIOCT_MIN_RES || res > VBI_HEMIOCT_MAX_RES)
         return VBNL_ERR_INVALID_ARGUMENT;
-    vbnl_hemioct *m = calloc(1, sizeof(*m));
+    vbi_hemioct *m = calloc(1, sizeof(*m));
     if (!m)
         return VBNL_ERR_OUT_OF_MEMORY;
     m->res = res;
@@ -166,7 +166,7 @@ vbnl_result vbnl_hemioct_create(uint32_t res, vbnl_hemioct **out)
     m->dir = malloc(m->count * sizeof(vec3));
     m->solid_angle = malloc(3 * (size_t)m->count * sizeof(float));
     if (!m->dir || !m->solid_angle) {
-        vbnl_hemioct_destroy(m);
+        vbi_hemioct_destroy(m);
         return VBNL_ERR_OUT_OF_MEMORY;
     }
     m->bil_solid = m->solid_angle + m->count;
@@ -185,7 +185,7 @@ vbnl_result vbnl_hemioct_create(uint32_t res, vbnl_hemioct **out)
     return VBNL_OK;
 }
 
-void vbnl_hemioct_destroy(vbnl_hemioct *map)
+void vbi_hemioct_destroy(vbi_hemioct *map)
 {
     if (!map)
         return;
@@ -194,12 +194,12 @@ void vbnl_hemioct_destroy(vbnl_hemioct *map)
     free(map);
 }
 
-uint32_t vbnl_hemioct_res(const vbnl_hemioct *map) { return map->res; }
-uint32_t vbnl_hemioct_texel_count(const vbnl_hemioct *map) { return map->count; }
+uint32_t vbi_hemioct_res(const vbi_hemioct *map) { return map->res; }
+uint32_t vbi_hemioct_texel_count(const vbi_hemioct *map) { return map->count; }
 
-uint32_t vbnl_hemioct_texel(const vbnl_hemioct *map, vec3 w)
+uint32_t vbi_hemioct_texel(const vbi_hemioct *map, vec3 w)
 {
-    vec2 u = vbnl_hemioct_encode(w);
+    vec2 u = vbi_hemioct_encode(w);
     uint32_t i = (uint32_t)(u.x * (float)map->res), j = (uint32_t)(u.y * (float)map->res);
     if (i >= map->res)
         i = map->res - 1;
@@ -208,26 +208,26 @@ uint32_t vbnl_hemioct_texel(const vbnl_hemioct *map, vec3 w)
     return j * map->res + i;
 }
 
-vec3 vbnl_hemioct_texel_dir(const vbnl_hemioct *map, uint32_t t) { return map->dir[t]; }
-float vbnl_hemioct_texel_solid_angle(const vbnl_hemioct *map, uint32_t t) { return map->solid_angle[t]; }
-float vbnl_hemioct_texel_bilinear_solid_angle(const vbnl_hemioct *map, uint32_t t) { return map->bil_solid[t]; }
-float vbnl_hemioct_texel_bilinear_projected(const vbnl_hemioct *map, uint32_t t) { return map->bil_proj[t]; }
-const float *vbnl_hemioct_solid_angles(const vbnl_hemioct *map) { return map->solid_angle; }
-const float *vbnl_hemioct_bilinear_projected(const vbnl_hemioct *map) { return map->bil_proj; }
-const vec3 *vbnl_hemioct_texel_dirs(const vbnl_hemioct *map) { return map->dir; }
+vec3 vbi_hemioct_texel_dir(const vbi_hemioct *map, uint32_t t) { return map->dir[t]; }
+float vbi_hemioct_texel_solid_angle(const vbi_hemioct *map, uint32_t t) { return map->solid_angle[t]; }
+float vbi_hemioct_texel_bilinear_solid_angle(const vbi_hemioct *map, uint32_t t) { return map->bil_solid[t]; }
+float vbi_hemioct_texel_bilinear_projected(const vbi_hemioct *map, uint32_t t) { return map->bil_proj[t]; }
+const float *vbi_hemioct_solid_angles(const vbi_hemioct *map) { return map->solid_angle; }
+const float *vbi_hemioct_bilinear_projected(const vbi_hemioct *map) { return map->bil_proj; }
+const vec3 *vbi_hemioct_texel_dirs(const vbi_hemioct *map) { return map->dir; }
 
 /* ---- splat and lookup ---------------------------------------------------------------------- */
 
-void vbnl_hemioct_bilinear(const vbnl_hemioct *map, vec3 w, uint32_t idx[4], float wgt[4])
+void vbi_hemioct_bilinear(const vbi_hemioct *map, vec3 w, uint32_t idx[4], float wgt[4])
 {
-    vbnl_hemioct_footprint(map->res, w, idx, wgt);
+    vbi_hemioct_footprint(map->res, w, idx, wgt);
 }
 
-void vbnl_hemioct_splat(const vbnl_hemioct *map, float *rgb, vec3 w, vec3 value)
+void vbi_hemioct_splat(const vbi_hemioct *map, float *rgb, vec3 w, vec3 value)
 {
     uint32_t idx[4];
     float wgt[4];
-    vbnl_hemioct_bilinear(map, w, idx, wgt);
+    vbi_hemioct_bilinear(map, w, idx, wgt);
     for (int k = 0; k < 4; ++k) {
         float *p = rgb + 3 * (size_t)idx[k];
         p[0] += value.x * wgt[k];
@@ -248,11 +248,11 @@ static void atomic_add_float(float *p, float v)
     } while (!__atomic_compare_exchange(p, &old, &sum, 1, __ATOMIC_RELAXED, __ATOMIC_RELAXED));
 }
 
-void vbnl_hemioct_splat_atomic(const vbnl_hemioct *map, float *rgb, vec3 w, vec3 value)
+void vbi_hemioct_splat_atomic(const vbi_hemioct *map, float *rgb, vec3 w, vec3 value)
 {
     uint32_t idx[4];
     float wgt[4];
-    vbnl_hemioct_bilinear(map, w, idx, wgt);
+    vbi_hemioct_bilinear(map, w, idx, wgt);
     for (int k = 0; k < 4; ++k) {
         float *p = rgb + 3 * (size_t)idx[k];
         atomic_add_float(p + 0, value.x * wgt[k]);
@@ -261,11 +261,11 @@ void vbnl_hemioct_splat_atomic(const vbnl_hemioct *map, float *rgb, vec3 w, vec3
     }
 }
 
-vec3 vbnl_hemioct_lookup(const vbnl_hemioct *map, const float *rgb, vec3 w)
+vec3 vbi_hemioct_lookup(const vbi_hemioct *map, const float *rgb, vec3 w)
 {
     uint32_t idx[4];
     float wgt[4];
-    vbnl_hemioct_bilinear(map, w, idx, wgt);
+    vbi_hemioct_bilinear(map, w, idx, wgt);
     vec3 r = v3s(0.0f);
     for (int k = 0; k < 4; ++k)
         r = v3_fma(r, v3_load(rgb + 3 * (size_t)idx[k]), wgt[k]);
@@ -274,7 +274,7 @@ vec3 vbnl_hemioct_lookup(const vbnl_hemioct *map, const float *rgb, vec3 w)
 
 /* ---- sampling ------------------------------------------------------------------------------ */
 
-vbnl_result vbnl_hemioct_dist_create(const vbnl_hemioct *map, const float *weights, vbnl_hemioct_dist **out)
+vbnl_result vbi_hemioct_dist_create(const vbi_hemioct *map, const float *weights, vbi_hemioct_dist **out)
 {
     if (!out)
         return VBNL_ERR_INVALID_ARGUMENT;
@@ -289,7 +289,7 @@ vbnl_result vbnl_hemioct_dist_create(const vbnl_hemioct *map, const float *weigh
     }
     if (!(total > 0.0))
         return VBNL_ERR_INVALID_ARGUMENT;
-    vbnl_hemioct_dist *d = calloc(1, sizeof(*d));
+    vbi_hemioct_dist *d = calloc(1, sizeof(*d));
     float *buf = malloc((2 * (size_t)map->count + 1) * sizeof(float));
     if (!d || !buf) {
         free(d);
@@ -310,7 +310,7 @@ vbnl_result vbnl_hemioct_dist_create(const vbnl_hemioct *map, const float *weigh
     return VBNL_OK;
 }
 
-void vbnl_hemioct_dist_destroy(vbnl_hemioct_dist *d)
+void vbi_hemioct_dist_destroy(vbi_hemioct_dist *d)
 {
     if (!d)
         return;
@@ -318,9 +318,9 @@ void vbnl_hemioct_dist_destroy(vbnl_hemioct_dist *d)
     free(d);
 }
 
-vec3 vbnl_hemioct_dist_sample(const vbnl_hemioct_dist *d, float u_texel, vec2 u, float *pdf)
+vec3 vbi_hemioct_dist_sample(const vbi_hemioct_dist *d, float u_texel, vec2 u, float *pdf)
 {
-    const vbnl_hemioct *m = d->map;
+    const vbi_hemioct *m = d->map;
     /* Largest t with cdf[t] <= u_texel and pmf[t] > 0 (zero-weight texels have empty intervals,
      * except when rounding makes cdf[t] == cdf[t + 1] for a tiny positive pmf: skip those). */
     uint32_t lo = 0, hi = m->count; /* invariant: cdf[lo] <= u < cdf[hi] */
@@ -338,19 +338,19 @@ vec3 vbnl_hemioct_dist_sample(const vbnl_hemioct_dist *d, float u_texel, vec2 u,
         ++t;
     uint32_t i = t % m->res, j = t / m->res;
     vec2 us = {((float)i + u.x) / (float)m->res, ((float)j + u.y) / (float)m->res};
-    vec3 w = vbnl_hemioct_decode(us);
+    vec3 w = vbi_hemioct_decode(us);
     if (pdf)
-        *pdf = d->pmf[t] * (float)m->count / vbnl_hemioct_jacobian(us);
+        *pdf = d->pmf[t] * (float)m->count / vbi_hemioct_jacobian(us);
     return w;
 }
 
-float vbnl_hemioct_dist_pdf(const vbnl_hemioct_dist *d, vec3 w)
+float vbi_hemioct_dist_pdf(const vbi_hemioct_dist *d, vec3 w)
 {
     if (!(w.z >= 0.0f))
         return 0.0f;
-    vec2 u = vbnl_hemioct_encode(w);
-    uint32_t t = vbnl_hemioct_texel(d->map, w);
-    return d->pmf[t] * (float)d->map->count / vbnl_hemioct_jacobian(u);
+    vec2 u = vbi_hemioct_encode(w);
+    uint32_t t = vbi_hemioct_texel(d->map, w);
+    return d->pmf[t] * (float)d->map->count / vbi_hemioct_jacobian(u);
 }
 
-float vbnl_hemioct_dist_pmf(const vbnl_hemioct_dist *d, uint32_t t) { return d->pmf[t]; }
+float vbi_hemioct_dist_pmf(const vbi_hemioct_dist *d, uint32_t t) { return d->pmf[t]; }

@@ -48,11 +48,11 @@
  * (sum B = 2 pi and sum C = pi to 2e-8 relative). C_t turns a bilinearly interpolated
  * cosine-free intensity into emitted power exactly (profiles.h).
  *
- * Ownership and threads: a vbnl_hemioct holds only immutable tables computed at creation; after
+ * Ownership and threads: a vbi_hemioct holds only immutable tables computed at creation; after
  * creation every function here is read-only and safe to call from any number of threads. The
  * map arrays that the splat/lookup functions read or write are owned by the caller. */
-#ifndef VBNL_OCTAHEDRAL_H
-#define VBNL_OCTAHEDRAL_H
+#ifndef VBI_OCTAHEDRAL_H
+#define VBI_OCTAHEDRAL_H
 
 #include <math.h>
 #include <stdint.h>
@@ -60,64 +60,64 @@
 #include "vbnl/result.h"
 #include "vmath.h"
 
-#define VBNL_HEMIOCT_MIN_RES 2u
-#define VBNL_HEMIOCT_MAX_RES 256u
-#define VBNL_HEMIOCT_DEFAULT_RES 16u
+#define VBI_HEMIOCT_MIN_RES 2u
+#define VBI_HEMIOCT_MAX_RES 256u
+#define VBI_HEMIOCT_DEFAULT_RES 16u
 
-typedef struct vbnl_hemioct vbnl_hemioct;
+typedef struct vbi_hemioct vbi_hemioct;
 
-/* Creates the tables for an R x R map (R in [VBNL_HEMIOCT_MIN_RES, VBNL_HEMIOCT_MAX_RES]).
+/* Creates the tables for an R x R map (R in [VBI_HEMIOCT_MIN_RES, VBI_HEMIOCT_MAX_RES]).
  * Cost: about 4 R^2 spherical triangles plus a 512 x 512 quadrature (a few ms). Returns
  * VBNL_ERR_INVALID_ARGUMENT for a bad R or NULL out, VBNL_ERR_OUT_OF_MEMORY. */
-vbnl_result vbnl_hemioct_create(uint32_t res, vbnl_hemioct **out);
+vbnl_result vbi_hemioct_create(uint32_t res, vbi_hemioct **out);
 /* Accepts NULL. */
-void vbnl_hemioct_destroy(vbnl_hemioct *map);
+void vbi_hemioct_destroy(vbi_hemioct *map);
 
-uint32_t vbnl_hemioct_res(const vbnl_hemioct *map);
+uint32_t vbi_hemioct_res(const vbi_hemioct *map);
 /* R * R. */
-uint32_t vbnl_hemioct_texel_count(const vbnl_hemioct *map);
+uint32_t vbi_hemioct_texel_count(const vbi_hemioct *map);
 
 /* ---- the mapping (no tables needed) ---------------------------------------------------------- */
 
 /* Direction (any length > 0) -> [0, 1]^2. Directions below the horizon are first projected onto
  * it (z clamped to 0); the degenerate (0, 0, z <= 0) maps to u = (1, 1), i.e. w = (1, 0, 0). */
-vec2 vbnl_hemioct_encode(vec3 w);
+vec2 vbi_hemioct_encode(vec3 w);
 /* [0, 1]^2 -> unit direction with z >= 0 (u outside the square is clamped into it). */
-vec3 vbnl_hemioct_decode(vec2 u);
+vec3 vbi_hemioct_decode(vec2 u);
 /* d(omega) / d(u): solid angle per unit area of the square at u (2 / |p|^3, see above). */
-float vbnl_hemioct_jacobian(vec2 u);
+float vbi_hemioct_jacobian(vec2 u);
 
 /* ---- texels ---------------------------------------------------------------------------------- */
 
 /* Index of the texel containing encode(w) (the right/top border belongs to the last texel). */
-uint32_t vbnl_hemioct_texel(const vbnl_hemioct *map, vec3 w);
+uint32_t vbi_hemioct_texel(const vbi_hemioct *map, vec3 w);
 /* Unit direction of texel t's centre. */
-vec3 vbnl_hemioct_texel_dir(const vbnl_hemioct *map, uint32_t t);
+vec3 vbi_hemioct_texel_dir(const vbi_hemioct *map, uint32_t t);
 /* Exact solid angle Omega_t of texel t (steradians). */
-float vbnl_hemioct_texel_solid_angle(const vbnl_hemioct *map, uint32_t t);
+float vbi_hemioct_texel_solid_angle(const vbi_hemioct *map, uint32_t t);
 /* B_t: integral over the hemisphere of texel t's bilinear basis function (sr). */
-float vbnl_hemioct_texel_bilinear_solid_angle(const vbnl_hemioct *map, uint32_t t);
+float vbi_hemioct_texel_bilinear_solid_angle(const vbi_hemioct *map, uint32_t t);
 /* C_t: the same integral weighted by cos(theta) (projected solid angle, sr). */
-float vbnl_hemioct_texel_bilinear_projected(const vbnl_hemioct *map, uint32_t t);
+float vbi_hemioct_texel_bilinear_projected(const vbi_hemioct *map, uint32_t t);
 /* Read-only arrays of R^2 entries (same values as the three functions above). */
-const float *vbnl_hemioct_solid_angles(const vbnl_hemioct *map);
-const float *vbnl_hemioct_bilinear_projected(const vbnl_hemioct *map);
+const float *vbi_hemioct_solid_angles(const vbi_hemioct *map);
+const float *vbi_hemioct_bilinear_projected(const vbi_hemioct *map);
 /* Array of R^2 centre directions. */
-const vec3 *vbnl_hemioct_texel_dirs(const vbnl_hemioct *map);
+const vec3 *vbi_hemioct_texel_dirs(const vbi_hemioct *map);
 
 /* ---- bilinear splat and lookup --------------------------------------------------------------- */
 
 /* The bilinear footprint of direction w: four texel indices (possibly repeated at the border)
  * and non-negative weights summing to one. */
-void vbnl_hemioct_bilinear(const vbnl_hemioct *map, vec3 w, uint32_t idx[4], float wgt[4]);
+void vbi_hemioct_bilinear(const vbi_hemioct *map, vec3 w, uint32_t idx[4], float wgt[4]);
 
-/* vbnl_hemioct_encode and vbnl_hemioct_bilinear (on a map of res x res texels) inline, for
+/* vbi_hemioct_encode and vbi_hemioct_bilinear (on a map of res x res texels) inline, for
  * photon splitting's splats; the functions above are these. Neither has a product followed by a
  * sum whose contraction into a fused multiply-add could change its value (0.5 a + 0.5 is exact
  * either way, u res with res a power of two is exact), so callers compiled with or without
  * contraction get the same bits. The footprint: texel centres at (i + 0.5) / res, clamp to edge
  * (idx[1] == idx[0] or idx[0] + 1, idx[3] == idx[2] or idx[2] + 1, rows 0-1 and 2-3). */
-static inline vec2 vbnl_hemioct_encode_inline(vec3 w)
+static inline vec2 vbi_hemioct_encode_inline(vec3 w)
 {
     float z = fmaxf(w.z, 0.0f);
     float l1 = fabsf(w.x) + fabsf(w.y) + z;
@@ -130,9 +130,9 @@ static inline vec2 vbnl_hemioct_encode_inline(vec3 w)
     u.y = clampf(u.y, 0.0f, 1.0f);
     return u;
 }
-static inline void vbnl_hemioct_footprint(uint32_t res, vec3 w, uint32_t idx[4], float wgt[4])
+static inline void vbi_hemioct_footprint(uint32_t res, vec3 w, uint32_t idx[4], float wgt[4])
 {
-    vec2 u = vbnl_hemioct_encode_inline(w);
+    vec2 u = vbi_hemioct_encode_inline(w);
     float x = u.x * (float)res - 0.5f, y = u.y * (float)res - 0.5f;
     float fx0 = floorf(x), fy0 = floorf(y);
     float fx = x - fx0, fy = y - fy0;
@@ -155,12 +155,12 @@ static inline void vbnl_hemioct_footprint(uint32_t res, vec3 w, uint32_t idx[4],
 
 /* rgb is an R^2 x 3 float array (texel-major: rgb[3 t + c]). Adds value * weight_k to the four
  * footprint texels; the texels receive exactly `value` in total (up to rounding). Not atomic. */
-void vbnl_hemioct_splat(const vbnl_hemioct *map, float *rgb, vec3 w, vec3 value);
+void vbi_hemioct_splat(const vbi_hemioct *map, float *rgb, vec3 w, vec3 value);
 /* Same, with atomic float additions (compare-and-swap): any number of threads may splat into
  * the same array concurrently. Readers must wait until every splat has finished. */
-void vbnl_hemioct_splat_atomic(const vbnl_hemioct *map, float *rgb, vec3 w, vec3 value);
+void vbi_hemioct_splat_atomic(const vbi_hemioct *map, float *rgb, vec3 w, vec3 value);
 /* Bilinear interpolation of an R^2 x 3 array at direction w (same footprint as the splat). */
-vec3 vbnl_hemioct_lookup(const vbnl_hemioct *map, const float *rgb, vec3 w);
+vec3 vbi_hemioct_lookup(const vbi_hemioct *map, const float *rgb, vec3 w);
 
 /* ---- sampling in proportion to texel weights (optional helper for rendering) --------------- */
 
@@ -168,17 +168,17 @@ vec3 vbnl_hemioct_lookup(const vbnl_hemioct *map, const float *rgb, vec3 w);
  * P_t = weight_t / sum(weight), then u is uniform inside it, so the square-domain density is
  * P_t R^2 and the solid-angle pdf is P_t R^2 / jacobian(u). To sample in proportion to a
  * function g(w) per steradian, pass weight_t = g_t * Omega_t. Immutable after creation. */
-typedef struct vbnl_hemioct_dist vbnl_hemioct_dist;
+typedef struct vbi_hemioct_dist vbi_hemioct_dist;
 
 /* weights: R^2 non-negative values. VBNL_ERR_INVALID_ARGUMENT if all are zero (or any is
  * negative or not finite). */
-vbnl_result vbnl_hemioct_dist_create(const vbnl_hemioct *map, const float *weights, vbnl_hemioct_dist **out);
-void vbnl_hemioct_dist_destroy(vbnl_hemioct_dist *d);
+vbnl_result vbi_hemioct_dist_create(const vbi_hemioct *map, const float *weights, vbi_hemioct_dist **out);
+void vbi_hemioct_dist_destroy(vbi_hemioct_dist *d);
 /* u_texel picks the texel, u the point inside it. Returns the direction; *pdf (solid angle). */
-vec3 vbnl_hemioct_dist_sample(const vbnl_hemioct_dist *d, float u_texel, vec2 u, float *pdf);
+vec3 vbi_hemioct_dist_sample(const vbi_hemioct_dist *d, float u_texel, vec2 u, float *pdf);
 /* Solid-angle pdf of sampling w (0 below the horizon or in a zero-weight texel). */
-float vbnl_hemioct_dist_pdf(const vbnl_hemioct_dist *d, vec3 w);
+float vbi_hemioct_dist_pdf(const vbi_hemioct_dist *d, vec3 w);
 /* Probability of texel t. */
-float vbnl_hemioct_dist_pmf(const vbnl_hemioct_dist *d, uint32_t t);
+float vbi_hemioct_dist_pmf(const vbi_hemioct_dist *d, uint32_t t);
 
 #endif

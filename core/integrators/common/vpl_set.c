@@ -13,7 +13,7 @@
 
 /* ---- the VPL term ---------------------------------------------------------------------------- */
 
-vec3 vbnl_vpl_contribution(const vbnl_vpl *v, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
+vec3 vbi_vpl_contribution(const vbi_vpl *v, const vbi_bsdf *bsdf, vec3 x, const vbi_shading_frame *sf,
                            float clamp, vec3 *w_out, float *dist_out)
 {
     vec3 to = v3_sub(v->p, x);
@@ -25,11 +25,11 @@ vec3 vbnl_vpl_contribution(const vbnl_vpl *v, const vbnl_bsdf *bsdf, vec3 x, con
     if (v3_dot(w, sf->ng) <= 0.0f || v3_dot(w, v->ng) >= 0.0f)
         return v3s(0.0f); /* x sees the back of the VPL's surface, or the VPL is behind x */
     vec3 wx = frame_to_local(&sf->fr, w);
-    vec3 fx = vbnl_bsdf_eval(bsdf, sf->wo, wx); /* f_x cos_x */
+    vec3 fx = vbi_bsdf_eval(bsdf, sf->wo, wx); /* f_x cos_x */
     if (v3_is_black(fx))
         return v3s(0.0f);
     vec3 wy = frame_to_local(&v->fr, v3_neg(w));
-    vec3 fy = vbnl_bsdf_eval(&v->bsdf, v->wi, wy); /* f_y cos_y (reciprocity) */
+    vec3 fy = vbi_bsdf_eval(&v->bsdf, v->wi, wy); /* f_y cos_y (reciprocity) */
     if (v3_is_black(fy))
         return v3s(0.0f);
     float s = 1.0f / d2;
@@ -44,49 +44,49 @@ vec3 vbnl_vpl_contribution(const vbnl_vpl *v, const vbnl_bsdf *bsdf, vec3 x, con
     return v3_scale(v3_mul(v3_mul(fx, fy), v->flux), s);
 }
 
-int vbnl_vpl_visible(const vbnl_scene *sc, vec3 x, vec3 ng, const vbnl_vpl *v, vec3 w, float dist)
+int vbi_vpl_visible(const vbnl_scene *sc, vec3 x, vec3 ng, const vbi_vpl *v, vec3 w, float dist)
 {
     (void)dist;
-    vec3 o = vbnl_offset_ray_origin(x, ng, w);
-    vec3 t = vbnl_offset_ray_origin(v->p, v->ng, v3_neg(w));
+    vec3 o = vbi_offset_ray_origin(x, ng, w);
+    vec3 t = vbi_offset_ray_origin(v->p, v->ng, v3_neg(w));
     vec3 to = v3_sub(t, o);
     float len = v3_len(to);
     if (!(len > 0.0f))
         return 1;
-    return !vbnl_scene_occluded(sc, o, v3_scale(to, 1.0f / len), len * (1.0f - 1e-4f));
+    return !vbi_scene_occluded(sc, o, v3_scale(to, 1.0f / len), len * (1.0f - 1e-4f));
 }
 
-int vbnl_vpl_camera_vertex(const vbnl_scene *sc, vbnl_sampler *sp, int hit_ok, vbnl_hit *hit, vec3 *d, vec3 *beta,
-                           vec3 *direct, vbnl_thread_stats *stats)
+int vbi_vpl_camera_vertex(const vbnl_scene *sc, vbi_sampler *sp, int hit_ok, vbi_hit *hit, vec3 *d, vec3 *beta,
+                           vec3 *direct, vbi_thread_stats *stats)
 {
     *beta = v3s(1.0f);
     *direct = v3s(0.0f);
     for (int k = 0;; ++k) {
         if (!hit_ok)
             return 0;
-        vbnl_bsdf store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, hit, &store);
-        if (!vbnl_bsdf_is_delta(bsdf))
+        vbi_bsdf store;
+        const vbi_bsdf *bsdf = vbi_surface_bsdf(sc, hit, &store);
+        if (!vbi_bsdf_is_delta(bsdf))
             return 1;
-        if (k >= VBNL_VPL_MAX_SPECULAR)
+        if (k >= VBI_VPL_MAX_SPECULAR)
             return 0;
-        vbnl_shading_frame sf;
-        vbnl_shading_frame_make(bsdf, hit, *d, &sf);
-        vbnl_bsdf_sample_rec bs;
-        vec2 ub = vbnl_sampler_next2(sp);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) || v3_is_black(bs.weight))
+        vbi_shading_frame sf;
+        vbi_shading_frame_make(bsdf, hit, *d, &sf);
+        vbi_bsdf_sample_rec bs;
+        vec2 ub = vbi_sampler_next2(sp);
+        if (!vbi_bsdf_sample(bsdf, sf.wo, ub, &bs) || v3_is_black(bs.weight))
             return 0;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
+        if (!(bs.lobe & VBI_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
             return 0;
         *beta = v3_mul(*beta, bs.weight);
         vec3 x = hit->p;
-        vec3 o = vbnl_offset_ray_origin(x, hit->ng, w);
+        vec3 o = vbi_offset_ray_origin(x, hit->ng, w);
         *d = w;
         stats->rays++;
-        hit_ok = vbnl_scene_intersect(sc, o, w, INFINITY, hit);
+        hit_ok = vbi_scene_intersect(sc, o, w, INFINITY, hit);
         vec3 Le;
-        float mw = vbnl_arriving_light(sc, hit_ok, hit, x, w, bs.pdf, 1, &Le);
+        float mw = vbi_arriving_light(sc, hit_ok, hit, x, w, bs.pdf, 1, &Le);
         if (mw > 0.0f)
             *direct = v3_add(*direct, v3_scale(v3_mul(*beta, Le), mw));
     }
@@ -99,49 +99,49 @@ static inline void add_rgb(float *out, vec3 c)
     out[2] += c.z;
 }
 
-void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, vbnl_vpl_gather_fn gather,
-                    const void *gstate, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first,
-                    float *out, vbnl_thread_stats *stats)
+void vbi_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, vbi_vpl_gather_fn gather,
+                    const void *gstate, vbi_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbi_hit *first,
+                    float *out, vbi_thread_stats *stats)
 {
     out[3] = 1.0f;
     if (!hit_ok) {
-        if (sc->env_light != VBNL_NO_LIGHT && !indirect_only)
-            add_rgb(out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
+        if (sc->env_light != VBI_NO_LIGHT && !indirect_only)
+            add_rgb(out, vbi_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
         return;
     }
-    vbnl_hit hit = *first;
+    vbi_hit hit = *first;
     {
-        vbnl_bsdf tmp;
-        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
+        vbi_bsdf tmp;
+        v3_store(out + VBNL_FILM_ALBEDO, vbi_bsdf_albedo(vbi_surface_bsdf(sc, &hit, &tmp)));
     }
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), cam_forward);
-    if (hit.light != VBNL_NO_LIGHT && !indirect_only)
-        add_rgb(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
+    if (hit.light != VBI_NO_LIGHT && !indirect_only)
+        add_rgb(out, vbi_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
     vec3 beta, direct;
-    int ok = vbnl_vpl_camera_vertex(sc, sp, 1, &hit, &d, &beta, &direct, stats);
+    int ok = vbi_vpl_camera_vertex(sc, sp, 1, &hit, &d, &beta, &direct, stats);
     if (!indirect_only)
         add_rgb(out, direct);
     if (!ok)
         return;
-    vbnl_bsdf store;
-    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &store);
-    vbnl_shading_frame sf;
-    vbnl_shading_frame_make(bsdf, &hit, d, &sf);
+    vbi_bsdf store;
+    const vbi_bsdf *bsdf = vbi_surface_bsdf(sc, &hit, &store);
+    vbi_shading_frame sf;
+    vbi_shading_frame_make(bsdf, &hit, d, &sf);
     const vec3 x = hit.p;
     if (!indirect_only) {
-        add_rgb(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
+        add_rgb(out, v3_mul(beta, vbi_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
         /* the BSDF half of the direct estimator's MIS */
-        vbnl_bsdf_sample_rec bs;
-        vec2 ub = vbnl_sampler_next2(sp);
-        if (vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) && !v3_is_black(bs.weight)) {
+        vbi_bsdf_sample_rec bs;
+        vec2 ub = vbi_sampler_next2(sp);
+        if (vbi_bsdf_sample(bsdf, sf.wo, ub, &bs) && !v3_is_black(bs.weight)) {
             vec3 w = frame_to_world(&sf.fr, bs.wi);
-            if ((bs.lobe & VBNL_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f) {
-                vbnl_hit y;
+            if ((bs.lobe & VBI_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f) {
+                vbi_hit y;
                 stats->rays++;
-                int y_ok = vbnl_scene_intersect(sc, vbnl_offset_ray_origin(x, hit.ng, w), w, INFINITY, &y);
+                int y_ok = vbi_scene_intersect(sc, vbi_offset_ray_origin(x, hit.ng, w), w, INFINITY, &y);
                 vec3 Le;
-                float mw = vbnl_arriving_light(sc, y_ok, &y, x, w, bs.pdf, (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
+                float mw = vbi_arriving_light(sc, y_ok, &y, x, w, bs.pdf, (bs.lobe & VBI_LOBE_SPECULAR) != 0, &Le);
                 if (mw > 0.0f)
                     add_rgb(out, v3_scale(v3_mul(v3_mul(beta, bs.weight), Le), mw));
             }
@@ -153,32 +153,32 @@ void vbnl_vpl_trace(const vbnl_scene *sc, int indirect_only, vec3 cam_forward, v
 /* ---- camera points of the acceptance test ---------------------------------------------------- */
 
 typedef struct cam_point {
-    vbnl_bsdf bsdf;
-    vbnl_shading_frame sf;
+    vbi_bsdf bsdf;
+    vbi_shading_frame sf;
     vec3 x, beta;
     int ok;
 } cam_point;
 
-static void make_camera_points(const vbnl_scene *sc, const vbnl_vpl_params *p, uint64_t seed, cam_point *pts)
+static void make_camera_points(const vbnl_scene *sc, const vbi_vpl_params *p, uint64_t seed, cam_point *pts)
 {
-    vbnl_thread_stats st;
+    vbi_thread_stats st;
     memset(&st, 0, sizeof(st));
     for (uint32_t c = 0; c < p->camera_points; ++c) {
         cam_point *cp = &pts[c];
         cp->ok = 0;
-        vbnl_rng rng = vbnl_rng_for(seed, c, 2);
-        float px = vbnl_rng_next(&rng) * (float)p->width, py = vbnl_rng_next(&rng) * (float)p->height;
+        vbi_rng rng = vbi_rng_for(seed, c, 2);
+        float px = vbi_rng_next(&rng) * (float)p->width, py = vbi_rng_next(&rng) * (float)p->height;
         vec3 o, d;
-        vbnl_camera_ray(&sc->camera, p->width, p->height, px, py, &o, &d);
-        vbnl_hit hit;
-        int hit_ok = vbnl_scene_intersect(sc, o, d, INFINITY, &hit);
+        vbi_camera_ray(&sc->camera, p->width, p->height, px, py, &o, &d);
+        vbi_hit hit;
+        int hit_ok = vbi_scene_intersect(sc, o, d, INFINITY, &hit);
         vec3 beta, direct;
-        vbnl_sampler sp = vbnl_sampler_from_rng(rng);
-        if (!vbnl_vpl_camera_vertex(sc, &sp, hit_ok, &hit, &d, &beta, &direct, &st))
+        vbi_sampler sp = vbi_sampler_from_rng(rng);
+        if (!vbi_vpl_camera_vertex(sc, &sp, hit_ok, &hit, &d, &beta, &direct, &st))
             continue;
-        vbnl_bsdf store;
-        cp->bsdf = *vbnl_surface_bsdf(sc, &hit, &store);
-        vbnl_shading_frame_make(&cp->bsdf, &hit, d, &cp->sf);
+        vbi_bsdf store;
+        cp->bsdf = *vbi_surface_bsdf(sc, &hit, &store);
+        vbi_shading_frame_make(&cp->bsdf, &hit, d, &cp->sf);
         cp->x = hit.p;
         cp->beta = beta;
         cp->ok = 1;
@@ -186,7 +186,7 @@ static void make_camera_points(const vbnl_scene *sc, const vbnl_vpl_params *p, u
 }
 
 /* Mean luminance contribution of v over the camera points (shadow rays included). */
-static double camera_contribution(const vbnl_scene *sc, const cam_point *pts, uint32_t n, const vbnl_vpl *v,
+static double camera_contribution(const vbnl_scene *sc, const cam_point *pts, uint32_t n, const vbi_vpl *v,
                                   float clamp)
 {
     double sum = 0.0;
@@ -195,10 +195,10 @@ static double camera_contribution(const vbnl_scene *sc, const cam_point *pts, ui
             continue;
         vec3 w;
         float dist;
-        vec3 L = vbnl_vpl_contribution(v, &pts[c].bsdf, pts[c].x, &pts[c].sf, clamp, &w, &dist);
-        if (v3_is_black(L) || !vbnl_vpl_visible(sc, pts[c].x, pts[c].sf.ng, v, w, dist))
+        vec3 L = vbi_vpl_contribution(v, &pts[c].bsdf, pts[c].x, &pts[c].sf, clamp, &w, &dist);
+        if (v3_is_black(L) || !vbi_vpl_visible(sc, pts[c].x, pts[c].sf.ng, v, w, dist))
             continue;
-        sum += vbnl_luminance(v3_mul(pts[c].beta, L));
+        sum += vbi_luminance(v3_mul(pts[c].beta, L));
     }
     return n ? sum / n : 0.0;
 }
@@ -206,7 +206,7 @@ static double camera_contribution(const vbnl_scene *sc, const cam_point *pts, ui
 /* ---- generation ------------------------------------------------------------------------------ */
 
 typedef struct cand {
-    vbnl_vpl v;
+    vbi_vpl v;
     uint64_t path;
     double phi;   /* mean camera-point luminance contribution with the raw (unnormalised) flux */
     float p;      /* acceptance probability */
@@ -221,7 +221,7 @@ typedef struct chunk_out {
 
 typedef struct frame_job {
     const vbnl_scene *scene;
-    const vbnl_vpl_params *p;
+    const vbi_vpl_params *p;
     uint64_t seed;          /* the frame's walk seed */
     uint64_t first;         /* first path of this round */
     uint64_t end;           /* one past the last path of this round */
@@ -235,10 +235,10 @@ typedef struct walk_ctx {
     const frame_job *job;
     chunk_out *out;
     uint64_t path;
-    vbnl_rng acc;
+    vbi_rng acc;
 } walk_ctx;
 
-static void visit(void *user, const vbnl_photon_vertex *pv)
+static void visit(void *user, const vbi_photon_vertex *pv)
 {
     walk_ctx *wc = user;
     const frame_job *job = wc->job;
@@ -271,7 +271,7 @@ static void visit(void *user, const vbnl_photon_vertex *pv)
             c->p = (float)fmin(c->phi * job->inv_n_prev / job->phi_v + job->p->epsilon, 1.0);
     }
     /* the acceptance draw comes from its own stream: the walk is the same whatever p is */
-    float xi = vbnl_rng_next(&wc->acc);
+    float xi = vbi_rng_next(&wc->acc);
     c->accepted = xi < c->p;
     o->n++;
 }
@@ -283,16 +283,16 @@ static void run_chunk(void *user, uint64_t item, unsigned thread)
     chunk_out *o = &job->out[item];
     uint64_t b = job->first + item * VPL_CHUNK;
     uint64_t e = b + VPL_CHUNK < job->end ? b + VPL_CHUNK : job->end;
-    vbnl_photon_walk_desc wd = {job->scene, 1.0f, job->p->rr_depth, 0, 0, 0};
-    vbnl_photon_walk_stats ws = {0, 0, 0};
+    vbi_photon_walk_desc wd = {job->scene, 1.0f, job->p->rr_depth, 0, 0, 0};
+    vbi_photon_walk_stats ws = {0, 0, 0};
     for (uint64_t k = b; k < e; ++k) {
-        vbnl_rng rng = vbnl_rng_for(job->seed, k, 0);
-        walk_ctx wc = {job, o, k, vbnl_rng_for(job->seed, k, 1)};
-        vbnl_photon_walk(&wd, &rng, visit, &wc, &ws);
+        vbi_rng rng = vbi_rng_for(job->seed, k, 0);
+        walk_ctx wc = {job, o, k, vbi_rng_for(job->seed, k, 1)};
+        vbi_photon_walk(&wd, &rng, visit, &wc, &ws);
     }
 }
 
-void vbnl_vpl_set_free(vbnl_vpl_set *s)
+void vbi_vpl_set_free(vbi_vpl_set *s)
 {
     if (!s)
         return;
@@ -301,7 +301,7 @@ void vbnl_vpl_set_free(vbnl_vpl_set *s)
 }
 
 /* One frame: candidates in path order until `target` are accepted (or light_paths paths). */
-static vbnl_result build_frame(const vbnl_scene *sc, const vbnl_vpl_params *p, vbnl_stage_ctx *stage,
+static vbnl_result build_frame(const vbnl_scene *sc, const vbi_vpl_params *p, vbnl_stage_ctx *stage,
                                uint64_t seed, const cam_point *pts, double inv_n_prev, double phi_v,
                                cand **out_c, uint32_t *out_n, uint64_t *out_paths, vbnl_error *err)
 {
@@ -328,7 +328,7 @@ static vbnl_result build_frame(const vbnl_scene *sc, const vbnl_vpl_params *p, v
             free(all);
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         }
-        int rc = vbnl_run_items(stage, NULL, items, run_chunk, &job);
+        int rc = vbi_run_items(stage, NULL, items, run_chunk, &job);
         int oom = 0;
         for (uint64_t i = 0; i < items && rc == 0 && !done; ++i) {
             chunk_out *o = &job.out[i];
@@ -382,12 +382,12 @@ static vbnl_result build_frame(const vbnl_scene *sc, const vbnl_vpl_params *p, v
     return VBNL_OK;
 }
 
-vbnl_result vbnl_vpl_params_check(const vbnl_vpl_params *p, const char *owner, vbnl_error *err)
+vbnl_result vbi_vpl_params_check(const vbi_vpl_params *p, const char *owner, vbnl_error *err)
 {
     /* a fixed path count stores about one VPL per bounce: assume 4 per path */
     double lights = p->light_paths ? 4.0 * (double)p->light_paths : (double)p->target;
     /* candidates (with the acceptance: assume a mean acceptance of 0.1) plus the kept set */
-    double bytes = lights * (sizeof(vbnl_vpl) + (p->acceptance ? 10.0 : 1.0) * sizeof(vbnl_vpl) * 1.2);
+    double bytes = lights * (sizeof(vbi_vpl) + (p->acceptance ? 10.0 : 1.0) * sizeof(vbi_vpl) * 1.2);
     double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
     if (phys > 0.0 && bytes > 0.8 * phys)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
@@ -397,8 +397,8 @@ vbnl_result vbnl_vpl_params_check(const vbnl_vpl_params *p, const char *owner, v
     return VBNL_OK;
 }
 
-vbnl_result vbnl_vpl_set_build(const vbnl_scene *sc, const vbnl_vpl_params *p, vbnl_stage_ctx *stage,
-                               vbnl_vpl_set *out, vbnl_error *err)
+vbnl_result vbi_vpl_set_build(const vbnl_scene *sc, const vbi_vpl_params *p, vbnl_stage_ctx *stage,
+                               vbi_vpl_set *out, vbnl_error *err)
 {
     memset(out, 0, sizeof(*out));
     const uint32_t frames = p->acceptance ? (p->frames ? p->frames : 1) : 1;
@@ -417,9 +417,9 @@ vbnl_result vbnl_vpl_set_build(const vbnl_scene *sc, const vbnl_vpl_params *p, v
     for (uint32_t f = 0; f < frames; ++f) {
         const int last = f + 1 == frames;
         /* pilot frames walk with their own seeds; the final frame walks as plain IR does */
-        uint64_t seed = last ? vbnl_hash3(p->seed, 0x5650u, 0) : vbnl_hash3(p->seed, 0x5650u, f + 1);
+        uint64_t seed = last ? vbi_hash3(p->seed, 0x5650u, 0) : vbi_hash3(p->seed, 0x5650u, f + 1);
         if (pts)
-            make_camera_points(sc, p, vbnl_hash3(p->seed, 0x4e43u, f), pts);
+            make_camera_points(sc, p, vbi_hash3(p->seed, 0x4e43u, f), pts);
         double phi_v = phi_total > 0.0 && p->target > 0 ? phi_total / (P * (double)p->target) : 0.0;
         free(c);
         c = NULL;
@@ -450,7 +450,7 @@ vbnl_result vbnl_vpl_set_build(const vbnl_scene *sc, const vbnl_vpl_params *p, v
         kept += c[i].accepted != 0;
         psum += c[i].p;
     }
-    out->vpls = malloc(sizeof(vbnl_vpl) * (kept ? kept : 1));
+    out->vpls = malloc(sizeof(vbi_vpl) * (kept ? kept : 1));
     if (!out->vpls) {
         free(c);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
@@ -459,7 +459,7 @@ vbnl_result vbnl_vpl_set_build(const vbnl_scene *sc, const vbnl_vpl_params *p, v
     for (uint32_t i = 0; i < n; ++i) {
         if (!c[i].accepted)
             continue;
-        vbnl_vpl *v = &out->vpls[out->count++];
+        vbi_vpl *v = &out->vpls[out->count++];
         *v = c[i].v;
         v->flux = v3_scale(v->flux, inv_n / c[i].p);
     }

@@ -87,73 +87,73 @@ static inline void add_L(const path_state *ps, float *out, vec3 c, int is_direct
 }
 
 /* Traces one camera path whose first hit (if any) is given; writes its sample into out. */
-static inline __attribute__((always_inline)) void trace_path(const path_state *ps, vbnl_sampler *sp, vec3 o, vec3 d,
-                                                             int hit_ok, const vbnl_hit *first, float *out,
-                                                             vbnl_thread_stats *stats)
+static inline __attribute__((always_inline)) void trace_path(const path_state *ps, vbi_sampler *sp, vec3 o, vec3 d,
+                                                             int hit_ok, const vbi_hit *first, float *out,
+                                                             vbi_thread_stats *stats)
 {
     const vbnl_scene *sc = ps->scene;
-    vbnl_hit hit = *first;
+    vbi_hit hit = *first;
     vec3 beta = v3s(1.0f);
     out[3] = 1.0f; /* alpha */
     /* what the camera sees directly */
     if (!hit_ok) {
-        if (sc->env_light != VBNL_NO_LIGHT)
-            add_L(ps, out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)), 1);
+        if (sc->env_light != VBI_NO_LIGHT)
+            add_L(ps, out, vbi_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)), 1);
         return;
     }
     /* the BSDF of the vertex being scattered at; the first one also gives the albedo AOV */
-    vbnl_bsdf bsdf_store;
-    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
-    v3_store(out + VBNL_FILM_ALBEDO, bsdf->type == VBNL_MATERIAL_CONDUCTOR ? vbnl_bsdf_albedo(bsdf) : bsdf->color);
+    vbi_bsdf bsdf_store;
+    const vbi_bsdf *bsdf = vbi_surface_bsdf(sc, &hit, &bsdf_store);
+    v3_store(out + VBNL_FILM_ALBEDO, bsdf->type == VBNL_MATERIAL_CONDUCTOR ? vbi_bsdf_albedo(bsdf) : bsdf->color);
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), ps->cam_forward);
-    if (hit.light != VBNL_NO_LIGHT)
-        add_L(ps, out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)), 1);
+    if (hit.light != VBI_NO_LIGHT)
+        add_L(ps, out, vbi_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)), 1);
     int direct = 1; /* no non-delta vertex yet */
     for (int depth = 0;; ++depth) {
         if (ps->max_depth >= 0 && depth >= ps->max_depth)
             break;
         const int vertex_direct = direct;
-        if (!vbnl_bsdf_is_delta(bsdf))
+        if (!vbi_bsdf_is_delta(bsdf))
             direct = 0;
-        vbnl_shading_frame sf;
-        vbnl_shading_frame_make(bsdf, &hit, d, &sf);
+        vbi_shading_frame sf;
+        vbi_shading_frame_make(bsdf, &hit, d, &sf);
         const vec3 x = hit.p;
         /* next-event estimation (MIS with the BSDF sample below) */
-        if (!vbnl_bsdf_is_delta(bsdf))
-            add_L(ps, out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)), vertex_direct);
+        if (!vbi_bsdf_is_delta(bsdf))
+            add_L(ps, out, v3_mul(beta, vbi_estimate_direct(sc, bsdf, x, &sf, sp, stats)), vertex_direct);
         /* continue by BSDF sampling */
-        vbnl_bsdf_sample_rec bs;
-        vec2 ub = vbnl_sampler_next2(sp);
-        if (!vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) || vbnl_is_black(bs.weight))
+        vbi_bsdf_sample_rec bs;
+        vec2 ub = vbi_sampler_next2(sp);
+        if (!vbi_bsdf_sample(bsdf, sf.wo, ub, &bs) || vbi_is_black(bs.weight))
             break;
         vec3 w = frame_to_world(&sf.fr, bs.wi);
         /* a reflection must leave on the viewer's side of the real surface */
-        if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
+        if (!(bs.lobe & VBI_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
             break;
         beta = v3_mul(beta, bs.weight);
         /* a reflection leaves on the side of sf.ng (just tested), which is hit.ng or its negation */
-        o = (bs.lobe & VBNL_LOBE_TRANSMISSION) ? vbnl_offset_ray_origin(x, hit.ng, w)
-                                               : vbnl_offset_ray_origin_along(x, sf.ng);
+        o = (bs.lobe & VBI_LOBE_TRANSMISSION) ? vbi_offset_ray_origin(x, hit.ng, w)
+                                               : vbi_offset_ray_origin_along(x, sf.ng);
         d = w;
         stats->rays++;
-        hit_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &hit);
+        hit_ok = vbi_scene_intersect_inline(sc, o, d, INFINITY, &hit);
         /* light arriving along the sample, MIS-weighted against the NEE above */
         vec3 Le;
-        float mw = vbnl_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, (bs.lobe & VBNL_LOBE_SPECULAR) != 0, &Le);
+        float mw = vbi_arriving_light(sc, hit_ok, &hit, x, w, bs.pdf, (bs.lobe & VBI_LOBE_SPECULAR) != 0, &Le);
         if (mw > 0.0f)
             add_L(ps, out, v3_scale(v3_mul(beta, Le), mw), vertex_direct);
         if (!hit_ok)
             break;
         if (depth >= ps->rr_depth) {
             float q = maxf(0.05f, 1.0f - v3_max_comp(beta));
-            if (vbnl_sampler_next(sp) < q)
+            if (vbi_sampler_next(sp) < q)
                 break;
             beta = v3_scale(beta, 1.0f / (1.0f - q));
         }
-        if (!vbnl_is_finite(beta))
+        if (!vbi_is_finite(beta))
             break;
-        bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
+        bsdf = vbi_surface_bsdf(sc, &hit, &bsdf_store);
     }
 }
 
@@ -170,17 +170,17 @@ static void path_walk_add(void *user, vec3 c, int is_direct)
 
 /* Works on a copy of the sampler (written back at the end): through the pointer its state would
  * be stored and reloaded around every Embree call. */
-static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
-                  vbnl_thread_stats *stats)
+static void trace(void *state, vbi_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbi_hit *first, float *out,
+                  vbi_thread_stats *stats)
 {
     const path_state *ps = state;
-    vbnl_sampler r = *sp;
+    vbi_sampler r = *sp;
     const vbnl_scene *sc = ps->scene;
     if (sc->has_media || sc->has_null || sc->has_masks) {
         /* media, pass-through surfaces or visibility flags: the walk between vertices */
         path_add_ctx a = {ps, out};
         out[3] = 1.0f;
-        vbnl_trace_path_walk(sc, &r, o, d, hit_ok, first, ps->max_depth, ps->rr_depth, path_walk_add, &a, out,
+        vbi_trace_path_walk(sc, &r, o, d, hit_ok, first, ps->max_depth, ps->rr_depth, path_walk_add, &a, out,
                              stats);
     } else {
         trace_path(ps, &r, o, d, hit_ok, first, out, stats);
@@ -191,10 +191,10 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
 static void path_render_tile(void *state, vbnl_tile_job *job)
 {
     const path_state *ps = state;
-    vbnl_render_camera_paths(job, ps->stride, trace, state);
+    vbi_render_camera_paths(job, ps->stride, trace, state);
 }
 
-const vbnl_integrator_class vbnl_integrator_path = {
+const vbnl_integrator_class vbi_integrator_path = {
     VBNL_INTEGRATOR_ABI_MAJOR,
     VBNL_INTEGRATOR_ABI_MINOR,
     sizeof(vbnl_integrator_class),

@@ -16,8 +16,8 @@ void rv_maps_free(rv_maps *m)
 {
     if (!m)
         return;
-    vbnl_kd_free(&m->imp_tree);
-    vbnl_kd_free(&m->ph_tree);
+    vbi_kd_free(&m->imp_tree);
+    vbi_kd_free(&m->ph_tree);
     free(m->imp_pts);
     free(m->imp_w);
     free(m->ph);
@@ -45,17 +45,17 @@ static void imp_chunk(void *user, uint64_t item, unsigned thread)
     uint64_t begin = item * IMP_CHUNK, end = begin + IMP_CHUNK < job->paths ? begin + IMP_CHUNK : job->paths;
     for (uint64_t k = begin; k < end; ++k) {
         job->valid[k] = 0;
-        vbnl_rng rng = vbnl_rng_for(job->seed ^ IMPORTON_STREAM, k, 0);
+        vbi_rng rng = vbi_rng_for(job->seed ^ IMPORTON_STREAM, k, 0);
         uint64_t pix = k / job->ppp;
         uint32_t px = (uint32_t)(pix % job->width), py = (uint32_t)(pix / job->width);
-        vec2 u = vbnl_rng_next2(&rng);
+        vec2 u = vbi_rng_next2(&rng);
         vec3 o, d;
-        vbnl_camera_ray(&sc->camera, job->width, job->height, (float)px + u.x, (float)py + u.y, &o, &d);
+        vbi_camera_ray(&sc->camera, job->width, job->height, (float)px + u.x, (float)py + u.y, &o, &d);
         vec3 beta = v3s(1.0f);
         int shading_seen = 0, chain = 0;
         for (;;) {
-            vbnl_hit hit;
-            if (!vbnl_scene_intersect(sc, o, d, INFINITY, &hit))
+            vbi_hit hit;
+            if (!vbi_scene_intersect(sc, o, d, INFINITY, &hit))
                 break;
             if (shading_seen) { /* x3: the importon (stored whatever the surface) */
                 job->pos[k] = hit.p;
@@ -63,33 +63,33 @@ static void imp_chunk(void *user, uint64_t item, unsigned thread)
                 job->valid[k] = job->w[k] > 0.0f;
                 break;
             }
-            vbnl_bsdf store;
-            const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &store);
-            int delta = vbnl_bsdf_is_delta(bsdf);
+            vbi_bsdf store;
+            const vbi_bsdf *bsdf = vbi_surface_bsdf(sc, &hit, &store);
+            int delta = vbi_bsdf_is_delta(bsdf);
             if (delta && ++chain > RV_MAX_SPECULAR_CHAIN)
                 break;
             if (!delta)
                 shading_seen = 1; /* x2: the shading point VPLs will light */
-            vbnl_shading_frame sf;
-            vbnl_shading_frame_make(bsdf, &hit, d, &sf);
-            vbnl_bsdf_sample_rec bs;
-            vec2 ub = vbnl_rng_next2(&rng);
-            if (!vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) || v3_is_black(bs.weight))
+            vbi_shading_frame sf;
+            vbi_shading_frame_make(bsdf, &hit, d, &sf);
+            vbi_bsdf_sample_rec bs;
+            vec2 ub = vbi_rng_next2(&rng);
+            if (!vbi_bsdf_sample(bsdf, sf.wo, ub, &bs) || v3_is_black(bs.weight))
                 break;
             vec3 w = frame_to_world(&sf.fr, bs.wi);
-            if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
+            if (!(bs.lobe & VBI_LOBE_TRANSMISSION) && v3_dot(w, sf.ng) <= 0.0f)
                 break;
             beta = v3_mul(beta, bs.weight);
             if (!v3_is_finite(beta))
                 break;
-            o = vbnl_offset_ray_origin(hit.p, hit.ng, w);
+            o = vbi_offset_ray_origin(hit.p, hit.ng, w);
             d = w;
         }
     }
 }
 
 vbnl_result rv_trace_importons(const vbnl_scene *sc, uint32_t width, uint32_t height, uint32_t paths_per_pixel,
-                               uint64_t seed, vbnl_stage_ctx *stage, vbnl_pool *pool, rv_maps *m,
+                               uint64_t seed, vbnl_stage_ctx *stage, vbi_pool *pool, rv_maps *m,
                                vbnl_error *err)
 {
     imp_job job;
@@ -116,7 +116,7 @@ vbnl_result rv_trace_importons(const vbnl_scene *sc, uint32_t width, uint32_t he
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %llu importon paths",
                               (unsigned long long)job.paths);
     }
-    int rc = vbnl_run_items(stage, pool, (job.paths + IMP_CHUNK - 1) / IMP_CHUNK, imp_chunk, &job);
+    int rc = vbi_run_items(stage, pool, (job.paths + IMP_CHUNK - 1) / IMP_CHUNK, imp_chunk, &job);
     vbnl_result r = VBNL_OK;
     uint32_t n = 0;
     if (rc != 0) {
@@ -130,7 +130,7 @@ vbnl_result rv_trace_importons(const vbnl_scene *sc, uint32_t width, uint32_t he
                                "non-specular bounce (nothing in view is lit indirectly)");
     }
     if (r == VBNL_OK) {
-        m->imp_pts = malloc(sizeof(vbnl_kd_pt) * n);
+        m->imp_pts = malloc(sizeof(vbi_kd_pt) * n);
         m->imp_w = malloc(sizeof(float) * n);
         if (!m->imp_pts || !m->imp_w)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u importons", n);
@@ -149,7 +149,7 @@ vbnl_result rv_trace_importons(const vbnl_scene *sc, uint32_t width, uint32_t he
         }
         m->imp_count = n;
         m->imp_paths = job.paths;
-        if (vbnl_kd_build(&m->imp_tree, m->imp_pts, n) != 0)
+        if (vbi_kd_build(&m->imp_tree, m->imp_pts, n) != 0)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for the importon tree");
     }
     free(job.pos);
@@ -176,7 +176,7 @@ typedef struct ph_visit {
     ph_buf *b;
 } ph_visit;
 
-static void ph_store(void *user, const vbnl_photon_vertex *v)
+static void ph_store(void *user, const vbi_photon_vertex *v)
 {
     ph_buf *b = ((ph_visit *)user)->b;
     if (b->n == b->cap) {
@@ -205,17 +205,17 @@ static void ph_chunk(void *user, uint64_t item, unsigned thread)
     b->n = 0;
     ph_visit pv = {b};
     /* plain Russian roulette (survival = sampled albedo) from the first bounce on */
-    vbnl_photon_walk_desc wd = {job->sc, 1.0f, 1, 0, 0, 0};
+    vbi_photon_walk_desc wd = {job->sc, 1.0f, 1, 0, 0, 0};
     for (uint64_t k = 0; k < PH_CHUNK; ++k) {
         uint64_t path = job->first_path + item * PH_CHUNK + k;
-        vbnl_rng rng = vbnl_rng_for(job->seed ^ PHOTON_STREAM, path, 0);
-        vbnl_photon_walk_stats ws = {0, 0, 0};
-        vbnl_photon_walk(&wd, &rng, ph_store, &pv, &ws);
+        vbi_rng rng = vbi_rng_for(job->seed ^ PHOTON_STREAM, path, 0);
+        vbi_photon_walk_stats ws = {0, 0, 0};
+        vbi_photon_walk(&wd, &rng, ph_store, &pv, &ws);
     }
 }
 
 vbnl_result rv_trace_photons(const vbnl_scene *sc, uint64_t target, uint64_t seed, vbnl_stage_ctx *stage,
-                             vbnl_pool *pool, rv_maps *m, vbnl_error *err)
+                             vbi_pool *pool, rv_maps *m, vbnl_error *err)
 {
     if (target == 0 || target >= UINT32_MAX / 2)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
@@ -238,7 +238,7 @@ vbnl_result rv_trace_photons(const vbnl_scene *sc, uint64_t target, uint64_t see
     vbnl_result r = job.bufs ? VBNL_OK : vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     while (r == VBNL_OK && n < target && paths < max_paths) {
         job.first_path = paths;
-        if (vbnl_run_items(stage, pool, batch, ph_chunk, &job) != 0) {
+        if (vbi_run_items(stage, pool, batch, ph_chunk, &job) != 0) {
             r = vbnl_error_set(err, VBNL_ERR_CANCELLED, "photon tracing was cancelled");
             break;
         }
@@ -277,7 +277,7 @@ vbnl_result rv_trace_photons(const vbnl_scene *sc, uint64_t target, uint64_t see
         r = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "integrator 'richvsl': too many photons");
     if (r == VBNL_OK) {
         float inv = (float)(1.0 / (double)paths);
-        m->ph_pts = malloc(sizeof(vbnl_kd_pt) * n);
+        m->ph_pts = malloc(sizeof(vbi_kd_pt) * n);
         if (!m->ph_pts)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %llu photons", (unsigned long long)n);
         for (uint64_t i = 0; r == VBNL_OK && i < n; ++i) {
@@ -292,7 +292,7 @@ vbnl_result rv_trace_photons(const vbnl_scene *sc, uint64_t target, uint64_t see
         m->ph = all;
         m->ph_count = (uint32_t)n;
         m->ph_paths = paths;
-        if (vbnl_kd_build(&m->ph_tree, m->ph_pts, (uint32_t)n) != 0)
+        if (vbi_kd_build(&m->ph_tree, m->ph_pts, (uint32_t)n) != 0)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for the photon tree");
     } else {
         free(all);

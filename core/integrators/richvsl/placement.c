@@ -27,7 +27,7 @@ static void w_chunk(void *user, uint64_t item, unsigned thread)
     uint32_t end = begin + W_CHUNK < m->ph_count ? begin + W_CHUNK : m->ph_count;
     for (uint32_t i = begin; i < end; ++i) {
         const float q[3] = {m->ph[i].hit.p.x, m->ph[i].hit.p.y, m->ph[i].hit.p.z};
-        uint32_t n = vbnl_kd_knn(&m->imp_tree, q, job->K, UINT32_MAX, idx, d2);
+        uint32_t n = vbi_kd_knn(&m->imp_tree, q, job->K, UINT32_MAX, idx, d2);
         double dK2 = n ? d2[n - 1] : 0.0, sum = 0.0;
         if (n < 2 || !(dK2 > 0.0)) {
             job->W[i] = 0.0f;
@@ -36,18 +36,18 @@ static void w_chunk(void *user, uint64_t item, unsigned thread)
         /* 2D Epanechnikov kernel normalised over the disk of radius d_K: 2 / (pi d_K^2) */
         for (uint32_t k = 0; k < n; ++k)
             sum += m->imp_w[m->imp_tree.pts[idx[k]].id] * (1.0 - d2[k] / dK2);
-        job->W[i] = (float)(sum * 2.0 / (VBNL_PI * dK2));
+        job->W[i] = (float)(sum * 2.0 / (VBI_PI * dK2));
     }
 }
 
-vbnl_result rv_importance_at_photons(const rv_maps *m, uint32_t K, vbnl_stage_ctx *stage, vbnl_pool *pool,
+vbnl_result rv_importance_at_photons(const rv_maps *m, uint32_t K, vbnl_stage_ctx *stage, vbi_pool *pool,
                                      float *W, double *W_mean, vbnl_error *err)
 {
     if (K < 2 || K > RV_KNN_MAX)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "importance neighbours must be in 2 .. %u",
                               RV_KNN_MAX);
     w_job job = {m, K, W};
-    if (vbnl_run_items(stage, pool, (m->ph_count + W_CHUNK - 1) / W_CHUNK, w_chunk, &job) != 0)
+    if (vbi_run_items(stage, pool, (m->ph_count + W_CHUNK - 1) / W_CHUNK, w_chunk, &job) != 0)
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "importance estimation was cancelled");
     double sum = 0.0;
     for (uint32_t i = 0; i < m->ph_count; ++i)
@@ -74,8 +74,8 @@ vbnl_result rv_place(const float *W, uint32_t n, double q, double W_mean, uint64
     }
     for (uint32_t i = 0; i < n; ++i) {
         double p = rv_p_rs(W[i], q, W_mean);
-        vbnl_rng rng = vbnl_rng_for(seed ^ PLACE_STREAM, i, 0);
-        if (!(p > 0.0) || (double)vbnl_rng_next(&rng) >= p)
+        vbi_rng rng = vbi_rng_for(seed ^ PLACE_STREAM, i, 0);
+        if (!(p > 0.0) || (double)vbi_rng_next(&rng) >= p)
             continue;
         if (c == cap) {
             cap *= 2;
@@ -103,9 +103,9 @@ vbnl_result rv_place(const float *W, uint32_t n, double q, double W_mean, uint64
 /* ---- relaxation ----------------------------------------------------------------------------- */
 
 typedef struct relax_job {
-    const vbnl_kd_tree *photons;
+    const vbi_kd_tree *photons;
     const vec3 *pos;              /* photon positions by photon id */
-    vbnl_kd_tree lights;          /* over the current positions */
+    vbi_kd_tree lights;          /* over the current positions */
     uint32_t *ids;                /* photon of each light (written: the snapped photon) */
     uint32_t *next;
     uint32_t count, K;
@@ -125,7 +125,7 @@ static void relax_chunk(void *user, uint64_t item, unsigned thread)
         /* local index of light li in the light tree: pts are permuted, so look it up by id */
         vec3 xp = job->pos[job->ids[li]];
         const float x[3] = {xp.x, xp.y, xp.z};
-        uint32_t n = vbnl_kd_knn(&job->lights, x, job->K + 2, UINT32_MAX, idx, d2);
+        uint32_t n = vbi_kd_knn(&job->lights, x, job->K + 2, UINT32_MAX, idx, d2);
         /* drop the light itself (distance 0 to its own point; a twin on the same photon stays) */
         for (uint32_t k = 0; k < n; ++k)
             if (job->lights.pts[idx[k]].id == li) {
@@ -148,8 +148,8 @@ static void relax_chunk(void *user, uint64_t item, unsigned thread)
                 /* A twin on the same photon (two lights snapped to one): the formula gives no
                  * push, so the twins would move together forever. Each takes a step of length d
                  * along its own direction, hashed from its index (deterministic). */
-                vbnl_rng rr = vbnl_rng_make(li, 0x7477696eu);
-                vec3 u = sample_uniform_sphere(vbnl_rng_next2(&rr));
+                vbi_rng rr = vbi_rng_make(li, 0x7477696eu);
+                vec3 u = sample_uniform_sphere(vbi_rng_next2(&rr));
                 dx[0] += u.x * d;
                 dx[1] += u.y * d;
                 dx[2] += u.z * d;
@@ -165,15 +165,15 @@ static void relax_chunk(void *user, uint64_t item, unsigned thread)
         /* snap to the nearest photon (keeps the light on a surface) */
         uint32_t pi;
         float pd2;
-        if (vbnl_kd_knn(job->photons, q, 1, UINT32_MAX, &pi, &pd2) == 1)
+        if (vbi_kd_knn(job->photons, q, 1, UINT32_MAX, &pi, &pd2) == 1)
             job->next[li] = job->photons->pts[pi].id;
         else
             job->next[li] = job->ids[li];
     }
 }
 
-vbnl_result rv_relax(const vbnl_kd_tree *photon_tree, const vec3 *photon_pos, uint32_t *ids, uint32_t count,
-                     uint32_t K, uint32_t iterations, vbnl_stage_ctx *stage, vbnl_pool *pool, vbnl_error *err)
+vbnl_result rv_relax(const vbi_kd_tree *photon_tree, const vec3 *photon_pos, uint32_t *ids, uint32_t count,
+                     uint32_t K, uint32_t iterations, vbnl_stage_ctx *stage, vbi_pool *pool, vbnl_error *err)
 {
     if (K == 0 || K + 2 > RV_KNN_MAX)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "relaxation neighbours must be in 1 .. %u",
@@ -187,7 +187,7 @@ vbnl_result rv_relax(const vbnl_kd_tree *photon_tree, const vec3 *photon_pos, ui
     job.ids = ids;
     job.count = count;
     job.K = K;
-    vbnl_kd_pt *pts = malloc(sizeof(vbnl_kd_pt) * count);
+    vbi_kd_pt *pts = malloc(sizeof(vbi_kd_pt) * count);
     job.next = malloc(sizeof(uint32_t) * count);
     vbnl_result r = pts && job.next ? VBNL_OK : vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     for (uint32_t it = 0; it < iterations && r == VBNL_OK; ++it) {
@@ -198,13 +198,13 @@ vbnl_result rv_relax(const vbnl_kd_tree *photon_tree, const vec3 *photon_pos, ui
             pts[i].p[2] = p.z;
             pts[i].id = i;
         }
-        if (vbnl_kd_build(&job.lights, pts, count) != 0) {
+        if (vbi_kd_build(&job.lights, pts, count) != 0) {
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
             break;
         }
-        if (vbnl_run_items(stage, pool, (count + RELAX_CHUNK - 1) / RELAX_CHUNK, relax_chunk, &job) != 0)
+        if (vbi_run_items(stage, pool, (count + RELAX_CHUNK - 1) / RELAX_CHUNK, relax_chunk, &job) != 0)
             r = vbnl_error_set(err, VBNL_ERR_CANCELLED, "relaxation was cancelled");
-        vbnl_kd_free(&job.lights);
+        vbi_kd_free(&job.lights);
         if (r == VBNL_OK) /* Jacobi step: every light moved from the same old positions */
             memcpy(ids, job.next, sizeof(uint32_t) * count);
     }

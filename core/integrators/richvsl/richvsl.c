@@ -72,7 +72,7 @@ typedef struct rv_state {
     uint32_t stride;
     vec3 cam_forward;
     /* the prepared set */
-    vbnl_hemioct *map;
+    vbi_hemioct *map;
     rv_lights l;
     frame *fr;        /* local frame of each light (z = n) */
     float *inv_area;  /* 1 / (pi r^2), 0 for point lights */
@@ -161,7 +161,7 @@ static vbnl_result rv_create(const vbnl_integrator_env *env, void **out, vbnl_er
 static void rv_release(rv_state *s)
 {
     rv_lights_free(&s->l);
-    vbnl_hemioct_destroy(s->map);
+    vbi_hemioct_destroy(s->map);
     free(s->fr);
     free(s->inv_area);
     s->map = NULL;
@@ -187,10 +187,10 @@ static vbnl_result set_radii(rv_state *s, vbnl_error *err)
     l->radius = calloc(n, sizeof(float));
     s->inv_area = calloc(n, sizeof(float));
     s->fr = malloc(sizeof(frame) * n);
-    vbnl_kd_pt *pts = malloc(sizeof(vbnl_kd_pt) * n);
+    vbi_kd_pt *pts = malloc(sizeof(vbi_kd_pt) * n);
     uint32_t *idx = malloc(sizeof(uint32_t) * (s->radius_k + 1));
     float *d2 = malloc(sizeof(float) * (s->radius_k + 1));
-    vbnl_kd_tree t;
+    vbi_kd_tree t;
     memset(&t, 0, sizeof(t));
     vbnl_result r = VBNL_OK;
     if (!l->radius || !s->inv_area || !s->fr || !pts || !idx || !d2)
@@ -203,11 +203,11 @@ static vbnl_result set_radii(rv_state *s, vbnl_error *err)
         pts[i].id = i;
     }
     if (r == VBNL_OK && s->radius_scale > 0.0f && n > s->radius_k) {
-        if (vbnl_kd_build(&t, pts, n) != 0)
+        if (vbi_kd_build(&t, pts, n) != 0)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u lights", n);
         for (uint32_t i = 0; r == VBNL_OK && i < n; ++i) {
             const float q[3] = {l->p[i].x, l->p[i].y, l->p[i].z};
-            uint32_t c = vbnl_kd_knn(&t, q, s->radius_k + 1, UINT32_MAX, idx, d2);
+            uint32_t c = vbi_kd_knn(&t, q, s->radius_k + 1, UINT32_MAX, idx, d2);
             uint32_t seen = 0;
             for (uint32_t k = 0; k < c; ++k) {
                 if (t.pts[idx[k]].id == i)
@@ -218,10 +218,10 @@ static vbnl_result set_radii(rv_state *s, vbnl_error *err)
                 }
             }
             if (l->radius[i] > 0.0f)
-                s->inv_area[i] = 1.0f / (VBNL_PI * l->radius[i] * l->radius[i]);
+                s->inv_area[i] = 1.0f / (VBI_PI * l->radius[i] * l->radius[i]);
         }
     }
-    vbnl_kd_free(&t);
+    vbi_kd_free(&t);
     free(pts);
     free(idx);
     free(d2);
@@ -242,7 +242,7 @@ static vbnl_result rv_importons(const rv_state *s, vbnl_stage_ctx *stage, rv_map
 /* Frees the photon part of m, keeping its importons. */
 static void free_photons(rv_maps *m)
 {
-    vbnl_kd_free(&m->ph_tree);
+    vbi_kd_free(&m->ph_tree);
     free(m->ph);
     free(m->ph_pts);
     memset(&m->ph_tree, 0, sizeof(m->ph_tree));
@@ -325,10 +325,10 @@ static vbnl_result rv_build(rv_state *s, vbnl_stage_ctx *stage, rv_maps *mp, vbn
             l->p[i] = ph->hit.p;
             l->n[i] = ph->ns;
             l->ng[i] = ph->ng;
-            vbnl_bsdf store;
-            l->lambert[i] = vbnl_surface_bsdf(sc, &ph->hit, &store)->type == VBNL_MATERIAL_LAMBERT;
+            vbi_bsdf store;
+            l->lambert[i] = vbi_surface_bsdf(sc, &ph->hit, &store)->type == VBNL_MATERIAL_LAMBERT;
         }
-        if (r == VBNL_OK && vbnl_hemioct_create(s->res, &s->map) != VBNL_OK)
+        if (r == VBNL_OK && vbi_hemioct_create(s->res, &s->map) != VBNL_OK)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         if (r == VBNL_OK) {
             if (stage)
@@ -352,7 +352,7 @@ static vbnl_result rv_build(rv_state *s, vbnl_stage_ctx *stage, rv_maps *mp, vbn
             uint64_t per_light = sizeof(uint32_t) * 2 + sizeof(vec3) * 4 + sizeof(float) * 4 + 2 + sizeof(frame);
             uint64_t bytes = (uint64_t)l->count * per_light;
             if (l->table)
-                bytes += (uint64_t)l->count * 3 * vbnl_hemioct_texel_count(s->map) * sizeof(float);
+                bytes += (uint64_t)l->count * 3 * vbi_hemioct_texel_count(s->map) * sizeof(float);
             vbnl_stage_set_storage(stage, bytes);
         }
     }
@@ -403,9 +403,9 @@ static vbnl_result size_importons(rv_state *s, vbnl_stage_ctx *stage, vbnl_error
     const char *record_as = stage ? stage->record_as : NULL;
     if (stage)
         stage->record_as = "calibrate";
-    double t0 = vbnl_now();
+    double t0 = vbi_now();
     r = rv_importons(&cal, stage, &m, err);
-    const double t = vbnl_now() - t0;
+    const double t = vbi_now() - t0;
     if (stage)
         stage->record_as = record_as;
     rv_maps_free(&m);
@@ -451,9 +451,9 @@ static vbnl_result size_lights(rv_state *s, vbnl_stage_ctx *stage, rv_maps *m, v
     const char *record_as = stage ? stage->record_as : NULL;
     if (stage)
         stage->record_as = "calibrate";
-    double t0 = vbnl_now();
+    double t0 = vbi_now();
     vbnl_result r = rv_build(cal, stage, m, err);
-    const double per_light = fmax(vbnl_now() - t0, 1e-9) / cal->virtual_lights;
+    const double per_light = fmax(vbi_now() - t0, 1e-9) / cal->virtual_lights;
     if (stage)
         stage->record_as = record_as;
     rv_destroy(cal);
@@ -507,12 +507,12 @@ static inline vec3 intensity(const rv_state *s, uint32_t i, vec3 w)
         return v3s(0.0f);
     if (s->l.lambert[i])
         return s->l.intensity[i];
-    return vbnl_hemioct_lookup(s->map, s->l.table + (size_t)i * 3 * vbnl_hemioct_texel_count(s->map), wl);
+    return vbi_hemioct_lookup(s->map, s->l.table + (size_t)i * 3 * vbi_hemioct_texel_count(s->map), wl);
 }
 
 /* f_x cos_x I(-w) cos_i along w (from x toward light i), times the clamp factor; *pdf_x the
  * BSDF's pdf of w. 0 outside the cone (axis, cos_max) or behind either surface. */
-static vec3 integrand(const rv_state *s, uint32_t i, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 w,
+static vec3 integrand(const rv_state *s, uint32_t i, const vbi_bsdf *bsdf, const vbi_shading_frame *sf, vec3 w,
                       vec3 axis, float cos_max, float g_scale, float *pdf_x)
 {
     *pdf_x = 0.0f;
@@ -522,8 +522,8 @@ static vec3 integrand(const rv_state *s, uint32_t i, const vbnl_bsdf *bsdf, cons
     if (cos_i <= 0.0f)
         return v3s(0.0f);
     vec3 wx = frame_to_local(&sf->fr, w);
-    *pdf_x = vbnl_bsdf_pdf(bsdf, sf->wo, wx);
-    vec3 fx = vbnl_bsdf_eval(bsdf, sf->wo, wx); /* includes cos_x */
+    *pdf_x = vbi_bsdf_pdf(bsdf, sf->wo, wx);
+    vec3 fx = vbi_bsdf_eval(bsdf, sf->wo, wx); /* includes cos_x */
     if (v3_is_black(fx))
         return v3s(0.0f);
     float c = cos_i;
@@ -538,16 +538,16 @@ static vec3 integrand(const rv_state *s, uint32_t i, const vbnl_bsdf *bsdf, cons
 static inline float sq(float x) { return x * x; }
 
 /* Light reflected at x toward the viewer from every Rich-VSL. */
-static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_sampler *sp,
-                   vbnl_thread_stats *stats)
+static vec3 gather(const rv_state *s, const vbi_bsdf *bsdf, vec3 x, const vbi_shading_frame *sf, vbi_sampler *sp,
+                   vbi_thread_stats *stats)
 {
     const vbnl_scene *sc = s->scene;
     vec3 sum = v3s(0.0f);
     const vec3 org_base = x;
     for (uint32_t i = 0; i < s->l.count; ++i) {
         /* fixed use of the stream per light, whether or not it contributes */
-        vec2 uc = vbnl_sampler_next2(sp);
-        vec2 ub = vbnl_sampler_next2(sp);
+        vec2 uc = vbi_sampler_next2(sp);
+        vec2 ub = vbi_sampler_next2(sp);
         vec3 to = v3_sub(s->l.p[i], x);
         float d2 = v3_len2(to);
         if (!(d2 > 0.0f))
@@ -570,7 +570,7 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
             L = v3_scale(integrand(s, i, bsdf, sf, axis, axis, -1.0f, 1.0f / d2, &pdf), 1.0f / d2);
         } else {
             float cos_max = d2 <= r * r ? -1.0f : sqrtf(1.0f - r * r / d2);
-            float omega = 2.0f * VBNL_PI * (1.0f - cos_max);
+            float omega = 2.0f * VBI_PI * (1.0f - cos_max);
             float pc = 1.0f / omega;
             float g_scale = omega * s->inv_area[i];
             vec3 est = v3s(0.0f);
@@ -581,8 +581,8 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
             if (!v3_is_black(h))
                 est = v3_add(est, v3_scale(h, pc / (sq(pc) + sq(pdf))));
             /* 2: the BSDF at x */
-            vbnl_bsdf_sample_rec bs;
-            if (vbnl_bsdf_sample(bsdf, sf->wo, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
+            vbi_bsdf_sample_rec bs;
+            if (vbi_bsdf_sample(bsdf, sf->wo, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBI_LOBE_SPECULAR)) {
                 w = frame_to_world(&sf->fr, bs.wi);
                 h = integrand(s, i, bsdf, sf, w, axis, cos_max, g_scale, &pdf);
                 if (!v3_is_black(h) && pdf > 0.0f)
@@ -593,22 +593,22 @@ static vec3 gather(const rv_state *s, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
         if (v3_is_black(L) || !v3_is_finite(L))
             continue;
         /* visibility to the centre, both ends offset off their surfaces */
-        vec3 o = vbnl_offset_ray_origin(org_base, sf->ng, axis);
-        vec3 t = vbnl_offset_ray_origin(s->l.p[i], s->l.ng[i], v3_neg(axis));
+        vec3 o = vbi_offset_ray_origin(org_base, sf->ng, axis);
+        vec3 t = vbi_offset_ray_origin(s->l.p[i], s->l.ng[i], v3_neg(axis));
         vec3 dv = v3_sub(t, o);
         float len = v3_len(dv);
         if (!(len > 0.0f))
             continue;
         stats->rays++;
-        if (!vbnl_scene_occluded(sc, o, v3_scale(dv, 1.0f / len), len))
+        if (!vbi_scene_occluded(sc, o, v3_scale(dv, 1.0f / len), len))
             sum = v3_add(sum, L);
     }
     return sum;
 }
 
 /* The virtual lights' share at a camera path's first non-delta vertex (nothing before preparing). */
-static vec3 gather_cb(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf,
-                      vbnl_sampler *sp, vbnl_thread_stats *stats)
+static vec3 gather_cb(const void *state, const vbi_bsdf *bsdf, vec3 x, const vbi_shading_frame *sf,
+                      vbi_sampler *sp, vbi_thread_stats *stats)
 {
     const rv_state *s = state;
     return s->prepared ? gather(s, bsdf, x, sf, sp, stats) : v3s(0.0f);
@@ -616,20 +616,20 @@ static vec3 gather_cb(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vb
 
 /* The camera path, direct light and film layers exactly as `vpl` and `vsl` (the same estimator for
  * every many-light method). */
-static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
-                  vbnl_thread_stats *stats)
+static void trace(void *state, vbi_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbi_hit *first, float *out,
+                  vbi_thread_stats *stats)
 {
     const rv_state *s = state;
-    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather_cb, s, sp, o, d, hit_ok, first, out, stats);
+    vbi_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather_cb, s, sp, o, d, hit_ok, first, out, stats);
 }
 
 static void rv_render_tile(void *state, vbnl_tile_job *job)
 {
     const rv_state *s = state;
-    vbnl_render_camera_paths(job, s->stride, trace, state);
+    vbi_render_camera_paths(job, s->stride, trace, state);
 }
 
-const vbnl_integrator_class vbnl_integrator_richvsl = {
+const vbnl_integrator_class vbi_integrator_richvsl = {
     VBNL_INTEGRATOR_ABI_MAJOR,
     VBNL_INTEGRATOR_ABI_MINOR,
     sizeof(vbnl_integrator_class),

@@ -18,8 +18,8 @@
  * Units: a light's intensity I(w) is reflected power per steradian leaving along w (W/sr,
  * without the outgoing cosine), I(w) = (1 / P_RS) sum_j w_j f_r(p, w_j -> w) Phi_j with sum w_j
  * = 1, so the power it emits is the integral of I(w) cos(theta) dw. */
-#ifndef VBNL_RICHVSL_H
-#define VBNL_RICHVSL_H
+#ifndef VBI_RICHVSL_H
+#define VBI_RICHVSL_H
 
 #include <stdint.h>
 
@@ -35,7 +35,7 @@
 /* A stored photon: the surface hit (for the BSDF there), the normals facing the arriving photon,
  * the direction it came from and its flux (already divided by the number of photon paths). */
 typedef struct rv_photon {
-    vbnl_hit hit;
+    vbi_hit hit;
     vec3 ng, ns;  /* unit, facing the side the photon arrived from */
     vec3 wi;      /* unit, toward where the photon came from */
     vec3 flux;
@@ -43,17 +43,17 @@ typedef struct rv_photon {
 
 typedef struct rv_maps {
     /* importons: positions in pts (id = index), importance in w */
-    vbnl_kd_pt *imp_pts;
+    vbi_kd_pt *imp_pts;
     float *imp_w;
     uint32_t imp_count;
     uint64_t imp_paths;
-    vbnl_kd_tree imp_tree;
+    vbi_kd_tree imp_tree;
     /* photons: records in ph, positions in ph_pts (id = index into ph) */
     rv_photon *ph;
-    vbnl_kd_pt *ph_pts;
+    vbi_kd_pt *ph_pts;
     uint32_t ph_count;
     uint64_t ph_paths;
-    vbnl_kd_tree ph_tree;
+    vbi_kd_tree ph_tree;
 } rv_maps;
 
 void rv_maps_free(rv_maps *m);
@@ -61,21 +61,21 @@ void rv_maps_free(rv_maps *m);
 /* Traces paths_per_pixel camera paths per pixel; an importon is stored at the vertex after the
  * first non-delta vertex (delta vertices before it are passed through, at most
  * RV_MAX_SPECULAR_CHAIN), with importance = mean of the path throughput there / paths. Builds
- * the importon tree. Path k draws from vbnl_rng_for(seed ^ stream, k, 0): any thread count
+ * the importon tree. Path k draws from vbi_rng_for(seed ^ stream, k, 0): any thread count
  * gives the same map. */
 #define RV_MAX_SPECULAR_CHAIN 8
 vbnl_result rv_trace_importons(const vbnl_scene *sc, uint32_t width, uint32_t height, uint32_t paths_per_pixel,
-                               uint64_t seed, vbnl_stage_ctx *stage, vbnl_pool *pool, rv_maps *m,
+                               uint64_t seed, vbnl_stage_ctx *stage, vbi_pool *pool, rv_maps *m,
                                vbnl_error *err);
 
-/* Traces photon paths (vbnl_photon_walk, plain Russian roulette) in batches of a fixed size
+/* Traces photon paths (vbi_photon_walk, plain Russian roulette) in batches of a fixed size
  * until at least target_photons photons are stored at non-delta hits; the flux is divided by the
  * number of paths traced (every path counts, also those that stored nothing). Builds the photon
  * tree. Deterministic for any thread count. */
 vbnl_result rv_trace_photons(const vbnl_scene *sc, uint64_t target_photons, uint64_t seed, vbnl_stage_ctx *stage,
-                             vbnl_pool *pool, rv_maps *m, vbnl_error *err);
+                             vbi_pool *pool, rv_maps *m, vbnl_error *err);
 
-/* The most neighbours a placement query asks vbnl_kd_knn for (its arrays are on the stack). */
+/* The most neighbours a placement query asks vbi_kd_knn for (its arrays are on the stack). */
 #define RV_KNN_MAX 1024u
 
 /* ---- placement.c ----------------------------------------------------------------------------- */
@@ -91,10 +91,10 @@ static inline double rv_p_rs(double W, double q, double W_mean)
 
 /* W(x) = 2 / (pi d_K^2) sum_{i<K} Psi_i (1 - d_i^2 / d_K^2) at every photon (K-NN Epanechnikov
  * estimate of the importons, §4.1); W_mean = the mean over the photons. */
-vbnl_result rv_importance_at_photons(const rv_maps *m, uint32_t K, vbnl_stage_ctx *stage, vbnl_pool *pool,
+vbnl_result rv_importance_at_photons(const rv_maps *m, uint32_t K, vbnl_stage_ctx *stage, vbi_pool *pool,
                                      float *W, double *W_mean, vbnl_error *err);
 
-/* One Bernoulli trial per photon (stream: vbnl_rng_for(seed ^ stream, photon, 0)) with
+/* One Bernoulli trial per photon (stream: vbi_rng_for(seed ^ stream, photon, 0)) with
  * probability rv_p_rs(W[i], q, W_mean). Writes the accepted photon ids (ascending) and their
  * P_RS to malloc'ed arrays. */
 vbnl_result rv_place(const float *W, uint32_t n, double q, double W_mean, uint64_t seed, uint32_t **ids,
@@ -105,8 +105,8 @@ vbnl_result rv_place(const float *W, uint32_t n, double q, double W_mean, uint64
  * neighbour, then each light snaps to the photon nearest its new position; ids (photon ids:
  * photon_pos[id] is the position, photon_tree's point ids) are updated in place. eps = 1e-4 d. Needs count > K + 1
  * (else nothing moves). */
-vbnl_result rv_relax(const vbnl_kd_tree *photon_tree, const vec3 *photon_pos, uint32_t *ids, uint32_t count,
-                     uint32_t K, uint32_t iterations, vbnl_stage_ctx *stage, vbnl_pool *pool, vbnl_error *err);
+vbnl_result rv_relax(const vbi_kd_tree *photon_tree, const vec3 *photon_pos, uint32_t *ids, uint32_t count,
+                     uint32_t K, uint32_t iterations, vbnl_stage_ctx *stage, vbi_pool *pool, vbnl_error *err);
 
 /* ---- emission.c ------------------------------------------------------------------------------ */
 
@@ -122,7 +122,7 @@ typedef struct rv_gathered {
  * incident_res^2 texels, so the cost is at most incident_res^2 x R^2 BSDF evaluations. rgb
  * has R^2 x 3 floats. */
 #define RV_INCIDENT_RES 8u
-void rv_emission_table(const vbnl_hemioct *map, const vbnl_hemioct *incident_map, const vbnl_bsdf *bsdf, vec3 n,
+void rv_emission_table(const vbi_hemioct *map, const vbi_hemioct *incident_map, const vbi_bsdf *bsdf, vec3 n,
                        const rv_gathered *g, uint32_t count, float *rgb);
 
 /* The table of a highly glossy light (§5, "highly glossy/specular"): for every photon,
@@ -131,12 +131,12 @@ void rv_emission_table(const vbnl_hemioct *map, const vbnl_hemioct *incident_map
  * reflected power, splatted bilinearly; then I_t = E_t / C_t (the texel's bilinear projected
  * solid angle), so the table's power sum_t I_t C_t is exactly the power splatted and a lobe
  * narrower than a texel keeps its energy (the paper's built-in mollification). */
-void rv_emission_table_sampled(const vbnl_hemioct *map, const vbnl_bsdf *bsdf, vec3 n, const rv_gathered *g,
-                               uint32_t count, uint32_t samples, vbnl_rng *rng, float *rgb);
+void rv_emission_table_sampled(const vbi_hemioct *map, const vbi_bsdf *bsdf, vec3 n, const rv_gathered *g,
+                               uint32_t count, uint32_t samples, vbi_rng *rng, float *rgb);
 
 /* Lambertian light: the constant intensity rho / pi sum_j flux_j (incident directions below the
  * light's horizon excluded). */
-vec3 rv_lambert_intensity(const vbnl_bsdf *bsdf, vec3 n, const rv_gathered *g, uint32_t count);
+vec3 rv_lambert_intensity(const vbi_bsdf *bsdf, vec3 n, const rv_gathered *g, uint32_t count);
 
 /* The lights of a placed set. */
 typedef struct rv_lights {
@@ -167,10 +167,10 @@ void rv_lights_free(rv_lights *l);
 typedef struct rv_emission_params {
     float sampled_alpha;  /* conductors with GGX alpha below this use rv_emission_table_sampled */
     uint32_t samples;     /* BSDF samples per photon there */
-    uint64_t seed;        /* light i draws from vbnl_rng_for(seed ^ stream, i, 0) */
+    uint64_t seed;        /* light i draws from vbi_rng_for(seed ^ stream, i, 0) */
 } rv_emission_params;
-vbnl_result rv_build_emission(const vbnl_scene *sc, const rv_maps *m, const vbnl_hemioct *map,
-                              const rv_emission_params *ep, rv_lights *l, vbnl_stage_ctx *stage, vbnl_pool *pool,
+vbnl_result rv_build_emission(const vbnl_scene *sc, const rv_maps *m, const vbi_hemioct *map,
+                              const rv_emission_params *ep, rv_lights *l, vbnl_stage_ctx *stage, vbi_pool *pool,
                               vbnl_error *err);
 
 #endif

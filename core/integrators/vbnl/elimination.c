@@ -11,36 +11,36 @@
 #include "kdtree.h"
 #include "rng.h"
 
-#define VBNL_SQRT3 1.7320508075688772
-#define VBNL_DEAD UINT32_MAX
+#define VBI_SQRT3 1.7320508075688772
+#define VBI_DEAD UINT32_MAX
 /* m-NN and neighbour-list work items: subtrees of at most this many points, a function of M
  * only (results never depend on the thread count, and do not depend on the items at all). */
-#define VBNL_KNN_CHUNK 8192u
+#define VBI_KNN_CHUNK 8192u
 /* Parallel decomposition: 8^levels leaf boxes with at least this many candidates each. */
-#define VBNL_MIN_BOX_POINTS 512u
+#define VBI_MIN_BOX_POINTS 512u
 
 /* ---- neighbour-list entries and weight terms ---------------------------------------------- */
 
 /* One entry of a point's neighbour list: a point j whose own d_max,j covers it, and the term it
- * adds to w_j. Every point's list is built once (vbnl_nb_build) and serves every box of every
+ * adds to w_j. Every point's list is built once (vbi_nb_build) and serves every box of every
  * level: a box is a contiguous range of tree positions, so "j is in the box" is a range test.
  * This replaces a radius query per point and per removal in a per-box k-d tree: the pairs and
  * their terms are the ones those queries found, computed once instead of once per level, and a
  * removal no longer searches as far as the largest d_max that counted the point ("reach"). */
-typedef struct vbnl_elim_nb {
+typedef struct vbi_elim_nb {
     uint32_t j;  /* tree position */
     float term;  /* (1 - d^ / d_max,j)^alpha */
-} vbnl_elim_nb;
+} vbi_elim_nb;
 
 /* A point's list: its entries and their count. */
-typedef struct vbnl_elim_list {
-    const vbnl_elim_nb *l;
+typedef struct vbi_elim_list {
+    const vbi_elim_nb *l;
     uint32_t n;
-} vbnl_elim_list;
+} vbi_elim_list;
 
 /* (1 - d^ / dmax)^alpha with d^ = max(d, dmin) (Yuksel 2015: weight function and weight
  * limiting; alpha = 8 is three squarings). */
-static inline float vbnl_elim_term(float d2, float dmax, float dmin_scale, float alpha)
+static inline float vbi_elim_term(float d2, float dmax, float dmin_scale, float alpha)
 {
     float d = sqrtf(d2), dmin = dmin_scale * dmax;
     float t = 1.0f - (d > dmin ? d : dmin) / dmax;
@@ -52,9 +52,9 @@ static inline float vbnl_elim_term(float d2, float dmax, float dmin_scale, float
     return powf(t, alpha);
 }
 
-/* vbnl_elim_term for alpha = 8, branch-free so that loops over it vectorise; the same value
+/* vbi_elim_term for alpha = 8, branch-free so that loops over it vectorise; the same value
  * (the same operations in the same order). */
-static inline float vbnl_elim_term8(float d2, float dmax, float dmin_scale)
+static inline float vbi_elim_term8(float d2, float dmax, float dmin_scale)
 {
     float d = sqrtf(d2), dmin = dmin_scale * dmax;
     float t = 1.0f - (d > dmin ? d : dmin) / dmax;
@@ -66,7 +66,7 @@ static inline float vbnl_elim_term8(float d2, float dmax, float dmin_scale)
 /* ---- candidate sets ------------------------------------------------------------------------ */
 
 /* k-th smallest (0-based) of a[0..n), reordering a. Deterministic quickselect. */
-static float vbnl_select(float *a, int32_t n, int32_t k)
+static float vbi_select(float *a, int32_t n, int32_t k)
 {
     int32_t l = 0, r = n - 1;
     while (r > l) {
@@ -97,15 +97,15 @@ static float vbnl_select(float *a, int32_t n, int32_t k)
 }
 
 /* Candidates of one leaf's queries, structure of arrays (the distance loops vectorise). */
-typedef struct vbnl_cand {
+typedef struct vbi_cand {
     uint32_t *i;
     float *x, *y, *z, *d2, *sel, *r2, *dm;
     uint8_t *mask; /* cap + 8 bytes */
     uint32_t cap;
-} vbnl_cand;
+} vbi_cand;
 
 /* Trailing zero bits of x != 0. */
-static inline uint32_t vbnl_ctz64(uint64_t x)
+static inline uint32_t vbi_ctz64(uint64_t x)
 {
 #if defined(__GNUC__) || defined(__clang__)
     return (uint32_t)__builtin_ctzll(x);
@@ -122,7 +122,7 @@ static inline uint32_t vbnl_ctz64(uint64_t x)
 /* mask[k] = a[k] < b[k] for k < n, 0 up to the next multiple of 8; returns the count. The
  * compare loop vectorises; the kept indices are then read 8 at a time, one bit per kept byte,
  * instead of a compress loop with a store per candidate. */
-static uint32_t vbnl_mask_lt(const float *restrict a, const float *restrict b, uint32_t n,
+static uint32_t vbi_mask_lt(const float *restrict a, const float *restrict b, uint32_t n,
                              uint8_t *restrict mask)
 {
     uint32_t cnt = 0;
@@ -135,7 +135,7 @@ static uint32_t vbnl_mask_lt(const float *restrict a, const float *restrict b, u
     return cnt;
 }
 
-static void vbnl_cand_free(vbnl_cand *c)
+static void vbi_cand_free(vbi_cand *c)
 {
     free(c->i);
     free(c->x);
@@ -149,9 +149,9 @@ static void vbnl_cand_free(vbnl_cand *c)
     memset(c, 0, sizeof(*c));
 }
 
-static int vbnl_cand_alloc(vbnl_cand *c, uint32_t cap)
+static int vbi_cand_alloc(vbi_cand *c, uint32_t cap)
 {
-    vbnl_cand_free(c);
+    vbi_cand_free(c);
     c->cap = cap;
     c->i = malloc((size_t)cap * sizeof(uint32_t));
     float **f[7] = {&c->x, &c->y, &c->z, &c->d2, &c->sel, &c->r2, &c->dm};
@@ -159,7 +159,7 @@ static int vbnl_cand_alloc(vbnl_cand *c, uint32_t cap)
         *f[k] = malloc((size_t)cap * sizeof(float));
     c->mask = malloc((size_t)cap + 8);
     if (!c->i || !c->x || !c->y || !c->z || !c->d2 || !c->sel || !c->r2 || !c->dm || !c->mask) {
-        vbnl_cand_free(c);
+        vbi_cand_free(c);
         return -1;
     }
     return 0;
@@ -168,24 +168,24 @@ static int vbnl_cand_alloc(vbnl_cand *c, uint32_t cap)
 /* ---- neighbour lists ------------------------------------------------------------------------ */
 
 /* What the neighbour lists are built from. */
-typedef struct vbnl_nb_ctx {
-    const vbnl_kd_tree *tree;
+typedef struct vbi_nb_ctx {
+    const vbi_kd_tree *tree;
     const float *dm;      /* d_max per tree position */
     const float *reach2;  /* d_max^2 per tree position, padded (gathering only) */
     const float *node_r2; /* per node: the largest reach2 of its points */
     float alpha, dmin_scale;
-} vbnl_nb_ctx;
+} vbi_nb_ctx;
 
 /* A growing block of lists: the entries, and per point of [pb, pe) where its list starts in
  * the block and its length. */
-typedef struct vbnl_nb_out {
-    vbnl_elim_nb *buf;
+typedef struct vbi_nb_out {
+    vbi_elim_nb *buf;
     size_t used, cap;
     uint32_t pb;
     uint32_t *off, *cnt;
-} vbnl_nb_out;
+} vbi_nb_out;
 
-static void vbnl_nb_out_free(vbnl_nb_out *o)
+static void vbi_nb_out_free(vbi_nb_out *o)
 {
     free(o->buf);
     free(o->off);
@@ -193,16 +193,16 @@ static void vbnl_nb_out_free(vbnl_nb_out *o)
     memset(o, 0, sizeof(*o));
 }
 
-static int vbnl_nb_out_alloc(vbnl_nb_out *o, uint32_t pb, uint32_t pe)
+static int vbi_nb_out_alloc(vbi_nb_out *o, uint32_t pb, uint32_t pe)
 {
     memset(o, 0, sizeof(*o));
     o->pb = pb;
     o->cap = (size_t)(pe - pb) * 40 + 1024;
-    o->buf = malloc(o->cap * sizeof(vbnl_elim_nb));
+    o->buf = malloc(o->cap * sizeof(vbi_elim_nb));
     o->off = malloc(((size_t)(pe - pb) + 1) * sizeof(uint32_t));
     o->cnt = malloc(((size_t)(pe - pb) + 1) * sizeof(uint32_t));
     if (!o->buf || !o->off || !o->cnt) {
-        vbnl_nb_out_free(o);
+        vbi_nb_out_free(o);
         return -1;
     }
     return 0;
@@ -213,19 +213,19 @@ static int vbnl_nb_out_alloc(vbnl_nb_out *o, uint32_t pb, uint32_t pe)
  * j whose d_max,j reaches the leaf's box are gathered once (the tree's nodes carry the largest
  * d_max of their points), then each q is a vectorised pass over them. Appends to `o`; 0, or -1
  * when out of memory. */
-static int vbnl_nb_build(const vbnl_nb_ctx *x, uint32_t n0, uint32_t n1, vbnl_nb_out *o,
-                         vbnl_cand *c)
+static int vbi_nb_build(const vbi_nb_ctx *x, uint32_t n0, uint32_t n1, vbi_nb_out *o,
+                         vbi_cand *c)
 {
-    const vbnl_kd_tree *t = x->tree;
+    const vbi_kd_tree *t = x->tree;
     const float alpha = x->alpha, dms = x->dmin_scale;
     for (uint32_t ni = n0; ni < n1; ++ni) {
-        const vbnl_kd_node *nd = &t->nodes[ni];
-        if (nd->axis != VBNL_KD_LEAF_AXIS)
+        const vbi_kd_node *nd = &t->nodes[ni];
+        if (nd->axis != VBI_KD_LEAF_AXIS)
             continue;
         const float *box = t->box + 6 * (size_t)ni;
         uint32_t nc;
-        while ((nc = vbnl_kd_gather_reach(t, box, box + 3, x->node_r2, x->reach2, c->i, c->cap)) > c->cap)
-            if (vbnl_cand_alloc(c, 2 * c->cap) != 0)
+        while ((nc = vbi_kd_gather_reach(t, box, box + 3, x->node_r2, x->reach2, c->i, c->cap)) > c->cap)
+            if (vbi_cand_alloc(c, 2 * c->cap) != 0)
                 return -1;
         for (uint32_t k = 0; k < nc; ++k) {
             const float *p = t->pts[c->i[k]].p;
@@ -238,13 +238,13 @@ static int vbnl_nb_build(const vbnl_nb_ctx *x, uint32_t n0, uint32_t n1, vbnl_nb
         const size_t need = o->used + (size_t)(nd->end - nd->begin) * nc;
         if (need > o->cap) {
             size_t want = o->cap * 2 > need ? o->cap * 2 : need;
-            vbnl_elim_nb *nbuf = realloc(o->buf, want * sizeof(vbnl_elim_nb));
+            vbi_elim_nb *nbuf = realloc(o->buf, want * sizeof(vbi_elim_nb));
             if (!nbuf)
                 return -1;
             o->buf = nbuf;
             o->cap = want;
         }
-        uint32_t self[VBNL_KD_LEAF];
+        uint32_t self[VBI_KD_LEAF];
         for (uint32_t k = 0; k < nc; ++k)
             if (c->i[k] - nd->begin < nd->end - nd->begin)
                 self[c->i[k] - nd->begin] = k;
@@ -259,23 +259,23 @@ static int vbnl_nb_build(const vbnl_nb_ctx *x, uint32_t n0, uint32_t n1, vbnl_nb
             /* Terms of all candidates (vectorised; only those covering q are kept). */
             if (alpha == 8.0f)
                 for (uint32_t k = 0; k < nc; ++k)
-                    c->sel[k] = vbnl_elim_term8(c->d2[k], c->dm[k], dms);
+                    c->sel[k] = vbi_elim_term8(c->d2[k], c->dm[k], dms);
             else
                 for (uint32_t k = 0; k < nc; ++k)
-                    c->sel[k] = c->d2[k] < c->r2[k] ? vbnl_elim_term(c->d2[k], c->dm[k], dms, alpha) : 0.0f;
+                    c->sel[k] = c->d2[k] < c->r2[k] ? vbi_elim_term(c->d2[k], c->dm[k], dms, alpha) : 0.0f;
             if (o->used > UINT32_MAX)
                 return -1;
             o->off[q - o->pb] = (uint32_t)o->used;
-            vbnl_elim_nb *restrict e = o->buf + o->used;
+            vbi_elim_nb *restrict e = o->buf + o->used;
             const uint32_t *restrict ci = c->i;
             const float *restrict term = c->sel;
             const uint8_t *restrict mk = c->mask;
-            const uint32_t cnt = vbnl_mask_lt(c->d2, c->r2, nc, c->mask);
+            const uint32_t cnt = vbi_mask_lt(c->d2, c->r2, nc, c->mask);
             for (uint32_t base = 0; base < nc; base += 8) {
                 uint64_t bits;
                 memcpy(&bits, mk + base, 8);
                 while (bits) {
-                    uint32_t xk = base + (vbnl_ctz64(bits) >> 3);
+                    uint32_t xk = base + (vbi_ctz64(bits) >> 3);
                     e->j = ci[xk];
                     e->term = term[xk];
                     e++;
@@ -291,33 +291,33 @@ static int vbnl_nb_build(const vbnl_nb_ctx *x, uint32_t n0, uint32_t n1, vbnl_nb
 
 /* ---- elimination in one box ---------------------------------------------------------------- */
 
-typedef struct vbnl_elim_box {
+typedef struct vbi_elim_box {
     uint32_t *pos;   /* tree positions: in, the box's alive candidates, increasing; out, survivors */
     uint32_t n;      /* in: count; out: survivors */
     uint32_t remove; /* how many to eliminate */
     uint32_t lo, hi; /* the box is the tree positions [lo, hi) (a subtree) */
     uint32_t node, node_end;   /* and the nodes [node, node_end) */
-    const vbnl_elim_list *hdr; /* NULL, or the lists of lo..hi-1 (else shared->nb) */
-} vbnl_elim_box;
+    const vbi_elim_list *hdr; /* NULL, or the lists of lo..hi-1 (else shared->nb) */
+} vbi_elim_box;
 
-typedef struct vbnl_elim_shared {
-    const vbnl_kd_pt *pts;          /* tree order; .id is the global index (ties) */
-    vbnl_elim_list *nb;             /* per tree position: its neighbour list */
-    uint32_t *loc;                  /* per tree position: VBNL_DEAD once removed, else scratch */
-    vbnl_elim_box *boxes;
-    const vbnl_nb_ctx *ctx;         /* leaf boxes: what they build their lists from ... */
-    vbnl_elim_nb **kept;            /* ... and per leaf box, the block of its survivors' lists */
+typedef struct vbi_elim_shared {
+    const vbi_kd_pt *pts;          /* tree order; .id is the global index (ties) */
+    vbi_elim_list *nb;             /* per tree position: its neighbour list */
+    uint32_t *loc;                  /* per tree position: VBI_DEAD once removed, else scratch */
+    vbi_elim_box *boxes;
+    const vbi_nb_ctx *ctx;         /* leaf boxes: what they build their lists from ... */
+    vbi_elim_nb **kept;            /* ... and per leaf box, the block of its survivors' lists */
     atomic_int failed;
-} vbnl_elim_shared;
+} vbi_elim_shared;
 
 /* A heap slot carries its weight, so that sifting reads one array. */
-typedef struct vbnl_elim_slot {
+typedef struct vbi_elim_slot {
     float w;
     uint32_t i; /* the point's index in the box */
-} vbnl_elim_slot;
+} vbi_elim_slot;
 
 /* Heap order: larger weight first, ties broken by the smaller global index (determinism). */
-static inline int vbnl_elim_before(vbnl_elim_slot a, vbnl_elim_slot b, const uint32_t *id)
+static inline int vbi_elim_before(vbi_elim_slot a, vbi_elim_slot b, const uint32_t *id)
 {
     return a.w > b.w || (a.w == b.w && id[a.i] < id[b.i]);
 }
@@ -326,17 +326,17 @@ static inline int vbnl_elim_before(vbnl_elim_slot a, vbnl_elim_slot b, const uin
 #if defined(__GNUC__) || defined(__clang__)
 __attribute__((always_inline)) /* ~2 million calls per 130K candidates, most of them short */
 #endif
-static inline void vbnl_elim_sift_down(vbnl_elim_slot *heap, uint32_t *hpos, uint32_t hn,
+static inline void vbi_elim_sift_down(vbi_elim_slot *heap, uint32_t *hpos, uint32_t hn,
                                 const uint32_t *id, uint32_t pos)
 {
-    vbnl_elim_slot x = heap[pos];
+    vbi_elim_slot x = heap[pos];
     for (;;) {
         uint32_t c = 2 * pos + 1;
         if (c >= hn)
             break;
-        if (c + 1 < hn && vbnl_elim_before(heap[c + 1], heap[c], id))
+        if (c + 1 < hn && vbi_elim_before(heap[c + 1], heap[c], id))
             c++;
-        if (!vbnl_elim_before(heap[c], x, id))
+        if (!vbi_elim_before(heap[c], x, id))
             break;
         heap[pos] = heap[c];
         hpos[heap[pos].i] = pos;
@@ -347,64 +347,64 @@ static inline void vbnl_elim_sift_down(vbnl_elim_slot *heap, uint32_t *hpos, uin
 }
 
 #if defined(__GNUC__) || defined(__clang__)
-#define VBNL_PREFETCH(p) __builtin_prefetch(p)
+#define VBI_PREFETCH(p) __builtin_prefetch(p)
 #else
-#define VBNL_PREFETCH(p) ((void)(p))
+#define VBI_PREFETCH(p) ((void)(p))
 #endif
 
 /* Pops the heap top and subtracts its terms from the alive points of the box that counted it.
  * `list(i)` gives the entries of box point i, `local(j)` an entry's box index (or >= n when it
  * is outside the box). The next top's entries are prefetched while this one's are applied: the
  * removal loop is bound by those loads. */
-#define VBNL_ELIM_REMOVE_LOOP(LIST, LIST_N, LIST_HEAD, LOCAL)                                      \
+#define VBI_ELIM_REMOVE_LOOP(LIST, LIST_N, LIST_HEAD, LOCAL)                                      \
     for (uint32_t r = 0; r < remove; ++r) {                                                        \
         uint32_t top = heap[0].i;                                                                  \
         hn--;                                                                                      \
         if (hn > 0) {                                                                              \
             heap[0] = heap[hn];                                                                    \
             hpos[heap[0].i] = 0;                                                                   \
-            vbnl_elim_sift_down(heap, hpos, hn, id, 0);                                            \
-            const vbnl_elim_nb *nx = LIST(heap[0].i);                                              \
+            vbi_elim_sift_down(heap, hpos, hn, id, 0);                                            \
+            const vbi_elim_nb *nx = LIST(heap[0].i);                                              \
             for (uint32_t k = 0, c = LIST_N(heap[0].i); k < c; k += 8)                             \
-                VBNL_PREFETCH(nx + k);                                                             \
+                VBI_PREFETCH(nx + k);                                                             \
             if (hn > 2) { /* the likely tops after that one: their list headers */                 \
-                VBNL_PREFETCH(LIST_HEAD(heap[1].i));                                               \
-                VBNL_PREFETCH(LIST_HEAD(heap[2].i));                                               \
+                VBI_PREFETCH(LIST_HEAD(heap[1].i));                                               \
+                VBI_PREFETCH(LIST_HEAD(heap[2].i));                                               \
             }                                                                                      \
         }                                                                                          \
-        hpos[top] = VBNL_DEAD;                                                                     \
-        const vbnl_elim_nb *l = LIST(top);                                                         \
+        hpos[top] = VBI_DEAD;                                                                     \
+        const vbi_elim_nb *l = LIST(top);                                                         \
         for (uint32_t k = 0, c = LIST_N(top); k < c; ++k) {                                        \
             uint32_t li = LOCAL(l[k].j);                                                           \
-            if (li >= n || hpos[li] == VBNL_DEAD)                                                  \
+            if (li >= n || hpos[li] == VBI_DEAD)                                                  \
                 continue;                                                                          \
             uint32_t sl = hpos[li];                                                                \
             heap[sl].w -= l[k].term;                                                               \
-            vbnl_elim_sift_down(heap, hpos, hn, id, sl);                                           \
+            vbi_elim_sift_down(heap, hpos, hn, id, sl);                                           \
         }                                                                                          \
     }
 
 /* Weighted sample elimination of box->remove points of the box (Yuksel 2015 section 3 with the
  * asymmetric adaptive weights of Li et al. 2022 section 3.2). The box's alive points must not be
- * VBNL_DEAD in sh->loc; the removed ones become so. Returns 0 or -1 (out of memory).
+ * VBI_DEAD in sh->loc; the removed ones become so. Returns 0 or -1 (out of memory).
  *
  * Everything per point lives in arrays indexed by the point's place in the box (heap slots,
  * global indices, and for a box some of whose points are already gone, its lists cut down to
  * its alive points): the root keeps ~14% of its range, and its lists ~14% of their entries. The
  * weights and the elimination order are the same either way. */
-static int vbnl_elim_box_run(const vbnl_elim_shared *sh, vbnl_elim_box *box)
+static int vbi_elim_box_run(const vbi_elim_shared *sh, vbi_elim_box *box)
 {
     const uint32_t n = box->n;
     if (box->remove == 0 || n == 0)
         return 0;
     const uint32_t lo = box->lo, span = box->hi - box->lo, *pos = box->pos;
     const int compact = n < span; /* else pos[i] = lo + i */
-    const vbnl_elim_list *nb = sh->nb, *hdr = box->hdr ? box->hdr : sh->nb + lo;
+    const vbi_elim_list *nb = sh->nb, *hdr = box->hdr ? box->hdr : sh->nb + lo;
     uint32_t *loc = sh->loc;
-    vbnl_elim_slot *heap = malloc((size_t)n * sizeof(vbnl_elim_slot));
+    vbi_elim_slot *heap = malloc((size_t)n * sizeof(vbi_elim_slot));
     uint32_t *hpos = malloc((size_t)n * sizeof(uint32_t)), *id = malloc((size_t)n * sizeof(uint32_t));
     float *w = calloc(n, sizeof(float));
-    vbnl_elim_nb *cl = NULL; /* compacted lists: entries ... */
+    vbi_elim_nb *cl = NULL; /* compacted lists: entries ... */
     uint32_t *cb = NULL;     /* ... and where each point's start (n + 1) */
     if (!heap || !hpos || !id || !w)
         goto fail;
@@ -422,16 +422,16 @@ static int vbnl_elim_box_run(const vbnl_elim_shared *sh, vbnl_elim_box *box)
         if (cap > UINT32_MAX)
             goto fail;
         cb = malloc(((size_t)n + 1) * sizeof(uint32_t));
-        cl = malloc((cap ? cap : 1) * sizeof(vbnl_elim_nb));
+        cl = malloc((cap ? cap : 1) * sizeof(vbi_elim_nb));
         if (!cb || !cl)
             goto fail;
         uint32_t used = 0;
         for (uint32_t i = 0; i < n; ++i) {
             cb[i] = used;
-            const vbnl_elim_nb *l = nb[pos[i]].l;
+            const vbi_elim_nb *l = nb[pos[i]].l;
             for (uint32_t k = 0, c = nb[pos[i]].n; k < c; ++k) {
                 uint32_t j = l[k].j;
-                if (j - lo < span && loc[j] != VBNL_DEAD) {
+                if (j - lo < span && loc[j] != VBI_DEAD) {
                     w[loc[j]] += l[k].term;
                     cl[used].j = loc[j];
                     cl[used].term = l[k].term;
@@ -442,7 +442,7 @@ static int vbnl_elim_box_run(const vbnl_elim_shared *sh, vbnl_elim_box *box)
         cb[n] = used;
     } else {
         for (uint32_t i = 0; i < n; ++i) {
-            const vbnl_elim_nb *l = hdr[i].l;
+            const vbi_elim_nb *l = hdr[i].l;
             for (uint32_t k = 0, c = hdr[i].n; k < c; ++k)
                 if (l[k].j - lo < span)
                     w[l[k].j - lo] += l[k].term;
@@ -455,36 +455,36 @@ static int vbnl_elim_box_run(const vbnl_elim_shared *sh, vbnl_elim_box *box)
     }
     uint32_t hn = n;
     for (uint32_t i = n / 2; i-- > 0;)
-        vbnl_elim_sift_down(heap, hpos, hn, id, i);
+        vbi_elim_sift_down(heap, hpos, hn, id, i);
     const uint32_t remove = box->remove < n ? box->remove : n;
     if (compact) {
-#define VBNL_CL_LIST(i) (cl + cb[i])
-#define VBNL_CL_N(i) (cb[(i) + 1] - cb[i])
-#define VBNL_CL_LOCAL(j) (j)
-#define VBNL_CL_HEAD(i) (cb + (i))
-        VBNL_ELIM_REMOVE_LOOP(VBNL_CL_LIST, VBNL_CL_N, VBNL_CL_HEAD, VBNL_CL_LOCAL)
+#define VBI_CL_LIST(i) (cl + cb[i])
+#define VBI_CL_N(i) (cb[(i) + 1] - cb[i])
+#define VBI_CL_LOCAL(j) (j)
+#define VBI_CL_HEAD(i) (cb + (i))
+        VBI_ELIM_REMOVE_LOOP(VBI_CL_LIST, VBI_CL_N, VBI_CL_HEAD, VBI_CL_LOCAL)
     } else {
-#define VBNL_NB_LIST(i) (hdr[i].l)
-#define VBNL_NB_N(i) (hdr[i].n)
-#define VBNL_NB_LOCAL(j) ((j) - lo)
-#define VBNL_NB_HEAD(i) (hdr + (i))
-        VBNL_ELIM_REMOVE_LOOP(VBNL_NB_LIST, VBNL_NB_N, VBNL_NB_HEAD, VBNL_NB_LOCAL)
+#define VBI_NB_LIST(i) (hdr[i].l)
+#define VBI_NB_N(i) (hdr[i].n)
+#define VBI_NB_LOCAL(j) ((j) - lo)
+#define VBI_NB_HEAD(i) (hdr + (i))
+        VBI_ELIM_REMOVE_LOOP(VBI_NB_LIST, VBI_NB_N, VBI_NB_HEAD, VBI_NB_LOCAL)
     }
-#undef VBNL_CL_LIST
-#undef VBNL_CL_N
-#undef VBNL_CL_LOCAL
-#undef VBNL_CL_HEAD
-#undef VBNL_NB_LIST
-#undef VBNL_NB_N
-#undef VBNL_NB_LOCAL
-#undef VBNL_NB_HEAD
+#undef VBI_CL_LIST
+#undef VBI_CL_N
+#undef VBI_CL_LOCAL
+#undef VBI_CL_HEAD
+#undef VBI_NB_LIST
+#undef VBI_NB_N
+#undef VBI_NB_LOCAL
+#undef VBI_NB_HEAD
     uint32_t out = 0;
     for (uint32_t i = 0; i < n; ++i) {
         uint32_t t = pos[i];
-        if (hpos[i] != VBNL_DEAD)
+        if (hpos[i] != VBI_DEAD)
             box->pos[out++] = t;
         else
-            loc[t] = VBNL_DEAD;
+            loc[t] = VBI_DEAD;
     }
     box->n = out;
     free(cl);
@@ -504,11 +504,11 @@ fail:
     return -1;
 }
 
-static void vbnl_elim_box_item(void *user, uint64_t item, unsigned thread)
+static void vbi_elim_box_item(void *user, uint64_t item, unsigned thread)
 {
     (void)thread;
-    vbnl_elim_shared *sh = user;
-    if (vbnl_elim_box_run(sh, &sh->boxes[item]) != 0)
+    vbi_elim_shared *sh = user;
+    if (vbi_elim_box_run(sh, &sh->boxes[item]) != 0)
         atomic_store(&sh->failed, 1);
 }
 
@@ -518,22 +518,22 @@ static void vbnl_elim_box_item(void *user, uint64_t item, unsigned thread)
  * (~6 MB for 20K points), and only the survivors' shortened lists (~10% of all entries) stay
  * in memory for the joined boxes; the lists, weights and removals are those of building all
  * lists first. */
-static void vbnl_elim_leaf_item(void *user, uint64_t item, unsigned thread)
+static void vbi_elim_leaf_item(void *user, uint64_t item, unsigned thread)
 {
     (void)thread;
-    vbnl_elim_shared *sh = user;
-    vbnl_elim_box *box = &sh->boxes[item];
+    vbi_elim_shared *sh = user;
+    vbi_elim_box *box = &sh->boxes[item];
     const uint32_t lo = box->lo, span = box->hi - box->lo;
-    vbnl_cand c;
-    vbnl_nb_out o;
+    vbi_cand c;
+    vbi_nb_out o;
     memset(&c, 0, sizeof(c));
-    vbnl_elim_list *hdr = NULL;
-    vbnl_elim_nb *kept = NULL;
-    if (vbnl_nb_out_alloc(&o, lo, box->hi) != 0 || vbnl_cand_alloc(&c, 1024) != 0 ||
-        vbnl_nb_build(sh->ctx, box->node, box->node_end, &o, &c) != 0)
+    vbi_elim_list *hdr = NULL;
+    vbi_elim_nb *kept = NULL;
+    if (vbi_nb_out_alloc(&o, lo, box->hi) != 0 || vbi_cand_alloc(&c, 1024) != 0 ||
+        vbi_nb_build(sh->ctx, box->node, box->node_end, &o, &c) != 0)
         goto fail;
-    vbnl_cand_free(&c);
-    hdr = malloc((size_t)span * sizeof(vbnl_elim_list));
+    vbi_cand_free(&c);
+    hdr = malloc((size_t)span * sizeof(vbi_elim_list));
     if (!hdr)
         goto fail;
     for (uint32_t i = 0; i < span; ++i) {
@@ -541,55 +541,55 @@ static void vbnl_elim_leaf_item(void *user, uint64_t item, unsigned thread)
         hdr[i].n = o.cnt[i];
     }
     box->hdr = hdr;
-    if (vbnl_elim_box_run(sh, box) != 0)
+    if (vbi_elim_box_run(sh, box) != 0)
         goto fail;
     box->hdr = NULL;
     size_t total = 0;
     for (uint32_t s = 0; s < box->n; ++s)
         total += hdr[box->pos[s] - lo].n;
-    kept = malloc((total ? total : 1) * sizeof(vbnl_elim_nb));
+    kept = malloc((total ? total : 1) * sizeof(vbi_elim_nb));
     if (!kept)
         goto fail;
     size_t used = 0;
     for (uint32_t s = 0; s < box->n; ++s) {
         uint32_t t = box->pos[s];
-        const vbnl_elim_nb *l = hdr[t - lo].l;
+        const vbi_elim_nb *l = hdr[t - lo].l;
         sh->nb[t].l = kept + used;
         for (uint32_t k = 0, cnt = hdr[t - lo].n; k < cnt; ++k)
-            if (l[k].j - lo >= span || sh->loc[l[k].j] != VBNL_DEAD)
+            if (l[k].j - lo >= span || sh->loc[l[k].j] != VBI_DEAD)
                 kept[used++] = l[k];
         sh->nb[t].n = (uint32_t)(kept + used - sh->nb[t].l);
     }
     sh->kept[item] = kept;
     free(hdr);
-    vbnl_nb_out_free(&o);
+    vbi_nb_out_free(&o);
     return;
 fail:
     box->hdr = NULL;
     free(kept);
     free(hdr);
-    vbnl_nb_out_free(&o);
-    vbnl_cand_free(&c);
+    vbi_nb_out_free(&o);
+    vbi_cand_free(&c);
     atomic_store(&sh->failed, 1);
 }
 
 /* ---- running work items ---------------------------------------------------------------------- */
 
-static int vbnl_elim_pool_run(void *ctx, uint64_t count, vbnl_pool_fn fn, void *user)
+static int vbi_elim_pool_run(void *ctx, uint64_t count, vbi_pool_fn fn, void *user)
 {
-    uint64_t ran = vbnl_pool_run(ctx, count, fn, user, NULL, NULL, 0.0);
+    uint64_t ran = vbi_pool_run(ctx, count, fn, user, NULL, NULL, 0.0);
     return ran < count ? -1 : 0;
 }
 
-vbnl_elim_exec vbnl_elim_exec_pool(vbnl_pool *pool)
+vbi_elim_exec vbi_elim_exec_pool(vbi_pool *pool)
 {
-    vbnl_elim_exec e;
-    e.run = pool ? vbnl_elim_pool_run : NULL;
+    vbi_elim_exec e;
+    e.run = pool ? vbi_elim_pool_run : NULL;
     e.ctx = pool;
     return e;
 }
 
-static int vbnl_elim_exec_run(const vbnl_elim_exec *exec, uint64_t count, vbnl_pool_fn fn, void *user)
+static int vbi_elim_exec_run(const vbi_elim_exec *exec, uint64_t count, vbi_pool_fn fn, void *user)
 {
     if (count == 0)
         return 0;
@@ -600,86 +600,86 @@ static int vbnl_elim_exec_run(const vbnl_elim_exec *exec, uint64_t count, vbnl_p
     return 0;
 }
 
-/* vbnl_elim_exec_run for a job whose items report allocation failures in *failed: a cancelled
+/* vbi_elim_exec_run for a job whose items report allocation failures in *failed: a cancelled
  * run or a failure becomes the error of `what` (the stage, for the message). */
-static vbnl_result vbnl_elim_exec_checked(const vbnl_elim_exec *exec, uint64_t count, vbnl_pool_fn fn, void *user,
+static vbnl_result vbi_elim_exec_checked(const vbi_elim_exec *exec, uint64_t count, vbi_pool_fn fn, void *user,
                                           atomic_int *failed, const char *what, vbnl_error *err)
 {
-    if (vbnl_elim_exec_run(exec, count, fn, user) != 0)
-        return vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbnl_eliminate: cancelled");
+    if (vbi_elim_exec_run(exec, count, fn, user) != 0)
+        return vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbi_eliminate: cancelled");
     if (atomic_load(failed))
-        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory (%s)", what);
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory (%s)", what);
     return VBNL_OK;
 }
 
 /* ---- per-point radii (Eq. 1, 2) ------------------------------------------------------------- */
 
-typedef struct vbnl_kd_build_job {
-    vbnl_kd_tree *tree;
-    const vbnl_kd_subtree *jobs;
-    vbnl_kd_subtree *out; /* split items: 2 per job */
+typedef struct vbi_kd_build_job {
+    vbi_kd_tree *tree;
+    const vbi_kd_subtree *jobs;
+    vbi_kd_subtree *out; /* split items: 2 per job */
     uint32_t *nout;       /* split items: per job */
     uint32_t count;
-} vbnl_kd_build_job;
+} vbi_kd_build_job;
 
-static void vbnl_kd_build_item(void *user, uint64_t item, unsigned thread)
+static void vbi_kd_build_item(void *user, uint64_t item, unsigned thread)
 {
     (void)thread;
-    vbnl_kd_build_job *bj = user;
-    vbnl_kd_build_subtree(bj->tree, &bj->jobs[item]);
+    vbi_kd_build_job *bj = user;
+    vbi_kd_build_subtree(bj->tree, &bj->jobs[item]);
 }
 
-static void vbnl_kd_split_item(void *user, uint64_t item, unsigned thread)
+static void vbi_kd_split_item(void *user, uint64_t item, unsigned thread)
 {
     (void)thread;
-    vbnl_kd_build_job *bj = user;
-    vbnl_kd_build_split(bj->tree, &bj->jobs[item], bj->out + 2 * item, bj->nout + item);
+    vbi_kd_build_job *bj = user;
+    vbi_kd_build_split(bj->tree, &bj->jobs[item], bj->out + 2 * item, bj->nout + item);
 }
 
 /* Work items of the m-NN search and of the neighbour lists: the subtrees [node, node_end) at a
  * depth that depends only on M (so results never depend on the thread count). */
-typedef struct vbnl_tree_items {
+typedef struct vbi_tree_items {
     uint32_t *node, *node_end, *begin, *end;
     uint32_t count;
-} vbnl_tree_items;
+} vbi_tree_items;
 
-typedef struct vbnl_knn_job {
-    const vbnl_kd_tree *tree;
-    const vbnl_tree_items *items;
+typedef struct vbi_knn_job {
+    const vbi_kd_tree *tree;
+    const vbi_tree_items *items;
     uint32_t m;
     float *area; /* A_i = pi d_i^2 per global index */
     atomic_int failed;
-} vbnl_knn_job;
+} vbi_knn_job;
 
 /* Padding of distance bounds against rounding (a bound too tight only costs an exact search). */
-static inline float vbnl_pad2(float r) { return r * r * 1.0001f + FLT_MIN; }
+static inline float vbi_pad2(float r) { return r * r * 1.0001f + FLT_MIN; }
 
 /* Gathering radius of the batched m-NN search, relative to the previous leaf's largest m-th
  * distance: larger gathers more candidates, smaller misses more often (exact search). */
-#define VBNL_KNN_GATHER 1.15f
+#define VBI_KNN_GATHER 1.15f
 /* Selection windows: thresholds relative to the previous leaf's mean m-th squared distance
  * (~6% apart, ~2 of 32 candidates per window), then the gathering radius. */
-#define VBNL_KNN_LEVELS 8
-static const float vbnl_knn_level[VBNL_KNN_LEVELS - 1] = {0.80f, 0.88f, 0.94f, 1.0f, 1.06f, 1.14f, 1.26f};
+#define VBI_KNN_LEVELS 8
+static const float vbi_knn_level[VBI_KNN_LEVELS - 1] = {0.80f, 0.88f, 0.94f, 1.0f, 1.06f, 1.14f, 1.26f};
 
 /* The m-NN search of Eq. 2, a leaf of the tree at a time. The leaf's queries share one
  * candidate set C, every point within R of the leaf's box; then every point within R of a query
  * q of the leaf is in C, so when at least m candidates other than q lie within R of q, the m-th
  * smallest of their squared distances is the exact one. Each query is then a brute-force pass
  * over ~100 candidates (vectorised) and a selection, instead of a tree descent with a heap. R is
- * an estimate (the previous leaf's m-th distances, VBNL_KNN_GATHER larger); a query it misses is
- * searched exactly in the tree (vbnl_kd_knn). The result does not depend on R. */
-static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
+ * an estimate (the previous leaf's m-th distances, VBI_KNN_GATHER larger); a query it misses is
+ * searched exactly in the tree (vbi_kd_knn). The result does not depend on R. */
+static void vbi_knn_item(void *user, uint64_t item, unsigned thread)
 {
     (void)thread;
-    vbnl_knn_job *job = user;
-    const vbnl_kd_tree *t = job->tree;
+    vbi_knn_job *job = user;
+    const vbi_kd_tree *t = job->tree;
     const uint32_t m = job->m;
-    vbnl_cand c;
+    vbi_cand c;
     memset(&c, 0, sizeof(c));
     float *knn_d2 = malloc((size_t)m * sizeof(float)); /* scratch of the exact search */
     uint32_t *knn_i = malloc((size_t)m * sizeof(uint32_t));
-    if (!knn_d2 || !knn_i || vbnl_cand_alloc(&c, 1024u + 8u * m) != 0) {
+    if (!knn_d2 || !knn_i || vbi_cand_alloc(&c, 1024u + 8u * m) != 0) {
         free(knn_d2);
         free(knn_i);
         atomic_store(&job->failed, 1);
@@ -687,28 +687,28 @@ static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
     }
     float est = 0.0f, mean = 0.0f; /* the previous leaf's largest and mean m-th distance */
     for (uint32_t ni = job->items->node[item]; ni < job->items->node_end[item]; ++ni) {
-        const vbnl_kd_node *nd = &t->nodes[ni];
-        if (nd->axis != VBNL_KD_LEAF_AXIS)
+        const vbi_kd_node *nd = &t->nodes[ni];
+        if (nd->axis != VBI_KD_LEAF_AXIS)
             continue;
         const uint32_t b = nd->begin, e = nd->end;
         if (!(est > 0.0f))
-            mean = est = sqrtf(vbnl_kd_mth_dist2(t, b + (e - b) / 2, m, knn_i, knn_d2));
-        const float r2g = (VBNL_KNN_GATHER * est) * (VBNL_KNN_GATHER * est);
+            mean = est = sqrtf(vbi_kd_mth_dist2(t, b + (e - b) / 2, m, knn_i, knn_d2));
+        const float r2g = (VBI_KNN_GATHER * est) * (VBI_KNN_GATHER * est);
         /* Points within R of q have a box distance below r2g even after rounding. */
         const float r2f = r2g * 0.9999f;
         /* Thresholds around the expected m-th squared distance, the last one r2f: counting the
          * candidates under each (one vectorised pass) tells which window (thr[L-1], thr[L]]
          * holds the m-th smallest, and how many are below it. Only that window's few values
          * are then extracted and selected from; the result is exact for any thresholds. */
-        float thr[VBNL_KNN_LEVELS];
-        for (int l = 0; l < VBNL_KNN_LEVELS - 1; ++l) {
-            float x = vbnl_knn_level[l] * mean * mean;
+        float thr[VBI_KNN_LEVELS];
+        for (int l = 0; l < VBI_KNN_LEVELS - 1; ++l) {
+            float x = vbi_knn_level[l] * mean * mean;
             thr[l] = x < r2f ? x : r2f;
         }
-        thr[VBNL_KNN_LEVELS - 1] = r2f;
+        thr[VBI_KNN_LEVELS - 1] = r2f;
         const float *box = t->box + 6 * (size_t)ni;
-        uint32_t nc = r2g > 0.0f ? vbnl_kd_gather_box(t, box, box + 3, r2g, c.i, c.cap) : c.cap + 1;
-        uint32_t self[VBNL_KD_LEAF];
+        uint32_t nc = r2g > 0.0f ? vbi_kd_gather_box(t, box, box + 3, r2g, c.i, c.cap) : c.cap + 1;
+        uint32_t self[VBI_KD_LEAF];
         if (nc <= c.cap)
             for (uint32_t k = 0; k < nc; ++k) {
                 const float *p = t->pts[c.i[k]].p;
@@ -730,11 +730,11 @@ static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
                 }
                 c.d2[self[q - b]] = INFINITY;
                 const float *restrict cd2 = c.d2;
-                uint32_t cnt[VBNL_KNN_LEVELS] = {0};
+                uint32_t cnt[VBI_KNN_LEVELS] = {0};
                 for (uint32_t k = 0; k < nc; ++k)
-                    for (int l = 0; l < VBNL_KNN_LEVELS; ++l)
+                    for (int l = 0; l < VBI_KNN_LEVELS; ++l)
                         cnt[l] += cd2[k] <= thr[l];
-                if (cnt[VBNL_KNN_LEVELS - 1] >= m) {
+                if (cnt[VBI_KNN_LEVELS - 1] >= m) {
                     int l = 0;
                     while (cnt[l] < m)
                         l++;
@@ -751,48 +751,48 @@ static void vbnl_knn_item(void *user, uint64_t item, unsigned thread)
                         uint64_t bits;
                         memcpy(&bits, mk + base, 8);
                         while (bits) {
-                            *sel++ = cd2[base + (vbnl_ctz64(bits) >> 3)];
+                            *sel++ = cd2[base + (vbi_ctz64(bits) >> 3)];
                             bits &= bits - 1;
                         }
                     }
                 }
             }
-            float d2m = ns > 0 ? vbnl_select(c.sel, (int32_t)ns, (int32_t)(m - 1 - below))
-                               : vbnl_kd_mth_dist2(t, q, m, knn_i, knn_d2);
+            float d2m = ns > 0 ? vbi_select(c.sel, (int32_t)ns, (int32_t)(m - 1 - below))
+                               : vbi_kd_mth_dist2(t, q, m, knn_i, knn_d2);
             float d = sqrtf(d2m);
             next = d > next ? d : next;
             sum += d;
-            job->area[t->pts[q].id] = VBNL_PI * d2m;
+            job->area[t->pts[q].id] = VBI_PI * d2m;
         }
         est = next;
         mean = sum / (float)(e - b);
     }
-    vbnl_cand_free(&c);
+    vbi_cand_free(&c);
     free(knn_d2);
     free(knn_i);
 }
 
 /* The lists of all candidates, one work item per subtree (the serial variant). */
-typedef struct vbnl_nb_job {
-    const vbnl_nb_ctx *ctx;
-    const vbnl_tree_items *items;
-    vbnl_elim_nb **buf;   /* per item: its block */
-    vbnl_elim_list *nb;   /* per tree position */
+typedef struct vbi_nb_job {
+    const vbi_nb_ctx *ctx;
+    const vbi_tree_items *items;
+    vbi_elim_nb **buf;   /* per item: its block */
+    vbi_elim_list *nb;   /* per tree position */
     atomic_int failed;
-} vbnl_nb_job;
+} vbi_nb_job;
 
-static void vbnl_nb_item(void *user, uint64_t item, unsigned thread)
+static void vbi_nb_item(void *user, uint64_t item, unsigned thread)
 {
     (void)thread;
-    vbnl_nb_job *job = user;
+    vbi_nb_job *job = user;
     const uint32_t pb = job->items->begin[item], pe = job->items->end[item];
-    vbnl_cand c;
-    vbnl_nb_out o;
+    vbi_cand c;
+    vbi_nb_out o;
     memset(&c, 0, sizeof(c));
-    if (vbnl_nb_out_alloc(&o, pb, pe) != 0 || vbnl_cand_alloc(&c, 1024) != 0 ||
-        vbnl_nb_build(job->ctx, job->items->node[item], job->items->node_end[item], &o, &c) != 0) {
-        vbnl_nb_out_free(&o);
-        vbnl_cand_free(&c);
+    if (vbi_nb_out_alloc(&o, pb, pe) != 0 || vbi_cand_alloc(&c, 1024) != 0 ||
+        vbi_nb_build(job->ctx, job->items->node[item], job->items->node_end[item], &o, &c) != 0) {
+        vbi_nb_out_free(&o);
+        vbi_cand_free(&c);
         job->buf[item] = NULL;
         atomic_store(&job->failed, 1);
         return;
@@ -803,31 +803,31 @@ static void vbnl_nb_item(void *user, uint64_t item, unsigned thread)
     }
     job->buf[item] = o.buf;
     o.buf = NULL;
-    vbnl_nb_out_free(&o);
-    vbnl_cand_free(&c);
+    vbi_nb_out_free(&o);
+    vbi_cand_free(&c);
 }
 
-void vbnl_elim_params_default(vbnl_elim_params *p, uint32_t target)
+void vbi_elim_params_default(vbi_elim_params *p, uint32_t target)
 {
     memset(p, 0, sizeof(*p));
-    p->mode = VBNL_ELIM_ADAPTIVE;
+    p->mode = VBI_ELIM_ADAPTIVE;
     p->target = target;
-    p->neighbours = VBNL_ELIM_DEFAULT_NEIGHBOURS;
-    p->alpha = VBNL_ELIM_DEFAULT_ALPHA;
-    p->early_stop = VBNL_ELIM_DEFAULT_EARLY_STOP;
+    p->neighbours = VBI_ELIM_DEFAULT_NEIGHBOURS;
+    p->alpha = VBI_ELIM_DEFAULT_ALPHA;
+    p->early_stop = VBI_ELIM_DEFAULT_EARLY_STOP;
     p->weight_limit = 1;
 }
 
-static vbnl_result vbnl_elim_check(const vec3 *points, uint32_t count, const vbnl_elim_params *p,
+static vbnl_result vbi_elim_check(const vec3 *points, uint32_t count, const vbi_elim_params *p,
                                    const uint32_t *out_kept, vbnl_error *err)
 {
-    const char *fn = "vbnl_eliminate";
+    const char *fn = "vbi_eliminate";
     if (!points || !p || !out_kept)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "%s: %s is NULL", fn,
                               !points ? "points" : (!p ? "params" : "out_kept"));
     if (count == 0)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "%s: no candidate points (M = 0)", fn);
-    if (p->mode != VBNL_ELIM_NONE && p->mode != VBNL_ELIM_UNIFORM && p->mode != VBNL_ELIM_ADAPTIVE)
+    if (p->mode != VBI_ELIM_NONE && p->mode != VBI_ELIM_UNIFORM && p->mode != VBI_ELIM_ADAPTIVE)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "%s: unknown mode %d", fn, (int)p->mode);
     if (p->target == 0)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "%s: target N must be at least 1", fn);
@@ -862,28 +862,28 @@ static vbnl_result vbnl_elim_check(const vec3 *points, uint32_t count, const vbn
 /* Parallel decomposition (section 3.2): the boxes are the subtrees at depths 3 and 6 of the
  * balanced k-d tree over all candidates, i.e. contiguous ranges of its point order. Collects the
  * ranges of the nodes at `depth`, left to right. */
-static void vbnl_collect_boxes(const vbnl_kd_tree *t, uint32_t ni, uint32_t d, uint32_t depth,
+static void vbi_collect_boxes(const vbi_kd_tree *t, uint32_t ni, uint32_t d, uint32_t depth,
                                uint32_t *begin, uint32_t *end, uint32_t *node, uint32_t *node_end,
                                uint32_t *nb)
 {
-    const vbnl_kd_node *nd = &t->nodes[ni];
-    if (d == depth || nd->axis == VBNL_KD_LEAF_AXIS) {
+    const vbi_kd_node *nd = &t->nodes[ni];
+    if (d == depth || nd->axis == VBI_KD_LEAF_AXIS) {
         begin[*nb] = nd->begin;
         end[*nb] = nd->end;
         node[*nb] = ni;
         uint32_t last = ni; /* the subtree's nodes end after its right-most leaf (DFS layout) */
-        while (t->nodes[last].axis != VBNL_KD_LEAF_AXIS)
+        while (t->nodes[last].axis != VBI_KD_LEAF_AXIS)
             last = t->nodes[last].right;
         node_end[*nb] = last + 1;
         (*nb)++;
         return;
     }
-    vbnl_collect_boxes(t, ni + 1, d + 1, depth, begin, end, node, node_end, nb);
-    vbnl_collect_boxes(t, nd->right, d + 1, depth, begin, end, node, node_end, nb);
+    vbi_collect_boxes(t, ni + 1, d + 1, depth, begin, end, node, node_end, nb);
+    vbi_collect_boxes(t, nd->right, d + 1, depth, begin, end, node, node_end, nb);
 }
 
 /* Integer shares of N proportional to `weight` (largest remainder; ties by box index). */
-static void vbnl_split_shares(const double *weight, uint32_t nb, uint32_t total, uint32_t *share)
+static void vbi_split_shares(const double *weight, uint32_t nb, uint32_t total, uint32_t *share)
 {
     double sum = 0.0;
     for (uint32_t b = 0; b < nb; ++b)
@@ -916,61 +916,61 @@ static void vbnl_split_shares(const double *weight, uint32_t nb, uint32_t total,
     }
 }
 
-/* Depth of the m-NN and neighbour-list work items: subtrees of at most VBNL_KNN_CHUNK points. */
-static uint32_t vbnl_items_depth(uint32_t M)
+/* Depth of the m-NN and neighbour-list work items: subtrees of at most VBI_KNN_CHUNK points. */
+static uint32_t vbi_items_depth(uint32_t M)
 {
     uint32_t d = 0;
-    while (d < 12 && (((uint64_t)M + (1ull << d) - 1) >> d) > VBNL_KNN_CHUNK)
+    while (d < 12 && (((uint64_t)M + (1ull << d) - 1) >> d) > VBI_KNN_CHUNK)
         d++;
     return d;
 }
 
-vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_params *p,
-                           const vbnl_elim_exec *exec, uint32_t *out_kept, float *out_rmax,
-                           vbnl_elim_stats *stats, vbnl_error *err)
+vbnl_result vbi_eliminate(const vec3 *points, uint32_t count, const vbi_elim_params *p,
+                           const vbi_elim_exec *exec, uint32_t *out_kept, float *out_rmax,
+                           vbi_elim_stats *stats, vbnl_error *err)
 {
-    vbnl_result res = vbnl_elim_check(points, count, p, out_kept, err);
+    vbnl_result res = vbi_elim_check(points, count, p, out_kept, err);
     if (res != VBNL_OK)
         return res;
-    vbnl_elim_stats st;
+    vbi_elim_stats st;
     memset(&st, 0, sizeof(st));
     const uint32_t M = count, N = p->target;
-    const double t0 = vbnl_now();
+    const double t0 = vbi_now();
 
     uint32_t levels = 0; /* 8^levels leaf boxes */
-    if (p->parallel && p->mode != VBNL_ELIM_NONE && N < M) {
-        if (M >= 64u * VBNL_MIN_BOX_POINTS)
+    if (p->parallel && p->mode != VBI_ELIM_NONE && N < M) {
+        if (M >= 64u * VBI_MIN_BOX_POINTS)
             levels = 2;
-        else if (M >= 8u * VBNL_MIN_BOX_POINTS)
+        else if (M >= 8u * VBI_MIN_BOX_POINTS)
             levels = 1;
     }
     /* The m-NN search is needed by Eq. 2, by the area estimate and by the box shares. */
-    int need_knn = p->mode != VBNL_ELIM_UNIFORM || p->surface_area == 0.0 || levels > 0;
+    int need_knn = p->mode != VBI_ELIM_UNIFORM || p->surface_area == 0.0 || levels > 0;
     if (need_knn && M < 2)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                              "vbnl_eliminate: one candidate has no neighbour to estimate its radius "
+                              "vbi_eliminate: one candidate has no neighbour to estimate its radius "
                               "from (Eq. 2); give surface_area with the uniform mode");
     /* The tree serves the m-NN search and the neighbour lists of the elimination. */
-    const int need_tree = need_knn || (p->mode != VBNL_ELIM_NONE && N < M);
+    const int need_tree = need_knn || (p->mode != VBI_ELIM_NONE && N < M);
 
     float *rmax = malloc((size_t)M * sizeof(float));
     float *area = need_knn ? malloc((size_t)M * sizeof(float)) : NULL;
-    vbnl_kd_pt *gpts = need_tree ? malloc((size_t)M * sizeof(vbnl_kd_pt)) : NULL;
+    vbi_kd_pt *gpts = need_tree ? malloc((size_t)M * sizeof(vbi_kd_pt)) : NULL;
     uint8_t *keep = NULL;
     uint32_t *ids = NULL;
-    vbnl_tree_items items;
+    vbi_tree_items items;
     memset(&items, 0, sizeof(items));
-    vbnl_kd_tree gt;
+    vbi_kd_tree gt;
     memset(&gt, 0, sizeof(gt));
     /* Elimination: per tree position d_max, padded d_max^2, lists and the removed mark;
      * per node the largest padded d_max^2; the lists' blocks per work item. */
     float *dm_pos = NULL, *reach2 = NULL, *node_r2 = NULL;
     uint32_t *loc = NULL;
-    vbnl_elim_list *nb = NULL;
-    vbnl_elim_nb **nb_buf = NULL; /* blocks of lists: per work item (serial) or leaf box */
+    vbi_elim_list *nb = NULL;
+    vbi_elim_nb **nb_buf = NULL; /* blocks of lists: per work item (serial) or leaf box */
     uint32_t nb_blocks = 0;
     if (!rmax || (need_knn && !area) || (need_tree && !gpts)) {
-        res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory (%u candidates)", M);
+        res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory (%u candidates)", M);
         goto done;
     }
     uint32_t m = p->neighbours < M - 1 ? p->neighbours : (M > 1 ? M - 1 : 1);
@@ -982,22 +982,22 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
             gpts[i].id = i;
         }
         /* The root's split on this thread; then three levels of splits and the 16 subtrees
-         * below them as work items (the tree vbnl_kd_build makes). */
-        double tb = vbnl_now();
-        vbnl_kd_subtree sub[2][16];
+         * below them as work items (the tree vbi_kd_build makes). */
+        double tb = vbi_now();
+        vbi_kd_subtree sub[2][16];
         uint32_t nsub[8];
-        vbnl_kd_build_job bj;
+        vbi_kd_build_job bj;
         bj.tree = &gt;
         bj.nout = nsub;
-        if (vbnl_kd_build_top(&gt, gpts, M, 1, sub[0], &bj.count) != 0) {
-            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory (k-d tree)");
+        if (vbi_kd_build_top(&gt, gpts, M, 1, sub[0], &bj.count) != 0) {
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory (k-d tree)");
             goto done;
         }
         int cancelled = 0;
         for (int lev = 0; lev < 3 && !cancelled; ++lev) {
             bj.jobs = sub[lev & 1];
             bj.out = sub[(lev + 1) & 1];
-            cancelled = vbnl_elim_exec_run(exec, bj.count, vbnl_kd_split_item, &bj) != 0;
+            cancelled = vbi_elim_exec_run(exec, bj.count, vbi_kd_split_item, &bj) != 0;
             uint32_t k = 0; /* gather the children in order */
             for (uint32_t j = 0; j < bj.count && !cancelled; ++j)
                 for (uint32_t c = 0; c < nsub[j]; ++c)
@@ -1005,31 +1005,31 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
             bj.count = k;
         }
         bj.jobs = sub[1];
-        if (cancelled || vbnl_elim_exec_run(exec, bj.count, vbnl_kd_build_item, &bj) != 0) {
-            res = vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbnl_eliminate: cancelled");
+        if (cancelled || vbi_elim_exec_run(exec, bj.count, vbi_kd_build_item, &bj) != 0) {
+            res = vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbi_eliminate: cancelled");
             goto done;
         }
-        st.time_tree = vbnl_now() - tb;
-        uint32_t depth = vbnl_items_depth(M), cap = 1u << depth;
+        st.time_tree = vbi_now() - tb;
+        uint32_t depth = vbi_items_depth(M), cap = 1u << depth;
         items.node = malloc((size_t)cap * sizeof(uint32_t));
         items.node_end = malloc((size_t)cap * sizeof(uint32_t));
         items.begin = malloc((size_t)cap * sizeof(uint32_t));
         items.end = malloc((size_t)cap * sizeof(uint32_t));
         if (!items.node || !items.node_end || !items.begin || !items.end) {
-            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory");
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory");
             goto done;
         }
-        vbnl_collect_boxes(&gt, 0, 0, depth, items.begin, items.end, items.node, items.node_end,
+        vbi_collect_boxes(&gt, 0, 0, depth, items.begin, items.end, items.node, items.node_end,
                            &items.count);
     }
     if (need_knn) {
-        vbnl_knn_job kj;
+        vbi_knn_job kj;
         kj.tree = &gt;
         kj.items = &items;
         kj.m = m;
         kj.area = area;
         atomic_init(&kj.failed, 0);
-        res = vbnl_elim_exec_checked(exec, items.count, vbnl_knn_item, &kj, &kj.failed, "m-NN search", err);
+        res = vbi_elim_exec_checked(exec, items.count, vbi_knn_item, &kj, &kj.failed, "m-NN search", err);
         if (res != VBNL_OK)
             goto done;
         st.neighbours = m;
@@ -1045,49 +1045,49 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
         sum /= m;
         if (A == 0.0)
             A = sum;
-        if (!(sum > 0.0) && p->mode != VBNL_ELIM_UNIFORM) {
+        if (!(sum > 0.0) && p->mode != VBI_ELIM_UNIFORM) {
             res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                                 "vbnl_eliminate: all candidates coincide (zero area)");
+                                 "vbi_eliminate: all candidates coincide (zero area)");
             goto done;
         }
     }
-    if (p->mode == VBNL_ELIM_UNIFORM && !(A > 0.0)) {
+    if (p->mode == VBI_ELIM_UNIFORM && !(A > 0.0)) {
         res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                             "vbnl_eliminate: all candidates coincide (zero area estimate for Eq. 1)");
+                             "vbi_eliminate: all candidates coincide (zero area estimate for Eq. 1)");
         goto done;
     }
     st.area = A;
     {
-        const double k2 = 2.0 * VBNL_SQRT3;
+        const double k2 = 2.0 * VBI_SQRT3;
         const float r_uniform = (float)sqrt(A / (k2 * N));
         const double adapt = (double)M / (k2 * (double)N * (double)m);
         for (uint32_t i = 0; i < M; ++i) {
-            float r = p->mode == VBNL_ELIM_UNIFORM ? r_uniform : (float)sqrt(adapt * area[i]);
+            float r = p->mode == VBI_ELIM_UNIFORM ? r_uniform : (float)sqrt(adapt * area[i]);
             if (p->max_radius > 0.0f && r > p->max_radius)
                 r = p->max_radius;
             rmax[i] = r;
         }
     }
-    st.time_radius = vbnl_now() - t0;
-    const double t1 = vbnl_now();
+    st.time_radius = vbi_now() - t0;
+    const double t1 = vbi_now();
 
     keep = calloc(M, 1);
     if (!keep) {
-        res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory");
+        res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory");
         goto done;
     }
-    if (p->mode == VBNL_ELIM_NONE || N == M) {
+    if (p->mode == VBI_ELIM_NONE || N == M) {
         /* Partial Fisher-Yates: a uniformly random N-subset, a function of the seed only. */
         ids = malloc((size_t)M * sizeof(uint32_t));
         if (!ids) {
-            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory");
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory");
             goto done;
         }
         for (uint32_t i = 0; i < M; ++i)
             ids[i] = i;
-        vbnl_rng rng = vbnl_rng_make(p->seed, 0x76626e6c656c696dull);
+        vbi_rng rng = vbi_rng_make(p->seed, 0x76626e6c656c696dull);
         for (uint32_t i = 0; i < N && N < M; ++i) {
-            uint32_t j = i + vbnl_rng_uniform_u32(&rng, M - i);
+            uint32_t j = i + vbi_rng_uniform_u32(&rng, M - i);
             uint32_t t = ids[i];
             ids[i] = ids[j];
             ids[j] = t;
@@ -1099,51 +1099,51 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
         /* d_max,i = 2 r_i,max (Yuksel 2015); reuse `area` storage when present. */
         float *dmax = area ? area : malloc((size_t)M * sizeof(float));
         if (!dmax) {
-            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory");
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory");
             goto done;
         }
         /* Expected kept points per candidate, for the box shares: A_i / (m 2 sqrt3 r_i,max^2). */
         double share_w[64] = {0};
         uint32_t lb[64], le[64], ln[64], lne[64], nl = 0;
         if (levels > 0) {
-            vbnl_collect_boxes(&gt, 0, 0, 3 * levels, lb, le, ln, lne, &nl);
+            vbi_collect_boxes(&gt, 0, 0, 3 * levels, lb, le, ln, lne, &nl);
             for (uint32_t b = 0; b < nl; ++b)
                 for (uint32_t i = lb[b]; i < le[b]; ++i) {
                     uint32_t g = gt.pts[i].id;
                     double r = rmax[g];
-                    share_w[b] += r > 0.0 ? (double)area[g] / ((double)m * 2.0 * VBNL_SQRT3 * r * r)
+                    share_w[b] += r > 0.0 ? (double)area[g] / ((double)m * 2.0 * VBI_SQRT3 * r * r)
                                           : (double)N / M;
                 }
         }
         for (uint32_t i = 0; i < M; ++i)
             dmax[i] = 2.0f * rmax[i];
         /* Neighbour lists: serially, of all candidates at once; in parallel, of every leaf box
-         * in its work item (vbnl_elim_leaf_item). */
-        const double tn = vbnl_now();
+         * in its work item (vbi_elim_leaf_item). */
+        const double tn = vbi_now();
         nb_blocks = levels > 0 ? nl : items.count;
         dm_pos = malloc((size_t)M * sizeof(float));
         reach2 = malloc((size_t)M * sizeof(float));
         node_r2 = malloc((size_t)gt.node_count * sizeof(float));
-        nb = malloc((size_t)M * sizeof(vbnl_elim_list));
-        nb_buf = calloc(nb_blocks, sizeof(vbnl_elim_nb *));
+        nb = malloc((size_t)M * sizeof(vbi_elim_list));
+        nb_buf = calloc(nb_blocks, sizeof(vbi_elim_nb *));
         loc = calloc(M, sizeof(uint32_t)); /* 0: alive */
         ids = malloc((size_t)M * sizeof(uint32_t));
         if (dmax != area)
             free(area);
         area = dmax; /* freed as area */
         if (!dm_pos || !reach2 || !node_r2 || !nb || !nb_buf || !loc || !ids) {
-            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory");
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory");
             goto done;
         }
         for (uint32_t i = 0; i < M; ++i) {
             dm_pos[i] = dmax[gt.pts[i].id];
-            reach2[i] = vbnl_pad2(dm_pos[i]);
+            reach2[i] = vbi_pad2(dm_pos[i]);
         }
         /* Depth-first layout: children follow their parent, so a reverse pass sees them first. */
         for (uint32_t k = gt.node_count; k-- > 0;) {
-            const vbnl_kd_node *nd = &gt.nodes[k];
+            const vbi_kd_node *nd = &gt.nodes[k];
             float r2 = 0.0f;
-            if (nd->axis == VBNL_KD_LEAF_AXIS) {
+            if (nd->axis == VBI_KD_LEAF_AXIS) {
                 for (uint32_t i = nd->begin; i < nd->end; ++i)
                     r2 = reach2[i] > r2 ? reach2[i] : r2;
             } else {
@@ -1151,7 +1151,7 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
             }
             node_r2[k] = r2;
         }
-        vbnl_nb_ctx ctx;
+        vbi_nb_ctx ctx;
         ctx.tree = &gt;
         ctx.dm = dm_pos;
         ctx.reach2 = reach2;
@@ -1161,32 +1161,32 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
          * gamma = 1.5, with the overall ratio N/M (also in the boxes of the parallel variant). */
         ctx.dmin_scale = p->weight_limit ? (float)(0.65 * (1.0 - pow((double)N / M, 1.5))) : 0.0f;
         if (levels == 0) {
-            vbnl_nb_job nj;
+            vbi_nb_job nj;
             nj.ctx = &ctx;
             nj.items = &items;
             nj.buf = nb_buf;
             nj.nb = nb;
             atomic_init(&nj.failed, 0);
-            res = vbnl_elim_exec_checked(exec, items.count, vbnl_nb_item, &nj, &nj.failed, "neighbour lists", err);
+            res = vbi_elim_exec_checked(exec, items.count, vbi_nb_item, &nj, &nj.failed, "neighbour lists", err);
             if (res != VBNL_OK)
                 goto done;
-            st.time_lists = vbnl_now() - tn;
+            st.time_lists = vbi_now() - tn;
         }
 
-        vbnl_elim_shared sh;
+        vbi_elim_shared sh;
         sh.pts = gt.pts;
         sh.nb = nb;
         sh.loc = loc;
         sh.ctx = &ctx;
         sh.kept = nb_buf;
         atomic_init(&sh.failed, 0);
-        vbnl_elim_box boxes[64];
+        vbi_elim_box boxes[64];
         uint32_t alive = M;
         for (uint32_t i = 0; i < M; ++i)
             ids[i] = i; /* tree positions */
         if (levels > 0) {
             uint32_t share[64];
-            vbnl_split_shares(share_w, nl, N, share);
+            vbi_split_shares(share_w, nl, N, share);
             uint32_t nbx = nl;
             for (uint32_t b = 0; b < nbx; ++b) {
                 boxes[b].pos = ids + lb[b];
@@ -1199,7 +1199,7 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
             }
             /* Leaves, then every 8 joined under their ancestor three levels up (section 3.2). */
             for (uint32_t lev = 0; lev < levels; ++lev) {
-                double tl = vbnl_now();
+                double tl = vbi_now();
                 uint64_t removed = 0;
                 for (uint32_t b = 0; b < nbx; ++b) {
                     uint32_t excess = boxes[b].n > share[b] ? boxes[b].n - share[b] : 0;
@@ -1207,9 +1207,9 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
                     removed += boxes[b].remove;
                 }
                 sh.boxes = boxes;
-                if (vbnl_elim_exec_run(exec, nbx, lev == 0 ? vbnl_elim_leaf_item : vbnl_elim_box_item,
+                if (vbi_elim_exec_run(exec, nbx, lev == 0 ? vbi_elim_leaf_item : vbi_elim_box_item,
                                        &sh) != 0) {
-                    res = vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbnl_eliminate: cancelled");
+                    res = vbnl_error_set(err, VBNL_ERR_CANCELLED, "vbi_eliminate: cancelled");
                     break;
                 }
                 if (atomic_load(&sh.failed))
@@ -1222,14 +1222,14 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
                 }
                 st.boxes[lev] = nbx;
                 st.removed[lev] = removed;
-                st.time_level[lev] = vbnl_now() - tl;
+                st.time_level[lev] = vbi_now() - tl;
                 alive -= (uint32_t)removed;
                 /* Join 8 children: move their survivors together, in order. */
                 uint32_t np = nbx / 8;
                 for (uint32_t q = 0; q < np; ++q) {
                     uint32_t *dst = boxes[8 * q].pos, cnt = 0, sh_sum = 0;
                     for (uint32_t c = 0; c < 8; ++c) {
-                        const vbnl_elim_box *cb = &boxes[8 * q + c];
+                        const vbi_elim_box *cb = &boxes[8 * q + c];
                         memmove(dst + cnt, cb->pos, (size_t)cb->n * sizeof(uint32_t));
                         cnt += cb->n;
                         sh_sum += share[8 * q + c];
@@ -1255,14 +1255,14 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
             boxes[0].remove = alive - N;
             st.boxes[levels] = 1;
             st.removed[levels] = alive - N;
-            double tr = vbnl_now();
-            if (vbnl_elim_box_run(&sh, &boxes[0]) != 0)
+            double tr = vbi_now();
+            if (vbi_elim_box_run(&sh, &boxes[0]) != 0)
                 atomic_store(&sh.failed, 1);
-            st.time_level[levels] = vbnl_now() - tr;
+            st.time_level[levels] = vbi_now() - tr;
         }
         st.levels = levels + 1;
         if (res == VBNL_OK && atomic_load(&sh.failed))
-            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_eliminate: out of memory (elimination)");
+            res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_eliminate: out of memory (elimination)");
         if (res != VBNL_OK)
             goto done;
         for (uint32_t i = 0; i < N; ++i)
@@ -1278,7 +1278,7 @@ vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_p
                 k++;
             }
     }
-    st.time_eliminate = vbnl_now() - t1;
+    st.time_eliminate = vbi_now() - t1;
     if (stats)
         *stats = st;
 done:
@@ -1295,7 +1295,7 @@ done:
     free(items.node_end);
     free(items.begin);
     free(items.end);
-    vbnl_kd_free(&gt);
+    vbi_kd_free(&gt);
     free(ids);
     free(keep);
     free(gpts);
@@ -1304,17 +1304,17 @@ done:
     return res;
 }
 
-vbnl_result vbnl_elim_measure(const vec3 *points, const uint32_t *kept, const float *rmax,
+vbnl_result vbi_elim_measure(const vec3 *points, const uint32_t *kept, const float *rmax,
                               uint32_t n, double *mean_rel, double *min_rel, vbnl_error *err)
 {
     if (!points || !kept || !rmax || !mean_rel || !min_rel)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_elim_measure: NULL argument");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_elim_measure: NULL argument");
     if (n < 2)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_elim_measure: needs 2 points, got %u", n);
-    vbnl_kd_pt *pts = malloc((size_t)n * sizeof(vbnl_kd_pt));
-    vbnl_kd_tree t;
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_elim_measure: needs 2 points, got %u", n);
+    vbi_kd_pt *pts = malloc((size_t)n * sizeof(vbi_kd_pt));
+    vbi_kd_tree t;
     if (!pts)
-        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_elim_measure: out of memory");
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_elim_measure: out of memory");
     for (uint32_t i = 0; i < n; ++i) {
         vec3 p = points[kept[i]];
         pts[i].p[0] = p.x;
@@ -1322,9 +1322,9 @@ vbnl_result vbnl_elim_measure(const vec3 *points, const uint32_t *kept, const fl
         pts[i].p[2] = p.z;
         pts[i].id = i; /* index into kept / rmax */
     }
-    if (vbnl_kd_build(&t, pts, n) != 0) {
+    if (vbi_kd_build(&t, pts, n) != 0) {
         free(pts);
-        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbnl_elim_measure: out of memory");
+        return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "vbi_elim_measure: out of memory");
     }
     double sum = 0.0, mn = INFINITY;
     uint32_t cnt = 0;
@@ -1334,14 +1334,14 @@ vbnl_result vbnl_elim_measure(const vec3 *points, const uint32_t *kept, const fl
         float r = rmax[pts[i].id];
         if (!(r > 0.0f))
             continue;
-        double rel = sqrt((double)vbnl_kd_mth_dist2(&t, i, 1, knn_i, knn_d2)) / (2.0 * r);
+        double rel = sqrt((double)vbi_kd_mth_dist2(&t, i, 1, knn_i, knn_d2)) / (2.0 * r);
         sum += rel;
         mn = rel < mn ? rel : mn;
         cnt++;
     }
     *mean_rel = cnt ? sum / cnt : 0.0;
     *min_rel = cnt ? mn : 0.0;
-    vbnl_kd_free(&t);
+    vbi_kd_free(&t);
     free(pts);
     return VBNL_OK;
 }

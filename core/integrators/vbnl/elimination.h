@@ -55,13 +55,13 @@
  * (the paper's elimination uses positions only).
  *
  * Determinism: the result depends only on the points and the parameters (the seed only matters
- * for VBNL_ELIM_NONE), never on the number of threads or on which worker ran which box.
+ * for VBI_ELIM_NONE), never on the number of threads or on which worker ran which box.
  *
- * Thread-safety: vbnl_eliminate may be called from several threads at once (no global state),
- * but not with the same vbnl_pool (vbnl_pool_run runs one job at a time); exec->run is called
+ * Thread-safety: vbi_eliminate may be called from several threads at once (no global state),
+ * but not with the same vbi_pool (vbi_pool_run runs one job at a time); exec->run is called
  * from the calling thread, the work items it runs from any thread. */
-#ifndef VBNL_ELIMINATION_H
-#define VBNL_ELIMINATION_H
+#ifndef VBI_ELIMINATION_H
+#define VBI_ELIMINATION_H
 
 #include <stdint.h>
 
@@ -69,20 +69,20 @@
 #include "vbnl/result.h"
 #include "vmath.h"
 
-typedef enum vbnl_elim_mode {
-    VBNL_ELIM_NONE = 0,     /* random subset of N (ablation "no elimination"); r_max by Eq. 2 */
-    VBNL_ELIM_UNIFORM = 1,  /* one r_max for all (Eq. 1) */
-    VBNL_ELIM_ADAPTIVE = 2, /* per-point r_max (Eq. 2): the paper's method */
-} vbnl_elim_mode;
+typedef enum vbi_elim_mode {
+    VBI_ELIM_NONE = 0,     /* random subset of N (ablation "no elimination"); r_max by Eq. 2 */
+    VBI_ELIM_UNIFORM = 1,  /* one r_max for all (Eq. 1) */
+    VBI_ELIM_ADAPTIVE = 2, /* per-point r_max (Eq. 2): the paper's method */
+} vbi_elim_mode;
 
-#define VBNL_ELIM_DEFAULT_NEIGHBOURS 32u
-#define VBNL_ELIM_DEFAULT_ALPHA 8.0f
-#define VBNL_ELIM_DEFAULT_EARLY_STOP 0.8f
+#define VBI_ELIM_DEFAULT_NEIGHBOURS 32u
+#define VBI_ELIM_DEFAULT_ALPHA 8.0f
+#define VBI_ELIM_DEFAULT_EARLY_STOP 0.8f
 /* alpha_r of section 3.2: VL radius r_i = alpha_r r_i,max. */
-#define VBNL_VL_DEFAULT_RADIUS_SCALE 2.0f
+#define VBI_VL_DEFAULT_RADIUS_SCALE 2.0f
 
-typedef struct vbnl_elim_params {
-    vbnl_elim_mode mode;
+typedef struct vbi_elim_params {
+    vbi_elim_mode mode;
     uint32_t target;     /* N, 1 <= N <= M */
     uint32_t neighbours; /* m of Eq. 2 (>= 1; clamped to M - 1). Default 32; the authors' GPU code
                           * uses 100-350 capped at 256, which makes the m-NN search ~6x slower
@@ -96,27 +96,27 @@ typedef struct vbnl_elim_params {
                           * reference code; 0: the plain weight above */
     float max_radius;    /* clamp of r_max (world units); 0 = none */
     double surface_area; /* A of Eq. 1 (uniform mode); 0 = estimate as sum_i pi d_i^2 / m */
-    uint64_t seed;       /* only VBNL_ELIM_NONE draws random numbers */
-} vbnl_elim_params;
+    uint64_t seed;       /* only VBI_ELIM_NONE draws random numbers */
+} vbi_elim_params;
 
 /* Defaults above, adaptive mode, serial, the given target. */
-void vbnl_elim_params_default(vbnl_elim_params *p, uint32_t target);
+void vbi_elim_params_default(vbi_elim_params *p, uint32_t target);
 
 /* How work items are run. `run` must call fn(user, item, thread) once for every item in
  * 0..count-1 (any order, any threads) and return 0, or non-zero when cancelled. With a renderer,
  * wrap vbnl_stage_run (progress is then reported per item); a NULL exec, or NULL run, runs every
  * item on the calling thread. */
-typedef int (*vbnl_elim_run_fn)(void *ctx, uint64_t count, vbnl_pool_fn fn, void *user);
-typedef struct vbnl_elim_exec {
-    vbnl_elim_run_fn run;
+typedef int (*vbi_elim_run_fn)(void *ctx, uint64_t count, vbi_pool_fn fn, void *user);
+typedef struct vbi_elim_exec {
+    vbi_elim_run_fn run;
     void *ctx;
-} vbnl_elim_exec;
+} vbi_elim_exec;
 
 /* An exec running items on `pool` (NULL: the calling thread). */
-vbnl_elim_exec vbnl_elim_exec_pool(vbnl_pool *pool);
+vbi_elim_exec vbi_elim_exec_pool(vbi_pool *pool);
 
 /* Optional timings and counters of one call. */
-typedef struct vbnl_elim_stats {
+typedef struct vbi_elim_stats {
     double time_radius;      /* seconds: k-d tree + m-NN search + Eq. 1/2 */
     double time_tree;        /* seconds: of which building the k-d tree over all candidates */
     double time_eliminate;   /* seconds: elimination proper (all levels), lists included */
@@ -128,7 +128,7 @@ typedef struct vbnl_elim_stats {
     uint32_t boxes[3];       /* boxes per level, leaves first */
     uint64_t removed[3];     /* points removed per level, leaves first */
     double time_level[3];    /* seconds per level (join moves between levels not included) */
-} vbnl_elim_stats;
+} vbi_elim_stats;
 
 /* Keeps `p->target` of the `count` candidate positions.
  *   out_kept: target entries, the kept candidate indices in increasing order (required);
@@ -140,23 +140,23 @@ typedef struct vbnl_elim_stats {
  * parameter, fewer than 2 candidates where Eq. 2 needs a neighbour, all candidates coincident),
  * VBNL_ERR_OUT_OF_MEMORY, VBNL_ERR_CANCELLED (exec->run returned non-zero). On error the outputs
  * are unspecified. */
-vbnl_result vbnl_eliminate(const vec3 *points, uint32_t count, const vbnl_elim_params *p,
-                           const vbnl_elim_exec *exec, uint32_t *out_kept, float *out_rmax,
-                           vbnl_elim_stats *stats, vbnl_error *err);
+vbnl_result vbi_eliminate(const vec3 *points, uint32_t count, const vbi_elim_params *p,
+                           const vbi_elim_exec *exec, uint32_t *out_kept, float *out_rmax,
+                           vbi_elim_stats *stats, vbnl_error *err);
 
 /* Blue-noise quality of a kept set: for every kept point k with rmax[k] > 0, the distance to its
  * nearest other kept point over 2 rmax[k] (the relative radius of Lagae and Dutre 2008: disks of
  * radius r_max touch at distance 2 r_max, so hexagonal packing scores 1 and a random subset about
  * 0.47). Writes the mean and the minimum. n >= 2. Single-threaded, O(n log n). */
-vbnl_result vbnl_elim_measure(const vec3 *points, const uint32_t *kept, const float *rmax,
+vbnl_result vbi_elim_measure(const vec3 *points, const uint32_t *kept, const float *rmax,
                               uint32_t n, double *mean_rel, double *min_rel, vbnl_error *err);
 
 /* Section 3.2: VL radius r_i = alpha_r r_i,max (alpha_r = 2 in the paper). */
-static inline float vbnl_vl_radius(float rmax, float radius_scale) { return radius_scale * rmax; }
+static inline float vbi_vl_radius(float rmax, float radius_scale) { return radius_scale * rmax; }
 
 /* Eq. 8: VL density rho_i = alpha_r^2 / (2 sqrt(3) r_i^2) (= 1 / (2 sqrt(3) r_i,max^2), the density
  * of a hexagonal packing with disk radius r_i,max). 0 for r <= 0. */
-static inline float vbnl_vl_density(float r, float radius_scale)
+static inline float vbi_vl_density(float r, float radius_scale)
 {
     return r > 0.0f ? radius_scale * radius_scale / (3.46410161514f * r * r) : 0.0f;
 }

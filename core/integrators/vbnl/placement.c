@@ -10,29 +10,29 @@
 
 typedef struct place_job {
     const vbnl_scene *scene;
-    const vbnl_placement_params *p;
+    const vbi_placement_params *p;
     uint32_t tiles_x, tiles;
-    vbnl_candidate *cand;        /* one slot per path */
+    vbi_candidate *cand;        /* one slot per path */
     uint8_t *valid;
     uint8_t *via_specular;
-    vbnl_thread_stats *tstats;
+    vbi_thread_stats *tstats;
 } place_job;
 
 /* Samples the BSDF at a hit, with the frame conventions of the path tracer. Returns 0 when the
  * path ends here. */
-static int scatter(const vbnl_scene *sc, const vbnl_hit *hit, vec3 d, vbnl_rng *rng, vec3 *wi_world,
+static int scatter(const vbnl_scene *sc, const vbi_hit *hit, vec3 d, vbi_rng *rng, vec3 *wi_world,
                    uint32_t *lobe, vec3 *ng_out, vec3 *ns_out)
 {
-    vbnl_bsdf bsdf_store;
-    const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, hit, &bsdf_store);
-    vbnl_shading_frame sf;
-    vbnl_shading_frame_make(bsdf, hit, d, &sf);
-    vbnl_bsdf_sample_rec bs;
-    vec2 u = vbnl_rng_next2(rng);
-    if (!vbnl_bsdf_sample(bsdf, sf.wo, u, &bs) || v3_is_black(bs.weight))
+    vbi_bsdf bsdf_store;
+    const vbi_bsdf *bsdf = vbi_surface_bsdf(sc, hit, &bsdf_store);
+    vbi_shading_frame sf;
+    vbi_shading_frame_make(bsdf, hit, d, &sf);
+    vbi_bsdf_sample_rec bs;
+    vec2 u = vbi_rng_next2(rng);
+    if (!vbi_bsdf_sample(bsdf, sf.wo, u, &bs) || v3_is_black(bs.weight))
         return 0;
     *wi_world = frame_to_world(&sf.fr, bs.wi);
-    if (!(bs.lobe & VBNL_LOBE_TRANSMISSION) && v3_dot(*wi_world, sf.ng) <= 0.0f)
+    if (!(bs.lobe & VBI_LOBE_TRANSMISSION) && v3_dot(*wi_world, sf.ng) <= 0.0f)
         return 0;
     *lobe = bs.lobe;
     *ng_out = sf.ng;
@@ -44,11 +44,11 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
 {
     place_job *job = user;
     const vbnl_scene *sc = job->scene;
-    const vbnl_placement_params *p = job->p;
-    vbnl_thread_stats *ts = &job->tstats[thread];
+    const vbi_placement_params *p = job->p;
+    vbi_thread_stats *ts = &job->tstats[thread];
     uint64_t begin = item * CHUNK, end = begin + CHUNK < p->count ? begin + CHUNK : p->count;
     for (uint64_t k = begin; k < end; ++k) {
-        vbnl_rng rng = vbnl_rng_for(p->seed ^ PLACEMENT_STREAM, k, 0);
+        vbi_rng rng = vbi_rng_for(p->seed ^ PLACEMENT_STREAM, k, 0);
         /* round robin over the tiles; fewer candidates than tiles (small sets, the time budget's
          * calibration) are spread evenly over the image instead of filling its first rows */
         uint32_t tile = p->count >= job->tiles ? (uint32_t)(k % job->tiles) : (uint32_t)(k * job->tiles / p->count);
@@ -56,9 +56,9 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
         uint32_t x0 = tx * p->tile_size, y0 = ty * p->tile_size;
         uint32_t w = p->width - x0 < p->tile_size ? p->width - x0 : p->tile_size;
         uint32_t h = p->height - y0 < p->tile_size ? p->height - y0 : p->tile_size;
-        vec2 u = vbnl_rng_next2(&rng);
+        vec2 u = vbi_rng_next2(&rng);
         vec3 o, d;
-        vbnl_camera_ray(&sc->camera, p->width, p->height, (float)x0 + u.x * (float)w,
+        vbi_camera_ray(&sc->camera, p->width, p->height, (float)x0 + u.x * (float)w,
                         (float)y0 + u.y * (float)h, &o, &d);
         job->valid[k] = 0;
         ts->samples++;
@@ -67,17 +67,17 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
         int diffuse_seen = 0;
         uint32_t chain = 0;
         for (;;) {
-            vbnl_hit hit;
+            vbi_hit hit;
             ts->rays++;
-            if (!vbnl_scene_intersect(sc, o, d, INFINITY, &hit))
+            if (!vbi_scene_intersect(sc, o, d, INFINITY, &hit))
                 break;
             vec3 wi, ng, ns;
             uint32_t lobe;
             if (!scatter(sc, &hit, d, &rng, &wi, &lobe, &ng, &ns))
                 break;
-            vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = vbnl_surface_bsdf(sc, &hit, &bsdf_store);
-            int pass = vbnl_lobe_is_near_specular(bsdf, lobe, p->specular_roughness);
+            vbi_bsdf bsdf_store;
+        const vbi_bsdf *bsdf = vbi_surface_bsdf(sc, &hit, &bsdf_store);
+            int pass = vbi_lobe_is_near_specular(bsdf, lobe, p->specular_roughness);
             if (pass) {
                 if (chain >= p->max_specular_chain)
                     break; /* chain too long: neither a shading point nor a light on a mirror */
@@ -85,27 +85,27 @@ static void place_chunk(void *user, uint64_t item, unsigned thread)
             } else if (!diffuse_seen) {
                 diffuse_seen = 1;
             } else {
-                vbnl_candidate *c = &job->cand[k];
+                vbi_candidate *c = &job->cand[k];
                 c->p = hit.p;
                 c->n = ns;
-                c->material = vbnl_surface_light_material(sc, &hit, &c->tint);
+                c->material = vbi_surface_light_material(sc, &hit, &c->tint);
                 c->tile = tile;
                 job->valid[k] = 1;
                 job->via_specular[k] = chain > 0;
                 break;
             }
-            o = vbnl_offset_ray_origin(hit.p, hit.ng, wi);
+            o = vbi_offset_ray_origin(hit.p, hit.ng, wi);
             d = wi;
         }
     }
 }
 
-vbnl_result vbnl_place_candidates(const vbnl_scene *scene, const vbnl_placement_params *p,
-                                  vbnl_stage_ctx *stage, vbnl_pool *pool, vbnl_candidate **out,
-                                  uint32_t *out_count, vbnl_placement_stats *stats, vbnl_error *err)
+vbnl_result vbi_place_candidates(const vbnl_scene *scene, const vbi_placement_params *p,
+                                  vbnl_stage_ctx *stage, vbi_pool *pool, vbi_candidate **out,
+                                  uint32_t *out_count, vbi_placement_stats *stats, vbnl_error *err)
 {
     if (!scene || !p || !out || !out_count)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_place_candidates: NULL argument");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_place_candidates: NULL argument");
     if (p->count == 0 || p->tile_size == 0 || p->width == 0 || p->height == 0)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "placement needs candidates > 0, tile_size > 0 and an image size");
@@ -117,22 +117,22 @@ vbnl_result vbnl_place_candidates(const vbnl_scene *scene, const vbnl_placement_
     job.p = p;
     job.tiles_x = (p->width + p->tile_size - 1) / p->tile_size;
     job.tiles = job.tiles_x * ((p->height + p->tile_size - 1) / p->tile_size);
-    unsigned threads = vbnl_run_thread_count(stage, pool);
-    job.cand = malloc(sizeof(vbnl_candidate) * p->count);
+    unsigned threads = vbi_run_thread_count(stage, pool);
+    job.cand = malloc(sizeof(vbi_candidate) * p->count);
     job.valid = malloc(p->count);
     job.via_specular = calloc(p->count, 1);
-    job.tstats = calloc(threads, sizeof(vbnl_thread_stats));
+    job.tstats = calloc(threads, sizeof(vbi_thread_stats));
     if (!job.cand || !job.valid || !job.via_specular || !job.tstats) {
         free(job.cand);
         free(job.valid);
         free(job.via_specular);
         free(job.tstats);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u candidates (%.1f MB)",
-                              p->count, (double)p->count * sizeof(vbnl_candidate) / 1e6);
+                              p->count, (double)p->count * sizeof(vbi_candidate) / 1e6);
     }
     uint64_t chunks = (p->count + CHUNK - 1) / CHUNK;
-    int rc = vbnl_run_items(stage, pool, chunks, place_chunk, &job);
-    vbnl_placement_stats st;
+    int rc = vbi_run_items(stage, pool, chunks, place_chunk, &job);
+    vbi_placement_stats st;
     memset(&st, 0, sizeof(st));
     for (unsigned t = 0; t < threads; ++t) {
         st.paths += job.tstats[t].samples;
@@ -162,7 +162,7 @@ vbnl_result vbnl_place_candidates(const vbnl_scene *scene, const vbnl_placement_
                               "no camera path reached a second diffuse surface: nothing in view "
                               "is lit indirectly (open scene or camera looking at the sky?)");
     }
-    vbnl_candidate *shrunk = realloc(job.cand, sizeof(vbnl_candidate) * n);
+    vbi_candidate *shrunk = realloc(job.cand, sizeof(vbi_candidate) * n);
     *out = shrunk ? shrunk : job.cand;
     *out_count = n;
     return VBNL_OK;

@@ -5,32 +5,32 @@
 #include <string.h>
 
 /* Elimination's work items through a renderer stage (progress per item). */
-static int run_stage(void *ctx, uint64_t count, vbnl_pool_fn fn, void *user)
+static int run_stage(void *ctx, uint64_t count, vbi_pool_fn fn, void *user)
 {
     return vbnl_stage_run(ctx, count, fn, user);
 }
 
-vbnl_result vbnl_prepare_lights(const vbnl_scene *scene, const vbnl_prepare_params *p,
-                                vbnl_stage_ctx *stage, vbnl_pool *pool, vbnl_vl_set *vls,
-                                vbnl_prepare_stats *stats, vbnl_error *err)
+vbnl_result vbi_prepare_lights(const vbnl_scene *scene, const vbi_prepare_params *p,
+                                vbnl_stage_ctx *stage, vbi_pool *pool, vbi_vl_set *vls,
+                                vbi_prepare_stats *stats, vbnl_error *err)
 {
     if (!scene || !p || !vls)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_prepare_lights: NULL argument");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_prepare_lights: NULL argument");
     if (p->virtual_lights == 0 || p->virtual_lights > p->candidates)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "virtual_lights (%u) must lie in [1, candidates = %u]", p->virtual_lights,
                               p->candidates);
-    vbnl_prepare_stats local;
+    vbi_prepare_stats local;
     if (!stats)
         stats = &local;
     memset(stats, 0, sizeof(*stats));
     memset(vls, 0, sizeof(*vls));
 
     /* 1. placement */
-    double t0 = vbnl_now();
+    double t0 = vbi_now();
     if (stage)
         vbnl_stage_begin(stage, "placement", p->candidates, "paths");
-    vbnl_placement_params pp;
+    vbi_placement_params pp;
     memset(&pp, 0, sizeof(pp));
     pp.count = p->candidates;
     pp.tile_size = p->tile_size;
@@ -39,13 +39,13 @@ vbnl_result vbnl_prepare_lights(const vbnl_scene *scene, const vbnl_prepare_para
     pp.width = p->width;
     pp.height = p->height;
     pp.seed = p->seed;
-    vbnl_candidate *cand = NULL;
+    vbi_candidate *cand = NULL;
     uint32_t ncand = 0;
-    vbnl_result r = vbnl_place_candidates(scene, &pp, stage, pool, &cand, &ncand, &stats->placement, err);
+    vbnl_result r = vbi_place_candidates(scene, &pp, stage, pool, &cand, &ncand, &stats->placement, err);
     if (stage)
         vbnl_stage_end(stage);
-    stats->seconds[0] = vbnl_now() - t0;
-    stats->bytes[0] = sizeof(vbnl_candidate) * (size_t)ncand;
+    stats->seconds[0] = vbi_now() - t0;
+    stats->bytes[0] = sizeof(vbi_candidate) * (size_t)ncand;
     if (r != VBNL_OK)
         return r;
 
@@ -55,7 +55,7 @@ vbnl_result vbnl_prepare_lights(const vbnl_scene *scene, const vbnl_prepare_para
         n = (uint32_t)((double)n * ncand / p->candidates);
     if (n == 0)
         n = 1;
-    t0 = vbnl_now();
+    t0 = vbi_now();
     vec3 *pts = malloc(sizeof(vec3) * ncand);
     uint32_t *kept = malloc(sizeof(uint32_t) * n);
     float *rmax = malloc(sizeof(float) * n);
@@ -68,36 +68,36 @@ vbnl_result vbnl_prepare_lights(const vbnl_scene *scene, const vbnl_prepare_para
     }
     for (uint32_t i = 0; i < ncand; ++i)
         pts[i] = cand[i].p;
-    vbnl_elim_params ep;
-    vbnl_elim_params_default(&ep, n);
+    vbi_elim_params ep;
+    vbi_elim_params_default(&ep, n);
     ep.mode = p->elimination;
     ep.parallel = p->parallel_elimination;
     if (p->neighbours)
         ep.neighbours = p->neighbours;
     ep.early_stop = p->early_stop;
     ep.seed = p->seed;
-    vbnl_elim_exec ex = stage ? (vbnl_elim_exec){run_stage, stage} : vbnl_elim_exec_pool(pool);
+    vbi_elim_exec ex = stage ? (vbi_elim_exec){run_stage, stage} : vbi_elim_exec_pool(pool);
     if (stage)
         vbnl_stage_begin(stage, "elimination", 0, "boxes");
-    r = vbnl_eliminate(pts, ncand, &ep, &ex, kept, rmax, &stats->elimination, err);
+    r = vbi_eliminate(pts, ncand, &ep, &ex, kept, rmax, &stats->elimination, err);
     if (stage)
         vbnl_stage_end(stage);
     free(pts);
     if (r == VBNL_OK)
-        r = vbnl_vl_set_alloc(vls, n, err);
+        r = vbi_vl_set_alloc(vls, n, err);
     if (r == VBNL_OK) {
         for (uint32_t k = 0; k < n; ++k) {
-            const vbnl_candidate *c = &cand[kept[k]];
+            const vbi_candidate *c = &cand[kept[k]];
             vls->position[k] = c->p;
             vls->normal[k] = c->n;
             vls->material[k] = c->material;
             vls->tint[k] = c->tint;
-            vls->radius[k] = vbnl_vl_radius(rmax[k], p->radius_scale);
-            vls->density[k] = vbnl_vl_density(vls->radius[k], p->radius_scale);
+            vls->radius[k] = vbi_vl_radius(rmax[k], p->radius_scale);
+            vls->density[k] = vbi_vl_density(vls->radius[k], p->radius_scale);
         }
     }
-    stats->seconds[1] = vbnl_now() - t0;
-    stats->bytes[1] = vbnl_vl_set_bytes(vls);
+    stats->seconds[1] = vbi_now() - t0;
+    stats->bytes[1] = vbi_vl_set_bytes(vls);
     free(kept);
     free(rmax);
     free(cand);

@@ -8,14 +8,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define NO_SLOT VBNL_PROFILE_NO_SLOT
+#define NO_SLOT VBI_PROFILE_NO_SLOT
 /* Code of a texel that has not been converted yet: exponent byte 255, never produced by the
  * encoder (which saturates at 254). */
 #define TEXEL_UNSET 0xFFFFFFFFu
 
-struct vbnl_profile_kernel {
-    const vbnl_hemioct *map;
-    vbnl_bsdf bsdf;
+struct vbi_profile_kernel {
+    const vbi_hemioct *map;
+    vbi_bsdf bsdf;
     int lambert;
     vec3 rho;          /* Lambert: the colour; otherwise the cosine-weighted average albedo */
     float *albedo;     /* A_i, texels x 3 */
@@ -23,8 +23,8 @@ struct vbnl_profile_kernel {
     uint32_t texels;
 };
 
-struct vbnl_profile_set {
-    const vbnl_hemioct *map;
+struct vbi_profile_set {
+    const vbi_hemioct *map;
     uint32_t count, texels, n_glossy;
     double unit, inv_unit; /* W per fixed-point step (a power of two) and its inverse */
     uint32_t *slot;     /* per VL: index of its map, or NO_SLOT (Lambertian) */
@@ -34,7 +34,7 @@ struct vbnl_profile_set {
 };
 
 /* A fixed-point value in W (exact in double below 2^53 steps, then rounded once to float). */
-static inline float fixed_to_float(const vbnl_profile_set *s, uint64_t q) { return (float)((double)q * s->unit); }
+static inline float fixed_to_float(const vbi_profile_set *s, uint64_t q) { return (float)((double)q * s->unit); }
 
 /* ---- RGBE (Ward 1991), rounded to nearest -------------------------------------------------- */
 
@@ -104,16 +104,16 @@ static vec3 rgbe_decode(uint32_t code)
 
 /* ---- kernel ------------------------------------------------------------------------------ */
 
-/* f(wo, wi) without cosines: vbnl_bsdf_eval returns f |cos theta_i| (bsdf.h); incident texel
+/* f(wo, wi) without cosines: vbi_bsdf_eval returns f |cos theta_i| (bsdf.h); incident texel
  * centres are strictly above the horizon, so the division is safe. */
-static vec3 transfer(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static vec3 transfer(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
-    return v3_scale(vbnl_bsdf_eval(b, wo, wi), 1.0f / wi.z);
+    return v3_scale(vbi_bsdf_eval(b, wo, wi), 1.0f / wi.z);
 }
 
-static vec3 transfer_microfacet(const vbnl_bsdf *b, vec3 wo, vec3 wi)
+static vec3 transfer_microfacet(const vbi_bsdf *b, vec3 wo, vec3 wi)
 {
-    return v3_scale(vbnl_bsdf_eval_microfacet(b, wo, wi), 1.0f / wi.z);
+    return v3_scale(vbi_bsdf_eval_microfacet(b, wo, wi), 1.0f / wi.z);
 }
 
 /* Narrow lobes. f point-sampled at texel-centre pairs is right for lobes several texels wide,
@@ -131,7 +131,7 @@ static vec3 transfer_microfacet(const vbnl_bsdf *b, vec3 wo, vec3 wi)
 #define MF_QUAD 32u
 
 /* The projected share of a BSDF's microfacet lobe at resolution res (0: point sampling only). */
-static float microfacet_share(const vbnl_bsdf *b, uint32_t res)
+static float microfacet_share(const vbi_bsdf *b, uint32_t res)
 {
     if (b->type != VBNL_MATERIAL_CONDUCTOR && b->type != VBNL_MATERIAL_PLASTIC)
         return 0.0f;
@@ -140,11 +140,11 @@ static float microfacet_share(const vbnl_bsdf *b, uint32_t res)
 }
 
 /* k->matrix = share x the projected microfacet lobe (above). */
-static void project_microfacet(vbnl_profile_kernel *k, float share)
+static void project_microfacet(vbi_profile_kernel *k, float share)
 {
-    const uint32_t n = k->texels, res = vbnl_hemioct_res(k->map);
-    const vec3 *dir = vbnl_hemioct_texel_dirs(k->map);
-    const float *cproj = vbnl_hemioct_bilinear_projected(k->map);
+    const uint32_t n = k->texels, res = vbi_hemioct_res(k->map);
+    const vec3 *dir = vbi_hemioct_texel_dirs(k->map);
+    const float *cproj = vbi_hemioct_bilinear_projected(k->map);
     memset(k->matrix, 0, 3 * (size_t)n * n * sizeof(float));
     const float scale = share / (float)(MF_QUAD * MF_QUAD);
     for (uint32_t i = 0; i < n; ++i) {
@@ -153,13 +153,13 @@ static void project_microfacet(vbnl_profile_kernel *k, float share)
                 vec2 u = {((float)a + 0.5f) / (float)MF_QUAD, ((float)c + 0.5f) / (float)MF_QUAD};
                 vec3 w;
                 float pdf;
-                if (!vbnl_bsdf_sample_microfacet(&k->bsdf, dir[i], u, &w, &pdf))
+                if (!vbi_bsdf_sample_microfacet(&k->bsdf, dir[i], u, &w, &pdf))
                     continue;
                 /* f(w, w_i) cos theta_w / pdf: the lobe is reciprocal, so eval from w_i */
-                vec3 wt = v3_scale(vbnl_bsdf_eval_microfacet(&k->bsdf, dir[i], w), scale / pdf);
+                vec3 wt = v3_scale(vbi_bsdf_eval_microfacet(&k->bsdf, dir[i], w), scale / pdf);
                 uint32_t idx[4];
                 float wgt[4];
-                vbnl_hemioct_footprint(res, w, idx, wgt);
+                vbi_hemioct_footprint(res, w, idx, wgt);
                 for (int q = 0; q < 4; ++q) {
                     float *m = k->matrix + 3 * ((size_t)idx[q] * n + i);
                     m[0] += wt.x * wgt[q];
@@ -175,16 +175,16 @@ static void project_microfacet(vbnl_profile_kernel *k, float share)
     }
 }
 
-vbnl_result vbnl_profile_kernel_create(const vbnl_hemioct *map, const vbnl_bsdf *bsdf, int cache_matrix,
-                                       vbnl_profile_kernel **out)
+vbnl_result vbi_profile_kernel_create(const vbi_hemioct *map, const vbi_bsdf *bsdf, int cache_matrix,
+                                       vbi_profile_kernel **out)
 {
     if (!out)
         return VBNL_ERR_INVALID_ARGUMENT;
     *out = NULL;
     if (!map || !bsdf)
         return VBNL_ERR_INVALID_ARGUMENT;
-    uint32_t n = vbnl_hemioct_texel_count(map);
-    vbnl_profile_kernel *k = calloc(1, sizeof(*k));
+    uint32_t n = vbi_hemioct_texel_count(map);
+    vbi_profile_kernel *k = calloc(1, sizeof(*k));
     if (!k)
         return VBNL_ERR_OUT_OF_MEMORY;
     k->map = map;
@@ -193,7 +193,7 @@ vbnl_result vbnl_profile_kernel_create(const vbnl_hemioct *map, const vbnl_bsdf 
     k->lambert = bsdf->type == VBNL_MATERIAL_LAMBERT;
     k->albedo = malloc(3 * (size_t)n * sizeof(float));
     if (!k->albedo) {
-        vbnl_profile_kernel_destroy(k);
+        vbi_profile_kernel_destroy(k);
         return VBNL_ERR_OUT_OF_MEMORY;
     }
     if (k->lambert) {
@@ -204,21 +204,21 @@ vbnl_result vbnl_profile_kernel_create(const vbnl_hemioct *map, const vbnl_bsdf 
         *out = k;
         return VBNL_OK;
     }
-    const float proj = microfacet_share(bsdf, vbnl_hemioct_res(map));
+    const float proj = microfacet_share(bsdf, vbi_hemioct_res(map));
     if (cache_matrix || proj > 0.0f) {
         k->matrix = malloc(3 * (size_t)n * n * sizeof(float));
         if (!k->matrix) {
-            vbnl_profile_kernel_destroy(k);
+            vbi_profile_kernel_destroy(k);
             return VBNL_ERR_OUT_OF_MEMORY;
         }
     }
     double *acc = calloc(3 * (size_t)n, sizeof(double));
     if (!acc) {
-        vbnl_profile_kernel_destroy(k);
+        vbi_profile_kernel_destroy(k);
         return VBNL_ERR_OUT_OF_MEMORY;
     }
-    const vec3 *dir = vbnl_hemioct_texel_dirs(map);
-    const float *cproj = vbnl_hemioct_bilinear_projected(map);
+    const vec3 *dir = vbi_hemioct_texel_dirs(map);
+    const float *cproj = vbi_hemioct_bilinear_projected(map);
     if (proj > 0.0f)
         project_microfacet(k, proj);
     for (uint32_t t = 0; t < n; ++t) {
@@ -253,7 +253,7 @@ vbnl_result vbnl_profile_kernel_create(const vbnl_hemioct *map, const vbnl_bsdf 
     return VBNL_OK;
 }
 
-void vbnl_profile_kernel_destroy(vbnl_profile_kernel *k)
+void vbi_profile_kernel_destroy(vbi_profile_kernel *k)
 {
     if (!k)
         return;
@@ -262,14 +262,14 @@ void vbnl_profile_kernel_destroy(vbnl_profile_kernel *k)
     free(k);
 }
 
-vec3 vbnl_profile_kernel_albedo(const vbnl_profile_kernel *k, uint32_t i)
+vec3 vbi_profile_kernel_albedo(const vbi_profile_kernel *k, uint32_t i)
 {
     return v3_load(k->albedo + 3 * (size_t)i);
 }
 
-vec3 vbnl_profile_kernel_diffuse_albedo(const vbnl_profile_kernel *k) { return k->rho; }
+vec3 vbi_profile_kernel_diffuse_albedo(const vbi_profile_kernel *k) { return k->rho; }
 
-size_t vbnl_profile_kernel_bytes(const vbnl_profile_kernel *k)
+size_t vbi_profile_kernel_bytes(const vbi_profile_kernel *k)
 {
     size_t n = k->texels;
     return sizeof(*k) + 3 * n * sizeof(float) + (k->matrix ? 3 * n * n * sizeof(float) : 0);
@@ -277,24 +277,24 @@ size_t vbnl_profile_kernel_bytes(const vbnl_profile_kernel *k)
 
 /* ---- set --------------------------------------------------------------------------------- */
 
-double vbnl_profile_unit_for_power(double typical_power)
+double vbi_profile_unit_for_power(double typical_power)
 {
     double u = typical_power * 0x1p-24;
     if (!(u > 0x1p-200) || !isfinite(u)) /* nothing sensible: the default */
-        return VBNL_PROFILE_DEFAULT_UNIT;
+        return VBI_PROFILE_DEFAULT_UNIT;
     int e;
     frexp(u, &e); /* u = f 2^e, f in [0.5, 1): 2^(e-1) <= u */
     return ldexp(1.0, e - 1);
 }
 
-vbnl_result vbnl_profile_set_create(const vbnl_hemioct *map, uint32_t count, const uint8_t *glossy,
-                                    vbnl_profile_set **out)
+vbnl_result vbi_profile_set_create(const vbi_hemioct *map, uint32_t count, const uint8_t *glossy,
+                                    vbi_profile_set **out)
 {
-    return vbnl_profile_set_create_fixed(map, count, glossy, VBNL_PROFILE_DEFAULT_UNIT, out);
+    return vbi_profile_set_create_fixed(map, count, glossy, VBI_PROFILE_DEFAULT_UNIT, out);
 }
 
-vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t count, const uint8_t *glossy,
-                                          double unit, vbnl_profile_set **out)
+vbnl_result vbi_profile_set_create_fixed(const vbi_hemioct *map, uint32_t count, const uint8_t *glossy,
+                                          double unit, vbi_profile_set **out)
 {
     if (!out)
         return VBNL_ERR_INVALID_ARGUMENT;
@@ -302,29 +302,29 @@ vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t coun
     int e;
     if (!map || !(unit > 0.0) || !isfinite(unit) || frexp(unit, &e) != 0.5)
         return VBNL_ERR_INVALID_ARGUMENT; /* the unit must be a power of two */
-    vbnl_profile_set *s = calloc(1, sizeof(*s));
+    vbi_profile_set *s = calloc(1, sizeof(*s));
     if (!s)
         return VBNL_ERR_OUT_OF_MEMORY;
     s->map = map;
     s->count = count;
-    s->texels = vbnl_hemioct_texel_count(map);
+    s->texels = vbi_hemioct_texel_count(map);
     s->unit = unit;
     s->inv_unit = 1.0 / unit; /* exact: a power of two */
     s->slot = malloc(((size_t)count + 1) * sizeof(uint32_t));
     s->phi = calloc(3 * (size_t)count + 1, sizeof(uint64_t));
     if (!s->slot || !s->phi) {
-        vbnl_profile_set_destroy(s);
+        vbi_profile_set_destroy(s);
         return VBNL_ERR_OUT_OF_MEMORY;
     }
     for (uint32_t v = 0; v < count; ++v)
         s->slot[v] = glossy && glossy[v] ? s->n_glossy++ : NO_SLOT;
     if (s->n_glossy) {
         size_t cells = (size_t)s->n_glossy * s->texels;
-        s->incident = vbnl_big_calloc(3 * cells, sizeof(uint64_t));
+        s->incident = vbi_big_calloc(3 * cells, sizeof(uint64_t));
         /* 64-byte aligned: a light's map then starts a line and a texel row of 16 is one line */
         s->code = aligned_alloc(64, (cells * sizeof(uint32_t) + 63) & ~(size_t)63);
         if (!s->incident || !s->code) {
-            vbnl_profile_set_destroy(s);
+            vbi_profile_set_destroy(s);
             return VBNL_ERR_OUT_OF_MEMORY;
         }
         memset(s->code, 0xFF, cells * sizeof(uint32_t)); /* TEXEL_UNSET */
@@ -333,7 +333,7 @@ vbnl_result vbnl_profile_set_create_fixed(const vbnl_hemioct *map, uint32_t coun
     return VBNL_OK;
 }
 
-void vbnl_profile_set_destroy(vbnl_profile_set *s)
+void vbi_profile_set_destroy(vbi_profile_set *s)
 {
     if (!s)
         return;
@@ -344,10 +344,10 @@ void vbnl_profile_set_destroy(vbnl_profile_set *s)
     free(s);
 }
 
-uint32_t vbnl_profile_set_count(const vbnl_profile_set *s) { return s->count; }
-int vbnl_profile_is_glossy(const vbnl_profile_set *s, uint32_t vl) { return s->slot[vl] != NO_SLOT; }
+uint32_t vbi_profile_set_count(const vbi_profile_set *s) { return s->count; }
+int vbi_profile_is_glossy(const vbi_profile_set *s, uint32_t vl) { return s->slot[vl] != NO_SLOT; }
 
-size_t vbnl_profile_set_bytes(const vbnl_profile_set *s)
+size_t vbi_profile_set_bytes(const vbi_profile_set *s)
 {
     size_t cells = (size_t)s->n_glossy * s->texels;
     return sizeof(*s) + ((size_t)s->count + 1) * sizeof(uint32_t) + (3 * (size_t)s->count + 1) * sizeof(uint64_t) +
@@ -356,20 +356,20 @@ size_t vbnl_profile_set_bytes(const vbnl_profile_set *s)
 
 /* ---- photon splitting: 64-bit fixed point (profiles.h, "Fixed point") --------------------- */
 
-double vbnl_profile_set_unit(const vbnl_profile_set *s) { return s->unit; }
+double vbi_profile_set_unit(const vbi_profile_set *s) { return s->unit; }
 
-void vbnl_profile_quantize(const vbnl_profile_set *s, vec3 power, uint64_t q[3])
+void vbi_profile_quantize(const vbi_profile_set *s, vec3 power, uint64_t q[3])
 {
     for (int c = 0; c < 3; ++c) {
         double x = (double)v3_comp(power, c) * s->inv_unit;
         if (!(x > 0.0)) /* also NaN */
             q[c] = 0;
         else
-            q[c] = x < VBNL_PROFILE_MAX_DEPOSIT ? (uint64_t)(x + 0.5) : (uint64_t)VBNL_PROFILE_MAX_DEPOSIT;
+            q[c] = x < VBI_PROFILE_MAX_DEPOSIT ? (uint64_t)(x + 0.5) : (uint64_t)VBI_PROFILE_MAX_DEPOSIT;
     }
 }
 
-void vbnl_profile_split_fixed(uint64_t q, uint32_t n, const float *w, uint64_t *out)
+void vbi_profile_split_fixed(uint64_t q, uint32_t n, const float *w, uint64_t *out)
 {
     /* floor(q w_k) never adds up to more than q when sum w <= 1; float weights may sum to
      * 1 + a few ulp, hence the clamp to what is left. The residue (at most n steps) goes to the
@@ -393,21 +393,21 @@ static inline void atomic_add_u64(uint64_t *p, uint64_t v)
         __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
 }
 
-int vbnl_profile_splat_prepare(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
-                               vbnl_profile_splat *sp)
+int vbi_profile_splat_prepare(vbi_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3],
+                               vbi_profile_splat *sp)
 {
-    return vbnl_profile_splat_prepare_slot(s, s->slot[vl], wi, q, sp);
+    return vbi_profile_splat_prepare_slot(s, s->slot[vl], wi, q, sp);
 }
 
 /* The bilinear splat of q at direction wi (octahedral.h footprint) in integers: the texels
- * idx[k] of the map receive exactly q, vbnl_profile_split_fixed(q[c], 4, wgt) for the three
+ * idx[k] of the map receive exactly q, vbi_profile_split_fixed(q[c], 4, wgt) for the three
  * channels at once (same bits: q is below 2^53, so the conversions through int64 equal the
  * unsigned ones, and x < left ? trunc(x) : left is min(trunc(x), left)). */
-static inline void splat_parts(const vbnl_profile_set *s, vec3 wi, const uint64_t q[3], uint32_t idx[4],
+static inline void splat_parts(const vbi_profile_set *s, vec3 wi, const uint64_t q[3], uint32_t idx[4],
                                uint64_t part[4][3])
 {
     float wgt[4];
-    vbnl_hemioct_bilinear(s->map, wi, idx, wgt);
+    vbi_hemioct_bilinear(s->map, wi, idx, wgt);
     uint64_t left[3] = {q[0], q[1], q[2]};
     double dq[3] = {(double)(int64_t)q[0], (double)(int64_t)q[1], (double)(int64_t)q[2]};
     uint32_t big = 0;
@@ -426,8 +426,8 @@ static inline void splat_parts(const vbnl_profile_set *s, vec3 wi, const uint64_
         part[big][c] += left[c];
 }
 
-int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint32_t slot, vec3 wi, const uint64_t q[3],
-                                    vbnl_profile_splat *sp)
+int vbi_profile_splat_prepare_slot(vbi_profile_set *s, uint32_t slot, vec3 wi, const uint64_t q[3],
+                                    vbi_profile_splat *sp)
 {
     if (slot == NO_SLOT || !s->incident)
         return 0;
@@ -441,8 +441,8 @@ int vbnl_profile_splat_prepare_slot(vbnl_profile_set *s, uint32_t slot, vec3 wi,
     return 1;
 }
 
-int vbnl_profile_splat_prepare_lo32(vbnl_profile_set *s, uint32_t *lo, uint32_t slot, vec3 wi, const uint64_t q[3],
-                                    vbnl_profile_splat32 *sp)
+int vbi_profile_splat_prepare_lo32(vbi_profile_set *s, uint32_t *lo, uint32_t slot, vec3 wi, const uint64_t q[3],
+                                    vbi_profile_splat32 *sp)
 {
     if (slot == NO_SLOT || !s->incident || !lo)
         return 0;
@@ -458,14 +458,14 @@ int vbnl_profile_splat_prepare_lo32(vbnl_profile_set *s, uint32_t *lo, uint32_t 
     return 1;
 }
 
-void vbnl_profile_splat_apply(const vbnl_profile_splat *sp)
+void vbi_profile_splat_apply(const vbi_profile_splat *sp)
 {
     for (int k = 0; k < 4; ++k)
         for (int c = 0; c < 3; ++c)
             atomic_add_u64(sp->texel[k] + c, sp->part[k][c]);
 }
 
-void vbnl_profile_splat_apply_lo32(const vbnl_profile_splat32 *sp)
+void vbi_profile_splat_apply_lo32(const vbi_profile_splat32 *sp)
 {
     for (int k = 0; k < 4; ++k)
         for (int c = 0; c < 3; ++c) {
@@ -478,21 +478,21 @@ void vbnl_profile_splat_apply_lo32(const vbnl_profile_splat32 *sp)
         }
 }
 
-size_t vbnl_profile_incident_bytes(const vbnl_profile_set *s)
+size_t vbi_profile_incident_bytes(const vbi_profile_set *s)
 {
     return s && s->incident ? 3 * (size_t)s->n_glossy * s->texels * sizeof(uint64_t) : 0;
 }
 
-uint64_t *vbnl_profile_incident_maps(vbnl_profile_set *s) { return s ? s->incident : NULL; }
+uint64_t *vbi_profile_incident_maps(vbi_profile_set *s) { return s ? s->incident : NULL; }
 
-vbnl_profile_maps_view vbnl_profile_maps_view_of(vbnl_profile_set *s)
+vbi_profile_maps_view vbi_profile_maps_view_of(vbi_profile_set *s)
 {
     if (!s)
-        return (vbnl_profile_maps_view){0, 0, NULL};
-    return (vbnl_profile_maps_view){vbnl_hemioct_res(s->map), s->texels, s->incident};
+        return (vbi_profile_maps_view){0, 0, NULL};
+    return (vbi_profile_maps_view){vbi_hemioct_res(s->map), s->texels, s->incident};
 }
 
-vbnl_result vbnl_profile_add_incident_lo32(vbnl_profile_set *s, const uint32_t *lo)
+vbnl_result vbi_profile_add_incident_lo32(vbi_profile_set *s, const uint32_t *lo)
 {
     if (!s || !lo)
         return VBNL_ERR_INVALID_ARGUMENT;
@@ -506,14 +506,14 @@ vbnl_result vbnl_profile_add_incident_lo32(vbnl_profile_set *s, const uint32_t *
     return VBNL_OK;
 }
 
-void vbnl_profile_deposit_map_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
+void vbi_profile_deposit_map_fixed(vbi_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
 {
-    vbnl_profile_splat sp;
-    if (vbnl_profile_splat_prepare(s, vl, wi, q, &sp))
-        vbnl_profile_splat_apply(&sp);
+    vbi_profile_splat sp;
+    if (vbi_profile_splat_prepare(s, vl, wi, q, &sp))
+        vbi_profile_splat_apply(&sp);
 }
 
-void vbnl_profile_add_power_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t q[3])
+void vbi_profile_add_power_fixed(vbi_profile_set *s, uint32_t vl, const uint64_t q[3])
 {
     uint64_t *phi = s->phi + 3 * (size_t)vl;
     phi[0] += q[0];
@@ -521,34 +521,34 @@ void vbnl_profile_add_power_fixed(vbnl_profile_set *s, uint32_t vl, const uint64
     phi[2] += q[2];
 }
 
-void vbnl_profile_deposit_fixed(vbnl_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
+void vbi_profile_deposit_fixed(vbi_profile_set *s, uint32_t vl, vec3 wi, const uint64_t q[3])
 {
     uint64_t *phi = s->phi + 3 * (size_t)vl;
     atomic_add_u64(phi + 0, q[0]);
     atomic_add_u64(phi + 1, q[1]);
     atomic_add_u64(phi + 2, q[2]);
-    vbnl_profile_deposit_map_fixed(s, vl, wi, q);
+    vbi_profile_deposit_map_fixed(s, vl, wi, q);
 }
 
-void vbnl_profile_deposit(vbnl_profile_set *s, uint32_t vl, vec3 wi, vec3 power)
+void vbi_profile_deposit(vbi_profile_set *s, uint32_t vl, vec3 wi, vec3 power)
 {
     uint64_t q[3];
-    vbnl_profile_quantize(s, power, q);
-    vbnl_profile_deposit_fixed(s, vl, wi, q);
+    vbi_profile_quantize(s, power, q);
+    vbi_profile_deposit_fixed(s, vl, wi, q);
 }
 
-vec3 vbnl_profile_incident_power(const vbnl_profile_set *s, uint32_t vl)
+vec3 vbi_profile_incident_power(const vbi_profile_set *s, uint32_t vl)
 {
     const uint64_t *q = s->phi + 3 * (size_t)vl;
     return v3(fixed_to_float(s, q[0]), fixed_to_float(s, q[1]), fixed_to_float(s, q[2]));
 }
 
-const uint64_t *vbnl_profile_incident_power_fixed(const vbnl_profile_set *s, uint32_t vl)
+const uint64_t *vbi_profile_incident_power_fixed(const vbi_profile_set *s, uint32_t vl)
 {
     return s->phi + 3 * (size_t)vl;
 }
 
-const uint64_t *vbnl_profile_incident_map_fixed(const vbnl_profile_set *s, uint32_t vl)
+const uint64_t *vbi_profile_incident_map_fixed(const vbi_profile_set *s, uint32_t vl)
 {
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT || !s->incident)
@@ -556,16 +556,16 @@ const uint64_t *vbnl_profile_incident_map_fixed(const vbnl_profile_set *s, uint3
     return s->incident + 3 * (size_t)slot * s->texels;
 }
 
-vec3 vbnl_profile_incident_texel(const vbnl_profile_set *s, uint32_t vl, uint32_t t)
+vec3 vbi_profile_incident_texel(const vbi_profile_set *s, uint32_t vl, uint32_t t)
 {
-    const uint64_t *m = vbnl_profile_incident_map_fixed(s, vl);
+    const uint64_t *m = vbi_profile_incident_map_fixed(s, vl);
     if (!m)
         return v3s(0.0f);
     m += 3 * (size_t)t;
     return v3(fixed_to_float(s, m[0]), fixed_to_float(s, m[1]), fixed_to_float(s, m[2]));
 }
 
-vbnl_result vbnl_profile_set_merge(vbnl_profile_set *dst, const vbnl_profile_set *src)
+vbnl_result vbi_profile_set_merge(vbi_profile_set *dst, const vbi_profile_set *src)
 {
     if (!dst || !src || dst == src)
         return VBNL_ERR_INVALID_ARGUMENT;
@@ -588,7 +588,7 @@ vbnl_result vbnl_profile_set_merge(vbnl_profile_set *dst, const vbnl_profile_set
     return VBNL_OK;
 }
 
-vbnl_result vbnl_profile_set_import_fixed(vbnl_profile_set *s, uint32_t vl, const uint64_t phi[3],
+vbnl_result vbi_profile_set_import_fixed(vbi_profile_set *s, uint32_t vl, const uint64_t phi[3],
                                           const uint64_t *map)
 {
     if (!s || !phi || vl >= s->count)
@@ -642,7 +642,7 @@ static vec3 dot_lanes(const float *row, const float *phi, uint32_t m3)
 }
 
 /* The incident map of a slot as floats (exactly fixed_to_float of each value). */
-static void incident_floats(const vbnl_profile_set *s, uint32_t slot, float *phi)
+static void incident_floats(const vbi_profile_set *s, uint32_t slot, float *phi)
 {
     const uint32_t m3 = 3 * s->texels;
     const uint64_t *in = s->incident + (size_t)m3 * slot;
@@ -666,7 +666,7 @@ static void scratch_free(float *p, const float *stack_buf)
 
 /* One texel without a cached matrix: the row of f is evaluated (zero incident texels get a zero
  * entry without an evaluation: the product would be an exact zero either way). */
-static vec3 compute_texel(const vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k, uint32_t t)
+static vec3 compute_texel(const vbi_profile_set *s, uint32_t slot, const vbi_profile_kernel *k, uint32_t t)
 {
     const uint32_t n = s->texels, m3 = 3 * n;
     float buf_phi[3 * STACK_TEXELS], buf_row[3 * STACK_TEXELS];
@@ -674,7 +674,7 @@ static vec3 compute_texel(const vbnl_profile_set *s, uint32_t slot, const vbnl_p
     vec3 acc = v3s(0.0f);
     if (phi && row) {
         incident_floats(s, slot, phi);
-        const vec3 *dir = vbnl_hemioct_texel_dirs(s->map);
+        const vec3 *dir = vbi_hemioct_texel_dirs(s->map);
         vec3 wo = dir[t];
         for (uint32_t i = 0; i < n; ++i) {
             float *f = row + 3 * (size_t)i;
@@ -696,7 +696,7 @@ static vec3 compute_texel(const vbnl_profile_set *s, uint32_t slot, const vbnl_p
  * once, then one matrix row per texel (this is what makes conversion cheap: R^2 products of
  * 3 R^2 floats instead of 3 R^2 fixed-point conversions per texel). Idempotent and lock-free like
  * texel_code: racing threads store the same bits. Returns 0 when the scratch cannot be had. */
-static int convert_slot(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k)
+static int convert_slot(vbi_profile_set *s, uint32_t slot, const vbi_profile_kernel *k)
 {
     const uint32_t n = s->texels, m3 = 3 * n;
     float buf[3 * STACK_TEXELS];
@@ -716,7 +716,7 @@ static int convert_slot(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_k
 /* Lazy fill (profiles.h, Threads): idempotent, lock-free. With a cached matrix, the first read of
  * any unset texel converts the whole light (its other texels are read soon after: bilinear
  * lookups and nearby directions); without one, only the texel read. */
-static uint32_t texel_code(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k, uint32_t t)
+static uint32_t texel_code(vbi_profile_set *s, uint32_t slot, const vbi_profile_kernel *k, uint32_t t)
 {
     uint32_t *cell = s->code + (size_t)slot * s->texels + t;
     uint32_t code = __atomic_load_n(cell, __ATOMIC_ACQUIRE);
@@ -733,12 +733,12 @@ static uint32_t texel_code(vbnl_profile_set *s, uint32_t slot, const vbnl_profil
 
 /* Lambertian VL (no map): J = rho / pi Phi_in; a non-Lambertian kernel contributes its
  * cosine-weighted average albedo (diffuse approximation, profiles.h). */
-static vec3 lambert_J(const vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k)
+static vec3 lambert_J(const vbi_profile_set *s, uint32_t vl, const vbi_profile_kernel *k)
 {
-    return v3_mul(vbnl_profile_incident_power(s, vl), v3_scale(k->rho, VBNL_INV_PI));
+    return v3_mul(vbi_profile_incident_power(s, vl), v3_scale(k->rho, VBI_INV_PI));
 }
 
-void vbnl_profile_convert(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k)
+void vbi_profile_convert(vbi_profile_set *s, uint32_t vl, const vbi_profile_kernel *k)
 {
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT || !s->incident)
@@ -749,7 +749,7 @@ void vbnl_profile_convert(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_k
         texel_code(s, slot, k, t);
 }
 
-vbnl_result vbnl_profile_set_release_incident(vbnl_profile_set *s)
+vbnl_result vbi_profile_set_release_incident(vbi_profile_set *s)
 {
     if (!s)
         return VBNL_ERR_INVALID_ARGUMENT;
@@ -762,7 +762,7 @@ vbnl_result vbnl_profile_set_release_incident(vbnl_profile_set *s)
     return VBNL_OK;
 }
 
-vec3 vbnl_profile_texel(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, uint32_t t)
+vec3 vbi_profile_texel(vbi_profile_set *s, uint32_t vl, const vbi_profile_kernel *k, uint32_t t)
 {
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT)
@@ -770,19 +770,19 @@ vec3 vbnl_profile_texel(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_ker
     return rgbe_decode(texel_code(s, slot, k, t));
 }
 
-uint32_t vbnl_profile_slot(const vbnl_profile_set *s, uint32_t vl) { return s->slot[vl]; }
+uint32_t vbi_profile_slot(const vbi_profile_set *s, uint32_t vl) { return s->slot[vl]; }
 
-void vbnl_profile_lookup_begin(const vbnl_profile_set *s, uint32_t slot, vec3 wo, vbnl_profile_lookup *l)
+void vbi_profile_lookup_begin(const vbi_profile_set *s, uint32_t slot, vec3 wo, vbi_profile_lookup *l)
 {
-    vbnl_hemioct_bilinear(s->map, wo, l->idx, l->wgt);
+    vbi_hemioct_bilinear(s->map, wo, l->idx, l->wgt);
     const uint32_t *codes = s->code + (size_t)slot * s->texels;
     /* rows y0 and y1 of the footprint: at most two lines at R = 16 (a row is 64 bytes) */
     __builtin_prefetch(codes + l->idx[0]);
     __builtin_prefetch(codes + l->idx[3]);
 }
 
-vec3 vbnl_profile_lookup_end(vbnl_profile_set *s, uint32_t slot, const vbnl_profile_kernel *k,
-                             const vbnl_profile_lookup *l)
+vec3 vbi_profile_lookup_end(vbi_profile_set *s, uint32_t slot, const vbi_profile_kernel *k,
+                             const vbi_profile_lookup *l)
 {
     vec3 r = v3s(0.0f);
     for (int c = 0; c < 4; ++c)
@@ -791,34 +791,34 @@ vec3 vbnl_profile_lookup_end(vbnl_profile_set *s, uint32_t slot, const vbnl_prof
     return r;
 }
 
-vec3 vbnl_profile_eval(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, vec3 wo)
+vec3 vbi_profile_eval(vbi_profile_set *s, uint32_t vl, const vbi_profile_kernel *k, vec3 wo)
 {
     if (!(wo.z > 0.0f))
         return v3s(0.0f);
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT)
         return lambert_J(s, vl, k);
-    vbnl_profile_lookup l;
-    vbnl_profile_lookup_begin(s, slot, wo, &l);
-    return vbnl_profile_lookup_end(s, slot, k, &l);
+    vbi_profile_lookup l;
+    vbi_profile_lookup_begin(s, slot, wo, &l);
+    return vbi_profile_lookup_end(s, slot, k, &l);
 }
 
-vec3 vbnl_profile_intensity(vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k, vec3 wo)
+vec3 vbi_profile_intensity(vbi_profile_set *s, uint32_t vl, const vbi_profile_kernel *k, vec3 wo)
 {
     float len = v3_len(wo);
     if (!(wo.z > 0.0f) || !(len > 0.0f))
         return v3s(0.0f);
-    return v3_scale(vbnl_profile_eval(s, vl, k, wo), wo.z / len);
+    return v3_scale(vbi_profile_eval(s, vl, k, wo), wo.z / len);
 }
 
-vec3 vbnl_profile_power(const vbnl_profile_set *s, uint32_t vl, const vbnl_profile_kernel *k)
+vec3 vbi_profile_power(const vbi_profile_set *s, uint32_t vl, const vbi_profile_kernel *k)
 {
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT)
-        return v3_mul(vbnl_profile_incident_power(s, vl), k->rho);
+        return v3_mul(vbi_profile_incident_power(s, vl), k->rho);
     if (!s->incident) {
         /* Maps released: integrate the stored (quantised) profile, sum_t J_t C_t. */
-        const float *cproj = vbnl_hemioct_bilinear_projected(s->map);
+        const float *cproj = vbi_hemioct_bilinear_projected(s->map);
         const uint32_t *codes = s->code + (size_t)slot * s->texels;
         double p[3] = {0.0, 0.0, 0.0};
         for (uint32_t t = 0; t < s->texels; ++t) {
@@ -838,7 +838,7 @@ vec3 vbnl_profile_power(const vbnl_profile_set *s, uint32_t vl, const vbnl_profi
     return v3((float)p[0], (float)p[1], (float)p[2]);
 }
 
-int vbnl_profile_texel_converted(const vbnl_profile_set *s, uint32_t vl, uint32_t t)
+int vbi_profile_texel_converted(const vbi_profile_set *s, uint32_t vl, uint32_t t)
 {
     uint32_t slot = s->slot[vl];
     if (slot == NO_SLOT)

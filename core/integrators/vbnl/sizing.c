@@ -4,26 +4,26 @@
 #include <math.h>
 #include <stdio.h>
 
-double vbnl_sizing_lights_wanted(double budget, double pixels)
+double vbi_sizing_lights_wanted(double budget, double pixels)
 {
-    double want = VBNL_SIZING_LIGHTS_PER_PIXEL * pixels * fmax(1.0, budget / VBNL_SIZING_LIGHTS_KNEE);
-    return fmin(VBNL_SIZING_LIGHTS_MAX, fmax(VBNL_SIZING_LIGHTS_MIN, floor(want)));
+    double want = VBI_SIZING_LIGHTS_PER_PIXEL * pixels * fmax(1.0, budget / VBI_SIZING_LIGHTS_KNEE);
+    return fmin(VBI_SIZING_LIGHTS_MAX, fmax(VBI_SIZING_LIGHTS_MIN, floor(want)));
 }
 
-void vbnl_size_to_budget(const vbnl_sizing_in *in, vbnl_sizing_out *out)
+void vbi_size_to_budget(const vbi_sizing_in *in, vbi_sizing_out *out)
 {
     const double cl = in->seconds_per_light > 0.0 ? in->seconds_per_light : 1e-9;
     const double cp = in->seconds_per_path > 0.0 ? in->seconds_per_path : 1e-9;
     const double left =
-        fmax(0.0, VBNL_SIZING_AIM * in->prepare_limit - in->elapsed - in->fixed_seconds * VBNL_SIZING_MARGIN);
+        fmax(0.0, VBI_SIZING_AIM * in->prepare_limit - in->elapsed - in->fixed_seconds * VBI_SIZING_MARGIN);
     if (in->lights_set) {
         out->lights = in->lights;
         snprintf(out->lights_why, sizeof(out->lights_why), "set explicitly, kept (%.3g s estimated)",
                  out->lights * cl);
     } else {
-        double want = vbnl_sizing_lights_wanted(in->budget, in->pixels);
-        double fit = floor(0.5 * left / (cl * VBNL_SIZING_MARGIN));
-        out->lights = fmax(VBNL_SIZING_LIGHTS_FLOOR, fmin(want, fit));
+        double want = vbi_sizing_lights_wanted(in->budget, in->pixels);
+        double fit = floor(0.5 * left / (cl * VBI_SIZING_MARGIN));
+        out->lights = fmax(VBI_SIZING_LIGHTS_FLOOR, fmin(want, fit));
         snprintf(out->lights_why, sizeof(out->lights_why),
                  "sized: %.0f for %.0f pixels and %g s%s; %.3g us per light measured", want, in->pixels,
                  in->budget, out->lights < want ? ", lowered to fit half the preparation bound" : "", cl * 1e6);
@@ -33,13 +33,13 @@ void vbnl_size_to_budget(const vbnl_sizing_in *in, vbnl_sizing_out *out)
         out->paths = in->paths;
         snprintf(out->paths_why, sizeof(out->paths_why), "set explicitly, kept (%.3g s estimated)", out->paths * cp);
     } else {
-        double t = fmin(VBNL_SIZING_PHOTON_SHARE * in->budget, left - t_lights * VBNL_SIZING_MARGIN);
-        double p = floor(t / (cp * VBNL_SIZING_MARGIN));
-        out->paths = fmax(VBNL_SIZING_PATHS_FLOOR, fmin(VBNL_SIZING_PATHS_MAX, p));
+        double t = fmin(VBI_SIZING_PHOTON_SHARE * in->budget, left - t_lights * VBI_SIZING_MARGIN);
+        double p = floor(t / (cp * VBI_SIZING_MARGIN));
+        out->paths = fmax(VBI_SIZING_PATHS_FLOOR, fmin(VBI_SIZING_PATHS_MAX, p));
         snprintf(out->paths_why, sizeof(out->paths_why),
                  "sized: the paths of %.3g s (%g%% of the budget%s) at %.3g us per path measured", t,
-                 100.0 * VBNL_SIZING_PHOTON_SHARE,
-                 t < VBNL_SIZING_PHOTON_SHARE * in->budget ? ", less: what the preparation bound leaves" : "",
+                 100.0 * VBI_SIZING_PHOTON_SHARE,
+                 t < VBI_SIZING_PHOTON_SHARE * in->budget ? ", less: what the preparation bound leaves" : "",
                  cp * 1e6);
     }
     out->estimate = in->elapsed + in->fixed_seconds + t_lights + out->paths * cp;

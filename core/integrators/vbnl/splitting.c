@@ -33,31 +33,31 @@
 #include "splitting_batch.h"
 #include "splitting_lanes.h"
 
-uint64_t vbnl_split_map_copy_bytes(uint64_t map_bytes, unsigned threads)
+uint64_t vbi_split_map_copy_bytes(uint64_t map_bytes, unsigned threads)
 {
     if (threads < 1 || map_bytes == 0)
         return 0;
     const uint64_t copy = map_bytes / 2u * threads; /* 32-bit maps, one per thread */
     const double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
-    if ((double)copy > (double)VBNL_SPLIT_MAX_MAP_COPY_BYTES || (phys > 0.0 && (double)copy > phys / 8.0))
+    if ((double)copy > (double)VBI_SPLIT_MAX_MAP_COPY_BYTES || (phys > 0.0 && (double)copy > phys / 8.0))
         return 0;
     return copy;
 }
 
-uint64_t vbnl_split_batch_bytes(uint32_t hits)
+uint64_t vbi_split_batch_bytes(uint32_t hits)
 {
     return (uint64_t)hits * (sizeof(split_rec) + 4u * sizeof(uint32_t)); /* hits, order, bin, cell, scell */
 }
 
-uint32_t vbnl_split_batch_hits(unsigned threads)
+uint32_t vbi_split_batch_hits(unsigned threads)
 {
-    uint64_t fit = (uint64_t)VBNL_SPLIT_MAX_BATCH_BYTES / vbnl_split_batch_bytes(1) / (threads ? threads : 1u);
+    uint64_t fit = (uint64_t)VBI_SPLIT_MAX_BATCH_BYTES / vbi_split_batch_bytes(1) / (threads ? threads : 1u);
     fit &= ~(uint64_t)1023u;
-    return fit >= VBNL_SPLIT_BATCH_HITS ? VBNL_SPLIT_BATCH_HITS
-                                        : (fit <= VBNL_SPLIT_BATCH_HITS_MIN ? VBNL_SPLIT_BATCH_HITS_MIN : (uint32_t)fit);
+    return fit >= VBI_SPLIT_BATCH_HITS ? VBI_SPLIT_BATCH_HITS
+                                        : (fit <= VBI_SPLIT_BATCH_HITS_MIN ? VBI_SPLIT_BATCH_HITS_MIN : (uint32_t)fit);
 }
 
-void vbnl_split_desc_init(vbnl_split_desc *d)
+void vbi_split_desc_init(vbi_split_desc *d)
 {
     memset(d, 0, sizeof(*d));
     d->normal_cos = 0.7f;
@@ -65,15 +65,15 @@ void vbnl_split_desc_init(vbnl_split_desc *d)
     d->max_vls = 8;
     d->rr_depth = 5;
     d->max_depth = 0;
-    d->chunk = VBNL_SPLIT_DEFAULT_CHUNK;
+    d->chunk = VBI_SPLIT_DEFAULT_CHUNK;
 }
 
-double vbnl_split_photon_unit(const vbnl_scene *scene, uint64_t photon_paths)
+double vbi_split_photon_unit(const vbnl_scene *scene, uint64_t photon_paths)
 {
     double total = 0.0;
     for (uint32_t i = 0; i < scene->light_count; ++i)
-        total += v3_max_comp(vbnl_light_power(&scene->lights[i]));
-    return vbnl_profile_unit_for_power(photon_paths ? total / (double)photon_paths : 0.0);
+        total += v3_max_comp(vbi_light_power(&scene->lights[i]));
+    return vbi_profile_unit_for_power(photon_paths ? total / (double)photon_paths : 0.0);
 }
 
 /* A work item traces its paths into the thread's batch, deposited whenever it fills up; the
@@ -112,18 +112,18 @@ static void threads_free(split_job *job)
     job->threads = NULL;
 }
 
-vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_stage_ctx *stage,
-                               vbnl_split_stats *stats)
+vbnl_result vbi_split_photons(const vbi_split_desc *d, vbi_pool *pool, vbnl_stage_ctx *stage,
+                               vbi_split_stats *stats)
 {
     if (stats)
         memset(stats, 0, sizeof(*stats));
     if (!d || !d->scene || !d->scene->committed || !d->index || !d->vl_normals || !d->profiles ||
-        (!vbnl_vl_index_has_normals(d->index) && (d->normal_cos > -1.0f || d->require_facing)) ||
+        (!vbi_vl_index_has_normals(d->index) && (d->normal_cos > -1.0f || d->require_facing)) ||
         (!pool && !stage) || d->photon_paths == 0 || d->first_path > d->photon_paths ||
-        vbnl_vl_index_count(d->index) != vbnl_profile_set_count(d->profiles) || d->max_vls == 0 ||
-        d->max_vls > VBNL_SPLIT_MAX_VLS)
+        vbi_vl_index_count(d->index) != vbi_profile_set_count(d->profiles) || d->max_vls == 0 ||
+        d->max_vls > VBI_SPLIT_MAX_VLS)
         return VBNL_ERR_INVALID_ARGUMENT;
-    double t0 = vbnl_now();
+    double t0 = vbi_now();
     split_job job;
     memset(&job, 0, sizeof(job));
     job.d = d;
@@ -131,35 +131,35 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     job.end = d->path_count ? d->first_path + d->path_count : d->photon_paths;
     if (job.end < job.begin)
         return VBNL_ERR_INVALID_ARGUMENT;
-    job.chunk = d->chunk ? d->chunk : VBNL_SPLIT_DEFAULT_CHUNK;
+    job.chunk = d->chunk ? d->chunk : VBI_SPLIT_DEFAULT_CHUNK;
     job.max_vls = d->max_vls;
     job.inv_paths = (float)(1.0 / (double)d->photon_paths);
-    job.inv_unit = 1.0 / vbnl_profile_set_unit(d->profiles);
-    _Static_assert(VBNL_SPLIT_BIN_BITS % 3u == 0 && VBNL_SPLIT_BIN_BITS <= 24u, "bins: whole Morton triples");
-    job.key_grid = vbnl_vl_index_key_grid(d->index);
-    job.bins = 1u << VBNL_SPLIT_BIN_BITS;
+    job.inv_unit = 1.0 / vbi_profile_set_unit(d->profiles);
+    _Static_assert(VBI_SPLIT_BIN_BITS % 3u == 0 && VBI_SPLIT_BIN_BITS <= 24u, "bins: whole Morton triples");
+    job.key_grid = vbi_vl_index_key_grid(d->index);
+    job.bins = 1u << VBI_SPLIT_BIN_BITS;
     {
-        const vbnl_vl_index *x = d->index;
-        job.cell_fast = x->kind == VBNL_VL_INDEX_GRID && x->level_count == 1 && x->levels[0].dense;
+        const vbi_vl_index *x = d->index;
+        job.cell_fast = x->kind == VBI_VL_INDEX_GRID && x->level_count == 1 && x->levels[0].dense;
         if (job.cell_fast) {
             const grid_level *g = &x->levels[0];
             int32_t nmax = g->n[0] > g->n[1] ? g->n[0] : g->n[1];
             nmax = nmax > g->n[2] ? nmax : g->n[2];
-            while (((uint32_t)(nmax - 1) >> job.cell_shift) >= (1u << (VBNL_SPLIT_BIN_BITS / 3u)))
+            while (((uint32_t)(nmax - 1) >> job.cell_shift) >= (1u << (VBI_SPLIT_BIN_BITS / 3u)))
                 job.cell_shift++;
         }
     }
-    job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbnl_pool_thread_count(pool);
+    job.thread_count = stage ? vbnl_stage_thread_count(stage) : vbi_pool_thread_count(pool);
     if (job.thread_count == 0)
         job.thread_count = 1;
-    const uint32_t batch_hits = vbnl_split_batch_hits(job.thread_count);
-    uint32_t nvl = vbnl_vl_index_count(d->index);
+    const uint32_t batch_hits = vbi_split_batch_hits(job.thread_count);
+    uint32_t nvl = vbi_vl_index_count(d->index);
     job.empty = nvl == 0;
     uint8_t *glossy = NULL;
     vbnl_result res = VBNL_OK;
     for (uint32_t r = 0; r < nvl; ++r) {
-        uint32_t id = vbnl_vl_index_id(d->index, r);
-        if (!vbnl_profile_is_glossy(d->profiles, id))
+        uint32_t id = vbi_vl_index_id(d->index, r);
+        if (!vbi_profile_is_glossy(d->profiles, id))
             continue;
         if (!glossy && !(glossy = calloc(nvl, 1))) {
             res = VBNL_ERR_OUT_OF_MEMORY;
@@ -169,8 +169,8 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     }
     job.glossy = glossy;
     if (glossy)
-        job.maps_view = vbnl_profile_maps_view_of(d->profiles);
-    job.rec_normals = vbnl_vl_index_has_normals(d->index);
+        job.maps_view = vbi_profile_maps_view_of(d->profiles);
+    job.rec_normals = vbi_vl_index_has_normals(d->index);
     for (uint32_t r = 0; r < nvl && job.rec_normals; ++r) {
         const vl_rec *e = &d->index->rec[r];
         const vec3 nv = d->vl_normals[e->id];
@@ -182,35 +182,35 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
         goto done;
     }
     memset(job.threads, 0, sizeof(split_thread) * job.thread_count);
-    /* Per-thread sums unless they would take more than VBNL_SPLIT_MAX_SUM_BYTES (many threads
+    /* Per-thread sums unless they would take more than VBI_SPLIT_MAX_SUM_BYTES (many threads
      * and millions of VLs): then atomic adds into the set, the same bits. */
     int own_sums = !d->atomic_deposits &&
-                   (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBNL_SPLIT_MAX_SUM_BYTES;
-    /* 32-bit private maps for every worker when they fit in VBNL_SPLIT_MAX_MAP_COPY_BYTES and
+                   (double)nvl * (double)sizeof(split_vl) * job.thread_count <= (double)VBI_SPLIT_MAX_SUM_BYTES;
+    /* 32-bit private maps for every worker when they fit in VBI_SPLIT_MAX_MAP_COPY_BYTES and
      * an eighth of the machine's memory; else atomic splats into the set, the same bits. */
-    const size_t map_bytes = vbnl_profile_incident_bytes(d->profiles);
-    const uint64_t copy_bytes = vbnl_split_map_copy_bytes(map_bytes, job.thread_count);
+    const size_t map_bytes = vbi_profile_incident_bytes(d->profiles);
+    const uint64_t copy_bytes = vbi_split_map_copy_bytes(map_bytes, job.thread_count);
     const int map_copies = own_sums && copy_bytes > 0;
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i) {
         split_thread *t = &job.threads[i];
         t->cap = batch_hits;
-        if (own_sums && (t->vl = vbnl_big_alloc(sizeof(split_vl) * ((size_t)nvl + 1)))) {
+        if (own_sums && (t->vl = vbi_big_alloc(sizeof(split_vl) * ((size_t)nvl + 1)))) {
             memset(t->vl, 0, sizeof(split_vl) * ((size_t)nvl + 1));
             for (uint32_t r = 0; r < nvl; ++r) {
                 t->vl[r].rec = d->index->rec[r];
                 if (glossy && glossy[r]) /* slot + 1 in the zero lane (split_deposit) */
-                    t->vl[r].acc[3] = (uint64_t)vbnl_profile_slot(d->profiles, d->index->rec[r].id) + 1u;
+                    t->vl[r].acc[3] = (uint64_t)vbi_profile_slot(d->profiles, d->index->rec[r].id) + 1u;
             }
             t->acc = t->vl[0].acc;
         }
         if (t->acc && glossy && map_copies) {
-            t->maps = vbnl_big_calloc(map_bytes / 2u + SPLIT_MAP_SLACK, 1);
+            t->maps = vbi_big_calloc(map_bytes / 2u + SPLIT_MAP_SLACK, 1);
             if (!t->maps) {
                 res = VBNL_ERR_OUT_OF_MEMORY;
                 goto done;
             }
         }
-        t->hits = vbnl_big_alloc(t->cap * sizeof(split_rec));
+        t->hits = vbi_big_alloc(t->cap * sizeof(split_rec));
         t->order = malloc(t->cap * sizeof(uint32_t));
         t->bin = malloc(t->cap * sizeof(uint32_t));
         if (job.cell_fast && (!(t->cell = malloc(t->cap * sizeof(uint32_t))) ||
@@ -227,7 +227,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
     uint64_t items = (job.end - job.begin + job.chunk - 1) / job.chunk;
     job.items = items;
     if (items) {
-        if (vbnl_run_items(stage, pool, items, run_chunk, &job) != 0)
+        if (vbi_run_items(stage, pool, items, run_chunk, &job) != 0)
             res = VBNL_ERR_CANCELLED;
         /* the batches of threads whose last item was not among the last thread_count (also
          * after a cancel: the items that ran have finished) */
@@ -238,7 +238,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
      * splats; deposits of finished work items stay after a cancel). */
     for (unsigned i = 0; i < job.thread_count && !job.empty; ++i)
         if (job.threads[i].maps)
-            vbnl_profile_add_incident_lo32(d->profiles, job.threads[i].maps);
+            vbi_profile_add_incident_lo32(d->profiles, job.threads[i].maps);
     /* Phi_in: the threads' sums, added in rank order (integer adds: the same bits for any
      * thread count and order). */
     for (uint32_t r = 0; r < nvl && own_sums; ++r) {
@@ -247,11 +247,11 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             for (int c = 0; c < 3; ++c)
                 q[c] += job.threads[i].acc[ACC_STRIDE * (size_t)r + c];
         if (q[0] | q[1] | q[2])
-            vbnl_profile_add_power_fixed(d->profiles, vbnl_vl_index_id(d->index, r), q);
+            vbi_profile_add_power_fixed(d->profiles, vbi_vl_index_id(d->index, r), q);
     }
     if (stats) {
         for (unsigned i = 0; i < job.thread_count; ++i) {
-            const vbnl_split_stats *s = &job.threads[i].s;
+            const vbi_split_stats *s = &job.threads[i].s;
             stats->paths += s->paths;
             stats->rays += s->rays;
             stats->hits += s->hits;
@@ -265,7 +265,7 @@ vbnl_result vbnl_split_photons(const vbnl_split_desc *d, vbnl_pool *pool, vbnl_s
             for (int c = 0; c < 3; ++c)
                 stats->covered_power[c] += job.threads[i].cov[c];
         }
-        stats->seconds = vbnl_now() - t0;
+        stats->seconds = vbi_now() - t0;
         stats->scratch_bytes = job.empty ? 0u : (uint64_t)job.thread_count *
                                ((own_sums ? (uint64_t)sizeof(split_vl) * (nvl + 1) : 0ull) +
                                 (uint64_t)batch_hits *

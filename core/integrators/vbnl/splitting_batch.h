@@ -1,12 +1,12 @@
 /* Photon splitting, the batches: hits recorded with their cell and spatial bin, then deposited
  * in spatial order through a pipeline of prefetches (part of splitting.c, included once by it;
  * see there). */
-#ifndef VBNL_SPLITTING_BATCH_H
-#define VBNL_SPLITTING_BATCH_H
+#ifndef VBI_SPLITTING_BATCH_H
+#define VBI_SPLITTING_BATCH_H
 
-/* The quantised pre-test of the n listings from s0 (VBNL_VLI_PRETEST, the same candidates in
+/* The quantised pre-test of the n listings from s0 (VBI_VLI_PRETEST, the same candidates in
  * listing order) for a point at q (cell frame): the candidates' ranks go to cand (their count
- * is returned; beyond VBNL_VLI_PIPE_CAND only counted), their records and sums are prefetched.
+ * is returned; beyond VBI_VLI_PIPE_CAND only counted), their records and sums are prefetched.
  * The capacity is checked once per eight listings. */
 static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_level *g, const vl_rec *rec,
                                                                    const split_vl *vl, uint32_t s0, uint32_t n,
@@ -15,7 +15,7 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
     uint32_t nc = 0;
 #if defined(__AVX2__)
     const __m256 vx = _mm256_set1_ps(q[0]), vy = _mm256_set1_ps(q[1]), vz = _mm256_set1_ps(q[2]);
-    const __m256 sl = _mm256_set1_ps(VBNL_VLI_QSLACK);
+    const __m256 sl = _mm256_set1_ps(VBI_VLI_QSLACK);
     const __m256i byte = _mm256_set1_epi32(0xff);
     const uint32_t end = s0 + n;
     for (uint32_t b = s0 >> 3; b * 8u < end; ++b) { /* whole blocks (level_build pads cells) */
@@ -27,11 +27,11 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
         __m256 rr = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v, 24)), sl);
         __m256 d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
         unsigned bits = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(rr, rr), _CMP_LT_OQ));
-        if (nc + 8 > VBNL_VLI_PIPE_CAND) { /* near the capacity: count the rest */
+        if (nc + 8 > VBI_VLI_PIPE_CAND) { /* near the capacity: count the rest */
             while (bits) {
                 unsigned j = (unsigned)__builtin_ctz(bits);
                 bits &= bits - 1;
-                if (nc < VBNL_VLI_PIPE_CAND)
+                if (nc < VBI_VLI_PIPE_CAND)
                     cand[nc] = blk[8u + j];
                 ++nc;
             }
@@ -43,7 +43,7 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
         nc += (uint32_t)__builtin_popcount(bits);
     }
     /* the candidates' records and sums, for stage D */
-    uint32_t np = nc < VBNL_VLI_PIPE_CAND ? nc : VBNL_VLI_PIPE_CAND;
+    uint32_t np = nc < VBI_VLI_PIPE_CAND ? nc : VBI_VLI_PIPE_CAND;
     if (vl) {
         /* eight at once (a loop of 4 to 10 left its exit to the branch predictor); the entries
          * past nc are ranks too (the packed stores write 8, the slots start zeroed) */
@@ -56,8 +56,8 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
         for (uint32_t j = 0; j < np; ++j)
             __builtin_prefetch(rec + cand[j]);
 #else
-    VBNL_VLI_PRETEST(g, s0, n, q, {
-        if (nc < VBNL_VLI_PIPE_CAND) {
+    VBI_VLI_PRETEST(g, s0, n, q, {
+        if (nc < VBI_VLI_PIPE_CAND) {
             if (vl)
                 __builtin_prefetch(vl + rank_);
             else
@@ -78,16 +78,16 @@ static inline __attribute__((always_inline)) uint32_t fast_pretest(const grid_le
 typedef struct fast_slot {
     const split_rec *h;
     uint32_t s0, n, ncand;
-    uint32_t cand[VBNL_VLI_PIPE_CAND];
+    uint32_t cand[VBI_VLI_PIPE_CAND];
 } fast_slot;
 
-#define FAST_S VBNL_VLI_PIPE_STEP
-#define FAST_SLOTS VBNL_VLI_PIPE_SLOTS
+#define FAST_S VBI_VLI_PIPE_STEP
+#define FAST_SLOTS VBI_VLI_PIPE_SLOTS
 _Static_assert(FAST_SLOTS >= 3 * FAST_S + 1 && (FAST_SLOTS & (FAST_SLOTS - 1)) == 0, "fast pipe slots");
 
 typedef struct fast_pipe {
     const split_ctx *cx;
-    const vbnl_vl_index *x;
+    const vbi_vl_index *x;
     const grid_level *g;
     const split_rec *recs;
     const uint32_t *order, *scell;
@@ -110,7 +110,7 @@ static inline __attribute__((always_inline)) void fast_b(fast_pipe *fp, uint32_t
     uint32_t s0 = g->start[c], n = g->start[c + 1] - s0;
     sl->s0 = s0;
     sl->n = n;
-    vbnl_vli_prefetch_listings(g, s0, n); /* every line the pre-test reads */
+    vbi_vli_prefetch_listings(g, s0, n); /* every line the pre-test reads */
 }
 
 static inline __attribute__((always_inline)) void fast_c(fast_pipe *fp, uint32_t k)
@@ -193,7 +193,7 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
     /* Queries in that order, pipelined by the index (vl_index.h), which also prefetches this
      * thread's sums of the candidate VLs. */
     split_ctx cx = {job, t, t->hits, t->order};
-    vbnl_vl_batch b;
+    vbi_vl_batch b;
     memset(&b, 0, sizeof(b));
     b.count = n;
     b.order = t->order;
@@ -205,21 +205,21 @@ static __attribute__((noinline)) void flush_batch(const split_job *job, split_th
     b.filter = 1;
     b.normal_cos = job->d->normal_cos;
     b.facing = job->d->require_facing;
-    b.max_out = VBNL_SPLIT_QUERY_MAX;
+    b.max_out = VBI_SPLIT_QUERY_MAX;
     b.rank_data = t->vl; /* NULL: nothing to prefetch */
     b.rank_stride = sizeof(split_vl);
-    const vbnl_vl_index *x = job->d->index;
+    const vbi_vl_index *x = job->d->index;
     if (job->cell_fast) {
         run_fast_pipe(&cx, t->scell, n);
-    } else if (x->kind == VBNL_VL_INDEX_GRID && x->level_count <= VBNL_VLI_PIPE_LEVELS && b.max_out <= VBNL_SPLIT_QUERY_MAX) {
+    } else if (x->kind == VBI_VL_INDEX_GRID && x->level_count <= VBI_VLI_PIPE_LEVELS && b.max_out <= VBI_SPLIT_QUERY_MAX) {
         /* the index's pipeline with stage D fused with the deposit (split_pipe_d) */
-        vbnl_vl_found found[VBNL_VL_BATCH_MAX_OUT];
+        vbi_vl_found found[VBI_VL_BATCH_MAX_OUT];
         if (x->level_count == 1)
-            VBNL_VLI_RUN_PIPE(x, &b, found, split_pipe_d, &cx, 1u);
+            VBI_VLI_RUN_PIPE(x, &b, found, split_pipe_d, &cx, 1u);
         else
-            VBNL_VLI_RUN_PIPE(x, &b, found, split_pipe_d, &cx, x->level_count);
+            VBI_VLI_RUN_PIPE(x, &b, found, split_pipe_d, &cx, x->level_count);
     } else {
-        vbnl_vl_index_query_batch(x, &b, split_hit, &cx);
+        vbi_vl_index_query_batch(x, &b, split_hit, &cx);
     }
 #if defined(__AVX2__)
     if (t->sq.n) /* the glossy splats still queued */
@@ -275,14 +275,14 @@ static inline __attribute__((always_inline)) void record_hit(const split_job *jo
         *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, material};
         cell_frame(g, p, c3, h->q);
         t->cell[t->n] = c;
-        const uint32_t sh = job->cell_shift, b = VBNL_SPLIT_BIN_BITS / 3u;
-        t->bin[t->n] = vbnl_vl_key_spread_bits((uint32_t)c3[0] >> sh, b) |
-                       vbnl_vl_key_spread_bits((uint32_t)c3[1] >> sh, b) << 1 |
-                       vbnl_vl_key_spread_bits((uint32_t)c3[2] >> sh, b) << 2;
+        const uint32_t sh = job->cell_shift, b = VBI_SPLIT_BIN_BITS / 3u;
+        t->bin[t->n] = vbi_vl_key_spread_bits((uint32_t)c3[0] >> sh, b) |
+                       vbi_vl_key_spread_bits((uint32_t)c3[1] >> sh, b) << 1 |
+                       vbi_vl_key_spread_bits((uint32_t)c3[2] >> sh, b) << 2;
     } else {
         *h = (split_rec){p, ng, wo, beta, {0.0f, 0.0f, 0.0f}, material};
-        /* = vbnl_vl_index_spatial_key >> (63 - VBNL_SPLIT_BIN_BITS), inline */
-        t->bin[t->n] = vbnl_vl_key_bin(&job->key_grid, p, VBNL_SPLIT_BIN_BITS / 3u);
+        /* = vbi_vl_index_spatial_key >> (63 - VBI_SPLIT_BIN_BITS), inline */
+        t->bin[t->n] = vbi_vl_key_bin(&job->key_grid, p, VBI_SPLIT_BIN_BITS / 3u);
     }
     t->n++;
 }

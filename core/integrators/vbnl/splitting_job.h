@@ -1,7 +1,7 @@
 /* Photon splitting's working state (part of splitting.c, included once by it; see there): the
  * batch records, the per-thread sums and splat queues, the job. */
-#ifndef VBNL_SPLITTING_JOB_H
-#define VBNL_SPLITTING_JOB_H
+#ifndef VBI_SPLITTING_JOB_H
+#define VBI_SPLITTING_JOB_H
 
 #define SPLAT_RING 16u
 
@@ -31,7 +31,7 @@ _Static_assert(sizeof(split_vl) == 64 && offsetof(split_vl, acc) == 32, "split_v
 
 #if defined(__AVX2__)
 /* A glossy splat prepared by the vector path (splat_queue_run): the footprint's two rows
- * (octahedral.h, vbnl_hemioct_footprint: texels x0 and x1 == x0 or x0 + 1 of rows y0 and y1) as
+ * (octahedral.h, vbi_hemioct_footprint: texels x0 and x1 == x0 or x0 + 1 of rows y0 and y1) as
  * eight 32-bit lanes from texel x0's first channel on: x0's three channels, x0 + 1's three, and
  * two lanes that get zero (the next texel's, or the maps' 32 bytes of slack). One unaligned load,
  * add and store per row instead of twelve adds; carry[r] is x0's texel in the set's maps. */
@@ -45,7 +45,7 @@ typedef struct splat_rows {
 typedef struct splat_slot {
     int rows;
     union {
-        vbnl_profile_splat32 sp;
+        vbi_profile_splat32 sp;
 #if defined(__AVX2__)
         splat_rows sr;
 #endif
@@ -68,7 +68,7 @@ typedef struct splat_queue {
 
 /* Per-thread state; the counters sit on their own cache lines. */
 typedef struct split_thread {
-    _Alignas(64) vbnl_split_stats s;
+    _Alignas(64) vbi_split_stats s;
     split_vl *vl;        /* by index rank: record copies and this thread's sums (NULL: atomic
                           * deposits into the set) */
     uint64_t *acc;       /* vl[0].acc: rank r's sums at acc + ACC_STRIDE r, 32-byte aligned */
@@ -87,7 +87,7 @@ typedef struct split_thread {
 #if defined(__AVX2__)
     splat_queue sq; /* glossy splats before they are prepared (lanes past n: earlier entries or zeros) */
 #endif
-    /* This thread's 32-bit incident maps (profiles.h, vbnl_profile_splat_prepare_lo32), which
+    /* This thread's 32-bit incident maps (profiles.h, vbi_profile_splat_prepare_lo32), which
      * it splats into with plain adds and which are added into the set when the run ends; NULL:
      * atomic adds into the set's maps (no glossy VL, no per-thread sums, or maps over the
      * budget). */
@@ -95,23 +95,23 @@ typedef struct split_thread {
 } split_thread;
 
 typedef struct split_job {
-    const vbnl_split_desc *d;
+    const vbi_split_desc *d;
     uint64_t begin, end;     /* global path range */
     uint64_t items;          /* work items of `chunk` paths */
     uint32_t chunk, max_vls;
     float inv_paths;
     double inv_unit;         /* 1 / fixed-point unit of the profiles (exact: a power of two) */
     const uint8_t *glossy;   /* by rank: the VL keeps a map; NULL when none does */
-    vbnl_vl_key_grid key_grid; /* bin = vbnl_vl_key_bin(key grid, p, VBNL_SPLIT_BIN_BITS / 3) */
+    vbi_vl_key_grid key_grid; /* bin = vbi_vl_key_bin(key grid, p, VBI_SPLIT_BIN_BITS / 3) */
     uint32_t bins;
     /* The index is one dense grid level (uniform radii): hits carry their cell (split_rec), and
-     * the bin is the Morton code of the cell coordinates >> cell_shift (VBNL_SPLIT_BIN_BITS / 3
+     * the bin is the Morton code of the cell coordinates >> cell_shift (VBI_SPLIT_BIN_BITS / 3
      * bits each), so the key grid is not needed. */
     int cell_fast;
     uint32_t cell_shift;
     int empty;               /* the index holds no VL */
     int rec_normals;         /* every index record's normal is bit for bit d->vl_normals[id] */
-    vbnl_profile_maps_view maps_view; /* for the threads' vector splats (splat_queue_run) */
+    vbi_profile_maps_view maps_view; /* for the threads' vector splats (splat_queue_run) */
     split_thread *threads;
     unsigned thread_count;
 } split_job;

@@ -1,22 +1,22 @@
 /* Photon splitting, the photon paths: eight paths in flight per thread, their rays traced as one
  * packet and the common hits set up and bounced eight at a time (part of splitting.c, included
  * once by it; see there). */
-#ifndef VBNL_SPLITTING_LANES_H
-#define VBNL_SPLITTING_LANES_H
+#ifndef VBI_SPLITTING_LANES_H
+#define VBI_SPLITTING_LANES_H
 
 typedef struct split_visit {
     const split_job *job;
     split_thread *t;
 } split_visit;
 
-static void split_visit_fn(void *user, const vbnl_photon_vertex *v)
+static void split_visit_fn(void *user, const vbi_photon_vertex *v)
 {
     split_visit *sv = user;
     record_hit(sv->job, sv->t, v->hit->p, v->ng, v->wo, v->beta, v->hit->material);
 }
 
 /* No VL at all: no hit can deposit. */
-static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
+static void skip_visit_fn(void *user, const vbi_photon_vertex *v)
 {
     (void)user;
     (void)v;
@@ -39,16 +39,16 @@ static void skip_visit_fn(void *user, const vbnl_photon_vertex *v)
 #define SPLIT_LANES 8u
 
 /* The paths in flight, a structure of arrays (the SIMD step reads each field as a vector);
- * lane i's vbnl_photon_state is (o, d, b, depth, max_depth)[i]. */
+ * lane i's vbi_photon_state is (o, d, b, depth, max_depth)[i]. */
 typedef struct photon_lanes {
     _Alignas(32) float ox[SPLIT_LANES], oy[SPLIT_LANES], oz[SPLIT_LANES];
     _Alignas(32) float dx[SPLIT_LANES], dy[SPLIT_LANES], dz[SPLIT_LANES];
     _Alignas(32) float bx[SPLIT_LANES], by[SPLIT_LANES], bz[SPLIT_LANES];
     _Alignas(32) int32_t depth[SPLIT_LANES], max_depth[SPLIT_LANES];
-    vbnl_rng rng[SPLIT_LANES];
+    vbi_rng rng[SPLIT_LANES];
 } photon_lanes;
 
-static inline __attribute__((always_inline)) void lane_get(const photon_lanes *L, uint32_t i, vbnl_photon_state *ps)
+static inline __attribute__((always_inline)) void lane_get(const photon_lanes *L, uint32_t i, vbi_photon_state *ps)
 {
     ps->o = v3(L->ox[i], L->oy[i], L->oz[i]);
     ps->dir = v3(L->dx[i], L->dy[i], L->dz[i]);
@@ -57,7 +57,7 @@ static inline __attribute__((always_inline)) void lane_get(const photon_lanes *L
     ps->max_depth = L->max_depth[i];
 }
 
-static inline __attribute__((always_inline)) void lane_put(photon_lanes *L, uint32_t i, const vbnl_photon_state *ps)
+static inline __attribute__((always_inline)) void lane_put(photon_lanes *L, uint32_t i, const vbi_photon_state *ps)
 {
     L->ox[i] = ps->o.x, L->oy[i] = ps->o.y, L->oz[i] = ps->o.z;
     L->dx[i] = ps->dir.x, L->dy[i] = ps->dir.y, L->dz[i] = ps->dir.z;
@@ -78,15 +78,15 @@ static inline __attribute__((always_inline)) void lane_move(photon_lanes *L, uin
 
 /* Starts path k, or the next ones whose emission succeeds, in lane i; 0 when [*k, e) has none. */
 static inline __attribute__((always_inline)) int lane_start(const split_job *job, split_thread *t,
-                                                            const vbnl_photon_walk_desc *w, photon_lanes *L,
+                                                            const vbi_photon_walk_desc *w, photon_lanes *L,
                                                             uint32_t i, uint64_t *k, uint64_t e)
 {
     while (*k < e) {
-        vbnl_rng rng = vbnl_rng_for(job->d->seed, *k, 0);
+        vbi_rng rng = vbi_rng_for(job->d->seed, *k, 0);
         ++*k;
         t->s.paths++;
-        vbnl_photon_state ps;
-        if (vbnl_photon_emit(w, &rng, &ps)) {
+        vbi_photon_state ps;
+        if (vbi_photon_emit(w, &rng, &ps)) {
             L->rng[i] = rng;
             lane_put(L, i, &ps);
             return 1;
@@ -104,12 +104,12 @@ static inline __attribute__((always_inline)) void trace_packet(const vbnl_scene 
     _Alignas(32) int valid[8];
     for (uint32_t i = 0; i < 8; ++i) {
         valid[i] = i < n ? -1 : 0;
-        vbnl_rayhit8_set(r8, i, v3(L->ox[i], L->oy[i], L->oz[i]), v3(L->dx[i], L->dy[i], L->dz[i]), INFINITY);
+        vbi_rayhit8_set(r8, i, v3(L->ox[i], L->oy[i], L->oz[i]), v3(L->dx[i], L->dy[i], L->dz[i]), INFINITY);
     }
     rtcIntersect8(valid, sc->world, ictx, r8);
 }
 
-/* Lane i's answer as vbnl_photon_hit_from reads it. */
+/* Lane i's answer as vbi_photon_hit_from reads it. */
 static inline __attribute__((always_inline)) void packet_lane(const struct RTCRayHit8 *r8, uint32_t i,
                                                              struct RTCRayHit *rh)
 {
@@ -132,28 +132,28 @@ static inline __attribute__((always_inline)) void packet_lane(const struct RTCRa
 typedef struct fast_surf {
     _Alignas(32) float cr[8], cg[8], cb[8];
     _Alignas(32) float n[3][3][8]; /* [vertex][axis][lane] */
-    const vbnl_bsdf *bsdf[8];
+    const vbi_bsdf *bsdf[8];
     uint32_t material[8];
     unsigned shaded, other;
 } fast_surf;
 
 /* The lanes of `fast` (hits on a non-instanced triangle mesh whose material is untextured and
  * either a Lambertian with a non-black colour or, in sf->other, an opaque non-delta BSDF),
- * eight at once: vbnl_photon_hit_from, vbnl_photon_scatter with its visit (record_hit when
+ * eight at once: vbi_photon_hit_from, vbi_photon_scatter with its visit (record_hit when
  * `rec`) and bounce, operation for operation (hence the same bits): the hit point o + d t; the
- * unit normals (vbnl_fill_mesh_hit: the interpolated shading normal where the mesh has normals,
+ * unit normals (vbi_fill_mesh_hit: the interpolated shading normal where the mesh has normals,
  * the geometric one turned to its side) turned to face the photon; the frame of the shading
  * normal (frame_from_normal); the direction: cosine-weighted for the Lambertian lanes
- * (sample_cosine_hemisphere), vbnl_bsdf_sample of wo in the frame (frame_to_local) for the
+ * (sample_cosine_hemisphere), vbi_bsdf_sample of wo in the frame (frame_to_local) for the
  * others, one lane at a time; frame_to_world; the adjoint shading-normal correction; Russian
  * roulette; the offset origin of the next ray. Each lane draws from its own stream in the
  * general walk's order (the bounce's two numbers, then the roulette's). Returns the lanes of
  * `fast` that go on. */
 static inline __attribute__((always_inline)) unsigned step_fast(const split_job *job, split_thread *t,
-                                                               const vbnl_photon_walk_desc *w, photon_lanes *L,
+                                                               const vbi_photon_walk_desc *w, photon_lanes *L,
                                                                const struct RTCRayHit8 *r8, unsigned fast,
                                                                const fast_surf *sf, int rec,
-                                                               vbnl_photon_walk_stats *ws)
+                                                               vbi_photon_walk_stats *ws)
 {
     const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
     const __m256 ox = _mm256_load_ps(L->ox), oy = _mm256_load_ps(L->oy), oz = _mm256_load_ps(L->oz);
@@ -251,7 +251,7 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
         _mm256_store_ps(a[6], wox), _mm256_store_ps(a[7], woy), _mm256_store_ps(a[8], woz);
         _mm256_store_ps(a[9], bx), _mm256_store_ps(a[10], by), _mm256_store_ps(a[11], bz);
         const unsigned inside = (unsigned)_mm256_movemask_ps(in);
-        const uint32_t sh = job->cell_shift, bb = VBNL_SPLIT_BIN_BITS / 3u;
+        const uint32_t sh = job->cell_shift, bb = VBI_SPLIT_BIN_BITS / 3u;
         for (unsigned m = fast; m; m &= m - 1) {
             unsigned i = (unsigned)__builtin_ctz(m);
             if (inside >> i & 1u) {
@@ -262,13 +262,13 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
                                  v3(a[6][i], a[7][i], a[8][i]), v3(a[9][i], a[10][i], a[11][i]),
                                  {a[12][i], a[13][i], a[14][i]}, sf->material[i]};
                 t->cell[t->n] = cl[i];
-                t->bin[t->n] = vbnl_vl_key_spread_bits((uint32_t)ci[0][i] >> sh, bb) |
-                               vbnl_vl_key_spread_bits((uint32_t)ci[1][i] >> sh, bb) << 1 |
-                               vbnl_vl_key_spread_bits((uint32_t)ci[2][i] >> sh, bb) << 2;
+                t->bin[t->n] = vbi_vl_key_spread_bits((uint32_t)ci[0][i] >> sh, bb) |
+                               vbi_vl_key_spread_bits((uint32_t)ci[1][i] >> sh, bb) << 1 |
+                               vbi_vl_key_spread_bits((uint32_t)ci[2][i] >> sh, bb) << 2;
                 t->n++;
             }
-            ux[i] = vbnl_rng_next(&L->rng[i]);
-            uy[i] = vbnl_rng_next(&L->rng[i]);
+            ux[i] = vbi_rng_next(&L->rng[i]);
+            uy[i] = vbi_rng_next(&L->rng[i]);
         }
     } else {
         _Alignas(32) float a[12][8];
@@ -283,8 +283,8 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
             if (rec)
                 record_hit(job, t, v3(a[0][i], a[1][i], a[2][i]), v3(a[3][i], a[4][i], a[5][i]),
                            v3(a[6][i], a[7][i], a[8][i]), v3(a[9][i], a[10][i], a[11][i]), sf->material[i]);
-            ux[i] = vbnl_rng_next(&L->rng[i]);
-            uy[i] = vbnl_rng_next(&L->rng[i]);
+            ux[i] = vbi_rng_next(&L->rng[i]);
+            uy[i] = vbi_rng_next(&L->rng[i]);
         }
     }
     __m256 alive = _mm256_and_ps(mask8(fast), _mm256_cmp_ps(dot8(wox, woy, woz, sx, sy, sz), zero, _CMP_GT_OQ));
@@ -302,7 +302,7 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
         __m256 centre = _mm256_and_ps(_mm256_cmp_ps(ex, zero, _CMP_EQ_OQ), _mm256_cmp_ps(ey, zero, _CMP_EQ_OQ));
         __m256 first = _mm256_cmp_ps(_mm256_and_ps(ex, am), _mm256_and_ps(ey, am), _CMP_GT_OQ);
         __m256 r = sel8(first, ex, ey), other = sel8(first, ey, ex);
-        __m256 phi = _mm256_mul_ps(_mm256_set1_ps(VBNL_PI / 4.0f), _mm256_div_ps(other, r));
+        __m256 phi = _mm256_mul_ps(_mm256_set1_ps(VBI_PI / 4.0f), _mm256_div_ps(other, r));
         __m256 x2 = _mm256_mul_ps(phi, phi);
         /* sincos_quarter(phi): the same Horner steps, innermost first */
 #define SPLIT_H(acc, cst) _mm256_add_ps(_mm256_set1_ps(cst), _mm256_mul_ps(x2, (acc)))
@@ -328,7 +328,7 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
                                           zero));
     }
     alive = _mm256_and_ps(alive, _mm256_cmp_ps(wz, zero, _CMP_GT_OQ));
-    /* the other lanes: vbnl_bsdf_sample of wo in the frame, then their direction and weight */
+    /* the other lanes: vbi_bsdf_sample of wo in the frame, then their direction and weight */
     _Alignas(32) float owx[8], owy[8], owz[8], ogr[8], ogg[8], ogb[8];
     if (sf->other) {
         _Alignas(32) float lx[8], ly[8], lz[8];
@@ -338,9 +338,9 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
         unsigned ok = 0;
         for (unsigned m = sf->other; m; m &= m - 1) {
             unsigned i = (unsigned)__builtin_ctz(m);
-            vbnl_bsdf_sample_rec bs;
+            vbi_bsdf_sample_rec bs;
             owx[i] = owy[i] = owz[i] = ogr[i] = ogg[i] = ogb[i] = 0.0f;
-            if (!vbnl_bsdf_sample(sf->bsdf[i], v3(lx[i], ly[i], lz[i]), (vec2){ux[i], uy[i]}, &bs) ||
+            if (!vbi_bsdf_sample(sf->bsdf[i], v3(lx[i], ly[i], lz[i]), (vec2){ux[i], uy[i]}, &bs) ||
                 v3_is_black(bs.weight))
                 continue;
             ok |= 1u << i;
@@ -398,7 +398,7 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
         _mm256_store_ps(qa, q);
         for (unsigned m = draw; m; m &= m - 1) {
             unsigned i = (unsigned)__builtin_ctz(m);
-            ua[i] = vbnl_rng_next(&L->rng[i]);
+            ua[i] = vbi_rng_next(&L->rng[i]);
         }
         /* survivors: drawn and below q; lanes without roulette stay */
         __m256 survive = _mm256_and_ps(mask8(draw), _mm256_cmp_ps(_mm256_load_ps(ua), q, _CMP_LT_OQ));
@@ -422,7 +422,7 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
     /* ++depth < max_depth */
     const __m256i maxd = _mm256_load_si256((const __m256i *)L->max_depth);
     alive = _mm256_and_ps(alive, _mm256_castsi256_ps(_mm256_cmpgt_epi32(maxd, depth1)));
-    /* the next ray: vbnl_offset_ray_origin(p, ng, wi), whose normal faces wi already (ng . wi > 0
+    /* the next ray: vbi_offset_ray_origin(p, ng, wi), whose normal faces wi already (ng . wi > 0
      * above, and the hit's unflipped normal is turned to the same side), then wi */
     __m256 nox, noy, noz;
     {
@@ -456,17 +456,17 @@ static inline __attribute__((always_inline)) unsigned step_fast(const split_job 
 }
 #endif
 
-/* Paths [b, e) of the walk (vbnl_photon_walk_inline's steps), SPLIT_LANES at a time; `rec`:
+/* Paths [b, e) of the walk (vbi_photon_walk_inline's steps), SPLIT_LANES at a time; `rec`:
  * hits are recorded (else there is no VL to deposit into). */
 static inline __attribute__((always_inline)) void trace_lanes(const split_job *job, split_thread *t, uint64_t b,
                                                              uint64_t e, int rec)
 {
-    const vbnl_split_desc *d = job->d;
+    const vbi_split_desc *d = job->d;
     const vbnl_scene *sc = d->scene;
-    vbnl_photon_walk_desc w = {sc, job->inv_paths, d->rr_depth, d->max_depth, 1, 1};
-    vbnl_photon_walk_stats ws = {0, 0, 0};
+    vbi_photon_walk_desc w = {sc, job->inv_paths, d->rr_depth, d->max_depth, 1, 1};
+    vbi_photon_walk_stats ws = {0, 0, 0};
     split_visit sv = {job, t};
-    const vbnl_photon_visit_fn visit = rec ? split_visit_fn : skip_visit_fn;
+    const vbi_photon_visit_fn visit = rec ? split_visit_fn : skip_visit_fn;
     photon_lanes L;
     memset(&L, 0, sizeof(L));
     _Alignas(32) struct RTCRayHit8 r8;
@@ -506,7 +506,7 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
                 continue;
             }
             if (sm->bsdf.type != VBNL_MATERIAL_LAMBERT) {
-                if (vbnl_bsdf_is_delta(&sm->bsdf) || vbnl_bsdf_is_transmissive(&sm->bsdf)) {
+                if (vbi_bsdf_is_delta(&sm->bsdf) || vbi_bsdf_is_transmissive(&sm->bsdf)) {
                     general |= 1u << i;
                     continue;
                 }
@@ -541,11 +541,11 @@ static inline __attribute__((always_inline)) void trace_lanes(const split_job *j
             unsigned i = (unsigned)__builtin_ctz(m);
             struct RTCRayHit rh;
             packet_lane(&r8, i, &rh);
-            vbnl_photon_state ps;
+            vbi_photon_state ps;
             lane_get(&L, i, &ps);
-            vbnl_hit hit;
-            if (vbnl_photon_hit_from(sc, ps.o, ps.dir, &rh, &hit) &&
-                vbnl_photon_scatter(&w, &L.rng[i], &ps, &hit, visit, &sv, &ws)) {
+            vbi_hit hit;
+            if (vbi_photon_hit_from(sc, ps.o, ps.dir, &rh, &hit) &&
+                vbi_photon_scatter(&w, &L.rng[i], &ps, &hit, visit, &sv, &ws)) {
                 lane_put(&L, i, &ps);
                 alive |= 1u << i;
             }

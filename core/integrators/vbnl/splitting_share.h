@@ -1,23 +1,23 @@
 /* Photon splitting, one hit: the VLs around it and their shares of its power (Li et al. 2022,
  * Section 3.3; part of splitting.c, included once by it; see there). */
-#ifndef VBNL_SPLITTING_SHARE_H
-#define VBNL_SPLITTING_SHARE_H
+#ifndef VBI_SPLITTING_SHARE_H
+#define VBI_SPLITTING_SHARE_H
 
-/* vbnl_profile_quantize (same bits), inlined: power -> steps of the unit, rounded to nearest,
- * clamped to [0, VBNL_PROFILE_MAX_DEPOSIT]. Values stay below 2^53, so the conversions through
+/* vbi_profile_quantize (same bits), inlined: power -> steps of the unit, rounded to nearest,
+ * clamped to [0, VBI_PROFILE_MAX_DEPOSIT]. Values stay below 2^53, so the conversions through
  * int64 give the same results as the unsigned ones, without their slow paths. */
 static inline uint64_t quantize1(float v, double inv_unit)
 {
     double x = (double)v * inv_unit;
     if (!(x > 0.0))
         return 0;
-    return x < VBNL_PROFILE_MAX_DEPOSIT ? (uint64_t)(int64_t)(x + 0.5) : (uint64_t)VBNL_PROFILE_MAX_DEPOSIT;
+    return x < VBI_PROFILE_MAX_DEPOSIT ? (uint64_t)(int64_t)(x + 0.5) : (uint64_t)VBI_PROFILE_MAX_DEPOSIT;
 }
 
-/* vbnl_profile_split_fixed (same bits) for the three channels at once. There
+/* vbi_profile_split_fixed (same bits) for the three channels at once. There
  * v = x < left ? trunc(x) : left, which is min(trunc(x), left) for 0 <= x < 2^53 (left is an
  * integer below 2^53, exact in double). */
-static inline void split3(const uint64_t q[3], uint32_t n, const float *w, uint64_t out[][VBNL_SPLIT_MAX_VLS])
+static inline void split3(const uint64_t q[3], uint32_t n, const float *w, uint64_t out[][VBI_SPLIT_MAX_VLS])
 {
     uint64_t left0 = q[0], left1 = q[1], left2 = q[2];
     double dq0 = (double)(int64_t)q[0], dq1 = (double)(int64_t)q[1], dq2 = (double)(int64_t)q[2];
@@ -64,7 +64,7 @@ static inline void vl_sort_by_rank(float *w, uint32_t *rk, uint32_t m)
  * drops the smallest (ties: larger id) m - max_vls times, or, when more than half go, moves the
  * largest to the front max_vls times and sorts them back by rank. Either keeps the same set in
  * the same order. Returns the sum of the kept weights in that order. */
-static inline float select_max_vls(const vbnl_vl_index *x, float *w, uint32_t *rk, uint32_t m, uint32_t max_vls)
+static inline float select_max_vls(const vbi_vl_index *x, float *w, uint32_t *rk, uint32_t m, uint32_t max_vls)
 {
     if (m - max_vls <= max_vls) {
         for (; m > max_vls; --m) {
@@ -107,17 +107,17 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
 {
     const split_job *job = cx->job;
     split_thread *t = cx->t;
-    vbnl_split_stats *st = &t->s;
-    const vbnl_vl_index *x = job->d->index;
+    vbi_split_stats *st = &t->s;
+    const vbi_vl_index *x = job->d->index;
     /* The support test (vl_support.h): the material, then the rays for the VLs that are not
      * clear. When a VL goes, the sum is that of the kept weights in order, as the candidate
      * tests form it. */
-    const vbnl_vl_support *sup = job->d->support;
+    const vbi_vl_support *sup = job->d->support;
     if (sup) {
         uint32_t k = 0;
         float s2 = 0.0f, tmax = 0.0f;
         for (uint32_t i = 0; i < m; ++i) {
-            const vbnl_vl_support *v = &sup[rk[i]];
+            const vbi_vl_support *v = &sup[rk[i]];
             if (v->material != h->material)
                 continue;
             tmax = v->tau > tmax ? v->tau : tmax;
@@ -128,13 +128,13 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
         }
         if (tmax > 0.0f) {
             const vbnl_scene *sc = job->d->scene;
-            const float hp = vbnl_vl_support_height(sc, h->p, h->n, tmax);
+            const float hp = vbi_vl_support_height(sc, h->p, h->n, tmax);
             uint32_t kk = 0;
             s2 = 0.0f;
             for (uint32_t i = 0; i < k; ++i) {
                 const vl_rec *e = x->rec + rk[i];
                 const float tau = sup[rk[i]].tau;
-                if (tau > 0.0f && !vbnl_vl_support_passes(sc, h->p, h->n, hp, v3(e->cx, e->cy, e->cz),
+                if (tau > 0.0f && !vbi_vl_support_passes(sc, h->p, h->n, hp, v3(e->cx, e->cy, e->cz),
                                                           v3(e->nx, e->ny, e->nz), tau))
                     continue;
                 w[kk] = w[i];
@@ -179,14 +179,14 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 return;
             /* The covered power before the split consumes `left`. */
             _mm256_store_si256((__m256i *)t->cov, _mm256_add_epi64(_mm256_load_si256((const __m256i *)t->cov), left));
-            /* vbnl_profile_split_fixed (same bits) with the normalisation w[i] / sum fused and the
+            /* vbi_profile_split_fixed (same bits) with the normalisation w[i] / sum fused and the
              * shares added straight into this thread's sums (by rank): v = min(trunc(q w), left)
              * per channel, trunc by floor (x >= 0) and the 2^52 trick, min and subtraction in
              * 64-bit lanes; the residue goes to the largest normalised weight (first on ties). */
             __m256i *a_big = NULL;
             float w_big = -1.0f;
             uint32_t i_big = 0;
-            _Alignas(32) uint64_t share[VBNL_SPLIT_MAX_VLS][4]; /* glossy: the shares to splat */
+            _Alignas(32) uint64_t share[VBI_SPLIT_MAX_VLS][4]; /* glossy: the shares to splat */
             uint64_t glossy = 0; /* bit i: VL i keeps a map (its slot + 1 in acc[3]) */
             const int any_glossy = job->glossy != NULL;
             for (uint32_t i = 0; i < m; ++i) {
@@ -222,7 +222,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
     }
 #endif
     /* Normalised weights; the residue of the exact split goes to the largest (first on ties),
-     * as in vbnl_profile_split_fixed (split3 finds the same one). */
+     * as in vbi_profile_split_fixed (split3 finds the same one). */
     for (uint32_t i = 0; i < m; ++i)
         w[i] /= sum;
     /* Quantise once, then partition exactly (profiles.h, "Fixed point"). */
@@ -230,9 +230,9 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                      quantize1(h->power.z, job->inv_unit)};
     if (!(q[0] | q[1] | q[2]))
         return;
-    uint64_t share[3][VBNL_SPLIT_MAX_VLS];
+    uint64_t share[3][VBI_SPLIT_MAX_VLS];
     split3(q, m, w, share);
-    const vbnl_split_desc *d = job->d;
+    const vbi_split_desc *d = job->d;
     for (uint32_t i = 0; i < m; ++i) {
         /* Phi_in into this thread's sums (plain adds, merged at the end), the direction into
          * the VL's map (split_thread.maps); without per-thread sums, both atomically into the
@@ -255,7 +255,7 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
                 frame fr = frame_from_normal(d->vl_normals[id]);
                 wl = frame_to_local(&fr, h->wi);
             }
-            vbnl_profile_deposit_fixed(d->profiles, id, wl, s3);
+            vbi_profile_deposit_fixed(d->profiles, id, wl, s3);
         }
     }
     st->covered_hits++;
@@ -266,15 +266,15 @@ static inline __attribute__((always_inline)) void split_deposit(const split_ctx 
 }
 
 /* The deposit of hit `hit` of the sorted batch from the index's answer `f` (containing spheres
- * that passed the filters, in rank order): the plain-query path (vbnl_vl_batch_fn). */
-static void split_found(const split_ctx *cx, const split_rec *h, uint32_t total, const vbnl_vl_found *f,
+ * that passed the filters, in rank order): the plain-query path (vbi_vl_batch_fn). */
+static void split_found(const split_ctx *cx, const split_rec *h, uint32_t total, const vbi_vl_found *f,
                         uint32_t nf)
 {
     if (!nf)
         return;
-    cx->t->s.overflow += total > VBNL_SPLIT_QUERY_MAX;
-    float w[VBNL_SPLIT_QUERY_MAX];
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX];
+    cx->t->s.overflow += total > VBI_SPLIT_QUERY_MAX;
+    float w[VBI_SPLIT_QUERY_MAX];
+    uint32_t rk[VBI_SPLIT_QUERY_MAX];
     uint32_t m = 0;
     for (uint32_t i = 0; i < nf; ++i) {
         float r = f[i].r;
@@ -291,44 +291,44 @@ static void split_found(const split_ctx *cx, const split_rec *h, uint32_t total,
         split_deposit(cx, h, w, rk, m, sum);
 }
 
-static void split_hit(void *user, uint32_t hit, uint32_t total, const vbnl_vl_found *f, uint32_t nf)
+static void split_hit(void *user, uint32_t hit, uint32_t total, const vbi_vl_found *f, uint32_t nf)
 {
     const split_ctx *cx = user;
     split_found(cx, &cx->recs[cx->order[hit]], total, f, nf);
 }
 
-/* The plain query of hit h (vbnl_vli_batch_plain) and its deposit. */
+/* The plain query of hit h (vbi_vli_batch_plain) and its deposit. */
 static void split_plain(const split_ctx *cx, const split_rec *h)
 {
-    const vbnl_split_desc *d = cx->job->d;
-    vbnl_vl_filter fl = {h->n, h->wi, d->normal_cos, d->require_facing};
-    vbnl_vl_found found[VBNL_SPLIT_QUERY_MAX];
-    uint32_t total = vbnl_vl_index_query_found(d->index, h->p, &fl, VBNL_SPLIT_QUERY_MAX, found);
-    split_found(cx, h, total, found, total < VBNL_SPLIT_QUERY_MAX ? total : VBNL_SPLIT_QUERY_MAX);
+    const vbi_split_desc *d = cx->job->d;
+    vbi_vl_filter fl = {h->n, h->wi, d->normal_cos, d->require_facing};
+    vbi_vl_found found[VBI_SPLIT_QUERY_MAX];
+    uint32_t total = vbi_vl_index_query_found(d->index, h->p, &fl, VBI_SPLIT_QUERY_MAX, found);
+    split_found(cx, h, total, found, total < VBI_SPLIT_QUERY_MAX ? total : VBI_SPLIT_QUERY_MAX);
 }
 
 /* Stage D of the index's batch pipeline (vl_index_pipe.h) fused with split_hit: the exact
  * test and the filters of the index's pipe_d on the ncand candidates (ranks) of hit h, the
  * weights straight from them (the same decisions, values and order as split_hit on pipe_d's
  * answer, without the answer records). */
-static inline __attribute__((always_inline)) void split_cands(const split_ctx *cx, const vbnl_vl_index *x,
+static inline __attribute__((always_inline)) void split_cands(const split_ctx *cx, const vbi_vl_index *x,
                                                               const split_rec *h, uint32_t ncand,
                                                               const uint32_t *cand, int levels)
 {
-    if (ncand > VBNL_VLI_PIPE_CAND) {
+    if (ncand > VBI_VLI_PIPE_CAND) {
         split_plain(cx, h);
         return;
     }
     const vec3 p = h->p, n = h->n, wi = h->wi;
     const float ncos = cx->job->d->normal_cos;
     const int use_cos = ncos > -1.0f, use_facing = cx->job->d->require_facing;
-    float w[VBNL_SPLIT_QUERY_MAX + 8]; /* + 8: the packed stores of the AVX2 path */
-    uint32_t rk[VBNL_SPLIT_QUERY_MAX + 8];
+    float w[VBI_SPLIT_QUERY_MAX + 8]; /* + 8: the packed stores of the AVX2 path */
+    uint32_t rk[VBI_SPLIT_QUERY_MAX + 8];
     uint32_t nf = 0, m = 0;
     float sum = 0.0f;
 #if defined(__AVX2__)
     /* Eight candidates at a time: the records transposed into lanes, then the decisions of
-     * vbnl_vli_accept (r > 0, d^2 < r^2 in double with exact products, the normal-cone and facing
+     * vbi_vli_accept (r > 0, d^2 < r^2 in double with exact products, the normal-cone and facing
      * filters) and the weights 1 - (float)d^2 / (r r) as in the scalar loop below; the kept
      * ones are appended and summed in candidate order. Missing lanes repeat candidate 0 and
      * are masked off. */
@@ -388,7 +388,7 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         if (!acc_bits)
             continue;
         nf += (uint32_t)__builtin_popcount(acc_bits);
-        if (nf > VBNL_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
+        if (nf > VBI_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
             split_plain(cx, h);
             return;
         }
@@ -421,10 +421,10 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         uint32_t rank = cand[i];
         const vl_rec *e = x->rec + rank;
         double d2;
-        if (!vbnl_vli_accept(e, p, use_cos, n, ncos, use_facing, wi, &d2))
+        if (!vbi_vli_accept(e, p, use_cos, n, ncos, use_facing, wi, &d2))
             continue;
         const float r = e->r;
-        if (nf == VBNL_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
+        if (nf == VBI_SPLIT_QUERY_MAX) { /* capped: the plain query keeps the smallest ids */
             split_plain(cx, h);
             return;
         }
@@ -447,9 +447,9 @@ static inline __attribute__((always_inline)) void split_cands(const split_ctx *c
         split_deposit(cx, h, w, rk, m, sum);
 }
 
-static inline __attribute__((always_inline)) void split_pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b,
-                                                               uint32_t k, const vbnl_vli_pipe_slot *s,
-                                                               vbnl_vl_found *found, void *user)
+static inline __attribute__((always_inline)) void split_pipe_d(const vbi_vl_index *x, const vbi_vl_batch *b,
+                                                               uint32_t k, const vbi_vli_pipe_slot *s,
+                                                               vbi_vl_found *found, void *user)
 {
     (void)b;
     (void)found;

@@ -1,6 +1,6 @@
 /* Photon splitting's AVX2 helpers (part of splitting.c, included once by it; see there). */
-#ifndef VBNL_SPLITTING_SIMD_H
-#define VBNL_SPLITTING_SIMD_H
+#ifndef VBI_SPLITTING_SIMD_H
+#define VBI_SPLITTING_SIMD_H
 
 #if defined(__AVX2__)
 /* Left-packing of 8 lanes by a mask (AVX2 has no compress): entry m holds, 4 bits per lane, the
@@ -88,7 +88,7 @@ static inline __attribute__((always_inline)) void frame8(__m256 nx, __m256 ny, _
 #endif
 
 #if defined(__AVX2__)
-/* One share of the exact integer split (vbnl_profile_split_fixed, same bits) in 64-bit lanes:
+/* One share of the exact integer split (vbi_profile_split_fixed, same bits) in 64-bit lanes:
  * v = min(floor(dq w), left), left -= v, with dq w >= 0 below 2^51, floor by rounding and the
  * 2^52 trick. split_deposit uses it for a photon among its VLs (the three channels in lanes 0-2,
  * one weight), splat_queue_run for a share among four texels (four splats' channel in the

@@ -1,11 +1,11 @@
 /* Photon splitting, glossy VLs: the splats of a VL's share into its incident direction map
  * (part of splitting.c, included once by it; see there). */
-#ifndef VBNL_SPLITTING_SPLAT_H
-#define VBNL_SPLITTING_SPLAT_H
+#ifndef VBI_SPLITTING_SPLAT_H
+#define VBI_SPLITTING_SPLAT_H
 
 /* A glossy splat into the thread's maps (split_thread.maps): the rows of splat_rows, each one
  * 32-bit add of eight lanes, unless a lane wraps past 2^32 (then that row lane by lane in 64 bits,
- * the high part into the set atomically, as vbnl_profile_splat_apply_lo32), or the general form. */
+ * the high part into the set atomically, as vbi_profile_splat_apply_lo32), or the general form. */
 static inline __attribute__((always_inline)) void splat_apply(const splat_slot *ss)
 {
 #if defined(__AVX2__)
@@ -31,7 +31,7 @@ static inline __attribute__((always_inline)) void splat_apply(const splat_slot *
         return;
     }
 #endif
-    vbnl_profile_splat_apply_lo32(&ss->u.sp);
+    vbi_profile_splat_apply_lo32(&ss->u.sp);
 }
 
 /* The next slot of the thread's ring of splats in flight; the oldest is applied first when the
@@ -50,7 +50,7 @@ static inline __attribute__((always_inline)) splat_slot *ring_take(split_thread 
 #if defined(__AVX2__)
 /* The queued splats (lanes [0, n) of t->sq) prepared eight at a time and put in the ring. Each
  * lane gets the values of the one-at-a-time form (frame_from_normal and frame_to_local of the
- * VL's normal, then vbnl_profile_splat_prepare_lo32: the footprint of vbnl_hemioct_footprint,
+ * VL's normal, then vbi_profile_splat_prepare_lo32: the footprint of vbi_hemioct_footprint,
  * the exact parts min(floor(q w_k), left) of each channel with the residue to the largest weight,
  * first on ties), operation for operation in the same order (this file is compiled without
  * contraction) but across the lanes: the frame and the footprint in float lanes, the split of
@@ -63,7 +63,7 @@ static __attribute__((noinline)) void splat_queue_run(const split_job *job, spli
     splat_queue *sq = &t->sq;
     const uint32_t n = sq->n;
     sq->n = 0;
-    const vbnl_profile_maps_view *mv = &job->maps_view;
+    const vbi_profile_maps_view *mv = &job->maps_view;
     const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), half = _mm256_set1_ps(0.5f);
     /* frame_from_normal(nv), then wl = frame_to_local(wi) */
     const __m256 nx = _mm256_load_ps(sq->nx), ny = _mm256_load_ps(sq->ny), nz = _mm256_load_ps(sq->nz);
@@ -72,7 +72,7 @@ static __attribute__((noinline)) void splat_queue_run(const split_job *job, spli
     frame8(nx, ny, nz, fr);
     const __m256 lx = dot8(wx, wy, wz, fr[0], fr[1], fr[2]), ly = dot8(wx, wy, wz, fr[3], fr[4], fr[5]),
                  lz = dot8(wx, wy, wz, nx, ny, nz);
-    /* vbnl_hemioct_encode_inline: fmaxf(z, 0) (max_ps gives 0 for a NaN, as fmaxf does; the sign
+    /* vbi_hemioct_encode_inline: fmaxf(z, 0) (max_ps gives 0 for a NaN, as fmaxf does; the sign
      * of a zero result cannot change l1), then the rotated diamond, clampf to [0, 1], (1, 1)
      * where l1 is not positive */
     const __m256 absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
@@ -86,7 +86,7 @@ static __attribute__((noinline)) void splat_queue_run(const split_job *job, spli
     uy = sel8(_mm256_cmp_ps(uy, zero, _CMP_LT_OQ), zero, sel8(_mm256_cmp_ps(uy, one, _CMP_GT_OQ), one, uy));
     ux = sel8(ok, ux, one);
     uy = sel8(ok, uy, one);
-    /* vbnl_hemioct_footprint */
+    /* vbi_hemioct_footprint */
     const __m256 resf = _mm256_set1_ps((float)mv->res);
     const __m256 x = _mm256_sub_ps(_mm256_mul_ps(ux, resf), half), y = _mm256_sub_ps(_mm256_mul_ps(uy, resf), half);
     const __m256 fx0 = _mm256_floor_ps(x), fy0 = _mm256_floor_ps(y);
@@ -171,7 +171,7 @@ static __attribute__((noinline)) void splat_queue_run(const split_job *job, spli
         const size_t base = 3 * (size_t)sq->slot[i] * mv->texels;
         if (general >> i & 1u) {
             const uint64_t s3[3] = {sq->q[0][i], sq->q[1][i], sq->q[2][i]};
-            if (!vbnl_profile_splat_prepare_lo32(job->d->profiles, t->maps, sq->slot[i],
+            if (!vbi_profile_splat_prepare_lo32(job->d->profiles, t->maps, sq->slot[i],
                                                  v3(awl[0][i], awl[1][i], awl[2][i]), s3, &ss->u.sp)) {
                 t->ring_n--;
                 continue;
@@ -210,7 +210,7 @@ static inline __attribute__((always_inline)) void glossy_splat(const split_job *
                                                                const split_vl *sv, uint32_t slot, vec3 wi,
                                                                const uint64_t s3[3])
 {
-    const vbnl_split_desc *d = job->d;
+    const vbi_split_desc *d = job->d;
     /* the record's normal when it is the VL's (split_job.rec_normals) */
     vec3 nv = job->rec_normals ? v3(sv->rec.nx, sv->rec.ny, sv->rec.nz) : d->vl_normals[sv->rec.id];
 #if defined(__AVX2__)
@@ -229,13 +229,13 @@ static inline __attribute__((always_inline)) void glossy_splat(const split_job *
     frame fr = frame_from_normal(nv);
     vec3 wl = frame_to_local(&fr, wi);
     if (!t->maps) { /* atomic adds into the set's maps */
-        vbnl_profile_splat sp;
-        if (vbnl_profile_splat_prepare_slot(d->profiles, slot, wl, s3, &sp))
-            vbnl_profile_splat_apply(&sp);
+        vbi_profile_splat sp;
+        if (vbi_profile_splat_prepare_slot(d->profiles, slot, wl, s3, &sp))
+            vbi_profile_splat_apply(&sp);
         return;
     }
     splat_slot *ss = ring_take(t);
-    if (!vbnl_profile_splat_prepare_lo32(d->profiles, t->maps, slot, wl, s3, &ss->u.sp))
+    if (!vbi_profile_splat_prepare_lo32(d->profiles, t->maps, slot, wl, s3, &ss->u.sp))
         t->ring_n--;
     else
         t->ring_at = (t->ring_at + 1) % SPLAT_RING;

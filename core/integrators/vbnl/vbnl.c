@@ -47,7 +47,7 @@ static const char *const elim_modes[] = {"adaptive", "uniform", "none", NULL};
 static const char *const sampling_modes[] = {"mis", "power", "bsdf", NULL};
 static const char *const view_modes[] = {"shaded", "lights", NULL};
 
-static const vbnl_param_spec vbnl_params_spec[] = {
+static const vbnl_param_spec vbi_params_spec[] = {
     {"virtual_lights", VBNL_PARAM_INT, 20000, NULL, 1, 5e7, NULL,
      "N, the number of virtual lights (paper, on a GPU: 130K-140K); under --time sized to the budget "
      "unless set"},
@@ -105,7 +105,7 @@ static const vbnl_param_spec vbnl_params_spec[] = {
     {"dot_scale", VBNL_PARAM_FLOAT, 0.2, NULL, 0.01, 1, NULL,
      "view=lights: dot radius as a fraction of the light's radius r_j"},
 };
-#define N_PARAMS (sizeof(vbnl_params_spec) / sizeof(vbnl_params_spec[0]))
+#define N_PARAMS (sizeof(vbi_params_spec) / sizeof(vbi_params_spec[0]))
 
 enum { SAMPLE_MIS = 0, SAMPLE_POWER = 1, SAMPLE_BSDF = 2 };
 enum { VIEW_SHADED = 0, VIEW_LIGHTS = 1 };
@@ -115,10 +115,10 @@ enum { VIEW_SHADED = 0, VIEW_LIGHTS = 1 };
 #define VL_GATHER_MAX 64u
 #define VL_CAND_MAX 128u /* candidates of one gather before it falls back to the index's query */
 
-typedef struct vbnl_state {
+typedef struct vbi_state {
     const vbnl_scene *scene;
     vbnl_context *ctx;
-    vbnl_prepare_params pp;
+    vbi_prepare_params pp;
     uint64_t photon_paths;
     uint64_t photon_first, photon_count; /* the range this process traces (count 0: the rest) */
     char *save_path, *load_path;         /* NULL when not given */
@@ -133,13 +133,13 @@ typedef struct vbnl_state {
     uint32_t off_vl, off_wv, off_depth, stride;
     vec3 cam_forward;
     /* the prepared set */
-    vbnl_vl_set vls;
-    vbnl_vl_index *index;
-    vbnl_hemioct *map;
-    vbnl_profile_set *profiles;
-    vbnl_profile_kernel **kernels;   /* per scene material (NULL where no light sits) */
-    vbnl_vl_shade shade;             /* what rendering reads per light, by rank (vl_shade.h) */
-    vbnl_vl_support *support;        /* by rank: the support test's data (vl_support.h), or NULL */
+    vbi_vl_set vls;
+    vbi_vl_index *index;
+    vbi_hemioct *map;
+    vbi_profile_set *profiles;
+    vbi_profile_kernel **kernels;   /* per scene material (NULL where no light sits) */
+    vbi_vl_shade shade;             /* what rendering reads per light, by rank (vl_shade.h) */
+    vbi_vl_support *support;        /* by rank: the support test's data (vl_support.h), or NULL */
     int prepared;
     /* time budget (sizing.h) */
     vbnl_budget *budget;             /* NULL for the calibration's own state */
@@ -149,21 +149,21 @@ typedef struct vbnl_state {
     double t_lights, t_photons, t_photons_first;
     double t_kernels;                /* of the fixed seconds: the conversion kernels */
     uint64_t cal_split;
-} vbnl_state;
+} vbi_state;
 
 static double param(const vbnl_integrator_env *env, const char *name)
 {
-    return vbnl_params_number(env->params, vbnl_params_spec, N_PARAMS, name);
+    return vbnl_params_number(env->params, vbi_params_spec, N_PARAMS, name);
 }
 
-static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_error *err)
+static vbnl_result vbi_create(const vbnl_integrator_env *env, void **out, vbnl_error *err)
 {
-    vbnl_state *s = calloc(1, sizeof(*s));
+    vbi_state *s = calloc(1, sizeof(*s));
     if (!s)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     s->scene = env->scene;
     s->ctx = env->ctx;
-    vbnl_prepare_params *pp = &s->pp;
+    vbi_prepare_params *pp = &s->pp;
     pp->virtual_lights = (uint32_t)param(env, "virtual_lights");
     s->budget = env->budget;
     s->lights_set = vbnl_params_has(env->params, "virtual_lights");
@@ -172,16 +172,16 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     /* under a budget the count is chosen in prepare (sizing.h), at most the rule's wish: that
      * bound is what the checks below see */
     if (sized && !s->lights_set)
-        pp->virtual_lights = (uint32_t)vbnl_sizing_lights_wanted(vbnl_budget_seconds(env->budget),
+        pp->virtual_lights = (uint32_t)vbi_sizing_lights_wanted(vbnl_budget_seconds(env->budget),
                                                                  vbnl_budget_pixels(env->budget));
     double cand = param(env, "candidates");
     double m = cand <= 1.0 ? pp->virtual_lights / cand : cand;
     pp->tile_size = (uint32_t)param(env, "tile_size");
     pp->specular_roughness = (float)param(env, "specular_roughness");
     pp->max_specular_chain = 4;
-    const char *em = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "elimination");
-    pp->elimination = !strcmp(em, "uniform") ? VBNL_ELIM_UNIFORM : !strcmp(em, "none") ? VBNL_ELIM_NONE
-                                                                                       : VBNL_ELIM_ADAPTIVE;
+    const char *em = vbnl_params_string(env->params, vbi_params_spec, N_PARAMS, "elimination");
+    pp->elimination = !strcmp(em, "uniform") ? VBI_ELIM_UNIFORM : !strcmp(em, "none") ? VBI_ELIM_NONE
+                                                                                       : VBI_ELIM_ADAPTIVE;
     pp->parallel_elimination = param(env, "parallel_elimination") != 0.0;
     pp->neighbours = (uint32_t)param(env, "neighbours");
     pp->early_stop = (float)param(env, "early_stop");
@@ -192,7 +192,7 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     s->photon_paths = (uint64_t)param(env, "photon_paths");
     s->profile_res = (uint32_t)param(env, "profile_resolution");
     s->lazy = param(env, "lazy_profiles") != 0.0;
-    const char *sm = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "sampling");
+    const char *sm = vbnl_params_string(env->params, vbi_params_spec, N_PARAMS, "sampling");
     s->sampling = !strcmp(sm, "power") ? SAMPLE_POWER : !strcmp(sm, "bsdf") ? SAMPLE_BSDF : SAMPLE_MIS;
     s->extension = param(env, "path_extension") != 0.0;
     s->n_min = (float)param(env, "n_min");
@@ -206,11 +206,11 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     s->photon_count = (uint64_t)param(env, "photon_count");
     s->placement_only = param(env, "placement_only") != 0.0;
     s->reuse_lights = param(env, "reuse_lights") != 0.0;
-    s->view = !strcmp(vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "view"), "lights") ? VIEW_LIGHTS
+    s->view = !strcmp(vbnl_params_string(env->params, vbi_params_spec, N_PARAMS, "view"), "lights") ? VIEW_LIGHTS
                                                                                                      : VIEW_SHADED;
     s->dot_scale = (float)param(env, "dot_scale");
-    const char *save = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "save_lights");
-    const char *load = vbnl_params_string(env->params, vbnl_params_spec, N_PARAMS, "load_lights");
+    const char *save = vbnl_params_string(env->params, vbi_params_spec, N_PARAMS, "save_lights");
+    const char *load = vbnl_params_string(env->params, vbi_params_spec, N_PARAMS, "load_lights");
     /* copies: the parameter list need not outlive the integrator */
     s->save_path = save && *save ? strdup(save) : NULL;
     s->load_path = load && *load ? strdup(load) : NULL;
@@ -255,13 +255,13 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
         pp->candidates = (uint32_t)m;
         /* Peak memory: candidates and the elimination's working set (~96 B each), the lights
          * with a glossy incident map each in the worst case (R^2 x 28 B) and the index, and
-         * photon splitting's private 32-bit maps (vbnl_split_map_copy_bytes of maps of
-         * R^2 x 24 B per light) and hit batches (vbnl_split_batch_bytes per thread). */
+         * photon splitting's private 32-bit maps (vbi_split_map_copy_bytes of maps of
+         * R^2 x 24 B per light) and hit batches (vbi_split_batch_bytes per thread). */
         double res2 = (double)s->profile_res * s->profile_res;
         double bytes = (double)pp->candidates * 96.0 + (double)pp->virtual_lights * (64.0 + res2 * 28.0 + 64.0);
-        bytes += (double)vbnl_split_map_copy_bytes((uint64_t)pp->virtual_lights * (uint64_t)res2 * 24u,
+        bytes += (double)vbi_split_map_copy_bytes((uint64_t)pp->virtual_lights * (uint64_t)res2 * 24u,
                                                    env->ctx->threads);
-        bytes += (double)env->ctx->threads * (double)vbnl_split_batch_bytes(vbnl_split_batch_hits(env->ctx->threads));
+        bytes += (double)env->ctx->threads * (double)vbi_split_batch_bytes(vbi_split_batch_hits(env->ctx->threads));
         double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
         if (phys > 0.0 && bytes > 0.8 * phys)
             r = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY,
@@ -289,21 +289,21 @@ static vbnl_result vbnl_create(const vbnl_integrator_env *env, void **out, vbnl_
     return VBNL_OK;
 }
 
-static void vbnl_destroy(void *state)
+static void vbi_destroy(void *state)
 {
-    vbnl_state *s = state;
+    vbi_state *s = state;
     if (!s)
         return;
     if (s->kernels) {
         for (uint32_t i = 0; i < s->scene->material_count; ++i)
-            vbnl_profile_kernel_destroy(s->kernels[i]);
+            vbi_profile_kernel_destroy(s->kernels[i]);
         free(s->kernels);
     }
-    vbnl_profile_set_destroy(s->profiles);
-    vbnl_hemioct_destroy(s->map);
-    vbnl_vl_index_destroy(s->index);
-    vbnl_vl_shade_free(&s->shade);
-    vbnl_vl_set_free(&s->vls);
+    vbi_profile_set_destroy(s->profiles);
+    vbi_hemioct_destroy(s->map);
+    vbi_vl_index_destroy(s->index);
+    vbi_vl_shade_free(&s->shade);
+    vbi_vl_set_free(&s->vls);
     free(s->support);
     free(s->save_path);
     free(s->load_path);
@@ -311,7 +311,7 @@ static void vbnl_destroy(void *state)
 }
 
 typedef struct convert_job {
-    vbnl_state *s;
+    vbi_state *s;
     float *power;
 } convert_job;
 
@@ -322,33 +322,33 @@ static void convert_chunk(void *user, uint64_t item, unsigned thread)
 {
     (void)thread;
     convert_job *job = user;
-    vbnl_state *s = job->s;
+    vbi_state *s = job->s;
     uint32_t begin = (uint32_t)item * CONVERT_CHUNK;
     uint32_t end = begin + CONVERT_CHUNK < s->vls.count ? begin + CONVERT_CHUNK : s->vls.count;
     for (uint32_t j = begin; j < end; ++j) {
-        const vbnl_profile_kernel *k = s->kernels[s->vls.material[j]];
-        job->power[j] = v3_max_comp(v3_mul(vbnl_profile_power(s->profiles, j, k), s->vls.tint[j]));
+        const vbi_profile_kernel *k = s->kernels[s->vls.material[j]];
+        job->power[j] = v3_max_comp(v3_mul(vbi_profile_power(s->profiles, j, k), s->vls.tint[j]));
         if (!s->lazy)
-            vbnl_profile_convert(s->profiles, j, k);
+            vbi_profile_convert(s->profiles, j, k);
     }
 }
 
 /* The index over the set and one conversion kernel per material carrying lights; s->vls and
  * s->profiles exist. */
-static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
+static vbnl_result setup_lights(vbi_state *s, vbnl_error *err)
 {
     const vbnl_scene *sc = s->scene;
     uint32_t n = s->vls.count;
-    vbnl_vl_index_desc id;
+    vbi_vl_index_desc id;
     memset(&id, 0, sizeof(id));
     id.centers = s->vls.position;
     id.radii = s->vls.radius;
     id.normals = s->vls.normal;
     id.count = n;
-    id.kind = VBNL_VL_INDEX_GRID;
-    double t0 = vbnl_now();
-    vbnl_result r = vbnl_vl_index_create(&id, &s->index);
-    s->t_lights += vbnl_now() - t0;
+    id.kind = VBI_VL_INDEX_GRID;
+    double t0 = vbi_now();
+    vbnl_result r = vbi_vl_index_create(&id, &s->index);
+    s->t_lights += vbi_now() - t0;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the virtual-light index (%s)", vbnl_result_name(r));
     if (!s->kernels) /* else the calibration's, kept (size_to_budget) */
@@ -361,52 +361,52 @@ static vbnl_result setup_lights(vbnl_state *s, vbnl_error *err)
         s->log_rmin = fminf(s->log_rmin, logf(s->vls.radius[j]));
         s->log_rmax = fmaxf(s->log_rmax, logf(s->vls.radius[j]));
     }
-    double t_k = vbnl_now();
+    double t_k = vbi_now();
     for (uint32_t j = 0; j < n && r == VBNL_OK; ++j) {
         uint32_t m = s->vls.material[j];
         if (!s->kernels[m])
-            r = vbnl_profile_kernel_create(s->map, &sc->materials[m].bsdf, 1, &s->kernels[m]);
+            r = vbi_profile_kernel_create(s->map, &sc->materials[m].bsdf, 1, &s->kernels[m]);
     }
-    s->t_kernels += vbnl_now() - t_k;
+    s->t_kernels += vbi_now() - t_k;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot build the profile conversion kernels");
     return VBNL_OK;
 }
 
 /* Which lights take the support test (vl_support.h), a stage of its own after the set exists. */
-static vbnl_result build_support(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+static vbnl_result build_support(vbi_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     if (!s->support_test || s->vls.count == 0)
         return VBNL_OK;
     uint32_t n = s->vls.count;
     if (!(s->support = malloc(sizeof(*s->support) * n)))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
-    double t0 = vbnl_now();
+    double t0 = vbi_now();
     if (stage)
         vbnl_stage_begin(stage, "support", n, "lights");
-    vbnl_vl_support_stats st;
-    vbnl_result r = vbnl_vl_support_build(s->scene, &s->vls, s->index, stage, NULL, s->support, &st);
+    vbi_vl_support_stats st;
+    vbnl_result r = vbi_vl_support_build(s->scene, &s->vls, s->index, stage, NULL, s->support, &st);
     if (stage) {
         vbnl_stage_set_work(stage, (double)st.rays, "rays");
         vbnl_stage_end(stage);
     }
-    s->t_lights += vbnl_now() - t0;
+    s->t_lights += vbi_now() - t0;
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, r == VBNL_ERR_CANCELLED ? "the support probes were cancelled"
                                                               : "out of memory for the support probes");
     return VBNL_OK;
 }
 
-static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err);
+static vbnl_result vbi_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err);
 
 /* The light count and photon paths for the time budget (sizing.h): a calibration (a whole
  * preparation of a small set, recorded as the stage "calibrate" and thrown away) measures the
  * seconds per light and per photon path on this scene, then the rule sizes what the user did
  * not set. Counts set by the user that cannot fit the preparation's bound are refused here,
  * before any of the sized work. */
-static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+static vbnl_result size_to_budget(vbi_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
-    vbnl_state *cal = malloc(sizeof(*cal));
+    vbi_state *cal = malloc(sizeof(*cal));
     if (!cal)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     *cal = *s;
@@ -421,24 +421,24 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
     cal->save_path = cal->load_path = NULL;
     cal->budget = NULL;
     const double ratio = (double)s->pp.candidates / (double)s->pp.virtual_lights; /* M / N */
-    uint32_t n_cal = s->pp.virtual_lights < VBNL_SIZING_CAL_LIGHTS ? s->pp.virtual_lights : VBNL_SIZING_CAL_LIGHTS;
+    uint32_t n_cal = s->pp.virtual_lights < VBI_SIZING_CAL_LIGHTS ? s->pp.virtual_lights : VBI_SIZING_CAL_LIGHTS;
     cal->pp.virtual_lights = n_cal;
     cal->pp.candidates = (uint32_t)ceil(ratio * n_cal);
-    cal->photon_paths = VBNL_SIZING_CAL_PATHS_FIRST + VBNL_SIZING_CAL_PATHS;
-    cal->cal_split = VBNL_SIZING_CAL_PATHS_FIRST;
+    cal->photon_paths = VBI_SIZING_CAL_PATHS_FIRST + VBI_SIZING_CAL_PATHS;
+    cal->cal_split = VBI_SIZING_CAL_PATHS_FIRST;
     cal->photon_first = cal->photon_count = 0;
     cal->t_lights = cal->t_photons = cal->t_photons_first = cal->t_kernels = 0.0;
     const char *record_as = stage ? stage->record_as : NULL;
     if (stage)
         stage->record_as = "calibrate";
-    double t0 = vbnl_now();
-    vbnl_result r = vbnl_prepare(cal, stage, err);
+    double t0 = vbi_now();
+    vbnl_result r = vbi_prepare(cal, stage, err);
     /* Fixed costs (the conversion kernels of each material, the maps, the splitting's set-up)
      * are paid again by the real preparation whatever its counts: apart from the costs per light
-     * and per path. Splitting's: from its two runs of VBNL_SIZING_CAL_PATHS_FIRST and
-     * VBNL_SIZING_CAL_PATHS paths. */
-    const double total = vbnl_now() - t0, t_a = cal->t_photons_first, t_b = cal->t_photons;
-    const double na = VBNL_SIZING_CAL_PATHS_FIRST, nb = VBNL_SIZING_CAL_PATHS;
+     * and per path. Splitting's: from its two runs of VBI_SIZING_CAL_PATHS_FIRST and
+     * VBI_SIZING_CAL_PATHS paths. */
+    const double total = vbi_now() - t0, t_a = cal->t_photons_first, t_b = cal->t_photons;
+    const double na = VBI_SIZING_CAL_PATHS_FIRST, nb = VBI_SIZING_CAL_PATHS;
     double per_path = (t_b - t_a) / (nb - na);
     if (!(per_path > 0.0))
         per_path = t_b / nb;
@@ -456,11 +456,11 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
         cal->map = NULL;
         cal->kernels = NULL;
     }
-    vbnl_destroy(cal);
+    vbi_destroy(cal);
     if (r != VBNL_OK)
         return r;
 
-    vbnl_sizing_in in;
+    vbi_sizing_in in;
     memset(&in, 0, sizeof(in));
     in.budget = vbnl_budget_seconds(s->budget);
     in.prepare_limit = vbnl_budget_prepare_limit(s->budget);
@@ -473,8 +473,8 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
     in.lights = s->pp.virtual_lights;
     in.paths_set = s->paths_set;
     in.paths = (double)s->photon_paths;
-    vbnl_sizing_out out;
-    vbnl_size_to_budget(&in, &out);
+    vbi_sizing_out out;
+    vbi_size_to_budget(&in, &out);
     if (!out.fits)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "integrator 'vbnl': with %s set explicitly (virtual_lights=%.0f, photon_paths=%.0f) "
@@ -502,9 +502,9 @@ static vbnl_result size_to_budget(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_err
 
 /* FNV-1a of every parameter that shaped a set prepared here and its photons (the file's
  * preparation fingerprint, vl_file.h): files to sum must agree on it. */
-static uint64_t preparation_fingerprint(const vbnl_state *s)
+static uint64_t preparation_fingerprint(const vbi_state *s)
 {
-    const vbnl_prepare_params *p = &s->pp;
+    const vbi_prepare_params *p = &s->pp;
     uint32_t bits[3];
     memcpy(&bits[0], &p->specular_roughness, 4);
     memcpy(&bits[1], &p->early_stop, 4);
@@ -513,27 +513,27 @@ static uint64_t preparation_fingerprint(const vbnl_state *s)
                           (uint64_t)p->elimination, (uint64_t)(p->parallel_elimination != 0), p->neighbours,
                           bits[1], bits[2], p->width, p->height, p->seed, s->photon_paths, s->profile_res,
                           (uint64_t)(s->support_test != 0)};
-    return vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, v, sizeof(v));
+    return vbi_vl_file_hash(VBI_VL_FILE_HASH_INIT, v, sizeof(v));
 }
 
 /* The file header of a set prepared here from the scene (stages 1-2), before its photons. */
-static void header_of_state(const vbnl_state *s, vbnl_vl_file_header *h)
+static void header_of_state(const vbi_state *s, vbi_vl_file_header *h)
 {
     const vbnl_scene *sc = s->scene;
     memset(h, 0, sizeof(*h));
-    h->fingerprint = vbnl_scene_fingerprint(sc);
+    h->fingerprint = vbi_scene_fingerprint(sc);
     h->virtual_lights = s->pp.virtual_lights;
     h->profile_resolution = s->profile_res;
     h->photon_paths = s->photon_paths;
-    h->unit = vbnl_profile_set_unit(s->profiles);
+    h->unit = vbi_profile_set_unit(s->profiles);
     h->seed = s->pp.seed;
     h->elimination = (uint32_t)s->pp.elimination;
     h->radius_scale = s->pp.radius_scale;
     h->material_count = sc->material_count;
-    h->flags = s->support_test ? VBNL_VL_FILE_SUPPORT_TEST : 0u;
+    h->flags = s->support_test ? VBI_VL_FILE_SUPPORT_TEST : 0u;
     h->width = s->pp.width;
     h->height = s->pp.height;
-    h->camera = vbnl_vl_file_camera_fingerprint(sc);
+    h->camera = vbi_vl_file_camera_fingerprint(sc);
     h->preparation = preparation_fingerprint(s);
     h->placement_seconds = s->placement_seconds;
     h->elimination_seconds = s->elimination_seconds;
@@ -543,13 +543,13 @@ static void header_of_state(const vbnl_state *s, vbnl_vl_file_header *h)
  * that normalise the flux, so that the files of disjoint ranges sum to one run (splitting.h);
  * then save_lights with header `h` (its range and photon figures filled here). The set, its
  * index and support data exist. */
-static vbnl_result split_and_save(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_vl_file_header *h, vbnl_error *err)
+static vbnl_result split_and_save(vbi_state *s, vbnl_stage_ctx *stage, vbi_vl_file_header *h, vbnl_error *err)
 {
     uint64_t count = s->photon_count ? s->photon_count : s->photon_paths - s->photon_first;
     if (stage)
         vbnl_stage_begin(stage, "photons", (double)count, "paths");
-    vbnl_split_desc sd;
-    vbnl_split_desc_init(&sd);
+    vbi_split_desc sd;
+    vbi_split_desc_init(&sd);
     sd.scene = s->scene;
     sd.index = s->index;
     sd.vl_normals = s->vls.normal;
@@ -560,20 +560,20 @@ static vbnl_result split_and_save(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_vl_
     sd.seed = s->pp.seed;
     sd.normal_cos = VL_NORMAL_COS;
     sd.support = s->support;
-    vbnl_split_stats sst;
-    double t_split = vbnl_now();
+    vbi_split_stats sst;
+    double t_split = vbi_now();
     vbnl_result r = VBNL_OK;
     if (s->cal_split > 0 && s->cal_split < count) { /* the calibration: two runs, see size_to_budget */
         sd.path_count = s->cal_split;
-        r = vbnl_split_photons(&sd, NULL, stage, &sst);
-        s->t_photons_first = vbnl_now() - t_split;
-        t_split = vbnl_now();
+        r = vbi_split_photons(&sd, NULL, stage, &sst);
+        s->t_photons_first = vbi_now() - t_split;
+        t_split = vbi_now();
         sd.first_path += s->cal_split;
         sd.path_count = count - s->cal_split;
     }
     if (r == VBNL_OK)
-        r = vbnl_split_photons(&sd, NULL, stage, &sst);
-    s->t_photons = vbnl_now() - t_split;
+        r = vbi_split_photons(&sd, NULL, stage, &sst);
+    s->t_photons = vbi_now() - t_split;
     if (stage) {
         vbnl_stage_set_work(stage, (double)sst.rays, "rays");
         vbnl_stage_end(stage);
@@ -586,21 +586,21 @@ static vbnl_result split_and_save(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_vl_
     h->photon_count = count;
     h->photon_seconds = s->t_photons;
     h->photon_rays = (double)sst.rays;
-    return s->save_path ? vbnl_vl_file_save(s->save_path, h, &s->vls, s->profiles, err) : VBNL_OK;
+    return s->save_path ? vbi_vl_file_save(s->save_path, h, &s->vls, s->profiles, err) : VBNL_OK;
 }
 
 /* Stages 1-3: placement, elimination, photon splitting of this process's photon range; with
  * placement_only, stages 1-2 saved as a placement. */
-static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+static vbnl_result prepare_from_scene(vbi_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     const vbnl_scene *sc = s->scene;
     vbnl_result r = VBNL_OK;
     if (s->budget && vbnl_budget_seconds(s->budget) > 0.0 && (r = size_to_budget(s, stage, err)) != VBNL_OK)
         return r;
-    double t_prep = vbnl_now();
-    vbnl_prepare_stats ps;
-    r = vbnl_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, &ps, err);
-    s->t_lights += vbnl_now() - t_prep;
+    double t_prep = vbi_now();
+    vbi_prepare_stats ps;
+    r = vbi_prepare_lights(sc, &s->pp, stage, NULL, &s->vls, &ps, err);
+    s->t_lights += vbi_now() - t_prep;
     s->placement_seconds = ps.seconds[0];
     s->elimination_seconds = ps.seconds[1];
     if (r != VBNL_OK)
@@ -611,18 +611,18 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", n);
     for (uint32_t j = 0; j < n; ++j)
         glossy[j] = sc->materials[s->vls.material[j]].desc.type != VBNL_MATERIAL_LAMBERT;
-    if ((r = s->map ? VBNL_OK : vbnl_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
-        r = vbnl_profile_set_create_fixed(s->map, n, glossy, vbnl_split_photon_unit(sc, s->photon_paths),
+    if ((r = s->map ? VBNL_OK : vbi_hemioct_create(s->profile_res, &s->map)) == VBNL_OK)
+        r = vbi_profile_set_create_fixed(s->map, n, glossy, vbi_split_photon_unit(sc, s->photon_paths),
                                           &s->profiles);
     free(glossy);
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "cannot allocate the emission profiles of %u lights", n);
-    vbnl_vl_file_header h; /* only a saved set needs it (the scene's fingerprint reads all its geometry) */
+    vbi_vl_file_header h; /* only a saved set needs it (the scene's fingerprint reads all its geometry) */
     memset(&h, 0, sizeof(h));
     if (s->save_path)
         header_of_state(s, &h);
     if (s->placement_only) /* photon range [0, 0): other processes trace the photons */
-        return vbnl_vl_file_save(s->save_path, &h, &s->vls, s->profiles, err);
+        return vbi_vl_file_save(s->save_path, &h, &s->vls, s->profiles, err);
     if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)
         return r;
     return split_and_save(s, stage, &h, err);
@@ -631,19 +631,19 @@ static vbnl_result prepare_from_scene(vbnl_state *s, vbnl_stage_ctx *stage, vbnl
 /* A loaded set must have been prepared for this render: the same image size, camera and seed,
  * and the counts the user set (unless reuse_lights). The file's other preparation parameters
  * replace the given ones. */
-static vbnl_result check_loaded(const vbnl_state *s, const vbnl_vl_file_header *h, vbnl_error *err)
+static vbnl_result check_loaded(const vbi_state *s, const vbi_vl_file_header *h, vbnl_error *err)
 {
     const char *fix = "prepare the lights for this render, or set reuse_lights=on to render them anyway";
     if (h->width != s->pp.width || h->height != s->pp.height)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "load_lights: '%s' was prepared for a %ux%u image, this render is %ux%u: %s",
                               s->load_path, h->width, h->height, s->pp.width, s->pp.height, fix);
-    if (h->camera != vbnl_vl_file_camera_fingerprint(s->scene))
+    if (h->camera != vbi_vl_file_camera_fingerprint(s->scene))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "load_lights: '%s' was prepared for another camera (fingerprint %016llx, this "
                               "render's %016llx): %s",
                               s->load_path, (unsigned long long)h->camera,
-                              (unsigned long long)vbnl_vl_file_camera_fingerprint(s->scene), fix);
+                              (unsigned long long)vbi_vl_file_camera_fingerprint(s->scene), fix);
     if (h->seed != s->pp.seed)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "load_lights: '%s' was prepared with seed %llu, this render has seed %llu: %s",
@@ -663,14 +663,14 @@ static vbnl_result check_loaded(const vbnl_state *s, const vbnl_vl_file_header *
 /* Instead of stages 1-3: the set and its photon data from load_lights (vl_file.h). A placement
  * has the photon range [photon_first, + photon_count) traced on it (stage 3), and is saved with
  * it when save_lights is set. */
-static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
+static vbnl_result prepare_from_file(vbi_state *s, vbnl_stage_ctx *stage, vbnl_error *err)
 {
     if (s->budget && vbnl_budget_seconds(s->budget) > 0.0)
         vbnl_budget_choose(s->budget, "virtual_lights", 0, "load_lights: the counts of the file, not sized");
     if (stage)
         vbnl_stage_begin(stage, "load", 0, "files");
-    vbnl_vl_file_data d;
-    vbnl_result r = vbnl_vl_file_load(s->load_path, s->scene, &d, err);
+    vbi_vl_file_data d;
+    vbnl_result r = vbi_vl_file_load(s->load_path, s->scene, &d, err);
     if (stage)
         vbnl_stage_end(stage);
     if (r != VBNL_OK)
@@ -692,7 +692,7 @@ static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_
                            (unsigned long long)s->photon_first, (unsigned long long)s->photon_count,
                            (unsigned long long)d.header.photon_paths, s->load_path);
     if (r != VBNL_OK) {
-        vbnl_vl_file_data_free(&d);
+        vbi_vl_file_data_free(&d);
         return r;
     }
     /* the file's preparation parameters replace the ones given */
@@ -703,23 +703,23 @@ static vbnl_result prepare_from_file(vbnl_state *s, vbnl_stage_ctx *stage, vbnl_
     s->profile_res = d.header.profile_resolution;
     s->pp.virtual_lights = d.header.virtual_lights;
     s->pp.seed = d.header.seed;
-    s->pp.elimination = (vbnl_elim_mode)d.header.elimination;
+    s->pp.elimination = (vbi_elim_mode)d.header.elimination;
     s->pp.radius_scale = d.header.radius_scale;
-    s->support_test = (d.header.flags & VBNL_VL_FILE_SUPPORT_TEST) != 0; /* as the photons were split */
+    s->support_test = (d.header.flags & VBI_VL_FILE_SUPPORT_TEST) != 0; /* as the photons were split */
     if ((r = setup_lights(s, err)) != VBNL_OK || (r = build_support(s, stage, err)) != VBNL_OK)
         return r;
     if (placement)
         return split_and_save(s, stage, &d.header, err);
     if (s->save_path) { /* e.g. several photon ranges summed into one file */
-        d.header.fingerprint = vbnl_scene_fingerprint(s->scene);
-        r = vbnl_vl_file_save(s->save_path, &d.header, &s->vls, s->profiles, err);
+        d.header.fingerprint = vbi_scene_fingerprint(s->scene);
+        r = vbi_vl_file_save(s->save_path, &d.header, &s->vls, s->profiles, err);
     }
     return r;
 }
 
-static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
+static vbnl_result vbi_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *err)
 {
-    vbnl_state *s = state;
+    vbi_state *s = state;
     /* a scene with media is path traced (trace): no virtual lights to prepare */
     if (s->scene->has_media)
         return VBNL_OK;
@@ -729,28 +729,28 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
     uint32_t n = s->vls.count;
 
     /* 4. profiles: power table (and the eager conversion) */
-    double t4 = vbnl_now();
+    double t4 = vbi_now();
     if (stage)
         vbnl_stage_begin(stage, "profiles", n, "lights");
     convert_job cj = {s, malloc(sizeof(float) * n)};
     if (!cj.power)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    int rc = vbnl_run_items(stage, NULL, (n + CONVERT_CHUNK - 1) / CONVERT_CHUNK, convert_chunk, &cj);
+    int rc = vbi_run_items(stage, NULL, (n + CONVERT_CHUNK - 1) / CONVERT_CHUNK, convert_chunk, &cj);
     if (stage)
         vbnl_stage_end(stage);
     /* the render records with the power alias table; when no light received any photon, only
      * path extension remains (shade.n = 0) */
-    r = rc == 0 ? vbnl_vl_shade_build(&s->shade, &s->vls, s->index, s->profiles, s->kernels, cj.power,
+    r = rc == 0 ? vbi_vl_shade_build(&s->shade, &s->vls, s->index, s->profiles, s->kernels, cj.power,
                                             s->support) : VBNL_OK;
     free(cj.power);
-    s->t_lights += vbnl_now() - t4;
+    s->t_lights += vbi_now() - t4;
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_CANCELLED, "profile conversion was cancelled");
     if (r != VBNL_OK)
         return vbnl_error_set(err, r, "out of memory for the render records of %u virtual lights", n);
     /* the set, profiles, index and render records */
-    vbnl_stage_set_storage(stage, vbnl_vl_set_bytes(&s->vls) + vbnl_profile_set_bytes(s->profiles) +
-                                      vbnl_vl_index_bytes(s->index) + vbnl_vl_shade_bytes(&s->shade));
+    vbnl_stage_set_storage(stage, vbi_vl_set_bytes(&s->vls) + vbi_profile_set_bytes(s->profiles) +
+                                      vbi_vl_index_bytes(s->index) + vbi_vl_shade_bytes(&s->shade));
     s->prepared = 1;
     return VBNL_OK;
 }
@@ -758,21 +758,21 @@ static vbnl_result vbnl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *
 /* ---- rendering ------------------------------------------------------------------------------ */
 
 /* Eq. 4: solid-angle pdf of power-based sampling reaching light j along a direction in its cone. */
-static inline float vl_pdf(const vbnl_state *s, uint32_t j, vec3 x)
+static inline float vl_pdf(const vbi_state *s, uint32_t j, vec3 x)
 {
-    const vbnl_vl_shade_rec *e = &s->shade.rec[j];
-    return e->pmf * pdf_uniform_cone(vbnl_vl_shade_cone_cos(e, x));
+    const vbi_vl_shade_rec *e = &s->shade.rec[j];
+    return e->pmf * pdf_uniform_cone(vbi_vl_shade_cone_cos(e, x));
 }
 
 /* Which lobes of the BSDF at x gather virtual lights (the rest continue the camera path, §3.1):
  * all of them, only the diffuse one (a near-specular coat or microfacet lobe), or none. */
 enum { GATHER_ALL = 0, GATHER_DIFFUSE = 1, GATHER_NONE = 2 };
-static inline int gather_lobes(const vbnl_state *s, const vbnl_bsdf *b)
+static inline int gather_lobes(const vbi_state *s, const vbi_bsdf *b)
 {
-    if (vbnl_bsdf_is_delta(b))
+    if (vbi_bsdf_is_delta(b))
         return GATHER_NONE;
-    if (!vbnl_lobe_is_near_specular(b, VBNL_LOBE_GLOSSY, s->pp.specular_roughness) ||
-        !(vbnl_bsdf_lobes(b) & VBNL_LOBE_GLOSSY))
+    if (!vbi_lobe_is_near_specular(b, VBI_LOBE_GLOSSY, s->pp.specular_roughness) ||
+        !(vbi_bsdf_lobes(b) & VBI_LOBE_GLOSSY))
         return GATHER_ALL;
     return b->type == VBNL_MATERIAL_PLASTIC ? GATHER_DIFFUSE : GATHER_NONE;
 }
@@ -782,13 +782,13 @@ static inline int gather_lobes(const vbnl_state *s, const vbnl_bsdf *b)
  * x's estimate is then the integral of f L_vl w_v (p_g / p_b): power samples carry the factor
  * p_g / p_b and both strategies weigh each other with p_g (Eq. 5), so that the light a
  * near-specular lobe's continued path brings is not counted by power samples a second time. */
-static inline float gather_pdf(int lobes, const vbnl_bsdf *b, vec3 wo, vec3 wi, float p_b)
+static inline float gather_pdf(int lobes, const vbi_bsdf *b, vec3 wo, vec3 wi, float p_b)
 {
-    return lobes == GATHER_ALL ? p_b : lobes == GATHER_DIFFUSE ? vbnl_bsdf_pdf_diffuse(b, wo, wi) : 0.0f;
+    return lobes == GATHER_ALL ? p_b : lobes == GATHER_DIFFUSE ? vbi_bsdf_pdf_diffuse(b, wo, wi) : 0.0f;
 }
 
 /* Eq. 9 with the footprint of Eq. 7. */
-static inline float blend_weight(const vbnl_state *s, vec3 x, const vbnl_hit *y, vec3 w, float pdf_bsdf,
+static inline float blend_weight(const vbi_state *s, vec3 x, const vbi_hit *y, vec3 w, float pdf_bsdf,
                                  float density)
 {
     if (!s->extension)
@@ -806,19 +806,19 @@ static inline float blend_weight(const vbnl_state *s, vec3 x, const vbnl_hit *y,
  * filter on these records (which the shading reads next anyway) and writes the ranks of the
  * lights that pass. More than VL_GATHER_MAX lights (rare): the VL_GATHER_MAX smallest ids, as the
  * index's own query keeps. */
-static uint32_t gather_candidates(const vbnl_state *s, const vbnl_vl_lookup *lk, uint32_t *cand)
+static uint32_t gather_candidates(const vbi_state *s, const vbi_vl_lookup *lk, uint32_t *cand)
 {
-    uint32_t nc = vbnl_vl_index_lookup_candidates(s->index, lk, VL_CAND_MAX, cand);
+    uint32_t nc = vbi_vl_index_lookup_candidates(s->index, lk, VL_CAND_MAX, cand);
     if (nc <= VL_CAND_MAX)
         for (uint32_t k = 0; k < nc; ++k)
             __builtin_prefetch(&s->shade.rec[cand[k]]);
     return nc;
 }
 
-static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, const uint32_t *cand, uint32_t nc,
+static uint32_t gather_filter(const vbi_state *s, const vbi_hit *y, vec3 w, const uint32_t *cand, uint32_t nc,
                               uint32_t *ranks)
 {
-    vbnl_vl_filter f;
+    vbi_vl_filter f;
     f.n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng); /* facing x */
     f.wi = v3_neg(w);
     f.normal_cos = VL_NORMAL_COS;
@@ -827,10 +827,10 @@ static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, co
     float tmax = 0.0f; /* the largest support test height among them */
     int overflow = nc > VL_CAND_MAX;
     for (uint32_t k = 0; k < nc && !overflow; ++k) {
-        const vbnl_vl_shade_rec *e = &s->shade.rec[cand[k]];
+        const vbi_vl_shade_rec *e = &s->shade.rec[cand[k]];
         double d2;
-        if (vbnl_vl_contains(e->position, e->radius, y->p, &d2) && vbnl_vl_filter_passes(&f, e->normal) &&
-            (!s->support || vbnl_material_surface(s->scene, e->material) == y->material)) {
+        if (vbi_vl_contains(e->position, e->radius, y->p, &d2) && vbi_vl_filter_passes(&f, e->normal) &&
+            (!s->support || vbi_material_surface(s->scene, e->material) == y->material)) {
             overflow = m == VL_GATHER_MAX;
             if (!overflow) {
                 ranks[m++] = cand[k];
@@ -839,14 +839,14 @@ static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, co
         }
     }
     if (overflow) {
-        vbnl_vl_found found[VL_GATHER_MAX];
-        uint32_t n = vbnl_vl_index_query_found(s->index, y->p, &f, VL_GATHER_MAX, found);
+        vbi_vl_found found[VL_GATHER_MAX];
+        uint32_t n = vbi_vl_index_query_found(s->index, y->p, &f, VL_GATHER_MAX, found);
         n = n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
         m = 0;
         tmax = 0.0f;
         for (uint32_t k = 0; k < n; ++k) {
-            const vbnl_vl_shade_rec *e = &s->shade.rec[found[k].rank];
-            if (s->support && vbnl_material_surface(s->scene, e->material) != y->material)
+            const vbi_vl_shade_rec *e = &s->shade.rec[found[k].rank];
+            if (s->support && vbi_material_surface(s->scene, e->material) != y->material)
                 continue;
             ranks[m++] = found[k].rank;
             tmax = e->support > tmax ? e->support : tmax;
@@ -855,12 +855,12 @@ static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, co
     if (!(tmax > 0.0f))
         return m;
     /* the support test (vl_support.h) of the lights that need it, one open height for all */
-    const float hy = vbnl_vl_support_height(s->scene, y->p, f.n, tmax);
+    const float hy = vbi_vl_support_height(s->scene, y->p, f.n, tmax);
     uint32_t kept = 0;
     for (uint32_t k = 0; k < m; ++k) {
-        const vbnl_vl_shade_rec *e = &s->shade.rec[ranks[k]];
+        const vbi_vl_shade_rec *e = &s->shade.rec[ranks[k]];
         if (e->support > 0.0f &&
-            !vbnl_vl_support_passes(s->scene, y->p, f.n, hy, e->position, e->normal, e->support))
+            !vbi_vl_support_passes(s->scene, y->p, f.n, hy, e->position, e->normal, e->support))
             continue;
         ranks[kept++] = ranks[k];
     }
@@ -868,20 +868,20 @@ static uint32_t gather_filter(const vbnl_state *s, const vbnl_hit *y, vec3 w, co
 }
 
 /* True when light e may shine at y toward x (the filter and support test of gather). */
-static int accepts(const vbnl_state *s, const vbnl_vl_shade_rec *e, const vbnl_hit *y, vec3 w)
+static int accepts(const vbi_state *s, const vbi_vl_shade_rec *e, const vbi_hit *y, vec3 w)
 {
     if (v3_len2(v3_sub(y->p, e->position)) >= e->radius * e->radius)
         return 0;
     vec3 n = v3_dot(y->ng, w) < 0.0f ? y->ng : v3_neg(y->ng);
     if (!(v3_dot(e->normal, n) > VL_NORMAL_COS && v3_dot(e->normal, w) < 0.0f) ||
-        (s->support && vbnl_material_surface(s->scene, e->material) != y->material))
+        (s->support && vbi_material_surface(s->scene, e->material) != y->material))
         return 0;
     return !(e->support > 0.0f) ||
-           vbnl_vl_support_passes(s->scene, y->p, n, vbnl_vl_support_height(s->scene, y->p, n, e->support),
+           vbi_vl_support_passes(s->scene, y->p, n, vbi_vl_support_height(s->scene, y->p, n, e->support),
                                   e->position, e->normal, e->support);
 }
 
-static inline void add_vl(float *out, const vbnl_state *s, vec3 c)
+static inline void add_vl(float *out, const vbi_state *s, vec3 c)
 {
     out[0] += c.x;
     out[1] += c.y;
@@ -904,17 +904,17 @@ static inline void add_L(float *out, vec3 c)
  * power_draw samples the direction and runs the cheap tests, power_trace traces the ray and adds
  * the contribution when the draw is usable. */
 typedef struct power_sample {
-    const vbnl_vl_shade_rec *e;
+    const vbi_vl_shade_rec *e;
     vec3 w, wl, f;
     float p_j;
     int usable, lobes;
 } power_sample;
 
-static void power_draw(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 x,
-                       uint32_t pick, int lobes, vbnl_sampler *sp, power_sample *ps)
+static void power_draw(const vbi_state *s, const vbi_bsdf *bsdf, const vbi_shading_frame *sf, vec3 x,
+                       uint32_t pick, int lobes, vbi_sampler *sp, power_sample *ps)
 {
-    const vbnl_vl_shade_rec *e = &s->shade.rec[pick];
-    vec2 uc = vbnl_sampler_next2(sp);
+    const vbi_vl_shade_rec *e = &s->shade.rec[pick];
+    vec2 uc = vbi_sampler_next2(sp);
     vec3 to = v3_sub(e->position, x);
     ps->e = e;
     ps->usable = 0;
@@ -924,17 +924,17 @@ static void power_draw(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_sh
      * meeting the disk then arrives at its back, which emits nothing); at an opaque surface, a
      * sphere wholly below x's tangent plane (every direction of the cone fails the side test). */
     if ((s->disk_test && v3_dot(to, e->normal) >= 0.0f) ||
-        (!vbnl_bsdf_is_transmissive(bsdf) && v3_dot(to, sf->ng) <= -e->radius))
+        (!vbi_bsdf_is_transmissive(bsdf) && v3_dot(to, sf->ng) <= -e->radius))
         return;
     float dist = v3_len(to);
-    float cos_max = vbnl_vl_shade_cone_cos(e, x);
+    float cos_max = vbi_vl_shade_cone_cos(e, x);
     frame cf = frame_from_normal(dist > 0.0f ? v3_scale(to, 1.0f / dist) : sf->fr.n);
     vec3 w = frame_to_world(&cf, sample_uniform_cone(uc, cos_max));
     float p_j = e->pmf * pdf_uniform_cone(cos_max);
     /* the cheap tests first: the BSDF is evaluated, and the ray traced, only for a direction
      * that leaves on the right side and, with the §5 disk pre-test, meets the light's disk (a
      * ray that misses it is taken as occluded, untraced) */
-    int usable = p_j > 0.0f && (vbnl_bsdf_is_transmissive(bsdf) || v3_dot(w, sf->ng) > 0.0f);
+    int usable = p_j > 0.0f && (vbi_bsdf_is_transmissive(bsdf) || v3_dot(w, sf->ng) > 0.0f);
     if (usable && s->disk_test) {
         vec3 n = e->normal;
         float denom = v3_dot(w, n);
@@ -950,72 +950,72 @@ static void power_draw(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_sh
     if (!usable)
         return;
     ps->wl = frame_to_local(&sf->fr, w);
-    ps->f = vbnl_bsdf_eval(bsdf, sf->wo, ps->wl);
+    ps->f = vbi_bsdf_eval(bsdf, sf->wo, ps->wl);
     ps->w = w;
     ps->p_j = p_j;
     ps->usable = !v3_is_black(ps->f);
 }
 
-static void power_trace(const vbnl_state *s, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 x,
-                        const power_sample *ps, vec3 beta, float *out, vbnl_thread_stats *stats)
+static void power_trace(const vbi_state *s, const vbi_bsdf *bsdf, const vbi_shading_frame *sf, vec3 x,
+                        const power_sample *ps, vec3 beta, float *out, vbi_thread_stats *stats)
 {
     if (!ps->usable)
         return;
-    const vbnl_vl_shade_rec *e = ps->e;
+    const vbi_vl_shade_rec *e = ps->e;
     const vec3 w = ps->w;
     /* Only a first hit inside the light's sphere counts, so the ray ends where it leaves the
      * sphere (with a margin for rounding; accepts() decides): the same answer as an unbounded
      * ray, for less traversal. */
-    vec3 org = vbnl_offset_ray_origin(x, sf->ng, w);
+    vec3 org = vbi_offset_ray_origin(x, sf->ng, w);
     vec3 oc = v3_sub(e->position, org);
     float b = v3_dot(oc, w), c = v3_len2(oc) - e->radius * e->radius;
     float disc = b * b - c;
     float t_exit = disc > 0.0f ? (b + sqrtf(disc)) * 1.001f + 1e-4f * e->radius : INFINITY;
-    vbnl_hit y;
+    vbi_hit y;
     stats->rays++;
-    if (vbnl_scene_intersect_inline(s->scene, org, w, t_exit, &y) && accepts(s, e, &y, w)) {
-        float p_b = vbnl_bsdf_pdf(bsdf, sf->wo, ps->wl);
+    if (vbi_scene_intersect_inline(s->scene, org, w, t_exit, &y) && accepts(s, e, &y, w)) {
+        float p_b = vbi_bsdf_pdf(bsdf, sf->wo, ps->wl);
         float p_g = gather_pdf(ps->lobes, bsdf, sf->wo, ps->wl, p_b);
         float share = ps->lobes == GATHER_ALL ? 1.0f : p_b > 0.0f ? p_g / p_b : 0.0f;
         float mis = s->sampling == SAMPLE_MIS ? power_heuristic(ps->p_j, p_g) : 1.0f;
         float wv = blend_weight(s, x, &y, w, p_b, e->density);
         if (wv > 0.0f && share > 0.0f)
             add_vl(out, s,
-                   v3_scale(v3_mul(v3_mul(beta, ps->f), vbnl_vl_shade_radiance(e, s->profiles, s->kernels, w)),
+                   v3_scale(v3_mul(v3_mul(beta, ps->f), vbi_vl_shade_radiance(e, s->profiles, s->kernels, w)),
                             mis * wv * share / ps->p_j));
     }
 }
 
-typedef struct vbnl_media_add_ctx {
+typedef struct vbi_media_add_ctx {
     float *out;
     int indirect_only;
-} vbnl_media_add_ctx;
+} vbi_media_add_ctx;
 
-static void vbnl_media_add(void *user, vec3 c, int is_direct)
+static void vbi_media_add(void *user, vec3 c, int is_direct)
 {
-    const vbnl_media_add_ctx *a = user;
+    const vbi_media_add_ctx *a = user;
     if (!(a->indirect_only && is_direct))
         add_L(a->out, c);
 }
 
-static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
-                  vbnl_thread_stats *stats)
+static void trace(void *state, vbi_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbi_hit *first, float *out,
+                  vbi_thread_stats *stats)
 {
-    vbnl_state *s = state;
+    vbi_state *s = state;
     const vbnl_scene *sc = s->scene;
-    vbnl_hit hit = *first;
+    vbi_hit hit = *first;
     const int have_vls = s->prepared && s->shade.n > 0;
     vec3 beta = v3s(1.0f);
     uint32_t ranks[VL_GATHER_MAX];
-    vbnl_profile_lookup looks[VL_GATHER_MAX];
+    vbi_profile_lookup looks[VL_GATHER_MAX];
     uint8_t lit[VL_GATHER_MAX];
     int vertices = 0;
     out[3] = 1.0f;
     if (sc->has_media) {
         /* Media: path tracing with the walk between vertices (the virtual lights are placed for surfaces and do not light points in media;
          * docs/integrators.md, "Media"). */
-        vbnl_media_add_ctx a = {out, s->indirect_only};
-        vbnl_trace_path_walk(sc, sp, o, d, hit_ok, first, s->max_depth, s->rr_depth, vbnl_media_add, &a, out, stats);
+        vbi_media_add_ctx a = {out, s->indirect_only};
+        vbi_trace_path_walk(sc, sp, o, d, hit_ok, first, s->max_depth, s->rr_depth, vbi_media_add, &a, out, stats);
         return;
     }
     /* what the camera sees directly */
@@ -1023,18 +1023,18 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
      * the first non-delta vertex, are left out (the split of path.c) */
     const int skip_direct = s->indirect_only;
     if (!hit_ok) {
-        if (sc->env_light != VBNL_NO_LIGHT && !skip_direct)
-            add_L(out, vbnl_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
+        if (sc->env_light != VBI_NO_LIGHT && !skip_direct)
+            add_L(out, vbi_light_Le(&sc->lights[sc->env_light], v3s(0.0f), v3_neg(d)));
         return;
     }
     {
-        vbnl_bsdf tmp;
-        v3_store(out + VBNL_FILM_ALBEDO, vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, &hit, &tmp)));
+        vbi_bsdf tmp;
+        v3_store(out + VBNL_FILM_ALBEDO, vbi_bsdf_albedo(vbi_surface_bsdf(sc, &hit, &tmp)));
     }
     v3_store(out + VBNL_FILM_NORMAL, hit.ns);
     out[VBNL_FILM_DEPTH] = v3_dot(v3_sub(hit.p, o), s->cam_forward);
-    if (hit.light != VBNL_NO_LIGHT && !skip_direct)
-        add_L(out, vbnl_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
+    if (hit.light != VBI_NO_LIGHT && !skip_direct)
+        add_L(out, vbi_light_Le(&sc->lights[hit.light], hit.ng, v3_neg(d)));
 
     /* The power-based pick of each vertex is drawn ahead, so that its record (a cache miss:
      * lights are picked at random) loads while other work runs: at the camera's vertex during its
@@ -1042,68 +1042,68 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
      * traced. The alias table is small and stays in cache, so the pick is resolved at once. A
      * vertex that turns out delta leaves its pick unused. */
     const int power_on = have_vls && s->sampling != SAMPLE_BSDF;
-    vbnl_vl_pick pick = {0, 0.0f};
+    vbi_vl_pick pick = {0, 0.0f};
     if (power_on)
-        pick = vbnl_vl_shade_pick_start(&s->shade, vbnl_sampler_next(sp));
+        pick = vbi_vl_shade_pick_start(&s->shade, vbi_sampler_next(sp));
     int direct_phase = 1; /* no non-delta vertex yet */
-    vbnl_bsdf y_store; /* the BSDF at the next vertex, resolved when it was reached */
-    const vbnl_bsdf *y_bsdf = NULL;
+    vbi_bsdf y_store; /* the BSDF at the next vertex, resolved when it was reached */
+    const vbi_bsdf *y_bsdf = NULL;
     for (int depth = 0;; ++depth) {
         vertices++;
         if (s->max_depth >= 0 && depth >= s->max_depth)
             break;
-        vbnl_bsdf bsdf_store;
-        const vbnl_bsdf *bsdf = y_bsdf == &y_store ? (bsdf_store = y_store, &bsdf_store)
+        vbi_bsdf bsdf_store;
+        const vbi_bsdf *bsdf = y_bsdf == &y_store ? (bsdf_store = y_store, &bsdf_store)
                                 : y_bsdf           ? y_bsdf
-                                                   : vbnl_surface_bsdf(sc, &hit, &bsdf_store);
-        vbnl_shading_frame sf;
-        vbnl_shading_frame_make(bsdf, &hit, d, &sf);
-        const int delta = vbnl_bsdf_is_delta(bsdf);
+                                                   : vbi_surface_bsdf(sc, &hit, &bsdf_store);
+        vbi_shading_frame sf;
+        vbi_shading_frame_make(bsdf, &hit, d, &sf);
+        const int delta = vbi_bsdf_is_delta(bsdf);
         const vec3 x = hit.p;
         const int drop_direct = skip_direct && direct_phase;
         if (!delta)
             direct_phase = 0;
 
-        const vbnl_vl_pick pick_x = pick;
+        const vbi_vl_pick pick_x = pick;
 
         /* BSDF sampling comes first: the ray to its hit y is traced and the index lookup of y's
          * gather started before x's next-event estimation and power sample, whose work then
          * covers the lookup's dependent loads (cell header, then the cell's listings). At y the
          * virtual lights are gathered (strategy 2) with weight w_v, and the camera path carries
          * on from y with weight 1 - w_v (Eq. 6). */
-        vbnl_bsdf_sample_rec bs = {0}; /* read only when go: {0} for the compiler's sake */
-        vec2 ub = vbnl_sampler_next2(sp);
-        int go = vbnl_bsdf_sample(bsdf, sf.wo, ub, &bs) && !v3_is_black(bs.weight);
+        vbi_bsdf_sample_rec bs = {0}; /* read only when go: {0} for the compiler's sake */
+        vec2 ub = vbi_sampler_next2(sp);
+        int go = vbi_bsdf_sample(bsdf, sf.wo, ub, &bs) && !v3_is_black(bs.weight);
         vec3 w = v3s(0.0f);
         if (go) {
             w = frame_to_world(&sf.fr, bs.wi);
-            go = (bs.lobe & VBNL_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f;
+            go = (bs.lobe & VBI_LOBE_TRANSMISSION) || v3_dot(w, sf.ng) > 0.0f;
         }
-        vbnl_hit y;
+        vbi_hit y;
         int y_ok = 0, gather_y = 0;
-        vbnl_vl_lookup lk;
+        vbi_vl_lookup lk;
         if (go) {
-            o = vbnl_offset_ray_origin(x, hit.ng, w);
+            o = vbi_offset_ray_origin(x, hit.ng, w);
             d = w;
             if (power_on) /* the next vertex's pick (see above) */
-                pick = vbnl_vl_shade_pick_start(&s->shade, vbnl_sampler_next(sp));
+                pick = vbi_vl_shade_pick_start(&s->shade, vbi_sampler_next(sp));
             stats->rays++;
-            y_ok = vbnl_scene_intersect_inline(sc, o, d, INFINITY, &y);
+            y_ok = vbi_scene_intersect_inline(sc, o, d, INFINITY, &y);
             /* The camera path goes on through near-specular lobes, as placement did (§3.1):
              * w_v = 0, no gather. */
-            gather_y = y_ok && have_vls && !vbnl_lobe_is_near_specular(bsdf, bs.lobe, s->pp.specular_roughness);
+            gather_y = y_ok && have_vls && !vbi_lobe_is_near_specular(bsdf, bs.lobe, s->pp.specular_roughness);
             if (gather_y)
-                vbnl_vl_index_lookup_begin(s->index, y.p, &lk);
+                vbi_vl_index_lookup_begin(s->index, y.p, &lk);
         }
 
         const int lobes_x = gather_lobes(s, bsdf);
         const int power_x = lobes_x != GATHER_NONE && power_on;
-        uint32_t rank_x = power_x ? vbnl_vl_shade_pick_finish(&s->shade, pick_x) : 0;
+        uint32_t rank_x = power_x ? vbi_vl_shade_pick_finish(&s->shade, pick_x) : 0;
         /* Direct light from the real lights: next-event estimation with MIS. */
         if (!delta && !drop_direct)
-            add_L(out, v3_mul(beta, vbnl_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
+            add_L(out, v3_mul(beta, vbi_estimate_direct(sc, bsdf, x, &sf, sp, stats)));
         if (gather_y)
-            vbnl_vl_index_lookup_fetch(s->index, &lk);
+            vbi_vl_index_lookup_fetch(s->index, &lk);
         /* Virtual lights, strategy 1 (power-based selection), with y's candidates listed between
          * its direction and its ray. */
         power_sample ps = {0};
@@ -1118,11 +1118,11 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
             break;
 
         const vec3 beta_in = v3_mul(beta, bs.weight);
-        const int specular = (bs.lobe & VBNL_LOBE_SPECULAR) != 0;
+        const int specular = (bs.lobe & VBI_LOBE_SPECULAR) != 0;
         /* light arriving directly (emitter or environment) belongs to x's direct estimate: it is
          * counted with the throughput before the split between lights and extension */
         vec3 Le;
-        float mw = vbnl_arriving_light(sc, y_ok, &y, x, w, bs.pdf, specular, &Le);
+        float mw = vbi_arriving_light(sc, y_ok, &y, x, w, bs.pdf, specular, &Le);
         if (mw > 0.0f && !drop_direct)
             add_L(out, v3_scale(v3_mul(beta_in, Le), mw));
         if (!y_ok)
@@ -1133,8 +1133,8 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         /* A point whose BSDF is a delta (a mirror member of a material node) is not lit by the
          * lights: they stand for the diffuse and glossy points around them, and the path goes on
          * through it. */
-        y_bsdf = vbnl_surface_bsdf(sc, &hit, &y_store);
-        if (gather_y && vbnl_bsdf_is_delta(y_bsdf))
+        y_bsdf = vbi_surface_bsdf(sc, &hit, &y_store);
+        if (gather_y && vbi_bsdf_is_delta(y_bsdf))
             gather_y = 0;
         if (gather_y) {
             uint32_t n = gather_filter(s, &hit, w, cand, nc, ranks);
@@ -1146,7 +1146,7 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
                 if (wv > 0.0f && s->sampling != SAMPLE_POWER) {
                     /* every glossy light's texel loads start before the first is read */
                     for (uint32_t k = 0; k < n; ++k)
-                        lit[k] = (uint8_t)vbnl_vl_shade_radiance_begin(&s->shade.rec[ranks[k]], s->profiles, w,
+                        lit[k] = (uint8_t)vbi_vl_shade_radiance_begin(&s->shade.rec[ranks[k]], s->profiles, w,
                                                                        &looks[k]);
                     vec3 sum = v3s(0.0f);
                     const float p_g =
@@ -1156,7 +1156,7 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
                             continue;
                         uint32_t j = ranks[k];
                         float mis = s->sampling == SAMPLE_MIS ? power_heuristic(p_g, vl_pdf(s, j, x)) : 1.0f;
-                        vec3 L = vbnl_vl_shade_radiance_end(&s->shade.rec[j], s->profiles, s->kernels, &looks[k]);
+                        vec3 L = vbi_vl_shade_radiance_end(&s->shade.rec[j], s->profiles, s->kernels, &looks[k]);
                         sum = v3_add(sum, v3_scale(L, mis));
                     }
                     add_vl(out, s, v3_scale(v3_mul(beta_in, sum), wv));
@@ -1170,7 +1170,7 @@ static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, con
         beta = v3_scale(beta_in, 1.0f - wv);
         if (depth >= s->rr_depth) {
             float q = fmaxf(0.05f, 1.0f - v3_max_comp(beta));
-            if (vbnl_sampler_next(sp) < q)
+            if (vbi_sampler_next(sp) < q)
                 break;
             beta = v3_scale(beta, 1.0f / (1.0f - q));
         }
@@ -1206,21 +1206,21 @@ static vec3 viridis(float t)
 /* Grey |cos| x albedo shading of what the camera sees, and a dot of radius dot_scale r_j around
  * every virtual light whose normal agrees with the surface's, coloured by log r_j between the
  * set's smallest and largest radius. The lights are found by the index query at the hit. */
-static void lights_view(const vbnl_state *s, vec3 d, int hit_ok, const vbnl_hit *hit, float *out)
+static void lights_view(const vbi_state *s, vec3 d, int hit_ok, const vbi_hit *hit, float *out)
 {
     out[3] = 1.0f;
     if (!hit_ok)
         return;
     const vbnl_scene *sc = s->scene;
-    vbnl_bsdf tmp;
-    vec3 albedo = vbnl_bsdf_albedo(vbnl_surface_bsdf(sc, hit, &tmp));
+    vbi_bsdf tmp;
+    vec3 albedo = vbi_bsdf_albedo(vbi_surface_bsdf(sc, hit, &tmp));
     v3_store(out + VBNL_FILM_ALBEDO, albedo);
     v3_store(out + VBNL_FILM_NORMAL, hit->ns);
     vec3 c = v3s(fabsf(v3_dot(hit->ns, d)) * (albedo.x + albedo.y + albedo.z) / 3.0f);
     if (s->prepared) {
         uint32_t ids[VL_GATHER_MAX];
         float d2[VL_GATHER_MAX];
-        uint32_t n = vbnl_vl_index_query(s->index, hit->p, VL_GATHER_MAX, ids, d2);
+        uint32_t n = vbi_vl_index_query(s->index, hit->p, VL_GATHER_MAX, ids, d2);
         n = n < VL_GATHER_MAX ? n : VL_GATHER_MAX;
         float best = INFINITY;
         for (uint32_t k = 0; k < n; ++k) {
@@ -1237,8 +1237,8 @@ static void lights_view(const vbnl_state *s, vec3 d, int hit_ok, const vbnl_hit 
     add_L(out, c);
 }
 
-static void trace_lights_view(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *hit,
-                              float *out, vbnl_thread_stats *stats)
+static void trace_lights_view(void *state, vbi_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbi_hit *hit,
+                              float *out, vbi_thread_stats *stats)
 {
     (void)sp;
     (void)o;
@@ -1246,22 +1246,22 @@ static void trace_lights_view(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int
     lights_view(state, d, hit_ok, hit, out);
 }
 
-static void vbnl_render_tile(void *state, vbnl_tile_job *job)
+static void vbi_render_tile(void *state, vbnl_tile_job *job)
 {
-    vbnl_state *s = state;
-    vbnl_render_camera_paths(job, s->stride, s->view == VIEW_LIGHTS ? trace_lights_view : trace, state);
+    vbi_state *s = state;
+    vbi_render_camera_paths(job, s->stride, s->view == VIEW_LIGHTS ? trace_lights_view : trace, state);
 }
 
-const vbnl_integrator_class vbnl_integrator_vbnl = {
+const vbnl_integrator_class vbi_integrator_vbnl = {
     VBNL_INTEGRATOR_ABI_MAJOR,
     VBNL_INTEGRATOR_ABI_MINOR,
     sizeof(vbnl_integrator_class),
     "vbnl",
     "Virtual Blue Noise Lighting: camera-placed blue-noise photon lights with MIS and path extension",
-    vbnl_params_spec,
+    vbi_params_spec,
     N_PARAMS,
-    vbnl_create,
-    vbnl_prepare,
-    vbnl_render_tile,
-    vbnl_destroy,
+    vbi_create,
+    vbi_prepare,
+    vbi_render_tile,
+    vbi_destroy,
 };

@@ -21,7 +21,7 @@
 
 _Static_assert(sizeof(vec3) == 12, "vec3 must be three packed floats (the file stores them so)");
 
-uint64_t vbnl_vl_file_hash(uint64_t h, const void *data, size_t n)
+uint64_t vbi_vl_file_hash(uint64_t h, const void *data, size_t n)
 {
     const unsigned char *p = data;
     for (size_t i = 0; i < n; ++i)
@@ -38,7 +38,7 @@ static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res, uint64_
     if (count > UINT32_MAX || glossy > count || res > 64)
         return 0;
     uint64_t per = 12 + 12 + 4 + 12 + 4 + 4 + 1;
-    uint64_t n = VBNL_VL_FILE_HEADER_SIZE + count * per;
+    uint64_t n = VBI_VL_FILE_HEADER_SIZE + count * per;
     n += pad8((size_t)(count % 8));
     if (photons)
         n += count * 24 + glossy * res * res * 24;
@@ -50,12 +50,12 @@ static uint64_t file_size(uint64_t count, uint64_t glossy, uint64_t res, uint64_
 static void put(unsigned char *b, size_t off, const void *v, size_t n) { memcpy(b + off, v, n); }
 static void get(const unsigned char *b, size_t off, void *v, size_t n) { memcpy(v, b + off, n); }
 
-static void header_encode(unsigned char b[VBNL_VL_FILE_HEADER_SIZE], const vbnl_vl_file_header *h, uint32_t count,
+static void header_encode(unsigned char b[VBI_VL_FILE_HEADER_SIZE], const vbi_vl_file_header *h, uint32_t count,
                           uint32_t glossy)
 {
-    memset(b, 0, VBNL_VL_FILE_HEADER_SIZE);
-    uint32_t version = VBNL_VL_FILE_VERSION, mark = BYTE_ORDER_MARK;
-    memcpy(b, VBNL_VL_FILE_MAGIC, 8);
+    memset(b, 0, VBI_VL_FILE_HEADER_SIZE);
+    uint32_t version = VBI_VL_FILE_VERSION, mark = BYTE_ORDER_MARK;
+    memcpy(b, VBI_VL_FILE_MAGIC, 8);
     put(b, 8, &version, 4);
     put(b, 12, &mark, 4);
     put(b, 16, &h->fingerprint, 8);
@@ -83,7 +83,7 @@ static void header_encode(unsigned char b[VBNL_VL_FILE_HEADER_SIZE], const vbnl_
     put(b, 152, &h->photon_rays, 8);
 }
 
-static void header_decode(const unsigned char *b, vbnl_vl_file_header *h, uint32_t *count, uint32_t *glossy)
+static void header_decode(const unsigned char *b, vbi_vl_file_header *h, uint32_t *count, uint32_t *glossy)
 {
     memset(h, 0, sizeof(*h));
     get(b, 8, &h->version, 4);
@@ -115,17 +115,17 @@ static void header_decode(const unsigned char *b, vbnl_vl_file_header *h, uint32
 }
 
 /* The set fingerprint: the arrays as the file stores them, up to the glossy flags. */
-static uint64_t set_fingerprint(const vbnl_vl_set *vls, const uint8_t *glossy)
+static uint64_t set_fingerprint(const vbi_vl_set *vls, const uint8_t *glossy)
 {
     const size_t n = vls->count;
-    uint64_t h = VBNL_VL_FILE_HASH_INIT;
-    h = vbnl_vl_file_hash(h, vls->position, sizeof(vec3) * n);
-    h = vbnl_vl_file_hash(h, vls->normal, sizeof(vec3) * n);
-    h = vbnl_vl_file_hash(h, vls->material, sizeof(uint32_t) * n);
-    h = vbnl_vl_file_hash(h, vls->tint, sizeof(vec3) * n);
-    h = vbnl_vl_file_hash(h, vls->radius, sizeof(float) * n);
-    h = vbnl_vl_file_hash(h, vls->density, sizeof(float) * n);
-    return vbnl_vl_file_hash(h, glossy, n);
+    uint64_t h = VBI_VL_FILE_HASH_INIT;
+    h = vbi_vl_file_hash(h, vls->position, sizeof(vec3) * n);
+    h = vbi_vl_file_hash(h, vls->normal, sizeof(vec3) * n);
+    h = vbi_vl_file_hash(h, vls->material, sizeof(uint32_t) * n);
+    h = vbi_vl_file_hash(h, vls->tint, sizeof(vec3) * n);
+    h = vbi_vl_file_hash(h, vls->radius, sizeof(float) * n);
+    h = vbi_vl_file_hash(h, vls->density, sizeof(float) * n);
+    return vbi_vl_file_hash(h, glossy, n);
 }
 
 /* ---- writing ------------------------------------------------------------------------------ */
@@ -140,27 +140,27 @@ static void w_bytes(writer *w, const void *data, size_t n)
 {
     if (w->failed || n == 0)
         return;
-    w->hash = vbnl_vl_file_hash(w->hash, data, n);
+    w->hash = vbi_vl_file_hash(w->hash, data, n);
     if (fwrite(data, 1, n, w->f) != n)
         w->failed = errno ? errno : EIO;
 }
 
-vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, const vbnl_vl_set *vls,
-                              const vbnl_profile_set *profiles, vbnl_error *err)
+vbnl_result vbi_vl_file_save(const char *path, const vbi_vl_file_header *h, const vbi_vl_set *vls,
+                              const vbi_profile_set *profiles, vbnl_error *err)
 {
     if (!path || !*path || !h || !vls || !profiles)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_save: NULL or empty argument");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_vl_file_save: NULL or empty argument");
     const uint32_t n = vls->count;
-    if (vbnl_profile_set_count(profiles) != n || vbnl_profile_set_unit(profiles) != h->unit)
+    if (vbi_profile_set_count(profiles) != n || vbi_profile_set_unit(profiles) != h->unit)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
-                              "vbnl_vl_file_save: the profiles do not belong to this set (count or unit)");
+                              "vbi_vl_file_save: the profiles do not belong to this set (count or unit)");
     uint8_t *glossy = malloc((size_t)n + 8);
     if (!glossy)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot write '%s': out of memory", path);
     uint32_t n_glossy = 0;
     for (uint32_t j = 0; j < n; ++j) {
-        glossy[j] = (uint8_t)(vbnl_profile_is_glossy(profiles, j) != 0);
-        if (glossy[j] && !vbnl_profile_incident_map_fixed(profiles, j)) {
+        glossy[j] = (uint8_t)(vbi_profile_is_glossy(profiles, j) != 0);
+        if (glossy[j] && !vbi_profile_incident_map_fixed(profiles, j)) {
             free(glossy);
             return vbnl_error_set(err, VBNL_ERR_STATE, "cannot write '%s': the incident maps were released", path);
         }
@@ -173,25 +173,25 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     /* Through the atomic files (atomic_file.h): a temporary next to `path`, fsync, rename, and
      * listed in the table that a signal handler empties before the process ends (the plugin's
      * abandon_writes), so that an interrupted save leaves no temporary behind. */
-    vbnl_atomic_file af;
-    vbnl_result r = vbnl_atomic_file_open(&af, path, err);
+    vbi_atomic_file af;
+    vbnl_result r = vbi_atomic_file_open(&af, path, err);
     if (r != VBNL_OK) {
         free(glossy);
         return r;
     }
     int fd = dup(af.fd); /* fclose closes this one; the atomic file keeps its own for fsync */
-    writer w = {fd >= 0 ? fdopen(fd, "wb") : NULL, VBNL_VL_FILE_HASH_INIT, 0};
+    writer w = {fd >= 0 ? fdopen(fd, "wb") : NULL, VBI_VL_FILE_HASH_INIT, 0};
     if (!w.f) {
         int e = errno;
         if (fd >= 0)
             close(fd);
-        vbnl_atomic_file_discard(&af);
+        vbi_atomic_file_discard(&af);
         free(glossy);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(e));
     }
-    vbnl_vl_file_header hw = *h;
+    vbi_vl_file_header hw = *h;
     hw.set = set_fingerprint(vls, glossy);
-    unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
+    unsigned char hb[VBI_VL_FILE_HEADER_SIZE];
     header_encode(hb, &hw, n, n_glossy);
     w_bytes(&w, hb, sizeof(hb));
     w_bytes(&w, vls->position, sizeof(vec3) * (size_t)n);
@@ -202,10 +202,10 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     w_bytes(&w, vls->density, sizeof(float) * (size_t)n);
     w_bytes(&w, glossy, (size_t)n + pad8(n));
     for (uint32_t j = 0; h->photon_count && j < n; ++j) /* a placement has none yet */
-        w_bytes(&w, vbnl_profile_incident_power_fixed(profiles, j), 3 * sizeof(uint64_t));
+        w_bytes(&w, vbi_profile_incident_power_fixed(profiles, j), 3 * sizeof(uint64_t));
     for (uint32_t j = 0; h->photon_count && j < n; ++j)
         if (glossy[j])
-            w_bytes(&w, vbnl_profile_incident_map_fixed(profiles, j), 3 * texels * sizeof(uint64_t));
+            w_bytes(&w, vbi_profile_incident_map_fixed(profiles, j), 3 * texels * sizeof(uint64_t));
     uint64_t sum = w.hash;
     w_bytes(&w, &sum, sizeof(sum));
     free(glossy);
@@ -214,10 +214,10 @@ vbnl_result vbnl_vl_file_save(const char *path, const vbnl_vl_file_header *h, co
     if (fclose(w.f) != 0 && !w.failed)
         w.failed = errno ? errno : EIO;
     if (w.failed) {
-        vbnl_atomic_file_discard(&af);
+        vbi_atomic_file_discard(&af);
         return vbnl_error_set(err, VBNL_ERR_IO, "cannot write '%s': %s", path, strerror(w.failed));
     }
-    return vbnl_atomic_file_commit(&af, err); /* fsync, rename */
+    return vbi_atomic_file_commit(&af, err); /* fsync, rename */
 }
 
 /* ---- reading ------------------------------------------------------------------------------ */
@@ -238,12 +238,12 @@ static vbnl_result r_bytes(reader *r, void *data, size_t n)
 
 /* Pass 1: everything that can be said before the contents are trusted. Checks the magic, the
  * byte order and the checksum, then the version, and decodes the header. */
-static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, uint32_t *count, uint32_t *glossy)
+static vbnl_result check_file(reader *r, uint64_t size, vbi_vl_file_header *h, uint32_t *count, uint32_t *glossy)
 {
-    unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
+    unsigned char hb[VBI_VL_FILE_HEADER_SIZE];
     memset(hb, 0, sizeof(hb));
     size_t got = fread(hb, 1, sizeof(hb), r->f);
-    if (got < 16 || memcmp(hb, VBNL_VL_FILE_MAGIC, 8) != 0)
+    if (got < 16 || memcmp(hb, VBI_VL_FILE_MAGIC, 8) != 0)
         return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is not a virtual-light file (%s)", r->path,
                               got < 8 ? "too short" : "bad magic");
     uint32_t mark;
@@ -255,10 +255,10 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
         return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (%s)", r->path,
                               mark != BYTE_ORDER_MARK ? "bad byte-order marker" : "too short");
     /* the checksum over everything before the last 8 bytes */
-    uint64_t hash = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, hb, got);
+    uint64_t hash = vbi_vl_file_hash(VBI_VL_FILE_HASH_INIT, hb, got);
     uint64_t left = size - 8 - got;
     if (got > size - 8) { /* the header read overlapped the checksum itself */
-        hash = vbnl_vl_file_hash(VBNL_VL_FILE_HASH_INIT, hb, (size_t)(size - 8));
+        hash = vbi_vl_file_hash(VBI_VL_FILE_HASH_INIT, hb, (size_t)(size - 8));
         left = 0;
     }
     unsigned char *buf = malloc(1u << 20);
@@ -273,7 +273,7 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
         size_t n = left < (1u << 20) ? (size_t)left : (1u << 20);
         res = r_bytes(r, buf, n);
         if (res == VBNL_OK)
-            hash = vbnl_vl_file_hash(hash, buf, n);
+            hash = vbi_vl_file_hash(hash, buf, n);
         left -= n;
     }
     uint64_t stored = 0;
@@ -284,7 +284,7 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
         return res;
     header_decode(hb, h, count, glossy);
     if (stored != hash) {
-        uint64_t want = got == sizeof(hb) && h->version == VBNL_VL_FILE_VERSION
+        uint64_t want = got == sizeof(hb) && h->version == VBI_VL_FILE_VERSION
                             ? file_size(*count, *glossy, h->profile_resolution, h->photon_count)
                             : 0;
         if (want > size)
@@ -292,9 +292,9 @@ static vbnl_result check_file(reader *r, uint64_t size, vbnl_vl_file_header *h, 
                                   r->path, (unsigned long long)size, (unsigned long long)want);
         return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' is damaged (checksum mismatch)", r->path);
     }
-    if (h->version != VBNL_VL_FILE_VERSION)
+    if (h->version != VBI_VL_FILE_VERSION)
         return vbnl_error_set(r->err, VBNL_ERR_CORRUPT, "'%s' was written by format version %u; this build reads version %u",
-                              r->path, h->version, VBNL_VL_FILE_VERSION);
+                              r->path, h->version, VBI_VL_FILE_VERSION);
     int e;
     if (got != sizeof(hb) || file_size(*count, *glossy, h->profile_resolution, h->photon_count) != size ||
         *count == 0 ||
@@ -321,10 +321,10 @@ static vbnl_result open_file(const char *path, reader *r, uint64_t *size, vbnl_e
     return VBNL_OK;
 }
 
-vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_header *out, vbnl_error *err)
+vbnl_result vbi_vl_file_read_header(const char *path, int verify, vbi_vl_file_header *out, vbnl_error *err)
 {
     if (!path || !out)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_read_header: NULL argument");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_vl_file_read_header: NULL argument");
     memset(out, 0, sizeof(*out));
     reader r;
     uint64_t size;
@@ -335,14 +335,14 @@ vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_
     if (verify) {
         res = check_file(&r, size, out, &n, &glossy);
     } else {
-        unsigned char hb[VBNL_VL_FILE_HEADER_SIZE];
+        unsigned char hb[VBI_VL_FILE_HEADER_SIZE];
         uint32_t mark = 0;
-        if (fread(hb, 1, sizeof(hb), r.f) != sizeof(hb) || memcmp(hb, VBNL_VL_FILE_MAGIC, 8) != 0)
+        if (fread(hb, 1, sizeof(hb), r.f) != sizeof(hb) || memcmp(hb, VBI_VL_FILE_MAGIC, 8) != 0)
             res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is not a virtual-light file", path);
         if (res == VBNL_OK) {
             get(hb, 12, &mark, 4);
             header_decode(hb, out, &n, &glossy);
-            if (mark != BYTE_ORDER_MARK || out->version != VBNL_VL_FILE_VERSION ||
+            if (mark != BYTE_ORDER_MARK || out->version != VBI_VL_FILE_VERSION ||
                 file_size(n, glossy, out->profile_resolution, out->photon_count) != size)
                 res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged or of another version", path);
         }
@@ -356,7 +356,7 @@ vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_
 /* Reads one file into `d` (creating d->map when NULL, else requiring its resolution). With a
  * scene, the file must belong to it; without one (merging files), its own material count bounds
  * the lights' materials and the callers compare the files with each other. */
-static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_file_data *d, vbnl_error *err)
+static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbi_vl_file_data *d, vbnl_error *err)
 {
     reader r;
     uint64_t size;
@@ -364,9 +364,9 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
     if (res != VBNL_OK)
         return res;
     uint32_t n = 0, n_glossy = 0;
-    vbnl_vl_file_header *h = &d->header;
+    vbi_vl_file_header *h = &d->header;
     res = check_file(&r, size, h, &n, &n_glossy);
-    uint64_t fp = scene ? vbnl_scene_fingerprint(scene) : h->fingerprint;
+    uint64_t fp = scene ? vbi_scene_fingerprint(scene) : h->fingerprint;
     const uint32_t materials = scene ? scene->material_count : h->material_count;
     if (res == VBNL_OK && h->fingerprint != fp)
         res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
@@ -375,15 +375,15 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
     if (res == VBNL_OK && h->material_count != materials)
         res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (material count %u, the scene has %u)", path,
                              h->material_count, materials);
-    if (res == VBNL_OK && fseeko(r.f, VBNL_VL_FILE_HEADER_SIZE, SEEK_SET) != 0)
+    if (res == VBNL_OK && fseeko(r.f, VBI_VL_FILE_HEADER_SIZE, SEEK_SET) != 0)
         res = vbnl_error_set(err, VBNL_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
-    if (res == VBNL_OK && !d->map && vbnl_hemioct_create(h->profile_resolution, &d->map) != VBNL_OK)
+    if (res == VBNL_OK && !d->map && vbi_hemioct_create(h->profile_resolution, &d->map) != VBNL_OK)
         res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory", path);
-    if (res == VBNL_OK && vbnl_hemioct_res(d->map) != h->profile_resolution)
+    if (res == VBNL_OK && vbi_hemioct_res(d->map) != h->profile_resolution)
         res = vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "'%s' has profile resolution %u, expected %u", path,
-                             h->profile_resolution, vbnl_hemioct_res(d->map));
+                             h->profile_resolution, vbi_hemioct_res(d->map));
     if (res == VBNL_OK)
-        res = vbnl_vl_set_alloc(&d->vls, n, err);
+        res = vbi_vl_set_alloc(&d->vls, n, err);
     uint8_t *glossy = NULL;
     uint64_t *phi = NULL, *map = NULL;
     const size_t texels = (size_t)h->profile_resolution * h->profile_resolution;
@@ -418,12 +418,12 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
             res = vbnl_error_set(err, VBNL_ERR_CORRUPT, "'%s' is damaged (set fingerprint)", path);
     }
     if (res == VBNL_OK &&
-        vbnl_profile_set_create_fixed(d->map, n, glossy, h->unit, &d->profiles) != VBNL_OK)
+        vbi_profile_set_create_fixed(d->map, n, glossy, h->unit, &d->profiles) != VBNL_OK)
         res = vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "cannot read '%s': out of memory for %u profiles", path, n);
     for (uint32_t j = 0; j < n && res == VBNL_OK && h->photon_count; ++j) { /* a placement: all zero */
         if (glossy[j])
             res = r_bytes(&r, map, 3 * sizeof(uint64_t) * texels);
-        if (res == VBNL_OK && vbnl_profile_set_import_fixed(d->profiles, j, phi + 3 * (size_t)j,
+        if (res == VBNL_OK && vbi_profile_set_import_fixed(d->profiles, j, phi + 3 * (size_t)j,
                                                             glossy[j] ? map : NULL) != VBNL_OK)
             res = vbnl_error_set(err, VBNL_ERR_STATE, "cannot import the profiles of '%s'", path);
     }
@@ -434,21 +434,21 @@ static vbnl_result load_one(const char *path, const vbnl_scene *scene, vbnl_vl_f
     return res;
 }
 
-void vbnl_vl_file_data_free(vbnl_vl_file_data *d)
+void vbi_vl_file_data_free(vbi_vl_file_data *d)
 {
     if (!d)
         return;
-    vbnl_profile_set_destroy(d->profiles);
-    vbnl_vl_set_free(&d->vls);
-    vbnl_hemioct_destroy(d->map);
+    vbi_profile_set_destroy(d->profiles);
+    vbi_vl_set_free(&d->vls);
+    vbi_hemioct_destroy(d->map);
     memset(d, 0, sizeof(*d));
 }
 
 /* Why two files cannot be summed, or NULL when they hold the same set: the same scene,
  * preparation and arrays, bit for bit. */
-static const char *set_difference(const vbnl_vl_file_data *a, const vbnl_vl_file_data *b)
+static const char *set_difference(const vbi_vl_file_data *a, const vbi_vl_file_data *b)
 {
-    const vbnl_vl_file_header *x = &a->header, *y = &b->header;
+    const vbi_vl_file_header *x = &a->header, *y = &b->header;
     size_t n = a->vls.count;
     if (x->fingerprint != y->fingerprint || x->material_count != y->material_count)
         return "another scene";
@@ -491,7 +491,7 @@ typedef enum cover_mode {
 /* Loads and sums `n` files (a scene checks each against itself; without one they are compared with
  * the first). On success out->header holds the union range and the photon figures summed. */
 static vbnl_result load_list(const char *const *paths, uint32_t n, const vbnl_scene *scene, cover_mode mode,
-                             vbnl_vl_file_data *out, vbnl_error *err)
+                             vbi_vl_file_data *out, vbnl_error *err)
 {
     memset(out, 0, sizeof(*out));
     if (n == 0)
@@ -508,7 +508,7 @@ static vbnl_result load_list(const char *const *paths, uint32_t n, const vbnl_sc
         return VBNL_OK;
     }
     for (uint32_t i = 1; i < n && res == VBNL_OK; ++i) {
-        vbnl_vl_file_data more;
+        vbi_vl_file_data more;
         memset(&more, 0, sizeof(more));
         more.map = out->map; /* borrowed: the same resolution is required */
         res = load_one(paths[i], scene, &more, err);
@@ -525,7 +525,7 @@ static vbnl_result load_list(const char *const *paths, uint32_t n, const vbnl_sc
                                  "one preparation (same scene, parameters, seed, image size and camera)",
                                  paths[i], paths[0], why);
         if (res == VBNL_OK) {
-            vbnl_result m = vbnl_profile_set_merge(out->profiles, more.profiles);
+            vbnl_result m = vbi_profile_set_merge(out->profiles, more.profiles);
             if (m != VBNL_OK)
                 res = vbnl_error_set(err, m, "cannot sum the photons of '%s' and '%s' (%s)", paths[0], paths[i],
                                      vbnl_result_name(m));
@@ -536,7 +536,7 @@ static vbnl_result load_list(const char *const *paths, uint32_t n, const vbnl_sc
             out->header.photon_rays += more.header.photon_rays;
         }
         more.map = NULL;
-        vbnl_vl_file_data_free(&more);
+        vbi_vl_file_data_free(&more);
     }
     /* The fluxes were divided by photon_paths (all ranges together, splitting.h): only ranges
      * that cover [0, photon_paths) exactly once give the right normalisation. Placements (empty
@@ -595,16 +595,16 @@ static vbnl_result load_list(const char *const *paths, uint32_t n, const vbnl_sc
     }
     free(ranges);
     if (res != VBNL_OK)
-        vbnl_vl_file_data_free(out);
+        vbi_vl_file_data_free(out);
     return res;
 }
 
-vbnl_result vbnl_vl_file_load(const char *paths, const vbnl_scene *scene, vbnl_vl_file_data *out, vbnl_error *err)
+vbnl_result vbi_vl_file_load(const char *paths, const vbnl_scene *scene, vbi_vl_file_data *out, vbnl_error *err)
 {
     if (out)
         memset(out, 0, sizeof(*out));
     if (!paths || !*paths || !scene || !scene->committed || !out)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_load: NULL, empty or uncommitted argument");
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_vl_file_load: NULL, empty or uncommitted argument");
     char *list = strdup(paths);
     size_t cap = 1;
     for (const char *c = paths; *c; ++c)
@@ -626,37 +626,37 @@ vbnl_result vbnl_vl_file_load(const char *paths, const vbnl_scene *scene, vbnl_v
     return res;
 }
 
-vbnl_result vbnl_vl_file_merge(const char *const *paths, uint32_t n, const char *out_path, int partial,
-                               vbnl_vl_file_header *merged, vbnl_error *err)
+vbnl_result vbi_vl_file_merge(const char *const *paths, uint32_t n, const char *out_path, int partial,
+                               vbi_vl_file_header *merged, vbnl_error *err)
 {
     if (merged)
         memset(merged, 0, sizeof(*merged));
     if (!paths || !out_path || !*out_path)
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbnl_vl_file_merge: NULL argument");
-    vbnl_vl_file_data d;
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "vbi_vl_file_merge: NULL argument");
+    vbi_vl_file_data d;
     vbnl_result res = load_list(paths, n, NULL, partial ? COVER_CONTIGUOUS : COVER_ALL, &d, err);
     if (res != VBNL_OK)
         return res;
-    res = vbnl_vl_file_save(out_path, &d.header, &d.vls, d.profiles, err);
+    res = vbi_vl_file_save(out_path, &d.header, &d.vls, d.profiles, err);
     if (res == VBNL_OK && merged)
         *merged = d.header;
-    vbnl_vl_file_data_free(&d);
+    vbi_vl_file_data_free(&d);
     return res;
 }
 
 /* ---- fingerprints ----------------------------------------------------------------------------- */
 
-uint64_t vbnl_vl_file_scene_fingerprint(const vbnl_scene *scene) { return vbnl_scene_fingerprint(scene); }
+uint64_t vbi_vl_file_scene_fingerprint(const vbnl_scene *scene) { return vbi_scene_fingerprint(scene); }
 
-uint64_t vbnl_vl_file_camera_fingerprint(const vbnl_scene *scene)
+uint64_t vbi_vl_file_camera_fingerprint(const vbnl_scene *scene)
 {
     if (!scene || !scene->committed)
         return 0;
     const vbnl_camera_desc *c = &scene->camera;
-    uint64_t h = VBNL_VL_FILE_HASH_INIT;
-    h = vbnl_vl_file_hash(h, c->position, sizeof(c->position));
-    h = vbnl_vl_file_hash(h, c->forward, sizeof(c->forward));
-    h = vbnl_vl_file_hash(h, c->right, sizeof(c->right));
-    h = vbnl_vl_file_hash(h, c->up, sizeof(c->up));
-    return c->projection == VBNL_CAMERA_MESH ? vbi_camera_mesh_hash(c, h, vbnl_vl_file_hash) : h;
+    uint64_t h = VBI_VL_FILE_HASH_INIT;
+    h = vbi_vl_file_hash(h, c->position, sizeof(c->position));
+    h = vbi_vl_file_hash(h, c->forward, sizeof(c->forward));
+    h = vbi_vl_file_hash(h, c->right, sizeof(c->right));
+    h = vbi_vl_file_hash(h, c->up, sizeof(c->up));
+    return c->projection == VBNL_CAMERA_MESH ? vbi_camera_mesh_hash(c, h, vbi_vl_file_hash) : h;
 }

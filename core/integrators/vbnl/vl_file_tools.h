@@ -12,8 +12,8 @@
  *
  * Threads: no shared state but the table of atomic files (lock-free); the functions may run
  * concurrently on different data. */
-#ifndef VBNL_VL_FILE_TOOLS_H
-#define VBNL_VL_FILE_TOOLS_H
+#ifndef VBI_VL_FILE_TOOLS_H
+#define VBI_VL_FILE_TOOLS_H
 
 #include <stdint.h>
 
@@ -21,9 +21,9 @@
 #include "vbnl/scene.h"
 
 /* What a file says about itself (vl_file.h gives the byte layout). */
-typedef struct vbnl_vl_file_header {
-    uint32_t version;             /* filled by reads; a save always writes VBNL_VL_FILE_VERSION */
-    uint64_t fingerprint;         /* of the scene: vbnl_vl_file_scene_fingerprint */
+typedef struct vbi_vl_file_header {
+    uint32_t version;             /* filled by reads; a save always writes VBI_VL_FILE_VERSION */
+    uint64_t fingerprint;         /* of the scene: vbi_vl_file_scene_fingerprint */
     uint32_t virtual_lights;      /* N asked for */
     uint32_t profile_resolution;
     uint64_t photon_paths;        /* N of the flux normalisation (all ranges together) */
@@ -34,9 +34,9 @@ typedef struct vbnl_vl_file_header {
     uint32_t elimination;
     float radius_scale;
     uint32_t material_count;
-    uint32_t flags;               /* VBNL_VL_FILE_SUPPORT_TEST (vl_file.h) */
+    uint32_t flags;               /* VBI_VL_FILE_SUPPORT_TEST (vl_file.h) */
     uint32_t width, height;       /* the image the placement was made for */
-    uint64_t camera;              /* vbnl_vl_file_camera_fingerprint of the scene it was made with */
+    uint64_t camera;              /* vbi_vl_file_camera_fingerprint of the scene it was made with */
     uint64_t preparation;         /* FNV-1a of every preparation parameter (vbnl.c) */
     uint64_t set;                 /* FNV-1a of the set's arrays and glossy flags (written by save) */
     double placement_seconds;     /* informative: what preparing it took, */
@@ -45,12 +45,12 @@ typedef struct vbnl_vl_file_header {
     double photon_rays;
     uint32_t count;               /* lights in the set (filled by reads) */
     uint32_t glossy_count;        /* lights with an incident map (filled by reads) */
-} vbnl_vl_file_header;
+} vbi_vl_file_header;
 
 /* Reads `path`'s header; the arrays are not decoded. With `verify`, after the checksum over the
  * whole file (a damaged file is named as damaged, not misread); without, only the header is read
  * and checked (magic, byte order, version, size), for a file this process has loaded already. */
-vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_header *out, vbnl_error *err);
+vbnl_result vbi_vl_file_read_header(const char *path, int verify, vbi_vl_file_header *out, vbnl_error *err);
 
 /* Sums the photon data of `n` files of one preparation (same scene, parameters and set, bit for
  * bit; their photon ranges disjoint) into `out_path`, written atomically; the sum equals one run
@@ -60,13 +60,13 @@ vbnl_result vbnl_vl_file_read_header(const char *path, int verify, vbnl_vl_file_
  * receives the header written. `out_path` must not be one of the inputs (checked by the caller:
  * it is written only after every input was read). Needs no scene: the files' own fingerprint and
  * material count are compared with each other. */
-vbnl_result vbnl_vl_file_merge(const char *const *paths, uint32_t n, const char *out_path, int partial,
-                               vbnl_vl_file_header *merged, vbnl_error *err);
+vbnl_result vbi_vl_file_merge(const char *const *paths, uint32_t n, const char *out_path, int partial,
+                               vbi_vl_file_header *merged, vbnl_error *err);
 
 /* The scene fingerprint files are tied to (geometry, materials, textures, lights; not the camera),
  * and the camera's (position and the three frame vectors, by their bits). 0 for NULL or an
  * uncommitted scene. */
-uint64_t vbnl_vl_file_scene_fingerprint(const vbnl_scene *scene);
-uint64_t vbnl_vl_file_camera_fingerprint(const vbnl_scene *scene);
+uint64_t vbi_vl_file_scene_fingerprint(const vbnl_scene *scene);
+uint64_t vbi_vl_file_camera_fingerprint(const vbnl_scene *scene);
 
 #endif

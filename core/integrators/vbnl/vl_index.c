@@ -22,9 +22,9 @@ static inline uint64_t spread3(uint64_t v)
 #endif
 }
 
-static inline uint64_t key_coord(float v, float lo, float scale) { return vbnl_vl_key_coord(v, lo, scale); }
+static inline uint64_t key_coord(float v, float lo, float scale) { return vbi_vl_key_coord(v, lo, scale); }
 
-static inline uint64_t spatial_key(const vbnl_vl_index *x, vec3 p)
+static inline uint64_t spatial_key(const vbi_vl_index *x, vec3 p)
 {
     return spread3(key_coord(p.x, x->key_lo.x, x->key_scale)) |
            spread3(key_coord(p.y, x->key_lo.y, x->key_scale)) << 1 |
@@ -61,7 +61,7 @@ static void radix_sort_pairs(uint64_t *key, uint32_t *val, uint64_t *tmp_key, ui
 }
 
 /* rec[] in Morton order of the centres (grid) or in id order (Embree), and the key cube. */
-static vbnl_result order_build(vbnl_vl_index *x, const vbnl_vl_index_desc *desc, int morton)
+static vbnl_result order_build(vbi_vl_index *x, const vbi_vl_index_desc *desc, int morton)
 {
     uint32_t n = desc->count;
     vec3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
@@ -76,7 +76,7 @@ static vbnl_result order_build(vbnl_vl_index *x, const vbnl_vl_index_desc *desc,
     float ext = fmaxf(hi.x - lo.x, fmaxf(hi.y - lo.y, hi.z - lo.z));
     ext = ext > 0.0f ? ext * 1.0001f : 1.0f;
     x->key_lo = lo;
-    x->key_scale = (float)(1u << VBNL_VLI_KEY_BITS) / ext;
+    x->key_scale = (float)(1u << VBI_VLI_KEY_BITS) / ext;
     uint32_t *order = malloc(((size_t)n + 1) * sizeof(uint32_t));
     if (!order)
         return VBNL_ERR_OUT_OF_MEMORY;
@@ -110,7 +110,7 @@ static vbnl_result order_build(vbnl_vl_index *x, const vbnl_vl_index_desc *desc,
             x->rank_of[order[k]] = k;
         x->bytes += (size_t)n * sizeof(uint32_t);
     }
-    x->rec = vbnl_big_alloc((((size_t)n * sizeof(vl_rec) + 63) / 64 + 1) * 64);
+    x->rec = vbi_big_alloc((((size_t)n * sizeof(vl_rec) + 63) / 64 + 1) * 64);
     if (!x->rec) {
         free(order);
         return VBNL_ERR_OUT_OF_MEMORY;
@@ -134,7 +134,7 @@ static uint32_t level_of(float r, float r_min)
 {
     uint32_t L = 0;
     float lim = r_min;
-    while (r > lim && L + 1 < VBNL_VLI_MAX_LEVELS) {
+    while (r > lim && L + 1 < VBI_VLI_MAX_LEVELS) {
         lim *= 2.0f;
         ++L;
     }
@@ -193,7 +193,7 @@ static uint32_t quantize_entry(const grid_level *g, vec3 c, float r, const int32
 /* The frame of a level over the spheres `members` (ranks, ascending) with cells of edge `cell`
  * (origin, cells per axis); returns the number of listings it would hold (cells overlapped by
  * the spheres' boxes, summed). */
-static uint64_t level_frame(const vbnl_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
+static uint64_t level_frame(const vbi_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
 {
     vec3 lo = v3s(INFINITY), hi = v3s(-INFINITY);
     for (uint32_t k = 0; k < m; ++k) {
@@ -225,7 +225,7 @@ static uint64_t level_frame(const vbnl_vl_index *x, grid_level *g, const uint32_
 }
 
 /* Builds a level from the spheres `members` (ranks, ascending) with cells of edge `cell`. */
-static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
+static vbnl_result level_build(vbi_vl_index *x, grid_level *g, const uint32_t *members, uint32_t m, float cell)
 {
     uint64_t listings = level_frame(x, g, members, m, cell);
     double cells = (double)g->n[0] * (double)g->n[1] * (double)g->n[2];
@@ -257,7 +257,7 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
                         hash_find(g, linear_cell(g, xx, y, z), 1, &ncell);
         }
     }
-    g->start = vbnl_big_calloc((size_t)ncell + 1, sizeof(uint32_t));
+    g->start = vbi_big_calloc((size_t)ncell + 1, sizeof(uint32_t));
     uint32_t *fill = malloc(((size_t)ncell + 1) * sizeof(uint32_t));
     if (!g->start || !fill) {
         free(fill);
@@ -296,8 +296,8 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
                             g->start[c + 1]++;
                         } else {
                             const int32_t c3[3] = {xx, y, z};
-                            VBNL_VLI_QENT(g, fill[c]) = quantize_entry(g, rec_center(e), e->r, c3);
-                            VBNL_VLI_RANK(g, fill[c]) = rank;
+                            VBI_VLI_QENT(g, fill[c]) = quantize_entry(g, rec_center(e), e->r, c3);
+                            VBI_VLI_RANK(g, fill[c]) = rank;
                             fill[c]++;
                         }
                     }
@@ -316,7 +316,7 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
             }
             g->start[ncell] = (uint32_t)total;
             g->lst_bytes = (size_t)total / 8u * 64u + 64u; /* whole blocks, + 1 */
-            g->lst = vbnl_big_alloc(g->lst_bytes);
+            g->lst = vbi_big_alloc(g->lst_bytes);
             if (!g->lst) {
                 free(fill);
                 return VBNL_ERR_OUT_OF_MEMORY;
@@ -336,7 +336,7 @@ static vbnl_result level_build(vbnl_vl_index *x, grid_level *g, const uint32_t *
 
 /* The ranks of radius class L (every usable sphere for ALL_CLASSES), ascending, into members,
  * and their largest radius into *r_max; returns their count. */
-static uint32_t class_members(const vbnl_vl_index *x, const uint8_t *cls, uint32_t L, uint32_t *members, float *r_max)
+static uint32_t class_members(const vbi_vl_index *x, const uint8_t *cls, uint32_t L, uint32_t *members, float *r_max)
 {
     uint32_t m = 0;
     *r_max = 0.0f;
@@ -350,9 +350,9 @@ static uint32_t class_members(const vbnl_vl_index *x, const uint8_t *cls, uint32
 
 /* Levels (vl_index.h, "Levels"): the radius classes, or one level for all spheres with the
  * cells of the most populated class when that level would hold at most
- * VBNL_VLI_ONE_LEVEL_LISTINGS times the listings of the classes (levels == AUTO), or always
+ * VBI_VLI_ONE_LEVEL_LISTINGS times the listings of the classes (levels == AUTO), or always
  * (ONE). */
-static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale, vbnl_vl_index_levels levels)
+static vbnl_result grid_build(vbi_vl_index *x, float cell_scale, vbi_vl_index_levels levels)
 {
     float r_min = INFINITY;
     for (uint32_t k = 0; k < x->count; ++k)
@@ -361,7 +361,7 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale, vbnl_vl_index_
     x->r_min = r_min;
     if (!(r_min < INFINITY))
         return VBNL_OK; /* no usable sphere: every query answers 0 */
-    uint32_t counts[VBNL_VLI_MAX_LEVELS] = {0};
+    uint32_t counts[VBI_VLI_MAX_LEVELS] = {0};
     uint8_t *cls = malloc(x->count ? x->count : 1);
     uint32_t *members = malloc(((size_t)x->count + 1) * sizeof(uint32_t));
     vbnl_result res = VBNL_OK;
@@ -376,30 +376,30 @@ static vbnl_result grid_build(vbnl_vl_index *x, float cell_scale, vbnl_vl_index_
             counts[cls[k]]++;
     }
     uint32_t classes = 0, main_class = 0;
-    for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS; ++L) {
+    for (uint32_t L = 0; L < VBI_VLI_MAX_LEVELS; ++L) {
         classes += counts[L] > 0;
         if (counts[L] > counts[main_class])
             main_class = L;
     }
-    if (levels != VBNL_VL_INDEX_LEVELS_CLASSES && classes > 1) {
+    if (levels != VBI_VL_INDEX_LEVELS_CLASSES && classes > 1) {
         float r_main, r_max;
         class_members(x, cls, main_class, members, &r_main);
         double split = 0.0; /* listings of one level per class (AUTO only) */
         grid_level probe;
         memset(&probe, 0, sizeof(probe));
-        for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS && levels == VBNL_VL_INDEX_LEVELS_AUTO; ++L)
+        for (uint32_t L = 0; L < VBI_VLI_MAX_LEVELS && levels == VBI_VL_INDEX_LEVELS_AUTO; ++L)
             if (counts[L]) {
                 uint32_t mc = class_members(x, cls, L, members, &r_max);
                 split += (double)level_frame(x, &probe, members, mc, cell_scale * r_max);
             }
         uint32_t m = class_members(x, cls, ALL_CLASSES, members, &r_max);
-        if (levels == VBNL_VL_INDEX_LEVELS_ONE ||
-            (double)level_frame(x, &probe, members, m, cell_scale * r_main) <= VBNL_VLI_ONE_LEVEL_LISTINGS * split) {
+        if (levels == VBI_VL_INDEX_LEVELS_ONE ||
+            (double)level_frame(x, &probe, members, m, cell_scale * r_main) <= VBI_VLI_ONE_LEVEL_LISTINGS * split) {
             res = level_build(x, &x->levels[x->level_count++], members, m, cell_scale * r_main);
             goto done;
         }
     }
-    for (uint32_t L = 0; L < VBNL_VLI_MAX_LEVELS && res == VBNL_OK; ++L) {
+    for (uint32_t L = 0; L < VBI_VLI_MAX_LEVELS && res == VBNL_OK; ++L) {
         if (!counts[L])
             continue;
         float r_max;
@@ -416,7 +416,7 @@ done:
 
 static void sphere_bounds(const struct RTCBoundsFunctionArguments *args)
 {
-    const vbnl_vl_index *x = args->geometryUserPtr;
+    const vbi_vl_index *x = args->geometryUserPtr;
     const vl_rec *e = x->rec + args->primID;
     float r = usable(e->r) ? e->r : 0.0f;
     args->bounds_o->lower_x = e->cx - r;
@@ -432,7 +432,7 @@ static void sphere_intersect(const struct RTCIntersectFunctionNArguments *args) 
 static void sphere_occluded(const struct RTCOccludedFunctionNArguments *args) { (void)args; }
 
 typedef struct embree_query {
-    const vbnl_vl_index *x;
+    const vbi_vl_index *x;
     query_out *o;
 } embree_query;
 
@@ -444,7 +444,7 @@ static bool sphere_point_query(struct RTCPointQueryFunctionArguments *args)
     return false; /* the query radius is unchanged */
 }
 
-static vbnl_result embree_build(vbnl_vl_index *x, RTCDevice device)
+static vbnl_result embree_build(vbi_vl_index *x, RTCDevice device)
 {
     x->rtc = rtcNewScene(device);
     if (!x->rtc)
@@ -468,7 +468,7 @@ static vbnl_result embree_build(vbnl_vl_index *x, RTCDevice device)
     return VBNL_OK;
 }
 
-static void embree_query_point(const vbnl_vl_index *x, vec3 p, query_out *o)
+static void embree_query_point(const vbi_vl_index *x, vec3 p, query_out *o)
 {
     struct RTCPointQuery q;
     q.x = p.x;
@@ -484,40 +484,40 @@ static void embree_query_point(const vbnl_vl_index *x, vec3 p, query_out *o)
 
 /* ---- API ----------------------------------------------------------------------------------- */
 
-vbnl_result vbnl_vl_index_create(const vbnl_vl_index_desc *desc, vbnl_vl_index **out)
+vbnl_result vbi_vl_index_create(const vbi_vl_index_desc *desc, vbi_vl_index **out)
 {
     if (!out)
         return VBNL_ERR_INVALID_ARGUMENT;
     *out = NULL;
     if (!desc || (desc->count && (!desc->centers || !desc->radii)) ||
-        (desc->kind != VBNL_VL_INDEX_GRID && desc->kind != VBNL_VL_INDEX_EMBREE) ||
-        (desc->kind == VBNL_VL_INDEX_EMBREE && !desc->device) || desc->cell_scale < 0.0f ||
-        (unsigned)desc->levels > VBNL_VL_INDEX_LEVELS_ONE)
+        (desc->kind != VBI_VL_INDEX_GRID && desc->kind != VBI_VL_INDEX_EMBREE) ||
+        (desc->kind == VBI_VL_INDEX_EMBREE && !desc->device) || desc->cell_scale < 0.0f ||
+        (unsigned)desc->levels > VBI_VL_INDEX_LEVELS_ONE)
         return VBNL_ERR_INVALID_ARGUMENT;
     for (uint32_t i = 0; i < desc->count; ++i)
         if (!v3_is_finite(desc->centers[i]))
             return VBNL_ERR_INVALID_ARGUMENT;
-    vbnl_vl_index *x = calloc(1, sizeof(*x));
+    vbi_vl_index *x = calloc(1, sizeof(*x));
     if (!x)
         return VBNL_ERR_OUT_OF_MEMORY;
     x->kind = desc->kind;
     x->count = desc->count;
     x->has_normals = desc->normals != NULL;
     x->bytes = sizeof(*x);
-    vbnl_result r = order_build(x, desc, x->kind == VBNL_VL_INDEX_GRID);
+    vbnl_result r = order_build(x, desc, x->kind == VBI_VL_INDEX_GRID);
     if (r == VBNL_OK)
-        r = x->kind == VBNL_VL_INDEX_GRID
-                ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : VBNL_VLI_DEFAULT_CELL_SCALE, desc->levels)
+        r = x->kind == VBI_VL_INDEX_GRID
+                ? grid_build(x, desc->cell_scale > 0.0f ? desc->cell_scale : VBI_VLI_DEFAULT_CELL_SCALE, desc->levels)
                 : embree_build(x, desc->device);
     if (r != VBNL_OK) {
-        vbnl_vl_index_destroy(x);
+        vbi_vl_index_destroy(x);
         return r;
     }
     *out = x;
     return VBNL_OK;
 }
 
-void vbnl_vl_index_destroy(vbnl_vl_index *x)
+void vbi_vl_index_destroy(vbi_vl_index *x)
 {
     if (!x)
         return;
@@ -532,16 +532,16 @@ void vbnl_vl_index_destroy(vbnl_vl_index *x)
 
 /* One query. The grid path keeps its query_out local (its address never escapes), so that
  * the compiler holds the counters and the filter in registers. */
-static inline __attribute__((always_inline)) uint32_t run_query(const vbnl_vl_index *x, vec3 p,
-                                                                const vbnl_vl_filter *f, uint32_t max_out,
+static inline __attribute__((always_inline)) uint32_t run_query(const vbi_vl_index *x, vec3 p,
+                                                                const vbi_vl_filter *f, uint32_t max_out,
                                                                 uint32_t *ids, float *dist2,
-                                                                vbnl_vl_found *found)
+                                                                vbi_vl_found *found)
 {
-    vbnl_vl_filter fl;
+    vbi_vl_filter fl;
     if (f)
         fl = *f;
     query_out o = {ids, dist2, found, max_out, 0, 0, f ? &fl : NULL, 0};
-    if (x->kind == VBNL_VL_INDEX_GRID)
+    if (x->kind == VBI_VL_INDEX_GRID)
         grid_query(x, p, &o);
     else if (x->count)
         embree_query_point(x, p, &o);
@@ -550,36 +550,36 @@ static inline __attribute__((always_inline)) uint32_t run_query(const vbnl_vl_in
     return o.total;
 }
 
-uint32_t vbnl_vl_index_query_filtered(const vbnl_vl_index *x, vec3 p, const vbnl_vl_filter *f, uint32_t max_out,
+uint32_t vbi_vl_index_query_filtered(const vbi_vl_index *x, vec3 p, const vbi_vl_filter *f, uint32_t max_out,
                                       uint32_t *ids, float *dist2)
 {
     return run_query(x, p, x->has_normals ? f : NULL, max_out, ids, dist2, NULL);
 }
 
-uint32_t vbnl_vl_index_query(const vbnl_vl_index *x, vec3 p, uint32_t max_out, uint32_t *ids, float *dist2)
+uint32_t vbi_vl_index_query(const vbi_vl_index *x, vec3 p, uint32_t max_out, uint32_t *ids, float *dist2)
 {
     return run_query(x, p, NULL, max_out, ids, dist2, NULL);
 }
 
-uint32_t vbnl_vl_index_query_found(const vbnl_vl_index *x, vec3 p, const vbnl_vl_filter *f, uint32_t max_out,
-                                   vbnl_vl_found *found)
+uint32_t vbi_vl_index_query_found(const vbi_vl_index *x, vec3 p, const vbi_vl_filter *f, uint32_t max_out,
+                                   vbi_vl_found *found)
 {
     return run_query(x, p, f && x->has_normals ? f : NULL, max_out, NULL, NULL, found);
 }
 
-uint32_t vbnl_vl_index_candidates(const vbnl_vl_index *x, vec3 p, uint32_t max_out, uint32_t *ranks)
+uint32_t vbi_vl_index_candidates(const vbi_vl_index *x, vec3 p, uint32_t max_out, uint32_t *ranks)
 {
-    if (x->kind != VBNL_VL_INDEX_GRID) {
-        vbnl_vl_found f[VBNL_VL_BATCH_MAX_OUT];
-        uint32_t total = run_query(x, p, NULL, VBNL_VL_BATCH_MAX_OUT, NULL, NULL, f);
-        if (total > max_out || total > VBNL_VL_BATCH_MAX_OUT)
+    if (x->kind != VBI_VL_INDEX_GRID) {
+        vbi_vl_found f[VBI_VL_BATCH_MAX_OUT];
+        uint32_t total = run_query(x, p, NULL, VBI_VL_BATCH_MAX_OUT, NULL, NULL, f);
+        if (total > max_out || total > VBI_VL_BATCH_MAX_OUT)
             return max_out + 1;
         for (uint32_t k = 0; k < total; ++k)
             ranks[k] = f[k].rank;
         return total;
     }
     uint32_t n_out = 0;
-    VBNL_VLI_GRID_CANDIDATES(x, p, {
+    VBI_VLI_GRID_CANDIDATES(x, p, {
         if (n_out < max_out)
             ranks[n_out] = rank_;
         n_out++;
@@ -587,28 +587,28 @@ uint32_t vbnl_vl_index_candidates(const vbnl_vl_index *x, vec3 p, uint32_t max_o
     return n_out;
 }
 
-void vbnl_vl_index_lookup_begin(const vbnl_vl_index *x, vec3 p, vbnl_vl_lookup *l)
+void vbi_vl_index_lookup_begin(const vbi_vl_index *x, vec3 p, vbi_vl_lookup *l)
 {
     l->p = p;
     l->levels = 0;
-    if (x->kind != VBNL_VL_INDEX_GRID || x->level_count > VBNL_VL_LOOKUP_LEVELS)
+    if (x->kind != VBI_VL_INDEX_GRID || x->level_count > VBI_VL_LOOKUP_LEVELS)
         return;
     l->levels = x->level_count;
     for (uint32_t L = 0; L < l->levels; ++L)
-        l->cell[L] = vbnl_vli_locate(&x->levels[L], p, l->c3[L]);
+        l->cell[L] = vbi_vli_locate(&x->levels[L], p, l->c3[L]);
 }
 
-void vbnl_vl_index_lookup_fetch(const vbnl_vl_index *x, vbnl_vl_lookup *l)
+void vbi_vl_index_lookup_fetch(const vbi_vl_index *x, vbi_vl_lookup *l)
 {
     for (uint32_t L = 0; L < l->levels; ++L)
-        vbnl_vli_fetch(&x->levels[L], l->cell[L], &l->s0[L], &l->n[L]);
+        vbi_vli_fetch(&x->levels[L], l->cell[L], &l->s0[L], &l->n[L]);
 }
 
-uint32_t vbnl_vl_index_lookup_candidates(const vbnl_vl_index *x, const vbnl_vl_lookup *l, uint32_t max_out,
+uint32_t vbi_vl_index_lookup_candidates(const vbi_vl_index *x, const vbi_vl_lookup *l, uint32_t max_out,
                                          uint32_t *ranks)
 {
     if (!l->levels) /* not staged (or no level: nothing is listed either way) */
-        return vbnl_vl_index_candidates(x, l->p, max_out, ranks);
+        return vbi_vl_index_candidates(x, l->p, max_out, ranks);
     uint32_t n_out = 0;
     for (uint32_t L = 0; L < l->levels; ++L) {
         if (!l->n[L])
@@ -616,7 +616,7 @@ uint32_t vbnl_vl_index_lookup_candidates(const vbnl_vl_index *x, const vbnl_vl_l
         const grid_level *g = &x->levels[L];
         float q[3];
         cell_frame(g, l->p, l->c3[L], q);
-        VBNL_VLI_PRETEST(g, l->s0[L], l->n[L], q, {
+        VBI_VLI_PRETEST(g, l->s0[L], l->n[L], q, {
             if (n_out < max_out)
                 ranks[n_out] = rank_;
             n_out++;
@@ -625,14 +625,14 @@ uint32_t vbnl_vl_index_lookup_candidates(const vbnl_vl_index *x, const vbnl_vl_l
     return n_out;
 }
 
-int vbnl_vl_index_has_normals(const vbnl_vl_index *x) { return x->has_normals; }
-uint32_t vbnl_vl_index_count(const vbnl_vl_index *x) { return x->count; }
-uint32_t vbnl_vl_index_rank(const vbnl_vl_index *x, uint32_t id) { return x->rank_of ? x->rank_of[id] : id; }
-uint32_t vbnl_vl_index_id(const vbnl_vl_index *x, uint32_t rank) { return x->rec[rank].id; }
-uint64_t vbnl_vl_index_spatial_key(const vbnl_vl_index *x, vec3 p) { return spatial_key(x, p); }
-vbnl_vl_key_grid vbnl_vl_index_key_grid(const vbnl_vl_index *x) { return (vbnl_vl_key_grid){x->key_lo, x->key_scale}; }
-vec3 vbnl_vl_index_center(const vbnl_vl_index *x, uint32_t id) { return rec_center(x->rec + vbnl_vl_index_rank(x, id)); }
-float vbnl_vl_index_radius(const vbnl_vl_index *x, uint32_t id) { return x->rec[vbnl_vl_index_rank(x, id)].r; }
-vbnl_vl_index_kind vbnl_vl_index_get_kind(const vbnl_vl_index *x) { return x->kind; }
-uint32_t vbnl_vl_index_level_count(const vbnl_vl_index *x) { return x->kind == VBNL_VL_INDEX_GRID ? x->level_count : 0u; }
-size_t vbnl_vl_index_bytes(const vbnl_vl_index *x) { return x->bytes; }
+int vbi_vl_index_has_normals(const vbi_vl_index *x) { return x->has_normals; }
+uint32_t vbi_vl_index_count(const vbi_vl_index *x) { return x->count; }
+uint32_t vbi_vl_index_rank(const vbi_vl_index *x, uint32_t id) { return x->rank_of ? x->rank_of[id] : id; }
+uint32_t vbi_vl_index_id(const vbi_vl_index *x, uint32_t rank) { return x->rec[rank].id; }
+uint64_t vbi_vl_index_spatial_key(const vbi_vl_index *x, vec3 p) { return spatial_key(x, p); }
+vbi_vl_key_grid vbi_vl_index_key_grid(const vbi_vl_index *x) { return (vbi_vl_key_grid){x->key_lo, x->key_scale}; }
+vec3 vbi_vl_index_center(const vbi_vl_index *x, uint32_t id) { return rec_center(x->rec + vbi_vl_index_rank(x, id)); }
+float vbi_vl_index_radius(const vbi_vl_index *x, uint32_t id) { return x->rec[vbi_vl_index_rank(x, id)].r; }
+vbi_vl_index_kind vbi_vl_index_get_kind(const vbi_vl_index *x) { return x->kind; }
+uint32_t vbi_vl_index_level_count(const vbi_vl_index *x) { return x->kind == VBI_VL_INDEX_GRID ? x->level_count : 0u; }
+size_t vbi_vl_index_bytes(const vbi_vl_index *x) { return x->bytes; }

@@ -1,25 +1,25 @@
-/* Pipelined batch queries of the VL sphere index (vl_index.h, vbnl_vl_index_query_batch), for
+/* Pipelined batch queries of the VL sphere index (vl_index.h, vbi_vl_index_query_batch), for
  * photon splitting's sorted batches of hits (Li et al. 2022, Section 3.3). */
 #include "vl_index_pipe.h"
 
 typedef struct pipe_user {
-    vbnl_vl_batch_fn fn;
+    vbi_vl_batch_fn fn;
     void *user;
 } pipe_user;
 
 /* Stage D: the exact test and the filter on the candidates, the same decisions as test_rec_exact
  * and passes, with the filter in registers. Falls back to the plain query when the answer would
  * be capped (more than max_out spheres, rare) or the candidates overflowed. */
-static void pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b, uint32_t k, const vbnl_vli_pipe_slot *s,
-                   vbnl_vl_found *found, const pipe_user *pu)
+static void pipe_d(const vbi_vl_index *x, const vbi_vl_batch *b, uint32_t k, const vbi_vli_pipe_slot *s,
+                   vbi_vl_found *found, const pipe_user *pu)
 {
-    vbnl_vl_batch_fn fn = pu->fn;
+    vbi_vl_batch_fn fn = pu->fn;
     void *user = pu->user;
-    if (s->ncand > VBNL_VLI_PIPE_CAND) {
-        vbnl_vli_batch_plain(x, b, k, found, fn, user);
+    if (s->ncand > VBI_VLI_PIPE_CAND) {
+        vbi_vli_batch_plain(x, b, k, found, fn, user);
         return;
     }
-    const char *rec_k = vbnl_vli_batch_rec(b, k);
+    const char *rec_k = vbi_vli_batch_rec(b, k);
     vec3 p, n = v3s(0.0f), wi = v3s(0.0f);
     memcpy(&p, rec_k + b->p_off, sizeof(p));
     const int filter = b->filter && x->has_normals;
@@ -34,36 +34,36 @@ static void pipe_d(const vbnl_vl_index *x, const vbnl_vl_batch *b, uint32_t k, c
         uint32_t rank = s->cand[i];
         const vl_rec *e = x->rec + rank;
         double d2;
-        if (!vbnl_vli_accept(e, p, use_cos, n, ncos, use_facing, wi, &d2))
+        if (!vbi_vli_accept(e, p, use_cos, n, ncos, use_facing, wi, &d2))
             continue;
         const float r = e->r;
         if (m == max_out) { /* capped: the plain query keeps the max_out smallest ids */
-            vbnl_vli_batch_plain(x, b, k, found, fn, user);
+            vbi_vli_batch_plain(x, b, k, found, fn, user);
             return;
         }
-        found[m++] = (vbnl_vl_found){e->id, rank, (float)d2, r};
+        found[m++] = (vbi_vl_found){e->id, rank, (float)d2, r};
     }
     fn(user, k, m, found, m); /* in candidate (rank) order: see vl_index.h */
 }
 
-void vbnl_vl_index_query_batch(const vbnl_vl_index *x, const vbnl_vl_batch *b, vbnl_vl_batch_fn fn, void *user)
+void vbi_vl_index_query_batch(const vbi_vl_index *x, const vbi_vl_batch *b, vbi_vl_batch_fn fn, void *user)
 {
-    vbnl_vl_found found[VBNL_VL_BATCH_MAX_OUT];
+    vbi_vl_found found[VBI_VL_BATCH_MAX_OUT];
     uint32_t count = b->count;
-    if (x->kind != VBNL_VL_INDEX_GRID) {
+    if (x->kind != VBI_VL_INDEX_GRID) {
         for (uint32_t k = 0; k < count; ++k)
-            vbnl_vli_batch_plain(x, b, k, found, fn, user);
+            vbi_vli_batch_plain(x, b, k, found, fn, user);
         return;
     }
-    if (x->level_count > VBNL_VLI_PIPE_LEVELS) {
+    if (x->level_count > VBI_VLI_PIPE_LEVELS) {
         for (uint32_t k = 0; k < count; ++k)
-            vbnl_vli_batch_plain(x, b, k, found, fn, user);
+            vbi_vli_batch_plain(x, b, k, found, fn, user);
         return;
     }
     /* the single-level case (uniform radii, the common one) without the loops over levels */
     const pipe_user pu = {fn, user};
     if (x->level_count == 1)
-        VBNL_VLI_RUN_PIPE(x, b, found, pipe_d, &pu, 1u);
+        VBI_VLI_RUN_PIPE(x, b, found, pipe_d, &pu, 1u);
     else
-        VBNL_VLI_RUN_PIPE(x, b, found, pipe_d, &pu, x->level_count);
+        VBI_VLI_RUN_PIPE(x, b, found, pipe_d, &pu, x->level_count);
 }

@@ -3,7 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-vbnl_result vbnl_vl_set_alloc(vbnl_vl_set *s, uint32_t count, vbnl_error *err)
+vbnl_result vbi_vl_set_alloc(vbi_vl_set *s, uint32_t count, vbnl_error *err)
 {
     memset(s, 0, sizeof(*s));
     s->position = malloc(sizeof(vec3) * (size_t)count);
@@ -13,14 +13,14 @@ vbnl_result vbnl_vl_set_alloc(vbnl_vl_set *s, uint32_t count, vbnl_error *err)
     s->radius = malloc(sizeof(float) * (size_t)count);
     s->density = malloc(sizeof(float) * (size_t)count);
     if (!s->position || !s->normal || !s->material || !s->tint || !s->radius || !s->density) {
-        vbnl_vl_set_free(s);
+        vbi_vl_set_free(s);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory for %u virtual lights", count);
     }
     s->count = count;
     return VBNL_OK;
 }
 
-void vbnl_vl_set_free(vbnl_vl_set *s)
+void vbi_vl_set_free(vbi_vl_set *s)
 {
     if (!s)
         return;
@@ -33,7 +33,7 @@ void vbnl_vl_set_free(vbnl_vl_set *s)
     memset(s, 0, sizeof(*s));
 }
 
-size_t vbnl_vl_set_bytes(const vbnl_vl_set *s)
+size_t vbi_vl_set_bytes(const vbi_vl_set *s)
 {
     return (size_t)s->count * (3 * sizeof(vec3) + sizeof(uint32_t) + 2 * sizeof(float));
 }

@@ -34,8 +34,8 @@
  * the scene and the VL only: deterministic, independent of threads.
  *
  * Data: per VL by index rank (vl_index.h) its material and tau_j, 0 for clear VLs. */
-#ifndef VBNL_VL_SUPPORT_H
-#define VBNL_VL_SUPPORT_H
+#ifndef VBI_VL_SUPPORT_H
+#define VBI_VL_SUPPORT_H
 
 #include <stdint.h>
 
@@ -46,39 +46,39 @@
 #include "vl_index.h"
 #include "vl_set.h"
 
-typedef struct vbnl_vl_support {
+typedef struct vbi_vl_support {
     float tau;         /* the height of tests 2 and 3, 0 when the VL is clear */
     uint32_t material; /* test 1 */
-} vbnl_vl_support;
+} vbi_vl_support;
 
-typedef struct vbnl_vl_support_stats {
+typedef struct vbi_vl_support_stats {
     uint32_t tested; /* VLs whose points take the test (tau > 0) */
     uint64_t rays;   /* probe rays traced */
-} vbnl_vl_support_stats;
+} vbi_vl_support_stats;
 
 /* Probes every VL of `set` against the scene and writes its record by rank of `index` into
  * by_rank (set->count records, the caller's). Runs on the stage's workers when `stage` is given, else on
  * `pool`, else serially. Errors: VBNL_ERR_CANCELLED, VBNL_ERR_OUT_OF_MEMORY. */
-vbnl_result vbnl_vl_support_build(const vbnl_scene *sc, const vbnl_vl_set *set, const vbnl_vl_index *index,
-                                  vbnl_stage_ctx *stage, vbnl_pool *pool, vbnl_vl_support *by_rank,
-                                  vbnl_vl_support_stats *stats);
+vbnl_result vbi_vl_support_build(const vbnl_scene *sc, const vbi_vl_set *set, const vbi_vl_index *index,
+                                  vbnl_stage_ctx *stage, vbi_pool *pool, vbi_vl_support *by_rank,
+                                  vbi_vl_support_stats *stats);
 
 /* Open height above p along the unit normal n, up to tmax (test 2, for all VLs at p at once). */
-static inline float vbnl_vl_support_height(const vbnl_scene *sc, vec3 p, vec3 n, float tmax)
+static inline float vbi_vl_support_height(const vbnl_scene *sc, vec3 p, vec3 n, float tmax)
 {
-    return vbnl_scene_hit_distance(sc, vbnl_offset_ray_origin_along(p, n), n, tmax);
+    return vbi_scene_hit_distance(sc, vbi_offset_ray_origin_along(p, n), n, tmax);
 }
 
-/* Tests 2 and 3 for a point p (normal n, open height h_p from vbnl_vl_support_height with a
+/* Tests 2 and 3 for a point p (normal n, open height h_p from vbi_vl_support_height with a
  * tmax of at least tau) and the VL of centre c, normal nj and test height tau > 0. */
-static inline int vbnl_vl_support_passes(const vbnl_scene *sc, vec3 p, vec3 n, float h_p, vec3 c, vec3 nj,
+static inline int vbi_vl_support_passes(const vbnl_scene *sc, vec3 p, vec3 n, float h_p, vec3 c, vec3 nj,
                                          float tau)
 {
     if (h_p < tau)
         return 0;
     vec3 a = v3_fma(p, n, tau), ab = v3_sub(v3_fma(c, nj, tau), a);
     float len = v3_len(ab);
-    return !(len > 0.0f) || !vbnl_scene_occluded_inline(sc, a, v3_scale(ab, 1.0f / len), len);
+    return !(len > 0.0f) || !vbi_scene_occluded_inline(sc, a, v3_scale(ab, 1.0f / len), len);
 }
 
 #endif

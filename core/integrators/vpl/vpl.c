@@ -34,11 +34,11 @@ static const vbnl_param_spec vpl_params[] = {
 
 typedef struct vpl_state {
     const vbnl_scene *scene;
-    vbnl_vpl_params vp;
+    vbi_vpl_params vp;
     int indirect_only;
     uint32_t stride;
     vec3 cam_forward;
-    vbnl_vpl_set set;
+    vbi_vpl_set set;
     vbnl_budget *budget;
 } vpl_state;
 
@@ -59,7 +59,7 @@ static vbnl_result vpl_create(const vbnl_integrator_env *env, void **out, vbnl_e
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     s->scene = env->scene;
     s->budget = env->budget;
-    vbnl_vpl_params *vp = &s->vp;
+    vbi_vpl_params *vp = &s->vp;
     vp->target = (uint32_t)param(env, "virtual_lights");
     vp->light_paths = (uint64_t)param(env, "light_paths");
     vp->clamp = (float)param(env, "clamp");
@@ -72,7 +72,7 @@ static vbnl_result vpl_create(const vbnl_integrator_env *env, void **out, vbnl_e
     vp->width = env->settings->width;
     vp->height = env->settings->height;
     s->indirect_only = param(env, "indirect_only") != 0.0;
-    vbnl_result r = vbnl_vpl_params_check(vp, "vpl", err);
+    vbnl_result r = vbi_vpl_params_check(vp, "vpl", err);
     if (r != VBNL_OK) {
         free(s);
         return r;
@@ -88,7 +88,7 @@ static void vpl_destroy(void *state)
     vpl_state *s = state;
     if (!s)
         return;
-    vbnl_vpl_set_free(&s->set);
+    vbi_vpl_set_free(&s->set);
     free(s);
 }
 
@@ -99,46 +99,46 @@ static vbnl_result vpl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *e
                                             12000, &s->vp.target, err);
     if (r != VBNL_OK)
         return r;
-    r = vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
+    r = vbi_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
     if (r == VBNL_OK)
-        vbnl_stage_set_storage(stage, (uint64_t)s->set.count * sizeof(vbnl_vpl));
+        vbnl_stage_set_storage(stage, (uint64_t)s->set.count * sizeof(vbi_vpl));
     return r;
 }
 
-static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_sampler *sp,
-                   vbnl_thread_stats *stats)
+static vec3 gather(const void *state, const vbi_bsdf *bsdf, vec3 x, const vbi_shading_frame *sf, vbi_sampler *sp,
+                   vbi_thread_stats *stats)
 {
     (void)sp;
     const vpl_state *s = state;
     vec3 sum = v3s(0.0f);
     for (uint32_t i = 0; i < s->set.count; ++i) {
-        const vbnl_vpl *v = &s->set.vpls[i];
+        const vbi_vpl *v = &s->set.vpls[i];
         vec3 w;
         float dist;
-        vec3 c = vbnl_vpl_contribution(v, bsdf, x, sf, s->vp.clamp, &w, &dist);
+        vec3 c = vbi_vpl_contribution(v, bsdf, x, sf, s->vp.clamp, &w, &dist);
         if (v3_is_black(c))
             continue;
         stats->rays++;
-        if (vbnl_vpl_visible(s->scene, x, sf->ng, v, w, dist))
+        if (vbi_vpl_visible(s->scene, x, sf->ng, v, w, dist))
             sum = v3_add(sum, c);
     }
     return sum;
 }
 
-static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
-                  vbnl_thread_stats *stats)
+static void trace(void *state, vbi_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbi_hit *first, float *out,
+                  vbi_thread_stats *stats)
 {
     const vpl_state *s = state;
-    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, sp, o, d, hit_ok, first, out, stats);
+    vbi_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, sp, o, d, hit_ok, first, out, stats);
 }
 
 static void vpl_render_tile(void *state, vbnl_tile_job *job)
 {
     const vpl_state *s = state;
-    vbnl_render_camera_paths(job, s->stride, trace, state);
+    vbi_render_camera_paths(job, s->stride, trace, state);
 }
 
-const vbnl_integrator_class vbnl_integrator_vpl = {
+const vbnl_integrator_class vbi_integrator_vpl = {
     VBNL_INTEGRATOR_ABI_MAJOR,
     VBNL_INTEGRATOR_ABI_MINOR,
     sizeof(vbnl_integrator_class),

@@ -40,13 +40,13 @@ static const vbnl_param_spec vsl_params[] = {
 
 typedef struct vsl_state {
     const vbnl_scene *scene;
-    vbnl_vpl_params vp;
+    vbi_vpl_params vp;
     float radius_scale;
     uint32_t neighbour;
     int indirect_only;
     uint32_t stride;
     vec3 cam_forward;
-    vbnl_vpl_set set;
+    vbi_vpl_set set;
     float *radius;
     float *inv_area; /* 1 / (pi r^2) */
     vbnl_budget *budget;
@@ -69,7 +69,7 @@ static vbnl_result vsl_create(const vbnl_integrator_env *env, void **out, vbnl_e
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     s->scene = env->scene;
     s->budget = env->budget;
-    vbnl_vpl_params *vp = &s->vp;
+    vbi_vpl_params *vp = &s->vp;
     vp->target = (uint32_t)param(env, "virtual_lights");
     vp->light_paths = (uint64_t)param(env, "light_paths");
     vp->clamp = 0.0f;
@@ -81,7 +81,7 @@ static vbnl_result vsl_create(const vbnl_integrator_env *env, void **out, vbnl_e
     s->radius_scale = (float)param(env, "radius_scale");
     s->neighbour = (uint32_t)param(env, "radius_neighbour");
     s->indirect_only = param(env, "indirect_only") != 0.0;
-    vbnl_result r = vbnl_vpl_params_check(vp, "vsl", err);
+    vbnl_result r = vbi_vpl_params_check(vp, "vsl", err);
     if (r != VBNL_OK) {
         free(s);
         return r;
@@ -97,7 +97,7 @@ static void vsl_destroy(void *state)
     vsl_state *s = state;
     if (!s)
         return;
-    vbnl_vpl_set_free(&s->set);
+    vbi_vpl_set_free(&s->set);
     free(s->radius);
     free(s->inv_area);
     free(s);
@@ -105,7 +105,7 @@ static void vsl_destroy(void *state)
 
 typedef struct radius_job {
     vsl_state *s;
-    const vbnl_kd_tree *tree;
+    const vbi_kd_tree *tree;
     uint32_t m;
 } radius_job;
 
@@ -121,7 +121,7 @@ static void radius_chunk(void *user, uint64_t item, unsigned thread)
     uint32_t b = (uint32_t)item * RADIUS_CHUNK, n = job->tree->n;
     uint32_t e = b + RADIUS_CHUNK < n ? b + RADIUS_CHUNK : n;
     for (uint32_t i = b; i < e; ++i) {
-        float d2 = vbnl_kd_mth_dist2(job->tree, i, job->m, idx, d2s);
+        float d2 = vbi_kd_mth_dist2(job->tree, i, job->m, idx, d2s);
         uint32_t id = job->tree->pts[i].id;
         s->radius[id] = s->radius_scale * sqrtf(d2);
     }
@@ -134,7 +134,7 @@ static vbnl_result vsl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *e
                                             12000, &s->vp.target, err);
     if (r != VBNL_OK)
         return r;
-    r = vbnl_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
+    r = vbi_vpl_set_build(s->scene, &s->vp, stage, &s->set, err);
     if (r != VBNL_OK)
         return r;
     const uint32_t n = s->set.count;
@@ -145,8 +145,8 @@ static vbnl_result vsl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *e
     if (n >= 2) {
         if (stage)
             vbnl_stage_begin(stage, "radii", n, "lights");
-        vbnl_kd_pt *pts = malloc(sizeof(vbnl_kd_pt) * n);
-        vbnl_kd_tree tree;
+        vbi_kd_pt *pts = malloc(sizeof(vbi_kd_pt) * n);
+        vbi_kd_tree tree;
         memset(&tree, 0, sizeof(tree));
         if (!pts)
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
@@ -156,13 +156,13 @@ static vbnl_result vsl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *e
             pts[i].p[2] = s->set.vpls[i].p.z;
             pts[i].id = i;
         }
-        if (vbnl_kd_build(&tree, pts, n) != 0) {
+        if (vbi_kd_build(&tree, pts, n) != 0) {
             free(pts);
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         }
         radius_job job = {s, &tree, s->neighbour < n - 1 ? s->neighbour : n - 1};
-        int rc = vbnl_run_items(stage, NULL, (n + RADIUS_CHUNK - 1) / RADIUS_CHUNK, radius_chunk, &job);
-        vbnl_kd_free(&tree);
+        int rc = vbi_run_items(stage, NULL, (n + RADIUS_CHUNK - 1) / RADIUS_CHUNK, radius_chunk, &job);
+        vbi_kd_free(&tree);
         free(pts);
         if (stage)
             vbnl_stage_end(stage);
@@ -171,15 +171,15 @@ static vbnl_result vsl_prepare(void *state, vbnl_stage_ctx *stage, vbnl_error *e
     }
     /* a light alone (or on top of k others) keeps r = 0 and acts as a point light */
     for (uint32_t i = 0; i < n; ++i)
-        s->inv_area[i] = s->radius[i] > 0.0f ? 1.0f / (VBNL_PI * s->radius[i] * s->radius[i]) : 0.0f;
-    vbnl_stage_set_storage(stage, (uint64_t)n * (sizeof(vbnl_vpl) + 2 * sizeof(float)));
+        s->inv_area[i] = s->radius[i] > 0.0f ? 1.0f / (VBI_PI * s->radius[i] * s->radius[i]) : 0.0f;
+    vbnl_stage_set_storage(stage, (uint64_t)n * (sizeof(vbi_vpl) + 2 * sizeof(float)));
     return VBNL_OK;
 }
 
 static inline float sq(float x) { return x * x; }
 
 /* f_x cos_x f_i cos_i along w (from x toward the light), 0 outside the cone or a surface. */
-static vec3 integrand(const vbnl_vpl *v, const vbnl_bsdf *bsdf, const vbnl_shading_frame *sf, vec3 w, vec3 axis,
+static vec3 integrand(const vbi_vpl *v, const vbi_bsdf *bsdf, const vbi_shading_frame *sf, vec3 w, vec3 axis,
                       float cos_max, float *pdf_x, float *pdf_y)
 {
     *pdf_x = *pdf_y = 0.0f;
@@ -187,24 +187,24 @@ static vec3 integrand(const vbnl_vpl *v, const vbnl_bsdf *bsdf, const vbnl_shadi
         return v3s(0.0f);
     vec3 wx = frame_to_local(&sf->fr, w);
     vec3 wy = frame_to_local(&v->fr, v3_neg(w));
-    *pdf_x = vbnl_bsdf_pdf(bsdf, sf->wo, wx);
-    *pdf_y = vbnl_bsdf_pdf(&v->bsdf, v->wi, wy);
-    vec3 fx = vbnl_bsdf_eval(bsdf, sf->wo, wx);
+    *pdf_x = vbi_bsdf_pdf(bsdf, sf->wo, wx);
+    *pdf_y = vbi_bsdf_pdf(&v->bsdf, v->wi, wy);
+    vec3 fx = vbi_bsdf_eval(bsdf, sf->wo, wx);
     if (v3_is_black(fx))
         return v3s(0.0f);
-    return v3_mul(fx, vbnl_bsdf_eval(&v->bsdf, v->wi, wy));
+    return v3_mul(fx, vbi_bsdf_eval(&v->bsdf, v->wi, wy));
 }
 
-static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_shading_frame *sf, vbnl_sampler *sp,
-                   vbnl_thread_stats *stats)
+static vec3 gather(const void *state, const vbi_bsdf *bsdf, vec3 x, const vbi_shading_frame *sf, vbi_sampler *sp,
+                   vbi_thread_stats *stats)
 {
     const vsl_state *s = state;
     vec3 sum = v3s(0.0f);
     for (uint32_t i = 0; i < s->set.count; ++i) {
-        const vbnl_vpl *v = &s->set.vpls[i];
+        const vbi_vpl *v = &s->set.vpls[i];
         /* the draws of every light are taken whether or not it contributes: fixed stream use */
-        vec2 uc = vbnl_sampler_next2(sp);
-        vec2 ua = vbnl_sampler_next2(sp), ub = vbnl_sampler_next2(sp);
+        vec2 uc = vbi_sampler_next2(sp);
+        vec2 ua = vbi_sampler_next2(sp), ub = vbi_sampler_next2(sp);
         float r = s->radius[i];
         vec3 to = v3_sub(v->p, x);
         float d2 = v3_len2(to);
@@ -221,7 +221,7 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
         vec3 L;
         if (!(r > 0.0f)) {
             vec3 w;
-            L = vbnl_vpl_contribution(v, bsdf, x, sf, 0.0f, &w, &dist);
+            L = vbi_vpl_contribution(v, bsdf, x, sf, 0.0f, &w, &dist);
         } else {
             float cos_max = d2 <= r * r ? -1.0f : sqrtf(1.0f - r * r / d2);
             float pc = pdf_uniform_cone(cos_max);
@@ -234,15 +234,15 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
             if (!v3_is_black(h))
                 est = v3_add(est, v3_scale(h, pc / (sq(pc) + sq(px) + sq(py))));
             /* 2: the BSDF at x */
-            vbnl_bsdf_sample_rec bs;
-            if (vbnl_bsdf_sample(bsdf, sf->wo, ua, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
+            vbi_bsdf_sample_rec bs;
+            if (vbi_bsdf_sample(bsdf, sf->wo, ua, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBI_LOBE_SPECULAR)) {
                 w = frame_to_world(&sf->fr, bs.wi);
                 h = integrand(v, bsdf, sf, w, axis, cos_max, &px, &py);
                 if (!v3_is_black(h) && px > 0.0f)
                     est = v3_add(est, v3_scale(h, px / (sq(pc) + sq(px) + sq(py))));
             }
             /* 3: the BSDF at the light (reciprocity: a direction leaving it toward x) */
-            if (vbnl_bsdf_sample(&v->bsdf, v->wi, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBNL_LOBE_SPECULAR)) {
+            if (vbi_bsdf_sample(&v->bsdf, v->wi, ub, &bs) && bs.pdf > 0.0f && !(bs.lobe & VBI_LOBE_SPECULAR)) {
                 w = v3_neg(frame_to_world(&v->fr, bs.wi));
                 h = integrand(v, bsdf, sf, w, axis, cos_max, &px, &py);
                 if (!v3_is_black(h) && py > 0.0f)
@@ -253,26 +253,26 @@ static vec3 gather(const void *state, const vbnl_bsdf *bsdf, vec3 x, const vbnl_
         if (v3_is_black(L) || !v3_is_finite(L))
             continue;
         stats->rays++;
-        if (vbnl_vpl_visible(s->scene, x, sf->ng, v, axis, dist))
+        if (vbi_vpl_visible(s->scene, x, sf->ng, v, axis, dist))
             sum = v3_add(sum, L);
     }
     return sum;
 }
 
-static void trace(void *state, vbnl_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbnl_hit *first, float *out,
-                  vbnl_thread_stats *stats)
+static void trace(void *state, vbi_sampler *sp, vec3 o, vec3 d, int hit_ok, const vbi_hit *first, float *out,
+                  vbi_thread_stats *stats)
 {
     const vsl_state *s = state;
-    vbnl_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, sp, o, d, hit_ok, first, out, stats);
+    vbi_vpl_trace(s->scene, s->indirect_only, s->cam_forward, gather, s, sp, o, d, hit_ok, first, out, stats);
 }
 
 static void vsl_render_tile(void *state, vbnl_tile_job *job)
 {
     const vsl_state *s = state;
-    vbnl_render_camera_paths(job, s->stride, trace, state);
+    vbi_render_camera_paths(job, s->stride, trace, state);
 }
 
-const vbnl_integrator_class vbnl_integrator_vsl = {
+const vbnl_integrator_class vbi_integrator_vsl = {
     VBNL_INTEGRATOR_ABI_MAJOR,
     VBNL_INTEGRATOR_ABI_MINOR,
     sizeof(vbnl_integrator_class),

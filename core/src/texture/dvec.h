@@ -1,8 +1,8 @@
 /* Double-precision vectors and affine maps for pattern evaluation (private header). POV-Ray
  * evaluates its patterns in double precision; the lattice noise and the cell patterns differ from
  * its values in single precision, so the texture code works in doubles. */
-#ifndef VBNL_TEXTURE_DVEC_H
-#define VBNL_TEXTURE_DVEC_H
+#ifndef VBI_TEXTURE_DVEC_H
+#define VBI_TEXTURE_DVEC_H
 
 #include <math.h>
 

@@ -3,7 +3,7 @@
  * exterior and interior types (pattern.cpp's fractal_exterior_color / fractal_interior_color). */
 #include "texture.h"
 
-static double exterior(const vbnl_pattern *pt, int iters, double a, double b)
+static double exterior(const vbi_pattern *pt, int iters, double a, double b)
 {
     const double f = pt->u.fractal.efactor;
     switch (pt->u.fractal.exterior) {
@@ -34,7 +34,7 @@ static double exterior(const vbnl_pattern *pt, int iters, double a, double b)
     }
 }
 
-static double interior(const vbnl_pattern *pt, double a, double b, double mindist2)
+static double interior(const vbi_pattern *pt, double a, double b, double mindist2)
 {
     const double f = pt->u.fractal.ifactor;
     switch (pt->u.fractal.interior) {
@@ -76,7 +76,7 @@ static void complex_pow(double a, double b, int n, double *ra, double *rb)
 }
 
 /* z -> z^n + c from z0 = (x, y) (Julia: c fixed; Mandelbrot: c = z0), escaping beyond |z| = 2. */
-static double escape(const vbnl_pattern *pt, dvec3 p, int julia)
+static double escape(const vbi_pattern *pt, dvec3 p, int julia)
 {
     const int n = pt->u.fractal.exponent, it_max = pt->u.fractal.iterations;
     const double cr = julia ? pt->u.fractal.cu : p.x, ci = julia ? pt->u.fractal.cv : p.y;
@@ -116,7 +116,7 @@ static double escape(const vbnl_pattern *pt, dvec3 p, int julia)
 
 /* The magnet formulas: z -> ((z^2 + c - 1) / (2z + c - 2))^2 (type 1) or the cubic type 2, until
  * |z| > 100 or z is within 0.01 of 1. */
-static double magnet(const vbnl_pattern *pt, dvec3 p)
+static double magnet(const vbi_pattern *pt, dvec3 p)
 {
     const int julia = pt->u.fractal.julia, type2 = pt->u.fractal.magnet == 2, it_max = pt->u.fractal.iterations;
     const double cr = julia ? pt->u.fractal.cu : p.x, ci = julia ? pt->u.fractal.cv : p.y;
@@ -154,7 +154,7 @@ static double magnet(const vbnl_pattern *pt, dvec3 p)
     return interior(pt, a, b, mind);
 }
 
-double vbnl_pattern_fractal(const vbnl_pattern *pt, dvec3 p)
+double vbi_pattern_fractal(const vbi_pattern *pt, dvec3 p)
 {
     switch (pt->kind) {
     case VBNL_PATTERN_JULIA:

@@ -5,7 +5,7 @@
  * centres, normalised distance, bicubic). */
 #include "texture.h"
 
-#define VBNL_POV_EPSILON 1e-10
+#define VBI_POV_EPSILON 1e-10
 
 static double wrapd(double v, double n)
 {
@@ -23,11 +23,11 @@ static double angle_xz(double x, double z, double len)
 
 /* Pixel coordinates (x across, y_up up from the bottom) of point p; 0 where the projection has
  * no value there (the axis of a spherical or cylindrical map, outside a `once` image). */
-static int project(const vbnl_pattern *pt, const vbnl_image *im, dvec3 p, const vbnl_shade_point *sp, double *x,
+static int project(const vbi_pattern *pt, const vbi_image *im, dvec3 p, const vbi_shade_point *sp, double *x,
                    double *y_up)
 {
     const double w = im->width, h = im->height;
-    const int once = pt->u.image.wrap == VBNL_IMAGE_ONCE;
+    const int once = pt->u.image.wrap == VBI_IMAGE_ONCE;
     if (pt->u.image.uv) {
         *x = sp ? sp->u * w : 0.0;
         *y_up = sp ? sp->v * h : 0.0;
@@ -81,10 +81,10 @@ static int project(const vbnl_pattern *pt, const vbnl_image *im, dvec3 p, const 
 }
 
 /* The texel (ix, iy) (iy from the top) as r g b filter transmit, indices wrapped or clamped. */
-static void texel(const vbnl_pattern *pt, const vbnl_image *im, long ix, long iy, double c[5], int *index)
+static void texel(const vbi_pattern *pt, const vbi_image *im, long ix, long iy, double c[5], int *index)
 {
     const long w = im->width, h = im->height;
-    if (pt->u.image.wrap == VBNL_IMAGE_REPEAT) {
+    if (pt->u.image.wrap == VBI_IMAGE_REPEAT) {
         ix %= w;
         iy %= h;
         ix += ix < 0 ? w : 0;
@@ -128,7 +128,7 @@ static void cubic_weights(double x, double f[4])
     f[3] = -0.5 * q * p * p;
 }
 
-static void lookup(const vbnl_pattern *pt, const vbnl_image *im, double x, double y, double c[5], int *index)
+static void lookup(const vbi_pattern *pt, const vbi_image *im, double x, double y, double c[5], int *index)
 {
     const int interp = pt->u.image.interpolate;
     if (interp != 2 && interp != 3 && interp != 4) {
@@ -188,23 +188,23 @@ static void lookup(const vbnl_pattern *pt, const vbnl_image *im, double x, doubl
     *index = im->indices ? (int)idx : -1;
 }
 
-int vbnl_image_pixel(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w, const vbnl_shade_point *sp,
+int vbi_image_pixel(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 w, const vbi_shade_point *sp,
                      double *x, double *y)
 {
-    const vbnl_image *im = &ts->images[pt->u.image.image];
+    const vbi_image *im = &ts->images[pt->u.image.image];
     double px, py_up;
     if (!project(pt, im, w, sp, &px, &py_up))
         return 0;
     const double iw = im->width, ih = im->height;
-    double x0 = px + VBNL_POV_EPSILON, y0 = py_up + VBNL_POV_EPSILON;
+    double x0 = px + VBI_POV_EPSILON, y0 = py_up + VBI_POV_EPSILON;
     switch (pt->u.image.wrap) {
-    case VBNL_IMAGE_ONCE:
+    case VBI_IMAGE_ONCE:
         if (x0 >= iw || y0 >= ih || x0 < 0.0 || y0 < 0.0)
             return 0;
         *x = wrapd(x0, iw);
         *y = wrapd(-y0, ih);
         return 1;
-    case VBNL_IMAGE_CLAMP:
+    case VBI_IMAGE_CLAMP:
         *x = x0 < 0.0 ? 0.0 : (x0 > iw ? iw : x0);
         *y = ih - (y0 < 0.0 ? 0.0 : (y0 > ih ? ih : y0));
         return 1;
@@ -215,7 +215,7 @@ int vbnl_image_pixel(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w
     }
 }
 
-void vbnl_image_lookup(const vbnl_texture_set *ts, const vbnl_pattern *pt, double x, double y, float out[5], int *index)
+void vbi_image_lookup(const vbi_texture_set *ts, const vbi_pattern *pt, double x, double y, float out[5], int *index)
 {
     double c[5];
     lookup(pt, &ts->images[pt->u.image.image], x, y, c, index);
@@ -223,27 +223,27 @@ void vbnl_image_lookup(const vbnl_texture_set *ts, const vbnl_pattern *pt, doubl
         out[k] = (float)c[k];
 }
 
-int vbnl_image_color(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w, const vbnl_shade_point *sp,
+int vbi_image_color(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 w, const vbi_shade_point *sp,
                      float out[5], int *index)
 {
     double x, y;
     *index = -1;
-    if (!vbnl_image_pixel(ts, pt, w, sp, &x, &y)) {
+    if (!vbi_image_pixel(ts, pt, w, sp, &x, &y)) {
         out[0] = out[1] = out[2] = 1.0f;
         out[3] = 0.0f;
         out[4] = 1.0f;
         return 0;
     }
-    vbnl_image_lookup(ts, pt, x, y, out, index);
+    vbi_image_lookup(ts, pt, x, y, out, index);
     return 1;
 }
 
-double vbnl_image_value(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w, const vbnl_shade_point *sp)
+double vbi_image_value(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 w, const vbi_shade_point *sp)
 {
     float c[5];
     int index;
     const int use = pt->u.image.use;
-    if (!vbnl_image_color(ts, pt, w, sp, c, &index))
+    if (!vbi_image_color(ts, pt, w, sp, c, &index))
         return 0.0;
     double v;
     if (use == 4) /* material_map: the palette index, or the red channel as one */
@@ -252,7 +252,7 @@ double vbnl_image_value(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
         if (use == 3)
             v = ts->images[pt->u.image.image].opaque ? c[0] : c[4];
         else
-            v = vbnl_greyscale(c);
+            v = vbi_greyscale(c);
     } else {
         v = index / 255.0;
     }

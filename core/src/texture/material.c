@@ -26,7 +26,7 @@ typedef struct pick_rng {
 static double pick_next(pick_rng *r)
 {
     r->s += 0x9e3779b97f4a7c15ull;
-    return (double)(vbnl_hash64(r->s) >> 11) * 0x1.0p-53;
+    return (double)(vbi_hash64(r->s) >> 11) * 0x1.0p-53;
 }
 
 /* What the walk down the nodes found. */
@@ -42,12 +42,12 @@ typedef struct choice {
 static double max3d(const double c[3]) { return fmax(c[0], fmax(c[1], c[2])); }
 
 /* A layer's pigment at q; without one the material's own colour, opaque. */
-static void pigment_color(const vbnl_texture_set *ts, uint32_t pigment, dvec3 q, const vbnl_shade_point *sp,
+static void pigment_color(const vbi_texture_set *ts, uint32_t pigment, dvec3 q, const vbi_shade_point *sp,
                           float c[5])
 {
     if (pigment) {
         /* outside a `once` image: clear; a uv-mapped pigment reads the hit's (u, v, 0) */
-        vbnl_pigment_eval(ts, pigment - 1, ts->pigments[pigment - 1].uv ? d3(sp->u, sp->v, 0.0) : q, sp, c);
+        vbi_pigment_eval(ts, pigment - 1, ts->pigments[pigment - 1].uv ? d3(sp->u, sp->v, 0.0) : q, sp, c);
         return;
     }
     c[0] = c[1] = c[2] = 1.0f;
@@ -56,16 +56,16 @@ static void pigment_color(const vbnl_texture_set *ts, uint32_t pigment, dvec3 q,
 
 static int finite_nonneg(vec3 c) { return c.x >= 0.0f && c.y >= 0.0f && c.z >= 0.0f && v3_is_finite(c); }
 
-static void choose(const vbnl_scene *s, uint32_t m, dvec3 q, const vbnl_shade_point *sp, pick_rng *rng, choice *c);
+static void choose(const vbnl_scene *s, uint32_t m, dvec3 q, const vbi_shade_point *sp, pick_rng *rng, choice *c);
 
 /* A stack of layers (a TEXTURED node is a stack of one). Each candidate - a layer, or what passes
  * all layers - is weighed by the largest channel of its colour weight and kept with probability
  * weight / running total (weighted reservoir sampling over one pass), so the pigments of layers
  * below an opaque one are never evaluated. */
 static void choose_layers(const vbnl_scene *s, const vbnl_material_map_entry *layers, uint32_t count, uint32_t single,
-                          dvec3 q, const vbnl_shade_point *sp, pick_rng *rng, choice *c)
+                          dvec3 q, const vbi_shade_point *sp, pick_rng *rng, choice *c)
 {
-    const vbnl_texture_set *ts = &s->tex;
+    const vbi_texture_set *ts = &s->tex;
     double fil[3] = {1.0, 1.0, 1.0}, total = 0.0, kept_w = 0.0, kept_col[3] = {0.0, 0.0, 0.0};
     uint32_t kept = UINT32_MAX, top_normal = 0, transmission = 0;
     int kept_pass = 0;
@@ -140,7 +140,7 @@ static void choose_layers(const vbnl_scene *s, const vbnl_material_map_entry *la
         const uint32_t bt = s->materials[c->leaf].desc.base_texture;
         if (!sm->node.pigment && bt) {
             float col[5];
-            vbnl_pigment_eval(ts, bt - 1, q, sp, col);
+            vbi_pigment_eval(ts, bt - 1, q, sp, col);
             for (int k = 0; k < 3; ++k)
                 c->tint[k] *= fmax(col[k], 0.0);
         }
@@ -151,21 +151,21 @@ static void choose_layers(const vbnl_scene *s, const vbnl_material_map_entry *la
     choose(s, lm, q, sp, rng, c);
 }
 
-static void choose(const vbnl_scene *s, uint32_t m, dvec3 q, const vbnl_shade_point *sp, pick_rng *rng, choice *c)
+static void choose(const vbnl_scene *s, uint32_t m, dvec3 q, const vbi_shade_point *sp, pick_rng *rng, choice *c)
 {
-    const vbnl_texture_set *ts = &s->tex;
+    const vbi_texture_set *ts = &s->tex;
     const scene_material *sm = &s->materials[m];
     if (!sm->is_node) {
         c->leaf = m;
         if (sm->desc.base_texture) {
             float col[5];
-            vbnl_pigment_eval(ts, sm->desc.base_texture - 1, q, sp, col);
+            vbi_pigment_eval(ts, sm->desc.base_texture - 1, q, sp, col);
             for (int k = 0; k < 3; ++k)
                 c->tint[k] *= fmax(col[k], 0.0);
         }
         return;
     }
-    const vbnl_mnode *nd = &sm->node;
+    const vbi_mnode *nd = &sm->node;
     const vbnl_material_map_entry *map = ts->material_entries + nd->entry_begin;
     switch (nd->kind) {
     case VBNL_NODE_TEXTURED:
@@ -175,12 +175,12 @@ static void choose(const vbnl_scene *s, uint32_t m, dvec3 q, const vbnl_shade_po
         choose_layers(s, map, nd->entry_count, 0, q, sp, rng, c);
         return;
     case VBNL_NODE_MAP: {
-        const vbnl_pattern *pt = &ts->patterns[nd->pattern - 1];
+        const vbi_pattern *pt = &ts->patterns[nd->pattern - 1];
         dvec3 w;
-        double v = vbnl_pattern_value(ts, pt, q, sp, &w);
+        double v = vbi_pattern_value(ts, pt, q, sp, &w);
         uint32_t a, b;
         double f;
-        vbnl_map_search(&map[0].value, sizeof(*map), nd->entry_count, v, &a, &b, &f);
+        vbi_map_search(&map[0].value, sizeof(*map), nd->entry_count, v, &a, &b, &f);
         uint32_t e = a == b || pick_next(rng) < f ? b : a;
         if (c->depth < VBNL_TEXTURE_DEPTH_MAX)
             c->stack[c->depth++] = nd->pattern;
@@ -190,7 +190,7 @@ static void choose(const vbnl_scene *s, uint32_t m, dvec3 q, const vbnl_shade_po
     case VBNL_NODE_AVERAGE: {
         dvec3 w = q;
         if (nd->pattern) {
-            w = vbnl_pattern_point(ts, &ts->patterns[nd->pattern - 1], q);
+            w = vbi_pattern_point(ts, &ts->patterns[nd->pattern - 1], q);
             if (c->depth < VBNL_TEXTURE_DEPTH_MAX)
                 c->stack[c->depth++] = nd->pattern;
         }
@@ -212,7 +212,7 @@ static void choose(const vbnl_scene *s, uint32_t m, dvec3 q, const vbnl_shade_po
     }
 }
 
-static void shade_point(const vbnl_scene *s, const vbnl_hit *hit, vbnl_shade_point *sp)
+static void shade_point(const vbnl_scene *s, const vbi_hit *hit, vbi_shade_point *sp)
 {
     sp->p = d3(hit->p.x, hit->p.y, hit->p.z);
     sp->n = d3(hit->ns.x, hit->ns.y, hit->ns.z);
@@ -221,19 +221,19 @@ static void shade_point(const vbnl_scene *s, const vbnl_hit *hit, vbnl_shade_poi
     sp->eye = d3(s->camera.position[0], s->camera.position[1], s->camera.position[2]);
 }
 
-static uint64_t hit_seed(const vbnl_hit *hit)
+static uint64_t hit_seed(const vbi_hit *hit)
 {
     uint32_t b[3];
     memcpy(&b[0], &hit->p.x, 4);
     memcpy(&b[1], &hit->p.y, 4);
     memcpy(&b[2], &hit->p.z, 4);
-    return vbnl_hash3(((uint64_t)b[0] << 32) | b[1], ((uint64_t)b[2] << 32) | hit->prim, hit->geom);
+    return vbi_hash3(((uint64_t)b[0] << 32) | b[1], ((uint64_t)b[2] << 32) | hit->prim, hit->geom);
 }
 
 /* The material chosen at a hit, and the perturbed shading normal when `bumped` is not NULL. */
-static void resolve(const vbnl_scene *s, const vbnl_hit *hit, choice *c, int *bumped, vec3 *ns)
+static void resolve(const vbnl_scene *s, const vbi_hit *hit, choice *c, int *bumped, vec3 *ns)
 {
-    vbnl_shade_point sp;
+    vbi_shade_point sp;
     shade_point(s, hit, &sp);
     pick_rng rng = {hit_seed(hit)};
     const scene_material *top = &s->materials[hit->material];
@@ -251,24 +251,24 @@ static void resolve(const vbnl_scene *s, const vbnl_hit *hit, choice *c, int *bu
     if (!c->normal)
         return;
     /* the normal in the space the leaf's point lives in: through the maps' transforms and back */
-    const vbnl_texture_set *ts = &s->tex;
+    const vbi_texture_set *ts = &s->tex;
     dvec3 n = sp.n;
     for (uint32_t i = 0; i < c->depth; ++i)
-        n = d3_norm(vbnl_pattern_normal_in(ts, &ts->patterns[c->stack[i] - 1], n));
-    vbnl_shade_point lsp = sp;
+        n = d3_norm(vbi_pattern_normal_in(ts, &ts->patterns[c->stack[i] - 1], n));
+    vbi_shade_point lsp = sp;
     lsp.n = n;
     if (ts->normals[c->normal - 1].uv)
         c->q = d3(sp.u, sp.v, 0.0);
-    n = vbnl_normal_perturb_at(ts, c->normal - 1, c->q, &lsp);
+    n = vbi_normal_perturb_at(ts, c->normal - 1, c->q, &lsp);
     for (uint32_t i = c->depth; i-- > 0;)
-        n = d3_norm(vbnl_pattern_normal_out(ts, &ts->patterns[c->stack[i] - 1], n));
+        n = d3_norm(vbi_pattern_normal_out(ts, &ts->patterns[c->stack[i] - 1], n));
     if (!(d3_dot(n, n) > 0.5) || !isfinite(n.x + n.y + n.z))
         return;
     *bumped = 1;
     *ns = v3((float)n.x, (float)n.y, (float)n.z);
 }
 
-void vbnl_surface_bsdf_resolve(const vbnl_scene *s, const vbnl_hit *hit, vbnl_bsdf *storage)
+void vbi_surface_bsdf_resolve(const vbnl_scene *s, const vbi_hit *hit, vbi_bsdf *storage)
 {
     choice c;
     int bumped;
@@ -283,7 +283,7 @@ void vbnl_surface_bsdf_resolve(const vbnl_scene *s, const vbnl_hit *hit, vbnl_bs
         storage->ns = ns;
 }
 
-uint32_t vbnl_surface_light_material(const vbnl_scene *s, const vbnl_hit *hit, vec3 *tint)
+uint32_t vbi_surface_light_material(const vbnl_scene *s, const vbi_hit *hit, vec3 *tint)
 {
     const scene_material *m = &s->materials[hit->material];
     if (!m->varies) {
@@ -295,5 +295,5 @@ uint32_t vbnl_surface_light_material(const vbnl_scene *s, const vbnl_hit *hit, v
     *tint = v3((float)c.tint[0], (float)c.tint[1], (float)c.tint[2]);
     if (!finite_nonneg(*tint))
         *tint = v3s(0.0f);
-    return m->is_node ? vbnl_material_hidden(s, hit->material, c.leaf) : hit->material;
+    return m->is_node ? vbi_material_hidden(s, hit->material, c.leaf) : hit->material;
 }

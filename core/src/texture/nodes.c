@@ -26,22 +26,22 @@ static int reserve(void **arr, uint32_t count, uint32_t *cap, size_t item, uint3
     *cap = (uint32_t)ncap;
     return 1;
 }
-#define VBNL_RESERVE(ts, arr, count, cap, n) reserve((void **)&(ts)->arr, (ts)->count, &(ts)->cap, sizeof(*(ts)->arr), (n))
+#define VBI_RESERVE(ts, arr, count, cap, n) reserve((void **)&(ts)->arr, (ts)->count, &(ts)->cap, sizeof(*(ts)->arr), (n))
 
-void vbnl_texture_set_init(vbnl_texture_set *ts)
+void vbi_texture_set_init(vbi_texture_set *ts)
 {
     memset(ts, 0, sizeof(*ts));
-    ts->noise = vbnl_noise_tables_get();
+    ts->noise = vbi_noise_tables_get();
 }
 
-void vbnl_texture_set_free(vbnl_texture_set *ts)
+void vbi_texture_set_free(vbi_texture_set *ts)
 {
     for (uint32_t i = 0; i < ts->image_count; ++i) {
         free(ts->images[i].texels);
         free(ts->images[i].indices);
     }
     for (uint32_t i = 0; i < ts->pattern_count; ++i) {
-        vbnl_pattern *p = &ts->patterns[i];
+        vbi_pattern *p = &ts->patterns[i];
         if (p->kind == VBNL_PATTERN_DENSITY)
             free(p->u.density.values);
         if ((p->kind == VBNL_PATTERN_FUNCTION || p->kind == VBNL_PATTERN_OBJECT) && p->u.function.destroy)
@@ -222,7 +222,7 @@ static int is_identity16(const double a[16])
     return 1;
 }
 
-static vbnl_result turb_from(const vbnl_turbulence_desc *t, vbnl_turb *out, const char *what, vbnl_error *err)
+static vbnl_result turb_from(const vbnl_turbulence_desc *t, vbi_turb *out, const char *what, vbnl_error *err)
 {
     if (!finite_d(t->amount, 3) || !isfinite(t->omega) || !isfinite(t->lambda))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "%s: turbulence values must be finite", what);
@@ -236,12 +236,12 @@ static vbnl_result turb_from(const vbnl_turbulence_desc *t, vbnl_turb *out, cons
 
 /* ---- images -------------------------------------------------------------------------------- */
 
-static vbnl_result add_image(vbnl_texture_set *ts, const vbnl_image_desc *d, uint32_t *out_id, vbnl_error *err)
+static vbnl_result add_image(vbi_texture_set *ts, const vbnl_image_desc *d, uint32_t *out_id, vbnl_error *err)
 {
     vbnl_result r = VBNL_OK;
     if (!d)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_image_desc, err)) != VBNL_OK)
+    if ((r = VBI_DESC_CHECK(d, vbnl_image_desc, err)) != VBNL_OK)
         return r;
     if (!d->texels || d->width == 0 || d->height == 0 || d->width > (1u << 16) || d->height > (1u << 16))
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "image needs texels and a size in [1, 65536]^2 (got %u x %u)",
@@ -252,9 +252,9 @@ static vbnl_result add_image(vbnl_texture_set *ts, const vbnl_image_desc *d, uin
     for (size_t i = 0; i < n; ++i)
         if (!isfinite(d->texels[i]))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "image texels must be finite");
-    if (!VBNL_RESERVE(ts, images, image_count, image_cap, 1))
+    if (!VBI_RESERVE(ts, images, image_count, image_cap, 1))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    vbnl_image im = {d->width, d->height, d->channels, malloc(n * sizeof(float)), NULL, d->channels == 1 || d->channels == 3};
+    vbi_image im = {d->width, d->height, d->channels, malloc(n * sizeof(float)), NULL, d->channels == 1 || d->channels == 3};
     if (d->indices)
         im.indices = malloc((size_t)d->width * d->height);
     if (!im.texels || (d->indices && !im.indices)) {
@@ -274,7 +274,7 @@ static vbnl_result add_image(vbnl_texture_set *ts, const vbnl_image_desc *d, uin
 
 vbnl_result vbnl_scene_add_image(vbnl_scene *s, const vbnl_image_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_image", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_image", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
@@ -284,9 +284,9 @@ vbnl_result vbnl_scene_add_image(vbnl_scene *s, const vbnl_image_desc *d, uint32
 
 /* ---- patterns ------------------------------------------------------------------------------ */
 
-static vbnl_result warp_from(const vbnl_warp_desc *d, vbnl_warp *w, vbnl_error *err)
+static vbnl_result warp_from(const vbnl_warp_desc *d, vbi_warp *w, vbnl_error *err)
 {
-    vbnl_result r = VBNL_DESC_CHECK(d, vbnl_warp_desc, err);
+    vbnl_result r = VBI_DESC_CHECK(d, vbnl_warp_desc, err);
     if (r != VBNL_OK)
         return r;
     memset(w, 0, sizeof(*w));
@@ -343,50 +343,50 @@ static vbnl_result warp_from(const vbnl_warp_desc *d, vbnl_warp *w, vbnl_error *
     return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown warp kind %d", (int)d->kind);
 }
 
-static uint32_t pigment_depth(const vbnl_texture_set *ts, uint32_t id_plus1)
+static uint32_t pigment_depth(const vbi_texture_set *ts, uint32_t id_plus1)
 {
     return id_plus1 ? ts->pigments[id_plus1 - 1].depth : 0;
 }
 
-static uint32_t pattern_depth(const vbnl_texture_set *ts, uint32_t id_plus1)
+static uint32_t pattern_depth(const vbi_texture_set *ts, uint32_t id_plus1)
 {
     if (!id_plus1)
         return 0;
-    const vbnl_pattern *p = &ts->patterns[id_plus1 - 1];
+    const vbi_pattern *p = &ts->patterns[id_plus1 - 1];
     return p->kind == VBNL_PATTERN_PIGMENT ? pigment_depth(ts, p->u.pigment + 1) : 0;
 }
 
-#define VBNL_BAD(...) return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, __VA_ARGS__)
+#define VBI_BAD(...) return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, __VA_ARGS__)
 
-static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern_desc *d, vbnl_pattern *p,
+static vbnl_result pattern_params(const vbi_texture_set *ts, const vbnl_pattern_desc *d, vbi_pattern *p,
                                   vbnl_error *err)
 {
     switch (d->kind) {
     case VBNL_PATTERN_GRADIENT: {
         dvec3 g = d3(d->gradient.direction[0], d->gradient.direction[1], d->gradient.direction[2]);
         if (!finite_d(d->gradient.direction, 3) || !(d3_len(g) > 0.0))
-            VBNL_BAD("gradient needs a non-zero direction");
+            VBI_BAD("gradient needs a non-zero direction");
         p->u.gradient = d3_norm(g);
         break;
     }
     case VBNL_PATTERN_BRICK:
         for (int i = 0; i < 3; ++i)
             if (!(d->brick.size[i] > 0.0f) || !isfinite(d->brick.size[i]))
-                VBNL_BAD("brick_size components must be > 0");
+                VBI_BAD("brick_size components must be > 0");
         if (!(d->brick.mortar >= 0.0f) || !isfinite(d->brick.mortar))
-            VBNL_BAD("mortar must be >= 0");
+            VBI_BAD("mortar must be >= 0");
         p->u.brick.size = d3(d->brick.size[0], d->brick.size[1], d->brick.size[2]);
         /* POV-Ray's parser takes two epsilons off, and keeps the mortar in single precision */
         p->u.brick.mortar = (float)(d->brick.mortar - 2e-10);
         break;
     case VBNL_PATTERN_AGATE:
         if (!isfinite(d->agate_turb))
-            VBNL_BAD("agate_turb must be finite");
+            VBI_BAD("agate_turb must be finite");
         p->u.agate_turb = d->agate_turb;
         break;
     case VBNL_PATTERN_QUILTED:
         if (!isfinite(d->quilted.control0) || !isfinite(d->quilted.control1))
-            VBNL_BAD("quilted controls must be finite");
+            VBI_BAD("quilted controls must be finite");
         p->u.quilted.c0 = d->quilted.control0;
         p->u.quilted.c1 = d->quilted.control1;
         break;
@@ -397,7 +397,7 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
     case VBNL_PATTERN_CRACKLE:
         if (!finite_d(d->crackle.form, 3) || !(d->crackle.metric > 0.0f) || !isfinite(d->crackle.metric) ||
             !isfinite(d->crackle.offset))
-            VBNL_BAD("crackle needs a finite form, a metric > 0 and a finite offset");
+            VBI_BAD("crackle needs a finite form, a metric > 0 and a finite offset");
         p->u.crackle.form = d3(d->crackle.form[0], d->crackle.form[1], d->crackle.form[2]);
         p->u.crackle.metric = d->crackle.metric;
         p->u.crackle.offset = d->crackle.offset;
@@ -407,16 +407,16 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
     case VBNL_PATTERN_MANDEL:
     case VBNL_PATTERN_MAGNET:
         if (d->fractal.iterations < 1 || d->fractal.iterations > 1000000)
-            VBNL_BAD("fractal iterations must be 1..1000000 (got %d)", d->fractal.iterations);
+            VBI_BAD("fractal iterations must be 1..1000000 (got %d)", d->fractal.iterations);
         if (d->kind != VBNL_PATTERN_MAGNET && (d->fractal.exponent < 2 || d->fractal.exponent > 33))
-            VBNL_BAD("fractal exponent must be 2..33 (got %d)", d->fractal.exponent);
+            VBI_BAD("fractal exponent must be 2..33 (got %d)", d->fractal.exponent);
         if (d->kind == VBNL_PATTERN_MAGNET && d->fractal.magnet != 1 && d->fractal.magnet != 2)
-            VBNL_BAD("magnet type must be 1 or 2 (got %d)", d->fractal.magnet);
+            VBI_BAD("magnet type must be 1 or 2 (got %d)", d->fractal.magnet);
         if (d->fractal.interior < 0 || d->fractal.interior > 6 || d->fractal.exterior < 0 || d->fractal.exterior > 8)
-            VBNL_BAD("fractal interior type must be 0..6 and exterior type 0..8");
+            VBI_BAD("fractal interior type must be 0..6 and exterior type 0..8");
         if (!finite_d(d->fractal.coord, 2) || !isfinite(d->fractal.interior_factor) ||
             !isfinite(d->fractal.exterior_factor))
-            VBNL_BAD("fractal values must be finite");
+            VBI_BAD("fractal values must be finite");
         p->u.fractal.iterations = d->fractal.iterations;
         p->u.fractal.exponent = d->fractal.exponent;
         p->u.fractal.magnet = d->fractal.magnet;
@@ -431,29 +431,29 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
     case VBNL_PATTERN_FACETS:
         if (!isfinite(d->facets.size) || !isfinite(d->facets.coords) || !(d->facets.metric > 0.0f) ||
             !isfinite(d->facets.metric))
-            VBNL_BAD("facets needs finite values and a metric > 0");
+            VBI_BAD("facets needs finite values and a metric > 0");
         p->u.facets.size = d->facets.size;
         p->u.facets.coords = d->facets.coords;
         p->u.facets.metric = d->facets.metric;
         break;
     case VBNL_PATTERN_TILING:
         if (d->tiling < 1 || d->tiling > 24)
-            VBNL_BAD("tiling type must be 1..24 (got %d; POV-Ray's Penrose tilings 25..27 are not implemented)",
+            VBI_BAD("tiling type must be 1..24 (got %d; POV-Ray's Penrose tilings 25..27 are not implemented)",
                      d->tiling);
         p->u.tiling = d->tiling;
         break;
     case VBNL_PATTERN_PAVEMENT:
-        VBNL_BAD("pavement is not implemented");
+        VBI_BAD("pavement is not implemented");
     case VBNL_PATTERN_SLOPE: {
         if (!finite_d(d->slope.direction, 3) || !finite_d(d->slope.altitude, 3) || !isfinite(d->slope.low) ||
             !isfinite(d->slope.high) || !isfinite(d->slope.alt_low) || !isfinite(d->slope.alt_high))
-            VBNL_BAD("slope values must be finite");
+            VBI_BAD("slope values must be finite");
         dvec3 dir = d3(d->slope.direction[0], d->slope.direction[1], d->slope.direction[2]);
         dvec3 alt = d3(d->slope.altitude[0], d->slope.altitude[1], d->slope.altitude[2]);
         p->u.slope.point_at = d->slope.point_at != 0;
         double ls = p->u.slope.point_at ? 1.0 : d3_len(dir), la = p->u.slope.point_at ? 0.0 : d3_len(alt);
         if (!(ls + la > 0.0))
-            VBNL_BAD("slope needs a non-zero slope or altitude vector");
+            VBI_BAD("slope needs a non-zero slope or altitude vector");
         p->u.slope.dir = p->u.slope.point_at ? dir : d3_norm(dir);
         p->u.slope.alt = d3_norm(alt);
         p->u.slope.w_slope = ls / (ls + la);
@@ -469,11 +469,11 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
         const uint32_t nx = d->density.nx, ny = d->density.ny, nz = d->density.nz;
         if (!d->density.values || nx < 1 || ny < 1 || nz < 1 || nx > 65535 || ny > 65535 || nz > 65535 ||
             (uint64_t)nx * ny * nz > (1ull << 31))
-            VBNL_BAD("density needs values and a grid size of 1..65535 per axis");
+            VBI_BAD("density needs values and a grid size of 1..65535 per axis");
         size_t n = (size_t)nx * ny * nz;
         for (size_t i = 0; i < n; ++i)
             if (!isfinite(d->density.values[i]))
-                VBNL_BAD("density values must be finite");
+                VBI_BAD("density values must be finite");
         p->u.density.values = malloc(n * sizeof(float));
         if (!p->u.density.values)
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
@@ -486,17 +486,17 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
     }
     case VBNL_PATTERN_IMAGE:
         if (d->image.image == 0 || d->image.image > ts->image_count)
-            VBNL_BAD("image pattern names no image (%u; %u added, it is id + 1)", d->image.image, ts->image_count);
+            VBI_BAD("image pattern names no image (%u; %u added, it is id + 1)", d->image.image, ts->image_count);
         if (d->image.use < 0 || d->image.use > 4 || !isfinite(d->image.filter_all) || !isfinite(d->image.transmit_all) ||
             !isfinite(d->image.major_radius))
-            VBNL_BAD("image pattern needs use 0..4 and finite values");
+            VBI_BAD("image pattern needs use 0..4 and finite values");
         if (d->image.map_type != 0 && d->image.map_type != 1 && d->image.map_type != 2 && d->image.map_type != 5)
-            VBNL_BAD("image map_type must be 0, 1, 2 or 5 (got %d)", d->image.map_type);
+            VBI_BAD("image map_type must be 0, 1, 2 or 5 (got %d)", d->image.map_type);
         p->u.image.image = d->image.image - 1;
         p->u.image.map_type = d->image.map_type;
         p->u.image.interpolate = d->image.interpolate;
         p->u.image.use = d->image.use;
-        p->u.image.wrap = d->image.once ? VBNL_IMAGE_ONCE : VBNL_IMAGE_REPEAT;
+        p->u.image.wrap = d->image.once ? VBI_IMAGE_ONCE : VBI_IMAGE_REPEAT;
         p->u.image.filter_all = d->image.filter_all;
         p->u.image.transmit_all = d->image.transmit_all;
         p->u.image.major_radius = d->image.major_radius;
@@ -504,20 +504,20 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
     case VBNL_PATTERN_FUNCTION:
     case VBNL_PATTERN_OBJECT:
         if (!d->function.fn)
-            VBNL_BAD("function and object patterns need a callback");
+            VBI_BAD("function and object patterns need a callback");
         p->u.function.fn = d->function.fn;
         p->u.function.user = d->function.user;
         p->u.function.destroy = d->function.destroy;
         break;
     case VBNL_PATTERN_PIGMENT:
         if (d->pigment == 0 || d->pigment > ts->pigment_count)
-            VBNL_BAD("pigment pattern names no pigment (%u; %u added, it is id + 1)", d->pigment, ts->pigment_count);
+            VBI_BAD("pigment pattern names no pigment (%u; %u added, it is id + 1)", d->pigment, ts->pigment_count);
         p->u.pigment = d->pigment - 1;
         break;
     case VBNL_PATTERN_RIPPLES:
     case VBNL_PATTERN_WAVES:
-        if (d->waves < 1 || d->waves > VBNL_NOISE_MAX_WAVES)
-            VBNL_BAD("number of waves must be 1..%d (got %d)", VBNL_NOISE_MAX_WAVES, d->waves);
+        if (d->waves < 1 || d->waves > VBI_NOISE_MAX_WAVES)
+            VBI_BAD("number of waves must be 1..%d (got %d)", VBI_NOISE_MAX_WAVES, d->waves);
         p->u.waves = d->waves;
         break;
     default:
@@ -526,26 +526,26 @@ static vbnl_result pattern_params(const vbnl_texture_set *ts, const vbnl_pattern
     return VBNL_OK;
 }
 
-static vbnl_result add_pattern(vbnl_texture_set *ts, const vbnl_pattern_desc *d, uint32_t *out_id, vbnl_error *err)
+static vbnl_result add_pattern(vbi_texture_set *ts, const vbnl_pattern_desc *d, uint32_t *out_id, vbnl_error *err)
 {
     vbnl_result r = VBNL_OK;
     if (!d)
-        VBNL_BAD("desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_pattern_desc, err)) != VBNL_OK)
+        VBI_BAD("desc is NULL");
+    if ((r = VBI_DESC_CHECK(d, vbnl_pattern_desc, err)) != VBNL_OK)
         return r;
     if ((unsigned)d->kind >= VBNL_PATTERN_KIND_COUNT)
-        VBNL_BAD("unknown pattern kind %d", (int)d->kind);
+        VBI_BAD("unknown pattern kind %d", (int)d->kind);
     if (d->warp_count > VBNL_TEXTURE_WARP_MAX || (d->warp_count && !d->warps))
-        VBNL_BAD("a pattern has at most %u warps (got %u)", VBNL_TEXTURE_WARP_MAX, d->warp_count);
+        VBI_BAD("a pattern has at most %u warps (got %u)", VBNL_TEXTURE_WARP_MAX, d->warp_count);
     if (d->noise_generator < 1 || d->noise_generator > 3)
-        VBNL_BAD("noise_generator must be 1, 2 or 3 (got %d)", d->noise_generator);
+        VBI_BAD("noise_generator must be 1, 2 or 3 (got %d)", d->noise_generator);
     if ((unsigned)d->wave > VBNL_WAVE_POLY || !isfinite(d->frequency) || !isfinite(d->phase) || !isfinite(d->exponent))
-        VBNL_BAD("pattern wave must be known and frequency, phase and exponent finite");
-    vbnl_pattern p;
+        VBI_BAD("pattern wave must be known and frequency, phase and exponent finite");
+    vbi_pattern p;
     memset(&p, 0, sizeof(p));
     p.kind = d->kind;
     if (!affine(d->transform, &p.xf, &p.xf_inv))
-        VBNL_BAD("pattern transform is singular or not finite");
+        VBI_BAD("pattern transform is singular or not finite");
     p.has_xf = !is_identity16(d->transform);
     if ((r = turb_from(&d->turbulence, &p.turb, "pattern", err)) != VBNL_OK)
         return r;
@@ -556,8 +556,8 @@ static vbnl_result add_pattern(vbnl_texture_set *ts, const vbnl_pattern_desc *d,
     p.frequency = d->frequency;
     p.phase = d->phase;
     p.exponent = d->exponent;
-    if (!VBNL_RESERVE(ts, warps, warp_count, warp_cap, d->warp_count) ||
-        !VBNL_RESERVE(ts, patterns, pattern_count, pattern_cap, 1))
+    if (!VBI_RESERVE(ts, warps, warp_count, warp_cap, d->warp_count) ||
+        !VBI_RESERVE(ts, patterns, pattern_count, pattern_cap, 1))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     for (uint32_t i = 0; i < d->warp_count; ++i)
         if ((r = warp_from(&d->warps[i], &ts->warps[ts->warp_count + i], err)) != VBNL_OK)
@@ -565,7 +565,7 @@ static vbnl_result add_pattern(vbnl_texture_set *ts, const vbnl_pattern_desc *d,
     if ((r = pattern_params(ts, d, &p, err)) != VBNL_OK)
         return r;
     if (d->kind == VBNL_PATTERN_PIGMENT && ts->pigments[p.u.pigment].depth + 1 > VBNL_TEXTURE_DEPTH_MAX)
-        VBNL_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
+        VBI_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
     p.warp_begin = ts->warp_count;
     p.warp_count = d->warp_count;
     ts->warp_count += d->warp_count;
@@ -578,7 +578,7 @@ static vbnl_result add_pattern(vbnl_texture_set *ts, const vbnl_pattern_desc *d,
 
 vbnl_result vbnl_scene_add_pattern(vbnl_scene *s, const vbnl_pattern_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_pattern", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_pattern", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
@@ -588,18 +588,18 @@ vbnl_result vbnl_scene_add_pattern(vbnl_scene *s, const vbnl_pattern_desc *d, ui
 
 /* ---- pigments ------------------------------------------------------------------------------ */
 
-static vbnl_result check_pattern_ref(const vbnl_texture_set *ts, uint32_t id_plus1, int required, int image,
+static vbnl_result check_pattern_ref(const vbi_texture_set *ts, uint32_t id_plus1, int required, int image,
                                      const char *what, vbnl_error *err)
 {
     if (!id_plus1) {
         if (required)
-            VBNL_BAD("%s needs a pattern", what);
+            VBI_BAD("%s needs a pattern", what);
         return VBNL_OK;
     }
     if (id_plus1 > ts->pattern_count)
-        VBNL_BAD("%s names no pattern (%u; %u added, it is id + 1)", what, id_plus1, ts->pattern_count);
+        VBI_BAD("%s names no pattern (%u; %u added, it is id + 1)", what, id_plus1, ts->pattern_count);
     if (image && ts->patterns[id_plus1 - 1].kind != VBNL_PATTERN_IMAGE)
-        VBNL_BAD("%s needs an IMAGE pattern", what);
+        VBI_BAD("%s needs an IMAGE pattern", what);
     return VBNL_OK;
 }
 
@@ -611,19 +611,19 @@ static vbnl_result check_values(const float *values, size_t stride, uint32_t n, 
         float v = *(const float *)((const char *)values + i * stride);
         float prev = i ? *(const float *)((const char *)values + (i - 1) * stride) : v;
         if (!isfinite(v) || (sorted && v < prev))
-            VBNL_BAD("%s values must be finite%s (entry %u)", what, sorted ? " and sorted" : "", i);
+            VBI_BAD("%s values must be finite%s (entry %u)", what, sorted ? " and sorted" : "", i);
     }
     return VBNL_OK;
 }
 
-static vbnl_result add_pigment(vbnl_texture_set *ts, const vbnl_pigment_desc *d, uint32_t *out_id, vbnl_error *err)
+static vbnl_result add_pigment(vbi_texture_set *ts, const vbnl_pigment_desc *d, uint32_t *out_id, vbnl_error *err)
 {
     vbnl_result r = VBNL_OK;
     if (!d)
-        VBNL_BAD("desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_pigment_desc, err)) != VBNL_OK)
+        VBI_BAD("desc is NULL");
+    if ((r = VBI_DESC_CHECK(d, vbnl_pigment_desc, err)) != VBNL_OK)
         return r;
-    vbnl_pigment pg;
+    vbi_pigment pg;
     memset(&pg, 0, sizeof(pg));
     pg.kind = d->kind;
     pg.uv = d->uv != 0;
@@ -631,7 +631,7 @@ static vbnl_result add_pigment(vbnl_texture_set *ts, const vbnl_pigment_desc *d,
     switch (d->kind) {
     case VBNL_PIGMENT_SOLID:
         if (!finite_n(d->color, 5))
-            VBNL_BAD("pigment colour must be finite");
+            VBI_BAD("pigment colour must be finite");
         memcpy(pg.color, d->color, sizeof(pg.color));
         break;
     case VBNL_PIGMENT_IMAGE:
@@ -644,34 +644,34 @@ static vbnl_result add_pigment(vbnl_texture_set *ts, const vbnl_pigment_desc *d,
         if ((r = check_pattern_ref(ts, d->pattern, map, 0, map ? "pigment map" : "average pigment", err)) != VBNL_OK)
             return r;
         if (!d->map || d->map_count == 0 || d->map_count > VBNL_TEXTURE_MAP_MAX)
-            VBNL_BAD("pigment needs a map of 1..%u entries", VBNL_TEXTURE_MAP_MAX);
+            VBI_BAD("pigment needs a map of 1..%u entries", VBNL_TEXTURE_MAP_MAX);
         if ((r = check_values(&d->map[0].value, sizeof(*d->map), d->map_count, map, "pigment map", err)) != VBNL_OK)
             return r;
         for (uint32_t i = 0; i < d->map_count; ++i) {
             if (!finite_n(d->map[i].color, 5))
-                VBNL_BAD("pigment map colours must be finite (entry %u)", i);
+                VBI_BAD("pigment map colours must be finite (entry %u)", i);
             if (d->map[i].pigment > ts->pigment_count)
-                VBNL_BAD("pigment map entry %u names no pigment (%u; %u added, it is id + 1)", i, d->map[i].pigment,
+                VBI_BAD("pigment map entry %u names no pigment (%u; %u added, it is id + 1)", i, d->map[i].pigment,
                          ts->pigment_count);
             uint32_t e = pigment_depth(ts, d->map[i].pigment);
             depth = e > depth ? e : depth;
         }
-        if (!VBNL_RESERVE(ts, pigment_entries, pigment_entry_count, pigment_entry_cap, d->map_count))
+        if (!VBI_RESERVE(ts, pigment_entries, pigment_entry_count, pigment_entry_cap, d->map_count))
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         pg.entry_begin = ts->pigment_entry_count;
         pg.entry_count = d->map_count;
         break;
     }
     default:
-        VBNL_BAD("unknown pigment kind %d", (int)d->kind);
+        VBI_BAD("unknown pigment kind %d", (int)d->kind);
     }
     pg.pattern = d->kind == VBNL_PIGMENT_SOLID ? 0 : d->pattern;
     uint32_t pd = pattern_depth(ts, pg.pattern);
     depth = (pd > depth ? pd : depth) + 1;
     if (depth > VBNL_TEXTURE_DEPTH_MAX)
-        VBNL_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
+        VBI_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
     pg.depth = depth;
-    if (!VBNL_RESERVE(ts, pigments, pigment_count, pigment_cap, 1))
+    if (!VBI_RESERVE(ts, pigments, pigment_count, pigment_cap, 1))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     if (pg.entry_count) {
         memcpy(ts->pigment_entries + pg.entry_begin, d->map, sizeof(*d->map) * pg.entry_count);
@@ -686,7 +686,7 @@ static vbnl_result add_pigment(vbnl_texture_set *ts, const vbnl_pigment_desc *d,
 
 vbnl_result vbnl_scene_add_pigment(vbnl_scene *s, const vbnl_pigment_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_pigment", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_pigment", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
@@ -698,22 +698,22 @@ vbnl_result vbnl_scene_add_pigment(vbnl_scene *s, const vbnl_pigment_desc *d, ui
 
 vbnl_result vbnl_scene_add_normal(vbnl_scene *s, const vbnl_normal_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_normal", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_normal", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
-        VBNL_BAD("vbnl_scene_add_normal: desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_normal_desc, err)) != VBNL_OK)
+        VBI_BAD("vbnl_scene_add_normal: desc is NULL");
+    if ((r = VBI_DESC_CHECK(d, vbnl_normal_desc, err)) != VBNL_OK)
         return r;
-    vbnl_texture_set *ts = &s->tex;
+    vbi_texture_set *ts = &s->tex;
     if ((unsigned)d->kind > VBNL_NORMAL_IMAGE)
-        VBNL_BAD("unknown normal kind %d", (int)d->kind);
+        VBI_BAD("unknown normal kind %d", (int)d->kind);
     if (!isfinite(d->amount) || !(d->accuracy > 0.0f) || !isfinite(d->accuracy))
-        VBNL_BAD("normal needs a finite amount and an accuracy > 0");
+        VBI_BAD("normal needs a finite amount and an accuracy > 0");
     const int needs = d->kind != VBNL_NORMAL_AVERAGE;
     if ((r = check_pattern_ref(ts, d->pattern, needs, d->kind == VBNL_NORMAL_IMAGE, "normal", err)) != VBNL_OK)
         return r;
-    vbnl_normal nm;
+    vbi_normal nm;
     memset(&nm, 0, sizeof(nm));
     nm.kind = d->kind;
     nm.pattern = d->pattern;
@@ -724,33 +724,33 @@ vbnl_result vbnl_scene_add_normal(vbnl_scene *s, const vbnl_normal_desc *d, uint
     uint32_t depth = pattern_depth(ts, d->pattern);
     if (d->slope_map_count) {
         if (!d->slope_map || d->slope_map_count > VBNL_TEXTURE_MAP_MAX)
-            VBNL_BAD("slope map needs 1..%u entries", VBNL_TEXTURE_MAP_MAX);
+            VBI_BAD("slope map needs 1..%u entries", VBNL_TEXTURE_MAP_MAX);
         if ((r = check_values(&d->slope_map[0].value, sizeof(*d->slope_map), d->slope_map_count, 1, "slope map",
                               err)) != VBNL_OK)
             return r;
         for (uint32_t i = 0; i < d->slope_map_count; ++i)
             if (!isfinite(d->slope_map[i].height) || !isfinite(d->slope_map[i].slope))
-                VBNL_BAD("slope map heights and slopes must be finite (entry %u)", i);
+                VBI_BAD("slope map heights and slopes must be finite (entry %u)", i);
     }
     if (d->kind == VBNL_NORMAL_MAP || d->kind == VBNL_NORMAL_AVERAGE) {
         if (!d->map || d->map_count == 0 || d->map_count > VBNL_TEXTURE_MAP_MAX)
-            VBNL_BAD("normal needs a map of 1..%u entries", VBNL_TEXTURE_MAP_MAX);
+            VBI_BAD("normal needs a map of 1..%u entries", VBNL_TEXTURE_MAP_MAX);
         if ((r = check_values(&d->map[0].value, sizeof(*d->map), d->map_count, d->kind == VBNL_NORMAL_MAP,
                               "normal map", err)) != VBNL_OK)
             return r;
         for (uint32_t i = 0; i < d->map_count; ++i) {
             if (d->map[i].normal >= ts->normal_count)
-                VBNL_BAD("normal map entry %u names no normal (%u; %u added)", i, d->map[i].normal, ts->normal_count);
+                VBI_BAD("normal map entry %u names no normal (%u; %u added)", i, d->map[i].normal, ts->normal_count);
             uint32_t e = ts->normals[d->map[i].normal].depth;
             depth = e > depth ? e : depth;
         }
     }
     if (++depth > VBNL_TEXTURE_DEPTH_MAX)
-        VBNL_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
+        VBI_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
     nm.depth = depth;
-    if (!VBNL_RESERVE(ts, normals, normal_count, normal_cap, 1) ||
-        !VBNL_RESERVE(ts, slope_entries, slope_entry_count, slope_entry_cap, d->slope_map_count) ||
-        !VBNL_RESERVE(ts, normal_entries, normal_entry_count, normal_entry_cap, d->map_count))
+    if (!VBI_RESERVE(ts, normals, normal_count, normal_cap, 1) ||
+        !VBI_RESERVE(ts, slope_entries, slope_entry_count, slope_entry_cap, d->slope_map_count) ||
+        !VBI_RESERVE(ts, normal_entries, normal_entry_count, normal_entry_cap, d->map_count))
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
     nm.slope_begin = ts->slope_entry_count;
     nm.slope_count = d->slope_map_count;
@@ -797,17 +797,17 @@ static vbnl_result pass_material(vbnl_scene *s, vbnl_error *err)
 vbnl_result vbnl_scene_add_material_node(vbnl_scene *s, const vbnl_material_node_desc *d, uint32_t *out_id,
                                          vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_material_node", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_material_node", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
-        VBNL_BAD("vbnl_scene_add_material_node: desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_material_node_desc, err)) != VBNL_OK)
+        VBI_BAD("vbnl_scene_add_material_node: desc is NULL");
+    if ((r = VBI_DESC_CHECK(d, vbnl_material_node_desc, err)) != VBNL_OK)
         return r;
-    vbnl_texture_set *ts = &s->tex;
+    vbi_texture_set *ts = &s->tex;
     if (!finite_n(d->emission, 3) || !(d->emission[0] >= 0.0f && d->emission[1] >= 0.0f && d->emission[2] >= 0.0f))
-        VBNL_BAD("material node emission must be finite and >= 0");
-    vbnl_mnode nd;
+        VBI_BAD("material node emission must be finite and >= 0");
+    vbi_mnode nd;
     memset(&nd, 0, sizeof(nd));
     nd.kind = d->kind;
     nd.uv = d->uv != 0;
@@ -817,11 +817,11 @@ vbnl_result vbnl_scene_add_material_node(vbnl_scene *s, const vbnl_material_node
     switch (d->kind) {
     case VBNL_NODE_TEXTURED:
         if (d->material >= s->material_count || s->materials[d->material].is_node)
-            VBNL_BAD("a textured node needs a plain material (got %u of %u)", d->material, s->material_count);
+            VBI_BAD("a textured node needs a plain material (got %u of %u)", d->material, s->material_count);
         if (d->pigment > ts->pigment_count || d->normal > ts->normal_count)
-            VBNL_BAD("textured node names no pigment or normal (ids + 1: %u, %u)", d->pigment, d->normal);
+            VBI_BAD("textured node names no pigment or normal (ids + 1: %u, %u)", d->pigment, d->normal);
         if (d->transmission > s->material_count || (d->transmission && s->materials[d->transmission - 1].is_node))
-            VBNL_BAD("textured node transmission must be a plain material (id + 1: %u)", d->transmission);
+            VBI_BAD("textured node transmission must be a plain material (id + 1: %u)", d->transmission);
         nd.material = d->material;
         nd.pigment = d->pigment;
         nd.normal = d->normal;
@@ -842,7 +842,7 @@ vbnl_result vbnl_scene_add_material_node(vbnl_scene *s, const vbnl_material_node
         if ((r = check_pattern_ref(ts, d->pattern, map, 0, map ? "material map" : "material average", err)) != VBNL_OK)
             return r;
         if (!d->map || d->map_count == 0 || d->map_count > VBNL_TEXTURE_MAP_MAX)
-            VBNL_BAD("material node needs a map of 1..%u entries", VBNL_TEXTURE_MAP_MAX);
+            VBI_BAD("material node needs a map of 1..%u entries", VBNL_TEXTURE_MAP_MAX);
         if ((r = check_values(&d->map[0].value, sizeof(*d->map), d->map_count, map, "material map", err)) != VBNL_OK)
             return r;
         nd.pattern = d->pattern;
@@ -853,24 +853,24 @@ vbnl_result vbnl_scene_add_material_node(vbnl_scene *s, const vbnl_material_node
     }
     case VBNL_NODE_LAYERS:
         if (!d->layers || d->layer_count == 0 || d->layer_count > VBNL_TEXTURE_MAP_MAX)
-            VBNL_BAD("layers need 1..%u materials", VBNL_TEXTURE_MAP_MAX);
+            VBI_BAD("layers need 1..%u materials", VBNL_TEXTURE_MAP_MAX);
         count = d->layer_count;
         break;
     default:
-        VBNL_BAD("unknown material node kind %d", (int)d->kind);
+        VBI_BAD("unknown material node kind %d", (int)d->kind);
     }
     for (uint32_t i = 0; i < count; ++i) {
         uint32_t m = entries ? entries[i].material : d->layers[i];
         if (m >= s->material_count)
-            VBNL_BAD("material node entry %u names no material (%u; %u added)", i, m, s->material_count);
+            VBI_BAD("material node entry %u names no material (%u; %u added)", i, m, s->material_count);
         uint32_t e = material_depth(s, m);
         depth = e > depth ? e : depth;
     }
     if (++depth > VBNL_TEXTURE_DEPTH_MAX)
-        VBNL_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
+        VBI_BAD("textures nested more than %u deep", VBNL_TEXTURE_DEPTH_MAX);
     nd.depth = depth;
     if (count) {
-        if (!VBNL_RESERVE(ts, material_entries, material_entry_count, material_entry_cap, count))
+        if (!VBI_RESERVE(ts, material_entries, material_entry_count, material_entry_cap, count))
             return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
         nd.entry_begin = ts->material_entry_count;
         nd.entry_count = count;
@@ -920,7 +920,7 @@ static int collect_leaves(const vbnl_scene *s, uint32_t m, leaf_list *l)
     const scene_material *sm = &s->materials[m];
     if (!sm->is_node)
         return leaf_add(l, m);
-    const vbnl_mnode *nd = &sm->node;
+    const vbi_mnode *nd = &sm->node;
     if (nd->kind == VBNL_NODE_TEXTURED)
         return leaf_add(l, nd->material) && leaf_add(l, nd->transmission - 1);
     for (uint32_t i = 0; i < nd->entry_count; ++i)
@@ -929,7 +929,7 @@ static int collect_leaves(const vbnl_scene *s, uint32_t m, leaf_list *l)
     return 1;
 }
 
-vbnl_result vbnl_texture_commit(vbnl_scene *s, vbnl_error *err)
+vbnl_result vbi_texture_commit(vbnl_scene *s, vbnl_error *err)
 {
     const uint32_t user = s->material_count;
     for (uint32_t i = 0; i < user; ++i) {
@@ -963,7 +963,7 @@ vbnl_result vbnl_texture_commit(vbnl_scene *s, vbnl_error *err)
     return VBNL_OK;
 }
 
-uint32_t vbnl_material_hidden(const vbnl_scene *s, uint32_t node, uint32_t leaf)
+uint32_t vbi_material_hidden(const vbnl_scene *s, uint32_t node, uint32_t leaf)
 {
     const scene_material *m = &s->materials[node];
     for (uint32_t k = 0; k < m->hidden_count; ++k)
@@ -983,43 +983,43 @@ static uint64_t fp(uint64_t h, const void *p, size_t n)
     }
     return h;
 }
-#define VBNL_FP(h, v) fp((h), &(v), sizeof(v))
+#define VBI_FP(h, v) fp((h), &(v), sizeof(v))
 
 static uint64_t fp_dmat(uint64_t h, const dmat *m) { return fp(h, m->m, sizeof(m->m)); }
 static uint64_t fp_d3(uint64_t h, dvec3 v) { return fp(fp(fp(h, &v.x, 8), &v.y, 8), &v.z, 8); }
 
-uint64_t vbnl_texture_fingerprint(const vbnl_scene *s, uint64_t h)
+uint64_t vbi_texture_fingerprint(const vbnl_scene *s, uint64_t h)
 {
-    const vbnl_texture_set *ts = &s->tex;
-    h = VBNL_FP(h, ts->image_count);
+    const vbi_texture_set *ts = &s->tex;
+    h = VBI_FP(h, ts->image_count);
     for (uint32_t i = 0; i < ts->image_count; ++i) {
-        const vbnl_image *im = &ts->images[i];
-        h = VBNL_FP(VBNL_FP(VBNL_FP(h, im->width), im->height), im->channels);
+        const vbi_image *im = &ts->images[i];
+        h = VBI_FP(VBI_FP(VBI_FP(h, im->width), im->height), im->channels);
         h = fp(h, im->texels, sizeof(float) * (size_t)im->width * im->height * im->channels);
         if (im->indices)
             h = fp(h, im->indices, (size_t)im->width * im->height);
     }
-    h = VBNL_FP(h, ts->warp_count);
+    h = VBI_FP(h, ts->warp_count);
     for (uint32_t i = 0; i < ts->warp_count; ++i) {
-        const vbnl_warp *w = &ts->warps[i];
-        h = fp_dmat(VBNL_FP(h, w->kind), &w->m);
-        h = fp_d3(VBNL_FP(VBNL_FP(VBNL_FP(h, w->turb.octaves), w->turb.omega), w->turb.lambda), w->turb.amount);
-        h = fp_d3(fp_d3(VBNL_FP(VBNL_FP(h, w->axis), w->width), w->offset), w->flip);
+        const vbi_warp *w = &ts->warps[i];
+        h = fp_dmat(VBI_FP(h, w->kind), &w->m);
+        h = fp_d3(VBI_FP(VBI_FP(VBI_FP(h, w->turb.octaves), w->turb.omega), w->turb.lambda), w->turb.amount);
+        h = fp_d3(fp_d3(VBI_FP(VBI_FP(h, w->axis), w->width), w->offset), w->flip);
         h = fp_d3(fp_d3(h, w->center), w->repeat_vec);
-        h = fp_d3(VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, w->radius), w->strength), w->falloff), w->inverse), w->jitter);
-        h = fp_d3(VBNL_FP(VBNL_FP(VBNL_FP(h, w->dist_exp), w->major_radius), w->plane_offset), w->orient);
+        h = fp_d3(VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, w->radius), w->strength), w->falloff), w->inverse), w->jitter);
+        h = fp_d3(VBI_FP(VBI_FP(VBI_FP(h, w->dist_exp), w->major_radius), w->plane_offset), w->orient);
     }
-    h = VBNL_FP(h, ts->pattern_count);
+    h = VBI_FP(h, ts->pattern_count);
     for (uint32_t i = 0; i < ts->pattern_count; ++i) {
-        const vbnl_pattern *p = &ts->patterns[i];
-        h = fp_dmat(VBNL_FP(VBNL_FP(h, p->kind), p->has_xf), &p->xf);
-        h = VBNL_FP(VBNL_FP(VBNL_FP(h, p->warp_begin), p->warp_count), p->has_turb);
-        h = fp_d3(VBNL_FP(VBNL_FP(VBNL_FP(h, p->turb.octaves), p->turb.omega), p->turb.lambda), p->turb.amount);
-        h = VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, p->generator), p->wave), p->frequency), p->phase), p->exponent);
+        const vbi_pattern *p = &ts->patterns[i];
+        h = fp_dmat(VBI_FP(VBI_FP(h, p->kind), p->has_xf), &p->xf);
+        h = VBI_FP(VBI_FP(VBI_FP(h, p->warp_begin), p->warp_count), p->has_turb);
+        h = fp_d3(VBI_FP(VBI_FP(VBI_FP(h, p->turb.octaves), p->turb.omega), p->turb.lambda), p->turb.amount);
+        h = VBI_FP(VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, p->generator), p->wave), p->frequency), p->phase), p->exponent);
         /* the parameters by kind, without pointers (callbacks and voxel arrays by content or not at all) */
         switch (p->kind) {
         case VBNL_PATTERN_DENSITY:
-            h = VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, p->u.density.nx), p->u.density.ny), p->u.density.nz),
+            h = VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, p->u.density.nx), p->u.density.ny), p->u.density.nz),
                         p->u.density.interpolate);
             h = fp(h, p->u.density.values,
                    sizeof(float) * (size_t)p->u.density.nx * p->u.density.ny * p->u.density.nz);
@@ -1034,39 +1034,39 @@ uint64_t vbnl_texture_fingerprint(const vbnl_scene *s, uint64_t h)
         }
         }
     }
-    h = VBNL_FP(h, ts->pigment_count);
+    h = VBI_FP(h, ts->pigment_count);
     for (uint32_t i = 0; i < ts->pigment_count; ++i) {
-        const vbnl_pigment *g = &ts->pigments[i];
-        h = fp(VBNL_FP(h, g->kind), g->color, sizeof(g->color));
-        h = VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, g->pattern), g->entry_begin), g->entry_count), g->uv);
+        const vbi_pigment *g = &ts->pigments[i];
+        h = fp(VBI_FP(h, g->kind), g->color, sizeof(g->color));
+        h = VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, g->pattern), g->entry_begin), g->entry_count), g->uv);
     }
     for (uint32_t i = 0; i < ts->pigment_entry_count; ++i) {
         const vbnl_pigment_map_entry *e = &ts->pigment_entries[i];
-        h = VBNL_FP(fp(VBNL_FP(h, e->value), e->color, sizeof(e->color)), e->pigment);
+        h = VBI_FP(fp(VBI_FP(h, e->value), e->color, sizeof(e->color)), e->pigment);
     }
-    h = VBNL_FP(h, ts->normal_count);
+    h = VBI_FP(h, ts->normal_count);
     for (uint32_t i = 0; i < ts->normal_count; ++i) {
-        const vbnl_normal *n = &ts->normals[i];
-        h = VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, n->kind), n->pattern), n->amount), n->accuracy);
-        h = VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, n->slope_begin), n->slope_count), n->entry_begin), n->entry_count);
-        h = VBNL_FP(VBNL_FP(h, n->no_bump_scale), n->uv);
+        const vbi_normal *n = &ts->normals[i];
+        h = VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, n->kind), n->pattern), n->amount), n->accuracy);
+        h = VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, n->slope_begin), n->slope_count), n->entry_begin), n->entry_count);
+        h = VBI_FP(VBI_FP(h, n->no_bump_scale), n->uv);
     }
     for (uint32_t i = 0; i < ts->normal_entry_count; ++i)
-        h = VBNL_FP(VBNL_FP(h, ts->normal_entries[i].value), ts->normal_entries[i].normal);
+        h = VBI_FP(VBI_FP(h, ts->normal_entries[i].value), ts->normal_entries[i].normal);
     for (uint32_t i = 0; i < ts->slope_entry_count; ++i) {
         const vbnl_slope_map_entry *e = &ts->slope_entries[i];
-        h = VBNL_FP(VBNL_FP(VBNL_FP(h, e->value), e->height), e->slope);
+        h = VBI_FP(VBI_FP(VBI_FP(h, e->value), e->height), e->slope);
     }
     for (uint32_t i = 0; i < ts->material_entry_count; ++i)
-        h = VBNL_FP(VBNL_FP(h, ts->material_entries[i].value), ts->material_entries[i].material);
+        h = VBI_FP(VBI_FP(h, ts->material_entries[i].value), ts->material_entries[i].material);
     for (uint32_t i = 0; i < s->material_count; ++i) {
         const scene_material *m = &s->materials[i];
-        h = VBNL_FP(VBNL_FP(VBNL_FP(h, m->is_node), m->surface), m->origin);
+        h = VBI_FP(VBI_FP(VBI_FP(h, m->is_node), m->surface), m->origin);
         if (m->is_node) {
-            const vbnl_mnode *n = &m->node;
-            h = VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, n->kind), n->material), n->pigment), n->normal);
-            h = VBNL_FP(VBNL_FP(VBNL_FP(VBNL_FP(h, n->transmission), n->pattern), n->entry_begin), n->entry_count);
-            h = VBNL_FP(h, n->uv);
+            const vbi_mnode *n = &m->node;
+            h = VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, n->kind), n->material), n->pigment), n->normal);
+            h = VBI_FP(VBI_FP(VBI_FP(VBI_FP(h, n->transmission), n->pattern), n->entry_begin), n->entry_count);
+            h = VBI_FP(h, n->uv);
         }
     }
     return h;
@@ -1096,15 +1096,15 @@ void vbnl_texture_desc_init(vbnl_texture_desc *d)
 
 vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, uint32_t *out_id, vbnl_error *err)
 {
-    vbnl_result r = vbnl_scene_check_open(s, "vbnl_scene_add_texture", err);
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_add_texture", err);
     if (r != VBNL_OK)
         return r;
     if (!d)
-        VBNL_BAD("vbnl_scene_add_texture: desc is NULL");
-    if ((r = VBNL_DESC_CHECK(d, vbnl_texture_desc, err)) != VBNL_OK)
+        VBI_BAD("vbnl_scene_add_texture: desc is NULL");
+    if ((r = VBI_DESC_CHECK(d, vbnl_texture_desc, err)) != VBNL_OK)
         return r;
     if ((unsigned)d->kind > VBNL_TEXTURE_BRICK)
-        VBNL_BAD("unknown texture kind %d", (int)d->kind);
+        VBI_BAD("unknown texture kind %d", (int)d->kind);
     vbnl_pattern_desc pd;
     vbnl_pattern_desc_init(&pd);
     for (int i = 0; i < 16; ++i)
@@ -1115,13 +1115,13 @@ vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, ui
     uint32_t image = 0;
     if (d->kind == VBNL_TEXTURE_IMAGE) {
         if (!d->texels || d->width == 0 || d->height == 0 || d->width > (1u << 16) || d->height > (1u << 16))
-            VBNL_BAD("image texture needs texels and a size in [1, 65536]^2 (got %u x %u)", d->width, d->height);
+            VBI_BAD("image texture needs texels and a size in [1, 65536]^2 (got %u x %u)", d->width, d->height);
         if ((unsigned)d->projection > VBNL_PROJECTION_CYLINDRICAL || (unsigned)d->wrap > VBNL_WRAP_CLAMP)
-            VBNL_BAD("unknown image projection or wrap mode");
+            VBI_BAD("unknown image projection or wrap mode");
         size_t n = 3 * (size_t)d->width * d->height;
         for (size_t i = 0; i < n; ++i)
             if (!(d->texels[i] >= 0.0f) || !isfinite(d->texels[i]))
-                VBNL_BAD("image texel values must be finite and >= 0 (got %g)", d->texels[i]);
+                VBI_BAD("image texel values must be finite and >= 0 (got %g)", d->texels[i]);
         vbnl_image_desc id;
         vbnl_image_desc_init(&id);
         id.width = d->width;
@@ -1140,14 +1140,14 @@ vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, ui
         gd.kind = VBNL_PIGMENT_IMAGE;
     } else {
         if (!d->color_map || d->color_map_count == 0 || d->color_map_count > VBNL_COLOR_MAP_MAX)
-            VBNL_BAD("pattern texture needs a colour map of 1..%u entries", VBNL_COLOR_MAP_MAX);
+            VBI_BAD("pattern texture needs a colour map of 1..%u entries", VBNL_COLOR_MAP_MAX);
         for (uint32_t i = 0; i < d->color_map_count; ++i) {
             const vbnl_color_map_entry *e = &d->color_map[i];
             if (!isfinite(e->value) || (i > 0 && e->value < d->color_map[i - 1].value))
-                VBNL_BAD("colour map values must be finite and sorted (entry %u)", i);
+                VBI_BAD("colour map values must be finite and sorted (entry %u)", i);
             for (int c = 0; c < 3; ++c)
                 if (!(e->color[c] >= 0.0f) || !isfinite(e->color[c]))
-                    VBNL_BAD("colour map colours must be finite and >= 0 (entry %u)", i);
+                    VBI_BAD("colour map colours must be finite and >= 0 (entry %u)", i);
             map[i] = (vbnl_pigment_map_entry){e->value, {e->color[0], e->color[1], e->color[2], 0.0f, 0.0f}, 0};
         }
         gd.kind = VBNL_PIGMENT_MAP;
@@ -1173,7 +1173,7 @@ vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, ui
             pd.phase = d->phase;
             pd.wave = d->wave;
             if ((unsigned)d->wave > VBNL_WAVE_POLY)
-                VBNL_BAD("unknown gradient wave %d", (int)d->wave);
+                VBI_BAD("unknown gradient wave %d", (int)d->wave);
             break;
         }
     }
@@ -1181,9 +1181,9 @@ vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, ui
     if ((r = vbnl_scene_add_pattern(s, &pd, &pattern, err)) != VBNL_OK)
         return r;
     if (d->kind == VBNL_TEXTURE_IMAGE) {
-        vbnl_pattern *p = &s->tex.patterns[pattern];
+        vbi_pattern *p = &s->tex.patterns[pattern];
         p->u.image.uv = d->projection == VBNL_PROJECTION_UV;
-        p->u.image.wrap = d->wrap == VBNL_WRAP_CLAMP ? VBNL_IMAGE_CLAMP : VBNL_IMAGE_REPEAT;
+        p->u.image.wrap = d->wrap == VBNL_WRAP_CLAMP ? VBI_IMAGE_CLAMP : VBI_IMAGE_REPEAT;
     }
     gd.pattern = pattern + 1;
     return vbnl_scene_add_pigment(s, &gd, out_id, err);
@@ -1192,7 +1192,7 @@ vbnl_result vbnl_scene_add_texture(vbnl_scene *s, const vbnl_texture_desc *d, ui
 /* ---- sets outside a scene ------------------------------------------------------------------ */
 
 struct vbnl_pattern_set {
-    vbnl_texture_set ts;
+    vbi_texture_set ts;
 };
 
 vbnl_result vbnl_pattern_set_create(vbnl_pattern_set **out, vbnl_error *err)
@@ -1202,7 +1202,7 @@ vbnl_result vbnl_pattern_set_create(vbnl_pattern_set **out, vbnl_error *err)
     vbnl_pattern_set *set = malloc(sizeof(*set));
     if (!set)
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
-    vbnl_texture_set_init(&set->ts);
+    vbi_texture_set_init(&set->ts);
     *out = set;
     return VBNL_OK;
 }
@@ -1211,7 +1211,7 @@ void vbnl_pattern_set_destroy(vbnl_pattern_set *set)
 {
     if (!set)
         return;
-    vbnl_texture_set_free(&set->ts);
+    vbi_texture_set_free(&set->ts);
     free(set);
 }
 
@@ -1245,7 +1245,7 @@ double vbnl_pattern_set_value(const vbnl_pattern_set *set, uint32_t pattern, con
     if (!set || !p || pattern >= set->ts.pattern_count)
         return 0.0;
     dvec3 w;
-    return vbnl_pattern_value(&set->ts, &set->ts.patterns[pattern], d3(p[0], p[1], p[2]), NULL, &w);
+    return vbi_pattern_value(&set->ts, &set->ts.patterns[pattern], d3(p[0], p[1], p[2]), NULL, &w);
 }
 
 void vbnl_pattern_set_color(const vbnl_pattern_set *set, uint32_t pigment, const double p[3], float out[5])
@@ -1255,7 +1255,7 @@ void vbnl_pattern_set_color(const vbnl_pattern_set *set, uint32_t pigment, const
     memset(out, 0, 5 * sizeof(float));
     if (!set || !p || pigment >= set->ts.pigment_count)
         return;
-    vbnl_pigment_eval(&set->ts, pigment, d3(p[0], p[1], p[2]), NULL, out);
+    vbi_pigment_eval(&set->ts, pigment, d3(p[0], p[1], p[2]), NULL, out);
 }
 
 void vbnl_vturbulence(double lambda, double omega, int octaves, const double p[3], double out[3])
@@ -1265,13 +1265,13 @@ void vbnl_vturbulence(double lambda, double omega, int octaves, const double p[3
     out[0] = out[1] = out[2] = 0.0;
     if (!p)
         return;
-    vbnl_turb t;
+    vbi_turb t;
     memset(&t, 0, sizeof(t));
     t.amount = d3(1.0, 1.0, 1.0);
     t.octaves = octaves < 1 ? 1 : (octaves > 10 ? 10 : octaves);
     t.omega = omega;
     t.lambda = lambda;
-    dvec3 v = vbnl_dturbulence(vbnl_noise_tables_get(), d3(p[0], p[1], p[2]), &t);
+    dvec3 v = vbi_dturbulence(vbi_noise_tables_get(), d3(p[0], p[1], p[2]), &t);
     out[0] = v.x;
     out[1] = v.y;
     out[2] = v.z;

@@ -7,7 +7,7 @@
 
 /* The 267 coefficients POV-Ray's value-gradient noise reads at hashed offsets (its RTable, the
  * even entries; data POV-Ray 3.7 fixes, so that every scene keeps its look). */
-static const double rtable_values[VBNL_NOISE_RTABLE_SIZE] = {
+static const double rtable_values[VBI_NOISE_RTABLE_SIZE] = {
     -1, 0.604974, -0.937102, 0.414115, 0.576226, -0.0161593, 0.432334, 0.103685,
     0.590539, 0.0286412, 0.46981, -0.84622, -0.0734112, -0.304097, -0.40206, -0.210132,
     -0.919127, 0.652033, -0.83151, -0.183948, -0.671107, 0.852476, 0.043595, -0.404532,
@@ -44,7 +44,7 @@ static const double rtable_values[VBNL_NOISE_RTABLE_SIZE] = {
     -0.420127, -0.427878, 0.566186,
 };
 
-static vbnl_noise_tables tables;
+static vbi_noise_tables tables;
 static pthread_once_t tables_once = PTHREAD_ONCE_INIT;
 
 /* POV-Ray's table generator: x' = 1812433253 x + 12345 in 32-bit arithmetic, 15 bits out. */
@@ -86,7 +86,7 @@ static uint32_t mt_next(mt19937 *m)
 
 static void build_tables(void)
 {
-    vbnl_noise_tables *t = &tables;
+    vbi_noise_tables *t = &tables;
     /* the lattice hash: 0..4095 shuffled from the top down, then repeated */
     uint32_t s = 0;
     for (int i = 0; i < 4096; ++i)
@@ -99,13 +99,13 @@ static void build_tables(void)
     }
     for (int i = 0; i < 4096; ++i)
         t->hash[4096 + i] = t->hash[i];
-    for (int i = 0; i < VBNL_NOISE_RTABLE_SIZE; ++i) {
+    for (int i = 0; i < VBI_NOISE_RTABLE_SIZE; ++i) {
         t->rtable[2 * i] = rtable_values[i];
         t->rtable[2 * i + 1] = 0.5 * rtable_values[i];
     }
 
     /* generator 3: random unit gradients (rejection from the cube) and a permutation */
-    const int n = VBNL_NOISE_SOLID_SIZE;
+    const int n = VBI_NOISE_SOLID_SIZE;
     s = 1;
     for (int i = 0; i < n; ++i) {
         double v[3], len2;
@@ -134,19 +134,19 @@ static void build_tables(void)
 
     mt19937 mt;
     mt_seed(&mt, 5489u);
-    for (int i = 0; i < VBNL_PATTERN_RANDS; ++i)
+    for (int i = 0; i < VBI_PATTERN_RANDS; ++i)
         t->rands[i] = (double)mt_next(&mt) / 4294967296.0;
 
     /* ripples and waves: centre i is the gradient noise at (i, 0, 0), normalised; frequency i
      * from the LCG seeded with -560851967 */
     s = (uint32_t)-560851967;
-    for (int i = 0; i < VBNL_NOISE_MAX_WAVES; ++i) {
-        t->wave_source[i] = d3_norm(vbnl_dnoise(t, d3((double)i, 0.0, 0.0)));
+    for (int i = 0; i < VBI_NOISE_MAX_WAVES; ++i) {
+        t->wave_source[i] = d3_norm(vbi_dnoise(t, d3((double)i, 0.0, 0.0)));
         t->wave_frequency[i] = (double)lcg15(&s) * 0.000030518509476 + 0.01;
     }
 }
 
-const vbnl_noise_tables *vbnl_noise_tables_get(void)
+const vbi_noise_tables *vbi_noise_tables_get(void)
 {
     pthread_once(&tables_once, build_tables);
     return &tables;
@@ -179,7 +179,7 @@ typedef struct corner_set {
     unsigned h00, h10, h01, h11; /* Hash2d of the four (x, y) columns */
 } corner_set;
 
-static void corners(const vbnl_noise_tables *t, dvec3 p, corner_set *c)
+static void corners(const vbi_noise_tables *t, dvec3 p, corner_set *c)
 {
     c->ix = lattice(p.x, &c->fx);
     c->iy = lattice(p.y, &c->fy);
@@ -196,16 +196,16 @@ static void corners(const vbnl_noise_tables *t, dvec3 p, corner_set *c)
 /* One corner's linear function a + b dx + c dy + d dz, the coefficients at an offset of the table
  * hashed from the corner; `k` selects the x, y or z component of the gradient (0 for the
  * scalar noise, which reads the x one). */
-static double corner_term(const vbnl_noise_tables *t, unsigned col, int iz, int k, double dx, double dy, double dz)
+static double corner_term(const vbi_noise_tables *t, unsigned col, int iz, int k, double dx, double dy, double dz)
 {
     const double *mp = &t->rtable[(t->hash[col ^ (unsigned)iz] & 0xffu) * 2u + 8u * (unsigned)k];
     return mp[1] + mp[2] * dx + mp[4] * dy + mp[6] * dz;
 }
 
 /* Solid noise of generator 3, about [-1, 1]. */
-static double solid_noise(const vbnl_noise_tables *t, dvec3 p)
+static double solid_noise(const vbi_noise_tables *t, dvec3 p)
 {
-    const int mask = VBNL_NOISE_SOLID_SIZE - 1;
+    const int mask = VBI_NOISE_SOLID_SIZE - 1;
     int b0[3], b1[3];
     double r0[3], r1[3];
     const double pc[3] = {p.x, p.y, p.z};
@@ -224,27 +224,27 @@ static double solid_noise(const vbnl_noise_tables *t, dvec3 p)
     int i = perm[b0[0]], j = perm[b1[0]];
     int b00 = perm[i + b0[1]], b10 = perm[j + b0[1]], b01 = perm[i + b1[1]], b11 = perm[j + b1[1]];
     double sx = scurve(r0[0]), sy = scurve(r0[1]), sz = scurve(r0[2]);
-#define VBNL_GDOT(idx, rx, ry, rz) (t->solid_grad[idx][0] * (rx) + t->solid_grad[idx][1] * (ry) + t->solid_grad[idx][2] * (rz))
-    double u = VBNL_GDOT(b00 + b0[2], r0[0], r0[1], r0[2]), v = VBNL_GDOT(b10 + b0[2], r1[0], r0[1], r0[2]);
+#define VBI_GDOT(idx, rx, ry, rz) (t->solid_grad[idx][0] * (rx) + t->solid_grad[idx][1] * (ry) + t->solid_grad[idx][2] * (rz))
+    double u = VBI_GDOT(b00 + b0[2], r0[0], r0[1], r0[2]), v = VBI_GDOT(b10 + b0[2], r1[0], r0[1], r0[2]);
     double a = u + sx * (v - u);
-    u = VBNL_GDOT(b01 + b0[2], r0[0], r1[1], r0[2]);
-    v = VBNL_GDOT(b11 + b0[2], r1[0], r1[1], r0[2]);
+    u = VBI_GDOT(b01 + b0[2], r0[0], r1[1], r0[2]);
+    v = VBI_GDOT(b11 + b0[2], r1[0], r1[1], r0[2]);
     double b = u + sx * (v - u);
     double c = a + sy * (b - a);
-    u = VBNL_GDOT(b00 + b1[2], r0[0], r0[1], r1[2]);
-    v = VBNL_GDOT(b10 + b1[2], r1[0], r0[1], r1[2]);
+    u = VBI_GDOT(b00 + b1[2], r0[0], r0[1], r1[2]);
+    v = VBI_GDOT(b10 + b1[2], r1[0], r0[1], r1[2]);
     a = u + sx * (v - u);
-    u = VBNL_GDOT(b01 + b1[2], r0[0], r1[1], r1[2]);
-    v = VBNL_GDOT(b11 + b1[2], r1[0], r1[1], r1[2]);
+    u = VBI_GDOT(b01 + b1[2], r0[0], r1[1], r1[2]);
+    v = VBI_GDOT(b11 + b1[2], r1[0], r1[1], r1[2]);
     b = u + sx * (v - u);
     double d = a + sy * (b - a);
-#undef VBNL_GDOT
+#undef VBI_GDOT
     return c + sz * (d - c);
 }
 
 static double clamp01(double v) { return v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v); }
 
-double vbnl_noise(const vbnl_noise_tables *t, dvec3 p, int generator)
+double vbi_noise(const vbi_noise_tables *t, dvec3 p, int generator)
 {
     if (generator == 3)
         return clamp01(0.5 * (1.59 * solid_noise(t, p) + 0.985));
@@ -266,7 +266,7 @@ double vbnl_noise(const vbnl_noise_tables *t, dvec3 p, int generator)
     return clamp01((sum + 1.05242) * 0.48985582);
 }
 
-dvec3 vbnl_dnoise(const vbnl_noise_tables *t, dvec3 p)
+dvec3 vbi_dnoise(const vbi_noise_tables *t, dvec3 p)
 {
     corner_set c;
     corners(t, p, &c);
@@ -295,15 +295,15 @@ dvec3 vbnl_dnoise(const vbnl_noise_tables *t, dvec3 p)
 
 /* ---- turbulence --------------------------------------------------------------------------- */
 
-double vbnl_turbulence(const vbnl_noise_tables *t, dvec3 p, const vbnl_turb *turb, int generator)
+double vbi_turbulence(const vbi_noise_tables *t, dvec3 p, const vbi_turb *turb, int generator)
 {
     const int stretched = generator > 1;
-    double value = vbnl_noise(t, p, generator);
+    double value = vbi_noise(t, p, generator);
     if (stretched)
         value = clamp01(2.0 * value - 0.5);
     double l = turb->lambda, o = turb->omega;
     for (int i = 2; i <= turb->octaves; ++i) {
-        double n = vbnl_noise(t, d3_scale(p, l), generator);
+        double n = vbi_noise(t, d3_scale(p, l), generator);
         value += o * (stretched ? 2.0 * n - 0.5 : n);
         if (i < turb->octaves) {
             l *= turb->lambda;
@@ -313,12 +313,12 @@ double vbnl_turbulence(const vbnl_noise_tables *t, dvec3 p, const vbnl_turb *tur
     return value;
 }
 
-dvec3 vbnl_dturbulence(const vbnl_noise_tables *t, dvec3 p, const vbnl_turb *turb)
+dvec3 vbi_dturbulence(const vbi_noise_tables *t, dvec3 p, const vbi_turb *turb)
 {
-    dvec3 r = vbnl_dnoise(t, p);
+    dvec3 r = vbi_dnoise(t, p);
     double l = turb->lambda, o = turb->omega;
     for (int i = 2; i <= turb->octaves; ++i) {
-        r = d3_fma(r, vbnl_dnoise(t, d3_scale(p, l)), o);
+        r = d3_fma(r, vbi_dnoise(t, d3_scale(p, l)), o);
         if (i < turb->octaves) {
             l *= turb->lambda;
             o *= turb->omega;
@@ -329,14 +329,14 @@ dvec3 vbnl_dturbulence(const vbnl_noise_tables *t, dvec3 p, const vbnl_turb *tur
 
 /* ---- waves -------------------------------------------------------------------------------- */
 
-double vbnl_cycloidal(double v)
+double vbi_cycloidal(double v)
 {
     if (v >= 0.0)
         return sin((v - floor(v)) * (2.0 * M_PI));
     return -sin((-v - floor(-v)) * (2.0 * M_PI));
 }
 
-double vbnl_triangle_wave(double v)
+double vbi_triangle_wave(double v)
 {
     double f = v - floor(v);
     return f >= 0.5 ? 2.0 * (1.0 - f) : 2.0 * f;

@@ -17,66 +17,66 @@
  *   - the "pattern random numbers" (cells, crackle, facets, black holes) are the first 32768
  *     outputs of MT19937 with its default seed 5489, each divided by 2^32.
  * All arithmetic is double precision, as in POV-Ray. The tables are built once per process
- * (vbnl_noise_tables, thread-safe) and never change afterwards. */
-#ifndef VBNL_TEXTURE_NOISE_H
-#define VBNL_TEXTURE_NOISE_H
+ * (vbi_noise_tables, thread-safe) and never change afterwards. */
+#ifndef VBI_TEXTURE_NOISE_H
+#define VBI_TEXTURE_NOISE_H
 
 #include <stdint.h>
 
 #include "dvec.h"
 #include "vbnl/scene.h"
 
-#define VBNL_NOISE_HASH_SIZE 8192
-#define VBNL_NOISE_RTABLE_SIZE 267
-#define VBNL_NOISE_SOLID_SIZE 2048
-#define VBNL_PATTERN_RANDS 32768
-#define VBNL_NOISE_MAX_WAVES VBNL_NOISE_WAVES_MAX /* sources of ripples / waves (vbnl/scene.h) */
+#define VBI_NOISE_HASH_SIZE 8192
+#define VBI_NOISE_RTABLE_SIZE 267
+#define VBI_NOISE_SOLID_SIZE 2048
+#define VBI_PATTERN_RANDS 32768
+#define VBI_NOISE_MAX_WAVES VBNL_NOISE_WAVES_MAX /* sources of ripples / waves (vbnl/scene.h) */
 
-typedef struct vbnl_noise_tables {
-    uint16_t hash[VBNL_NOISE_HASH_SIZE];
-    double rtable[2 * VBNL_NOISE_RTABLE_SIZE];             /* value, value / 2 interleaved */
-    int solid_perm[2 * (VBNL_NOISE_SOLID_SIZE + 1)];
-    double solid_grad[2 * (VBNL_NOISE_SOLID_SIZE + 1)][3];
-    double rands[VBNL_PATTERN_RANDS];                      /* MT19937 / 2^32 */
-    dvec3 wave_source[VBNL_NOISE_MAX_WAVES];               /* ripples / waves centres (unit) */
-    double wave_frequency[VBNL_NOISE_MAX_WAVES];
-} vbnl_noise_tables;
+typedef struct vbi_noise_tables {
+    uint16_t hash[VBI_NOISE_HASH_SIZE];
+    double rtable[2 * VBI_NOISE_RTABLE_SIZE];             /* value, value / 2 interleaved */
+    int solid_perm[2 * (VBI_NOISE_SOLID_SIZE + 1)];
+    double solid_grad[2 * (VBI_NOISE_SOLID_SIZE + 1)][3];
+    double rands[VBI_PATTERN_RANDS];                      /* MT19937 / 2^32 */
+    dvec3 wave_source[VBI_NOISE_MAX_WAVES];               /* ripples / waves centres (unit) */
+    double wave_frequency[VBI_NOISE_MAX_WAVES];
+} vbi_noise_tables;
 
 /* POV-Ray's turbulence parameters (octaves 1..10, default 6; omega 0.5; lambda 2). */
-typedef struct vbnl_turb {
+typedef struct vbi_turb {
     dvec3 amount;
     int octaves;
     double omega, lambda;
-} vbnl_turb;
+} vbi_turb;
 
 /* The tables, built on the first call (pthread_once; any thread). Never NULL. */
-const vbnl_noise_tables *vbnl_noise_tables_get(void);
+const vbi_noise_tables *vbi_noise_tables_get(void);
 
 /* Noise in [0, 1] at p for generator 1, 2 or 3 (anything else counts as 2). */
-double vbnl_noise(const vbnl_noise_tables *t, dvec3 p, int generator);
+double vbi_noise(const vbi_noise_tables *t, dvec3 p, int generator);
 /* The vector noise POV-Ray's bumps, wrinkles, dents and turbulence warps use (each component in
  * about [-1, 1]; the same for every generator, as in POV-Ray). */
-dvec3 vbnl_dnoise(const vbnl_noise_tables *t, dvec3 p);
+dvec3 vbi_dnoise(const vbi_noise_tables *t, dvec3 p);
 /* Scalar turbulence: octaves of noise at p * lambda^k weighted omega^k (generators 2 and 3 use
  * 2 n - 0.5 per octave, the first clamped to [0, 1]). */
-double vbnl_turbulence(const vbnl_noise_tables *t, dvec3 p, const vbnl_turb *turb, int generator);
-/* Vector turbulence: the same octaves of vbnl_dnoise. */
-dvec3 vbnl_dturbulence(const vbnl_noise_tables *t, dvec3 p, const vbnl_turb *turb);
+double vbi_turbulence(const vbi_noise_tables *t, dvec3 p, const vbi_turb *turb, int generator);
+/* Vector turbulence: the same octaves of vbi_dnoise. */
+dvec3 vbi_dturbulence(const vbi_noise_tables *t, dvec3 p, const vbi_turb *turb);
 
 /* POV-Ray's hash of an integer cell (each coordinate taken mod 4096): 0..4095. */
-static inline unsigned vbnl_noise_hash3(const vbnl_noise_tables *t, int a, int b, int c)
+static inline unsigned vbi_noise_hash3(const vbi_noise_tables *t, int a, int b, int c)
 {
     return t->hash[t->hash[t->hash[a & 0xfff] ^ (b & 0xfff)] ^ (c & 0xfff)];
 }
 /* Pattern random number i (taken mod 32768), in [0, 1). */
-static inline double vbnl_pattern_rand(const vbnl_noise_tables *t, unsigned i)
+static inline double vbi_pattern_rand(const vbi_noise_tables *t, unsigned i)
 {
-    return t->rands[i % VBNL_PATTERN_RANDS];
+    return t->rands[i % VBI_PATTERN_RANDS];
 }
 
 /* sin(2 pi v) as POV-Ray evaluates it (its "cycloidal" function). */
-double vbnl_cycloidal(double v);
+double vbi_cycloidal(double v);
 /* The triangle wave of period 1: 2 frac(v) below one half, 2 (1 - frac(v)) above. */
-double vbnl_triangle_wave(double v);
+double vbi_triangle_wave(double v);
 
 #endif

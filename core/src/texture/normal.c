@@ -21,19 +21,19 @@ static double hermite(double t, const vbnl_slope_map_entry *a, const vbnl_slope_
            tt * (2.0 * a->slope + b->slope + 3.0 * (a->height - b->height)) + t * a->slope + a->height;
 }
 
-static double slope_map(const vbnl_texture_set *ts, const vbnl_normal *nm, double v)
+static double slope_map(const vbi_texture_set *ts, const vbi_normal *nm, double v)
 {
     if (!nm->slope_count)
         return v;
     const vbnl_slope_map_entry *m = ts->slope_entries + nm->slope_begin;
     uint32_t a, b;
     double f;
-    vbnl_map_search(&m[0].value, sizeof(*m), nm->slope_count, v, &a, &b, &f);
+    vbi_map_search(&m[0].value, sizeof(*m), nm->slope_count, v, &a, &b, &f);
     return a == b ? m[b].height : hermite(f, &m[a], &m[b]);
 }
 
 /* The normal of the random-point Voronoi cell of `facets` (POV-Ray's facets()). */
-static dvec3 facets(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p, dvec3 n)
+static dvec3 facets(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p, dvec3 n)
 {
     const double metric = pt->u.facets.metric, coords = pt->u.facets.coords;
     const int square = metric == 2.0, unity = metric == 1.0;
@@ -49,9 +49,9 @@ static dvec3 facets(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p,
                     continue;
                 dvec3 s = d3_add(tv, d3(ax, ay, az));
                 int fx = (int)floor(s.x - 1e-10), fy = (int)floor(s.y - 1e-10), fz = (int)floor(s.z - 1e-10);
-                unsigned seed = vbnl_noise_hash3(ts->noise, fx, fy, fz);
-                dvec3 c = d3(fx + vbnl_pattern_rand(ts->noise, seed), fy + vbnl_pattern_rand(ts->noise, seed + 1),
-                             fz + vbnl_pattern_rand(ts->noise, seed + 2));
+                unsigned seed = vbi_noise_hash3(ts->noise, fx, fy, fz);
+                dvec3 c = d3(fx + vbi_pattern_rand(ts->noise, seed), fy + vbi_pattern_rand(ts->noise, seed + 1),
+                             fz + vbi_pattern_rand(ts->noise, seed + 2));
                 dvec3 dv = d3_sub(c, tv);
                 /* POV-Ray's metric 1 sums the signed offsets */
                 double sum = square  ? d3_dot(dv, dv)
@@ -64,19 +64,19 @@ static dvec3 facets(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p,
             }
     if (coords == 0.0)
         return nearest;
-    dvec3 pert = vbnl_dnoise(ts->noise, nearest);
+    dvec3 pert = vbi_dnoise(ts->noise, nearest);
     pert = d3_sub(pert, d3_scale(n, d3_dot(pert, n)));
     return d3_fma(n, pert, coords);
 }
 
 /* bump_map: the image as a height field; the heights of the texel and of its neighbours one
  * pixel down-left and down-right give the normal in the frame of n. */
-static dvec3 bump_map(const vbnl_texture_set *ts, const vbnl_normal *nm, const vbnl_pattern *pt, dvec3 p,
-                      const vbnl_shade_point *sp, dvec3 n)
+static dvec3 bump_map(const vbi_texture_set *ts, const vbi_normal *nm, const vbi_pattern *pt, dvec3 p,
+                      const vbi_shade_point *sp, dvec3 n)
 {
-    const vbnl_image *im = &ts->images[pt->u.image.image];
+    const vbi_image *im = &ts->images[pt->u.image.image];
     double x, y;
-    if (!vbnl_image_pixel(ts, pt, p, sp, &x, &y))
+    if (!vbi_image_pixel(ts, pt, p, sp, &x, &y))
         return n;
     const double w = im->width, h = im->height;
     double hs[3];
@@ -92,9 +92,9 @@ static dvec3 bump_map(const vbnl_texture_set *ts, const vbnl_normal *nm, const v
             xi -= w;
         float c[5];
         int index;
-        vbnl_image_lookup(ts, pt, xi, i == 0 ? y : y2, c, &index);
+        vbi_image_lookup(ts, pt, xi, i == 0 ? y : y2, c, &index);
         int by_index = pt->u.image.use == 0 && index >= 0;
-        hs[i] = nm->amount * (by_index ? (double)index : vbnl_greyscale(c));
+        hs[i] = nm->amount * (by_index ? (double)index : vbi_greyscale(c));
     }
     dvec3 p1 = d3(0.0, hs[0], 0.0), p2 = d3(-1.0, hs[1], 1.0), p3 = d3(1.0, hs[2], 1.0);
     dvec3 bn = d3_norm(d3_cross(d3_sub(p3, p2), d3_sub(p1, p2)));
@@ -112,22 +112,22 @@ static dvec3 bump_map(const vbnl_texture_set *ts, const vbnl_normal *nm, const v
 
 /* Perturbs n (in the space of the point q this normal receives) and returns it, not normalised
  * when `raw` (the caller normalises). */
-static dvec3 perturb(const vbnl_texture_set *ts, uint32_t id, dvec3 q, dvec3 n, const vbnl_shade_point *sp)
+static dvec3 perturb(const vbi_texture_set *ts, uint32_t id, dvec3 q, dvec3 n, const vbi_shade_point *sp)
 {
-    const vbnl_normal *nm = &ts->normals[id];
-    const vbnl_pattern *pt = nm->pattern ? &ts->patterns[nm->pattern - 1] : NULL;
+    const vbi_normal *nm = &ts->normals[id];
+    const vbi_pattern *pt = nm->pattern ? &ts->patterns[nm->pattern - 1] : NULL;
     const int scale = !nm->no_bump_scale;
-    dvec3 w = pt ? vbnl_pattern_point(ts, pt, q) : q;
-    dvec3 m = pt ? vbnl_pattern_normal_in(ts, pt, n) : n;
+    dvec3 w = pt ? vbi_pattern_point(ts, pt, q) : q;
+    dvec3 m = pt ? vbi_pattern_normal_in(ts, pt, n) : n;
     if (scale)
         m = d3_norm(m);
     const vbnl_normal_map_entry *map = ts->normal_entries + nm->entry_begin;
     switch (nm->kind) {
     case VBNL_NORMAL_MAP: {
-        double v = vbnl_pattern_shape(pt, vbnl_pattern_raw(ts, pt, w, sp));
+        double v = vbi_pattern_shape(pt, vbi_pattern_raw(ts, pt, w, sp));
         uint32_t a, b;
         double f;
-        vbnl_map_search(&map[0].value, sizeof(*map), nm->entry_count, v, &a, &b, &f);
+        vbi_map_search(&map[0].value, sizeof(*map), nm->entry_count, v, &a, &b, &f);
         dvec3 r = perturb(ts, map[b].normal, w, m, sp);
         if (a != b)
             r = d3_add(d3_scale(perturb(ts, map[a].normal, w, m, sp), 1.0 - f), d3_scale(r, f));
@@ -151,11 +151,11 @@ static dvec3 perturb(const vbnl_texture_set *ts, uint32_t id, dvec3 q, dvec3 n, 
         const double amount = nm->amount;
         switch (pt->kind) {
         case VBNL_PATTERN_BUMPS:
-            m = d3_fma(m, vbnl_dnoise(ts->noise, w), amount);
+            m = d3_fma(m, vbi_dnoise(ts->noise, w), amount);
             break;
         case VBNL_PATTERN_DENTS: {
-            double v = vbnl_noise(ts->noise, w, pt->generator);
-            m = d3_fma(m, vbnl_dnoise(ts->noise, w), v * v * v * amount);
+            double v = vbi_noise(ts->noise, w, pt->generator);
+            m = d3_fma(m, vbi_dnoise(ts->noise, w), v * v * v * amount);
             break;
         }
         case VBNL_PATTERN_RIPPLES:
@@ -167,7 +167,7 @@ static dvec3 perturb(const vbnl_texture_set *ts, uint32_t id, dvec3 q, dvec3 n, 
                 if (len == 0.0)
                     len = 1.0;
                 double f = waves ? ts->noise->wave_frequency[i] : 1.0;
-                double s = vbnl_cycloidal(len * pt->frequency * f + pt->phase) * amount / f;
+                double s = vbi_cycloidal(len * pt->frequency * f + pt->phase) * amount / f;
                 m = d3_fma(m, d, s / (len * count));
             }
             break;
@@ -176,14 +176,14 @@ static dvec3 perturb(const vbnl_texture_set *ts, uint32_t id, dvec3 q, dvec3 n, 
             dvec3 r = d3(0.0, 0.0, 0.0);
             double s = 1.0;
             for (int i = 0; i < 10; ++i, s *= 2.0) {
-                dvec3 v = vbnl_dnoise(ts->noise, d3_scale(w, s));
+                dvec3 v = vbi_dnoise(ts->noise, d3_scale(w, s));
                 r = d3_add(r, d3(fabs(v.x / s), fabs(v.y / s), fabs(v.z / s)));
             }
             m = d3_fma(m, r, amount);
             break;
         }
         case VBNL_PATTERN_QUILTED:
-            m = d3_fma(m, vbnl_pattern_quilted_offset(pt, w), amount);
+            m = d3_fma(m, vbi_pattern_quilted_offset(pt, w), amount);
             break;
         case VBNL_PATTERN_FACETS:
             m = facets(ts, pt, w, m);
@@ -193,7 +193,7 @@ static dvec3 perturb(const vbnl_texture_set *ts, uint32_t id, dvec3 q, dvec3 n, 
             const double k = amount * -5.0 * 0.02 / nm->accuracy;
             for (int i = 0; i < 4; ++i) {
                 dvec3 s = d3_fma(w, pyramid[i], nm->accuracy);
-                double v = slope_map(ts, nm, vbnl_pattern_shape(pt, vbnl_pattern_raw(ts, pt, s, sp)));
+                double v = slope_map(ts, nm, vbi_pattern_shape(pt, vbi_pattern_raw(ts, pt, s, sp)));
                 m = d3_fma(m, pyramid[i], v * k);
             }
             break;
@@ -203,19 +203,19 @@ static dvec3 perturb(const vbnl_texture_set *ts, uint32_t id, dvec3 q, dvec3 n, 
     }
     }
     if (pt)
-        m = vbnl_pattern_normal_out(ts, pt, m);
+        m = vbi_pattern_normal_out(ts, pt, m);
     return scale ? d3_norm(m) : m;
 }
 
-dvec3 vbnl_normal_perturb_at(const vbnl_texture_set *ts, uint32_t id, dvec3 q, const vbnl_shade_point *sp)
+dvec3 vbi_normal_perturb_at(const vbi_texture_set *ts, uint32_t id, dvec3 q, const vbi_shade_point *sp)
 {
     dvec3 n = d3_norm(perturb(ts, id, q, sp->n, sp));
     /* a degenerate perturbation keeps the surface's own normal */
     return d3_dot(n, n) > 0.5 && isfinite(n.x + n.y + n.z) ? n : sp->n;
 }
 
-dvec3 vbnl_normal_perturb(const vbnl_texture_set *ts, uint32_t id, const vbnl_shade_point *sp)
+dvec3 vbi_normal_perturb(const vbi_texture_set *ts, uint32_t id, const vbi_shade_point *sp)
 {
     dvec3 q = ts->normals[id].uv ? d3(sp->u, sp->v, 0.0) : sp->p;
-    return vbnl_normal_perturb_at(ts, id, q, sp);
+    return vbi_normal_perturb_at(ts, id, q, sp);
 }

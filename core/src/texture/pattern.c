@@ -6,7 +6,7 @@
 
 #include "texture.h"
 
-#define VBNL_POV_EPSILON 1e-10
+#define VBI_POV_EPSILON 1e-10
 
 /* POV-Ray's CLIP_DENSITY: 1 - v inside [0, 1], 1 below, 0 above. */
 static double clip_density(double v) { return v < 0.0 ? 1.0 : (v > 1.0 ? 0.0 : 1.0 - v); }
@@ -19,15 +19,15 @@ static double frac(double x) { return x - floor(x); }
 
 /* Turbulence the formula patterns (agate, marble, spiral1/2, wood) use: POV-Ray's
  * Search_For_Turb finds the classic turbulence at the end of the warp list. */
-static const vbnl_turb *classic_turb(const vbnl_pattern *pt) { return pt->has_turb ? &pt->turb : NULL; }
+static const vbi_turb *classic_turb(const vbi_pattern *pt) { return pt->has_turb ? &pt->turb : NULL; }
 
 /* agate: 0.5 (sin(2 pi (1.3 agate_turb turbulence(p) + 1.1 z)) + 1), raised to 0.77. */
-static double agate(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p)
+static double agate(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p)
 {
-    static const vbnl_turb none = {{0.0, 0.0, 0.0}, 6, 0.5, 2.0};
-    const vbnl_turb *t = classic_turb(pt);
-    double tv = pt->u.agate_turb * vbnl_turbulence(ts->noise, p, t ? t : &none, pt->generator);
-    double n = 0.5 * (vbnl_cycloidal(1.3 * tv + 1.1 * p.z) + 1.0);
+    static const vbi_turb none = {{0.0, 0.0, 0.0}, 6, 0.5, 2.0};
+    const vbi_turb *t = classic_turb(pt);
+    double tv = pt->u.agate_turb * vbi_turbulence(ts->noise, p, t ? t : &none, pt->generator);
+    double n = 0.5 * (vbi_cycloidal(1.3 * tv + 1.1 * p.z) + 1.0);
     if (n < 0.0)
         return 0.0;
     return pow(n < 1.0 ? n : 1.0, 0.77);
@@ -35,9 +35,9 @@ static double agate(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p)
 
 /* brick: courses of height size.y along y; head joints every size.x, offset by half a brick on
  * odd courses; joints in z every size.z, offset on even courses. 0 in the mortar, 1 in a brick. */
-static double brick(const vbnl_pattern *pt, dvec3 p)
+static double brick(const vbi_pattern *pt, dvec3 p)
 {
-    const double m = pt->u.brick.mortar, fudge = VBNL_POV_EPSILON + m;
+    const double m = pt->u.brick.mortar, fudge = VBI_POV_EPSILON + m;
     const double w = pt->u.brick.size.x, h = pt->u.brick.size.y, d = pt->u.brick.size.z;
     const double x = p.x + fudge, y = p.y + fudge, z = p.z + fudge;
     if (frac(y / h) <= m / h)
@@ -51,37 +51,37 @@ static double brick(const vbnl_pattern *pt, dvec3 p)
 }
 
 /* cells: one random value per unit cube. */
-static double cells(const vbnl_texture_set *ts, dvec3 p)
+static double cells(const vbi_texture_set *ts, dvec3 p)
 {
-    unsigned h = vbnl_noise_hash3(ts->noise, (int)floor(p.x + VBNL_PATTERN_CELL_EPS), (int)floor(p.y + VBNL_PATTERN_CELL_EPS),
-                                  (int)floor(p.z + VBNL_PATTERN_CELL_EPS));
-    double v = vbnl_pattern_rand(ts->noise, h);
+    unsigned h = vbi_noise_hash3(ts->noise, (int)floor(p.x + VBI_PATTERN_CELL_EPS), (int)floor(p.y + VBI_PATTERN_CELL_EPS),
+                                  (int)floor(p.z + VBI_PATTERN_CELL_EPS));
+    double v = vbi_pattern_rand(ts->noise, h);
     return v < 1.0 ? v : 1.0;
 }
 
 static double checker(dvec3 p)
 {
-    double s = floor(p.x + VBNL_PATTERN_CELL_EPS) + floor(p.y + VBNL_PATTERN_CELL_EPS) + floor(p.z + VBNL_PATTERN_CELL_EPS);
+    double s = floor(p.x + VBI_PATTERN_CELL_EPS) + floor(p.y + VBI_PATTERN_CELL_EPS) + floor(p.z + VBI_PATTERN_CELL_EPS);
     return fmod(fabs(s), 2.0) != 0.0 ? 1.0 : 0.0;
 }
 
 /* The random point of cube (x, y, z) (POV-Ray's PickInCube); returns its hash. */
-static unsigned pick_in_cube(const vbnl_texture_set *ts, int x, int y, int z, dvec3 *out)
+static unsigned pick_in_cube(const vbi_texture_set *ts, int x, int y, int z, dvec3 *out)
 {
-    unsigned seed = vbnl_noise_hash3(ts->noise, x, y, z);
-    *out = d3(x + vbnl_pattern_rand(ts->noise, seed), y + vbnl_pattern_rand(ts->noise, seed + 1),
-              z + vbnl_pattern_rand(ts->noise, seed + 2));
+    unsigned seed = vbi_noise_hash3(ts->noise, x, y, z);
+    *out = d3(x + vbi_pattern_rand(ts->noise, seed), y + vbi_pattern_rand(ts->noise, seed + 1),
+              z + vbi_pattern_rand(ts->noise, seed + 2));
     return seed;
 }
 
 /* crackle: the distances to the three nearest random points among the 81 cubes within a "3D
  * knight's move" (POV-Ray's neighbourhood), combined by `form`, in `metric`. */
-static double crackle(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p)
+static double crackle(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p)
 {
     const double metric = pt->u.crackle.metric;
     const int square = metric == 2.0, unity = metric == 1.0;
-    const int fx = (int)floor(p.x - VBNL_POV_EPSILON), fy = (int)floor(p.y - VBNL_POV_EPSILON),
-              fz = (int)floor(p.z - VBNL_POV_EPSILON);
+    const int fx = (int)floor(p.x - VBI_POV_EPSILON), fy = (int)floor(p.y - VBI_POV_EPSILON),
+              fz = (int)floor(p.z - VBI_POV_EPSILON);
     double d1 = INFINITY, d2 = INFINITY, d3v = INFINITY;
     dvec3 nearest = d3(0.0, 0.0, 0.0);
     for (int ax = -2; ax <= 2; ++ax)
@@ -117,7 +117,7 @@ static double crackle(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 
     double t;
     const dvec3 f = pt->u.crackle.form;
     if (pt->u.crackle.solid)
-        t = vbnl_noise(ts->noise, nearest, pt->generator);
+        t = vbi_noise(ts->noise, nearest, pt->generator);
     else if (square)
         t = f.x * sqrt(d1) + f.y * sqrt(d2) + f.z * sqrt(d3v);
     else if (unity)
@@ -153,18 +153,18 @@ static float intp3(float t, float fa, float fb, float fc, float fd)
 
 /* density_file: the voxel grid over [0, 1)^3, zero outside; nearest, trilinear or tricubic
  * (both interpolations wrap around the grid's far faces, as POV-Ray's). */
-static double density(const vbnl_pattern *pt, dvec3 p)
+static double density(const vbi_pattern *pt, dvec3 p)
 {
     const uint32_t sx = pt->u.density.nx, sy = pt->u.density.ny, sz = pt->u.density.nz;
     const float *v = pt->u.density.values;
     if (!(p.x >= 0.0 && p.x < 1.0 && p.y >= 0.0 && p.y < 1.0 && p.z >= 0.0 && p.z < 1.0))
         return 0.0;
-#define VBNL_VOX(i, j, k) ((double)v[((size_t)(k) * sy + (j)) * sx + (i)])
+#define VBI_VOX(i, j, k) ((double)v[((size_t)(k) * sy + (j)) * sx + (i)])
     double r;
     switch (pt->u.density.interpolate % 10) {
     case 0: {
         size_t x = (size_t)(p.x * sx), y = (size_t)(p.y * sy), z = (size_t)(p.z * sz);
-        r = x < sx && y < sy && z < sz ? VBNL_VOX(x, y, z) : 0.0;
+        r = x < sx && y < sy && z < sz ? VBI_VOX(x, y, z) : 0.0;
         break;
     }
     case 1: {
@@ -175,10 +175,10 @@ static double density(const vbnl_pattern *pt, dvec3 p)
         yy -= floor(yy);
         zz -= floor(zz);
         double xi = 1.0 - xx, yi = 1.0 - yy;
-        r = ((VBNL_VOX(x1, y1, z1) * xi + VBNL_VOX(x2, y1, z1) * xx) * yi +
-             (VBNL_VOX(x1, y2, z1) * xi + VBNL_VOX(x2, y2, z1) * xx) * yy) * (1.0 - zz) +
-            ((VBNL_VOX(x1, y1, z2) * xi + VBNL_VOX(x2, y1, z2) * xx) * yi +
-             (VBNL_VOX(x1, y2, z2) * xi + VBNL_VOX(x2, y2, z2) * xx) * yy) * zz;
+        r = ((VBI_VOX(x1, y1, z1) * xi + VBI_VOX(x2, y1, z1) * xx) * yi +
+             (VBI_VOX(x1, y2, z1) * xi + VBI_VOX(x2, y2, z1) * xx) * yy) * (1.0 - zz) +
+            ((VBI_VOX(x1, y1, z2) * xi + VBI_VOX(x2, y1, z2) * xx) * yi +
+             (VBI_VOX(x1, y2, z2) * xi + VBI_VOX(x2, y2, z2) * xx) * yy) * zz;
         break;
     }
     default: {
@@ -188,38 +188,38 @@ static double density(const vbnl_pattern *pt, dvec3 p)
         yy -= floor(yy);
         zz -= floor(zz);
         /* index i wrapped into [0, n): negative indices to the last one, as POV-Ray */
-#define VBNL_WRAP(i, n) ((i) < 0 ? (long)(n) - 1 : (i) % (long)(n))
+#define VBI_WRAP(i, n) ((i) < 0 ? (long)(n) - 1 : (i) % (long)(n))
         long k[4];
         for (int q = 0; q < 4; ++q)
-            k[q] = VBNL_WRAP(z1 + q - 1, sz);
+            k[q] = VBI_WRAP(z1 + q - 1, sz);
         float col[4][4], row[4];
         for (int i = 0; i < 4; ++i) {
-            long ii = VBNL_WRAP(x1 + i - 1, sx);
+            long ii = VBI_WRAP(x1 + i - 1, sx);
             for (int j = 0; j < 4; ++j) {
-                long jj = VBNL_WRAP(y1 + j - 1, sy);
-                col[i][j] = intp3((float)zz, (float)VBNL_VOX(ii, jj, k[0]), (float)VBNL_VOX(ii, jj, k[1]),
-                                  (float)VBNL_VOX(ii, jj, k[2]), (float)VBNL_VOX(ii, jj, k[3]));
+                long jj = VBI_WRAP(y1 + j - 1, sy);
+                col[i][j] = intp3((float)zz, (float)VBI_VOX(ii, jj, k[0]), (float)VBI_VOX(ii, jj, k[1]),
+                                  (float)VBI_VOX(ii, jj, k[2]), (float)VBI_VOX(ii, jj, k[3]));
             }
         }
-#undef VBNL_WRAP
+#undef VBI_WRAP
         for (int i = 0; i < 4; ++i)
             row[i] = intp3((float)yy, col[i][0], col[i][1], col[i][2], col[i][3]);
         r = intp3((float)xx, row[0], row[1], row[2], row[3]);
         break;
     }
     }
-#undef VBNL_VOX
+#undef VBI_VOX
     return r < 0.0 ? 0.0 : r;
 }
 
 /* granite: six octaves of |1 - 2 noise| (capped at 0.5), at 4 p, 8 p, ... (generator 1: |0.5 -
  * noise|). */
-static double granite(const vbnl_texture_set *ts, int gen, dvec3 p)
+static double granite(const vbi_texture_set *ts, int gen, dvec3 p)
 {
     double n = 0.0, freq = 1.0;
     dvec3 q = d3_scale(p, 4.0);
     for (int i = 0; i < 6; ++i, freq *= 2.0) {
-        double v = vbnl_noise(ts->noise, d3_scale(q, freq), gen), t;
+        double v = vbi_noise(ts->noise, d3_scale(q, freq), gen), t;
         if (gen == 1) {
             t = fabs(0.5 - v);
         } else {
@@ -270,10 +270,10 @@ static double leopard(dvec3 p)
     return v * v;
 }
 
-static double marble(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p)
+static double marble(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p)
 {
-    const vbnl_turb *t = classic_turb(pt);
-    return p.x + (t ? t->amount.x * vbnl_turbulence(ts->noise, p, t, pt->generator) : 0.0);
+    const vbi_turb *t = classic_turb(pt);
+    return p.x + (t ? t->amount.x * vbi_turbulence(ts->noise, p, t, pt->generator) : 0.0);
 }
 
 /* quilted: POV-Ray's quilt_cubic of the distance to the cell centre, scaling the offset. */
@@ -283,13 +283,13 @@ static double quilt_cubic(double t, double p1, double p2)
     return (t * t * t + 3.0 * t * it * it * p1 + 3.0 * t * t * it * p2) * 1.154700538;
 }
 
-static dvec3 quilted_offset(const vbnl_pattern *pt, dvec3 p)
+static dvec3 quilted_offset(const vbi_pattern *pt, dvec3 p)
 {
     dvec3 v = d3(p.x - pov_floor(p.x) - 0.5, p.y - pov_floor(p.y) - 0.5, p.z - pov_floor(p.z) - 0.5);
     return d3_scale(v, quilt_cubic(d3_len(v), pt->u.quilted.c0, pt->u.quilted.c1));
 }
 
-static double quilted(const vbnl_pattern *pt, dvec3 p)
+static double quilted(const vbi_pattern *pt, dvec3 p)
 {
     dvec3 v = quilted_offset(pt, p);
     return (fabs(v.x) + fabs(v.y) + fabs(v.z)) / 3.0;
@@ -304,7 +304,7 @@ static double radial(dvec3 p)
 
 /* ripples and waves: concentric waves from POV-Ray's fixed centres (noise.c); both use the
  * pattern's frequency and phase inside, and again in the final step, as POV-Ray does. */
-static double ripples(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p, int waves)
+static double ripples(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p, int waves)
 {
     double sum = 0.0;
     const int n = pt->u.waves;
@@ -314,9 +314,9 @@ static double ripples(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 
             len = 1.0;
         if (waves) {
             double f = ts->noise->wave_frequency[i];
-            sum += vbnl_cycloidal(len * pt->frequency * f + pt->phase) / f;
+            sum += vbi_cycloidal(len * pt->frequency * f + pt->phase) / f;
         } else {
-            sum += vbnl_cycloidal(len * pt->frequency + pt->phase);
+            sum += vbi_cycloidal(len * pt->frequency + pt->phase);
         }
     }
     return waves ? 0.2 * (2.5 + sum / n) : 0.5 * (1.0 + sum / n);
@@ -324,7 +324,7 @@ static double ripples(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 
 
 /* The normal a view-dependent pattern sees: the shading normal turned towards the camera (POV-Ray
  * turns it towards the ray, which is the camera's for what the camera sees). */
-static dvec3 facing_normal(const vbnl_shade_point *sp)
+static dvec3 facing_normal(const vbi_shade_point *sp)
 {
     dvec3 to = d3_sub(sp->p, sp->eye);
     return d3_dot(sp->n, to) > 0.0 ? d3_scale(sp->n, -1.0) : sp->n;
@@ -334,7 +334,7 @@ static double wrap01(double v) { return v < 0.0 ? 1.0 + fmod(v, 1.0) : fmod(v, 1
 
 /* slope: the normal's elevation along the slope direction, asin(n.d) mapped to [0, 1], optionally
  * rescaled to [low, high] and mixed with the altitude of the point along another direction. */
-static double slope(const vbnl_pattern *pt, dvec3 p, const vbnl_shade_point *sp)
+static double slope(const vbi_pattern *pt, dvec3 p, const vbi_shade_point *sp)
 {
     dvec3 n = facing_normal(sp);
     double v1;
@@ -347,17 +347,17 @@ static double slope(const vbnl_pattern *pt, dvec3 p, const vbnl_shade_point *sp)
     if (pt->u.slope.span != 0.0)
         v1 = (v1 - pt->u.slope.low) / pt->u.slope.span;
     if (pt->u.slope.w_alt == 0.0)
-        return v1 == 1.0 ? v1 - VBNL_POV_EPSILON : wrap01(v1);
+        return v1 == 1.0 ? v1 - VBI_POV_EPSILON : wrap01(v1);
     double v2 = d3_dot(p, pt->u.slope.alt);
     if (pt->u.slope.alt_span != 0.0)
         v2 = (v2 - pt->u.slope.alt_low) / pt->u.slope.alt_span;
     double v = pt->u.slope.w_slope * v1 + pt->u.slope.w_alt * v2;
-    if (v - 1.0 < VBNL_POV_EPSILON && v >= 1.0)
-        return v - VBNL_POV_EPSILON; /* keep an exact 1 off the bottom of the map */
+    if (v - 1.0 < VBI_POV_EPSILON && v >= 1.0)
+        return v - VBI_POV_EPSILON; /* keep an exact 1 off the bottom of the map */
     return wrap01(v);
 }
 
-static double aoi(const vbnl_shade_point *sp)
+static double aoi(const vbi_shade_point *sp)
 {
     dvec3 d = d3_norm(d3_sub(sp->p, sp->eye));
     double c = d3_dot(d3_norm(facing_normal(sp)), d);
@@ -366,15 +366,15 @@ static double aoi(const vbnl_shade_point *sp)
 }
 
 /* spiral1/2: arms winding around z, the angle from -y through +x (POV-Ray's asin form). */
-static double spiral(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p, int two)
+static double spiral(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p, int two)
 {
-    const vbnl_turb *t = classic_turb(pt);
-    double turb = t ? t->amount.x * vbnl_turbulence(ts->noise, p, t, pt->generator) : 0.0;
+    const vbi_turb *t = classic_turb(pt);
+    double turb = t ? t->amount.x * vbi_turbulence(ts->noise, p, t, pt->generator) : 0.0;
     double rad = sqrt(p.x * p.x + p.y * p.y), phi = 0.0;
     if (rad != 0.0)
         phi = p.x < 0.0 ? 3.0 * M_PI_2 - asin(p.y / rad) : M_PI_2 + asin(p.y / rad);
     double v = p.z + rad + (double)pt->u.arms * phi / (2.0 * M_PI) + turb;
-    return two ? vbnl_triangle_wave(rad) + vbnl_triangle_wave(v) : v;
+    return two ? vbi_triangle_wave(rad) + vbi_triangle_wave(v) : v;
 }
 
 static double square(dvec3 p)
@@ -404,26 +404,26 @@ static double triangular(dvec3 p)
 }
 
 /* wood: rings around z; turbulence bends them through the vector noise. */
-static double wood(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p)
+static double wood(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p)
 {
     double x = p.x, y = p.y;
-    const vbnl_turb *t = classic_turb(pt);
+    const vbi_turb *t = classic_turb(pt);
     if (t) {
-        dvec3 wt = vbnl_dturbulence(ts->noise, p, t);
-        x += vbnl_cycloidal((p.x + wt.x) * t->amount.x);
-        y += vbnl_cycloidal((p.y + wt.y) * t->amount.y);
+        dvec3 wt = vbi_dturbulence(ts->noise, p, t);
+        x += vbi_cycloidal((p.x + wt.x) * t->amount.x);
+        y += vbi_cycloidal((p.y + wt.y) * t->amount.y);
     }
     return sqrt(x * x + y * y);
 }
 
 /* wrinkles: ten octaves of noise (each 2 n - 0.5 clamped for generators 2 and 3), halved. */
-static double wrinkles(const vbnl_texture_set *ts, int gen, dvec3 p)
+static double wrinkles(const vbi_texture_set *ts, int gen, dvec3 p)
 {
     double lambda = 2.0, omega = 0.5, v;
-    double n = vbnl_noise(ts->noise, p, gen);
+    double n = vbi_noise(ts->noise, p, gen);
     v = gen > 1 ? fmin(fmax(2.0 * n - 0.5, 0.0), 1.0) : n;
     for (int i = 1; i < 10; ++i) {
-        n = vbnl_noise(ts->noise, d3_scale(p, lambda), gen);
+        n = vbi_noise(ts->noise, d3_scale(p, lambda), gen);
         v += omega * (gen > 1 ? fmin(fmax(2.0 * n - 0.5, 0.0), 1.0) : n);
         lambda *= 2.0;
         omega *= 0.5;
@@ -431,7 +431,7 @@ static double wrinkles(const vbnl_texture_set *ts, int gen, dvec3 p)
     return v / 2.0;
 }
 
-double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 p, const vbnl_shade_point *sp)
+double vbi_pattern_raw(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 p, const vbi_shade_point *sp)
 {
     const int gen = pt->generator;
     switch (pt->kind) {
@@ -444,7 +444,7 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
     case VBNL_PATTERN_BOZO:
     case VBNL_PATTERN_BUMPS:
     case VBNL_PATTERN_SPOTTED:
-        return vbnl_noise(ts->noise, p, gen);
+        return vbi_noise(ts->noise, p, gen);
     case VBNL_PATTERN_BRICK:
         return brick(pt, p);
     case VBNL_PATTERN_CELLS:
@@ -460,7 +460,7 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
     case VBNL_PATTERN_DENSITY:
         return density(pt, p);
     case VBNL_PATTERN_DENTS: {
-        double n = vbnl_noise(ts->noise, p, gen);
+        double n = vbi_noise(ts->noise, p, gen);
         return n * n * n;
     }
     case VBNL_PATTERN_FACETS:
@@ -479,11 +479,11 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
     case VBNL_PATTERN_HEXAGON:
         return hexagon(p);
     case VBNL_PATTERN_IMAGE:
-        return vbnl_image_value(ts, pt, p, sp);
+        return vbi_image_value(ts, pt, p, sp);
     case VBNL_PATTERN_JULIA:
     case VBNL_PATTERN_MAGNET:
     case VBNL_PATTERN_MANDEL:
-        return vbnl_pattern_fractal(pt, p);
+        return vbi_pattern_fractal(pt, p);
     case VBNL_PATTERN_LEOPARD:
         return leopard(p);
     case VBNL_PATTERN_MARBLE:
@@ -496,9 +496,9 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
         return fmod(d3_len(p), 1.0);
     case VBNL_PATTERN_PIGMENT: {
         float c[5];
-        if (!sp || !vbnl_pigment_eval(ts, pt->u.pigment, p, sp, c))
+        if (!sp || !vbi_pigment_eval(ts, pt->u.pigment, p, sp, c))
             return 0.0;
-        return vbnl_greyscale(c);
+        return vbi_greyscale(c);
     }
     case VBNL_PATTERN_PLANAR:
         return clip_density(fabs(p.y));
@@ -519,7 +519,7 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
     case VBNL_PATTERN_SQUARE:
         return square(p);
     case VBNL_PATTERN_TILING:
-        return vbnl_pattern_tiling(pt->u.tiling, p);
+        return vbi_pattern_tiling(pt->u.tiling, p);
     case VBNL_PATTERN_PAVEMENT: /* refused by vbnl_scene_add_pattern */
         return 0.0;
     case VBNL_PATTERN_TRIANGULAR:
@@ -536,7 +536,7 @@ double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec
     return 0.0;
 }
 
-double vbnl_pattern_shape(const vbnl_pattern *pt, double v)
+double vbi_pattern_shape(const vbi_pattern *pt, double v)
 {
     if (pt->frequency != 0.0)
         v = fmod(v * pt->frequency + pt->phase, 1.00001); /* POV-Ray's modulus */
@@ -546,11 +546,11 @@ double vbnl_pattern_shape(const vbnl_pattern *pt, double v)
     case VBNL_WAVE_RAMP:
         return v;
     case VBNL_WAVE_TRIANGLE:
-        return vbnl_triangle_wave(v);
+        return vbi_triangle_wave(v);
     case VBNL_WAVE_SINE:
-        return (1.0 + vbnl_cycloidal(v)) * 0.5;
+        return (1.0 + vbi_cycloidal(v)) * 0.5;
     case VBNL_WAVE_SCALLOP:
-        return fabs(vbnl_cycloidal(v * 0.5));
+        return fabs(vbi_cycloidal(v * 0.5));
     case VBNL_WAVE_CUBIC:
         return v * v * (3.0 - 2.0 * v);
     case VBNL_WAVE_POLY:
@@ -559,14 +559,14 @@ double vbnl_pattern_shape(const vbnl_pattern *pt, double v)
     return v;
 }
 
-double vbnl_pattern_value(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 q, const vbnl_shade_point *sp,
+double vbi_pattern_value(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 q, const vbi_shade_point *sp,
                           dvec3 *warped)
 {
-    dvec3 w = vbnl_pattern_point(ts, pt, q);
+    dvec3 w = vbi_pattern_point(ts, pt, q);
     if (warped)
         *warped = w;
-    return vbnl_pattern_shape(pt, vbnl_pattern_raw(ts, pt, w, sp));
+    return vbi_pattern_shape(pt, vbi_pattern_raw(ts, pt, w, sp));
 }
 
 /* The facets offset and the quilted perturbation are normal patterns: normal.c uses these. */
-dvec3 vbnl_pattern_quilted_offset(const vbnl_pattern *pt, dvec3 p) { return quilted_offset(pt, p); }
+dvec3 vbi_pattern_quilted_offset(const vbi_pattern *pt, dvec3 p) { return quilted_offset(pt, p); }

@@ -11,11 +11,11 @@
  *   material.c  materials chosen per point (the blend, layers, transmission) and the BSDF at a hit
  *   nodes.c     the scene API: validation and storage of the nodes
  *
- * Nodes live in the scene's vbnl_texture_set, refer to each other by index and are immutable once
+ * Nodes live in the scene's vbi_texture_set, refer to each other by index and are immutable once
  * added. Evaluation reads them only: no allocation, no shared state, so any number of threads may
  * evaluate at once. */
-#ifndef VBNL_TEXTURE_TEXTURE_H
-#define VBNL_TEXTURE_TEXTURE_H
+#ifndef VBI_TEXTURE_TEXTURE_H
+#define VBI_TEXTURE_TEXTURE_H
 
 #include <stdint.h>
 
@@ -25,12 +25,12 @@
 
 /* POV-Ray offsets the cell of checker and cells by 1e-10; hit points here are single precision,
  * so the offset is 1e-4: a face lying on an integer plane stays in one cell. */
-#define VBNL_PATTERN_CELL_EPS 1e-4
+#define VBI_PATTERN_CELL_EPS 1e-4
 
-typedef struct vbnl_warp {
+typedef struct vbi_warp {
     vbnl_warp_kind kind;
     dmat m, inv;             /* TRANSFORM: the point map and its inverse */
-    vbnl_turb turb;          /* TURBULENCE */
+    vbi_turb turb;          /* TURBULENCE */
     int axis;                /* REPEAT */
     double width;
     dvec3 offset, flip;      /* flip: -1 on mirrored axes, +1 elsewhere */
@@ -40,28 +40,28 @@ typedef struct vbnl_warp {
     dvec3 repeat_vec, jitter;
     dvec3 orient;            /* mappings */
     double dist_exp, major_radius, plane_offset;
-} vbnl_warp;
+} vbi_warp;
 
-typedef enum vbnl_image_wrap {
-    VBNL_IMAGE_REPEAT = 0,
-    VBNL_IMAGE_ONCE,         /* outside the image: no colour (clear) */
-    VBNL_IMAGE_CLAMP,        /* outside: the edge texels (vbnl_texture_desc CLAMP) */
-} vbnl_image_wrap;
+typedef enum vbi_image_wrap {
+    VBI_IMAGE_REPEAT = 0,
+    VBI_IMAGE_ONCE,         /* outside the image: no colour (clear) */
+    VBI_IMAGE_CLAMP,        /* outside: the edge texels (vbnl_texture_desc CLAMP) */
+} vbi_image_wrap;
 
-typedef struct vbnl_image {
+typedef struct vbi_image {
     uint32_t width, height, channels;
     float *texels;
     uint8_t *indices;        /* NULL unless a palette image */
     int opaque;              /* no alpha below 1 */
-} vbnl_image;
+} vbi_image;
 
-typedef struct vbnl_pattern {
+typedef struct vbi_pattern {
     vbnl_pattern_kind kind;
     int has_xf;
     dmat xf, xf_inv;         /* the transform and its inverse */
     uint32_t warp_begin, warp_count;
     int has_turb;            /* classic turbulence */
-    vbnl_turb turb;
+    vbi_turb turb;
     int generator;
     vbnl_texture_wave wave;
     double frequency, phase, exponent;
@@ -89,25 +89,25 @@ typedef struct vbnl_pattern {
             uint32_t image;  /* index */
             int map_type, interpolate, use;
             int uv;          /* the hit's UV as the image coordinate (legacy UV textures) */
-            vbnl_image_wrap wrap;
+            vbi_image_wrap wrap;
             double filter_all, transmit_all, major_radius;
         } image;
         struct { vbnl_pattern_fn fn; void *user; void (*destroy)(void *user); } function;
         uint32_t pigment;    /* index */
         int waves;
     } u;
-} vbnl_pattern;
+} vbi_pattern;
 
-typedef struct vbnl_pigment {
+typedef struct vbi_pigment {
     vbnl_pigment_kind kind;
     float color[5];
     uint32_t pattern;        /* index + 1 */
     uint32_t entry_begin, entry_count;
     int uv;
     uint32_t depth;
-} vbnl_pigment;
+} vbi_pigment;
 
-typedef struct vbnl_normal {
+typedef struct vbi_normal {
     vbnl_normal_kind kind;
     uint32_t pattern;        /* index + 1 */
     double amount, accuracy;
@@ -115,10 +115,10 @@ typedef struct vbnl_normal {
     uint32_t entry_begin, entry_count;
     int no_bump_scale, uv;
     uint32_t depth;
-} vbnl_normal;
+} vbi_normal;
 
 /* A material node's committed form (scene_material.node). */
-typedef struct vbnl_mnode {
+typedef struct vbi_mnode {
     vbnl_material_node_kind kind;
     uint32_t material;       /* TEXTURED */
     uint32_t pigment, normal, transmission; /* id + 1 */
@@ -126,21 +126,21 @@ typedef struct vbnl_mnode {
     uint32_t entry_begin, entry_count; /* map entries or layers */
     int uv;
     uint32_t depth;
-} vbnl_mnode;
+} vbi_mnode;
 
-typedef struct vbnl_texture_set {
-    const vbnl_noise_tables *noise;
-    vbnl_image *images;
+typedef struct vbi_texture_set {
+    const vbi_noise_tables *noise;
+    vbi_image *images;
     uint32_t image_count, image_cap;
-    vbnl_warp *warps;
+    vbi_warp *warps;
     uint32_t warp_count, warp_cap;
-    vbnl_pattern *patterns;
+    vbi_pattern *patterns;
     uint32_t pattern_count, pattern_cap;
-    vbnl_pigment *pigments;
+    vbi_pigment *pigments;
     uint32_t pigment_count, pigment_cap;
     vbnl_pigment_map_entry *pigment_entries;
     uint32_t pigment_entry_count, pigment_entry_cap;
-    vbnl_normal *normals;
+    vbi_normal *normals;
     uint32_t normal_count, normal_cap;
     vbnl_normal_map_entry *normal_entries;
     uint32_t normal_entry_count, normal_entry_cap;
@@ -148,80 +148,80 @@ typedef struct vbnl_texture_set {
     uint32_t slope_entry_count, slope_entry_cap;
     vbnl_material_map_entry *material_entries; /* node maps and layers (value unused) */
     uint32_t material_entry_count, material_entry_cap;
-} vbnl_texture_set;
+} vbi_texture_set;
 
-void vbnl_texture_set_init(vbnl_texture_set *ts);
-void vbnl_texture_set_free(vbnl_texture_set *ts);
+void vbi_texture_set_init(vbi_texture_set *ts);
+void vbi_texture_set_free(vbi_texture_set *ts);
 
 /* What patterns may look at besides the point: the hit's world position, unit shading normal
  * (before any bump, on the geometric normal's side), UV, and the camera position (aoi). */
-typedef struct vbnl_shade_point {
+typedef struct vbi_shade_point {
     dvec3 p, n;
     double u, v;
     dvec3 eye;
-} vbnl_shade_point;
+} vbi_shade_point;
 
 /* ---- patterns (warp.c, pattern.c) ---- */
 
 /* The point a pattern evaluates at: q mapped by the pattern's transform and warps (and its
  * classic turbulence, except for the kinds that use it in their formula). */
-dvec3 vbnl_pattern_point(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 q);
+dvec3 vbi_pattern_point(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 q);
 /* The pattern's raw value at its own (warped) point w, before frequency and wave. */
-double vbnl_pattern_raw(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w, const vbnl_shade_point *sp);
+double vbi_pattern_raw(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 w, const vbi_shade_point *sp);
 /* Frequency, phase and wave applied to a raw value (POV-Ray's Evaluate_TPat tail). */
-double vbnl_pattern_shape(const vbnl_pattern *pt, double v);
+double vbi_pattern_shape(const vbi_pattern *pt, double v);
 /* The whole pattern value at the point q it receives; *warped (optional) gets its warped point,
  * where the children of a map are evaluated. */
-double vbnl_pattern_value(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 q, const vbnl_shade_point *sp,
+double vbi_pattern_value(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 q, const vbi_shade_point *sp,
                           dvec3 *warped);
 /* The transform warps alone, for normals: n into the pattern's space (not normalised). */
-dvec3 vbnl_pattern_normal_in(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 n);
+dvec3 vbi_pattern_normal_in(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 n);
 /* ... and back out. */
-dvec3 vbnl_pattern_normal_out(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 n);
+dvec3 vbi_pattern_normal_out(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 n);
 
 /* Pattern kinds computed in their own files. */
-double vbnl_pattern_fractal(const vbnl_pattern *pt, dvec3 p);
-double vbnl_pattern_tiling(int type, dvec3 p);
+double vbi_pattern_fractal(const vbi_pattern *pt, dvec3 p);
+double vbi_pattern_tiling(int type, dvec3 p);
 /* The quilted offset (its value and its normal perturbation use it). */
-dvec3 vbnl_pattern_quilted_offset(const vbnl_pattern *pt, dvec3 p);
+dvec3 vbi_pattern_quilted_offset(const vbi_pattern *pt, dvec3 p);
 
 /* ---- images (image.c) ---- */
 
 /* The colour (r, g, b, filter, transmit) of an IMAGE pattern at its warped point w. Returns 0
  * (and a clear colour) where a `once` image does not reach; *index receives the palette index
  * (or -1). */
-int vbnl_image_color(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w, const vbnl_shade_point *sp,
+int vbi_image_color(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 w, const vbi_shade_point *sp,
                      float out[5], int *index);
 /* The pixel coordinates (x across, y down from the top, wrapped into the image) of an IMAGE
  * pattern at w, 0 where it has none; and the (interpolated) texel there. */
-int vbnl_image_pixel(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w, const vbnl_shade_point *sp,
+int vbi_image_pixel(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 w, const vbi_shade_point *sp,
                      double *x, double *y);
-void vbnl_image_lookup(const vbnl_texture_set *ts, const vbnl_pattern *pt, double x, double y, float out[5], int *index);
+void vbi_image_lookup(const vbi_texture_set *ts, const vbi_pattern *pt, double x, double y, float out[5], int *index);
 /* The value of an IMAGE pattern (image_pattern, material_map index). */
-double vbnl_image_value(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 w, const vbnl_shade_point *sp);
+double vbi_image_value(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 w, const vbi_shade_point *sp);
 
 /* ---- pigments (pigment.c) ---- */
 
 /* Pigment `id` at the point q it receives (world, or its parent's warped point). Returns 0 when
  * no colour was found (outside a `once` image): out is then clear. */
-int vbnl_pigment_eval(const vbnl_texture_set *ts, uint32_t id, dvec3 q, const vbnl_shade_point *sp, float out[5]);
+int vbi_pigment_eval(const vbi_texture_set *ts, uint32_t id, dvec3 q, const vbi_shade_point *sp, float out[5]);
 /* The same for a pigment a material uses directly (world point or uv). */
-int vbnl_pigment_at(const vbnl_texture_set *ts, uint32_t id, const vbnl_shade_point *sp, float out[5]);
+int vbi_pigment_at(const vbi_texture_set *ts, uint32_t id, const vbi_shade_point *sp, float out[5]);
 /* Where value v falls in a sorted map of `count` values read with `stride` bytes between them:
  * the entries before and after (equal when v is outside or exactly on one) and the weight of
  * `next` (POV-Ray's Search_Blend_Map). */
-void vbnl_map_search(const float *values, size_t stride, uint32_t count, double v, uint32_t *prev,
+void vbi_map_search(const float *values, size_t stride, uint32_t count, double v, uint32_t *prev,
                      uint32_t *next, double *w);
 /* POV-Ray's greyscale (0.297, 0.589, 0.114). */
-static inline double vbnl_greyscale(const float c[3]) { return 0.297 * c[0] + 0.589 * c[1] + 0.114 * c[2]; }
+static inline double vbi_greyscale(const float c[3]) { return 0.297 * c[0] + 0.589 * c[1] + 0.114 * c[2]; }
 
 /* ---- normals (normal.c) ---- */
 
 /* The unit shading normal sp->n perturbed by normal `id` (world space, unit), the normal
  * receiving the world point (or (u, v, 0) with its `uv`). */
-dvec3 vbnl_normal_perturb(const vbnl_texture_set *ts, uint32_t id, const vbnl_shade_point *sp);
+dvec3 vbi_normal_perturb(const vbi_texture_set *ts, uint32_t id, const vbi_shade_point *sp);
 /* The same with the point q it receives (inside a material map: the map's warped point) and sp->n
  * already in that point's space. */
-dvec3 vbnl_normal_perturb_at(const vbnl_texture_set *ts, uint32_t id, dvec3 q, const vbnl_shade_point *sp);
+dvec3 vbi_normal_perturb_at(const vbi_texture_set *ts, uint32_t id, dvec3 q, const vbi_shade_point *sp);
 
 #endif

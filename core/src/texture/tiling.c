@@ -26,7 +26,7 @@ typedef struct tiling {
 
 #include "tiling_table.h"
 
-double vbnl_pattern_tiling(int type, dvec3 p)
+double vbi_pattern_tiling(int type, dvec3 p)
 {
     if (type < 1 || type > 24)
         return 0.0;

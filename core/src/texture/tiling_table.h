@@ -5,8 +5,8 @@
  * The geometry is each tiling's (reference manual, "Tiling"): regular polygons of side 1 and
  * rectangles on the lattice; the bands, the normalisers and the offsets were matched against
  * POV-Ray 3.7 renders of every tiling (tests/core/test_patterns.c keeps points of each). */
-#ifndef VBNL_TILING_TABLE_H
-#define VBNL_TILING_TABLE_H
+#ifndef VBI_TILING_TABLE_H
+#define VBI_TILING_TABLE_H
 
 static const double tile_vertices[1116] = {
     0, 0, 1, 0,

@@ -3,7 +3,7 @@
  * turbulence; coordinates are then clamped to +-1e17 as POV-Ray does. */
 #include "texture.h"
 
-#define VBNL_COORD_LIMIT 1.0e17
+#define VBI_COORD_LIMIT 1.0e17
 
 /* The angle of (x, z) from +x towards +z in [0, 2 pi), POV-Ray's acos form. */
 static double angle_xz(double x, double z, double len)
@@ -23,7 +23,7 @@ static dvec3 orient(dvec3 o, double x, double y, double z)
     return d3(o.x * z + o.y * x + o.z * x, o.x * y - o.y * z + o.z * y, -o.x * x + o.y * y + o.z * z);
 }
 
-static dvec3 warp_spherical(const vbnl_warp *w, dvec3 p)
+static dvec3 warp_spherical(const vbi_warp *w, dvec3 p)
 {
     double dist = d3_len(p);
     if (dist == 0.0)
@@ -43,7 +43,7 @@ static dvec3 warp_spherical(const vbnl_warp *w, dvec3 p)
     return orient(w->orient, theta, phi, dist);
 }
 
-static dvec3 warp_cylindrical(const vbnl_warp *w, dvec3 p)
+static dvec3 warp_cylindrical(const vbi_warp *w, dvec3 p)
 {
     double len = sqrt(p.x * p.x + p.z * p.z);
     if (len == 0.0)
@@ -56,7 +56,7 @@ static dvec3 warp_cylindrical(const vbnl_warp *w, dvec3 p)
     return orient(w->orient, theta, p.y, len);
 }
 
-static dvec3 warp_toroidal(const vbnl_warp *w, dvec3 p)
+static dvec3 warp_toroidal(const vbi_warp *w, dvec3 p)
 {
     double len = sqrt(p.x * p.x + p.z * p.z);
     if (len == 0.0)
@@ -96,7 +96,7 @@ static dvec3 warp_cubic(dvec3 p)
     return d3(1.0 - 0.25 * (x / -z + 1.0) / 2.0, 1.0 / 3.0 + (y / -z + 1.0) / 6.0, -z);
 }
 
-static dvec3 warp_repeat(const vbnl_warp *w, dvec3 p)
+static dvec3 warp_repeat(const vbi_warp *w, dvec3 p)
 {
     /* POV-Ray keeps the repetition number in single precision */
     float blk = (float)floor(d3_comp(p, w->axis) / w->width);
@@ -110,7 +110,7 @@ static dvec3 warp_repeat(const vbnl_warp *w, dvec3 p)
     return d3_fma(r, w->offset, (double)blk);
 }
 
-static dvec3 warp_black_hole(const vbnl_texture_set *ts, const vbnl_warp *w, dvec3 p)
+static dvec3 warp_black_hole(const vbi_texture_set *ts, const vbi_warp *w, dvec3 p)
 {
     dvec3 c = w->center;
     if (w->repeat) {
@@ -119,10 +119,10 @@ static dvec3 warp_black_hole(const vbnl_texture_set *ts, const vbnl_warp *w, dve
             if (d3_comp(w->repeat_vec, i) >= 1e-10)
                 b[i] = (int)floor(d3_comp(p, i) / d3_comp(w->repeat_vec, i));
         if (w->uncertain) {
-            unsigned seed = vbnl_noise_hash3(ts->noise, b[0], b[1], b[2]);
-            c.x += vbnl_pattern_rand(ts->noise, seed) * w->jitter.x;
-            c.y += vbnl_pattern_rand(ts->noise, seed + 1) * w->jitter.y;
-            c.z += vbnl_pattern_rand(ts->noise, seed + 2) * w->jitter.z;
+            unsigned seed = vbi_noise_hash3(ts->noise, b[0], b[1], b[2]);
+            c.x += vbi_pattern_rand(ts->noise, seed) * w->jitter.x;
+            c.y += vbi_pattern_rand(ts->noise, seed + 1) * w->jitter.y;
+            c.z += vbi_pattern_rand(ts->noise, seed + 2) * w->jitter.z;
         }
         c = d3_add(c, d3(w->repeat_vec.x * b[0], w->repeat_vec.y * b[1], w->repeat_vec.z * b[2]));
     }
@@ -137,13 +137,13 @@ static dvec3 warp_black_hole(const vbnl_texture_set *ts, const vbnl_warp *w, dve
     return d3_fma(p, delta, w->inverse ? -s : s);
 }
 
-static dvec3 apply_warp(const vbnl_texture_set *ts, const vbnl_warp *w, dvec3 p)
+static dvec3 apply_warp(const vbi_texture_set *ts, const vbi_warp *w, dvec3 p)
 {
     switch (w->kind) {
     case VBNL_WARP_TRANSFORM:
         return dmat_point(&w->m, p);
     case VBNL_WARP_TURBULENCE:
-        return d3_add(p, d3_mul(vbnl_dturbulence(ts->noise, p, &w->turb), w->turb.amount));
+        return d3_add(p, d3_mul(vbi_dturbulence(ts->noise, p, &w->turb), w->turb.amount));
     case VBNL_WARP_REPEAT:
         return warp_repeat(w, p);
     case VBNL_WARP_BLACK_HOLE:
@@ -164,10 +164,10 @@ static dvec3 apply_warp(const vbnl_texture_set *ts, const vbnl_warp *w, dvec3 p)
 
 static double clamp_coord(double v)
 {
-    return v > VBNL_COORD_LIMIT ? VBNL_COORD_LIMIT : (v < -VBNL_COORD_LIMIT ? -VBNL_COORD_LIMIT : v);
+    return v > VBI_COORD_LIMIT ? VBI_COORD_LIMIT : (v < -VBI_COORD_LIMIT ? -VBI_COORD_LIMIT : v);
 }
 
-dvec3 vbnl_pattern_point(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 q)
+dvec3 vbi_pattern_point(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 q)
 {
     dvec3 p = pt->has_xf ? dmat_point(&pt->xf, q) : q;
     for (uint32_t i = 0; i < pt->warp_count; ++i)
@@ -175,27 +175,27 @@ dvec3 vbnl_pattern_point(const vbnl_texture_set *ts, const vbnl_pattern *pt, dve
     /* classic turbulence moves the point, except for marble and wood, whose formula uses it */
     if (pt->has_turb && pt->kind != VBNL_PATTERN_MARBLE && pt->kind != VBNL_PATTERN_WOOD &&
         (pt->turb.amount.x != 0.0 || pt->turb.amount.y != 0.0 || pt->turb.amount.z != 0.0))
-        p = d3_add(p, d3_mul(vbnl_dturbulence(ts->noise, p, &pt->turb), pt->turb.amount));
+        p = d3_add(p, d3_mul(vbi_dturbulence(ts->noise, p, &pt->turb), pt->turb.amount));
     return d3(clamp_coord(p.x), clamp_coord(p.y), clamp_coord(p.z));
 }
 
-dvec3 vbnl_pattern_normal_in(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 n)
+dvec3 vbi_pattern_normal_in(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 n)
 {
     /* a normal follows the inverse transpose of the point map A: A^-T = M^T for M = A^-1 */
     if (pt->has_xf)
         n = dmat_transpose_vector(&pt->xf_inv, n);
     for (uint32_t i = 0; i < pt->warp_count; ++i) {
-        const vbnl_warp *w = &ts->warps[pt->warp_begin + i];
+        const vbi_warp *w = &ts->warps[pt->warp_begin + i];
         if (w->kind == VBNL_WARP_TRANSFORM)
             n = dmat_transpose_vector(&w->inv, n);
     }
     return n;
 }
 
-dvec3 vbnl_pattern_normal_out(const vbnl_texture_set *ts, const vbnl_pattern *pt, dvec3 n)
+dvec3 vbi_pattern_normal_out(const vbi_texture_set *ts, const vbi_pattern *pt, dvec3 n)
 {
     for (uint32_t i = pt->warp_count; i-- > 0;) {
-        const vbnl_warp *w = &ts->warps[pt->warp_begin + i];
+        const vbi_warp *w = &ts->warps[pt->warp_begin + i];
         if (w->kind == VBNL_WARP_TRANSFORM)
             n = dmat_transpose_vector(&w->m, n);
     }

@@ -1,8 +1,8 @@
 /* vbnl object layer: the shapes. Each family of shapes is one file of this folder; the table in
  * shapes.c maps every keyword to its parser. Adding a shape is a file with its parser and one
  * row in that table (and, for a shape listed as unsupported, removing it from that list). */
-#ifndef VBNL_POV_SHAPE_H
-#define VBNL_POV_SHAPE_H
+#ifndef VBI_POV_SHAPE_H
+#define VBI_POV_SHAPE_H
 
 #include "pov_loader.h"
 

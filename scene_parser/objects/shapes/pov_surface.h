@@ -9,8 +9,8 @@
  *   outline.c    closed 2D outlines: flattening, caps, extrusion (prism, text)
  *   revolve.c    surfaces of revolution of a profile (lathe, sor, ovus, lemon)
  *   shape_solid.c  the shapes' inside tests as CSG solids, and the deferred shapes' blocks */
-#ifndef VBNL_POV_SURFACE_H
-#define VBNL_POV_SURFACE_H
+#ifndef VBI_POV_SURFACE_H
+#define VBI_POV_SURFACE_H
 
 #include "pov_shape.h"
 

@@ -437,24 +437,24 @@ void pov_default_color_map(const pov_pattern *p, pov_map *m)
     static const E gray[] = {{0, 0, 0, 0}, {1, 1, 1, 1}};
     const E *e = gray;
     uint32_t n = 2;
-#define VBNL_MAP(arr) (e = (arr), n = (uint32_t)(sizeof(arr) / sizeof((arr)[0])))
+#define VBI_MAP(arr) (e = (arr), n = (uint32_t)(sizeof(arr) / sizeof((arr)[0])))
     switch (p->name ? p->d.kind : VBNL_PATTERN_KIND_COUNT) {
-    case VBNL_PATTERN_AGATE: VBNL_MAP(agate); break;
-    case VBNL_PATTERN_BOZO: VBNL_MAP(bozo); break;
-    case VBNL_PATTERN_MARBLE: VBNL_MAP(marble); break;
-    case VBNL_PATTERN_RADIAL: VBNL_MAP(radial); break;
-    case VBNL_PATTERN_WOOD: VBNL_MAP(wood); break;
-    case VBNL_PATTERN_MANDEL: VBNL_MAP(mandel); break;
-    case VBNL_PATTERN_BRICK: VBNL_MAP(brick); break;
+    case VBNL_PATTERN_AGATE: VBI_MAP(agate); break;
+    case VBNL_PATTERN_BOZO: VBI_MAP(bozo); break;
+    case VBNL_PATTERN_MARBLE: VBI_MAP(marble); break;
+    case VBNL_PATTERN_RADIAL: VBI_MAP(radial); break;
+    case VBNL_PATTERN_WOOD: VBI_MAP(wood); break;
+    case VBNL_PATTERN_MANDEL: VBI_MAP(mandel); break;
+    case VBNL_PATTERN_BRICK: VBI_MAP(brick); break;
     case VBNL_PATTERN_CHECKER:
     case VBNL_PATTERN_OBJECT: e = hexagon, n = 2; break; /* POV-Ray's checker uses the hexagon's first two */
-    case VBNL_PATTERN_HEXAGON: VBNL_MAP(hexagon); break;
+    case VBNL_PATTERN_HEXAGON: VBI_MAP(hexagon); break;
     case VBNL_PATTERN_SQUARE: e = six, n = 4; break;
     case VBNL_PATTERN_TRIANGULAR:
-    case VBNL_PATTERN_CUBIC: VBNL_MAP(six); break;
+    case VBNL_PATTERN_CUBIC: VBI_MAP(six); break;
     default: break;
     }
-#undef VBNL_MAP
+#undef VBI_MAP
     pov_map_free(m);
     m->kind = POV_MAP_COLOR;
     for (uint32_t i = 0; i < n; ++i) {

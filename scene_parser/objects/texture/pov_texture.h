@@ -6,8 +6,8 @@
  * colours or pigments; and so on. Each node here owns its children (deep copies: a declared value
  * is copied where it is used, as POV-Ray copies it), and core_material.c turns a finished tree
  * into core nodes (vbnl/scene.h's texture section) when an object is built. */
-#ifndef VBNL_POV_TEXTURE_H
-#define VBNL_POV_TEXTURE_H
+#ifndef VBI_POV_TEXTURE_H
+#define VBI_POV_TEXTURE_H
 
 #include <stdint.h>
 

@@ -13,29 +13,29 @@
 
 #include "image_io.h"
 
-static int same_attr(const vbnl_image_attr *x, const vbnl_image_attr *y)
+static int same_attr(const vbi_image_attr *x, const vbi_image_attr *y)
 {
     if (!x || !y || x->type != y->type)
         return 0;
     switch (x->type) {
-    case VBNL_IMAGE_ATTR_STRING: return !strcmp(x->value.s, y->value.s);
-    case VBNL_IMAGE_ATTR_INT: return x->value.i == y->value.i;
-    case VBNL_IMAGE_ATTR_FLOAT: return !memcmp(&x->value.f, &y->value.f, sizeof(float));
-    case VBNL_IMAGE_ATTR_DOUBLE: return !memcmp(&x->value.d, &y->value.d, sizeof(double));
+    case VBI_IMAGE_ATTR_STRING: return !strcmp(x->value.s, y->value.s);
+    case VBI_IMAGE_ATTR_INT: return x->value.i == y->value.i;
+    case VBI_IMAGE_ATTR_FLOAT: return !memcmp(&x->value.f, &y->value.f, sizeof(float));
+    case VBI_IMAGE_ATTR_DOUBLE: return !memcmp(&x->value.d, &y->value.d, sizeof(double));
     }
     return 0;
 }
 
-static void show(const vbnl_image_attr *a, char *buf, size_t n)
+static void show(const vbi_image_attr *a, char *buf, size_t n)
 {
     if (!a)
         snprintf(buf, n, "(absent)");
-    else if (a->type == VBNL_IMAGE_ATTR_STRING)
+    else if (a->type == VBI_IMAGE_ATTR_STRING)
         snprintf(buf, n, "'%s'", a->value.s);
-    else if (a->type == VBNL_IMAGE_ATTR_INT)
+    else if (a->type == VBI_IMAGE_ATTR_INT)
         snprintf(buf, n, "%d", (int)a->value.i);
     else
-        snprintf(buf, n, "%.17g", a->type == VBNL_IMAGE_ATTR_FLOAT ? (double)a->value.f : a->value.d);
+        snprintf(buf, n, "%.17g", a->type == VBI_IMAGE_ATTR_FLOAT ? (double)a->value.f : a->value.d);
 }
 
 int main(int argc, char **argv)
@@ -56,9 +56,9 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    vbnl_exr_image a, b;
+    vbi_exr_image a, b;
     vbnl_error err = {0};
-    if (vbnl_exr_read(argv[1], &a, &err) != VBNL_OK || vbnl_exr_read(argv[2], &b, &err) != VBNL_OK) {
+    if (vbi_exr_read(argv[1], &a, &err) != VBNL_OK || vbi_exr_read(argv[2], &b, &err) != VBNL_OK) {
         fprintf(stderr, "exr_same: %s\n", err.message);
         return 1;
     }
@@ -76,7 +76,7 @@ int main(int argc, char **argv)
     }
     size_t compared = 0;
     for (uint32_t c = 0; !rc && c < a.channel_count; ++c) {
-        const vbnl_exr_channel *x = &a.channels[c], *y = vbnl_exr_image_channel(&b, x->name);
+        const vbi_exr_channel *x = &a.channels[c], *y = vbi_exr_image_channel(&b, x->name);
         if (!y) {
             fprintf(stderr, "exr_same: '%s' has no channel '%s'\n", argv[2], x->name);
             rc = 1;
@@ -94,7 +94,7 @@ int main(int argc, char **argv)
     if (!rc && attrs) {
         char *list = strdup(attrs);
         for (char *save = NULL, *n = strtok_r(list, ",", &save); n && !rc; n = strtok_r(NULL, ",", &save)) {
-            const vbnl_image_attr *x = vbnl_exr_image_attr(&a, n), *y = vbnl_exr_image_attr(&b, n);
+            const vbi_image_attr *x = vbi_exr_image_attr(&a, n), *y = vbi_exr_image_attr(&b, n);
             if (!same_attr(x, y)) {
                 char tx[512], ty[512];
                 show(x, tx, sizeof(tx));
@@ -106,13 +106,13 @@ int main(int argc, char **argv)
         free(list);
     }
     for (uint32_t i = 0; !rc && has_all && i < a.attr_count; ++i)
-        if (!strncmp(a.attrs[i].name, "vbnl/", 5) && !vbnl_exr_image_attr(&b, a.attrs[i].name)) {
+        if (!strncmp(a.attrs[i].name, "vbnl/", 5) && !vbi_exr_image_attr(&b, a.attrs[i].name)) {
             fprintf(stderr, "exr_same: '%s' lacks the attribute %s\n", argv[2], a.attrs[i].name);
             rc = 1;
         }
     if (!rc)
         printf("exr_same: %zu values of %u channels identical\n", compared, a.channel_count);
-    vbnl_exr_image_free(&a);
-    vbnl_exr_image_free(&b);
+    vbi_exr_image_free(&a);
+    vbi_exr_image_free(&b);
     return rc;
 }

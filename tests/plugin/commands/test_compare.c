@@ -58,8 +58,8 @@ static void write_exr(const char *path, uint32_t w, uint32_t h, float value)
     float *px = malloc(sizeof(float) * 4 * w * h);
     for (uint32_t i = 0; i < 4 * w * h; ++i)
         px[i] = (i % 4 == 3) ? 1.0f : value * (float)(1 + i % 7) / 7.0f;
-    vbnl_image_layer layer = {"", 4, NULL, px};
-    assert_int_equal(vbnl_exr_write(path, w, h, &layer, 1, NULL, 0, 0, NULL), VBNL_OK);
+    vbi_image_layer layer = {"", 4, NULL, px};
+    assert_int_equal(vbi_exr_write(path, w, h, &layer, 1, NULL, 0, 0, NULL), VBNL_OK);
     free(px);
 }
 
@@ -103,10 +103,10 @@ static void test_files_and_refusal(void **state)
     write_exr(b, 40, 30, 0.5f);
     write_exr(small, 20, 30, 1.0f);
     char *argv1[] = {"compare", ref, a, b, "--labels", "first,second one", "--out", out, NULL};
-    assert_int_equal(run_compare(8, argv1), VBNL_EXIT_OK);
-    vbnl_png_image im;
+    assert_int_equal(run_compare(8, argv1), VBI_EXIT_OK);
+    vbi_png_image im;
     snprintf(png, sizeof(png), "%s/montage.png", out);
-    assert_int_equal(vbnl_png_read(png, &im, NULL), VBNL_OK);
+    assert_int_equal(vbi_png_read(png, &im, NULL), VBNL_OK);
     /* three columns of 40 pixels with 4-pixel gaps; two image rows plus labels and the bar */
     assert_int_equal(im.width, 3 * 40 + 2 * 4);
     assert_true(im.height > 2 * 30);
@@ -117,19 +117,19 @@ static void test_files_and_refusal(void **state)
         for (uint32_t x = 0; x < 40; ++x)
             lit += p8[3 * (y * im.width + x)] == 255;
     assert_true(lit > 10);
-    vbnl_png_image_free(&im);
+    vbi_png_image_free(&im);
     snprintf(png, sizeof(png), "%s/error-second_one.png", out);
-    assert_int_equal(vbnl_png_read(png, &im, NULL), VBNL_OK);
+    assert_int_equal(vbi_png_read(png, &im, NULL), VBNL_OK);
     assert_int_equal(im.width, 40);
-    vbnl_png_image_free(&im);
+    vbi_png_image_free(&im);
     /* different sizes: refused */
     char *argv2[] = {"compare", ref, small, NULL};
-    assert_int_equal(run_compare(3, argv2), VBNL_EXIT_FAILURE);
+    assert_int_equal(run_compare(3, argv2), VBI_EXIT_FAILURE);
     /* label count mismatch, missing candidate: usage errors */
     char *argv3[] = {"compare", ref, a, "--labels", "x,y", NULL};
-    assert_int_equal(run_compare(5, argv3), VBNL_EXIT_USAGE);
+    assert_int_equal(run_compare(5, argv3), VBI_EXIT_USAGE);
     char *argv4[] = {"compare", ref, NULL};
-    assert_int_equal(run_compare(2, argv4), VBNL_EXIT_USAGE);
+    assert_int_equal(run_compare(2, argv4), VBI_EXIT_USAGE);
     char cmd[512];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", dir);
     assert_int_equal(system(cmd), 0);
@@ -172,23 +172,23 @@ static void test_layers(void **state)
         good[4 * i + 3] = off[4 * i + 3] = 1.0f;
     }
     const char *names[3] = {"R", "G", "B"};
-    vbnl_image_layer ref_layers[2] = {{"", 4, NULL, good}, {"direct", 3, names, rgb}};
-    vbnl_image_layer cand_layers[2] = {{"", 4, NULL, off}, {"indirect", 3, names, rgb}};
-    assert_int_equal(vbnl_exr_write(ref, W, H, ref_layers, 2, NULL, 0, 0, NULL), VBNL_OK);
-    assert_int_equal(vbnl_exr_write(cand, W, H, cand_layers, 2, NULL, 0, 0, NULL), VBNL_OK);
+    vbi_image_layer ref_layers[2] = {{"", 4, NULL, good}, {"direct", 3, names, rgb}};
+    vbi_image_layer cand_layers[2] = {{"", 4, NULL, off}, {"indirect", 3, names, rgb}};
+    assert_int_equal(vbi_exr_write(ref, W, H, ref_layers, 2, NULL, 0, 0, NULL), VBNL_OK);
+    assert_int_equal(vbi_exr_write(cand, W, H, cand_layers, 2, NULL, 0, 0, NULL), VBNL_OK);
     char *beauty[] = {"compare", ref, cand, NULL};
-    assert_int_equal(run_compare_to(3, beauty, table), VBNL_EXIT_OK);
+    assert_int_equal(run_compare_to(3, beauty, table), VBI_EXIT_OK);
     assert_true(table_rmae(table) > 0.5);
     char *layered[] = {"compare", ref, cand, "--layer", "indirect", NULL};
-    assert_int_equal(run_compare_to(5, layered, table), VBNL_EXIT_OK);
+    assert_int_equal(run_compare_to(5, layered, table), VBI_EXIT_OK);
     assert_true(table_rmae(table) == 0.0);
     char *both[] = {"compare", ref, cand, "--layer", "indirect", "--ref-layer", "direct", NULL};
-    assert_int_equal(run_compare_to(7, both, table), VBNL_EXIT_OK);
+    assert_int_equal(run_compare_to(7, both, table), VBI_EXIT_OK);
     assert_true(table_rmae(table) == 0.0);
     char *missing[] = {"compare", ref, cand, "--layer", "direct", NULL};
-    assert_int_equal(run_compare_to(5, missing, table), VBNL_EXIT_FAILURE);
+    assert_int_equal(run_compare_to(5, missing, table), VBI_EXIT_FAILURE);
     char *empty[] = {"compare", ref, cand, "--layer", "", NULL};
-    assert_int_equal(run_compare_to(5, empty, table), VBNL_EXIT_USAGE);
+    assert_int_equal(run_compare_to(5, empty, table), VBI_EXIT_USAGE);
     char cmd[512];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", dir);
     assert_int_equal(system(cmd), 0);

@@ -87,7 +87,7 @@ static void test_handshake(void **state)
     assert_null(entry(7, NULL)); /* why may be NULL */
     /* nothing but the entry symbol is visible */
     assert_null(dlsym(g_so, "vbnl_renderer_create"));
-    assert_null(dlsym(g_so, "vbnl_ocio_apply"));
+    assert_null(dlsym(g_so, "vbi_ocio_apply"));
 }
 
 static void test_fake_plugin_refused(void **state)
@@ -285,17 +285,17 @@ static void test_outputs_round_trip(void **state)
 
     snprintf(exr, sizeof(exr), "%s/a.exr", g_dir);
     assert_int_equal(api->write_exr(r, exr, 0, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    vbnl_exr_image img;
-    assert_int_equal(vbnl_exr_read(exr, &img, NULL), VBNL_OK);
-    const vbnl_exr_channel *R = vbnl_exr_image_channel(&img, "R"), *B = vbnl_exr_image_channel(&img, "B");
+    vbi_exr_image img;
+    assert_int_equal(vbi_exr_read(exr, &img, NULL), VBNL_OK);
+    const vbi_exr_channel *R = vbi_exr_image_channel(&img, "R"), *B = vbi_exr_image_channel(&img, "B");
     assert_non_null(R);
     for (int i = 0; i < W * H; ++i)
         assert_true(R->data[i] == px[4 * i] && B->data[i] == px[4 * i + 2]);
-    assert_non_null(vbnl_exr_image_channel(&img, "albedo.R"));
-    assert_int_equal(vbnl_exr_image_attr(&img, "vbnl/partial")->value.i, 0);
-    assert_string_equal(vbnl_exr_image_attr(&img, "vbnl/integrator")->value.s, "path");
+    assert_non_null(vbi_exr_image_channel(&img, "albedo.R"));
+    assert_int_equal(vbi_exr_image_attr(&img, "vbnl/partial")->value.i, 0);
+    assert_string_equal(vbi_exr_image_attr(&img, "vbnl/integrator")->value.s, "path");
     assert_true(img.has_chromaticities && fabsf(img.chromaticities[0] - 0.64f) < 1e-6f);
-    vbnl_exr_image_free(&img);
+    vbi_exr_image_free(&img);
 
     /* Raw view, 16 bits, no dither: exactly round(65535 * clamp(linear)) */
     vbnl_plugin_view v;
@@ -305,8 +305,8 @@ static void test_outputs_round_trip(void **state)
     v.dither = 0;
     snprintf(png16, sizeof(png16), "%s/raw16.png", g_dir);
     assert_int_equal(api->write_png(r, png16, &v, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    vbnl_png_image p;
-    assert_int_equal(vbnl_png_read(png16, &p, NULL), VBNL_OK);
+    vbi_png_image p;
+    assert_int_equal(vbi_png_read(png16, &p, NULL), VBNL_OK);
     assert_int_equal(p.width, W);
     assert_int_equal(p.bit_depth, 16);
     assert_int_equal(p.channels, 3);
@@ -317,21 +317,21 @@ static void test_outputs_round_trip(void **state)
             uint16_t want = (uint16_t)floorf((l > 1.0f ? 1.0f : l) * 65535.0f + 0.5f);
             assert_int_equal(((uint16_t *)p.pixels)[3 * i + c], want);
         }
-    vbnl_png_image_free(&p);
+    vbi_png_image_free(&p);
 
     /* Standard view, 8 bits, dithered, one stop brighter: the sRGB curve within the dither */
     api->view_init(&v);
     v.exposure = 1.0f;
     snprintf(png8, sizeof(png8), "%s/std8.png", g_dir);
     assert_int_equal(api->write_png(r, png8, &v, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    assert_int_equal(vbnl_png_read(png8, &p, NULL), VBNL_OK);
+    assert_int_equal(vbi_png_read(png8, &p, NULL), VBNL_OK);
     assert_int_equal(p.bit_depth, 8);
     for (int i = 0; i < W * H; ++i)
         for (int c = 0; c < 3; ++c) {
             float want = 255.0f * oetf(2.0f * px[4 * i + c]);
             assert_true(fabsf(((uint8_t *)p.pixels)[3 * i + c] - want) <= 1.6f);
         }
-    vbnl_png_image_free(&p);
+    vbi_png_image_free(&p);
 
     /* apply_view: unclamped display values */
     float *d = malloc(sizeof(float) * 4 * W * H);
@@ -378,8 +378,8 @@ static void test_png_alpha(void **state)
     v.alpha = 1;
     snprintf(png, sizeof(png), "%s/alpha.png", g_dir);
     assert_int_equal(api->write_png(r, png, &v, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    vbnl_png_image p;
-    assert_int_equal(vbnl_png_read(png, &p, NULL), VBNL_OK);
+    vbi_png_image p;
+    assert_int_equal(vbi_png_read(png, &p, NULL), VBNL_OK);
     assert_int_equal(p.width, W);
     assert_int_equal(p.height, H);
     assert_int_equal(p.channels, 4);
@@ -388,12 +388,12 @@ static void test_png_alpha(void **state)
             int in = x >= crop[0] && x < crop[2] && y >= crop[1] && y < crop[3];
             assert_int_equal(((uint8_t *)p.pixels)[4 * (y * W + x) + 3], in ? 255 : 0);
         }
-    vbnl_png_image_free(&p);
+    vbi_png_image_free(&p);
     v.size = offsetof(vbnl_plugin_view, alpha);
     assert_int_equal(api->write_png(r, png, &v, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    assert_int_equal(vbnl_png_read(png, &p, NULL), VBNL_OK);
+    assert_int_equal(vbi_png_read(png, &p, NULL), VBNL_OK);
     assert_int_equal(p.channels, 3);
-    vbnl_png_image_free(&p);
+    vbi_png_image_free(&p);
     api->renderer_destroy(r);
 }
 
@@ -462,10 +462,10 @@ static void test_cancel_writes_partial(void **state)
     assert_true(st.spp < (1u << 20));
     snprintf(exr, sizeof(exr), "%s/partial.exr", g_dir);
     assert_int_equal(api->write_exr(r, exr, 1, msg, sizeof(msg)), VBNL_PLUGIN_OK);
-    vbnl_exr_image img;
-    assert_int_equal(vbnl_exr_read(exr, &img, NULL), VBNL_OK);
-    assert_int_equal(vbnl_exr_image_attr(&img, "vbnl/partial")->value.i, 1);
-    vbnl_exr_image_free(&img);
+    vbi_exr_image img;
+    assert_int_equal(vbi_exr_read(exr, &img, NULL), VBNL_OK);
+    assert_int_equal(vbi_exr_image_attr(&img, "vbnl/partial")->value.i, 1);
+    vbi_exr_image_free(&img);
     api->renderer_destroy(r);
 }
 

@@ -127,22 +127,22 @@ static void test_float_roundtrip_layers_and_attrs(void **state)
 
     static const char *const rgb[] = {"R", "G", "B"};
     static const char *const z[] = {"Z"};
-    const vbnl_image_layer layers[] = {
+    const vbi_image_layer layers[] = {
         {"", 4, NULL, beauty}, {"albedo", 3, rgb, albedo}, {"depth", 1, z, depth}};
-    vbnl_image_attr attrs[5] = {
-        {.name = "vbnl/integrator", .type = VBNL_IMAGE_ATTR_STRING, .value.s = "path"},
-        {.name = "vbnl/spp", .type = VBNL_IMAGE_ATTR_INT, .value.i = 64},
-        {.name = "vbnl/seed", .type = VBNL_IMAGE_ATTR_INT, .value.i = -7},
-        {.name = "vbnl/rr_threshold", .type = VBNL_IMAGE_ATTR_FLOAT, .value.f = 0.125f},
-        {.name = "vbnl/time_render_s", .type = VBNL_IMAGE_ATTR_DOUBLE, .value.d = 12.3456789012345},
+    vbi_image_attr attrs[5] = {
+        {.name = "vbnl/integrator", .type = VBI_IMAGE_ATTR_STRING, .value.s = "path"},
+        {.name = "vbnl/spp", .type = VBI_IMAGE_ATTR_INT, .value.i = 64},
+        {.name = "vbnl/seed", .type = VBI_IMAGE_ATTR_INT, .value.i = -7},
+        {.name = "vbnl/rr_threshold", .type = VBI_IMAGE_ATTR_FLOAT, .value.f = 0.125f},
+        {.name = "vbnl/time_render_s", .type = VBI_IMAGE_ATTR_DOUBLE, .value.d = 12.3456789012345},
     };
     TMP_PATH(p, "out.exr");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write(p, W, H, layers, 3, attrs, 5, 0, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write(p, W, H, layers, 3, attrs, 5, 0, &err), VBNL_OK);
     assert_int_equal(count_entries(f->dir), 1); /* no temporary left behind */
 
-    vbnl_exr_image img;
-    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
+    vbi_exr_image img;
+    assert_int_equal(vbi_exr_read(p, &img, &err), VBNL_OK);
     assert_int_equal(img.width, W);
     assert_int_equal(img.height, H);
     assert_int_equal(img.data_x, 0);
@@ -151,43 +151,43 @@ static void test_float_roundtrip_layers_and_attrs(void **state)
 
     static const char *const names[] = {"R", "G", "B", "A"};
     for (uint32_t c = 0; c < 4; c++) {
-        const vbnl_exr_channel *ch = vbnl_exr_image_channel(&img, names[c]);
+        const vbi_exr_channel *ch = vbi_exr_image_channel(&img, names[c]);
         assert_non_null(ch);
-        assert_int_equal(ch->stored_type, VBNL_EXR_PIXEL_FLOAT);
+        assert_int_equal(ch->stored_type, VBI_EXR_PIXEL_FLOAT);
         for (uint32_t i = 0; i < W * H; i++)
             assert_true(same_bits(ch->data[i], beauty[i * 4 + c]));
     }
     static const char *const anames[] = {"albedo.R", "albedo.G", "albedo.B"};
     for (uint32_t c = 0; c < 3; c++) {
-        const vbnl_exr_channel *ch = vbnl_exr_image_channel(&img, anames[c]);
+        const vbi_exr_channel *ch = vbi_exr_image_channel(&img, anames[c]);
         assert_non_null(ch);
         for (uint32_t i = 0; i < W * H; i++)
             assert_true(same_bits(ch->data[i], albedo[i * 3 + c]));
     }
-    const vbnl_exr_channel *zc = vbnl_exr_image_channel(&img, "depth.Z");
+    const vbi_exr_channel *zc = vbi_exr_image_channel(&img, "depth.Z");
     assert_non_null(zc);
     for (uint32_t i = 0; i < W * H; i++)
         assert_true(same_bits(zc->data[i], depth[i]));
-    assert_null(vbnl_exr_image_channel(&img, "Z"));
+    assert_null(vbi_exr_image_channel(&img, "Z"));
 
-    const vbnl_image_attr *a = vbnl_exr_image_attr(&img, "vbnl/integrator");
+    const vbi_image_attr *a = vbi_exr_image_attr(&img, "vbnl/integrator");
     assert_non_null(a);
-    assert_int_equal(a->type, VBNL_IMAGE_ATTR_STRING);
+    assert_int_equal(a->type, VBI_IMAGE_ATTR_STRING);
     assert_string_equal(a->value.s, "path");
-    a = vbnl_exr_image_attr(&img, "vbnl/spp");
+    a = vbi_exr_image_attr(&img, "vbnl/spp");
     assert_non_null(a);
-    assert_int_equal(a->type, VBNL_IMAGE_ATTR_INT);
+    assert_int_equal(a->type, VBI_IMAGE_ATTR_INT);
     assert_int_equal(a->value.i, 64);
-    a = vbnl_exr_image_attr(&img, "vbnl/seed");
+    a = vbi_exr_image_attr(&img, "vbnl/seed");
     assert_non_null(a);
     assert_int_equal(a->value.i, -7);
-    a = vbnl_exr_image_attr(&img, "vbnl/rr_threshold");
+    a = vbi_exr_image_attr(&img, "vbnl/rr_threshold");
     assert_non_null(a);
-    assert_int_equal(a->type, VBNL_IMAGE_ATTR_FLOAT);
+    assert_int_equal(a->type, VBI_IMAGE_ATTR_FLOAT);
     assert_true(a->value.f == 0.125f);
-    a = vbnl_exr_image_attr(&img, "vbnl/time_render_s");
+    a = vbi_exr_image_attr(&img, "vbnl/time_render_s");
     assert_non_null(a);
-    assert_int_equal(a->type, VBNL_IMAGE_ATTR_DOUBLE);
+    assert_int_equal(a->type, VBI_IMAGE_ATTR_DOUBLE);
     assert_true(a->value.d == 12.3456789012345);
 
     assert_true(img.has_chromaticities);
@@ -195,9 +195,9 @@ static void test_float_roundtrip_layers_and_attrs(void **state)
     for (int i = 0; i < 8; i++)
         assert_true(img.chromaticities[i] == rec709[i]);
 
-    vbnl_exr_image_free(&img);
+    vbi_exr_image_free(&img);
     assert_null(img.channels);
-    vbnl_exr_image_free(&img); /* twice is fine */
+    vbi_exr_image_free(&img); /* twice is fine */
     free(beauty);
     free(albedo);
     free(depth);
@@ -214,13 +214,13 @@ static void test_data_window(void **state)
     float *beauty = make_data(w, h, 4, 0.25f);
     float *depth = make_data(w, h, 1, 7.0f);
     static const char *const z[] = {"Z"};
-    const vbnl_image_layer layers[] = {{"", 4, NULL, beauty}, {"depth", 1, z, depth}};
-    const vbnl_image_attr attr = {.name = "vbnl/crop", .type = VBNL_IMAGE_ATTR_STRING, .value.s = "3,17,11,50"};
+    const vbi_image_layer layers[] = {{"", 4, NULL, beauty}, {"depth", 1, z, depth}};
+    const vbi_image_attr attr = {.name = "vbnl/crop", .type = VBI_IMAGE_ATTR_STRING, .value.s = "3,17,11,50"};
     TMP_PATH(p, "part.exr");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write_window(p, DW, DH, win, layers, 2, &attr, 1, 0, &err), VBNL_OK);
-    vbnl_exr_image img;
-    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write_window(p, DW, DH, win, layers, 2, &attr, 1, 0, &err), VBNL_OK);
+    vbi_exr_image img;
+    assert_int_equal(vbi_exr_read(p, &img, &err), VBNL_OK);
     assert_int_equal(img.width, w);
     assert_int_equal(img.height, h);
     assert_int_equal(img.data_x, 3);
@@ -231,30 +231,30 @@ static void test_data_window(void **state)
     assert_int_equal(img.display_height, DH);
     static const char *const names[] = {"R", "G", "B", "A"};
     for (uint32_t c = 0; c < 4; c++) {
-        const vbnl_exr_channel *ch = vbnl_exr_image_channel(&img, names[c]);
+        const vbi_exr_channel *ch = vbi_exr_image_channel(&img, names[c]);
         assert_non_null(ch);
         for (uint32_t i = 0; i < w * h; i++)
             assert_true(same_bits(ch->data[i], beauty[i * 4 + c]));
     }
-    const vbnl_exr_channel *zc = vbnl_exr_image_channel(&img, "depth.Z");
+    const vbi_exr_channel *zc = vbi_exr_image_channel(&img, "depth.Z");
     assert_non_null(zc);
     for (uint32_t i = 0; i < w * h; i++)
         assert_true(same_bits(zc->data[i], depth[i]));
-    assert_string_equal(vbnl_exr_image_attr(&img, "vbnl/crop")->value.s, "3,17,11,50");
-    vbnl_exr_image_free(&img);
+    assert_string_equal(vbi_exr_image_attr(&img, "vbnl/crop")->value.s, "3,17,11,50");
+    vbi_exr_image_free(&img);
     /* a whole image reads back with its display window equal to the data window */
-    assert_int_equal(vbnl_exr_write(p, w, h, layers, 2, NULL, 0, 0, &err), VBNL_OK);
-    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write(p, w, h, layers, 2, NULL, 0, 0, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_read(p, &img, &err), VBNL_OK);
     assert_int_equal(img.display_width, w);
     assert_int_equal(img.display_height, h);
-    vbnl_exr_image_free(&img);
+    vbi_exr_image_free(&img);
     /* windows that are empty or reach outside */
     const uint32_t outside[4] = {3, 17, 21, 50}, empty[4] = {3, 17, 3, 50};
     TMP_PATH(q, "bad.exr");
-    assert_int_equal(vbnl_exr_write_window(q, DW, DH, outside, layers, 2, NULL, 0, 0, &err),
+    assert_int_equal(vbi_exr_write_window(q, DW, DH, outside, layers, 2, NULL, 0, 0, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "data window"));
-    assert_int_equal(vbnl_exr_write_window(q, DW, DH, empty, layers, 2, NULL, 0, 0, &err),
+    assert_int_equal(vbi_exr_write_window(q, DW, DH, empty, layers, 2, NULL, 0, 0, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(count_entries(f->dir), 1);
     free(beauty);
@@ -274,19 +274,19 @@ static void test_half_roundtrip(void **state)
     beauty[3] = -2.5f;
     beauty[4] = 0.0f;
     beauty[5] = NAN;
-    const vbnl_image_layer layer = {"", 3, NULL, beauty};
+    const vbi_image_layer layer = {"", 3, NULL, beauty};
     TMP_PATH(p, "half.exr");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write(p, W, H, &layer, 1, NULL, 0, 1, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write(p, W, H, &layer, 1, NULL, 0, 1, &err), VBNL_OK);
 
-    vbnl_exr_image img;
-    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
+    vbi_exr_image img;
+    assert_int_equal(vbi_exr_read(p, &img, &err), VBNL_OK);
     assert_int_equal(img.channel_count, 3);
     static const char *const names[] = {"R", "G", "B"};
     for (uint32_t c = 0; c < 3; c++) {
-        const vbnl_exr_channel *ch = vbnl_exr_image_channel(&img, names[c]);
+        const vbi_exr_channel *ch = vbi_exr_image_channel(&img, names[c]);
         assert_non_null(ch);
-        assert_int_equal(ch->stored_type, VBNL_EXR_PIXEL_HALF);
+        assert_int_equal(ch->stored_type, VBI_EXR_PIXEL_HALF);
         for (uint32_t i = 0; i < W * H; i++) {
             float want = beauty[i * 3 + c], got = ch->data[i];
             if (isnan(want)) {
@@ -302,10 +302,10 @@ static void test_half_roundtrip(void **state)
             }
         }
     }
-    assert_true(vbnl_exr_image_channel(&img, "R")->data[0] == 65504.0f);
-    const float g0 = vbnl_exr_image_channel(&img, "G")->data[0];
+    assert_true(vbi_exr_image_channel(&img, "R")->data[0] == 65504.0f);
+    const float g0 = vbi_exr_image_channel(&img, "G")->data[0];
     assert_true(isinf(g0) && g0 > 0.0f);
-    vbnl_exr_image_free(&img);
+    vbi_exr_image_free(&img);
     free(beauty);
 }
 
@@ -375,19 +375,19 @@ static void write_foreign_half_rgba(const char *path, int w, int h, exr_compress
 
 static void check_rgba_order(const char *path, int w, int h, const float *const *planes)
 {
-    vbnl_exr_image img;
+    vbi_exr_image img;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_read(path, &img, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_read(path, &img, &err), VBNL_OK);
     static const char *const names[] = {"R", "G", "B", "A"};
     for (int c = 0; c < 4; c++) {
-        const vbnl_exr_channel *ch = vbnl_exr_image_channel(&img, names[c]);
+        const vbi_exr_channel *ch = vbi_exr_image_channel(&img, names[c]);
         assert_non_null(ch);
         for (int i = 0; i < w * h; i++)
             if (ch->data[i] != planes[c][i])
                 fail_msg("%s: channel %s pixel %d: expected %g, got %g", path, names[c], i,
                          (double)planes[c][i], (double)ch->data[i]);
     }
-    vbnl_exr_image_free(&img);
+    vbi_exr_image_free(&img);
 }
 
 static void test_half_rgba_channel_order(void **state)
@@ -419,10 +419,10 @@ static void test_half_rgba_channel_order(void **state)
         inter[i * 4 + 2] = pb[i];
         inter[i * 4 + 3] = pa[i];
     }
-    const vbnl_image_layer layer = {"", 4, NULL, inter};
+    const vbi_image_layer layer = {"", 4, NULL, inter};
     TMP_PATH(p3, "ours_half.exr");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write(p3, W, H, &layer, 1, NULL, 0, 1, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write(p3, W, H, &layer, 1, NULL, 0, 1, &err), VBNL_OK);
     check_rgba_order(p3, W, H, planes);
 }
 
@@ -471,18 +471,18 @@ static void test_read_foreign_tiled(void **state)
     exr_encoding_destroy(ctxt, &enc);
     assert_int_equal(exr_finish(&ctxt), 0);
 
-    vbnl_exr_image img;
+    vbi_exr_image img;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_read(p, &img, &err), VBNL_OK);
     assert_int_equal(img.width, W);
     assert_int_equal(img.height, H);
-    const vbnl_exr_channel *y = vbnl_exr_image_channel(&img, "Y");
+    const vbi_exr_channel *y = vbi_exr_image_channel(&img, "Y");
     assert_non_null(y);
     for (int i = 0; i < W * H; i++)
         if (y->data[i] != plane[i])
             fail_msg("tiled pixel %d: expected %g, got %g", i, (double)plane[i],
                      (double)y->data[i]);
-    vbnl_exr_image_free(&img);
+    vbi_exr_image_free(&img);
     free(plane);
 }
 
@@ -492,22 +492,22 @@ static void test_long_channel_names(void **state)
     fixture *f = *state;
     float d[4] = {1, 2, 3, 4};
     static const char *const n[] = {"a_rather_long_channel_name_component"};
-    const vbnl_image_layer layer = {"lightgroup_key_light_with_a_long_name", 1, n, d};
-    const vbnl_image_attr attr = {.name = "vbnl/stage_time_seconds/bvh_build_and_upload",
-                                  .type = VBNL_IMAGE_ATTR_DOUBLE, .value.d = 0.25};
+    const vbi_image_layer layer = {"lightgroup_key_light_with_a_long_name", 1, n, d};
+    const vbi_image_attr attr = {.name = "vbnl/stage_time_seconds/bvh_build_and_upload",
+                                  .type = VBI_IMAGE_ATTR_DOUBLE, .value.d = 0.25};
     TMP_PATH(p, "long.exr");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write(p, 2, 2, &layer, 1, &attr, 1, 0, &err), VBNL_OK);
-    vbnl_exr_image img;
-    assert_int_equal(vbnl_exr_read(p, &img, &err), VBNL_OK);
-    const vbnl_image_attr *a = vbnl_exr_image_attr(&img, attr.name);
+    assert_int_equal(vbi_exr_write(p, 2, 2, &layer, 1, &attr, 1, 0, &err), VBNL_OK);
+    vbi_exr_image img;
+    assert_int_equal(vbi_exr_read(p, &img, &err), VBNL_OK);
+    const vbi_image_attr *a = vbi_exr_image_attr(&img, attr.name);
     assert_non_null(a);
     assert_true(a->value.d == 0.25);
-    const vbnl_exr_channel *c = vbnl_exr_image_channel(
+    const vbi_exr_channel *c = vbi_exr_image_channel(
         &img, "lightgroup_key_light_with_a_long_name.a_rather_long_channel_name_component");
     assert_non_null(c);
     assert_true(c->data[3] == 4.0f);
-    vbnl_exr_image_free(&img);
+    vbi_exr_image_free(&img);
 }
 
 /* ---- failure handling ---- */
@@ -516,10 +516,10 @@ static void test_write_into_missing_directory(void **state)
 {
     fixture *f = *state;
     float d[3 * 4] = {0};
-    const vbnl_image_layer layer = {"", 3, NULL, d};
+    const vbi_image_layer layer = {"", 3, NULL, d};
     TMP_PATH(p, "no/such/dir/out.exr");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write(p, 2, 2, &layer, 1, NULL, 0, 0, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_exr_write(p, 2, 2, &layer, 1, NULL, 0, 0, &err), VBNL_ERR_IO);
     assert_int_equal(err.code, VBNL_ERR_IO);
     assert_non_null(strstr(err.message, p));
     assert_non_null(strstr(err.message, strerror(ENOENT)));
@@ -562,7 +562,7 @@ static void test_failed_write_keeps_existing_file(void **state)
         s = s * 1664525u + 1013904223u;
         d[i] = (float)(s >> 8) / 16777216.0f;
     }
-    const vbnl_image_layer layer = {"", 4, NULL, d};
+    const vbi_image_layer layer = {"", 4, NULL, d};
 
     struct rlimit old;
     assert_int_equal(getrlimit(RLIMIT_FSIZE, &old), 0);
@@ -570,7 +570,7 @@ static void test_failed_write_keeps_existing_file(void **state)
     struct rlimit small = {4096, old.rlim_max};
     assert_int_equal(setrlimit(RLIMIT_FSIZE, &small), 0);
     vbnl_error err = {0};
-    vbnl_result r = vbnl_exr_write(p, W, H, &layer, 1, NULL, 0, 0, &err);
+    vbnl_result r = vbi_exr_write(p, W, H, &layer, 1, NULL, 0, 0, &err);
     setrlimit(RLIMIT_FSIZE, &old);
     signal(SIGXFSZ, old_handler);
 
@@ -585,14 +585,14 @@ static void test_failed_write_keeps_existing_file(void **state)
     assert_int_equal(mkdir(dirp, 0700), 0);
     TMP_PATH(inside, "adir/inside");
     write_text(inside, "x");
-    r = vbnl_exr_write(dirp, W, H, &layer, 1, NULL, 0, 0, &err);
+    r = vbi_exr_write(dirp, W, H, &layer, 1, NULL, 0, 0, &err);
     assert_int_equal(r, VBNL_ERR_IO);
     assert_non_null(strstr(err.message, dirp));
     assert_int_equal(count_entries(f->dir), 2);
     assert_int_equal(count_entries(dirp), 1);
 
     /* and a successful write does replace it */
-    assert_int_equal(vbnl_exr_write(p, W, H, &layer, 1, NULL, 0, 0, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write(p, W, H, &layer, 1, NULL, 0, 0, &err), VBNL_OK);
     assert_false(file_equals(p, "previous render"));
     assert_int_equal(count_entries(f->dir), 2);
     free(d);
@@ -608,9 +608,9 @@ static void test_write_into_readonly_directory(void **state)
     char p[600];
     snprintf(p, sizeof p, "%s/out.exr", sub);
     float d[3] = {0};
-    const vbnl_image_layer layer = {"", 3, NULL, d};
+    const vbi_image_layer layer = {"", 3, NULL, d};
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &layer, 1, NULL, 0, 0, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &layer, 1, NULL, 0, 0, &err), VBNL_ERR_IO);
     assert_non_null(strstr(err.message, strerror(EACCES)));
     assert_int_equal(count_entries(sub), 0);
 }
@@ -641,21 +641,21 @@ static void test_read_damaged_files(void **state)
     fixture *f = *state;
     const uint32_t W = 32, H = 48;
     float *d = make_data(W, H, 4, 0.0f);
-    const vbnl_image_layer layer = {"", 4, NULL, d};
+    const vbi_image_layer layer = {"", 4, NULL, d};
     TMP_PATH(good, "good.exr");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_exr_write(good, W, H, &layer, 1, NULL, 0, 0, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write(good, W, H, &layer, 1, NULL, 0, 0, &err), VBNL_OK);
     long size = file_size(good);
     assert_true(size > 400);
 
-    vbnl_exr_image img;
+    vbi_exr_image img;
     /* truncated: header only, half the data, all but the last byte */
     const long cuts[] = {0, 4, 100, size / 2, size - 1};
     for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; i++) {
         TMP_PATH(p, "cut.exr");
         copy_prefix(good, p, cuts[i]);
         memset(&err, 0, sizeof err);
-        vbnl_result r = vbnl_exr_read(p, &img, &err);
+        vbnl_result r = vbi_exr_read(p, &img, &err);
         if (r == VBNL_OK)
             fail_msg("truncated to %ld of %ld bytes but read succeeded", cuts[i], size);
         assert_int_equal(r, VBNL_ERR_CORRUPT);
@@ -666,7 +666,7 @@ static void test_read_damaged_files(void **state)
     /* not an EXR at all */
     TMP_PATH(txt, "text.exr");
     write_text(txt, "this is not an OpenEXR file, just some text long enough to parse");
-    assert_int_equal(vbnl_exr_read(txt, &img, &err), VBNL_ERR_CORRUPT);
+    assert_int_equal(vbi_exr_read(txt, &img, &err), VBNL_ERR_CORRUPT);
 
     /* damaged compressed data: must fail cleanly or decode something, never crash */
     TMP_PATH(bad, "flipped.exr");
@@ -678,12 +678,12 @@ static void test_read_damaged_files(void **state)
         fputc(0xA5, fp);
     }
     fclose(fp);
-    if (vbnl_exr_read(bad, &img, &err) == VBNL_OK)
-        vbnl_exr_image_free(&img);
+    if (vbi_exr_read(bad, &img, &err) == VBNL_OK)
+        vbi_exr_image_free(&img);
 
     /* missing file */
     TMP_PATH(missing, "missing.exr");
-    assert_int_equal(vbnl_exr_read(missing, &img, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_exr_read(missing, &img, &err), VBNL_ERR_IO);
     assert_non_null(strstr(err.message, "missing.exr"));
     free(d);
 }
@@ -695,65 +695,65 @@ static void test_bad_arguments(void **state)
     float d[8] = {0};
     static const char *const xy[] = {"X", "Y"};
     static const char *const dup[] = {"R", "R"};
-    const vbnl_image_layer ok = {"", 4, NULL, d};
-    vbnl_image_layer l;
+    const vbi_image_layer ok = {"", 4, NULL, d};
+    vbi_image_layer l;
     vbnl_error err = {0};
 
-    assert_int_equal(vbnl_exr_write(NULL, 1, 1, &ok, 1, NULL, 0, 0, &err),
+    assert_int_equal(vbi_exr_write(NULL, 1, 1, &ok, 1, NULL, 0, 0, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
     assert_int_equal(err.code, VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_exr_write(p, 1, 1, NULL, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &ok, 0, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_exr_write(p, 0, 1, &ok, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_exr_write(p, 1, 0, &ok, 1, NULL, 0, 0, NULL), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &ok, 1, NULL, 2, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 1, NULL, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &ok, 0, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 0, 1, &ok, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 0, &ok, 1, NULL, 0, 0, NULL), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &ok, 1, NULL, 2, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
     l = ok;
     l.data = NULL;
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
     l = ok;
     l.name = NULL;
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
     l = ok;
     l.channels = 2; /* no default names for 2 channels */
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
     l.channel_names = xy;
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_OK);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_OK);
     l.channel_names = dup;
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_write(p, 1, 1, &l, 1, NULL, 0, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(err.message, "'R'"));
     /* the same full name from two layers */
-    const vbnl_image_layer twice[2] = {ok, ok};
-    assert_int_equal(vbnl_exr_write(p, 1, 1, twice, 2, NULL, 0, 0, &err),
+    const vbi_image_layer twice[2] = {ok, ok};
+    assert_int_equal(vbi_exr_write(p, 1, 1, twice, 2, NULL, 0, 0, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
-    const vbnl_image_attr reserved = {.name = "compression", .type = VBNL_IMAGE_ATTR_INT};
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &ok, 1, &reserved, 1, 0, &err),
+    const vbi_image_attr reserved = {.name = "compression", .type = VBI_IMAGE_ATTR_INT};
+    assert_int_equal(vbi_exr_write(p, 1, 1, &ok, 1, &reserved, 1, 0, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
-    const vbnl_image_attr nulls = {.name = "s", .type = VBNL_IMAGE_ATTR_STRING, .value.s = NULL};
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &ok, 1, &nulls, 1, 0, &err),
+    const vbi_image_attr nulls = {.name = "s", .type = VBI_IMAGE_ATTR_STRING, .value.s = NULL};
+    assert_int_equal(vbi_exr_write(p, 1, 1, &ok, 1, &nulls, 1, 0, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
-    const vbnl_image_attr two[2] = {{.name = "k", .type = VBNL_IMAGE_ATTR_INT},
-                                    {.name = "k", .type = VBNL_IMAGE_ATTR_FLOAT}};
-    assert_int_equal(vbnl_exr_write(p, 1, 1, &ok, 1, two, 2, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
+    const vbi_image_attr two[2] = {{.name = "k", .type = VBI_IMAGE_ATTR_INT},
+                                    {.name = "k", .type = VBI_IMAGE_ATTR_FLOAT}};
+    assert_int_equal(vbi_exr_write(p, 1, 1, &ok, 1, two, 2, 0, &err), VBNL_ERR_INVALID_ARGUMENT);
 
-    vbnl_exr_image img;
-    assert_int_equal(vbnl_exr_read(NULL, &img, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_exr_read(p, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    vbnl_exr_image_free(NULL);
-    assert_null(vbnl_exr_image_channel(NULL, "R"));
-    assert_null(vbnl_exr_image_attr(NULL, "x"));
+    vbi_exr_image img;
+    assert_int_equal(vbi_exr_read(NULL, &img, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_exr_read(p, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_exr_image_free(NULL);
+    assert_null(vbi_exr_image_channel(NULL, "R"));
+    assert_null(vbi_exr_image_attr(NULL, "x"));
     /* only args.exr from the one valid call above */
     assert_int_equal(count_entries(f->dir), 1);
 }
 
 /* ---- abandoned writes: what a second Ctrl-C does before _exit ---- */
 
-/* vbnl_atomic_file_abandon_all cannot be undone in a process, so each case runs in a child (this
+/* vbi_atomic_file_abandon_all cannot be undone in a process, so each case runs in a child (this
  * test program has no other threads, fork is safe). The children report by exit status. */
 
 static void on_signal_abandon(int sig)
 {
     (void)sig;
-    vbnl_atomic_file_abandon_all();
+    vbi_atomic_file_abandon_all();
     _exit(42);
 }
 
@@ -761,8 +761,8 @@ static void on_signal_abandon(int sig)
  * signal whose handler abandons them and leaves. */
 static int child_interrupted(const char *fresh, const char *existing)
 {
-    vbnl_atomic_file a, b;
-    if (vbnl_atomic_file_open(&a, fresh, NULL) != VBNL_OK || vbnl_atomic_file_open(&b, existing, NULL) != VBNL_OK)
+    vbi_atomic_file a, b;
+    if (vbi_atomic_file_open(&a, fresh, NULL) != VBNL_OK || vbi_atomic_file_open(&b, existing, NULL) != VBNL_OK)
         return 1;
     if (write(a.fd, "partial", 7) != 7 || write(b.fd, "partial", 7) != 7)
         return 2;
@@ -778,23 +778,23 @@ static int child_interrupted(const char *fresh, const char *existing)
  * that would start afterwards. */
 static int child_after_abandon(const char *fresh, const char *existing)
 {
-    vbnl_atomic_file a, b;
+    vbi_atomic_file a, b;
     vbnl_error err = {0};
-    if (vbnl_atomic_file_open(&a, existing, NULL) != VBNL_OK)
+    if (vbi_atomic_file_open(&a, existing, NULL) != VBNL_OK)
         return 1;
-    vbnl_atomic_file_abandon_all();
+    vbi_atomic_file_abandon_all();
     if (access(a.tmp_path, F_OK) == 0)
         return 2;
-    if (vbnl_atomic_file_commit(&a, &err) != VBNL_ERR_CANCELLED || !strstr(err.message, "abandoned"))
+    if (vbi_atomic_file_commit(&a, &err) != VBNL_ERR_CANCELLED || !strstr(err.message, "abandoned"))
         return 3;
-    if (vbnl_atomic_file_open(&b, fresh, &err) != VBNL_ERR_CANCELLED)
+    if (vbi_atomic_file_open(&b, fresh, &err) != VBNL_ERR_CANCELLED)
         return 4;
     float d[4] = {0};
-    const vbnl_image_layer l = {"", 4, NULL, d};
-    if (vbnl_exr_write(fresh, 1, 1, &l, 1, NULL, 0, 0, &err) != VBNL_ERR_CANCELLED)
+    const vbi_image_layer l = {"", 4, NULL, d};
+    if (vbi_exr_write(fresh, 1, 1, &l, 1, NULL, 0, 0, &err) != VBNL_ERR_CANCELLED)
         return 5;
     uint8_t px[3] = {0};
-    if (vbnl_png_write(fresh, 1, 1, 3, 8, px, &err) != VBNL_ERR_CANCELLED)
+    if (vbi_png_write(fresh, 1, 1, 3, 8, px, &err) != VBNL_ERR_CANCELLED)
         return 6;
     return 0;
 }
@@ -826,8 +826,8 @@ static void test_abandoned_writes_leave_nothing(void **state)
     assert_int_equal(count_entries(f->dir), 1);
     /* this process abandoned nothing: its writes still work */
     float d[4] = {1, 2, 3, 1};
-    const vbnl_image_layer l = {"", 4, NULL, d};
-    assert_int_equal(vbnl_exr_write(fresh, 1, 1, &l, 1, NULL, 0, 0, NULL), VBNL_OK);
+    const vbi_image_layer l = {"", 4, NULL, d};
+    assert_int_equal(vbi_exr_write(fresh, 1, 1, &l, 1, NULL, 0, 0, NULL), VBNL_OK);
     assert_int_equal(count_entries(f->dir), 2);
 }
 

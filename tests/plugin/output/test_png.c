@@ -89,18 +89,18 @@ static void roundtrip8(const fixture *f, uint32_t channels)
         px[i] = (uint8_t)(i * 37u + i / 5u); /* covers 0..255, distinct per channel */
     TMP_PATH(p, "rt8.png");
     vbnl_error err = {0};
-    assert_int_equal(vbnl_png_write(p, W, H, channels, 8, px, &err), VBNL_OK);
+    assert_int_equal(vbi_png_write(p, W, H, channels, 8, px, &err), VBNL_OK);
     assert_int_equal(count_entries(f->dir), 1);
 
-    vbnl_png_image img;
-    assert_int_equal(vbnl_png_read(p, &img, &err), VBNL_OK);
+    vbi_png_image img;
+    assert_int_equal(vbi_png_read(p, &img, &err), VBNL_OK);
     assert_int_equal(img.width, W);
     assert_int_equal(img.height, H);
     assert_int_equal(img.channels, channels);
     assert_int_equal(img.bit_depth, 8);
     assert_true(img.has_srgb);
     assert_memory_equal(img.pixels, px, (size_t)W * H * channels);
-    vbnl_png_image_free(&img);
+    vbi_png_image_free(&img);
     assert_null(img.pixels);
     free(px);
 }
@@ -126,15 +126,15 @@ static void test_png16_roundtrip(void **state)
         px[1] = 0xffff;
         TMP_PATH(p, "rt16.png");
         vbnl_error err = {0};
-        assert_int_equal(vbnl_png_write(p, W, H, channels, 16, px, &err), VBNL_OK);
+        assert_int_equal(vbi_png_write(p, W, H, channels, 16, px, &err), VBNL_OK);
 
-        vbnl_png_image img;
-        assert_int_equal(vbnl_png_read(p, &img, &err), VBNL_OK);
+        vbi_png_image img;
+        assert_int_equal(vbi_png_read(p, &img, &err), VBNL_OK);
         assert_int_equal(img.channels, channels);
         assert_int_equal(img.bit_depth, 16);
         assert_true(img.has_srgb);
         assert_memory_equal(img.pixels, px, sizeof(uint16_t) * W * H * channels);
-        vbnl_png_image_free(&img);
+        vbi_png_image_free(&img);
         free(px);
     }
 }
@@ -146,7 +146,7 @@ static uint8_t srgb1(float v, int dither)
     float px[3] = {v, v, v};
     uint8_t out[3];
     vbnl_error err = {0};
-    assert_int_equal(vbnl_linear_to_srgb8(px, 1, 1, 3, 0.0f, dither, out, 3, &err), VBNL_OK);
+    assert_int_equal(vbi_linear_to_srgb8(px, 1, 1, 3, 0.0f, dither, out, 3, &err), VBNL_OK);
     if (!dither) { /* same value in every channel encodes the same */
         assert_int_equal(out[1], out[0]);
         assert_int_equal(out[2], out[0]);
@@ -171,7 +171,7 @@ static void test_srgb_known_values(void **state)
     float px[3] = {0.25f, 0.09f, 0.0f};
     uint8_t out[4];
     vbnl_error err = {0};
-    assert_int_equal(vbnl_linear_to_srgb8(px, 1, 1, 3, 1.0f, 0, out, 4, &err), VBNL_OK);
+    assert_int_equal(vbi_linear_to_srgb8(px, 1, 1, 3, 1.0f, 0, out, 4, &err), VBNL_OK);
     assert_int_equal(out[0], 188);
     assert_int_equal(out[1], 118);
     assert_int_equal(out[2], 0);
@@ -179,7 +179,7 @@ static void test_srgb_known_values(void **state)
 
     /* alpha is linear, untouched by exposure */
     float rgba[4] = {1.0f, 1.0f, 1.0f, 0.5f};
-    assert_int_equal(vbnl_linear_to_srgb8(rgba, 1, 1, 4, 3.0f, 0, out, 4, &err), VBNL_OK);
+    assert_int_equal(vbi_linear_to_srgb8(rgba, 1, 1, 4, 3.0f, 0, out, 4, &err), VBNL_OK);
     assert_int_equal(out[3], 128);
 }
 
@@ -195,8 +195,8 @@ static void test_srgb_dither(void **state)
         for (int i = 0; i < W * H * 3; i++)
             img[i] = vals[v];
         vbnl_error err = {0};
-        assert_int_equal(vbnl_linear_to_srgb8(img, W, H, 3, 0.0f, 1, a, 3, &err), VBNL_OK);
-        assert_int_equal(vbnl_linear_to_srgb8(img, W, H, 3, 0.0f, 1, b, 3, &err), VBNL_OK);
+        assert_int_equal(vbi_linear_to_srgb8(img, W, H, 3, 0.0f, 1, a, 3, &err), VBNL_OK);
+        assert_int_equal(vbi_linear_to_srgb8(img, W, H, 3, 0.0f, 1, b, 3, &err), VBNL_OK);
         assert_memory_equal(a, b, sizeof a); /* deterministic */
         double sum = 0;
         int distinct = 0;
@@ -220,8 +220,8 @@ static void test_srgb_dither(void **state)
             for (int c = 0; c < 3; c++)
                 img[(y * W + x) * 3 + c] = (float)x / (W - 1);
     vbnl_error err = {0};
-    assert_int_equal(vbnl_linear_to_srgb8(img, W, H, 3, 0.0f, 1, a, 3, &err), VBNL_OK);
-    assert_int_equal(vbnl_linear_to_srgb8(img, W, H, 3, 0.0f, 0, b, 3, &err), VBNL_OK);
+    assert_int_equal(vbi_linear_to_srgb8(img, W, H, 3, 0.0f, 1, a, 3, &err), VBNL_OK);
+    assert_int_equal(vbi_linear_to_srgb8(img, W, H, 3, 0.0f, 0, b, 3, &err), VBNL_OK);
     for (int i = 0; i < W * H * 3; i++)
         assert_true(abs((int)a[i] - (int)b[i]) <= 1);
 }
@@ -235,41 +235,41 @@ static void test_png_errors(void **state)
     vbnl_error err = {0};
     TMP_PATH(p, "e.png");
 
-    assert_int_equal(vbnl_png_write(NULL, 2, 2, 4, 8, px, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_png_write(p, 2, 2, 4, 8, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_png_write(p, 0, 2, 4, 8, px, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_png_write(p, 2, 2, 2, 8, px, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_png_write(p, 2, 2, 4, 12, px, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_png_write(p, 2, 2, 4, 8, px, NULL), VBNL_OK); /* err is optional */
+    assert_int_equal(vbi_png_write(NULL, 2, 2, 4, 8, px, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_png_write(p, 2, 2, 4, 8, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_png_write(p, 0, 2, 4, 8, px, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_png_write(p, 2, 2, 2, 8, px, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_png_write(p, 2, 2, 4, 12, px, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_png_write(p, 2, 2, 4, 8, px, NULL), VBNL_OK); /* err is optional */
 
-    vbnl_png_image img;
-    assert_int_equal(vbnl_png_read(NULL, &img, &err), VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_png_read(p, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    vbi_png_image img;
+    assert_int_equal(vbi_png_read(NULL, &img, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vbi_png_read(p, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
 
     /* missing directory: VBNL_ERR_IO naming the path and the reason, nothing left behind */
     TMP_PATH(nodir, "missing/dir/x.png");
-    assert_int_equal(vbnl_png_write(nodir, 2, 2, 4, 8, px, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_png_write(nodir, 2, 2, 4, 8, px, &err), VBNL_ERR_IO);
     assert_non_null(strstr(err.message, nodir));
     assert_non_null(strstr(err.message, strerror(ENOENT)));
     assert_int_equal(count_entries(f->dir), 1);
 
     /* missing, empty, non-PNG and truncated files */
     TMP_PATH(none, "none.png");
-    assert_int_equal(vbnl_png_read(none, &img, &err), VBNL_ERR_IO);
+    assert_int_equal(vbi_png_read(none, &img, &err), VBNL_ERR_IO);
     TMP_PATH(junk, "junk.png");
     FILE *fp = fopen(junk, "wb");
     assert_non_null(fp);
     fclose(fp);
-    assert_int_equal(vbnl_png_read(junk, &img, &err), VBNL_ERR_CORRUPT);
+    assert_int_equal(vbi_png_read(junk, &img, &err), VBNL_ERR_CORRUPT);
     fp = fopen(junk, "wb");
     fputs("GIF89a and then some more bytes", fp);
     fclose(fp);
-    assert_int_equal(vbnl_png_read(junk, &img, &err), VBNL_ERR_CORRUPT);
+    assert_int_equal(vbi_png_read(junk, &img, &err), VBNL_ERR_CORRUPT);
 
     uint8_t big[32 * 32 * 3];
     for (size_t i = 0; i < sizeof big; i++)
         big[i] = (uint8_t)(i * 7919u >> 3);
-    assert_int_equal(vbnl_png_write(p, 32, 32, 3, 8, big, &err), VBNL_OK);
+    assert_int_equal(vbi_png_write(p, 32, 32, 3, 8, big, &err), VBNL_OK);
     struct stat st;
     assert_int_equal(stat(p, &st), 0);
     TMP_PATH(cut, "cut.png");
@@ -283,22 +283,22 @@ static void test_png_errors(void **state)
         fclose(in);
         fclose(out);
         memset(&err, 0, sizeof err);
-        assert_int_equal(vbnl_png_read(cut, &img, &err), VBNL_ERR_CORRUPT);
+        assert_int_equal(vbi_png_read(cut, &img, &err), VBNL_ERR_CORRUPT);
         assert_non_null(strstr(err.message, cut));
         assert_null(img.pixels);
     }
-    vbnl_png_image_free(NULL);
+    vbi_png_image_free(NULL);
 
     /* sRGB conversion arguments */
     float lin[3] = {0};
     uint8_t o[4];
-    assert_int_equal(vbnl_linear_to_srgb8(NULL, 1, 1, 3, 0, 0, o, 3, &err),
+    assert_int_equal(vbi_linear_to_srgb8(NULL, 1, 1, 3, 0, 0, o, 3, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_linear_to_srgb8(lin, 1, 1, 3, 0, 0, NULL, 3, &err),
+    assert_int_equal(vbi_linear_to_srgb8(lin, 1, 1, 3, 0, 0, NULL, 3, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_linear_to_srgb8(lin, 1, 1, 2, 0, 0, o, 3, &err),
+    assert_int_equal(vbi_linear_to_srgb8(lin, 1, 1, 2, 0, 0, o, 3, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
-    assert_int_equal(vbnl_linear_to_srgb8(lin, 1, 1, 3, NAN, 0, o, 3, &err),
+    assert_int_equal(vbi_linear_to_srgb8(lin, 1, 1, 3, NAN, 0, o, 3, &err),
                      VBNL_ERR_INVALID_ARGUMENT);
 }
 
@@ -326,7 +326,7 @@ static void test_png_failed_write_keeps_existing(void **state)
     struct rlimit small = {8192, old.rlim_max};
     assert_int_equal(setrlimit(RLIMIT_FSIZE, &small), 0);
     vbnl_error err = {0};
-    vbnl_result r = vbnl_png_write(p, W, H, 4, 8, px, &err);
+    vbnl_result r = vbi_png_write(p, W, H, 4, 8, px, &err);
     setrlimit(RLIMIT_FSIZE, &old);
     signal(SIGXFSZ, old_handler);
     assert_int_equal(r, VBNL_ERR_IO);

@@ -1,6 +1,6 @@
 /* vbnl: helpers shared by the SDL language-layer tests (cmocka). Include after cmocka.h. */
-#ifndef VBNL_SDL_TEST_UTIL_H
-#define VBNL_SDL_TEST_UTIL_H
+#ifndef VBI_SDL_TEST_UTIL_H
+#define VBI_SDL_TEST_UTIL_H
 
 #include <math.h>
 #include <stdio.h>

@@ -1,7 +1,7 @@
 /* The object layer's tests: loading scene text through vbnl_pov_load_text with the diagnostics
  * collected, and looking at the scene built (scene_internal.h). Included by one test file each. */
-#ifndef VBNL_POV_TEST_H
-#define VBNL_POV_TEST_H
+#ifndef VBI_POV_TEST_H
+#define VBI_POV_TEST_H
 
 #include <setjmp.h>
 #include <stdarg.h>
@@ -74,9 +74,9 @@ POV_T_UNUSED static void expect_error(const char *text, const char *message)
     assert_string_equal(err.message, message);
 }
 
-POV_T_UNUSED static int hit(vbnl_pov_scene *s, float ox, float oy, float oz, float dx, float dy, float dz, vbnl_hit *h)
+POV_T_UNUSED static int hit(vbnl_pov_scene *s, float ox, float oy, float oz, float dx, float dy, float dz, vbi_hit *h)
 {
-    return vbnl_scene_intersect(sc(s), v3(ox, oy, oz), v3(dx, dy, dz), INFINITY, h);
+    return vbi_scene_intersect(sc(s), v3(ox, oy, oz), v3(dx, dy, dz), INFINITY, h);
 }
 
 #define NEAR(a, b) assert_float_equal((a), (b), 1e-3)

@@ -28,7 +28,7 @@ static void test_camera(void **state)
     NEAR(c->up[1], 1.0f);
     /* the ray through the right edge's middle leaves at 45 degrees */
     vec3 o, d;
-    vbnl_camera_ray(c, 300, 200, 300.0f, 100.0f, &o, &d);
+    vbi_camera_ray(c, 300, 200, 300.0f, 100.0f, &o, &d);
     NEAR(d.x, (float)sqrt(0.5));
     NEAR(d.z, (float)sqrt(0.5));
     vbnl_pov_scene_destroy(s);
@@ -84,7 +84,7 @@ static void test_mesh_camera(void **state)
     for (int r = 0; r < 6; ++r)
         for (int k = 0; k < 8; ++k) {
             vec3 o, d;
-            assert_int_equal(vbnl_camera_ray(c, 8, 6, (float)k + 0.5f, (float)r + 0.5f, &o, &d), 1);
+            assert_int_equal(vbi_camera_ray(c, 8, 6, (float)k + 0.5f, (float)r + 0.5f, &o, &d), 1);
             /* the perspective ray of the pixel centre, turned 90 degrees about y (x' = z, z' = -x) */
             vec3 e = v3_norm(v3(((float)k + 0.5f) / 8 - 0.5f, (0.5f - ((float)r + 0.5f) / 6) * 0.75f, 1));
             e = v3(e.z, e.y, -e.x);
@@ -99,7 +99,7 @@ static void test_mesh_camera(void **state)
     /* direction z < 0 reverses the rays */
     s = ok("light_source { <0, 5, 0> rgb 1 }\n" PINHOLE_MESH "camera { mesh_camera { 1 0 mesh { M } } direction -z }");
     vec3 o, d;
-    vbnl_camera_ray(&sc(s)->camera, 8, 6, 4.0f, 3.0f, &o, &d);
+    vbi_camera_ray(&sc(s)->camera, 8, 6, 4.0f, 3.0f, &o, &d);
     assert_true(d.z < -0.9f);
     vbnl_pov_scene_destroy(s);
     /* POV-Ray's checks */
@@ -119,7 +119,7 @@ static void test_mesh_camera(void **state)
            "                    triangle { <0, 0, 0>, <0, 1, 0>, <2, 1, 0> uv_vectors <0, 0>, <0, 1>, <1, 1> } }\n"
            "#declare C = camera { mesh_camera { 1 3 mesh { Q } } }\n"
            "camera { C }");
-    assert_int_equal(vbnl_camera_ray(&sc(s)->camera, 10, 10, 7.5f, 2.5f, &o, &d), 1);
+    assert_int_equal(vbi_camera_ray(&sc(s)->camera, 10, 10, 7.5f, 2.5f, &o, &d), 1);
     NEAR(o.x, 1.5f);
     NEAR(o.y, 0.75f);
     vbnl_pov_scene_destroy(s);
@@ -137,7 +137,7 @@ static void test_camera_types(void **state)
     NEAR(c->right[0], 1.33f * 5.0f);
     NEAR(c->up[1], 5.0f);
     vec3 o, d;
-    vbnl_camera_ray(c, 100, 100, 100.0f, 50.0f, &o, &d); /* right edge */
+    vbi_camera_ray(c, 100, 100, 100.0f, 50.0f, &o, &d); /* right edge */
     NEAR(o.x, 1.33f * 5.0f * 0.5f);
     NEAR(d.z, 1.0f);
     vbnl_pov_scene_destroy(s);
@@ -182,13 +182,13 @@ static void test_camera_types(void **state)
 
 /* ---- lights ----------------------------------------------------------------------------------- */
 
-static const vbnl_light *light0(vbnl_pov_scene *s) { return &sc(s)->lights[0]; }
+static const vbi_light *light0(vbnl_pov_scene *s) { return &sc(s)->lights[0]; }
 
 static void test_lights(void **state)
 {
     (void)state;
     vbnl_pov_scene *s = ok("light_source { <1, 2, 3> rgb <1, 2, 3> translate x }");
-    assert_int_equal(light0(s)->type, VBNL_LIGHT_POINT);
+    assert_int_equal(light0(s)->type, VBI_LIGHT_POINT);
     NEAR(light0(s)->p.x, 2.0f);
     NEAR(light0(s)->L.y, 2.0f);
     vbnl_pov_scene_destroy(s);
@@ -219,7 +219,7 @@ static void test_lights(void **state)
     NEAR(light0(s)->L.x, 9.0f);
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 5, 0> rgb 2 spotlight point_at <0, 0, 0> radius 10 falloff 20 tightness 5 }");
-    assert_int_equal(light0(s)->type, VBNL_LIGHT_SPOT);
+    assert_int_equal(light0(s)->type, VBI_LIGHT_SPOT);
     NEAR(light0(s)->cos_inner, (float)cos(10 * M_PI / 180));
     NEAR(light0(s)->cos_outer, (float)cos(20 * M_PI / 180));
     NEAR(light0(s)->exponent, 5.0f);
@@ -227,13 +227,13 @@ static void test_lights(void **state)
     NEAR(light0(s)->L.x, 2.0f);
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 10, 0> rgb 3 parallel point_at <0, 0, 0> }");
-    assert_int_equal(light0(s)->type, VBNL_LIGHT_DIRECTIONAL);
+    assert_int_equal(light0(s)->type, VBI_LIGHT_DIRECTIONAL);
     NEAR(light0(s)->n.y, -1.0f);
     NEAR(light0(s)->L.x, 3.0f);
     vbnl_pov_scene_destroy(s);
     /* area light: two-sided rectangle, radiance 2 I / A (the point light's power) */
     s = ok("light_source { <0, 5, 0> rgb 1 area_light <2, 0, 0>, <0, 0, 1>, 4, 4 adaptive 1 jitter circular orient }");
-    assert_int_equal(light0(s)->type, VBNL_LIGHT_RECT);
+    assert_int_equal(light0(s)->type, VBI_LIGHT_RECT);
     NEAR(light0(s)->L.x, 1.0f);
     NEAR(light0(s)->area, 2.0f);
     NEAR(light0(s)->p.x, -1.0f);
@@ -302,7 +302,7 @@ static void test_background(void **state)
 {
     (void)state;
     vbnl_pov_scene *s = ok("camera { location -5 look_at 0 }\nbackground { rgb <0.5, 0.25, 1> }\nsphere { 0, 1 }");
-    assert_true(sc(s)->env_light != VBNL_NO_LIGHT);
+    assert_true(sc(s)->env_light != VBI_NO_LIGHT);
     NEAR(sc(s)->env_radiance.y, 0.25f);
     vbnl_pov_scene_destroy(s);
     /* sky_sphere: the pigment on the unit sphere, scaled by emission; rotate x*90 turns the
@@ -310,9 +310,9 @@ static void test_background(void **state)
      * 45 degrees */
     s = ok("camera { location -5 look_at 0 }\nsphere { 0, 1 }\n"
            "sky_sphere { pigment { gradient y color_map { [0 rgb <0, 0.2, 1>] [1 rgb <1, 0.6, 1>] } } emission 2 }");
-    const vbnl_light *l = &sc(s)->lights[sc(s)->env_light];
+    const vbi_light *l = &sc(s)->lights[sc(s)->env_light];
     assert_non_null(l->env);
-    vec3 L = vbnl_light_Le(l, v3s(0.0f), v3(0.0f, -0.5f, -0.8660254f)); /* sky direction y = 0.5 */
+    vec3 L = vbi_light_Le(l, v3s(0.0f), v3(0.0f, -0.5f, -0.8660254f)); /* sky direction y = 0.5 */
     NEAR(L.x, 1.0f);
     NEAR(L.y, 0.8f);
     NEAR(L.z, 2.0f);
@@ -324,7 +324,7 @@ static void test_background(void **state)
            "sky_sphere { Sky pigment { gradient x color_map { [0 rgbt <0, 1, 0, 1>] [1 rgbt <0, 1, 0, 1>] } } "
            "pigment { bozo pigment_map { [0 rgbt 1] [1 rgbt 1] } } rotate y * 30 }");
     l = &sc(s)->lights[sc(s)->env_light];
-    L = vbnl_light_Le(l, v3s(0.0f), v3(0.0f, -1.0f, 0.0f));
+    L = vbi_light_Le(l, v3s(0.0f), v3(0.0f, -1.0f, 0.0f));
     /* two clear layers over red with transmit 0.5 over the blue background */
     NEAR(L.x, 0.5f);
     NEAR(L.y, 0.0f);
@@ -337,12 +337,12 @@ static void test_background(void **state)
     char text[512];
     snprintf(text, sizeof text, "#version 3.6;\n%s", layers);
     s = ok(text);
-    L = vbnl_light_Le(&sc(s)->lights[sc(s)->env_light], v3s(0.0f), v3(0.0f, 1.0f, 0.0f));
+    L = vbi_light_Le(&sc(s)->lights[sc(s)->env_light], v3s(0.0f), v3(0.0f, 1.0f, 0.0f));
     NEAR(L.y, 0.85f);
     NEAR(L.z, 0.9f);
     vbnl_pov_scene_destroy(s);
     s = ok(layers);
-    L = vbnl_light_Le(&sc(s)->lights[sc(s)->env_light], v3s(0.0f), v3(0.0f, 1.0f, 0.0f));
+    L = vbi_light_Le(&sc(s)->lights[sc(s)->env_light], v3s(0.0f), v3(0.0f, 1.0f, 0.0f));
     NEAR(L.y, 0.65f);
     NEAR(L.z, 0.3f);
     vbnl_pov_scene_destroy(s);
@@ -520,7 +520,7 @@ static void test_non_finite_and_huge(void **state)
     assert_non_null(strstr(g_diags, "test.pov:5:3: warning: box: its surface reaches 1e+38 units"));
     assert_non_null(strstr(g_diags, "test.pov:6:1: warning: sphere: its surface reaches 1e+11 units"));
     assert_non_null(strstr(g_diags, "test.pov:7:1: warning: plane: a point of it reaches 2e+10 units"));
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 0, 0, -10, 0, 0, 1, &h)); /* the unit sphere alone: hit at z = -1 */
     assert_float_equal(h.t, 9.0f, 1e-3f);
     assert_false(hit(s, 0, 0, 0, 0, 0, 1, &h) && h.t > 2.0f); /* from inside it, nothing beyond */
@@ -700,11 +700,11 @@ static void test_render_cornell(void **state)
     assert_int_equal(vbnl_pov_load_file(g_ctx, path, &o, &s, &err), VBNL_OK);
     assert_string_equal(vbnl_pov_scene_integrator(s), "vbnl");
     /* the light panel's winding faces down (for one-sided emitters) */
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 0, 1, 0, 0, 1, 0, &h));
     NEAR(h.p.y, 1.97374f);
     assert_true(h.ng.y < -0.99f);
-    assert_true(h.light != VBNL_NO_LIGHT);
+    assert_true(h.light != VBI_NO_LIGHT);
     vbnl_render_settings rs;
     vbnl_render_settings_init(&rs);
     rs.width = rs.height = 24;

@@ -158,8 +158,8 @@ static double ns_per_ray(const vbnl_scene *sc, const vec3 *o, const vec3 *d, uin
         hits = 0;
         double t0 = now();
         for (uint32_t i = 0; i < n; ++i) {
-            vbnl_hit h;
-            hits += (uint32_t)vbnl_scene_intersect(sc, o[i], d[i], INFINITY, &h);
+            vbi_hit h;
+            hits += (uint32_t)vbi_scene_intersect(sc, o[i], d[i], INFINITY, &h);
         }
         t[run] = (now() - t0) * 1e9 / n;
     }

@@ -106,7 +106,7 @@ static void check_ray(vbnl_pov_scene *s, field_fn f, const double o[3], const do
         d[k] /= l;
     double tmax = 40, step = tol;
     double te = exact_t(f, o, d, tmax, step);
-    vbnl_hit h;
+    vbi_hit h;
     int got = hit(s, (float)o[0], (float)o[1], (float)o[2], (float)d[0], (float)d[1], (float)d[2], &h);
     if (te < 0) {
         if (got) {
@@ -358,7 +358,7 @@ static void test_quartic_torus(void **state)
     ray_stats st = check_shape(s, f_torus, origin, 0.9, in, 2.5e-3);
     assert_true(st.checked > 20);
     /* a grazing ray over the top: 0.4 + 3 tol misses, 0.4 - 3 tol hits */
-    vbnl_hit h;
+    vbi_hit h;
     assert_false(hit(s, -5, 0.41, 1, 1, 0, 0, &h));
     assert_true(hit(s, -5, 0.39, 1, 1, 0, 0, &h));
     vbnl_pov_scene_destroy(s);
@@ -380,7 +380,7 @@ static void test_quadric_clipped(void **state)
     assert_float_equal(info(s).bounds_max[0], 0.8f, 2e-3);
     double in[3] = {0.1, 0.2, 0};
     check_shape(s, f_cylinder_y, origin, 0.5, in, 2e-3);
-    vbnl_hit h; /* the box's caps close it: a ray down the axis hits y = 1 */
+    vbi_hit h; /* the box's caps close it: a ray down the axis hits y = 1 */
     assert_true(hit(s, 0, 5, 0, 0, -1, 0, &h));
     NEAR(h.t, 4.0f);
     vbnl_pov_scene_destroy(s);
@@ -418,7 +418,7 @@ static void test_superellipsoid(void **state)
     vbnl_pov_scene_destroy(s);
     /* near the flat face's middle, the surface is x = 1 within the tolerance */
     s = ok(BASE_B "superellipsoid { <0.5, 0.3> }");
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 5, 0.1, 0.1, -1, 0, 0, &h));
     assert_float_equal(h.t, 4.0f, 4e-3);
     vbnl_pov_scene_destroy(s);
@@ -440,7 +440,7 @@ static void test_blob(void **state)
     assert_false(inside_by_csg(b, 0, 0.5, 0)); /* 2 (1 - 0.61)^2 = 0.304 */
     /* a component's transform stretches its field; a cylinder component reaches along its axis */
     s = ok(BASE_B "blob { cylinder { <-1, 0, 0>, <1, 0, 0>, 0.5, 2 } }");
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 0, 5, 0, 0, -1, 0, &h)); /* 2 (1 - d2/0.25)^2 = 1: d = 0.5 sqrt(1 - 1/sqrt 2) */
     assert_float_equal(h.t, 5 - 0.5 * sqrt(1 - 1 / sqrt(2.0)), 3e-3);
     vbnl_pov_scene_destroy(s);
@@ -461,7 +461,7 @@ static void test_isosurface(void **state)
     assert_false(inside_by_csg(iso, 0.9, 0.1, 0.2));
     /* the container closes it where the function is below the threshold there */
     s = ok(BASE_B "isosurface { function { y } contained_by { box { -1, 1 } } }");
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 5, -0.5, 0, -1, 0, 0, &h)); /* the box's side below y = 0 */
     assert_float_equal(h.t, 4.0f, 2e-3);
     assert_false(hit(s, 5, 0.5, 0, -1, 0, 0, &h)); /* above: outside */
@@ -501,7 +501,7 @@ static void test_lathe_sor(void **state)
     assert_false(inside_by_csg(vase, 0.1, 1.9, 0));
     /* every spline type makes a surface through its points: linear r = 1 from y 0 to 1 */
     s = ok(BASE_B "lathe { linear_spline 4, <0, 0>, <1, 0>, <1, 1>, <0, 1> }");
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 5, 0.5, 0, -1, 0, 0, &h));
     assert_float_equal(h.t, 4.0f, 1e-3);
     assert_true(hit(s, 0.5, 5, 0, 0, -1, 0, &h)); /* the flat top */
@@ -545,7 +545,7 @@ static void test_prism(void **state)
                         " <-0.5, -0.5>, <0.5, -0.5>, <0.5, 0.5>, <-0.5, 0.5>, <-0.5, -0.5> }";
     snprintf(text, sizeof text, BASE_B "%s", holed);
     s = ok(text);
-    vbnl_hit h;
+    vbi_hit h;
     assert_false(hit(s, 0, 5, 0, 0, -1, 0, &h));
     assert_true(hit(s, 0.75, 5, 0, 0, -1, 0, &h));
     NEAR(h.t, 4.0f);
@@ -586,7 +586,7 @@ static void test_sphere_sweep_ovus_lemon(void **state)
     assert_false(inside_by_csg("sphere_sweep { linear_spline 2, <-1, 0, 0>, 0.5, <1, 0, 0>, 0.25 }", 1.3, 0, 0));
     /* a b-spline: the sweep passes near, not through, its points (uniform B-spline averages) */
     s = ok(BASE_B "sphere_sweep { b_spline 4, <-3, 0, 0>, 0.3, <-1, 0, 0>, 0.3, <1, 0, 0>, 0.3, <3, 0, 0>, 0.3 }");
-    vbnl_hit h; /* the segment runs from (-3 + 4 -1)/6... = -1/3 ... 1/3 * 3: x from -1 to 1 */
+    vbi_hit h; /* the segment runs from (-3 + 4 -1)/6... = -1/3 ... 1/3 * 3: x from -1 to 1 */
     assert_true(hit(s, 0, 5, 0, 0, -1, 0, &h));
     assert_float_equal(h.t, 4.7f, 2e-3);
     assert_true(hit(s, -5, 0, 0, 1, 0, 0, &h));
@@ -611,7 +611,7 @@ static void test_height_field(void **state)
     (void)state;
     /* a function height field is exactly its triangles: height F(x, 1 - z) on 16 bits */
     vbnl_pov_scene *s = ok(BASE_B "height_field { function 33, 33 { 0.25 + 0.5 * x * y } }");
-    vbnl_hit h;
+    vbi_hit h;
     for (int i = 0; i < 5; ++i) {
         float x = (4 + 6 * i) / 32.0f, z = (3 + 5 * i) / 32.0f; /* grid points: exact */
         assert_true(hit(s, x, 5, z, 0, -1, 0, &h));
@@ -635,7 +635,7 @@ static void test_julia_bicubic_parametric(void **state)
     (void)state;
     /* c = 0: the unit ball (q -> q^2 stays bounded exactly for |q| <= 1) */
     vbnl_pov_scene *s = ok(BASE_B "julia_fractal { <0, 0, 0, 0> quaternion sqr max_iteration 8 }");
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 0, 0, -5, 0, 0, 1, &h));
     assert_float_equal(h.t, 4.0f, 1e-2);
     vbnl_pov_scene_destroy(s);
@@ -744,7 +744,7 @@ static void test_text_metrics(void **state)
     /* a ray through the middle of an 'I' hits its front face at z = 0 */
     s = ok(BASE_B "text { ttf \"timrom.ttf\" \"I\" 0.5, 0 }");
     i = info(s);
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 0.5f * (i.bounds_min[0] + i.bounds_max[0]), 0.3f, -5, 0, 0, 1, &h));
     NEAR(h.t, 5.0f);
     NEAR(h.ns.z, -1.0f);
@@ -798,7 +798,7 @@ static void test_csg_operands(void **state)
             continue;
         snprintf(text, sizeof text, BASE_B "difference { %s plane { -x, 0 } }", cases[i].shape);
         vbnl_pov_scene *s = ok(text);
-        vbnl_hit h;
+        vbi_hit h;
         int got = hit(s, 5, cases[i].y, cases[i].z, -1, 0, 0, &h);
         if (!got || fabsf(h.t - 5.0f) > 2e-3f)
             fprintf(stderr, "# %s: %s t %g\n", cases[i].shape, got ? "hit at" : "no hit", got ? h.t : 0.0f);

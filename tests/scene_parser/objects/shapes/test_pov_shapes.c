@@ -10,7 +10,7 @@ static void test_sphere_analytic(void **state)
     vbnl_scene_info i = info(s);
     assert_int_equal(i.sphere_count, 1);
     assert_int_equal(i.triangle_count, 0);
-    vbnl_hit h; /* centre (3, 4, 6), radius 1 */
+    vbi_hit h; /* centre (3, 4, 6), radius 1 */
     assert_true(hit(s, 3, 4, -10, 0, 0, 1, &h));
     NEAR(h.t, 15.0f);
     vbnl_pov_scene_destroy(s);
@@ -26,7 +26,7 @@ static void test_sphere_tessellated(void **state)
     assert_int_equal(i.triangle_count, 0);
     NEAR(i.bounds_max[0], 2.0f);
     NEAR(i.bounds_max[1], 6.0f);
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, -10, 0, 0, 1, 0, 0, &h));
     NEAR(h.t, 8.0f);
     assert_true(hit(s, -10, 5, 0, 1, 0, 0, &h));
@@ -67,7 +67,7 @@ static void test_box_and_transform_order(void **state)
                 "sphere { 0, 1 matrix <1,0,0, 0,1,0, 0,0,1, 5,6,7> }\n"
                 "sphere { 0, 1 transform T translate <0, 20, 0> }\n"
                 "sphere { 0, 1 transform { T inverse } translate <0, -20, 0> }");
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 5, 6, -10, 0, 0, 1, &h));
     NEAR(h.t, 16.0f);
     assert_true(hit(s, 1, 20, -10, 0, 0, 1, &h)); /* radius 2 at <1, 20, 0> */
@@ -82,7 +82,7 @@ static void test_cylinder_cone_disc_torus(void **state)
     (void)state;
     vbnl_pov_scene *s = ok(BASE "cylinder { <0, 0, 0>, <0, 2, 0>, 1 }");
     assert_int_equal(info(s).triangle_count, 4 * 64);
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 0, 5, 0, 0, -1, 0, &h)); /* top cap */
     NEAR(h.t, 3.0f);
     vbnl_pov_scene_destroy(s);
@@ -113,7 +113,7 @@ static void test_plane(void **state)
 {
     (void)state;
     vbnl_pov_scene *s = ok(BASE "plane { y, -1 }\nsphere { 0, 1 }");
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 30, 5, 40, 0, -1, 0, &h));
     NEAR(h.t, 6.0f);
     /* a generous patch: 100 times the bounding radius around the scene centre */
@@ -131,7 +131,7 @@ static void test_triangles_polygon(void **state)
     vbnl_pov_scene *s = ok(BASE "triangle { <0,0,0>, <1,0,0>, <0,1,0> }\n"
                                 "smooth_triangle { <0,0,5>, y, <1,0,5>, y, <0,1,5>, z }");
     assert_int_equal(info(s).triangle_count, 2);
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 0.2f, 0.2f, -3, 0, 0, 1, &h));
     NEAR(h.t, 3.0f);
     vbnl_pov_scene_destroy(s);
@@ -153,7 +153,7 @@ static void test_triangles_polygon(void **state)
 
 static const vbnl_material_desc *mat_at(vbnl_pov_scene *s, float x, float y)
 {
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, x, y, -20, 0, 0, 1, &h));
     return &sc(s)->materials[h.material].desc;
 }
@@ -200,7 +200,7 @@ static void test_mesh_mesh2_textures(void **state)
     NEAR(mat_at(s, 10.8f, 0.2f)->base_color[1], 0.6f); /* diffuse 0.6 (POV-Ray's default) x 1 */
     NEAR(mat_at(s, 10.8f, 0.2f)->base_color[0], 0.0f);
     NEAR(mat_at(s, 10.2f, 0.8f)->base_color[0], 0.6f);
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 10.2f, 0.8f, -20, 0, 0, 1, &h));
     NEAR(h.ns.z, -1.0f);
     vbnl_pov_scene_destroy(s);
@@ -261,7 +261,7 @@ static void test_curved_shapes_placed(void **state)
 /* Does a ray from o along d hit the scene, and where (t)? */
 static float hit_t(vbnl_pov_scene *s, float ox, float oy, float oz, float dx, float dy, float dz)
 {
-    vbnl_hit h;
+    vbi_hit h;
     return hit(s, ox, oy, oz, dx, dy, dz, &h) ? h.t : -1.0f;
 }
 
@@ -307,7 +307,7 @@ static void test_csg(void **state)
     assert_float_equal(hit_t(s, 5, 0, -10, 0, 0, 1), -1.0f, 0);         /* the hole */
     assert_float_equal(hit_t(s, 5, -3, 0, 0, 1, 0), 2.0f, 0.01f);       /* outer wall from below */
     /* the cut face (at y = 0 after the rotation) has the box's green; the rest the CSG's red */
-    vbnl_hit h;
+    vbi_hit h;
     assert_true(hit(s, 5.75f, 3, 0.5f, 0, -1, 0, &h));
     assert_float_equal(h.t, 3.0f, 1e-3f);
     NEAR(sc(s)->materials[h.material].desc.base_color[0], 0.0f);

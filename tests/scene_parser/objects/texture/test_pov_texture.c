@@ -186,28 +186,28 @@ static void commit_textures(harness *h)
     if (h->committed)
         return;
     vbnl_error err = {0};
-    assert_int_equal(vbnl_texture_commit(h->c.scene, &err), VBNL_OK);
+    assert_int_equal(vbi_texture_commit(h->c.scene, &err), VBNL_OK);
     h->committed = 1;
 }
 
 /* The BSDF object i has at p with normal n, for the hit seed `seed`. */
-static vbnl_bsdf bsdf_at_n(harness *h, int i, double x, double y, double z, vec3 n, uint32_t seed)
+static vbi_bsdf bsdf_at_n(harness *h, int i, double x, double y, double z, vec3 n, uint32_t seed)
 {
     commit_textures(h);
     assert_true(i < h->nmats);
-    vbnl_hit hit;
+    vbi_hit hit;
     memset(&hit, 0, sizeof(hit));
     hit.p = v3((float)x, (float)y, (float)z);
     hit.ng = hit.ns = n;
     hit.uv = (vec2){(float)x, (float)y};
     hit.material = h->mats[i];
     hit.prim = seed;
-    vbnl_bsdf storage;
-    return *vbnl_surface_bsdf(h->c.scene, &hit, &storage);
+    vbi_bsdf storage;
+    return *vbi_surface_bsdf(h->c.scene, &hit, &storage);
 }
 
 /* The BSDF object i has at p (normal +z, uv (x, y)), for the hit seed `seed`. */
-static vbnl_bsdf bsdf_at(harness *h, int i, double x, double y, double z, uint32_t seed)
+static vbi_bsdf bsdf_at(harness *h, int i, double x, double y, double z, uint32_t seed)
 {
     return bsdf_at_n(h, i, x, y, z, v3(0, 0, 1), seed);
 }
@@ -336,7 +336,7 @@ static void test_finish_mapping(void **state)
     assert_int_equal(d->conductor_use_ior, 0);
     assert_true(d->alpha == 0.001f);
     /* what the pigment lets through refracts into the interior, tinted by f c + t */
-    vbnl_bsdf g = bsdf_at(h, 7, 0, 0, 0, 0);
+    vbi_bsdf g = bsdf_at(h, 7, 0, 0, 0, 0);
     assert_int_equal(g.type, VBNL_MATERIAL_DIELECTRIC);
     assert_float_equal(g.ior, 1.33, 1e-6);
     expect_color(g.color, 0.5, 1, 1, 1e-6);
@@ -588,7 +588,7 @@ static void test_image_map(void **state)
     const double bump_pts[2][3] = {{0.31, 0, 0.47}, {0.8, 0, 0.2}};
     for (int i = 0; i < 3; ++i)
         for (int k = 0; k < 2; ++k) {
-            vbnl_bsdf b = bsdf_at_n(h, i, bump_pts[k][0], bump_pts[k][1], bump_pts[k][2], v3(0, 1, 0), 0);
+            vbi_bsdf b = bsdf_at_n(h, i, bump_pts[k][0], bump_pts[k][1], bump_pts[k][2], v3(0, 1, 0), 0);
             const float got[3] = {b.bumped ? b.ns.x : 0.0f, b.bumped ? b.ns.y : 1.0f, b.bumped ? b.ns.z : 0.0f};
             for (int c = 0; c < 3; ++c)
                 if (fabs(got[c] - bump_ref[i][k][c]) > 1e-4)
@@ -657,7 +657,7 @@ static void test_texture_blends(void **state)
     expect_color(color_at(h, 2, 0.3, 0.3, 0.3, 4000), 0.25, 0, 0.75, 0.03);
     expect_color(color_at(h, 3, 0.5, 0.5, 0.5, 1), 0, 1, 0, 0);
     expect_color(color_at(h, 3, 1.5, 0.5, 0.5, 1), 1, 0, 0, 0);
-    vbnl_bsdf pass = bsdf_at(h, 4, 0.3, 0.3, 0.3, 0);
+    vbi_bsdf pass = bsdf_at(h, 4, 0.3, 0.3, 0.3, 0);
     assert_int_equal(pass.type, VBNL_MATERIAL_DIELECTRIC);
     assert_float_equal(pass.ior, 1.0, 0);
     expect_color(pass.color, 1, 1, 1, 1e-6);
@@ -675,7 +675,7 @@ static void test_bumps(void **state)
     /* gradient x, amount 1 (POV-Ray's normal.cpp): n + sum_i -5 amount v(p + 0.02 d_i) d_i over
      * the four unit directions d_i of a tetrahedron (sum_i d_i d_i^T = 4/3 I), so a slope of 1
      * along x adds -5 * 0.02 * 4/3 = -0.1333 to n_x before normalising */
-    vbnl_bsdf b = bsdf_at(h, 0, 0.5, 0.5, 0, 0);
+    vbi_bsdf b = bsdf_at(h, 0, 0.5, 0.5, 0, 0);
     assert_true(b.bumped);
     const double nx = -0.02 * 5 * 4.0 / 3.0, len = sqrt(1 + nx * nx);
     assert_float_equal(b.ns.x, nx / len, 1e-5);
@@ -727,7 +727,7 @@ static void test_bumps_against_povray(void **state)
     double worst = 0;
     for (int i = 0; i < n; ++i)
         for (int k = 0; k < 2; ++k) {
-            vbnl_bsdf b = bsdf_at_n(h, i, pts[k][0], pts[k][1], pts[k][2], v3(0, 1, 0), 0);
+            vbi_bsdf b = bsdf_at_n(h, i, pts[k][0], pts[k][1], pts[k][2], v3(0, 1, 0), 0);
             assert_true(b.bumped);
             const float got[3] = {b.ns.x, b.ns.y, b.ns.z};
             for (int c = 0; c < 3; ++c)
@@ -927,7 +927,7 @@ static void test_standard_includes(void **state)
     for (int obj = 2; obj <= 5; obj += 3) {
         int glass = 0, n = 2000;
         for (int k = 0; k < n; ++k) {
-            vbnl_bsdf b = bsdf_at(h, obj, 0.1, 0.2, 0.3, (uint32_t)k);
+            vbi_bsdf b = bsdf_at(h, obj, 0.1, 0.2, 0.3, (uint32_t)k);
             if (b.type == VBNL_MATERIAL_DIELECTRIC) {
                 assert_float_equal(b.ior, 1.5, 1e-6);
                 glass++;
