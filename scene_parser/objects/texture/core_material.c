@@ -369,10 +369,17 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
                     : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
                                       : 0.001f;
-    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0) {
+    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0 && !f->fresnel) {
         md->type = VBNL_MATERIAL_MIRROR;
         memcpy(scale, f->reflection, sizeof(scale));
         *tinted = 0;
+    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0) {
+        /* reflection { fresnel } alone: the clear coat's Fresnel reflection of the interior's ior
+         * over a black base (POV-Ray's reflection between 0 and its maximum by Fresnel's formula) */
+        md->type = VBNL_MATERIAL_PLASTIC;
+        md->alpha = 0.001f;
+        md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
+        scale[0] = scale[1] = scale[2] = 0.0;
     } else if (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0) {
         md->type = VBNL_MATERIAL_PLASTIC;
         md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)

@@ -62,12 +62,23 @@ static vbnl_result refl_metallic(const pov_item *it)
     return VBNL_OK;
 }
 
-static vbnl_result refl_ignored(const pov_item *it) /* fresnel [on], falloff f, exponent e */
+/* fresnel [on]: the reflection follows the Fresnel term of the interior's ior, which is what the
+ * core's clear coat does (core_material.c gives a reflection-only finish a coat over black) */
+static vbnl_result refl_fresnel(const pov_item *it)
+{
+    double v = 1;
+    vbnl_sdl_next(it->p);
+    if (optional_value_follows(vbnl_sdl_peek(it->p)) && vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    ((reflection_block *)it->target)->f->fresnel = v != 0;
+    return VBNL_OK;
+}
+
+static vbnl_result refl_ignored(const pov_item *it) /* falloff f, exponent e */
 {
     double v;
     vbnl_sdl_next(it->p);
-    if ((strcmp(it->kw, "fresnel") || optional_value_follows(vbnl_sdl_peek(it->p))) &&
-        vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
+    if (vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
         return VBNL_ERR_PARSE;
     vbnl_sdl_warning(it->p, &it->loc, "reflection '%s' is ignored (the lobe's own Fresnel term applies)", it->kw);
     return VBNL_OK;
@@ -89,7 +100,7 @@ static int refl_color(const pov_item *it)
 
 static const pov_row reflection_rows[] = {
     {"metallic", refl_metallic, 0},
-    {"fresnel", refl_ignored, 0},
+    {"fresnel", refl_fresnel, 0},
     {"falloff", refl_ignored, 0},
     {"exponent", refl_ignored, 0},
     {NULL, NULL, 0},

@@ -96,6 +96,7 @@ typedef struct pov_finish {
     double diffuse, emission[3], reflection[3], specular, roughness, phong, phong_size;
     double brilliance; /* the diffuse falloff exponent (1: Lambert) */
     int metallic;
+    int fresnel; /* reflection { fresnel }: the reflection follows the interior's Fresnel term */
 } pov_finish;
 
 typedef struct pov_ext_bsdf { /* vbnl_bsdf { }: a core material given directly */

@@ -307,7 +307,9 @@ static void test_finish_mapping(void **state)
         /* 8 transmit -> untinted glass */
         "object_test { pigment { rgbt <0.5, 0.2, 0.2, 1> } interior { ior 1.5 } }\n"
         /* 9 metallic with specular highlights -> rough conductor */
-        "object_test { pigment { rgb <0.9, 0.6, 0.2> } finish { specular 0.8 roughness 0.02 metallic } }\n");
+        "object_test { pigment { rgb <0.9, 0.6, 0.2> } finish { specular 0.8 roughness 0.02 metallic } }\n"
+        /* 10 reflection { fresnel } alone -> the coat's Fresnel reflection of the interior's ior over black */
+        "object_test { pigment { rgb 1 } finish { diffuse 0 reflection { 0, 1 fresnel } } interior { ior 1.33 } }\n");
     const vbnl_material_desc *d = mat(h, 0);
     assert_int_equal(d->type, VBNL_MATERIAL_LAMBERT);
     expect3(d->base_color, 0.8, 0.4, 0.2, 1e-6);
@@ -346,6 +348,11 @@ static void test_finish_mapping(void **state)
     d = mat(h, 9);
     assert_int_equal(d->type, VBNL_MATERIAL_CONDUCTOR);
     assert_float_equal(d->alpha, sqrt(2.0 / 52.0), 1e-6);
+    d = mat(h, 10);
+    assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
+    expect3(d->base_color, 0, 0, 0, 0);
+    assert_float_equal(d->ior, 1.33, 1e-6);
+    assert_null(warning_text(h, "fresnel"));
     done(h);
 }
 
