@@ -124,6 +124,7 @@ void vbnl_scene_destroy(vbnl_scene *s)
         free(s->group_rtc);
     }
     vbi_alias_table_free(&s->light_table);
+    vbi_alias_table_free(&s->nee_table);
     free(s->geoms);
     free(s->materials);
     vbi_env_destroy(s->env_sky);

@@ -226,6 +226,7 @@ static void commit_undo(vbnl_scene *s)
     s->env_light = VBI_NO_LIGHT;
     vbi_env_unbake(s->env_sky);
     vbi_alias_table_free(&s->light_table);
+    vbi_alias_table_free(&s->nee_table);
 }
 
 static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err);
@@ -320,15 +321,45 @@ static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
                               "the scene has no light (add a light source, an emissive surface or an environment)");
     vec3 center = v3_scale(v3_add(s->bounds_min, s->bounds_max), 0.5f);
     float radius = 0.5f * v3_len(v3_sub(s->bounds_max, s->bounds_min));
-    float *power = malloc(sizeof(float) * s->light_count);
-    if (!power)
+    float *power = malloc(sizeof(float) * s->light_count), *weight = malloc(sizeof(float) * s->light_count);
+    if (!power || !weight) {
+        free(power);
+        free(weight);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory");
+    }
     for (uint32_t i = 0; i < s->light_count; ++i) {
         s->lights[i].world_center = center;
         s->lights[i].world_radius = radius > 0.0f ? radius : 1.0f;
         power[i] = v3_avg(vbi_light_power(&s->lights[i]));
     }
     int rc = vbi_alias_table_build(&s->light_table, power, s->light_count);
+    if (rc == 0) {
+        /* Next-event estimation picks a light by the irradiance it gives at the scene's centre:
+         * a finite light's power over 4 pi d^2 (d its distance from the centre, at least 1% of
+         * the scene's radius), pi times an environment's mean radiance, a directional light's
+         * irradiance. By power alone an environment or directional light would count its
+         * radiance over the scene's whole cross-section, which an unbounded plane makes huge,
+         * and a sun beside a sky would be picked so rarely that its light came as speckles. */
+        float floor2 = sqr(0.01f * (radius > 0.0f ? radius : 1.0f)), total = 0.0f;
+        for (uint32_t i = 0; i < s->light_count; ++i) {
+            const vbi_light *l = &s->lights[i];
+            vec3 c = l->p;
+            if (l->type == VBI_LIGHT_RECT)
+                c = v3_add(l->p, v3_scale(v3_add(l->e0, l->e1), 0.5f));
+            else if (l->type == VBI_LIGHT_TRIANGLE)
+                c = v3_add(l->p, v3_scale(v3_add(l->e0, l->e1), 1.0f / 3.0f));
+            float w = l->type == VBI_LIGHT_ENV           ? VBI_PI * v3_avg(l->L)
+                      : l->type == VBI_LIGHT_DIRECTIONAL ? v3_avg(l->L)
+                      : power[i] / (4.0f * VBI_PI * fmaxf(v3_len2(v3_sub(c, center)), floor2));
+            weight[i] = isfinite(w) && w > 0.0f ? w : 0.0f;
+            total += weight[i];
+        }
+        /* (every weight underflowing, lights astronomically far from the scene: by power) */
+        rc = vbi_alias_table_build(&s->nee_table, total > 0.0f ? weight : power, s->light_count);
+        if (rc != 0)
+            vbi_alias_table_free(&s->light_table);
+    }
+    free(weight);
     free(power);
     if (rc != 0)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,

@@ -94,7 +94,9 @@ struct vbnl_scene {
                                 * for the nodes that need it) */
     vbi_light *lights;        /* user lights first, then emitters found at commit */
     uint32_t light_count, light_capacity, user_light_count;
-    vbi_alias_table light_table; /* power-based selection */
+    vbi_alias_table light_table; /* power-based selection: photons and light paths */
+    vbi_alias_table nee_table;   /* next-event estimation: by the irradiance each light gives at the
+                                  * scene's centre (scene_commit.c) */
     uint32_t env_light;        /* index in lights or VBI_NO_LIGHT */
     vec3 env_radiance;
     struct vbi_env *env_sky;  /* a directional environment (environment.h) or NULL */
@@ -489,19 +491,22 @@ int vbi_camera_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t height, f
  * 0 for NULL or an uncommitted scene. */
 uint64_t vbi_scene_fingerprint(const vbnl_scene *s);
 
+/* Picks a light by power (photons and light paths: each then carries the same share of the
+ * scene's power). */
 static inline uint32_t vbi_scene_pick_light(const vbnl_scene *s, float u, float *pmf)
 {
     return vbi_alias_table_sample(&s->light_table, u, pmf);
 }
-/* vbi_scene_pick_light returning in *rest u rescaled within the picked light's share of [0,1)
- * (vbi_alias_table_sample_reuse). */
+/* Picks a light for next-event estimation (nee_table), returning in *rest u rescaled within the
+ * picked light's share of [0,1) (vbi_alias_table_sample_reuse). */
 static inline uint32_t vbi_scene_pick_light_reuse(const vbnl_scene *s, float u, float *pmf, float *rest)
 {
-    return vbi_alias_table_sample_reuse(&s->light_table, u, pmf, rest);
+    return vbi_alias_table_sample_reuse(&s->nee_table, u, pmf, rest);
 }
+/* The probability that next-event estimation picks `light` (for MIS with BSDF sampling). */
 static inline float vbi_scene_light_pmf(const vbnl_scene *s, uint32_t light)
 {
-    return s->light_table.pmf[light];
+    return s->nee_table.pmf[light];
 }
 
 #endif

@@ -156,18 +156,21 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
     pov_m4_point(pr->m, l->point_at, at);
     pov_m4_dir(pr->m, l->axis1, a1);
     pov_m4_dir(pr->m, l->axis2, a2);
-    /* POV-Ray's light gives the irradiance colour * a(d) at distance d, with a = 1 unfaded and
-     * a = 2 / (1 + (d / fade_distance)^fade_power) faded (reference "Light Fading"). The core's
-     * lights fall off physically, as 1/d^2: the radiant intensity I = colour a(D) D^2 (W/sr)
-     * gives POV-Ray's irradiance at D, the distance from the light to the centre of the scene's
-     * geometry (at least 1; the fade distance when the scene has no finite geometry). */
+    /* POV-Ray's light of colour c lights a surface of `diffuse d` and pigment p facing it at
+     * distance d' with the colour d p c a(d') cos(theta), a = 1 unfaded and a = 2 / (1 + (d' /
+     * fade_distance)^fade_power) faded (reference "Light Fading", "Diffuse Reflection Items"): no
+     * 1/pi, so in the core, whose Lambertian of albedo d p reflects the radiance d p E / pi, the
+     * light's irradiance is pi c a(d') cos(theta). The core's lights fall off physically, as 1/d^2:
+     * the radiant intensity I = pi c a(D) D^2 (W/sr) gives POV-Ray's brightness at D, the distance
+     * from the light to the centre of the scene's geometry (at least 1; the fade distance when the
+     * scene has no finite geometry); a parallel light's irradiance is pi c. */
     const int faded = l->fade_distance > 0 && l->fade_power > 0;
     double D = faded ? l->fade_distance : 1;
     if (L->have_geo) {
         double d[3] = {pos[0] - L->geo_centre[0], pos[1] - L->geo_centre[1], pos[2] - L->geo_centre[2]};
         D = fmax(1.0, pov_len3(d));
     }
-    double s = D * D * (faded ? 2.0 / (1.0 + pow(D / l->fade_distance, l->fade_power)) : 1.0);
+    double s = POV_PI * D * D * (faded ? 2.0 / (1.0 + pow(D / l->fade_distance, l->fade_power)) : 1.0);
     float I[3];
     for (int i = 0; i < 3; ++i)
         I[i] = (float)(fmax(l->color[i], 0) * s);
@@ -177,7 +180,8 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
             return vbnl_error_set(err, VBNL_ERR_PARSE, "%s:%d:%d: parallel light: point_at equals the location",
                                   pr->loc.file, pr->loc.line, pr->loc.col);
         float d[3] = {(float)dir[0], (float)dir[1], (float)dir[2]};
-        float E[3] = {(float)fmax(l->color[0], 0), (float)fmax(l->color[1], 0), (float)fmax(l->color[2], 0)};
+        float E[3] = {(float)(POV_PI * fmax(l->color[0], 0)), (float)(POV_PI * fmax(l->color[1], 0)),
+                      (float)(POV_PI * fmax(l->color[2], 0))};
         uint32_t id;
         vbnl_result r = vbnl_scene_add_directional_light(L->c.scene, d, E, &id, err);
         return r == VBNL_OK && l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : r;

@@ -16,7 +16,7 @@ box), no calibration.
 
 The exporter writes a lamp's colour only, never its power, and a fade: a point lamp gets
 fade_distance sqrt(distance / 2), an area lamp distance / 2, with fade_power 2. vbnl gives such a
-light the radiant intensity I = colour * a(D) * D^2, with POV-Ray's fade a(D) = 2 / (1 + (D /
+light the radiant intensity I = pi * colour * a(D) * D^2, with POV-Ray's fade a(D) = 2 / (1 + (D /
 fade_distance)^2) at the distance D from the light to the centre of the geometry, at least 1
 (docs/scene-language.md, "Lights"), and makes an area lamp a two-sided Lambertian rectangle of the
 point light's power 4 pi I. The lamp's power in Cycles is set to the same light: a point lamp of P
@@ -85,7 +85,7 @@ scene.collection.objects.link(lamp)
 fade = math.sqrt(light.distance / 2.0) if LAMP == "point" else light.distance / 2.0  # what the exporter writes
 centre = (0.0, 0.0, 1.0)                           # the geometry's bounding box centre
 D = max(1.0, math.dist(lamp.location, centre))
-intensity = 2.0 / (1.0 + (D / fade) ** 2) * D * D  # vbnl's radiant intensity of the exported light
+intensity = math.pi * 2.0 / (1.0 + (D / fade) ** 2) * D * D  # vbnl's radiant intensity of the exported light
 light.energy = 4.0 * math.pi * intensity if LAMP == "point" else 8.0 * intensity
 
 cam = bpy.data.cameras.new("Camera")

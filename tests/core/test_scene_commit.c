@@ -57,7 +57,8 @@ static void emissive_mesh(vbnl_scene *s, uint32_t m)
 
 /* Emitters become lights at commit: one per non-degenerate emissive triangle, one per emissive
  * sphere, one for the environment, after the lights added by the user; the light table picks
- * each with probability proportional to its (mean) power. */
+ * each with probability proportional to its (mean) power, next-event estimation by the
+ * irradiance it gives at the scene's centre. */
 static void test_emitters_and_power(void **state)
 {
     (void)state;
@@ -91,8 +92,24 @@ static void test_emitters_and_power(void **state)
     assert_float_equal(power[2], M_PI * 2.0 * 2.0, 1e-4);
     assert_float_equal(power[3], M_PI * 2.0 * 4.0 * M_PI * 0.25, 1e-3);
     for (uint32_t k = 0; k < 5; ++k)
-        assert_float_equal(vbi_scene_light_pmf(s, k), power[k] / total, 1e-5);
+        assert_float_equal(s->light_table.pmf[k], power[k] / total, 1e-5);
     assert_int_equal(s->env_light, 4);
+    /* next-event estimation picks each by the irradiance it gives at the scene's centre: power
+     * over 4 pi d^2 for the finite ones, pi times the environment's radiance */
+    const vec3 centre = v3_scale(v3_add(s->bounds_min, s->bounds_max), 0.5f);
+    vec3 at[4] = {s->lights[0].p, v3_add(s->lights[1].p, v3_scale(v3_add(s->lights[1].e0, s->lights[1].e1), 1.0f / 3.0f)),
+                  v3_add(s->lights[2].p, v3_scale(v3_add(s->lights[2].e0, s->lights[2].e1), 1.0f / 3.0f)),
+                  s->lights[3].p};
+    double w[5], wt = 0.0;
+    for (uint32_t k = 0; k < 4; ++k)
+        w[k] = power[k] / (4.0 * M_PI * v3_len2(v3_sub(at[k], centre)));
+    w[4] = M_PI * 0.1;
+    for (uint32_t k = 0; k < 5; ++k)
+        wt += w[k];
+    for (uint32_t k = 0; k < 5; ++k)
+        assert_float_equal(vbi_scene_light_pmf(s, k), w[k] / wt, 1e-4);
+    /* the environment's share by power is far larger than by irradiance here */
+    assert_true(s->light_table.pmf[4] > 2.0f * vbi_scene_light_pmf(s, 4));
     /* a ray down onto the quad hits a light's triangle; the degenerate one is nobody's light */
     vbi_hit h;
     assert_true(vbi_scene_intersect(s, v3(0.5f, -0.2f, 1.0f), v3(0, 0, -1), INFINITY, &h));

@@ -8,11 +8,12 @@ binary, reads its progress lines and loads the image. vbnl reads POV-Ray's comma
 
 - the lamps' power: the exporter writes a lamp's colour only. Here every lamp is written with
   POV-Ray's fade_power 2 and a fade_distance F far below any distance in the scene, which makes
-  the light fall off as I / d^2 with I = 2 F^2 times its colour, in POV-Ray and in vbnl alike
-  (vbnl: docs/scene-language.md, "Lights"); the colour is chosen so that I is Cycles' radiant
+  the light fall off as I / d^2 with I = 2 pi F^2 times its colour (POV-Ray's colour c lights a
+  white diffuse surface as the irradiance pi c does a Lambertian: docs/scene-language.md,
+  "Lights"); the colour is chosen so that I is Cycles' radiant
   intensity: P / (4 pi) for point and spot lamps of P watts, P / 8 for area lamps (the on-axis
   intensity of Cycles' one-sided area lamp is P / 4, vbnl's area light is a two-sided rectangle),
-  and a sun's strength as the irradiance of a parallel light;
+  and a sun's strength as the irradiance (pi times the colour) of a parallel light;
 - node materials: the exporter writes an empty texture for them. A material whose output is a
   Principled BSDF is written, through the exporter's "replacement text", as its base colour,
   metallic, roughness and emission: Lambertian, GGX plastic or GGX conductor (vbnl's mapping of
@@ -116,10 +117,10 @@ def export_lights(lamps, file, scene, global_matrix, tab_write):
         tab_write(file, "light_source {\n")
         tab_write(file, "< 0,0,0 >\n")
         if light.type == "SUN":
-            tab_write(file, "color rgb<%.6g, %.6g, %.6g>\n" % tuple(values))
+            tab_write(file, "color rgb<%.6g, %.6g, %.6g>\n" % tuple(v / math.pi for v in values))
             tab_write(file, "parallel\npoint_at <0, 0, -1>\n")
         else:
-            c = [v / (2.0 * FADE * FADE) for v in values]
+            c = [v / (2.0 * math.pi * FADE * FADE) for v in values]
             tab_write(file, "color rgb<%.6g, %.6g, %.6g>\n" % tuple(c))
             tab_write(file, "fade_distance %g\nfade_power 2\n" % FADE)
             if light.type == "SPOT":

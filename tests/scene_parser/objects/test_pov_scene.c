@@ -187,36 +187,38 @@ static const vbi_light *light0(vbnl_pov_scene *s) { return &sc(s)->lights[0]; }
 static void test_lights(void **state)
 {
     (void)state;
+    /* POV-Ray's colour c lights a diffuse surface as the irradiance pi c does a Lambertian */
+    const float PI_F = (float)M_PI;
     vbnl_pov_scene *s = ok("light_source { <1, 2, 3> rgb <1, 2, 3> translate x }");
     assert_int_equal(light0(s)->type, VBI_LIGHT_POINT);
     NEAR(light0(s)->p.x, 2.0f);
-    NEAR(light0(s)->L.y, 2.0f);
+    NEAR(light0(s)->L.y, 2.0f * PI_F);
     vbnl_pov_scene_destroy(s);
-    /* unfaded: POV-Ray's irradiance at the geometry's centre (distance 100 here), so a distant
+    /* unfaded: POV-Ray's brightness at the geometry's centre (distance 100 here), so a distant
      * sun lights the scene; at least the colour itself (distance 1) */
     s = ok("sphere { 0, 1 } light_source { <0, 100, 0> rgb <1, 2, 3> }");
-    NEAR(light0(s)->L.y / 2e4f, 1.0f);
+    NEAR(light0(s)->L.y / 2e4f, PI_F);
     vbnl_pov_scene_destroy(s);
     s = ok("sphere { 0, 1 } light_source { <0, 0.5, 0> rgb <1, 2, 3> }");
-    NEAR(light0(s)->L.y, 2.0f);
+    NEAR(light0(s)->L.y, 2.0f * PI_F);
     vbnl_pov_scene_destroy(s);
     /* faded: POV-Ray's 2 / (1 + (d / fade_distance)^fade_power) at the geometry's centre, times
      * d^2: here d = 4 from the centre of the unit sphere */
     s = ok("sphere { 0, 1 } light_source { <0, 4, 0> rgb 1 fade_distance 2 fade_power 2 }");
-    NEAR(light0(s)->L.x, 16.0f * 2.0f / (1.0f + 4.0f));
+    NEAR(light0(s)->L.x, PI_F * 16.0f * 2.0f / (1.0f + 4.0f));
     vbnl_pov_scene_destroy(s);
     s = ok("sphere { 0, 1 } light_source { <0, 4, 0> rgb 1 fade_distance 2 fade_power 1 }");
-    NEAR(light0(s)->L.x, 16.0f * 2.0f / (1.0f + 2.0f));
+    NEAR(light0(s)->L.x, PI_F * 16.0f * 2.0f / (1.0f + 2.0f));
     assert_null(strstr(g_diags, "warning"));
     vbnl_pov_scene_destroy(s);
     /* Blender's exported lamp: fade_distance 50 for a box a few units across is almost unfaded
      * (about twice the colour), not 2 * 50^2 */
     s = ok("box { -1, 1 } light_source { <0, 3, 0> rgb 1 fade_distance 50 fade_power 2 }");
-    NEAR(light0(s)->L.x, 9.0f * 2.0f / (1.0f + 9.0f / 2500.0f));
+    NEAR(light0(s)->L.x, PI_F * 9.0f * 2.0f / (1.0f + 9.0f / 2500.0f));
     vbnl_pov_scene_destroy(s);
     /* no finite geometry: the irradiance at the fade distance */
     s = ok("light_source { <0, 0, 0> rgb 1 fade_distance 3 fade_power 2 }");
-    NEAR(light0(s)->L.x, 9.0f);
+    NEAR(light0(s)->L.x, PI_F * 9.0f);
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 5, 0> rgb 2 spotlight point_at <0, 0, 0> radius 10 falloff 20 tightness 5 }");
     assert_int_equal(light0(s)->type, VBI_LIGHT_SPOT);
@@ -224,17 +226,17 @@ static void test_lights(void **state)
     NEAR(light0(s)->cos_outer, (float)cos(20 * M_PI / 180));
     NEAR(light0(s)->exponent, 5.0f);
     NEAR(light0(s)->n.y, -1.0f);
-    NEAR(light0(s)->L.x, 2.0f);
+    NEAR(light0(s)->L.x, 2.0f * PI_F);
     vbnl_pov_scene_destroy(s);
     s = ok("light_source { <0, 10, 0> rgb 3 parallel point_at <0, 0, 0> }");
     assert_int_equal(light0(s)->type, VBI_LIGHT_DIRECTIONAL);
     NEAR(light0(s)->n.y, -1.0f);
-    NEAR(light0(s)->L.x, 3.0f);
+    NEAR(light0(s)->L.x, 3.0f * PI_F);
     vbnl_pov_scene_destroy(s);
     /* area light: two-sided rectangle, radiance 2 I / A (the point light's power) */
     s = ok("light_source { <0, 5, 0> rgb 1 area_light <2, 0, 0>, <0, 0, 1>, 4, 4 adaptive 1 jitter circular orient }");
     assert_int_equal(light0(s)->type, VBI_LIGHT_RECT);
-    NEAR(light0(s)->L.x, 1.0f);
+    NEAR(light0(s)->L.x, PI_F);
     NEAR(light0(s)->area, 2.0f);
     NEAR(light0(s)->p.x, -1.0f);
     vbnl_pov_scene_destroy(s);
