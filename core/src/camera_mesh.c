@@ -7,13 +7,11 @@
 #include "camera_mesh.h"
 #include "vbnl/result.h"
 
-/* The scene's copy: the meshes and their arrays in one allocation each, the direction transform
- * of every mesh and, for distribution 3, a grid of g x g cells over uv [0, 1]^2 listing, in face
+/* The scene's copy: the meshes and their arrays in one allocation each and, for distribution 3, a grid of g x g cells over uv [0, 1]^2 listing, in face
  * order, the faces of mesh 0 whose uv bounds touch each cell. */
 typedef struct cam_mesh_store {
     vbnl_camera_mesh *meshes;
     float *floats;
-    float (*dir_xf)[9]; /* per mesh: sign(det) x cofactors of the linear part = the inverse transpose up to scale */
     uint32_t grid;
     uint32_t *cell_start; /* grid * grid + 1 */
     uint32_t *cell_faces;
@@ -27,21 +25,12 @@ static int finite_n(const float *v, size_t n)
     return 1;
 }
 
-/* The inverse transpose of the row-major 4x4 m's linear part, up to a positive scale (enough for
- * directions, which are normalised): the cofactor matrix times the sign of the determinant.
- * Returns 0 when the part cannot be inverted. */
-static int direction_transform(const float m[16], float out[9])
+/* The mesh's transform as the core's matrix; 0 when its linear part cannot be inverted. */
+static int mesh_matrix(const float t[16], mat4 *m, float *det)
 {
-    const float a = m[0], b = m[1], c = m[2], d = m[4], e = m[5], f = m[6], g = m[8], h = m[9], i = m[10];
-    const float cof[9] = {e * i - f * h, -(d * i - f * g), d * h - e * g,
-                          -(b * i - c * h), a * i - c * g, -(a * h - b * g),
-                          b * f - c * e, -(a * f - c * d), a * e - b * d};
-    const float det = a * cof[0] + b * cof[1] + c * cof[2];
-    if (!(fabsf(det) > 0.0f) || !isfinite(det))
-        return 0;
-    for (int k = 0; k < 9; ++k)
-        out[k] = det > 0.0f ? cof[k] : -cof[k];
-    return 1;
+    memcpy(m->m, t, sizeof m->m);
+    *det = mat4_det3(m);
+    return fabsf(*det) > 0.0f && isfinite(*det);
 }
 
 static int build_uv_grid(cam_mesh_store *st)
@@ -108,7 +97,6 @@ void vbi_camera_mesh_free(void *store)
         return;
     free(st->meshes);
     free(st->floats);
-    free(st->dir_xf);
     free(st->cell_start);
     free(st->cell_faces);
     free(st);
@@ -145,7 +133,6 @@ vbnl_result vbi_camera_mesh_copy(vbnl_camera_desc *c, vbnl_error *err)
                               "a smooth mesh camera needs distribution 3 and normals on its first mesh");
     cam_mesh_store *st = calloc(1, sizeof *st);
     if (!st || !(st->meshes = calloc(c->mesh_count, sizeof *st->meshes)) ||
-        !(st->dir_xf = calloc(c->mesh_count, sizeof *st->dir_xf)) ||
         !(st->floats = malloc((nf ? nf : 1) * sizeof *st->floats))) {
         vbi_camera_mesh_free(st);
         return vbnl_error_set(err, VBNL_ERR_OUT_OF_MEMORY, "out of memory copying the mesh camera");
@@ -171,7 +158,9 @@ vbnl_result vbi_camera_mesh_copy(vbnl_camera_desc *c, vbnl_error *err)
             *dst[a] = f;
             f += per[a] * n;
         }
-        if (!finite_n(m->transform, 16) || !direction_transform(m->transform, st->dir_xf[k])) {
+        mat4 mm;
+        float det;
+        if (!finite_n(m->transform, 16) || !mesh_matrix(m->transform, &mm, &det)) {
             vbi_camera_mesh_free(st);
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "mesh camera mesh %u: its transform cannot be inverted",
                                   k);
@@ -274,16 +263,13 @@ int vbi_camera_mesh_ray(const vbnl_camera_desc *c, uint32_t width, uint32_t heig
     org = v3_add(org, v3_scale(dir, c->mesh_offset));
     if (c->mesh_reverse)
         dir = v3_neg(dir);
-    const float *t = m->transform;
-    *o = v3(t[0] * org.x + t[1] * org.y + t[2] * org.z + t[3], t[4] * org.x + t[5] * org.y + t[6] * org.z + t[7],
-            t[8] * org.x + t[9] * org.y + t[10] * org.z + t[11]);
-    float nx[9];
-    if (st)
-        memcpy(nx, st->dir_xf[mesh], sizeof nx);
-    else if (!direction_transform(t, nx))
+    mat4 mm;
+    float det;
+    if (!mesh_matrix(m->transform, &mm, &det))
         return 0;
-    *d = v3(nx[0] * dir.x + nx[1] * dir.y + nx[2] * dir.z, nx[3] * dir.x + nx[4] * dir.y + nx[5] * dir.z,
-            nx[6] * dir.x + nx[7] * dir.y + nx[8] * dir.z);
+    *o = mat4_point(&mm, org);
+    /* the inverse transpose, up to a positive scale: the cofactors times the determinant's sign */
+    *d = v3_scale(mat4_normal(&mm, dir), det > 0.0f ? 1.0f : -1.0f);
     return 1;
 }
 

@@ -348,23 +348,7 @@ static inline __attribute__((always_inline)) int vbi_scene_occluded_mask(const v
 static inline __attribute__((always_inline)) int vbi_scene_occluded_inline(const vbnl_scene *s, vec3 o, vec3 d,
                                                                             float tfar)
 {
-    struct RTCIntersectContext ictx;
-    rtcInitIntersectContext(&ictx);
-    struct RTCRay ray;
-    ray.org_x = o.x;
-    ray.org_y = o.y;
-    ray.org_z = o.z;
-    ray.dir_x = d.x;
-    ray.dir_y = d.y;
-    ray.dir_z = d.z;
-    ray.tnear = 0.0f;
-    ray.tfar = tfar;
-    ray.time = 0.0f;
-    ray.mask = 0xffffffffu;
-    ray.id = 0;
-    ray.flags = 0;
-    rtcOccluded1(s->world, &ictx, &ray);
-    return ray.tfar == -INFINITY;
+    return vbi_scene_occluded_mask(s, o, d, tfar, 0xffffffffu);
 }
 
 /* Distance to the closest hit along o + t d for t in (0, tfar), or tfar for a miss (the hit
