@@ -98,6 +98,9 @@ extern "C" __attribute__((visibility("default"))) int vbnl_oiio_image_read_strea
         out->texels = t;
         out->indices = nullptr;
         encoding_of(spec, out);
+        const int is_float = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
+                             spec.format.basetype == OIIO::TypeDesc::HALF || spec.format.basetype == OIIO::TypeDesc::DOUBLE;
+        out->bits = is_float ? 0u : (uint32_t)(spec.format.size() * 8);
         in->close();
         return 0;
     } catch (const std::exception &e) {

@@ -91,6 +91,7 @@ static int read_png(FILE *f, pov_image_data *out, char *why, size_t why_size)
     }
     const int palette = type == PNG_COLOR_TYPE_PALETTE;
     out->grey8_png = (type == PNG_COLOR_TYPE_GRAY || type == PNG_COLOR_TYPE_GRAY_ALPHA) && depth <= 8;
+    out->bits = depth == 16 ? 16 : 8;
     if (palette) { /* keep the indices, then expand to colours */
         png_set_packing(png);
     } else {

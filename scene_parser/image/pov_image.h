@@ -32,6 +32,9 @@ typedef struct pov_image_data {
     double gamma;                     /* POV_IMAGE_GAMMA: the decoding exponent */
     int grey8_png;                    /* a greyscale PNG of at most 8 bits: POV-Ray keeps its decoded
                                        * values in 8 bits (image_map.c) */
+    uint32_t bits;                    /* bits per stored value of an integer format (8 for palettes and
+                                       * PNG greys of fewer bits, which are scaled to 8), 0 for float
+                                       * formats (height_field reads colour images by it) */
 } pov_image_data;
 
 /* Reads the image at `path` (already resolved and allowed by the caller). Returns 0, or -1 with

@@ -10,15 +10,15 @@
  * function image is F(i / (W - 1), row / (H - 1), 0) clamped to [0, 1] on 16 bits. `smooth`
  * averages the normals of the four quadrants around each point (POV-Ray's normals);
  * `water_level w` cuts the surface away below the height w (POV-Ray's rays do not look below
- * it). Inside (for CSG): below the surface over the unit square, or below the water level. Images are read from
- * PNG files (libpng); other formats are refused with the reason. */
-#include <png.h>
+ * it). Inside (for CSG): below the surface over the unit square, or below the water level. Images are read as
+ * texture images are (PNG through libpng, the other formats through OpenImageIO: pov_image.h); POV-Ray's `pot`
+ * and `sys` files are skipped with a warning. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
-#include "read_file.h"
+#include "pov_image.h"
 
 #include "pov_surface.h"
 #include "sdl_internal.h"
@@ -61,79 +61,51 @@ static const pov_solid_fn hf_fn = {hf_inside, hf_destroy, NULL};
 /* ---- the heights ----------------------------------------------------------------------------- */
 
 /* A PNG's heights, or NULL with *why set. */
-static float *read_png(const char *path, uint32_t *w, uint32_t *h, const char **why)
+/* The heights of an image as POV-Ray's image_height_at gives them, on 16 bits (value / 65536):
+ * a palette image's index * 256, a grey image's value * 65535, a colour image of at most 8 bits
+ * (or a float one, which POV-Ray also counts as 8-bit) red * 256 + green, a deeper colour one's
+ * grey (0.297 r + 0.589 g + 0.114 b) * 65535. The stored values are used as they are, without
+ * the file's transfer function. Returns NULL with the reason in *why. */
+static float *image_heights(const pov_image_data *img, const char **why)
 {
-    FILE *f = vbi_read_fopen(path, NULL, why);
-    if (!f)
-        return NULL;
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-    png_infop info = png ? png_create_info_struct(png) : NULL;
-    float *heights = NULL;
-    png_bytep *rows = NULL;
-    png_bytep data = NULL;
-    if (!png || !info) {
-        *why = "out of memory";
-        goto done;
-    }
-    if (setjmp(png_jmpbuf(png))) {
-        *why = "not a PNG file libpng can read";
-        free(heights);
-        heights = NULL;
-        goto done;
-    }
-    png_init_io(png, f);
-    png_read_info(png, info);
-    uint32_t W = png_get_image_width(png, info), H = png_get_image_height(png, info);
-    int ct = png_get_color_type(png, info), depth = png_get_bit_depth(png, info);
+    const uint32_t W = img->width, H = img->height, ch = img->channels;
     if (W < 2 || H < 2 || W > 16384 || H > 16384) {
         *why = "a size a height field cannot use (2 to 16384 pixels a side)";
-        goto done;
+        return NULL;
     }
-    if (depth < 8)
-        png_set_packing(png); /* one byte per value (indices and greys unscaled) */
-    if (ct & PNG_COLOR_MASK_ALPHA)
-        png_set_strip_alpha(png);
-    png_read_update_info(png, info);
-    size_t rb = png_get_rowbytes(png, info);
-    data = malloc(rb * H);
-    rows = malloc(sizeof *rows * H);
-    heights = malloc(sizeof *heights * (size_t)W * H);
-    if (!data || !rows || !heights) {
+    float *heights = malloc(sizeof *heights * (size_t)W * H);
+    if (!heights) {
         *why = "out of memory";
-        free(heights);
-        heights = NULL;
-        goto done;
+        return NULL;
     }
-    for (uint32_t r = 0; r < H; ++r)
-        rows[r] = data + rb * r;
-    png_read_image(png, rows);
-    int channels = png_get_channels(png, info), bytes = depth == 16 ? 2 : 1;
-    double gmax = depth == 16 ? 65535.0 : (double)((1 << (depth < 8 ? depth : 8)) - 1);
     for (uint32_t r = 0; r < H; ++r)
         for (uint32_t x = 0; x < W; ++x) {
-            const png_byte *px = rows[r] + (size_t)x * channels * bytes;
-            double v[3] = {0, 0, 0};
-            for (int c = 0; c < channels && c < 3; ++c)
-                v[c] = bytes == 2 ? px[2 * c] << 8 | px[2 * c + 1] : px[c];
+            const size_t i = (size_t)r * W + x;
+            const float *px = img->texels + i * ch;
+            double v[3];
+            for (int c = 0; c < 3; ++c) {
+                const float t = px[ch >= 3 ? c : 0];
+                v[c] = isfinite(t) ? t : 0.0;
+            }
+            /* an integer format's stored integers, exactly (the texels are their floats scaled to [0, 1]) */
+            const double q = img->bits >= 1 && img->bits <= 16 ? (double)((1u << img->bits) - 1u) : 0.0;
+            double n[3];
+            for (int c = 0; c < 3; ++c)
+                n[c] = q > 0.0 ? (double)lrint(v[c] * q) : v[c];
             double hv;
-            if (ct == PNG_COLOR_TYPE_PALETTE)
-                hv = v[0] * 256; /* the index */
-            else if (!(ct & PNG_COLOR_MASK_COLOR))
-                hv = floor(v[0] / gmax * 65535.0);
-            else if (depth == 16)
-                hv = floor((0.297 * v[0] + 0.589 * v[1] + 0.114 * v[2]) / 65535.0 * 65535.0);
+            if (img->indices)
+                hv = img->indices[i] * 256.0;
+            else if (ch < 3)
+                hv = q > 0.0 ? floor(n[0] * 65535.0 / q) : floor(v[0] * 65535.0);
+            else if (img->bits > 8)
+                hv = floor((0.297 * n[0] + 0.589 * n[1] + 0.114 * n[2]) * 65535.0 / q);
+            else if (q > 0.0)
+                hv = n[0] * 256.0 + n[1]; /* red the high byte, green the low one */
             else
-                hv = v[0] * 256 + v[1]; /* red the high byte, green the low one */
+                hv = floor((v[0] * 256.0 + v[1]) * 255.0);
+            hv = hv < 0.0 ? 0.0 : hv > 65535.0 ? 65535.0 : hv;
             heights[(size_t)(H - 1 - r) * W + x] = (float)(hv / 65536.0);
         }
-    *w = W;
-    *h = H;
-done:
-    if (png)
-        png_destroy_read_struct(&png, info ? &info : NULL, NULL);
-    free(rows);
-    free(data);
-    fclose(f);
     return heights;
 }
 
@@ -351,29 +323,33 @@ vbnl_result pov_shape_height_field(const pov_shape *s)
             r = VBNL_ERR_PARSE;
             goto done;
         }
-        if (!type) { /* no type: the file's extension gives it, as in POV-Ray */
-            const char *dot = strrchr(name, '.');
-            type = "";
-            for (size_t i = 0; dot && i < sizeof types / sizeof types[0]; ++i)
-                if (!strcasecmp(dot + 1, types[i]) || (!strcasecmp(dot + 1, "jpg") && !strcmp(types[i], "jpeg")) ||
-                    (!strcasecmp(dot + 1, "tif") && !strcmp(types[i], "tiff")))
-                    type = types[i];
-        }
-        if (strcmp(type, "png") != 0) {
-            if (type[0])
-                vbnl_sdl_warning(p, &at, "height_field: '%s' images are not read (convert '%s' to PNG); the object is skipped",
-                                 type, name);
-            else
-                vbnl_sdl_warning(p, &at, "height_field: '%s' is not a PNG image (the type of an image named without its "
-                                 "type is its extension); the object is skipped", name);
+        const char *dot = strrchr(name, '.');
+        const int pot = type ? !strcmp(type, "pot") : dot && !strcasecmp(dot + 1, "pot");
+        if (pot || (type && !strcmp(type, "sys"))) {
+            /* Fractint's continuous-potential files and a platform's own format: no image library
+             * reads them */
+            vbnl_sdl_warning(p, &at, "height_field: '%s' images are not read (convert '%s' to PNG); the object is skipped",
+                             pot ? "pot" : "sys", name);
             hs.skip = 1;
         } else if (!(path = pov_shape_find_file(L, name, NULL, &nloc, "height_field: image"))) {
             r = VBNL_ERR_PARSE;
         } else {
+            /* every other format through the texture images' reader (libpng, else OpenImageIO) */
+            pov_image_data img;
+            char msg[256];
             const char *why = NULL;
-            hs.d->y = read_png(path, &hs.d->w, &hs.d->h, &why);
-            if (!hs.d->y)
-                r = strcmp(why, "out of memory") ? vbnl_sdl_error(p, &nloc, "height_field: cannot read '%s': %s", path, why) : pov_oom(L);
+            if (pov_image_read(path, &img, msg, sizeof msg) != 0) {
+                r = vbnl_sdl_error(p, &nloc, "height_field: cannot read '%s': %s", path, msg);
+            } else {
+                if ((hs.d->y = image_heights(&img, &why)) != NULL) {
+                    hs.d->w = img.width;
+                    hs.d->h = img.height;
+                } else {
+                    r = strcmp(why, "out of memory") ? vbnl_sdl_error(p, &nloc, "height_field: cannot read '%s': %s", path, why)
+                                                     : pov_oom(L);
+                }
+                pov_image_data_free(&img);
+            }
         }
         free(name);
         free(path);

@@ -5,6 +5,8 @@
  * bound), the normal (against the exact gradient), and which rays miss. Inside tests are checked
  * through CSG (a small sphere intersected with the shape is there exactly when its centre is
  * inside), and each shape is cut by a CSG. text is checked against FreeType's own metrics. */
+#include <unistd.h>
+
 #include "pov_test.h"
 
 #include <ft2build.h>
@@ -630,6 +632,65 @@ static void test_height_field(void **state)
                  "test.pov:3:20: height_field: image: cannot find 'missing.png' (searched: ., /usr/share/povray-3.7/include)");
 }
 
+/* Height fields from image files other than PNG (through OpenImageIO), with POV-Ray's values: a
+ * 16-bit grey PGM's value * 65535 / 65535, an 8-bit colour PPM's red * 256 + green. */
+static void test_height_field_images(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/vbnl_hf_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char cwd[4096], path[512];
+    assert_non_null(getcwd(cwd, sizeof cwd));
+    assert_int_equal(chdir(dir), 0);
+    /* 2 x 2, top row first: the top row lies at z = 1 */
+    FILE *f = fopen("grey.pgm", "w");
+    assert_non_null(f);
+    fputs("P2\n2 2\n65535\n1000 2000\n30000 65535\n", f);
+    fclose(f);
+    f = fopen("colour.ppm", "w");
+    assert_non_null(f);
+    fputs("P3\n2 2\n255\n10 20 0  0 0 0\n0 0 0  200 7 99\n", f);
+    fclose(f);
+    f = fopen("bad.tga", "w");
+    assert_non_null(f);
+    fputs("not an image", f);
+    fclose(f);
+    const struct {
+        const char *file;
+        double corner[4]; /* heights * 65536 at (x, z) = (0, 1), (1, 1), (0, 0), (1, 0) */
+    } cases[] = {
+        {"pgm \"grey.pgm\"", {1000, 2000, 30000, 65535}},
+        {"\"colour.ppm\"", {10 * 256 + 20, 0, 0, 200 * 256 + 7}},
+    };
+    for (size_t i = 0; i < 2; ++i) {
+        char text[512];
+        snprintf(text, sizeof text, BASE_B "height_field { %s }", cases[i].file);
+        vbnl_pov_scene *s = ok(text);
+        const float xz[4][2] = {{0.001f, 0.999f}, {0.999f, 0.999f}, {0.001f, 0.001f}, {0.999f, 0.001f}};
+        for (int k = 0; k < 4; ++k) {
+            vbi_hit h;
+            assert_true(hit(s, xz[k][0], 5, xz[k][1], 0, -1, 0, &h));
+            assert_float_equal(5 - h.t, cases[i].corner[k] / 65536.0, 2e-3);
+        }
+        vbnl_pov_scene_destroy(s);
+    }
+    /* a file no library reads: an error at the file name, with the library's reason */
+    vbnl_pov_scene *s = NULL;
+    vbnl_error err;
+    assert_int_equal(load(BASE "height_field { tga \"bad.tga\" }", &s, &err), VBNL_ERR_PARSE);
+    assert_null(s);
+    assert_non_null(strstr(err.message, "test.pov:3:20: height_field: cannot read '"));
+    assert_non_null(strstr(err.message, "bad.tga': "));
+    snprintf(path, sizeof path, "%s/bad.tga", dir);
+    assert_int_equal(chdir(cwd), 0);
+    remove(path);
+    snprintf(path, sizeof path, "%s/grey.pgm", dir);
+    remove(path);
+    snprintf(path, sizeof path, "%s/colour.ppm", dir);
+    remove(path);
+    assert_int_equal(rmdir(dir), 0);
+}
+
 static void test_julia_bicubic_parametric(void **state)
 {
     (void)state;
@@ -824,6 +885,7 @@ int main(void)
         cmocka_unit_test(test_prism),
         cmocka_unit_test(test_sphere_sweep_ovus_lemon),
         cmocka_unit_test(test_height_field),
+        cmocka_unit_test(test_height_field_images),
         cmocka_unit_test(test_julia_bicubic_parametric),
         cmocka_unit_test(test_text_metrics),
         cmocka_unit_test(test_text_errors),
