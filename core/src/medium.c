@@ -194,6 +194,26 @@ int vbi_region_is_empty(const vbnl_scene *sc, uint32_t region)
     return region_medium(sc, region) == NULL;
 }
 
+int vbi_region_scatters(const vbnl_scene *sc, uint32_t region)
+{
+    const scene_medium *m = region_medium(sc, region);
+    return m && m->scatters;
+}
+
+vec3 vbi_medium_inscatter(const vbnl_scene *sc, uint32_t region, vec3 p, float mu)
+{
+    const scene_medium *m = region_medium(sc, region);
+    vec3 f = v3s(0.0f);
+    if (!m || !m->scatters)
+        return f;
+    coeffs c;
+    medium_at(sc, m, p, &c);
+    for (uint32_t k = 0; k < m->part_count; ++k)
+        if (c.part_w[k] > 0.0f)
+            f = v3_add(f, v3_scale(c.part_ss[k], vbi_phase_eval(m->part[k].phase, m->part[k].g, mu)));
+    return f;
+}
+
 /* ---- fog --------------------------------------------------------------------------------------- */
 
 /* POV-Ray's ground fog density 1 / (1 + h^2) above the offset (1 below) averaged along the

@@ -134,6 +134,12 @@ void vbi_medium_cross(const vbnl_scene *sc, vbi_medium_stack *s, uint32_t materi
 /* 1 when a segment in `region` meets nothing (no medium, no fog). */
 int vbi_region_is_empty(const vbnl_scene *sc, uint32_t region);
 
+/* 1 when the medium of `region` scatters light (fog does not: it only blends). */
+int vbi_region_scatters(const vbnl_scene *sc, uint32_t region);
+/* sum_k sigma_s,k(p) phase_k(mu) of the region's medium at p: the light scattered per unit
+ * length and solid angle at the cosine mu between the directions of travel (0 outside media). */
+vec3 vbi_medium_inscatter(const vbnl_scene *sc, uint32_t region, vec3 p, float mu);
+
 /* ---- commit (medium.c) ---- */
 
 /* Majorants and flags once the textures and bounds are final. */

@@ -5,7 +5,8 @@
  * the walk follows the ray through regions and pass-through surfaces, and when the path scatters
  * in a medium, the walk shades that point as a path tracer does: next-event estimation of the
  * real lights with the phase function, combined by the power heuristic with phase sampling,
- * which also continues the path. The integrator sees only the surface the walk reaches, with the
+ * which also continues the path; point and spot lights are estimated along each segment by
+ * equiangular sampling instead. The integrator sees only the surface the walk reaches, with the
  * throughput the way there leaves. Connections (shadow rays, connections to virtual lights) get
  * vbi_shadow_transmittance: the same crossings and the media's transmittance. */
 #include <math.h>
@@ -79,12 +80,68 @@ vec3 vbi_shadow_transmittance(const vbnl_scene *sc, const vbi_medium_stack *medi
     return T;
 }
 
+/* Point and spot lights: their light scattered once in a medium is estimated along the whole
+ * segment a path travels in it, not at the points delta tracking stops at. */
+static int is_point_light(const vbi_light *l) { return l->type == VBI_LIGHT_POINT || l->type == VBI_LIGHT_SPOT; }
+
+/* The light of a point or spot light scattered once toward the path along its segment o + t d,
+ * t in (0, tmax), in `region` (a scattering medium), by equiangular sampling (Kulla and Fajardo
+ * 2012, "Importance Sampling Techniques for Path Tracing in Participating Media", Sec. 4): t is
+ * drawn with a pdf proportional to 1 / (distance to the light)^2, so the light's 1/r^2 peak, which
+ * distances drawn by the medium's density meet rarely and then as a spike, is sampled where it
+ * lies. The estimate is T(0, t) sigma_s phase Li T_shadow / (pdf(t) pmf); the vertex estimate of
+ * vbi_estimate_direct_medium leaves these lights out, so each is counted once (no MIS is needed:
+ * phase sampling never reaches a point light). A segment that escapes ends at the scene's far
+ * bound, as the media's tracking takes it. */
+static vec3 equiangular_direct(const vbnl_scene *sc, const vbi_medium_stack *media, uint32_t region, vec3 o, vec3 d,
+                               float tmax, vbi_sampler *sp, vbi_thread_stats *stats)
+{
+    float pmf;
+    vec2 u = vbi_sampler_next2(sp);
+    const uint32_t li = vbi_scene_pick_light_reuse(sc, u.x, &pmf, &u.x);
+    const vbi_light *light = &sc->lights[li];
+    if (!is_point_light(light) || !(pmf > 0.0f))
+        return v3s(0.0f);
+    const float tend = isinf(tmax) ? sc->far_bound : tmax;
+    const vec3 lo = v3_sub(light->p, o);
+    const float along = v3_dot(lo, d);                              /* the closest approach's t */
+    const float D = maxf(v3_len(v3_sub(lo, v3_scale(d, along))), 1e-6f * (1.0f + fabsf(along)));
+    const float ta = atan2f(-along, D), tb = atan2f(tend - along, D);
+    if (!(tb > ta))
+        return v3s(0.0f);
+    const float t = along + D * tanf(ta + u.y * (tb - ta));
+    if (!(t > 0.0f && t < tend))
+        return v3s(0.0f);
+    const float x = t - along;
+    const float pdf = D / ((tb - ta) * (D * D + x * x));
+    const vec3 p = v3_fma(o, d, t);
+    vbi_light_li_sample ls;
+    if (!vbi_light_sample_li(light, p, (vec2){0.5f, 0.5f}, &ls) || vbi_is_black(ls.Li))
+        return v3s(0.0f);
+    /* light travels along -wi, then back along -d */
+    const vec3 f = vbi_medium_inscatter(sc, region, p, v3_dot(ls.wi, d));
+    if (vbi_is_black(f))
+        return f;
+    vbi_rand r = {sp, NULL};
+    vec3 T = vbi_medium_transmittance(sc, region, o, d, t, &r);
+    if (!light->shadowless && !vbi_is_black(T)) {
+        vec3 sdir;
+        float stmax;
+        if (!vbi_shadow_segment(&ls, p, &sdir, &stmax))
+            return v3s(0.0f);
+        T = v3_mul(T, vbi_shadow_transmittance(sc, media, p, sdir, stmax, &r, stats, NULL));
+    }
+    return v3_scale(v3_mul(v3_mul(ls.Li, f), T), 1.0f / (pdf * pmf));
+}
+
 vec3 vbi_estimate_direct_medium(const vbnl_scene *sc, const vbi_medium_stack *media, vec3 p, vec3 out,
                                  vbnl_phase_kind kind, float g, vbi_sampler *sp, vbi_thread_stats *stats)
 {
     float pmf;
     vec2 ul = vbi_sampler_next2(sp);
     uint32_t li = vbi_scene_pick_light_reuse(sc, ul.x, &pmf, &ul.x);
+    if (is_point_light(&sc->lights[li]))
+        return v3s(0.0f); /* equiangular_direct estimates it along the segment */
     vbi_light_li_sample ls;
     if (!vbi_light_sample_li(&sc->lights[li], p, ul, &ls) || !(ls.pdf > 0.0f) || vbi_is_black(ls.Li))
         return v3s(0.0f);
@@ -148,6 +205,11 @@ int vbi_walk_next(vbi_walk *w, vec3 o, vec3 *d, uint32_t mask, vec3 x, float pdf
         }
         const uint32_t region = vbi_medium_region(&w->media);
         if (sc->has_media && !vbi_region_is_empty(sc, region)) {
+            if (vbi_region_scatters(sc, region) && (w->max_depth < 0 || w->depth < w->max_depth))
+                walk_add(w,
+                         v3_mul(w->beta, equiangular_direct(sc, &w->media, region, o, dir, hit_ok ? hit->t : INFINITY,
+                                                            w->sp, w->stats)),
+                         specular && seg_direct);
             vbi_rand r = {w->sp, NULL};
             vec3 L = v3s(0.0f);
             vbi_medium_event ev;
