@@ -129,6 +129,34 @@ vbnl_result pov_pigment_body(pov_ctx *c, pov_pigment *pg, int close)
     return VBNL_OK;
 }
 
+/* density { } (reference "Density"): a pigment's pattern, colour_map and transforms, and
+ * density_map (a pigment_map of densities). A declared density is a pigment value. */
+static const pov_row density_rows[] = {
+    {"density_map", pigment_map, 0},
+    {NULL, NULL, 0},
+};
+static const pov_row *const density_tables[] = {pov_pattern_transform_rows, pigment_rows, density_rows, NULL};
+static const pov_block density_items = {.name = "density",
+                                        .tables = density_tables,
+                                        .before = pattern_modifier,
+                                        .after = pattern_or_color,
+                                        .transform = pigment_transform,
+                                        .eof = "unexpected end of file in density"};
+
+vbnl_result pov_density_body(pov_ctx *c, pov_pigment *pg)
+{
+    if (vbnl_sdl_expect(c->parser, '{', "after 'density'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (pov_take_ident(c, &pov_type_pigment, pg, copy_pigment) < 0 ||
+        pov_block_parse(&density_items, c->parser, c, pg, NULL) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (pg->kind == POV_PIG_AVERAGE && pg->map.count == 0)
+        return vbnl_sdl_error(c->parser, NULL, "an average density needs a density_map");
+    if (pg->kind == POV_PIG_MAP && !pg->pat.name)
+        pg->kind = POV_PIG_SOLID;
+    return VBNL_OK;
+}
+
 vbnl_result pov_pigment_parse(pov_ctx *c, pov_pigment *pg)
 {
     if (vbnl_sdl_expect(c->parser, '{', "after 'pigment'") != VBNL_OK)
