@@ -429,7 +429,7 @@ void vbi_media_commit(vbnl_scene *sc)
     sc->far_bound = v3_len(v3_sub(cam, c)) + 2.0f * radius;
     for (uint32_t i = 0; i < sc->medium_count; ++i) {
         scene_medium *m = &sc->media[i];
-        float maj = 0.0f;
+        float maj = 0.0f, emit = 0.0f;
         m->constant = 1;
         m->sigma_a = m->sigma_s = m->emission = v3s(0.0f);
         m->scatters = m->emits = m->extinguishes = 0;
@@ -441,6 +441,7 @@ void vbi_media_commit(vbnl_scene *sc)
             if (pt->density_count)
                 m->constant = 0;
             maj += v3_max_comp(v3_mul(v3_add(pt->sigma_a, pt->sigma_s), b));
+            emit += v3_max_comp(v3_mul(pt->emission, b));
             m->sigma_a = v3_add(m->sigma_a, pt->sigma_a);
             m->sigma_s = v3_add(m->sigma_s, pt->sigma_s);
             m->emission = v3_add(m->emission, pt->emission);
@@ -449,8 +450,11 @@ void vbi_media_commit(vbnl_scene *sc)
         }
         m->extinguishes = maj > 0.0f;
         /* a medium that only emits (or whose extinction is tiny) still needs collisions to sample
-         * its emission: at least one per scene radius */
-        m->majorant = fmaxf(maj * 1.0001f, 1.0f / radius);
+         * its emission: at least one per scene radius, and enough that one collision adds at most
+         * a tenth of the emission's bound (each adds emission / majorant), up to 4096 collisions
+         * over the far bound (an escaped segment's length) */
+        const float emit_rate = fminf(10.0f * emit, 4096.0f / sc->far_bound);
+        m->majorant = fmaxf(fmaxf(maj * 1.0001f, 1.0f / radius), emit_rate);
     }
     sc->has_media = sc->medium_count > 0 || sc->fog_count > 0;
 }
