@@ -8,6 +8,7 @@
  *   radiance 1 looks 1 everywhere, with isotropic, Henyey-Greenstein and mixed Rayleigh + Mie
  *   phase functions (and path's clamp: a bound no contribution reaches changes no pixel, a low one
  *   darkens);
+ * - a medium that only emits gathers its emission along a ray with a bounded spread per ray;
  * - constant and ground fog reproduce POV-Ray's blend (reference "Fog") on camera rays;
  * - no_shadow geometry and shadowless lights: a ground point under an occluder gets the point
  *   light's full direct light I albedo / (pi r^2);
@@ -223,6 +224,57 @@ static void test_shadow_transmittance(void **state)
     }
     for (int c = 0; c < 3; ++c)
         assert_true(fabs(acc[c] - exp(-1.5 * sa[c])) < 2e-3);
+    vbnl_scene_destroy(s);
+}
+
+/* A medium that only emits, in a scene much larger than it (a sphere of radius 1 beside one 50
+ * units away): each ray through its diameter gathers 2 x emission, and the collisions are frequent
+ * enough (majorant >= 10 x emission) that single rays stay near it rather than a few rays carrying
+ * it all. */
+static void test_emission_only(void **state)
+{
+    fixture *f = *state;
+    vbnl_scene *s;
+    assert_int_equal(vbnl_scene_create(f->ctx, &s, NULL), VBNL_OK);
+    vbnl_medium_part_desc part;
+    memset(&part, 0, sizeof(part));
+    part.emission[0] = part.emission[1] = part.emission[2] = 0.05f;
+    part.phase = VBNL_PHASE_ISOTROPIC;
+    vbnl_medium_desc md;
+    vbnl_medium_desc_init(&md);
+    md.parts = &part;
+    md.part_count = 1;
+    uint32_t id;
+    assert_int_equal(vbnl_scene_add_medium(s, &md, &id, NULL), VBNL_OK);
+    medium_sphere(s, id, 1.0f);
+    vbnl_material_desc grey;
+    vbnl_material_desc_init(&grey);
+    uint32_t mat;
+    assert_int_equal(vbnl_scene_add_material(s, &grey, &mat, NULL), VBNL_OK);
+    const float far[3] = {0, 0, -100};
+    assert_int_equal(vbnl_scene_add_sphere(s, far, 1.0f, mat, VBNL_GROUP_WORLD, NULL, NULL), VBNL_OK);
+    const float env[3] = {1, 1, 1};
+    assert_int_equal(vbnl_scene_set_environment(s, env, NULL), VBNL_OK);
+    narrow_camera(s);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    assert_true(s->media[id].majorant >= 0.5f);
+    vbi_rng rng = vbi_rng_for(3, 0, 0);
+    vbi_rand r = {NULL, &rng};
+    const int n = 4000;
+    double mean = 0.0, sq = 0.0;
+    for (int i = 0; i < n; ++i) {
+        vec3 beta = v3s(1.0f), L = v3s(0.0f);
+        vbi_medium_event ev;
+        assert_int_equal(vbi_medium_track(s, id + 1, v3(-1, 0, 0), v3(1, 0, 0), 2.0f, &r, &beta, &L, &ev),
+                         VBI_TRACK_PASSED);
+        mean += L.x / n;
+        sq += (double)L.x * L.x / n;
+    }
+    assert_true(fabs(mean - 0.1) < 3e-3);
+    /* the collisions along 2 units are Poisson with mean 2 majorant, each adding emission /
+     * majorant: relative deviation 1 / sqrt(2 majorant), 1 at majorant 0.5 (one collision per
+     * scene radius, ~50 here, would give 5) */
+    assert_true(sqrt(sq - mean * mean) / mean < 1.1);
     vbnl_scene_destroy(s);
 }
 
@@ -448,6 +500,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_beer_lambert_grey, setup, teardown),
         cmocka_unit_test_setup_teardown(test_beer_lambert_chromatic, setup, teardown),
         cmocka_unit_test_setup_teardown(test_shadow_transmittance, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_emission_only, setup, teardown),
         cmocka_unit_test_setup_teardown(test_furnace, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fog, setup, teardown),
         cmocka_unit_test(test_brilliance),
