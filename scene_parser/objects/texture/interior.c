@@ -93,7 +93,6 @@ pov_pigment *pov_density_at(pov_ctx *c, uint32_t id) { return c->tex->densities[
 
 typedef struct media_item {
     vbnl_medium_part_desc *part;
-    double extinction;
     uint32_t *density; /* where the density { } blocks go (indices + 1), NULL: not kept (warned) */
     uint32_t ndensity;
     int warned_density;
@@ -136,10 +135,18 @@ static vbnl_result scat_eccentricity(const pov_item *it)
     return VBNL_OK;
 }
 
+/* extinction e: the share of the scattering in the extinction (POV-Ray's media.cpp: extinction =
+ * absorption + e scattering), the in-scattering unchanged; e < 1 is not energy conserving */
 static vbnl_result scat_extinction(const pov_item *it)
 {
+    double e;
     vbnl_sdl_next(it->p);
-    return vbnl_sdl_parse_float(it->p, &((media_item *)it->target)->extinction);
+    if (vbnl_sdl_parse_float(it->p, &e) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (!(e >= 0.0) || !(e < 1e30))
+        return vbnl_sdl_error(it->p, &it->loc, "scattering extinction must be finite and not negative (got %g)", e);
+    ((media_item *)it->target)->part->extinction_deficit = (float)(1.0 - e);
+    return VBNL_OK;
 }
 
 static const pov_row scattering_rows[] = {
@@ -263,16 +270,12 @@ vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part, uint32_t de
     part->phase = VBNL_PHASE_ISOTROPIC;
     if (density)
         memset(density, 0, sizeof(uint32_t) * VBNL_MEDIUM_DENSITY_MAX);
-    vbnl_sdl_loc loc = vbnl_sdl_peek(c->parser)->loc;
     if (vbnl_sdl_expect(c->parser, '{', "after 'media'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    media_item m = {part, 1.0, density, 0, 0, 0};
+    media_item m = {part, density, 0, 0, 0};
     vbnl_result r = pov_block_parse(&media_items, c->parser, c, &m, NULL);
     if (m.declared)
         part->phase = 0; /* left out: the callers keep only parts with a phase */
-    if (r == VBNL_OK && m.extinction != 1.0)
-        vbnl_sdl_warning(c->parser, &loc, "scattering extinction %g is not supported: scattering extincts fully (1)",
-                         m.extinction);
     return r;
 }
 

@@ -416,6 +416,16 @@ static void test_media(void **state)
     vbnl_pov_scene_destroy(s);
     expect_error(BASE "sphere { 0, 1 interior { media { scattering { 6, 1 } } } }",
                  "test.pov:3:34: scattering type must be 1 to 5 (got 6)");
+    /* scattering extinction e: the core part's deficit 1 - e, no warning */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { scattering { 1, 0.5 extinction 0.25 } } "
+                "media { scattering { 1, 0.5 } } } }");
+    NEAR(sc(s)->media[0].part[0].ext, 0.25f);
+    NEAR(sc(s)->media[0].part[1].ext, 1.0f);
+    NEAR(sc(s)->media[0].sigma_x.x, 0.5f * 0.25f + 0.5f);
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    expect_error(BASE "sphere { 0, 1 interior { media { scattering { 1, 1 extinction -1 } } } }",
+                 "test.pov:3:52: scattering extinction must be finite and not negative (got -1)");
 }
 
 static float v3_get(vec3 v, int c) { return c == 0 ? v.x : c == 1 ? v.y : v.z; }
