@@ -126,6 +126,18 @@ static uint32_t one_part_medium(vbnl_scene *s, const float sa[3], const float ss
     return id;
 }
 
+/* A medium of the one part given. */
+static uint32_t part_medium(vbnl_scene *s, const vbnl_medium_part_desc *part)
+{
+    vbnl_medium_desc md;
+    vbnl_medium_desc_init(&md);
+    md.parts = part;
+    md.part_count = 1;
+    uint32_t id;
+    assert_int_equal(vbnl_scene_add_medium(s, &md, &id, NULL), VBNL_OK);
+    return id;
+}
+
 /* A sphere of radius r at the origin whose surface lets light through unchanged (ior 1, white)
  * and whose inside is medium `medium`. */
 static void medium_sphere(vbnl_scene *s, uint32_t medium, float r)
@@ -242,12 +254,7 @@ static void test_emission_only(void **state)
     memset(&part, 0, sizeof(part));
     part.emission[0] = part.emission[1] = part.emission[2] = 0.05f;
     part.phase = VBNL_PHASE_ISOTROPIC;
-    vbnl_medium_desc md;
-    vbnl_medium_desc_init(&md);
-    md.parts = &part;
-    md.part_count = 1;
-    uint32_t id;
-    assert_int_equal(vbnl_scene_add_medium(s, &md, &id, NULL), VBNL_OK);
+    const uint32_t id = part_medium(s, &part);
     medium_sphere(s, id, 1.0f);
     vbnl_material_desc grey;
     vbnl_material_desc_init(&grey);
@@ -299,12 +306,7 @@ static void test_scattering_extinction(void **state)
         memcpy(part.scattering, cases[ci].ss, sizeof(part.scattering));
         part.phase = VBNL_PHASE_ISOTROPIC;
         part.extinction_deficit = 1.0f - cases[ci].e;
-        vbnl_medium_desc md;
-        vbnl_medium_desc_init(&md);
-        md.parts = &part;
-        md.part_count = 1;
-        uint32_t id;
-        assert_int_equal(vbnl_scene_add_medium(s, &md, &id, NULL), VBNL_OK);
+        const uint32_t id = part_medium(s, &part);
         medium_sphere(s, id, 1.0f);
         const float env[3] = {1, 1, 1};
         assert_int_equal(vbnl_scene_set_environment(s, env, NULL), VBNL_OK);
