@@ -41,7 +41,8 @@ typedef struct pov_ctx {
  * media without bias). Its density { } blocks go into `density` (state density indices + 1, the
  * rest 0), made core pigments when an object using the media is built; with density NULL (the
  * atmosphere) they are warned about and the media taken as constant. A scattering extinction e
- * becomes part->extinction_deficit = 1 - e (docs/scene-language.md, "Fog and media"). A declared
+ * becomes part->extinction_deficit = 1 - e, e raised (warned) where the albedo would exceed 1
+ * (docs/scene-language.md, "Fog and media"). A declared
  * media identifier inside is not supported: warned, and part->phase is 0 (the caller leaves the
  * part out). */
 vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part, uint32_t density[VBNL_MEDIUM_DENSITY_MAX]);

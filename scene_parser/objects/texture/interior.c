@@ -93,6 +93,8 @@ pov_pigment *pov_density_at(pov_ctx *c, uint32_t id) { return c->tex->densities[
 
 typedef struct media_item {
     vbnl_medium_part_desc *part;
+    double extinction;          /* the scattering's extinction e (1) */
+    vbnl_sdl_loc extinction_loc;
     uint32_t *density; /* where the density { } blocks go (indices + 1), NULL: not kept (warned) */
     uint32_t ndensity;
     int warned_density;
@@ -136,17 +138,43 @@ static vbnl_result scat_eccentricity(const pov_item *it)
 }
 
 /* extinction e: the share of the scattering in the extinction (POV-Ray's media.cpp: extinction =
- * absorption + e scattering), the in-scattering unchanged; e < 1 is not energy conserving */
+ * absorption + e scattering), the in-scattering unchanged; held where the albedo stays at most 1
+ * when the media block ends (media_extinction) */
 static vbnl_result scat_extinction(const pov_item *it)
 {
-    double e;
+    media_item *m = it->target;
     vbnl_sdl_next(it->p);
-    if (vbnl_sdl_parse_float(it->p, &e) != VBNL_OK)
+    if (vbnl_sdl_parse_float(it->p, &m->extinction) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (!(e >= 0.0) || !(e < 1e30))
-        return vbnl_sdl_error(it->p, &it->loc, "scattering extinction must be finite and not negative (got %g)", e);
-    ((media_item *)it->target)->part->extinction_deficit = (float)(1.0 - e);
+    if (!(m->extinction >= 0.0) || !(m->extinction < 1e30))
+        return vbnl_sdl_error(it->p, &it->loc, "scattering extinction must be finite and not negative (got %g)",
+                              m->extinction);
+    m->extinction_loc = it->loc;
     return VBNL_OK;
+}
+
+/* The part's extinction deficit 1 - e. POV-Ray scatters light once (from the lights and photons),
+ * so its e < 1 only brightens; a path tracer scatters many times, and where sigma_a + e sigma_s <
+ * sigma_s every scattering gains energy and the radiance of an optically thick medium grows
+ * without bound. So e is raised to the least value that keeps the albedo at most 1 in every
+ * channel, 1 - sigma_a / sigma_s (warned). */
+static void media_extinction(pov_ctx *c, media_item *m)
+{
+    vbnl_medium_part_desc *part = m->part;
+    double e = m->extinction, least = 0.0;
+    for (int k = 0; k < 3; ++k)
+        if (part->scattering[k] > 0.0f) {
+            double l = 1.0 - (double)part->absorption[k] / part->scattering[k];
+            least = l > least ? l : least;
+        }
+    if (e < least) {
+        vbnl_sdl_warning(c->parser, &m->extinction_loc,
+                         "scattering extinction %g would make the media gain energy when light scatters more than "
+                         "once (POV-Ray scatters once): raised to %g, where its albedo is 1",
+                         e, least);
+        e = least;
+    }
+    part->extinction_deficit = (float)(1.0 - e);
 }
 
 static const pov_row scattering_rows[] = {
@@ -272,8 +300,10 @@ vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part, uint32_t de
         memset(density, 0, sizeof(uint32_t) * VBNL_MEDIUM_DENSITY_MAX);
     if (vbnl_sdl_expect(c->parser, '{', "after 'media'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    media_item m = {part, density, 0, 0, 0};
+    media_item m = {.part = part, .extinction = 1.0, .density = density};
     vbnl_result r = pov_block_parse(&media_items, c->parser, c, &m, NULL);
+    if (r == VBNL_OK)
+        media_extinction(c, &m);
     if (m.declared)
         part->phase = 0; /* left out: the callers keep only parts with a phase */
     return r;

@@ -416,13 +416,24 @@ static void test_media(void **state)
     vbnl_pov_scene_destroy(s);
     expect_error(BASE "sphere { 0, 1 interior { media { scattering { 6, 1 } } } }",
                  "test.pov:3:34: scattering type must be 1 to 5 (got 6)");
-    /* scattering extinction e: the core part's deficit 1 - e, no warning */
-    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { scattering { 1, 0.5 extinction 0.25 } } "
-                "media { scattering { 1, 0.5 } } } }");
+    /* scattering extinction e: the core part's deficit 1 - e where the albedo stays at most 1 (here
+     * e >= 1 - 0.4 / 0.5 = 0.2), no warning */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { scattering { 1, 0.5 extinction 0.25 } "
+                "absorption <0.4, 0.45, 0.5> } media { scattering { 1, 0.5 } } } }");
     NEAR(sc(s)->media[0].part[0].ext, 0.25f);
     NEAR(sc(s)->media[0].part[1].ext, 1.0f);
     NEAR(sc(s)->media[0].sigma_x.x, 0.5f * 0.25f + 0.5f);
     assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    /* below that it is raised to it, warned (a pure scatterer: to 1) */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption 0.5 "
+                "scattering { 1, <1, 2, 0> extinction 0.1 } } media { scattering { 1, 1 extinction 0 } } } }");
+    NEAR(sc(s)->media[0].part[0].ext, 0.75f);
+    NEAR(sc(s)->media[0].part[1].ext, 1.0f);
+    assert_non_null(strstr(g_diags, "test.pov:3:101: warning: scattering extinction 0.1 would make the media gain energy "
+                                    "when light scatters more than once (POV-Ray scatters once): raised to 0.75, where "
+                                    "its albedo is 1"));
+    assert_non_null(strstr(g_diags, "raised to 1, where its albedo is 1"));
     vbnl_pov_scene_destroy(s);
     expect_error(BASE "sphere { 0, 1 interior { media { scattering { 1, 1 extinction -1 } } } }",
                  "test.pov:3:52: scattering extinction must be finite and not negative (got -1)");
