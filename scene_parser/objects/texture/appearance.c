@@ -490,7 +490,7 @@ void pov_appearance_transform(pov_appearance *a, const double m[16])
 {
     if (a) {
         pov_m4_mul(m, a->xf, a->xf);
-        pov_m4_mul(m, a->interior.xf, a->interior.xf); /* POV-Ray's object transforms move its media */
+        pov_interior_transform(&a->interior, m); /* POV-Ray's object transforms move its media */
     }
 }
 

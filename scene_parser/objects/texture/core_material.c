@@ -602,18 +602,18 @@ static vbnl_result interior_medium(pov_ctx *c, const pov_interior *in, const dou
     uint32_t ids[VBNL_MEDIUM_PARTS_MAX][VBNL_MEDIUM_DENSITY_MAX];
     memcpy(parts, in->media, sizeof(parts[0]) * in->nmedia);
     uint32_t n = in->nmedia;
-    double world_from_media[16], pre[16];
-    pov_m4_mul(world_from_pov, in->xf, world_from_media);
-    if (!pov_m4_invert(world_from_media, pre))
-        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "an interior transform is singular");
     build b;
     memset(&b, 0, sizeof(b));
     b.c = c;
     b.err = err;
     b.radiance = 1; /* densities are not albedos: not clamped to [0, 1] */
-    b.pre = pre;
     vbnl_result r;
     for (uint32_t i = 0; i < n; ++i) {
+        double world_from_media[16], pre[16];
+        pov_m4_mul(world_from_pov, in->xf[i], world_from_media);
+        if (!pov_m4_invert(world_from_media, pre))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "an interior transform is singular");
+        b.pre = pre;
         parts[i].density = ids[i];
         parts[i].density_count = 0;
         for (uint32_t k = 0; k < VBNL_MEDIUM_DENSITY_MAX && in->density[i][k]; ++k) {

@@ -316,8 +316,10 @@ static vbnl_result media(const pov_item *it)
     if (in->nmedia >= VBNL_MEDIUM_PARTS_MAX)
         return vbnl_sdl_error(it->p, &it->loc, "an interior holds at most %u media", VBNL_MEDIUM_PARTS_MAX);
     vbnl_result r = pov_media_parse(it->ctx, &in->media[in->nmedia], in->density[in->nmedia]);
-    if (r == VBNL_OK && in->media[in->nmedia].phase)
+    if (r == VBNL_OK && in->media[in->nmedia].phase) {
+        pov_m4_identity(in->xf[in->nmedia]); /* the transforms from here on move it */
         in->nmedia++;
+    }
     return r;
 }
 
@@ -348,7 +350,14 @@ void pov_interior_init(pov_interior *in)
 {
     memset(in, 0, sizeof(*in));
     in->ior = 1.0;
-    pov_m4_identity(in->xf);
+    for (uint32_t i = 0; i < VBNL_MEDIUM_PARTS_MAX; ++i)
+        pov_m4_identity(in->xf[i]);
+}
+
+void pov_interior_transform(pov_interior *in, const double m[16])
+{
+    for (uint32_t i = 0; i < in->nmedia; ++i)
+        pov_m4_mul(m, in->xf[i], in->xf[i]);
 }
 
 vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
@@ -359,8 +368,6 @@ vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
     if (pov_take_ident(c, &pov_type_interior, in, copy_interior) < 0)
         return VBNL_ERR_PARSE;
     vbnl_result r = pov_block_parse(&interior_items, c->parser, c, in, NULL);
-    /* the object's transforms from here on move its media */
-    pov_m4_identity(in->xf);
     in->medium = 0;
     if (r == VBNL_OK && in->fade_distance > 0.0 && !(in->fade_power > 0.0))
         vbnl_sdl_warning(c->parser, &loc,
@@ -387,7 +394,7 @@ static vbnl_result mat_bsdf(const pov_item *it)
 static void mat_transform(const pov_item *it, const double m[16])
 {
     pov_appearance *a = it->target;
-    pov_m4_mul(m, a->interior.xf, a->interior.xf);
+    pov_interior_transform(&a->interior, m);
     if (!pov_texture_transform(a->tex, m))
         vbnl_sdl_error(it->p, &it->loc, "a pattern has at most %d warps and transforms", POV_WARP_MAX);
 }

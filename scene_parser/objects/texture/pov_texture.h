@@ -128,7 +128,9 @@ typedef struct pov_interior {
     uint32_t nmedia;
     /* the density { } blocks of each media: indices + 1 into the state's densities */
     uint32_t density[VBNL_MEDIUM_PARTS_MAX][VBNL_MEDIUM_DENSITY_MAX];
-    double xf[16];                    /* object transforms given after the interior (they move its media) */
+    /* each media's transforms given after it (a material's, the object's: POV-Ray's
+     * Interior::Transform moves the media an interior has; identity for unused slots) */
+    double xf[VBNL_MEDIUM_PARTS_MAX][16];
     uint32_t medium;                  /* the core medium id + 1 (0: none); set only on the copy
                                        * core_material.c builds from */
 } pov_interior;
@@ -261,6 +263,7 @@ vbnl_result pov_parse_color3(pov_ctx *c, double out[3]);
 
 void pov_interior_init(pov_interior *in);                      /* interior.c: ior 1, no fade, no media */
 vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in);
+void pov_interior_transform(pov_interior *in, const double m[16]); /* moves the media it has */
 /* POV-Ray's fade as an absorption coefficient per channel (docs/scene-language.md, "Media"):
  * 1 when the interior fades (fade_distance > 0 and fade_power > 0), else 0. */
 int pov_interior_fade(const pov_interior *in, float sigma[3]);

@@ -527,6 +527,16 @@ static void test_media_density(void **state)
     T = mean_transmittance(s, v3(-2, 0, 0), v3(1, 0, 0), 1.5f, 10); /* r / 4 > 1 from the centre 4: nothing */
     NEAR(T.x, 1.0f);
     vbnl_pov_scene_destroy(s);
+    /* a second interior block keeps the first one's media where the transforms between moved
+     * them, and its own media start unmoved (POV-Ray transforms the media an interior has) */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption 1 density { spherical } } } "
+                "translate <4, 0, 0> interior { media { absorption 1 density { spherical translate <8, 0, 0> } } } "
+                "scale <1, 1, 1> }");
+    T = mean_transmittance(s, v3(3, 0, 0), v3(1, 0, 0), 2.0f, n); /* the first media's, moved to 4 */
+    assert_true(fabs(T.x - exp(-1.0)) < 4e-3);
+    T = mean_transmittance(s, v3(7, 0, 0), v3(1, 0, 0), 2.0f, n); /* the second's, at 8, not 12 */
+    assert_true(fabs(T.x - exp(-1.0)) < 4e-3);
+    vbnl_pov_scene_destroy(s);
     /* transforms before the interior do not move it (POV-Ray transforms the media it has) */
     s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } translate <4, 0, 0> hollow interior { media { absorption 1 "
                 "density { spherical translate <4, 0, 0> } } } }");
