@@ -117,6 +117,7 @@ static vec3 part_density(const vbnl_scene *sc, const vbi_medium_part *pt, vec3 p
 /* The coefficients of medium m at p; with `parts`, each part's scattering weight too. */
 typedef struct coeffs {
     vec3 sa, ss, em;
+    vec3 sx; /* the scattering's share of the extinction: sigma_t = sa + sx */
     vec3 part_ss[VBNL_MEDIUM_PARTS_MAX];
     float part_w[VBNL_MEDIUM_PARTS_MAX];
 } coeffs;
@@ -126,6 +127,7 @@ static void medium_at(const vbnl_scene *sc, const scene_medium *m, vec3 p, coeff
     if (m->constant) {
         c->sa = m->sigma_a;
         c->ss = m->sigma_s;
+        c->sx = m->sigma_x;
         c->em = m->emission;
         for (uint32_t k = 0; k < m->part_count; ++k) {
             c->part_ss[k] = m->part[k].sigma_s;
@@ -133,13 +135,14 @@ static void medium_at(const vbnl_scene *sc, const scene_medium *m, vec3 p, coeff
         }
         return;
     }
-    c->sa = c->ss = c->em = v3s(0.0f);
+    c->sa = c->ss = c->sx = c->em = v3s(0.0f);
     for (uint32_t k = 0; k < m->part_count; ++k) {
         const vbi_medium_part *pt = &m->part[k];
         vec3 d = part_density(sc, pt, p);
         c->sa = v3_add(c->sa, v3_mul(pt->sigma_a, d));
         vec3 ss = v3_mul(pt->sigma_s, d);
         c->ss = v3_add(c->ss, ss);
+        c->sx = v3_add(c->sx, v3_scale(ss, pt->ext));
         c->em = v3_add(c->em, v3_mul(pt->emission, d));
         c->part_ss[k] = ss;
         c->part_w[k] = v3_avg(ss);
@@ -287,11 +290,12 @@ int vbi_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, floa
         return VBI_TRACK_PASSED;
     const scene_medium *m = region_medium(sc, region);
     if (m) {
-        if (m->constant && grey(v3_add(m->sigma_a, m->sigma_s)) && m->extinguishes) {
+        const vec3 sigma_t = v3_add(m->sigma_a, m->sigma_x);
+        if (m->constant && grey(sigma_t) && sigma_t.x > 0.0f) {
             /* exact: one exponential step at sigma_t, absorption as the weight sigma_s / sigma_t
              * (an escaped ray in a constant medium always meets it: its transmittance to infinity
              * is 0) */
-            const float st = m->sigma_a.x + m->sigma_s.x;
+            const float st = sigma_t.x;
             const float t = exp_step(r, st);
             if (t < tmax) {
                 *L = v3_add(*L, v3_mul(*beta, v3_scale(m->emission, 1.0f / st)));
@@ -317,19 +321,22 @@ int vbi_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, floa
                 coeffs c;
                 medium_at(sc, m, p, &c);
                 *L = v3_add(*L, v3_mul(*beta, v3_scale(c.em, 1.0f / maj)));
-                const vec3 sn = v3_max(v3_sub(v3s(maj), v3_add(c.sa, c.ss)), v3s(0.0f));
+                const vec3 sn = v3_max(v3_sub(v3s(maj), v3_add(c.sa, c.sx)), v3s(0.0f));
                 const float pa = v3_avg(c.sa) / maj, ps = v3_avg(c.ss) / maj, pn = v3_avg(sn) / maj;
-                const float u = vbi_rand_next(r) * (pa + ps + pn);
+                /* the events' probabilities are pa, ps, pn over their sum, which is 1 unless the
+                 * scattering extincts only partly (sigma_a + sigma_s + sigma_n exceeds the majorant) */
+                const float sum = pa + ps + pn, norm = m->partial ? sum : 1.0f;
+                const float u = vbi_rand_next(r) * sum;
                 if (u < pa)
                     return VBI_TRACK_ABSORBED;
                 if (u < pa + ps) {
-                    *beta = v3_mul(*beta, v3_scale(c.ss, 1.0f / (maj * ps)));
+                    *beta = v3_mul(*beta, v3_scale(c.ss, norm / (maj * ps)));
                     ev->t = t;
                     ev->p = p;
                     pick_part(m, &c, vbi_rand_next(r), ev, beta);
                     return VBI_TRACK_SCATTERED;
                 }
-                *beta = v3_mul(*beta, v3_scale(sn, 1.0f / (maj * pn)));
+                *beta = v3_mul(*beta, v3_scale(sn, norm / (maj * pn)));
                 /* Russian roulette on a weight that null collisions of chromatic media wear down */
                 const float bm = v3_max_comp(*beta);
                 if (bm < 0.1f) {
@@ -357,7 +364,7 @@ vec3 vbi_medium_transmittance(const vbnl_scene *sc, uint32_t region, vec3 o, vec
     const scene_medium *m = region_medium(sc, region);
     if (m && m->extinguishes) {
         if (m->constant) {
-            vec3 st = v3_add(m->sigma_a, m->sigma_s);
+            vec3 st = v3_add(m->sigma_a, m->sigma_x);
             T = v3(beer(st.x, tmax), beer(st.y, tmax), beer(st.z, tmax));
         } else {
             const float tend = isinf(tmax) ? sc->far_bound : tmax;
@@ -368,7 +375,7 @@ vec3 vbi_medium_transmittance(const vbnl_scene *sc, uint32_t region, vec3 o, vec
                     break;
                 coeffs c;
                 medium_at(sc, m, v3_fma(o, d, t), &c);
-                T = v3_mul(T, v3_max(v3_sub(v3s(1.0f), v3_scale(v3_add(c.sa, c.ss), 1.0f / maj)), v3s(0.0f)));
+                T = v3_mul(T, v3_max(v3_sub(v3s(1.0f), v3_scale(v3_add(c.sa, c.sx), 1.0f / maj)), v3s(0.0f)));
                 const float tm = v3_max_comp(T);
                 if (tm < 0.1f) {
                     if (!(tm > 0.0f) || vbi_rand_next(r) >= tm * 10.0f)
@@ -449,10 +456,10 @@ void vbi_media_commit(vbnl_scene *sc)
     sc->far_bound = v3_len(v3_sub(cam, c)) + 2.0f * radius;
     for (uint32_t i = 0; i < sc->medium_count; ++i) {
         scene_medium *m = &sc->media[i];
-        float maj = 0.0f;
+        float maj = 0.0f, emit = 0.0f;
         m->constant = 1;
-        m->sigma_a = m->sigma_s = m->emission = v3s(0.0f);
-        m->scatters = m->emits = m->extinguishes = 0;
+        m->sigma_a = m->sigma_s = m->sigma_x = m->emission = v3s(0.0f);
+        m->scatters = m->emits = m->extinguishes = m->partial = 0;
         for (uint32_t k = 0; k < m->part_count; ++k) {
             const vbi_medium_part *pt = &m->part[k];
             vec3 b = v3s(1.0f);
@@ -460,17 +467,24 @@ void vbi_media_commit(vbnl_scene *sc)
                 b = v3_mul(b, v3_max(pigment_bound(&sc->tex, pt->density[j], 0), v3s(0.0f)));
             if (pt->density_count)
                 m->constant = 0;
-            maj += v3_max_comp(v3_mul(v3_add(pt->sigma_a, pt->sigma_s), b));
+            /* scattering events are sampled at sigma_s even where they extinct less (ext < 1) */
+            maj += v3_max_comp(v3_mul(v3_add(pt->sigma_a, v3_scale(pt->sigma_s, fmaxf(pt->ext, 1.0f))), b));
+            emit += v3_max_comp(v3_mul(pt->emission, b));
             m->sigma_a = v3_add(m->sigma_a, pt->sigma_a);
             m->sigma_s = v3_add(m->sigma_s, pt->sigma_s);
+            m->sigma_x = v3_add(m->sigma_x, v3_scale(pt->sigma_s, pt->ext));
+            m->partial |= pt->ext != 1.0f && !v3_is_black(pt->sigma_s);
             m->emission = v3_add(m->emission, pt->emission);
             m->scatters |= !v3_is_black(pt->sigma_s);
             m->emits |= !v3_is_black(pt->emission);
         }
         m->extinguishes = maj > 0.0f;
         /* a medium that only emits (or whose extinction is tiny) still needs collisions to sample
-         * its emission: at least one per scene radius */
-        m->majorant = fmaxf(maj * 1.0001f, 1.0f / radius);
+         * its emission: at least one per scene radius, and enough that one collision adds at most
+         * a tenth of the emission's bound (each adds emission / majorant), up to 4096 collisions
+         * over the far bound (an escaped segment's length) */
+        const float emit_rate = fminf(10.0f * emit, 4096.0f / sc->far_bound);
+        m->majorant = fmaxf(fmaxf(maj * 1.0001f, 1.0f / radius), emit_rate);
     }
     sc->has_media = sc->medium_count > 0 || sc->fog_count > 0;
 }
@@ -586,7 +600,12 @@ vbnl_result vbnl_scene_add_medium(vbnl_scene *s, const vbnl_medium_desc *d, uint
         if (pd->density_count > VBNL_MEDIUM_DENSITY_MAX || (pd->density_count && !pd->density))
             return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "medium part %u: 0 to %u density pigments", k,
                                   VBNL_MEDIUM_DENSITY_MAX);
+        if (!(pd->extinction_deficit <= 1.0f) || !isfinite(pd->extinction_deficit))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                  "medium part %u: the extinction deficit must be finite and at most 1 (got %g)", k,
+                                  pd->extinction_deficit);
         vbi_medium_part *pt = &m.part[k];
+        pt->ext = 1.0f - pd->extinction_deficit;
         pt->sigma_a = v3_load(pd->absorption);
         pt->sigma_s = v3_load(pd->scattering);
         pt->emission = v3_load(pd->emission);

@@ -52,6 +52,7 @@ typedef struct vbi_medium_part {
     float g;
     uint32_t density[VBNL_MEDIUM_DENSITY_MAX]; /* pigment ids */
     uint32_t density_count;
+    float ext;             /* the share of sigma_s in the extinction (1 - extinction_deficit) */
 } vbi_medium_part;
 
 typedef struct scene_medium {
@@ -59,6 +60,8 @@ typedef struct scene_medium {
     uint32_t part_count;
     int constant;          /* no density pigment: the coefficients below hold everywhere */
     vec3 sigma_a, sigma_s, emission; /* constant: the sums over the parts */
+    vec3 sigma_x;          /* constant: the scattering's share of the extinction, sum of ext sigma_s */
+    int partial;           /* some part's ext is not 1 (sigma_t = sigma_a + sigma_x, not + sigma_s) */
     float majorant;        /* bound of max-channel sigma_t (> 0 once committed) */
     int scatters, emits, extinguishes;
 } scene_medium;

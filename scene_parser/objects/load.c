@@ -112,7 +112,7 @@ static vbnl_result st_media(const pov_item *it)
     vbnl_sdl_next(it->p);
     if (L->natmosphere >= VBNL_MEDIUM_PARTS_MAX)
         return vbnl_sdl_error(it->p, &it->loc, "a scene holds at most %u atmospheric media", VBNL_MEDIUM_PARTS_MAX);
-    vbnl_result r = pov_media_parse(&L->c, &L->atmosphere[L->natmosphere]);
+    vbnl_result r = pov_media_parse(&L->c, &L->atmosphere[L->natmosphere], NULL);
     if (r == VBNL_OK && L->atmosphere[L->natmosphere].phase)
         L->natmosphere++;
     return r;

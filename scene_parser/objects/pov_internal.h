@@ -38,10 +38,14 @@ typedef struct pov_ctx {
 /* media { } (POV-Ray 3.7 reference "Media"), the parser on '{': absorption, emission and
  * scattering { type, colour [eccentricity] [extinction] } onto one part of a core medium; the
  * sampling controls (method, intervals, samples, ...) are read and not needed (the core samples
- * media without bias); density { } and a scattering extinction other than 1 are approximated and
- * warned about (docs/scene-language.md, "Media"). A declared media identifier inside is not
- * supported: warned, and part->phase is 0 (the caller leaves the part out). */
-vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part);
+ * media without bias). Its density { } blocks go into `density` (state density indices + 1, the
+ * rest 0), made core pigments when an object using the media is built; with density NULL (the
+ * atmosphere) they are warned about and the media taken as constant. A scattering extinction e
+ * becomes part->extinction_deficit = 1 - e, e raised (warned) where the albedo would exceed 1
+ * (docs/scene-language.md, "Fog and media"). A declared
+ * media identifier inside is not supported: warned, and part->phase is 0 (the caller leaves the
+ * part out). */
+vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part, uint32_t density[VBNL_MEDIUM_DENSITY_MAX]);
 
 /* ---- texture part: state ------------------------------------------------------------------ */
 

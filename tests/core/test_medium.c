@@ -8,6 +8,9 @@
  *   radiance 1 looks 1 everywhere, with isotropic, Henyey-Greenstein and mixed Rayleigh + Mie
  *   phase functions (and path's clamp: a bound no contribution reaches changes no pixel, a low one
  *   darkens);
+ * - POV-Ray's scattering extinction: the passing and scattering weights of a medium whose
+ *   scattering extincts partly or not at all;
+ * - a medium that only emits gathers its emission along a ray with a bounded spread per ray;
  * - constant and ground fog reproduce POV-Ray's blend (reference "Fog") on camera rays;
  * - single scattering of a point light in a medium (equiangular sampling) against the integral
  *   along the ray, with a small spread between pixels;
@@ -125,6 +128,18 @@ static uint32_t one_part_medium(vbnl_scene *s, const float sa[3], const float ss
     return id;
 }
 
+/* A medium of the one part given. */
+static uint32_t part_medium(vbnl_scene *s, const vbnl_medium_part_desc *part)
+{
+    vbnl_medium_desc md;
+    vbnl_medium_desc_init(&md);
+    md.parts = part;
+    md.part_count = 1;
+    uint32_t id;
+    assert_int_equal(vbnl_scene_add_medium(s, &md, &id, NULL), VBNL_OK);
+    return id;
+}
+
 /* A sphere of radius r at the origin whose surface lets light through unchanged (ior 1, white)
  * and whose inside is medium `medium`. */
 static void medium_sphere(vbnl_scene *s, uint32_t medium, float r)
@@ -225,6 +240,117 @@ static void test_shadow_transmittance(void **state)
     }
     for (int c = 0; c < 3; ++c)
         assert_true(fabs(acc[c] - exp(-1.5 * sa[c])) < 2e-3);
+    vbnl_scene_destroy(s);
+}
+
+/* A medium that only emits, in a scene much larger than it (a sphere of radius 1 beside one 50
+ * units away): each ray through its diameter gathers 2 x emission, and the collisions are frequent
+ * enough (majorant >= 10 x emission) that single rays stay near it rather than a few rays carrying
+ * it all. */
+static void test_emission_only(void **state)
+{
+    fixture *f = *state;
+    vbnl_scene *s;
+    assert_int_equal(vbnl_scene_create(f->ctx, &s, NULL), VBNL_OK);
+    vbnl_medium_part_desc part;
+    memset(&part, 0, sizeof(part));
+    part.emission[0] = part.emission[1] = part.emission[2] = 0.05f;
+    part.phase = VBNL_PHASE_ISOTROPIC;
+    const uint32_t id = part_medium(s, &part);
+    medium_sphere(s, id, 1.0f);
+    vbnl_material_desc grey;
+    vbnl_material_desc_init(&grey);
+    uint32_t mat;
+    assert_int_equal(vbnl_scene_add_material(s, &grey, &mat, NULL), VBNL_OK);
+    const float far[3] = {0, 0, -100};
+    assert_int_equal(vbnl_scene_add_sphere(s, far, 1.0f, mat, VBNL_GROUP_WORLD, NULL, NULL), VBNL_OK);
+    const float env[3] = {1, 1, 1};
+    assert_int_equal(vbnl_scene_set_environment(s, env, NULL), VBNL_OK);
+    narrow_camera(s);
+    assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    assert_true(s->media[id].majorant >= 0.5f);
+    vbi_rng rng = vbi_rng_for(3, 0, 0);
+    vbi_rand r = {NULL, &rng};
+    const int n = 4000;
+    double mean = 0.0, sq = 0.0;
+    for (int i = 0; i < n; ++i) {
+        vec3 beta = v3s(1.0f), L = v3s(0.0f);
+        vbi_medium_event ev;
+        assert_int_equal(vbi_medium_track(s, id + 1, v3(-1, 0, 0), v3(1, 0, 0), 2.0f, &r, &beta, &L, &ev),
+                         VBI_TRACK_PASSED);
+        mean += L.x / n;
+        sq += (double)L.x * L.x / n;
+    }
+    assert_true(fabs(mean - 0.1) < 3e-3);
+    /* the collisions along 2 units are Poisson with mean 2 majorant, each adding emission /
+     * majorant: relative deviation 1 / sqrt(2 majorant), 1 at majorant 0.5 (one collision per
+     * scene radius, ~50 here, would give 5) */
+    assert_true(sqrt(sq - mean * mean) / mean < 1.1);
+    vbnl_scene_destroy(s);
+}
+
+/* POV-Ray's scattering extinction e (sigma_t = sigma_a + e sigma_s, in-scattering at sigma_s):
+ * along a segment of length 2 in a medium of sigma_s only, a path passes with weight exp(-2 e
+ * sigma_s) on average and scatters with the weight integral of sigma_s exp(-e sigma_s t) dt =
+ * 2 (1 - exp(-2 e sigma_s)) / (2 e) (2 sigma_s when e = 0), channel by channel; grey (exact
+ * step), chromatic (delta tracking) and e = 0 (sampled: no extinction at all). */
+static void test_scattering_extinction(void **state)
+{
+    fixture *f = *state;
+    const struct {
+        float ss[3], e;
+    } cases[] = {{{1, 1, 1}, 0.5f}, {{1, 0.5f, 0.2f}, 0.5f}, {{0.7f, 0.7f, 0.7f}, 0.0f}};
+    for (int ci = 0; ci < 3; ++ci) {
+        vbnl_scene *s;
+        assert_int_equal(vbnl_scene_create(f->ctx, &s, NULL), VBNL_OK);
+        vbnl_medium_part_desc part;
+        memset(&part, 0, sizeof(part));
+        memcpy(part.scattering, cases[ci].ss, sizeof(part.scattering));
+        part.phase = VBNL_PHASE_ISOTROPIC;
+        part.extinction_deficit = 1.0f - cases[ci].e;
+        const uint32_t id = part_medium(s, &part);
+        medium_sphere(s, id, 1.0f);
+        const float env[3] = {1, 1, 1};
+        assert_int_equal(vbnl_scene_set_environment(s, env, NULL), VBNL_OK);
+        narrow_camera(s);
+        assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+        vbi_rng rng = vbi_rng_for(9, (uint64_t)ci, 0);
+        vbi_rand r = {NULL, &rng};
+        const int n = 100000;
+        double passed[3] = {0, 0, 0}, scattered[3] = {0, 0, 0};
+        for (int i = 0; i < n; ++i) {
+            vec3 beta = v3s(1.0f), L = v3s(0.0f);
+            vbi_medium_event ev;
+            int t = vbi_medium_track(s, id + 1, v3(-1, 0, 0), v3(1, 0, 0), 2.0f, &r, &beta, &L, &ev);
+            for (int c = 0; c < 3; ++c) {
+                passed[c] += t == VBI_TRACK_PASSED ? v3_get(beta, c) / n : 0.0;
+                scattered[c] += t == VBI_TRACK_SCATTERED ? v3_get(beta, c) / n : 0.0;
+            }
+        }
+        const vec3 T = vbi_medium_transmittance(s, id + 1, v3(-1, 0, 0), v3(1, 0, 0), 2.0f, &r);
+        for (int c = 0; c < 3; ++c) {
+            const double ss = cases[ci].ss[c], e = cases[ci].e;
+            const double pass = exp(-2.0 * e * ss), scat = e > 0.0 ? (1.0 - pass) / e : 2.0 * ss;
+            assert_true(fabs(passed[c] - pass) < 0.01);
+            assert_true(fabs(scattered[c] - scat) < 0.02 * scat + 0.005);
+            assert_true(fabs(v3_get(T, c) - pass) < 1e-5); /* constant: closed form */
+        }
+        vbnl_scene_destroy(s);
+    }
+    /* an extinction above 1 is fine (deficit < 0), a negative one is not */
+    vbnl_scene *s;
+    assert_int_equal(vbnl_scene_create(f->ctx, &s, NULL), VBNL_OK);
+    vbnl_medium_part_desc part;
+    memset(&part, 0, sizeof(part));
+    part.phase = VBNL_PHASE_ISOTROPIC;
+    part.extinction_deficit = 1.5f;
+    vbnl_medium_desc md;
+    vbnl_medium_desc_init(&md);
+    md.parts = &part;
+    md.part_count = 1;
+    vbnl_error err = {0};
+    assert_int_equal(vbnl_scene_add_medium(s, &md, NULL, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_string_equal(err.message, "medium part 0: the extinction deficit must be finite and at most 1 (got 1.5)");
     vbnl_scene_destroy(s);
 }
 
@@ -501,6 +627,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_beer_lambert_grey, setup, teardown),
         cmocka_unit_test_setup_teardown(test_beer_lambert_chromatic, setup, teardown),
         cmocka_unit_test_setup_teardown(test_shadow_transmittance, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_emission_only, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_scattering_extinction, setup, teardown),
         cmocka_unit_test_setup_teardown(test_furnace, setup, teardown),
         cmocka_unit_test_setup_teardown(test_fog, setup, teardown),
         cmocka_unit_test(test_brilliance),

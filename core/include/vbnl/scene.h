@@ -747,6 +747,10 @@ typedef struct vbnl_medium_part_desc {
     const uint32_t *density;  /* pigment ids (not + 1) whose colours multiply the part, evaluated at
                                * the world point; 0..VBNL_MEDIUM_DENSITY_MAX of them */
     uint32_t density_count;
+    float extinction_deficit; /* 1 - e, with e >= 0 the share of sigma_s in the extinction (POV-Ray's
+                               * scattering `extinction`): sigma_t = sigma_a + e sigma_s while the
+                               * in-scattering keeps sigma_s; 0 (physical: e = 1) by default. e < 1
+                               * does not conserve energy (the albedo may exceed 1). At most 1 */
 } vbnl_medium_part_desc;
 
 typedef struct vbnl_medium_desc {
@@ -757,7 +761,8 @@ typedef struct vbnl_medium_desc {
 
 void vbnl_medium_desc_init(vbnl_medium_desc *d);
 /* Adds a medium (arrays copied). Errors: VBNL_ERR_INVALID_ARGUMENT for a wrong size field, no
- * parts or too many, negative or non-finite coefficients, an unknown phase function or |g| >= 1,
+ * parts or too many, negative or non-finite coefficients, an extinction deficit above 1 or not
+ * finite, an unknown phase function or |g| >= 1,
  * unknown pigment ids, a density pigment whose colours have no finite upper bound. */
 vbnl_result vbnl_scene_add_medium(vbnl_scene *scene, const vbnl_medium_desc *desc, uint32_t *out_id,
                                   vbnl_error *err);

@@ -9,7 +9,7 @@
 /* ---- declared values ----------------------------------------------------------------------------- */
 
 enum { TAG_TEXTURE = 1, TAG_PIGMENT, TAG_FINISH, TAG_NORMAL, TAG_INTERIOR, TAG_MATERIAL, TAG_COLOR_MAP,
-       TAG_PIGMENT_MAP, TAG_NORMAL_MAP, TAG_TEXTURE_MAP, TAG_SLOPE_MAP };
+       TAG_PIGMENT_MAP, TAG_NORMAL_MAP, TAG_TEXTURE_MAP, TAG_SLOPE_MAP, TAG_DENSITY };
 
 static void free_texture(void *ptr, void *user)
 {
@@ -171,7 +171,7 @@ static vbnl_result declared_value(const pov_item *it)
         [TAG_INTERIOR] = &pov_type_interior,       [TAG_MATERIAL] = &pov_type_material,
         [TAG_COLOR_MAP] = &pov_type_color_map,     [TAG_PIGMENT_MAP] = &pov_type_pigment_map,
         [TAG_NORMAL_MAP] = &pov_type_normal_map,   [TAG_TEXTURE_MAP] = &pov_type_texture_map,
-        [TAG_SLOPE_MAP] = &pov_type_slope_map};
+        [TAG_SLOPE_MAP] = &pov_type_slope_map,     [TAG_DENSITY] = &pov_type_pigment};
     static const pov_map_kind map_kinds[] = {[TAG_COLOR_MAP] = POV_MAP_COLOR, [TAG_PIGMENT_MAP] = POV_MAP_PIGMENT,
                                              [TAG_NORMAL_MAP] = POV_MAP_NORMAL, [TAG_TEXTURE_MAP] = POV_MAP_TEXTURE,
                                              [TAG_SLOPE_MAP] = POV_MAP_SLOPE};
@@ -194,6 +194,12 @@ static vbnl_result declared_value(const pov_item *it)
         v = g;
         break;
     }
+    case TAG_DENSITY: { /* a pigment value (density { D } takes it as POV-Ray's Copy_Pigment does) */
+        pov_pigment *g = pov_pigment_new();
+        r = g ? pov_density_body(c, g) : vbnl_sdl_error(it->p, &it->loc, "out of memory");
+        v = g;
+        break;
+    }
     case TAG_FINISH: {
         pov_finish *f = malloc(sizeof(*f));
         if (f)
@@ -211,9 +217,9 @@ static vbnl_result declared_value(const pov_item *it)
         break;
     }
     case TAG_INTERIOR: {
-        pov_interior *in = calloc(1, sizeof(*in));
+        pov_interior *in = malloc(sizeof(*in));
         if (in)
-            in->ior = 1.0;
+            pov_interior_init(in);
         r = in ? pov_interior_parse(c, in) : vbnl_sdl_error(it->p, &it->loc, "out of memory");
         v = in;
         break;
@@ -258,6 +264,7 @@ static const pov_row rvalue_rows[] = {
     {"normal_map", declared_value, TAG_NORMAL_MAP},
     {"texture_map", declared_value, TAG_TEXTURE_MAP},
     {"slope_map", declared_value, TAG_SLOPE_MAP},
+    {"density", declared_value, TAG_DENSITY},
     {NULL, NULL, 0},
 };
 
@@ -392,7 +399,7 @@ int pov_appearance_default_block(pov_ctx *c)
 void pov_appearance_init(pov_appearance *a)
 {
     memset(a, 0, sizeof(*a));
-    a->interior.ior = 1.0;
+    pov_interior_init(&a->interior);
     pov_m4_identity(a->xf);
 }
 
@@ -428,6 +435,9 @@ void pov_texture_state_destroy(pov_ctx *c)
     }
     free(c->tex->images);
     pov_material_cache_free(c);
+    for (uint32_t i = 0; i < c->tex->density_count; ++i)
+        pov_pigment_free(c->tex->densities[i]);
+    free(c->tex->densities);
     pov_appearance_free(c->tex->deflt_shared);
     pov_appearance_clear(&c->tex->deflt);
     free(c->tex);
@@ -478,8 +488,10 @@ pov_appearance *pov_appearance_default(pov_ctx *c)
 
 void pov_appearance_transform(pov_appearance *a, const double m[16])
 {
-    if (a)
+    if (a) {
         pov_m4_mul(m, a->xf, a->xf);
+        pov_interior_transform(&a->interior, m); /* POV-Ray's object transforms move its media */
+    }
 }
 
 int pov_appearance_is_emissive(const pov_appearance *a)

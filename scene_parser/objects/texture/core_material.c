@@ -586,6 +586,62 @@ static int uv_mapped(const pov_texture *t)
     return 0;
 }
 
+/* The core medium of an interior (id + 1 in *out; 0 when it has neither media nor fade): its
+ * media, their densities as core pigments seen through the object's transforms given after the
+ * interior (POV-Ray evaluates densities in the object's space), and its fade as one more
+ * absorbing part. */
+static vbnl_result interior_medium(pov_ctx *c, const pov_interior *in, const double world_from_pov[16],
+                                   uint32_t *out, vbnl_error *err)
+{
+    *out = 0;
+    float fade[3];
+    const int fades = pov_interior_fade(in, fade);
+    if (!in->nmedia && !fades)
+        return VBNL_OK;
+    vbnl_medium_part_desc parts[VBNL_MEDIUM_PARTS_MAX + 1];
+    uint32_t ids[VBNL_MEDIUM_PARTS_MAX][VBNL_MEDIUM_DENSITY_MAX];
+    memcpy(parts, in->media, sizeof(parts[0]) * in->nmedia);
+    uint32_t n = in->nmedia;
+    build b;
+    memset(&b, 0, sizeof(b));
+    b.c = c;
+    b.err = err;
+    b.radiance = 1; /* densities are not albedos: not clamped to [0, 1] */
+    vbnl_result r;
+    for (uint32_t i = 0; i < n; ++i) {
+        double world_from_media[16], pre[16];
+        pov_m4_mul(world_from_pov, in->xf[i], world_from_media);
+        if (!pov_m4_invert(world_from_media, pre))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "an interior transform is singular");
+        b.pre = pre;
+        parts[i].density = ids[i];
+        parts[i].density_count = 0;
+        for (uint32_t k = 0; k < VBNL_MEDIUM_DENSITY_MAX && in->density[i][k]; ++k) {
+            if ((r = build_pigment(&b, pov_density_at(c, in->density[i][k] - 1), 1, &ids[i][k])) != VBNL_OK)
+                return r;
+            parts[i].density_count++;
+        }
+    }
+    if (fades) {
+        if (n == VBNL_MEDIUM_PARTS_MAX)
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "an interior with fade holds at most %u media",
+                                  VBNL_MEDIUM_PARTS_MAX - 1);
+        memset(&parts[n], 0, sizeof(parts[n]));
+        memcpy(parts[n].absorption, fade, sizeof(fade));
+        parts[n].phase = VBNL_PHASE_ISOTROPIC;
+        n++;
+    }
+    vbnl_medium_desc md;
+    vbnl_medium_desc_init(&md);
+    md.parts = parts;
+    md.part_count = n;
+    uint32_t id;
+    if ((r = vbnl_scene_add_medium(c->scene, &md, &id, err)) != VBNL_OK)
+        return r;
+    *out = id + 1;
+    return VBNL_OK;
+}
+
 vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const double world_from_pov[16],
                                     uint32_t *material, vbnl_error *err)
 {
@@ -606,6 +662,7 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
     pov_key_texture(&key, tex);
     pov_key_bytes(&key, in, sizeof(*in));
     pov_key_bytes(&key, pre, sizeof(pre));
+    pov_key_bytes(&key, world_from_pov, 16 * sizeof(double)); /* with in->xf: where its media are */
     pov_key_bytes(&key, &s->noise_generator, sizeof(s->noise_generator));
     pov_key_bytes(&key, &s->waves, sizeof(s->waves));
     if (key.failed) {
@@ -626,7 +683,10 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
     b.uv = uv_mapped(tex);
     b.pre = identity ? NULL : pre;
     float emission[3];
-    vbnl_result r = build_stack(&b, tex, in, 1, material, emission);
+    pov_interior inside = *in; /* with its core medium */
+    vbnl_result r = interior_medium(c, in, world_from_pov, &inside.medium, err);
+    if (r == VBNL_OK)
+        r = build_stack(&b, tex, &inside, 1, material, emission);
     if (r != VBNL_OK) {
         free(key.b);
         return r;

@@ -1,4 +1,6 @@
 /* vbnl object layer, texture part: interior { } and material { texture interior vbnl_bsdf }. */
+#include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "pov_texture.h"
@@ -19,19 +21,82 @@ static vbnl_result ior(const pov_item *it)
 
 static vbnl_result fade_color(const pov_item *it)
 {
-    double col[3];
+    pov_interior *in = it->target;
     vbnl_sdl_next(it->p);
-    if (pov_parse_color3(it->ctx, col) != VBNL_OK)
+    if (pov_parse_color3(it->ctx, in->fade_color) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    vbnl_sdl_warning(it->p, &it->loc, "interior fade (absorption) is not supported: ignored");
+    for (int k = 0; k < 3; ++k)
+        if (!isfinite(in->fade_color[k]))
+            return vbnl_sdl_error(it->p, &it->loc, "fade_color must be finite (got %g)", in->fade_color[k]);
     return VBNL_OK;
 }
+
+static vbnl_result fade_number(const pov_item *it, double *out)
+{
+    vbnl_sdl_next(it->p);
+    if (vbnl_sdl_parse_float(it->p, out) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (!isfinite(*out))
+        return vbnl_sdl_error(it->p, &it->loc, "%s must be finite (got %g)", it->kw, *out);
+    return VBNL_OK;
+}
+
+static vbnl_result fade_distance(const pov_item *it) { return fade_number(it, &((pov_interior *)it->target)->fade_distance); }
+static vbnl_result fade_power(const pov_item *it) { return fade_number(it, &((pov_interior *)it->target)->fade_power); }
+
+int pov_interior_fade(const pov_interior *in, float sigma[3])
+{
+    const double dist = in->fade_distance, power = in->fade_power;
+    if (!(dist > 0.0) || !(power > 0.0))
+        return 0;
+    for (int k = 0; k < 3; ++k) {
+        /* a colour outside [0, 1] would make the interior amplify light: held to [0, 1] */
+        const double fc = in->fade_color[k] < 0.0 ? 0.0 : (in->fade_color[k] > 1.0 ? 1.0 : in->fade_color[k]);
+        /* exponential (power >= 1000): POV-Ray's exp(-(1 - fc) d / dist) is Beer-Lambert's law
+         * exactly; the power law fc + (1 - fc) / (1 + (d / dist)^power) is matched where it is
+         * defined, at d = dist, where it lets (1 + fc) / 2 through */
+        const double s = power >= 1000.0 ? (1.0 - fc) / dist : log(2.0 / (1.0 + fc)) / dist;
+        sigma[k] = (float)s;
+    }
+    return sigma[0] > 0.0f || sigma[1] > 0.0f || sigma[2] > 0.0f;
+}
+
+/* ---- density { } ------------------------------------------------------------------------------ */
+
+vbnl_result pov_density_parse(pov_ctx *c, uint32_t *id)
+{
+    pov_texture_state *s = c->tex;
+    if (s->density_count == s->density_cap) {
+        uint32_t cap = s->density_cap ? 2 * s->density_cap : 8;
+        pov_pigment **grown = realloc(s->densities, sizeof(*grown) * cap);
+        if (!grown)
+            return vbnl_sdl_error(c->parser, NULL, "out of memory");
+        s->densities = grown;
+        s->density_cap = cap;
+    }
+    /* POV-Ray's density starts as a new pigment (black: a density { } without a pattern is 0) */
+    pov_pigment *g = pov_pigment_new();
+    if (!g)
+        return vbnl_sdl_error(c->parser, NULL, "out of memory");
+    if (pov_density_body(c, g) != VBNL_OK) {
+        pov_pigment_free(g);
+        return VBNL_ERR_PARSE;
+    }
+    *id = s->density_count;
+    s->densities[s->density_count++] = g;
+    return VBNL_OK;
+}
+
+pov_pigment *pov_density_at(pov_ctx *c, uint32_t id) { return c->tex->densities[id]; }
 
 /* ---- media { } ------------------------------------------------------------------------------ */
 
 typedef struct media_item {
     vbnl_medium_part_desc *part;
-    double extinction;
+    double extinction;          /* the scattering's extinction e (1) */
+    vbnl_sdl_loc extinction_loc;
+    uint32_t *density; /* where the density { } blocks go (indices + 1), NULL: not kept (warned) */
+    uint32_t ndensity;
     int warned_density;
     int declared; /* a declared media identifier was named: the block is left out */
 } media_item;
@@ -72,10 +137,44 @@ static vbnl_result scat_eccentricity(const pov_item *it)
     return VBNL_OK;
 }
 
+/* extinction e: the share of the scattering in the extinction (POV-Ray's media.cpp: extinction =
+ * absorption + e scattering), the in-scattering unchanged; held where the albedo stays at most 1
+ * when the media block ends (media_extinction) */
 static vbnl_result scat_extinction(const pov_item *it)
 {
+    media_item *m = it->target;
     vbnl_sdl_next(it->p);
-    return vbnl_sdl_parse_float(it->p, &((media_item *)it->target)->extinction);
+    if (vbnl_sdl_parse_float(it->p, &m->extinction) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (!(m->extinction >= 0.0) || !(m->extinction < 1e30))
+        return vbnl_sdl_error(it->p, &it->loc, "scattering extinction must be finite and not negative (got %g)",
+                              m->extinction);
+    m->extinction_loc = it->loc;
+    return VBNL_OK;
+}
+
+/* The part's extinction deficit 1 - e. POV-Ray scatters light once (from the lights and photons),
+ * so its e < 1 only brightens; a path tracer scatters many times, and where sigma_a + e sigma_s <
+ * sigma_s every scattering gains energy and the radiance of an optically thick medium grows
+ * without bound. So e is raised to the least value that keeps the albedo at most 1 in every
+ * channel, 1 - sigma_a / sigma_s (warned). */
+static void media_extinction(pov_ctx *c, media_item *m)
+{
+    vbnl_medium_part_desc *part = m->part;
+    double e = m->extinction, least = 0.0;
+    for (int k = 0; k < 3; ++k)
+        if (part->scattering[k] > 0.0f) {
+            double l = 1.0 - (double)part->absorption[k] / part->scattering[k];
+            least = l > least ? l : least;
+        }
+    if (e < least) {
+        vbnl_sdl_warning(c->parser, &m->extinction_loc,
+                         "scattering extinction %g would make the media gain energy when light scatters more than "
+                         "once (POV-Ray scatters once): raised to %g, where its albedo is 1",
+                         e, least);
+        e = least;
+    }
+    part->extinction_deficit = (float)(1.0 - e);
 }
 
 static const pov_row scattering_rows[] = {
@@ -112,16 +211,27 @@ static vbnl_result media_scattering(const pov_item *it)
     return pov_block_parse(&scattering_items, it->p, it->ctx, m, NULL);
 }
 
-/* density { }: the medium is taken as constant (its density 1 everywhere). */
+/* density { } (reference "Density"): a pigment whose colour multiplies the media at a point;
+ * several multiply. Kept in the state's list and named by index, so that interiors stay plain
+ * values; the atmosphere's media do not keep them (warned: taken as constant). */
 static vbnl_result media_density(const pov_item *it)
 {
     media_item *m = it->target;
     vbnl_sdl_next(it->p);
-    if (vbnl_sdl_skip_block(it->p) != VBNL_OK)
+    if (!m->density) {
+        if (vbnl_sdl_skip_block(it->p) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (!m->warned_density)
+            vbnl_sdl_warning(it->p, &it->loc, "a density in the atmosphere's media is not supported: taken as constant");
+        m->warned_density = 1;
+        return VBNL_OK;
+    }
+    if (m->ndensity >= VBNL_MEDIUM_DENSITY_MAX)
+        return vbnl_sdl_error(it->p, &it->loc, "a media holds at most %u density blocks", VBNL_MEDIUM_DENSITY_MAX);
+    uint32_t id;
+    if (pov_density_parse(it->ctx, &id) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    if (!m->warned_density)
-        vbnl_sdl_warning(it->p, &it->loc, "media density is not supported: the medium is taken as constant");
-    m->warned_density = 1;
+    m->density[m->ndensity++] = id + 1;
     return VBNL_OK;
 }
 
@@ -140,10 +250,13 @@ static vbnl_result media_control(const pov_item *it)
     return VBNL_OK;
 }
 
-static void media_transform(const pov_item *it, const double m[16]) /* moves the density only */
+/* POV-Ray's media transforms move the densities given before them (Transform_Media). */
+static void media_transform(const pov_item *it, const double m[16])
 {
-    (void)it;
-    (void)m;
+    const media_item *mi = it->target;
+    for (uint32_t k = 0; k < mi->ndensity; ++k)
+        if (!pov_pattern_transform(&pov_density_at(it->ctx, mi->density[k] - 1)->pat, m))
+            vbnl_sdl_error(it->p, &it->loc, "a pattern has at most %d warps and transforms", POV_WARP_MAX);
 }
 
 static const pov_row media_rows[] = {
@@ -179,20 +292,20 @@ static const pov_block media_items = {.name = "media",
                                       .unknown = media_unknown,
                                       .transform = media_transform};
 
-vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part)
+vbnl_result pov_media_parse(pov_ctx *c, vbnl_medium_part_desc *part, uint32_t density[VBNL_MEDIUM_DENSITY_MAX])
 {
     memset(part, 0, sizeof(*part));
     part->phase = VBNL_PHASE_ISOTROPIC;
-    vbnl_sdl_loc loc = vbnl_sdl_peek(c->parser)->loc;
+    if (density)
+        memset(density, 0, sizeof(uint32_t) * VBNL_MEDIUM_DENSITY_MAX);
     if (vbnl_sdl_expect(c->parser, '{', "after 'media'") != VBNL_OK)
         return VBNL_ERR_PARSE;
-    media_item m = {part, 1.0, 0, 0};
+    media_item m = {.part = part, .extinction = 1.0, .density = density};
     vbnl_result r = pov_block_parse(&media_items, c->parser, c, &m, NULL);
+    if (r == VBNL_OK)
+        media_extinction(c, &m);
     if (m.declared)
         part->phase = 0; /* left out: the callers keep only parts with a phase */
-    if (r == VBNL_OK && m.extinction != 1.0)
-        vbnl_sdl_warning(c->parser, &loc, "scattering extinction %g is not supported: scattering extincts fully (1)",
-                         m.extinction);
     return r;
 }
 
@@ -202,9 +315,11 @@ static vbnl_result media(const pov_item *it)
     vbnl_sdl_next(it->p);
     if (in->nmedia >= VBNL_MEDIUM_PARTS_MAX)
         return vbnl_sdl_error(it->p, &it->loc, "an interior holds at most %u media", VBNL_MEDIUM_PARTS_MAX);
-    vbnl_result r = pov_media_parse(it->ctx, &in->media[in->nmedia]);
-    if (r == VBNL_OK && in->media[in->nmedia].phase)
+    vbnl_result r = pov_media_parse(it->ctx, &in->media[in->nmedia], in->density[in->nmedia]);
+    if (r == VBNL_OK && in->media[in->nmedia].phase) {
+        pov_m4_identity(in->xf[in->nmedia]); /* the transforms from here on move it */
         in->nmedia++;
+    }
     return r;
 }
 
@@ -219,8 +334,8 @@ static const pov_row interior_rows[] = {
     {"caustics", pov_item_any_float, 0},
     {"dispersion", pov_item_any_float, 0},
     {"dispersion_samples", pov_item_any_float, 0},
-    {"fade_distance", pov_item_any_float, 0},
-    {"fade_power", pov_item_any_float, 0},
+    {"fade_distance", fade_distance, 0},
+    {"fade_power", fade_power, 0},
     {"fade_color", fade_color, 0},
     {"fade_colour", fade_color, 0},
     {"media", media, 0},
@@ -231,6 +346,20 @@ static const pov_block interior_items = {.name = "interior",
                                          .tables = interior_tables,
                                          .unknown = pov_block_unexpected_word};
 
+void pov_interior_init(pov_interior *in)
+{
+    memset(in, 0, sizeof(*in));
+    in->ior = 1.0;
+    for (uint32_t i = 0; i < VBNL_MEDIUM_PARTS_MAX; ++i)
+        pov_m4_identity(in->xf[i]);
+}
+
+void pov_interior_transform(pov_interior *in, const double m[16])
+{
+    for (uint32_t i = 0; i < in->nmedia; ++i)
+        pov_m4_mul(m, in->xf[i], in->xf[i]);
+}
+
 vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
 {
     vbnl_sdl_loc loc = vbnl_sdl_peek(c->parser)->loc;
@@ -238,21 +367,13 @@ vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in)
         return VBNL_ERR_PARSE;
     if (pov_take_ident(c, &pov_type_interior, in, copy_interior) < 0)
         return VBNL_ERR_PARSE;
-    const uint32_t had = in->nmedia;
     vbnl_result r = pov_block_parse(&interior_items, c->parser, c, in, NULL);
-    if (r != VBNL_OK || in->nmedia == had)
-        return r;
-    /* its media make one core medium (a declared interior's medium is shared until media are added) */
-    vbnl_medium_desc md;
-    vbnl_medium_desc_init(&md);
-    md.parts = in->media;
-    md.part_count = in->nmedia;
-    uint32_t id;
-    vbnl_error err = {0};
-    if (vbnl_scene_add_medium(c->scene, &md, &id, &err) != VBNL_OK)
-        return vbnl_sdl_error(c->parser, &loc, "%s", err.message);
-    in->medium = id + 1;
-    return VBNL_OK;
+    in->medium = 0;
+    if (r == VBNL_OK && in->fade_distance > 0.0 && !(in->fade_power > 0.0))
+        vbnl_sdl_warning(c->parser, &loc,
+                         "fade_power %g: POV-Ray fades with distance only for a fade_power above 0: no fade",
+                         in->fade_power);
+    return r;
 }
 
 /* ---- material { } ------------------------------------------------------------------------------ */
@@ -273,6 +394,7 @@ static vbnl_result mat_bsdf(const pov_item *it)
 static void mat_transform(const pov_item *it, const double m[16])
 {
     pov_appearance *a = it->target;
+    pov_interior_transform(&a->interior, m);
     if (!pov_texture_transform(a->tex, m))
         vbnl_sdl_error(it->p, &it->loc, "a pattern has at most %d warps and transforms", POV_WARP_MAX);
 }

@@ -115,18 +115,44 @@ static int copy_pigment(void *dst, const void *src)
     return 1;
 }
 
-vbnl_result pov_pigment_body(pov_ctx *c, pov_pigment *pg, int close)
+/* A pigment's (or density's) items through block b, over a declared value it may start with. */
+static vbnl_result body(pov_ctx *c, pov_pigment *pg, const pov_block *b, const char *what)
 {
     if (pov_take_ident(c, &pov_type_pigment, pg, copy_pigment) < 0)
         return VBNL_ERR_PARSE;
-    const pov_block *b = close == ']' ? &pigment_entry_items : &pigment_items;
     if (pov_block_parse(b, c->parser, c, pg, NULL) != VBNL_OK)
         return VBNL_ERR_PARSE;
     if (pg->kind == POV_PIG_AVERAGE && pg->map.count == 0)
-        return vbnl_sdl_error(c->parser, NULL, "an average pigment needs a pigment_map");
+        return vbnl_sdl_error(c->parser, NULL, "an average %s needs a %s_map", what, what);
     if (pg->kind == POV_PIG_MAP && !pg->pat.name)
         pg->kind = POV_PIG_SOLID; /* modifiers without a pattern: POV-Ray's pigment stays a colour */
     return VBNL_OK;
+}
+
+vbnl_result pov_pigment_body(pov_ctx *c, pov_pigment *pg, int close)
+{
+    return body(c, pg, close == ']' ? &pigment_entry_items : &pigment_items, "pigment");
+}
+
+/* density { } (reference "Density"): a pigment's pattern, colour_map and transforms, and
+ * density_map (a pigment_map of densities). A declared density is a pigment value. */
+static const pov_row density_rows[] = {
+    {"density_map", pigment_map, 0},
+    {NULL, NULL, 0},
+};
+static const pov_row *const density_tables[] = {pov_pattern_transform_rows, pigment_rows, density_rows, NULL};
+static const pov_block density_items = {.name = "density",
+                                        .tables = density_tables,
+                                        .before = pattern_modifier,
+                                        .after = pattern_or_color,
+                                        .transform = pigment_transform,
+                                        .eof = "unexpected end of file in density"};
+
+vbnl_result pov_density_body(pov_ctx *c, pov_pigment *pg)
+{
+    if (vbnl_sdl_expect(c->parser, '{', "after 'density'") != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    return body(c, pg, &density_items, "density");
 }
 
 vbnl_result pov_pigment_parse(pov_ctx *c, pov_pigment *pg)

@@ -118,11 +118,21 @@ struct pov_texture {
     pov_texture *below;      /* the next layer down (layered textures), owned, NULL at the bottom */
 };
 
+/* An interior as parsed: a plain value (copied byte for byte). Its core medium is made when an
+ * object using it is built (core_material.c), where the object's transform is known. */
 typedef struct pov_interior {
     double ior;
-    vbnl_medium_part_desc media[VBNL_MEDIUM_PARTS_MAX]; /* its media { } blocks */
+    double fade_distance, fade_power; /* POV-Ray's defaults 0 and 0: fade applies for distance > 0 */
+    double fade_color[3];             /* black by default */
+    vbnl_medium_part_desc media[VBNL_MEDIUM_PARTS_MAX]; /* its media { } blocks (density unset) */
     uint32_t nmedia;
-    uint32_t medium;                                    /* the core medium id + 1 (0: none) */
+    /* the density { } blocks of each media: indices + 1 into the state's densities */
+    uint32_t density[VBNL_MEDIUM_PARTS_MAX][VBNL_MEDIUM_DENSITY_MAX];
+    /* each media's transforms given after it (a material's, the object's: POV-Ray's
+     * Interior::Transform moves the media an interior has; identity for unused slots) */
+    double xf[VBNL_MEDIUM_PARTS_MAX][16];
+    uint32_t medium;                  /* the core medium id + 1 (0: none); set only on the copy
+                                       * core_material.c builds from */
 } pov_interior;
 
 struct pov_appearance {
@@ -156,6 +166,8 @@ struct pov_texture_state {
     int depth;                    /* nested pigments, normals and textures */
     int noise_generator;          /* global_settings noise_generator (0: POV-Ray's default 2) */
     int waves;                    /* global_settings number_of_waves (0: POV-Ray's default 10) */
+    pov_pigment **densities;      /* every media density { } read (owned), named by interiors */
+    uint32_t density_count, density_cap;
 };
 
 /* ---- trees (tree.c) ----------------------------------------------------------------------------- */
@@ -249,7 +261,17 @@ vbnl_result pov_finish_parse(pov_ctx *c, pov_finish *f);
 /* A colour (its first three components). */
 vbnl_result pov_parse_color3(pov_ctx *c, double out[3]);
 
-vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in);  /* interior.c */
+void pov_interior_init(pov_interior *in);                      /* interior.c: ior 1, no fade, no media */
+vbnl_result pov_interior_parse(pov_ctx *c, pov_interior *in);
+void pov_interior_transform(pov_interior *in, const double m[16]); /* moves the media it has */
+/* POV-Ray's fade as an absorption coefficient per channel (docs/scene-language.md, "Media"):
+ * 1 when the interior fades (fade_distance > 0 and fade_power > 0), else 0. */
+int pov_interior_fade(const pov_interior *in, float sigma[3]);
+/* The density { } block (after its keyword) into a new entry of the state's densities: *id. */
+vbnl_result pov_density_parse(pov_ctx *c, uint32_t *id);
+pov_pigment *pov_density_at(pov_ctx *c, uint32_t id);
+/* density { } after its keyword, read over pg (pigment.c). */
+vbnl_result pov_density_body(pov_ctx *c, pov_pigment *pg);
 vbnl_result pov_material_parse(pov_ctx *c, pov_appearance *a);
 
 vbnl_result pov_bsdf_parse(pov_ctx *c, pov_ext_bsdf *e);       /* vbnl_bsdf.c */

@@ -416,6 +416,148 @@ static void test_media(void **state)
     vbnl_pov_scene_destroy(s);
     expect_error(BASE "sphere { 0, 1 interior { media { scattering { 6, 1 } } } }",
                  "test.pov:3:34: scattering type must be 1 to 5 (got 6)");
+    /* scattering extinction e: the core part's deficit 1 - e where the albedo stays at most 1 (here
+     * e >= 1 - 0.4 / 0.5 = 0.2), no warning */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { scattering { 1, 0.5 extinction 0.25 } "
+                "absorption <0.4, 0.45, 0.5> } media { scattering { 1, 0.5 } } } }");
+    NEAR(sc(s)->media[0].part[0].ext, 0.25f);
+    NEAR(sc(s)->media[0].part[1].ext, 1.0f);
+    NEAR(sc(s)->media[0].sigma_x.x, 0.5f * 0.25f + 0.5f);
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    /* below that it is raised to it, warned (a pure scatterer: to 1) */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption 0.5 "
+                "scattering { 1, <1, 2, 0> extinction 0.1 } } media { scattering { 1, 1 extinction 0 } } } }");
+    NEAR(sc(s)->media[0].part[0].ext, 0.75f);
+    NEAR(sc(s)->media[0].part[1].ext, 1.0f);
+    assert_non_null(strstr(g_diags, "test.pov:3:101: warning: scattering extinction 0.1 would make the media gain energy "
+                                    "when light scatters more than once (POV-Ray scatters once): raised to 0.75, where "
+                                    "its albedo is 1"));
+    assert_non_null(strstr(g_diags, "raised to 1, where its albedo is 1"));
+    vbnl_pov_scene_destroy(s);
+    expect_error(BASE "sphere { 0, 1 interior { media { scattering { 1, 1 extinction -1 } } } }",
+                 "test.pov:3:52: scattering extinction must be finite and not negative (got -1)");
+}
+
+static float v3_get(vec3 v, int c) { return c == 0 ? v.x : c == 1 ? v.y : v.z; }
+
+/* The mean transmittance of the scene's last medium along o + t d, t in [0, len] (ratio tracking:
+ * exact in the mean; closed form for constant media). */
+static vec3 mean_transmittance(vbnl_pov_scene *s, vec3 o, vec3 d, float len, int n)
+{
+    const vbnl_scene *c = sc(s);
+    vbi_rng rng = vbi_rng_for(5, 0, 0);
+    vbi_rand r = {NULL, &rng};
+    double acc[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i) {
+        vec3 t = vbi_medium_transmittance(c, c->medium_count, o, d, len, &r);
+        for (int k = 0; k < 3; ++k)
+            acc[k] += v3_get(t, k) / n;
+    }
+    return v3((float)acc[0], (float)acc[1], (float)acc[2]);
+}
+
+/* interior fade: POV-Ray's distance attenuation (trace.cpp) as an absorbing part of the interior's medium */
+static void test_interior_fade(void **state)
+{
+    (void)state;
+    /* exponential (fade_power >= 1000): T(d) = exp(-(1 - fade_color) d / fade_distance), exactly */
+    vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 pigment { rgbf 1 } interior { ior 1.5 fade_distance 2 fade_power 1001 "
+                                "fade_color <0.2, 0.5, 1> } }");
+    const vbnl_scene *c = sc(s);
+    assert_int_equal(c->medium_count, 1);
+    const double fc[3] = {0.2, 0.5, 1.0};
+    for (float d = 0.5f; d <= 2.0f; d += 1.5f) {
+        vec3 T = mean_transmittance(s, v3(-1, 0, 0), v3(1, 0, 0), d, 1);
+        for (int k = 0; k < 3; ++k)
+            assert_true(fabs(v3_get(T, k) - exp(-(1.0 - fc[k]) * d / 2.0)) < 1e-5);
+    }
+    /* the glass lets rays into the medium */
+    int entered = 0;
+    for (uint32_t i = 0; i < c->material_count; ++i)
+        entered |= c->materials[i].desc.interior == 1 && c->materials[i].desc.type == VBNL_MATERIAL_DIELECTRIC;
+    assert_true(entered);
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    /* the power law fc + (1 - fc) / (1 + (d / D)^p) is met at d = D: (1 + fc) / 2 passes */
+    s = ok(BASE "#declare I = interior { ior 1.5 fade_distance 0.8 fade_power 2 }\n"
+                "sphere { 0, 1 pigment { rgbf 1 } interior { I fade_color <0, 0.5, 1> } }");
+    vec3 T = mean_transmittance(s, v3(-1, 0, 0), v3(1, 0, 0), 0.8f, 1);
+    NEAR(T.x, 0.5f);
+    NEAR(T.y, 0.75f);
+    NEAR(T.z, 1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* no fade_distance: no fade, no medium, no warning (POV-Ray's defaults: distance 0, power 0) */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbf 1 } interior { ior 1.5 fade_color <0, 0.5, 1> } }");
+    assert_int_equal(sc(s)->medium_count, 0);
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    s = ok(BASE "sphere { 0, 1 pigment { rgbf 1 } interior { ior 1.5 fade_distance 3 } }");
+    assert_int_equal(sc(s)->medium_count, 0);
+    assert_non_null(strstr(g_diags, "test.pov:3:43: warning: fade_power 0: POV-Ray fades with distance only for a "
+                                    "fade_power above 0: no fade"));
+    vbnl_pov_scene_destroy(s);
+}
+
+/* media density { }: pigments multiplying the media, in the object's space */
+static void test_media_density(void **state)
+{
+    (void)state;
+    /* spherical: 1 - r inside r < 1 (the default map, black to white); along a diameter the optical
+     * depth is the integral of 1 - |x| over [-1, 1] = 1 */
+    const int n = 40000;
+    vbnl_pov_scene *s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption 1 "
+                                "density { spherical } method 3 intervals 1 } } }");
+    const vbnl_scene *c = sc(s);
+    assert_int_equal(c->medium_count, 1);
+    assert_int_equal(c->media[0].part[0].density_count, 1);
+    assert_false(c->media[0].constant);
+    vec3 T = mean_transmittance(s, v3(-1, 0, 0), v3(1, 0, 0), 2.0f, n);
+    assert_true(fabs(T.x - exp(-1.0)) < 4e-3);
+    assert_null(strstr(g_diags, "warning"));
+    vbnl_pov_scene_destroy(s);
+    /* the object's transforms after the interior move the density with it; the media's own scale
+     * (2: density 1 - r / 2, depth 2 - 1/2 along [-1, 1]) and several densities multiplying
+     * (a colour map: 0.5 everywhere in the second) */
+    s = ok(BASE "#declare D = density { spherical }\n"
+                "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption 1 density { D } "
+                "density { spherical color_map { [0 rgb 0.5] [1 rgb 0.5] } } scale 2 } } scale 2 translate <4, 0, 0> }");
+    T = mean_transmittance(s, v3(3, 0, 0), v3(1, 0, 0), 2.0f, n); /* centre 4, r / 4 after both scales */
+    assert_true(fabs(T.x - exp(-0.5 * (2.0 - 0.25))) < 4e-3);
+    T = mean_transmittance(s, v3(-2, 0, 0), v3(1, 0, 0), 1.5f, 10); /* r / 4 > 1 from the centre 4: nothing */
+    NEAR(T.x, 1.0f);
+    vbnl_pov_scene_destroy(s);
+    /* a second interior block keeps the first one's media where the transforms between moved
+     * them, and its own media start unmoved (POV-Ray transforms the media an interior has) */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption 1 density { spherical } } } "
+                "translate <4, 0, 0> interior { media { absorption 1 density { spherical translate <8, 0, 0> } } } "
+                "scale <1, 1, 1> }");
+    T = mean_transmittance(s, v3(3, 0, 0), v3(1, 0, 0), 2.0f, n); /* the first media's, moved to 4 */
+    assert_true(fabs(T.x - exp(-1.0)) < 4e-3);
+    T = mean_transmittance(s, v3(7, 0, 0), v3(1, 0, 0), 2.0f, n); /* the second's, at 8, not 12 */
+    assert_true(fabs(T.x - exp(-1.0)) < 4e-3);
+    vbnl_pov_scene_destroy(s);
+    /* transforms before the interior do not move it (POV-Ray transforms the media it has) */
+    s = ok(BASE "sphere { 0, 1 pigment { rgbt 1 } translate <4, 0, 0> hollow interior { media { absorption 1 "
+                "density { spherical translate <4, 0, 0> } } } }");
+    T = mean_transmittance(s, v3(3, 0, 0), v3(1, 0, 0), 2.0f, n);
+    assert_true(fabs(T.x - exp(-1.0)) < 4e-3);
+    vbnl_pov_scene_destroy(s);
+    /* density_map: densities by a pattern */
+    s = ok(BASE "#declare A = density { rgb 0.25 }\n#declare B = density { rgb 0.75 }\n"
+                "sphere { 0, 1 pigment { rgbt 1 } hollow interior { media { absorption 1 "
+                "density { gradient x density_map { [0.5 A] [0.5 B] } } } } }");
+    T = mean_transmittance(s, v3(0.1f, 0, 0), v3(1, 0, 0), 0.3f, n); /* x in [0.1, 0.4]: A */
+    assert_true(fabs(T.x - exp(-0.25 * 0.3)) < 4e-3);
+    T = mean_transmittance(s, v3(0.6f, 0, 0), v3(1, 0, 0), 0.3f, n); /* x in [0.6, 0.9]: B */
+    assert_true(fabs(T.x - exp(-0.75 * 0.3)) < 4e-3);
+    vbnl_pov_scene_destroy(s);
+    /* in the atmosphere: not kept, warned */
+    s = ok(BASE "media { absorption 0.01 density { spherical } }");
+    assert_non_null(strstr(g_diags, "warning: a density in the atmosphere's media is not supported: taken as constant"));
+    vbnl_pov_scene_destroy(s);
+    expect_error(BASE "sphere { 0, 1 hollow interior { media { density { spherical foo } } } }",
+                 "test.pov:3:61: undeclared identifier 'foo'");
 }
 
 /* shadowless, no_shadow and brilliance onto the core */
@@ -753,6 +895,8 @@ int main(void)
         cmocka_unit_test(test_background),
         cmocka_unit_test(test_fog),
         cmocka_unit_test(test_media),
+        cmocka_unit_test(test_interior_fade),
+        cmocka_unit_test(test_media_density),
         cmocka_unit_test(test_lighting_controls),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_non_finite_and_huge),
