@@ -40,6 +40,7 @@ typedef struct vbi_light {
     const struct vbi_env *env; /* env: the directional sky (environment.h; L is then its mean
                                  * radiance), NULL for a constant one */
     int shadowless;      /* casts no shadow (vbnl_scene_set_light_shadowless) */
+    int no_media;        /* media do not scatter its light (vbnl_scene_set_light_media_interaction) */
 } vbi_light;
 
 typedef struct vbi_light_li_sample {

@@ -100,7 +100,7 @@ static vec3 equiangular_direct(const vbnl_scene *sc, const vbi_medium_stack *med
     vec2 u = vbi_sampler_next2(sp);
     const uint32_t li = vbi_scene_pick_light_reuse(sc, u.x, &pmf, &u.x);
     const vbi_light *light = &sc->lights[li];
-    if (!is_point_light(light) || !(pmf > 0.0f))
+    if (!is_point_light(light) || light->no_media || !(pmf > 0.0f))
         return v3s(0.0f);
     const float tend = isinf(tmax) ? sc->far_bound : tmax;
     const vec3 lo = v3_sub(light->p, o);
@@ -140,8 +140,8 @@ vec3 vbi_estimate_direct_medium(const vbnl_scene *sc, const vbi_medium_stack *me
     float pmf;
     vec2 ul = vbi_sampler_next2(sp);
     uint32_t li = vbi_scene_pick_light_reuse(sc, ul.x, &pmf, &ul.x);
-    if (is_point_light(&sc->lights[li]))
-        return v3s(0.0f); /* equiangular_direct estimates it along the segment */
+    if (is_point_light(&sc->lights[li]) || sc->lights[li].no_media)
+        return v3s(0.0f); /* equiangular_direct estimates it along the segment; or media ignore it */
     vbi_light_li_sample ls;
     if (!vbi_light_sample_li(&sc->lights[li], p, ul, &ls) || !(ls.pdf > 0.0f) || vbi_is_black(ls.Li))
         return v3s(0.0f);

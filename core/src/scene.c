@@ -651,6 +651,18 @@ vbnl_result vbnl_scene_set_light_shadowless(vbnl_scene *s, uint32_t light, int s
     return VBNL_OK;
 }
 
+vbnl_result vbnl_scene_set_light_media_interaction(vbnl_scene *s, uint32_t light, int interacts, vbnl_error *err)
+{
+    vbnl_result r = vbi_scene_check_open(s, "vbnl_scene_set_light_media_interaction", err);
+    if (r != VBNL_OK)
+        return r;
+    if (light >= s->light_count)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                              "vbnl_scene_set_light_media_interaction: light %u does not exist", light);
+    s->lights[light].no_media = interacts == 0;
+    return VBNL_OK;
+}
+
 vbnl_result vbnl_camera_look_at(vbnl_camera_desc *out, const float position[3], const float target[3],
                                 const float up[3], float fov_y_degrees, float aspect, vbnl_error *err)
 {

@@ -336,10 +336,12 @@ static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
     if (rc == 0) {
         /* Next-event estimation picks a light by the irradiance it gives at the scene's centre:
          * a finite light's power over 4 pi d^2 (d its distance from the centre, at least 1% of
-         * the scene's radius), pi times an environment's mean radiance, a directional light's
-         * irradiance. By power alone an environment or directional light would count its
+         * the scene's radius), a spot light's as if its axis intensity shone every way (what it
+         * gives inside its cone, wherever the cone points), pi times an environment's mean
+         * radiance, a directional light's irradiance. By power alone an environment or directional light would count its
          * radiance over the scene's whole cross-section, which an unbounded plane makes huge,
-         * and a sun beside a sky would be picked so rarely that its light came as speckles. */
+         * and a sun beside a sky would be picked so rarely that its light came as speckles; by
+         * its power a narrow spot would be picked rarely and its pool of light come as speckles. */
         float floor2 = sqr(0.01f * (radius > 0.0f ? radius : 1.0f)), total = 0.0f;
         for (uint32_t i = 0; i < s->light_count; ++i) {
             const vbi_light *l = &s->lights[i];
@@ -348,9 +350,11 @@ static vbnl_result commit_build(vbnl_scene *s, vbnl_error *err)
                 c = v3_add(l->p, v3_scale(v3_add(l->e0, l->e1), 0.5f));
             else if (l->type == VBI_LIGHT_TRIANGLE)
                 c = v3_add(l->p, v3_scale(v3_add(l->e0, l->e1), 1.0f / 3.0f));
+            const float d2 = fmaxf(v3_len2(v3_sub(c, center)), floor2);
             float w = l->type == VBI_LIGHT_ENV           ? VBI_PI * v3_avg(l->L)
                       : l->type == VBI_LIGHT_DIRECTIONAL ? v3_avg(l->L)
-                      : power[i] / (4.0f * VBI_PI * fmaxf(v3_len2(v3_sub(c, center)), floor2));
+                      : l->type == VBI_LIGHT_SPOT        ? v3_avg(l->L) / d2
+                                                         : power[i] / (4.0f * VBI_PI * d2);
             weight[i] = isfinite(w) && w > 0.0f ? w : 0.0f;
             total += weight[i];
         }

@@ -48,6 +48,20 @@ static vbnl_result area_light(const pov_item *it)
     return pov_float(L, &n2);
 }
 
+/* media_interaction [bool]: off, participating media do not scatter the light (the core's
+ * vbnl_scene_set_light_media_interaction). media_attenuation is accepted and changes nothing:
+ * media always attenuate light on its way (docs/scene-language.md, "Lights"). */
+static vbnl_result media_interaction(const pov_item *it)
+{
+    pov_light *l = &((pov_prim *)it->target)->light;
+    double v;
+    vbnl_sdl_next(it->p);
+    if (pov_opt_bool(it->p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    l->no_media = v == 0.0;
+    return VBNL_OK;
+}
+
 /* POV-Ray's shadowless: the light's direct light reaches every point it faces (no shadow rays);
  * an area light keeps its shadows (it is an emitting surface in the core). */
 static vbnl_result shadowless(const pov_item *it)
@@ -89,7 +103,7 @@ static const pov_row light_rows[] = {
     {"area_light", area_light, 0},
     {"adaptive", pov_item_any_float, 0},
     {"area_illumination", pov_item_any_bool, 0},
-    {"media_interaction", pov_item_any_bool, 0},
+    {"media_interaction", media_interaction, 0},
     {"media_attenuation", pov_item_any_bool, 0},
     {"jitter", pov_item_any_bool, 0},
     {"circular", pov_item_any_bool, 0},
@@ -148,6 +162,15 @@ vbnl_result pov_shape_light(const pov_shape *s)
 
 /* ---- onto the core --------------------------------------------------------------------------- */
 
+/* The flags of a point, spot or parallel light the core added as `id`. */
+static vbnl_result light_flags(pov_loader *L, const pov_light *l, uint32_t id, vbnl_error *err)
+{
+    vbnl_result r = l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : VBNL_OK;
+    if (r == VBNL_OK && l->no_media)
+        r = vbnl_scene_set_light_media_interaction(L->c.scene, id, 0, err);
+    return r;
+}
+
 vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
 {
     const pov_light *l = &pr->light;
@@ -184,7 +207,7 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
                       (float)(POV_PI * fmax(l->color[2], 0))};
         uint32_t id;
         vbnl_result r = vbnl_scene_add_directional_light(L->c.scene, d, E, &id, err);
-        return r == VBNL_OK && l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : r;
+        return r == VBNL_OK ? light_flags(L, l, id, err) : r;
     }
     float P[3] = {(float)pos[0], (float)pos[1], (float)pos[2]};
     if (l->type == POV_LIGHT_SPOT) {
@@ -203,7 +226,7 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
         sd.exponent = (float)fmax(l->tightness, 0);
         uint32_t id;
         vbnl_result r = vbnl_scene_add_spot_light(L->c.scene, &sd, &id, err);
-        return r == VBNL_OK && l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : r;
+        return r == VBNL_OK ? light_flags(L, l, id, err) : r;
     }
     double n[3];
     pov_cross3(a1, a2, n);
@@ -221,9 +244,11 @@ vbnl_result pov_light_emit(pov_loader *L, const pov_prim *pr, vbnl_error *err)
         ad.two_sided = 1;
         if (l->shadowless && !L->warned_shadowless++)
             vbnl_sdl_warning(L->c.parser, &pr->loc, "shadowless area_light is not supported: it casts shadows");
-        return vbnl_scene_add_area_light(L->c.scene, &ad, NULL, err);
+        uint32_t aid;
+        vbnl_result ar = vbnl_scene_add_area_light(L->c.scene, &ad, &aid, err);
+        return ar == VBNL_OK && l->no_media ? vbnl_scene_set_light_media_interaction(L->c.scene, aid, 0, err) : ar;
     }
     uint32_t id;
     vbnl_result r = vbnl_scene_add_point_light(L->c.scene, P, I, &id, err);
-    return r == VBNL_OK && l->shadowless ? vbnl_scene_set_light_shadowless(L->c.scene, id, 1, err) : r;
+    return r == VBNL_OK ? light_flags(L, l, id, err) : r;
 }

@@ -35,6 +35,7 @@ typedef struct pov_light {
     double axis1[3], axis2[3];
     double fade_distance, fade_power;
     int shadowless;      /* casts no shadows (point, spot and parallel lights) */
+    int no_media;        /* media_interaction off: media do not scatter its light */
 } pov_light;
 
 /* The inside of a shape that tessellates to a mesh (box, cylinder, cone, torus) or of a CSG, in

@@ -13,7 +13,7 @@
  * - a medium that only emits gathers its emission along a ray with a bounded spread per ray;
  * - constant and ground fog reproduce POV-Ray's blend (reference "Fog") on camera rays;
  * - single scattering of a point light in a medium (equiangular sampling) against the integral
- *   along the ray, with a small spread between pixels;
+ *   along the ray, with a small spread between pixels; none with media_interaction off;
  * - no_shadow geometry and shadowless lights: a ground point under an occluder gets the point
  *   light's full direct light I albedo / (pi r^2);
  * - POV-Ray's brilliance as a BSDF: sampled weights equal eval / pdf, and the albedo seen from wo
@@ -528,28 +528,36 @@ static void test_brilliance(void **state)
  * sampling draws t with a pdf proportional to 1 / r^2, so every sample is near the mean: the
  * spread of 8x8 pixels (the same ray, each 16 samples) is 1% of it; distances drawn by the
  * medium's density with next-event estimation at the vertex spread 38% of it. */
-static void test_point_light_in_medium(void **state)
+static vbnl_scene *point_light_scene(vbnl_context *ctx, float h, float ss, float sa, int media_interaction)
 {
-    fixture *f = *state;
-    const float h = 0.3f, ss = 0.5f, sa = 0.1f, st = ss + sa;
     vbnl_scene *s;
-    assert_int_equal(vbnl_scene_create(f->ctx, &s, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
     const float a[3] = {sa, sa, sa}, sc3[3] = {ss, ss, ss};
     const uint32_t m = one_part_medium(s, a, sc3, VBNL_PHASE_ISOTROPIC, 0.0f);
     assert_int_equal(vbnl_scene_set_atmosphere(s, m + 1, NULL), VBNL_OK);
     vbnl_material_desc md;
     vbnl_material_desc_init(&md);
     md.base_color[0] = md.base_color[1] = md.base_color[2] = 0.0f;
-    uint32_t black;
+    uint32_t black, light;
     assert_int_equal(vbnl_scene_add_material(s, &md, &black, NULL), VBNL_OK);
     const float c[3] = {0, 0, 0}, lp[3] = {0, h, 0}, I[3] = {1, 1, 1};
     assert_int_equal(vbnl_scene_add_sphere(s, c, 5.0f, black, VBNL_GROUP_WORLD, NULL, NULL), VBNL_OK);
-    assert_int_equal(vbnl_scene_add_point_light(s, lp, I, NULL, NULL), VBNL_OK);
+    assert_int_equal(vbnl_scene_add_point_light(s, lp, I, &light, NULL), VBNL_OK);
+    if (!media_interaction)
+        assert_int_equal(vbnl_scene_set_light_media_interaction(s, light, 0, NULL), VBNL_OK);
     float pos[3] = {0, 0, -4}, target[3] = {0, 0, 1}, up[3] = {0, 1, 0};
     vbnl_camera_desc cam;
     assert_int_equal(vbnl_camera_look_at(&cam, pos, target, up, 0.05f, 1.0f, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_set_camera(s, &cam, NULL), VBNL_OK);
     assert_int_equal(vbnl_scene_commit(s, NULL), VBNL_OK);
+    return s;
+}
+
+static void test_point_light_in_medium(void **state)
+{
+    fixture *f = *state;
+    const float h = 0.3f, ss = 0.5f, sa = 0.1f, st = ss + sa;
+    vbnl_scene *s = point_light_scene(f->ctx, h, ss, sa, 1);
     double want = 0.0;
     const int n = 400000;
     for (int i = 0; i < n; ++i) { /* midpoint rule */
@@ -565,6 +573,13 @@ static void test_point_light_in_medium(void **state)
     const double spread = sqrt(var) / mean[0];
     if (fabs(mean[0] / want - 1.0) > 0.02 || spread > 0.1)
         fail_msg("point light in a medium: %.5f (spread %.3f of it), the integral %.5f", mean[0], spread, want);
+    free(px);
+    vbnl_scene_destroy(s);
+    /* media_interaction off: the medium scatters none of its light, at any depth */
+    s = point_light_scene(f->ctx, h, ss, sa, 0);
+    px = ts_render(f->ctx, s, "path", 4, 4, 16, 5, NULL);
+    image_mean(px, 16, mean);
+    assert_true(mean[0] == 0.0);
     free(px);
     vbnl_scene_destroy(s);
 }

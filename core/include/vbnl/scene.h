@@ -714,6 +714,13 @@ vbnl_result vbnl_scene_set_visibility(vbnl_scene *scene, uint32_t geom, uint32_t
  * photons and virtual lights still see occluders. */
 vbnl_result vbnl_scene_set_light_shadowless(vbnl_scene *scene, uint32_t light, int shadowless, vbnl_error *err);
 
+/* A light of add_*_light whose light participating media do not scatter (interacts = 0): POV-Ray's
+ * `media_interaction off`. Points in media get no light from it (next-event and equiangular
+ * estimates leave it out); surfaces are lit by it as before, through the media's transmittance.
+ * Errors: VBNL_ERR_INVALID_ARGUMENT for an unknown light. */
+vbnl_result vbnl_scene_set_light_media_interaction(vbnl_scene *scene, uint32_t light, int interacts,
+                                                   vbnl_error *err);
+
 /* ---- participating media and fog ---------------------------------------------------------- */
 
 /* A medium fills the inside of the surfaces whose material names it (vbnl_material_desc.interior)

@@ -560,18 +560,21 @@ static void test_media_density(void **state)
                  "test.pov:3:61: undeclared identifier 'foo'");
 }
 
-/* shadowless, no_shadow and brilliance onto the core */
+/* shadowless, media_interaction, no_shadow and brilliance onto the core */
 static void test_lighting_controls(void **state)
 {
     (void)state;
     vbnl_pov_scene *s = ok("camera { location -5 look_at 0 }\nlight_source { <0, 5, 0> rgb 1 shadowless }\n"
-                           "light_source { <0, 6, 0> rgb 1 }\n"
+                           "light_source { <0, 6, 0> rgb 1 media_interaction off }\n"
+                           "light_source { <0, 7, 0> rgb 1 spotlight point_at 0 media_interaction on }\n"
                            "sphere { 0, 1 no_shadow pigment { rgb 1 } finish { brilliance 3 } }\nbox { -2, -1.5 }");
     const vbnl_scene *c = sc(s);
     int shadowless = 0, no_shadow = 0, brilliance = 0;
     for (uint32_t i = 0; i < c->light_count; ++i)
         shadowless += c->lights[i].shadowless;
     assert_int_equal(shadowless, 1);
+    assert_int_equal(c->light_count, 3);
+    assert_true(!c->lights[0].no_media && c->lights[1].no_media && !c->lights[2].no_media);
     for (uint32_t g = 0; g < c->geom_count; ++g)
         no_shadow += c->geoms[g].visibility == VBNL_VISIBLE_NO_SHADOW;
     assert_int_equal(no_shadow, 1);
