@@ -662,7 +662,8 @@ vbnl_result pov_appearance_material(pov_ctx *c, const pov_appearance *a, const d
     pov_key_texture(&key, tex);
     pov_key_bytes(&key, in, sizeof(*in));
     pov_key_bytes(&key, pre, sizeof(pre));
-    pov_key_bytes(&key, world_from_pov, 16 * sizeof(double)); /* with in->xf: where its media are */
+    if (in->nmedia) /* with in->xf: where its media are */
+        pov_key_bytes(&key, world_from_pov, 16 * sizeof(double));
     pov_key_bytes(&key, &s->noise_generator, sizeof(s->noise_generator));
     pov_key_bytes(&key, &s->waves, sizeof(s->waves));
     if (key.failed) {
