@@ -23,6 +23,8 @@ struct pov_material_entry {
 typedef struct map_notes {
     const char *clamped_what;
     double clamped_value;
+    double refl_sum;    /* diffuse colour + reflection above 1 (0: none) */
+    double refl_diffuse;/* the diffuse the core keeps there */
 } map_notes;
 
 typedef struct build {
@@ -118,6 +120,11 @@ static void report_notes(pov_ctx *c, const pov_appearance *a, const map_notes *n
     if (n->clamped_what)
         vbnl_sdl_warning(c->parser, loc, "%s %.3g exceeds the energy-conserving range [0, 1]: clamped",
                          n->clamped_what, n->clamped_value);
+    if (n->refl_sum > 0.0)
+        vbnl_sdl_warning(c->parser, loc,
+                         "diffuse plus reflection reflect %.3g of the light they receive: the diffuse is reduced "
+                         "to %.3g of the pigment's colour so that the sum stays within 1",
+                         n->refl_sum, n->refl_diffuse);
 }
 
 /* ---- patterns, pigments, normals ----------------------------------------------------------------- */
@@ -363,28 +370,60 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         return;
     }
     md->interior = in->medium; /* what a ray that enters travels in (its media) */
-    double refl = (f->reflection[0] + f->reflection[1] + f->reflection[2]) / 3.0;
-    if (f->metallic && (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0)) {
+    double refl = 0.0;
+    for (int k = 0; k < 3; ++k)
+        refl = fmax(refl, fmax(f->reflection[k], f->reflection_min[k]));
+    const int highlight = f->specular > 0.0 || f->phong > 0.0;
+    const float rough = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
+                        : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
+                                          : 0.001f;
+    const int variable = memcmp(f->reflection, f->reflection_min, sizeof(f->reflection)) != 0 || f->fresnel ||
+                         f->reflect_metallic > 0.0;
+    if (f->metallic && (refl > 0.0 || highlight)) {
         md->type = VBNL_MATERIAL_CONDUCTOR;
-        md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
-                    : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
-                                      : 0.001f;
-    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0 && !f->fresnel) {
+        md->alpha = rough;
+    } else if (refl > 0.0 && f->diffuse <= 0.0 && !highlight && !variable) {
         md->type = VBNL_MATERIAL_MIRROR;
         memcpy(scale, f->reflection, sizeof(scale));
         *tinted = 0;
-    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0) {
-        /* reflection { fresnel } alone: the clear coat's Fresnel reflection of the interior's ior
-         * over a black base (POV-Ray's reflection between 0 and its maximum by Fresnel's formula) */
+    } else if (refl > 0.0) {
+        /* POV-Ray's variable reflection (reference "Reflection"): a coat whose reflectance follows
+         * min + (max - min) (1 - cos)^falloff, or the interior's Fresnel reflectance between min and
+         * max, over the diffuse base it adds to (smooth, or GGX with the highlight's roughness) */
         md->type = VBNL_MATERIAL_PLASTIC;
-        md->alpha = 0.001f;
+        md->alpha = rough;
         md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
-        scale[0] = scale[1] = scale[2] = 0.0;
-    } else if (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0) {
+        md->coat_curve = f->fresnel ? VBNL_COAT_FRESNEL : VBNL_COAT_SCHLICK;
+        const double *lo = f->reflection_min;
+        const double zero[3] = {0, 0, 0};
+        if (f->fresnel && !memcmp(f->reflection, f->reflection_min, sizeof(f->reflection)))
+            lo = zero; /* POV-Ray: fresnel with one colour reflects between 0 and it */
+        for (int k = 0; k < 3; ++k) {
+            md->coat_min[k] = clamp_albedo(&b->notes, lo[k], "reflection");
+            md->coat_max[k] = clamp_albedo(&b->notes, f->reflection[k], "reflection");
+        }
+        md->coat_falloff = (float)f->falloff;
+        md->coat_metallic = (float)f->reflect_metallic;
+        md->base_scale = clamp_albedo(&b->notes, f->diffuse, "diffuse");
+        /* POV-Ray adds diffuse and reflection; the core caps the diffuse at 1 - the reflection's
+         * maximum (vbnl/scene.h), which is noted where the pigment's colour reaches the cap */
+        double avg[5], sum = 0.0, rmax = 0.0;
+        pov_pigment_average(t->pig, b->c->tex, avg);
+        for (int k = 0; k < 3; ++k) {
+            double r = fmax(md->coat_min[k], md->coat_max[k]);
+            double s = md->base_scale * fmin(fmax(avg[k], 0.0), 1.0) + r;
+            if (s > sum) {
+                sum = s;
+                rmax = r;
+            }
+        }
+        if (sum > 1.0 + 1e-6 && b->notes.refl_sum == 0.0) {
+            b->notes.refl_sum = sum;
+            b->notes.refl_diffuse = 1.0 - rmax;
+        }
+    } else if (highlight) {
         md->type = VBNL_MATERIAL_PLASTIC;
-        md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
-                    : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
-                                      : 0.001f;
+        md->alpha = rough;
         md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
         scale[0] = scale[1] = scale[2] = f->diffuse;
     } else {
