@@ -332,12 +332,14 @@ static int conductor_sample(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_
  * A coat with a reflectance curve (VBNL_COAT_SCHLICK, VBNL_COAT_FRESNEL: POV-Ray's variable
  * reflection, vbnl/scene.h) uses the same GGX lobe with the curve F(c) in place of the Fresnel
  * term, evaluated per channel at c = wo.h (POV-Ray evaluates it at the angle of incidence of its
- * mirror ray, which is wo.h for the smooth coat). Its base is either added with a constant
- * per-channel weight w = min(base_scale color, 1 - max F) (max F bounds the coat's albedo, as
- * the GGX single-scattering albedo of a white coat is <= 1 and the metallic tint is <= 1), or
- * coupled to the curve as above with F(mu) in place of E_s(mu): f_d = base_scale color / pi
- * (1 - F(mu_o)) (1 - F(mu_i)) / (1 - F_avg), F_avg = 2 int F(mu) mu dmu, whose albedo is
- * base_scale color (1 - F(mu_o)). */
+ * mirror ray, which is wo.h for the smooth coat). Its base, k = base_scale color, is either
+ * added (POV-Ray's diffuse + reflection): f_d = k / pi g(mu_o) g(mu_i), g(mu) = min(1, (1 -
+ * F(mu)) / k) per channel, which is k / pi wherever k + F <= 1 and less only at the angles where
+ * the sum would exceed 1 (there the albedo is at most k g(mu_o) <= 1 - F(mu_o)); or coupled to
+ * the curve as above with F(mu) in place of E_s(mu): f_d = k / pi (1 - F(mu_o)) (1 - F(mu_i)) /
+ * (1 - F_avg), F_avg = 2 int F(mu) mu dmu, whose albedo is k (1 - F(mu_o)). Both are reciprocal;
+ * the bound uses F(mu_o) for the coat's albedo, exact for the smooth coat (a rough coat of a curve
+ * rising towards grazing reflects less than F(mu_o), its facets facing wo more squarely). */
 
 /* POV-Ray's empirical curve of its `metallic` tint (its trace.cpp, ComputeMetallic): 0 seen
  * head-on, 1 at grazing, of x = theta / (pi / 2): 0.014567225 / (x - 1.12)^2 - 0.011612903. */
@@ -384,8 +386,16 @@ typedef struct plastic_ctx {
     float p_spec;   /* probability of sampling the specular lobe */
     /* curve coats */
     vec3 f_o;       /* F(mu_o) */
-    vec3 base;      /* additive: the base's albedo w; conserving: base_scale color / (1 - F_avg) */
+    vec3 base;      /* additive: k g(mu_o); conserving: k (1 - F(mu_o)) / (1 - F_avg) */
 } plastic_ctx;
+
+/* The additive base's g(mu) = min(1, (1 - F(mu)) / k) per channel, for F = F(mu). */
+static vec3 additive_g(vec3 k, vec3 F)
+{
+    vec3 room = v3_sub(v3s(1.0f), F);
+    return v3(k.x > room.x ? room.x / k.x : 1.0f, k.y > room.y ? room.y / k.y : 1.0f,
+              k.z > room.z ? room.z / k.z : 1.0f);
+}
 
 static plastic_ctx plastic_setup(const vbi_bsdf *b, vec3 wo)
 {
@@ -407,10 +417,10 @@ static plastic_ctx plastic_setup(const vbi_bsdf *b, vec3 wo)
         vec3 kd = v3_scale(b->color, b->base_scale);
         if (b->coat_conserve) {
             vec3 favg = coat_curve_favg(b);
-            c.base = v3_div(kd, v3_max(v3_sub(v3s(1.0f), favg), v3s(1e-6f)));
+            c.base = v3_div(v3_mul(kd, v3_sub(v3s(1.0f), c.f_o)), v3_max(v3_sub(v3s(1.0f), favg), v3s(1e-6f)));
             diff = v3_luminance(v3_mul(kd, v3_sub(v3s(1.0f), c.f_o)));
         } else {
-            c.base = v3_min(kd, v3_sub(v3s(1.0f), v3_max(b->coat_min, b->coat_max)));
+            c.base = v3_mul(kd, additive_g(kd, c.f_o));
             diff = v3_luminance(c.base);
         }
         spec = c.es_o * v3_luminance(c.f_o);
@@ -425,9 +435,9 @@ static inline __attribute__((always_inline)) vec3 plastic_eval_ctx(const vbi_bsd
     float dg = ggx_d(h, b->alpha) * ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
     if (b->coat_curve != VBNL_COAT_DIELECTRIC) {
         vec3 spec = v3_scale(coat_curve_F(b, v3_dot(wo, h)), dg);
-        vec3 diff = c->base;
-        if (b->coat_conserve)
-            diff = v3_mul(diff, v3_mul(v3_sub(v3s(1.0f), c->f_o), v3_sub(v3s(1.0f), coat_curve_F(b, wi.z))));
+        vec3 f_i = coat_curve_F(b, wi.z);
+        vec3 diff = b->coat_conserve ? v3_mul(c->base, v3_sub(v3s(1.0f), f_i))
+                                     : v3_mul(c->base, additive_g(v3_scale(b->color, b->base_scale), f_i));
         return v3_fma(spec, diff, VBI_INV_PI * wi.z);
     }
     float spec = vbi_fresnel_dielectric(v3_dot(wo, h), b->ior) * dg;

@@ -81,15 +81,15 @@ typedef struct vbnl_material_desc {
      *   VBNL_COAT_FRESNEL:  w(c) = the dielectric Fresnel reflectance of `ior` at c
      * and T(c) = 1 + coat_metallic (1 - M(c)) (base_color - 1) the surface-colour tint of POV-Ray's
      * `metallic` (M: POV-Ray's empirical Fresnel-like curve, 0 head-on, 1 at grazing). Under
-     * such a coat (smooth for alpha 1e-3, GGX otherwise) the Lambertian base reflects
-     * base_scale base_color, either added (coat_conserve 0, POV-Ray's diffuse + reflection; the
-     * core caps the base per channel at 1 - max F so that nothing reflects more than it receives)
-     * or weighted by what the coat lets through both ways (coat_conserve 1: f_base = base_scale
-     * base_color / pi (1 - F(mu_o)) (1 - F(mu_i)) / (1 - F_avg), albedo base_scale base_color
-     * (1 - F(mu_o))). */
+     * such a coat (smooth for alpha 1e-3, GGX otherwise) the Lambertian base k = base_scale
+     * base_color is either added (coat_conserve 0, POV-Ray's diffuse + reflection: f_base = k / pi
+     * g(mu_o) g(mu_i), g(mu) = min(1, (1 - F(mu)) / k), so k / pi wherever k + F <= 1 and less
+     * only at the angles where the sum would reflect more than the surface receives) or weighted
+     * by what the coat lets through both ways (coat_conserve 1: f_base = k / pi (1 - F(mu_o))
+     * (1 - F(mu_i)) / (1 - F_avg), F_avg = 2 int F mu dmu, albedo k (1 - F(mu_o))). */
     int coat_curve;       /* vbnl_coat_curve */
-    float coat_min[3];    /* reflectance head-on (c = 1 for SCHLICK), each in [0, 1] */
-    float coat_max[3];    /* reflectance at grazing (c = 0), each in [0, 1] */
+    float coat_min[3];    /* the reflectance where w = 0 (head-on for SCHLICK), each in [0, 1] */
+    float coat_max[3];    /* the reflectance where w = 1 (at grazing), each in [0, 1] */
     float coat_falloff;   /* SCHLICK: the exponent p, in (0, 1000] */
     float coat_metallic;  /* [0, 1] */
     int coat_conserve;    /* 0: base added to the coat; 1: base weighted by (1 - F) */
