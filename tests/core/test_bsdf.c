@@ -598,8 +598,8 @@ static void test_coat_curve(void **state)
     b = make_coat(VBNL_COAT_SCHLICK, 0.3f, 0.3f, 1.0f, 0.0f, 0, 0.6f, v3s(1.0f), 0.001f, 1.5f);
     vec3 a = albedo_mc(&b, v3(0.0f, 0.0f, 1.0f), 77);
     expect_v3(a, 0.9f, 0.9f, 0.9f, 0.01f, "reflection 0.3 + diffuse 0.6");
-    /* additive beyond 1: the base gives way where the coat takes more than 1 - k (here at every
-     * angle: the albedo is 0.5 + 0.5 (2 int g mu dmu) = 1 with g = 0.5 / 1) ... */
+    /* additive beyond 1: the base gives way where the coat takes more than 1 - k, here at every
+     * angle (g = 0.5 / 1): the albedo is 0.5 + 1 g(mu_o) (2 int g mu dmu) = 0.75 ... */
     b = make_coat(VBNL_COAT_SCHLICK, 0.5f, 0.5f, 1.0f, 0.0f, 0, 1.0f, v3s(1.0f), 0.001f, 1.5f);
     a = albedo_mc(&b, v3(0.0f, 0.0f, 1.0f), 78);
     expect_v3(a, 0.75f, 0.75f, 0.75f, 0.01f, "reflection 0.5 + diffuse 1");

@@ -23,8 +23,7 @@ struct pov_material_entry {
 typedef struct map_notes {
     const char *clamped_what;
     double clamped_value;
-    double refl_sum;    /* diffuse colour + reflection above 1 (0: none) */
-    double refl_diffuse;/* the diffuse the core keeps there */
+    double refl_sum;    /* diffuse colour + the reflection's maximum, when above 1 (0: none) */
 } map_notes;
 
 typedef struct build {
@@ -122,9 +121,9 @@ static void report_notes(pov_ctx *c, const pov_appearance *a, const map_notes *n
                          n->clamped_what, n->clamped_value);
     if (n->refl_sum > 0.0)
         vbnl_sdl_warning(c->parser, loc,
-                         "diffuse plus reflection reflect %.3g of the light they receive: the diffuse is reduced "
-                         "to %.3g of the pigment's colour so that the sum stays within 1",
-                         n->refl_sum, n->refl_diffuse);
+                         "diffuse plus reflection reflect up to %.3g of the light they receive: the diffuse is "
+                         "reduced at the angles where the sum would exceed 1",
+                         n->refl_sum);
 }
 
 /* ---- patterns, pigments, normals ----------------------------------------------------------------- */
@@ -405,22 +404,14 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         md->coat_falloff = (float)f->falloff;
         md->coat_metallic = (float)f->reflect_metallic;
         md->base_scale = clamp_albedo(&b->notes, f->diffuse, "diffuse");
-        /* POV-Ray adds diffuse and reflection; the core caps the diffuse at 1 - the reflection's
-         * maximum (vbnl/scene.h), which is noted where the pigment's colour reaches the cap */
-        double avg[5], sum = 0.0, rmax = 0.0;
+        /* POV-Ray adds diffuse and reflection; the core's base gives way at the angles where
+         * the sum would exceed 1 (vbnl/scene.h), noted here for the pigment's average colour */
+        double avg[5], sum = 0.0;
         pov_pigment_average(t->pig, b->c->tex, avg);
-        for (int k = 0; k < 3; ++k) {
-            double r = fmax(md->coat_min[k], md->coat_max[k]);
-            double s = md->base_scale * fmin(fmax(avg[k], 0.0), 1.0) + r;
-            if (s > sum) {
-                sum = s;
-                rmax = r;
-            }
-        }
-        if (sum > 1.0 + 1e-6 && b->notes.refl_sum == 0.0) {
+        for (int k = 0; k < 3; ++k)
+            sum = fmax(sum, md->base_scale * fmin(fmax(avg[k], 0.0), 1.0) + fmax(md->coat_min[k], md->coat_max[k]));
+        if (sum > 1.0 + 1e-6 && b->notes.refl_sum == 0.0)
             b->notes.refl_sum = sum;
-            b->notes.refl_diffuse = 1.0 - rmax;
-        }
     } else if (highlight) {
         md->type = VBNL_MATERIAL_PLASTIC;
         md->alpha = rough;

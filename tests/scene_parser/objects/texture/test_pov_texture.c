@@ -344,8 +344,8 @@ static void test_finish_mapping(void **state)
     expect3(d->coat_max, 0.8, 0.8, 0.8, 1e-6);
     assert_float_equal(d->coat_metallic, 1.0, 0);
     assert_true(d->alpha == 0.001f);
-    /* 0.6 x 0.9 + 0.8 > 1: noted (the core caps the diffuse at 1 - 0.8) */
-    assert_non_null(warning_text(h, "diffuse plus reflection reflect 1.34"));
+    /* 0.6 x 0.9 + 0.8 > 1: noted (the core's diffuse gives way where the sum exceeds 1) */
+    assert_non_null(warning_text(h, "diffuse plus reflection reflect up to 1.34"));
     /* what the pigment lets through refracts into the interior, tinted by f c + t */
     vbi_bsdf g = bsdf_at(h, 7, 0, 0, 0, 0);
     assert_int_equal(g.type, VBNL_MATERIAL_DIELECTRIC);
