@@ -162,7 +162,8 @@ void vbi_bsdf_from_material(vbi_bsdf *b, const vbnl_material_desc *m)
     b->eta = v3_max(v3_load(m->eta), v3s(1e-3f));
     b->k = v3_max(v3_load(m->k), v3s(0.0f));
     b->brilliance = m->type == VBNL_MATERIAL_BRILLIANCE ? clampf(m->brilliance, 1.0f, 1000.0f) : 1.0f;
-    b->coat_curve = m->type == VBNL_MATERIAL_PLASTIC ? m->coat_curve : VBNL_COAT_DIELECTRIC;
+    b->coat_curve = m->type == VBNL_MATERIAL_PLASTIC || m->type == VBNL_MATERIAL_DIELECTRIC ? m->coat_curve
+                                                                                           : VBNL_COAT_DIELECTRIC;
     b->coat_min = v3_min(v3_max(v3_load(m->coat_min), v3s(0.0f)), v3s(1.0f));
     b->coat_max = v3_min(v3_max(v3_load(m->coat_max), v3s(0.0f)), v3s(1.0f));
     b->coat_falloff = clampf(isfinite(m->coat_falloff) ? m->coat_falloff : 1.0f, 1e-3f, 1000.0f);
@@ -509,6 +510,47 @@ static int mirror_sample(const vbi_bsdf *b, vec3 wo, vbi_bsdf_sample_rec *out)
     return 1;
 }
 
+/* The refracted direction of wo (either side) for eta = n_t / n_i; 0 at total internal reflection. */
+static int refract_z(vec3 wo, float eta, vec3 *wt)
+{
+    float sin2_t = (1.0f - wo.z * wo.z) / (eta * eta);
+    if (sin2_t >= 1.0f)
+        return 0;
+    float cos_t = sqrtf(1.0f - sin2_t);
+    *wt = v3(-wo.x / eta, -wo.y / eta, wo.z > 0.0f ? -cos_t : cos_t);
+    return 1;
+}
+
+/* A smooth dielectric whose reflectance is a coat curve (vbnl/scene.h) instead of Fresnel's: POV-
+ * Ray's variable reflection on a transparent surface, which reflects F(cos) of the light and lets
+ * (1 - F) through (its conserve_energy; reference "Conserve Energy for Reflection"), from either
+ * side, and reflects everything at total internal reflection. F is RGB: the lobe is chosen with
+ * the probability avg(F) and each weight divides by its own probability. */
+static int dielectric_curve_sample(const vbi_bsdf *b, vec3 wo, float u_lobe, vbi_bsdf_sample_rec *out)
+{
+    const float eta = wo.z > 0.0f ? b->ior : 1.0f / b->ior;
+    vec3 wt;
+    const int tir = !refract_z(wo, eta, &wt);
+    vec3 F = tir ? v3s(1.0f) : coat_curve_F(b, fabsf(wo.z));
+    float p = tir ? 1.0f : clampf(v3_avg(F), 0.0f, 1.0f);
+    if (p > 0.0f && p < 1.0f)
+        p = clampf(p, 1e-3f, 1.0f - 1e-3f); /* a coloured F may have a zero average in one lobe */
+    if (u_lobe < p) {
+        out->wi = reflect_z(wo);
+        out->weight = v3_scale(F, 1.0f / p);
+        out->pdf = p;
+        out->lobe = VBI_LOBE_REFLECTION | VBI_LOBE_SPECULAR;
+        out->eta = 1.0f;
+        return 1;
+    }
+    out->wi = wt;
+    out->weight = v3_scale(v3_mul(b->color, v3_sub(v3s(1.0f), F)), 1.0f / ((1.0f - p) * eta * eta));
+    out->pdf = 1.0f - p;
+    out->lobe = VBI_LOBE_TRANSMISSION | VBI_LOBE_SPECULAR;
+    out->eta = eta;
+    return 1;
+}
+
 /* Smooth dielectric (pbrt-v4 DielectricBxDF, specular case): reflect with probability F,
  * refract otherwise, so both weights are independent of F. The tint multiplies transmission
  * only: it stands for absorption inside the material, which light reflected at the surface
@@ -519,6 +561,8 @@ static int dielectric_sample(const vbi_bsdf *b, vec3 wo, float u_lobe, vbi_bsdf_
     float cos_o = wo.z;
     if (cos_o == 0.0f)
         return 0;
+    if (b->coat_curve != VBNL_COAT_DIELECTRIC)
+        return dielectric_curve_sample(b, wo, u_lobe, out);
     float F = vbi_fresnel_dielectric(cos_o, b->ior);
     if (u_lobe < F) {
         out->wi = reflect_z(wo);

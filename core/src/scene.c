@@ -212,7 +212,7 @@ vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, 
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "material ior must lie in %s, 10) (got %g)",
                               d->type == VBNL_MATERIAL_PLASTIC ? "(1" : "[1", d->ior);
-    if (d->type == VBNL_MATERIAL_PLASTIC && (r = check_coat(d, err)) != VBNL_OK)
+    if ((d->type == VBNL_MATERIAL_PLASTIC || d->type == VBNL_MATERIAL_DIELECTRIC) && (r = check_coat(d, err)) != VBNL_OK)
         return r;
     GROW(s->materials, s->material_count, s->material_capacity, scene_material);
     scene_material *m = &s->materials[s->material_count];

@@ -427,6 +427,38 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         md->base_color[k] = clamp_albedo(&b->notes, scale[k] * (*tinted ? pc[k] : 1.0), "albedo");
 }
 
+/* True when a finish has a reflection (other than a finish-level metallic's conductor). */
+static int finish_reflects(const pov_finish *f)
+{
+    if (f->metallic)
+        return 0;
+    for (int k = 0; k < 3; ++k)
+        if (f->reflection[k] > 0.0 || f->reflection_min[k] > 0.0)
+            return 1;
+    return 0;
+}
+
+/* The reflection of a finish on the light a transparent pigment lets through: POV-Ray reflects
+ * F(theta) there too and, with conserve_energy, lets 1 - F through (reference "Conserve Energy
+ * for Reflection"); the core's dielectric with a coat curve does that always, so that nothing
+ * leaves the surface brighter than it came (without conserve_energy POV-Ray passes all the light
+ * and adds the reflection). Its `metallic` tint is not applied here: the glass has no pigment
+ * colour of its own. */
+static void glass_reflection(build *b, const pov_finish *f, vbnl_material_desc *glass)
+{
+    if (!finish_reflects(f))
+        return;
+    const double zero[3] = {0, 0, 0};
+    const double *lo = f->fresnel && !memcmp(f->reflection, f->reflection_min, sizeof(f->reflection)) ? zero
+                                                                                                      : f->reflection_min;
+    glass->coat_curve = f->fresnel ? VBNL_COAT_FRESNEL : VBNL_COAT_SCHLICK;
+    for (int k = 0; k < 3; ++k) {
+        glass->coat_min[k] = clamp_albedo(&b->notes, lo[k], "reflection");
+        glass->coat_max[k] = clamp_albedo(&b->notes, f->reflection[k], "reflection");
+    }
+    glass->coat_falloff = (float)f->falloff;
+}
+
 /* The emitted radiance of a plain layer: POV-Ray's emission times the pigment's colour and
  * opacity (a patterned pigment's average: the core's emission is constant per material). */
 static void layer_emission(build *b, const pov_texture *t, float out[3])
@@ -505,13 +537,14 @@ static vbnl_result build_plain(build *b, const pov_texture *t, const pov_interio
             return r;
         nd.normal = n + 1;
     }
-    if (in->ior > 1.0 || in->medium) {
+    if (in->ior > 1.0 || in->medium || finish_reflects(&t->fin)) {
         /* the light the pigment lets through refracts into the interior (or enters its media
          * unrefracted: ior 1) */
         vbnl_material_desc glass;
         vbnl_material_desc_init(&glass);
         glass.type = VBNL_MATERIAL_DIELECTRIC;
-        glass.ior = (float)in->ior;
+        glass.ior = (float)(in->ior > 1.0 ? in->ior : 1.0);
+        glass_reflection(b, &t->fin, &glass);
         glass.interior = in->medium;
         glass.base_color[0] = glass.base_color[1] = glass.base_color[2] = 1.0f;
         uint32_t gid;
