@@ -640,6 +640,50 @@ static void test_coat_sampling(void **state)
     assert_true(pd > 0.0f && pd <= p * (1.0f + 1e-5f));
 }
 
+/* A smooth dielectric with a coat curve reflects F(cos) and lets 1 - F through (times 1/eta^2
+ * for radiance), from either side, and reflects everything at total internal reflection. */
+static void test_coat_dielectric(void **state)
+{
+    (void)state;
+    vbnl_material_desc m;
+    vbnl_material_desc_init(&m);
+    m.type = VBNL_MATERIAL_DIELECTRIC;
+    m.base_color[0] = m.base_color[1] = m.base_color[2] = 1.0f;
+    m.ior = 1.3f;
+    m.coat_curve = VBNL_COAT_SCHLICK;
+    m.coat_min[0] = 0.0f, m.coat_min[1] = 0.1f, m.coat_min[2] = 0.2f;
+    m.coat_max[0] = m.coat_max[1] = m.coat_max[2] = 1.0f;
+    m.coat_falloff = 2.0f;
+    vbi_bsdf b;
+    vbi_bsdf_from_material(&b, &m);
+    const float cosines[3] = {0.9f, 0.5f, -0.95f};
+    for (int t = 0; t < 3; ++t) {
+        float c = cosines[t], eta = c > 0.0f ? 1.3f : 1.0f / 1.3f;
+        vec3 wo = v3(sqrtf(1.0f - c * c), 0.0f, c);
+        double refl[3] = {0, 0, 0}, trans[3] = {0, 0, 0};
+        const int n = 4000;
+        for (int i = 0; i < n; ++i) {
+            vbi_bsdf_sample_rec rec = {.pdf = 0.0f};
+            assert_true(vbi_bsdf_sample(&b, wo, (vec2){((float)i + 0.5f) / (float)n, 0.5f}, &rec));
+            double *acc = (rec.lobe & VBI_LOBE_REFLECTION) ? refl : trans;
+            for (int k = 0; k < 3; ++k)
+                acc[k] += v3_comp(rec.weight, k) / n;
+        }
+        float w = powf(1.0f - fabsf(c), 2.0f);
+        for (int k = 0; k < 3; ++k) {
+            float F = v3_comp(b.coat_min, k) + (1.0f - v3_comp(b.coat_min, k)) * w;
+            assert_float_equal(refl[k], F, 2e-3);
+            assert_float_equal(trans[k] * eta * eta, 1.0f - F, 2e-3);
+        }
+    }
+    /* from inside beyond the critical angle (asin(1 / 1.3) = 50.3 degrees): all reflected */
+    vec3 wo = v3(sinf(1.2f), 0.0f, -cosf(1.2f));
+    vbi_bsdf_sample_rec rec = {.pdf = 0.0f};
+    assert_true(vbi_bsdf_sample(&b, wo, (vec2){0.99f, 0.5f}, &rec));
+    assert_true(rec.lobe & VBI_LOBE_REFLECTION);
+    expect_v3(rec.weight, 1.0f, 1.0f, 1.0f, 1e-6f, "total internal reflection");
+}
+
 static void test_coat_furnace(void **state)
 {
     (void)state;
@@ -678,6 +722,7 @@ int main(void)
         cmocka_unit_test(test_coat_curve),
         cmocka_unit_test(test_coat_sampling),
         cmocka_unit_test(test_coat_furnace),
+        cmocka_unit_test(test_coat_dielectric),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

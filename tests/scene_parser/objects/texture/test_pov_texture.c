@@ -429,6 +429,23 @@ static void test_variable_reflection(void **state)
     assert_non_null(strstr(w, "'exponent' 2 is ignored"));
     assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 1);
     done(h);
+    /* a transparent pigment: what it lets through meets a dielectric reflecting the same curve
+     * (POV-Ray's reflection with conserve_energy), with or without an interior ior */
+    h = run_ok("object_test { pigment { rgbt <0, 1, 0, 1> } finish { diffuse 0 reflection { 0, 1 falloff 2 } "
+               "conserve_energy } interior { ior 1.3 } }\n"
+               "object_test { pigment { rgbt <0, 1, 0, 1> } finish { diffuse 0 reflection { 0.2, 0.6 fresnel } } }\n");
+    vbi_bsdf gl = bsdf_at(h, 0, 0, 0, 0, 0);
+    assert_int_equal(gl.type, VBNL_MATERIAL_DIELECTRIC);
+    assert_int_equal(gl.coat_curve, VBNL_COAT_SCHLICK);
+    assert_float_equal(gl.coat_max.x, 1.0, 0);
+    assert_float_equal(gl.coat_falloff, 2.0, 0);
+    assert_float_equal(gl.ior, 1.3, 1e-6);
+    gl = bsdf_at(h, 1, 0, 0, 0, 0);
+    assert_int_equal(gl.type, VBNL_MATERIAL_DIELECTRIC);
+    assert_int_equal(gl.coat_curve, VBNL_COAT_FRESNEL);
+    assert_float_equal(gl.coat_min.x, 0.2, 1e-6);
+    assert_float_equal(gl.ior, 1.0, 0);
+    done(h);
     /* errors name the offending value */
     h = run("object_test { pigment { rgb 1 } finish { reflection { 0.5 falloff -1 } } }\n");
     assert_int_not_equal(h->result, VBNL_OK);
