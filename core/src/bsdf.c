@@ -132,6 +132,12 @@ static vec3 conductor_fresnel(const vbi_bsdf *b, float cos_i)
     return v3_add(b->color, v3_scale(v3_sub(v3s(1.0f), b->color), m5));
 }
 
+/* 8-point Gauss-Legendre nodes and weights on [0, 1]. */
+static const float gl8_x[8] = {0.0198550718f, 0.1016667613f, 0.2372337950f, 0.4082826788f,
+                               0.5917173212f, 0.7627662050f, 0.8983332387f, 0.9801449282f};
+static const float gl8_w[8] = {0.0506142681f, 0.1111905172f, 0.1568533229f, 0.1813418917f,
+                               0.1813418917f, 0.1568533229f, 0.1111905172f, 0.0506142681f};
+
 /* Hemispherical average F_avg = 2 int_0^1 F(mu) mu dmu (Kulla & Conty 2017, Eq. for F_avg). For
  * Schlick it is F0 + (1 - F0) / 21 in closed form; for the exact conductor Fresnel it is
  * integrated with 8-point Gauss-Legendre on [0, 1] (the integrand is smooth: measured error below
@@ -140,13 +146,9 @@ static vec3 conductor_favg(const vbi_bsdf *b)
 {
     if (!b->use_ior)
         return v3_add(b->color, v3_scale(v3_sub(v3s(1.0f), b->color), 1.0f / 21.0f));
-    static const float gx[8] = {0.0198550718f, 0.1016667613f, 0.2372337950f, 0.4082826788f,
-                                0.5917173212f, 0.7627662050f, 0.8983332387f, 0.9801449282f};
-    static const float gw[8] = {0.0506142681f, 0.1111905172f, 0.1568533229f, 0.1813418917f,
-                                0.1813418917f, 0.1568533229f, 0.1111905172f, 0.0506142681f};
     vec3 sum = v3s(0.0f);
     for (int i = 0; i < 8; ++i)
-        sum = v3_fma(sum, conductor_fresnel(b, gx[i]), 2.0f * gx[i] * gw[i]);
+        sum = v3_fma(sum, conductor_fresnel(b, gl8_x[i]), 2.0f * gl8_x[i] * gl8_w[i]);
     return sum;
 }
 
@@ -367,15 +369,11 @@ static vec3 coat_curve_F(const vbi_bsdf *b, float c)
  * 0.5: the Fresnel curve bends sharply near grazing). */
 static vec3 coat_curve_favg(const vbi_bsdf *b)
 {
-    static const float gx[8] = {0.0198550718f, 0.1016667613f, 0.2372337950f, 0.4082826788f,
-                                0.5917173212f, 0.7627662050f, 0.8983332387f, 0.9801449282f};
-    static const float gw[8] = {0.0506142681f, 0.1111905172f, 0.1568533229f, 0.1813418917f,
-                                0.1813418917f, 0.1568533229f, 0.1111905172f, 0.0506142681f};
     vec3 sum = v3s(0.0f);
     for (int panel = 0; panel < 2; ++panel)
         for (int i = 0; i < 8; ++i) {
-            float mu = 0.5f * ((float)panel + gx[i]);
-            sum = v3_fma(sum, coat_curve_F(b, mu), mu * gw[i]); /* 2 mu w / 2 (the panel's width) */
+            float mu = 0.5f * ((float)panel + gl8_x[i]);
+            sum = v3_fma(sum, coat_curve_F(b, mu), mu * gl8_w[i]); /* 2 mu w / 2 (the panel's width) */
         }
     return sum;
 }
