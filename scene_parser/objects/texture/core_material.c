@@ -348,6 +348,22 @@ static float alpha_from_exponent(double n)
     return (float)(a < 0.001 ? 0.001 : (a > 1.0 ? 1.0 : a));
 }
 
+/* A finish's variable reflection as a core coat curve: min + (max - min) (1 - cos)^falloff, or with
+ * `fresnel` the interior's Fresnel reflectance between min and max (one colour: between 0 and it,
+ * as POV-Ray reads it). */
+static void reflection_curve(build *b, const pov_finish *f, vbnl_material_desc *md)
+{
+    const double zero[3] = {0, 0, 0};
+    const int one_colour = !memcmp(f->reflection, f->reflection_min, sizeof(f->reflection));
+    const double *lo = f->fresnel && one_colour ? zero : f->reflection_min;
+    md->coat_curve = f->fresnel ? VBNL_COAT_FRESNEL : VBNL_COAT_SCHLICK;
+    for (int k = 0; k < 3; ++k) {
+        md->coat_min[k] = clamp_albedo(&b->notes, lo[k], "reflection");
+        md->coat_max[k] = clamp_albedo(&b->notes, f->reflection[k], "reflection");
+    }
+    md->coat_falloff = (float)f->falloff;
+}
+
 /* The plain core material of a plain layer's finish (the finish table), with its base colour
  * scaled by `pc` (the pigment's colour, or 1 where the pigment colours it per point). *tinted is
  * 0 when the pigment does not colour this material (a mirror takes its reflection colour). */
@@ -392,16 +408,7 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         md->type = VBNL_MATERIAL_PLASTIC;
         md->alpha = rough;
         md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
-        md->coat_curve = f->fresnel ? VBNL_COAT_FRESNEL : VBNL_COAT_SCHLICK;
-        const double *lo = f->reflection_min;
-        const double zero[3] = {0, 0, 0};
-        if (f->fresnel && !memcmp(f->reflection, f->reflection_min, sizeof(f->reflection)))
-            lo = zero; /* POV-Ray: fresnel with one colour reflects between 0 and it */
-        for (int k = 0; k < 3; ++k) {
-            md->coat_min[k] = clamp_albedo(&b->notes, lo[k], "reflection");
-            md->coat_max[k] = clamp_albedo(&b->notes, f->reflection[k], "reflection");
-        }
-        md->coat_falloff = (float)f->falloff;
+        reflection_curve(b, f, md);
         md->coat_metallic = (float)f->reflect_metallic;
         md->base_scale = clamp_albedo(&b->notes, f->diffuse, "diffuse");
         /* POV-Ray adds diffuse and reflection; the core's base gives way at the angles where
@@ -446,17 +453,8 @@ static int finish_reflects(const pov_finish *f)
  * colour of its own. */
 static void glass_reflection(build *b, const pov_finish *f, vbnl_material_desc *glass)
 {
-    if (!finish_reflects(f))
-        return;
-    const double zero[3] = {0, 0, 0};
-    const double *lo = f->fresnel && !memcmp(f->reflection, f->reflection_min, sizeof(f->reflection)) ? zero
-                                                                                                      : f->reflection_min;
-    glass->coat_curve = f->fresnel ? VBNL_COAT_FRESNEL : VBNL_COAT_SCHLICK;
-    for (int k = 0; k < 3; ++k) {
-        glass->coat_min[k] = clamp_albedo(&b->notes, lo[k], "reflection");
-        glass->coat_max[k] = clamp_albedo(&b->notes, f->reflection[k], "reflection");
-    }
-    glass->coat_falloff = (float)f->falloff;
+    if (finish_reflects(f))
+        reflection_curve(b, f, glass);
 }
 
 /* The emitted radiance of a plain layer: POV-Ray's emission times the pigment's colour and
