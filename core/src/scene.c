@@ -143,7 +143,8 @@ void vbnl_scene_destroy(vbnl_scene *s)
 /* The coat fields of a plastic (vbnl_material_desc). */
 static vbnl_result check_coat(const vbnl_material_desc *d, vbnl_error *err)
 {
-    if (d->coat_curve != VBNL_COAT_DIELECTRIC && d->coat_curve != VBNL_COAT_SCHLICK && d->coat_curve != VBNL_COAT_FRESNEL)
+    if (d->coat_curve != VBNL_COAT_DIELECTRIC && d->coat_curve != VBNL_COAT_SCHLICK &&
+        d->coat_curve != VBNL_COAT_FRESNEL)
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown material coat_curve %d", d->coat_curve);
     if (d->coat_curve == VBNL_COAT_DIELECTRIC)
         return VBNL_OK;
@@ -212,7 +213,8 @@ vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, 
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "material ior must lie in %s, 10) (got %g)",
                               d->type == VBNL_MATERIAL_PLASTIC ? "(1" : "[1", d->ior);
-    if ((d->type == VBNL_MATERIAL_PLASTIC || d->type == VBNL_MATERIAL_DIELECTRIC) && (r = check_coat(d, err)) != VBNL_OK)
+    if ((d->type == VBNL_MATERIAL_PLASTIC || d->type == VBNL_MATERIAL_DIELECTRIC) &&
+        (r = check_coat(d, err)) != VBNL_OK)
         return r;
     GROW(s->materials, s->material_count, s->material_capacity, scene_material);
     scene_material *m = &s->materials[s->material_count];
