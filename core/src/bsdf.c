@@ -1,5 +1,6 @@
 /* Materials: Lambert, GGX conductor with Kulla-Conty multiple-scattering compensation, rough
- * plastic (Lambert under a GGX dielectric coat), perfect mirror, smooth dielectric.
+ * plastic (Lambert under a GGX coat with a dielectric Fresnel term or a reflectance curve),
+ * perfect mirror, smooth dielectric.
  *
  * Conventions are those of bsdf.h: local shading frame, eval returns f * |cos theta_i|, sample
  * returns the weight f * |cos theta_i| / pdf. Every non-delta BSDF here is a sum of lobes
@@ -131,6 +132,12 @@ static vec3 conductor_fresnel(const vbi_bsdf *b, float cos_i)
     return v3_add(b->color, v3_scale(v3_sub(v3s(1.0f), b->color), m5));
 }
 
+/* 8-point Gauss-Legendre nodes and weights on [0, 1]. */
+static const float gl8_x[8] = {0.0198550718f, 0.1016667613f, 0.2372337950f, 0.4082826788f,
+                               0.5917173212f, 0.7627662050f, 0.8983332387f, 0.9801449282f};
+static const float gl8_w[8] = {0.0506142681f, 0.1111905172f, 0.1568533229f, 0.1813418917f,
+                               0.1813418917f, 0.1568533229f, 0.1111905172f, 0.0506142681f};
+
 /* Hemispherical average F_avg = 2 int_0^1 F(mu) mu dmu (Kulla & Conty 2017, Eq. for F_avg). For
  * Schlick it is F0 + (1 - F0) / 21 in closed form; for the exact conductor Fresnel it is
  * integrated with 8-point Gauss-Legendre on [0, 1] (the integrand is smooth: measured error below
@@ -139,13 +146,9 @@ static vec3 conductor_favg(const vbi_bsdf *b)
 {
     if (!b->use_ior)
         return v3_add(b->color, v3_scale(v3_sub(v3s(1.0f), b->color), 1.0f / 21.0f));
-    static const float gx[8] = {0.0198550718f, 0.1016667613f, 0.2372337950f, 0.4082826788f,
-                                0.5917173212f, 0.7627662050f, 0.8983332387f, 0.9801449282f};
-    static const float gw[8] = {0.0506142681f, 0.1111905172f, 0.1568533229f, 0.1813418917f,
-                                0.1813418917f, 0.1568533229f, 0.1111905172f, 0.0506142681f};
     vec3 sum = v3s(0.0f);
     for (int i = 0; i < 8; ++i)
-        sum = v3_fma(sum, conductor_fresnel(b, gx[i]), 2.0f * gx[i] * gw[i]);
+        sum = v3_fma(sum, conductor_fresnel(b, gl8_x[i]), 2.0f * gl8_x[i] * gl8_w[i]);
     return sum;
 }
 
@@ -161,6 +164,14 @@ void vbi_bsdf_from_material(vbi_bsdf *b, const vbnl_material_desc *m)
     b->eta = v3_max(v3_load(m->eta), v3s(1e-3f));
     b->k = v3_max(v3_load(m->k), v3s(0.0f));
     b->brilliance = m->type == VBNL_MATERIAL_BRILLIANCE ? clampf(m->brilliance, 1.0f, 1000.0f) : 1.0f;
+    b->coat_curve = m->type == VBNL_MATERIAL_PLASTIC || m->type == VBNL_MATERIAL_DIELECTRIC ? m->coat_curve
+                                                                                           : VBNL_COAT_DIELECTRIC;
+    b->coat_min = v3_min(v3_max(v3_load(m->coat_min), v3s(0.0f)), v3s(1.0f));
+    b->coat_max = v3_min(v3_max(v3_load(m->coat_max), v3s(0.0f)), v3s(1.0f));
+    b->coat_falloff = clampf(isfinite(m->coat_falloff) ? m->coat_falloff : 1.0f, 1e-3f, 1000.0f);
+    b->coat_metallic = clampf(isfinite(m->coat_metallic) ? m->coat_metallic : 0.0f, 0.0f, 1.0f);
+    b->base_scale = clampf(isfinite(m->base_scale) ? m->base_scale : 1.0f, 0.0f, 1.0f);
+    b->coat_conserve = m->coat_conserve != 0;
     b->bumped = 0;
     b->ns = v3(0.0f, 0.0f, 1.0f);
 }
@@ -319,23 +330,100 @@ static int conductor_sample(const vbi_bsdf *b, vec3 wo, vec2 u, vbi_bsdf_sample_
  * coupled model): its albedo is color (1 - E_s(mu_o)), so the total is E_s + color (1 - E_s) <= 1
  * and exactly 1 for a white base. E_s is tabulated for ior in [1.05, 3] (ggx_tables.c): beyond
  * that range the table is clamped while the Fresnel term uses the true ior, which keeps
- * reciprocity but no longer guarantees the albedo bound exactly. */
+ * reciprocity but no longer guarantees the albedo bound exactly.
+ *
+ * A coat with a reflectance curve (VBNL_COAT_SCHLICK, VBNL_COAT_FRESNEL: POV-Ray's variable
+ * reflection, vbnl/scene.h) uses the same GGX lobe with the curve F(c) in place of the Fresnel
+ * term, evaluated per channel at c = wo.h (POV-Ray evaluates it at the angle of incidence of its
+ * mirror ray, which is wo.h for the smooth coat). Its base, k = base_scale color, is either
+ * added (POV-Ray's diffuse + reflection): f_d = k / pi g(mu_o) g(mu_i), g(mu) = min(1, (1 -
+ * F(mu)) / k) per channel, which is k / pi wherever k + F <= 1 and less only at the angles where
+ * the sum would exceed 1 (there the albedo is at most k g(mu_o) <= 1 - F(mu_o)); or coupled to
+ * the curve as above with F(mu) in place of E_s(mu): f_d = k / pi (1 - F(mu_o)) (1 - F(mu_i)) /
+ * (1 - F_avg), F_avg = 2 int F(mu) mu dmu, whose albedo is k (1 - F(mu_o)). Both are reciprocal;
+ * the bound uses F(mu_o) for the coat's albedo, exact for the smooth coat (a rough coat of a curve
+ * rising towards grazing reflects less than F(mu_o), its facets facing wo more squarely). */
+
+/* POV-Ray's empirical curve of its `metallic` tint (its trace.cpp, ComputeMetallic): 0 seen
+ * head-on, 1 at grazing, of x = theta / (pi / 2): 0.014567225 / (x - 1.12)^2 - 0.011612903. */
+static float metallic_curve(float c)
+{
+    float x = acosf(clampf(c, 0.0f, 1.0f)) * (2.0f * VBI_INV_PI);
+    return clampf(0.014567225f / sqr(x - 1.12f) - 0.011612903f, 0.0f, 1.0f);
+}
+
+/* The reflectance of a coat with a curve at cosine c, per channel. */
+static vec3 coat_curve_F(const vbi_bsdf *b, float c)
+{
+    c = clampf(c, 0.0f, 1.0f);
+    float w = b->coat_curve == VBNL_COAT_SCHLICK ? powf(1.0f - c, b->coat_falloff) : vbi_fresnel_dielectric(c, b->ior);
+    vec3 F = v3_add(b->coat_min, v3_scale(v3_sub(b->coat_max, b->coat_min), w));
+    if (b->coat_metallic > 0.0f) {
+        float t = b->coat_metallic * (1.0f - metallic_curve(c));
+        F = v3_mul(F, v3_add(v3s(1.0f), v3_scale(v3_sub(b->color, v3s(1.0f)), t)));
+    }
+    return v3_min(v3_max(F, v3s(0.0f)), v3s(1.0f));
+}
+
+/* F_avg = 2 int_0^1 F(mu) mu dmu by 16-point Gauss-Legendre on [0, 1] (two 8-point panels at
+ * 0.5: the Fresnel curve bends sharply near grazing). */
+static vec3 coat_curve_favg(const vbi_bsdf *b)
+{
+    vec3 sum = v3s(0.0f);
+    for (int panel = 0; panel < 2; ++panel)
+        for (int i = 0; i < 8; ++i) {
+            float mu = 0.5f * ((float)panel + gl8_x[i]);
+            sum = v3_fma(sum, coat_curve_F(b, mu), mu * gl8_w[i]); /* 2 mu w / 2 (the panel's width) */
+        }
+    return sum;
+}
+
 typedef struct plastic_ctx {
-    table_ai t;     /* the roughness's and the coat IOR's table cells */
-    float es_o;     /* E_s(mu_o) */
+    table_ai t;     /* the roughness's (and the coat IOR's) table cells */
+    float es_o;     /* dielectric coat: E_s(mu_o); curve: a white GGX coat's E(mu_o) */
     float es_avg;
     float p_spec;   /* probability of sampling the specular lobe */
+    /* curve coats */
+    vec3 f_o;       /* F(mu_o) */
+    vec3 base;      /* additive: k g(mu_o); conserving: k (1 - F(mu_o)) / (1 - F_avg) */
 } plastic_ctx;
+
+/* The additive base's g(mu) = min(1, (1 - F(mu)) / k) per channel, for F = F(mu). */
+static vec3 additive_g(vec3 k, vec3 F)
+{
+    vec3 room = v3_sub(v3s(1.0f), F);
+    return v3(k.x > room.x ? room.x / k.x : 1.0f, k.y > room.y ? room.y / k.y : 1.0f,
+              k.z > room.z ? room.z / k.z : 1.0f);
+}
 
 static plastic_ctx plastic_setup(const vbi_bsdf *b, vec3 wo)
 {
     plastic_ctx c;
-    c.t = table_alpha_ior(b->alpha, b->ior);
-    c.es_o = coat_E(&c.t, wo.z);
-    c.es_avg = coat_Eavg(&c.t);
-    /* Lobe albedos at wo: specular E_s(mu_o), diffuse lum(color) (1 - E_s(mu_o)). */
-    float spec = c.es_o;
-    float diff = v3_luminance(b->color) * (1.0f - c.es_o);
+    float spec, diff;
+    if (b->coat_curve == VBNL_COAT_DIELECTRIC) {
+        c.t = table_alpha_ior(b->alpha, b->ior);
+        c.es_o = coat_E(&c.t, wo.z);
+        c.es_avg = coat_Eavg(&c.t);
+        c.f_o = c.base = v3s(0.0f);
+        /* Lobe albedos at wo: specular E_s(mu_o), diffuse lum(color) (1 - E_s(mu_o)). */
+        spec = c.es_o;
+        diff = v3_luminance(b->color) * (1.0f - c.es_o);
+    } else {
+        c.t = table_alpha(b->alpha);
+        c.es_o = conductor_E(&c.t, wo.z);
+        c.es_avg = 0.0f;
+        c.f_o = coat_curve_F(b, wo.z);
+        vec3 kd = v3_scale(b->color, b->base_scale);
+        if (b->coat_conserve) {
+            vec3 favg = coat_curve_favg(b);
+            c.base = v3_div(v3_mul(kd, v3_sub(v3s(1.0f), c.f_o)), v3_max(v3_sub(v3s(1.0f), favg), v3s(1e-6f)));
+            diff = v3_luminance(v3_mul(kd, v3_sub(v3s(1.0f), c.f_o)));
+        } else {
+            c.base = v3_mul(kd, additive_g(kd, c.f_o));
+            diff = v3_luminance(c.base);
+        }
+        spec = c.es_o * v3_luminance(c.f_o);
+    }
     c.p_spec = spec + diff > 0.0f ? clampf(spec / (spec + diff), 0.0f, 1.0f) : 1.0f;
     return c;
 }
@@ -343,8 +431,15 @@ static plastic_ctx plastic_setup(const vbi_bsdf *b, vec3 wo)
 static inline __attribute__((always_inline)) vec3 plastic_eval_ctx(const vbi_bsdf *b, const plastic_ctx *c, vec3 wo, vec3 wi)
 {
     vec3 h = v3_norm(v3_add(wo, wi));
-    float spec = vbi_fresnel_dielectric(v3_dot(wo, h), b->ior) * ggx_d(h, b->alpha) *
-                 ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
+    float dg = ggx_d(h, b->alpha) * ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
+    if (b->coat_curve != VBNL_COAT_DIELECTRIC) {
+        vec3 spec = v3_scale(coat_curve_F(b, v3_dot(wo, h)), dg);
+        vec3 f_i = coat_curve_F(b, wi.z);
+        vec3 diff = b->coat_conserve ? v3_mul(c->base, v3_sub(v3s(1.0f), f_i))
+                                     : v3_mul(c->base, additive_g(v3_scale(b->color, b->base_scale), f_i));
+        return v3_fma(spec, diff, VBI_INV_PI * wi.z);
+    }
+    float spec = vbi_fresnel_dielectric(v3_dot(wo, h), b->ior) * dg;
     float es_i = coat_E(&c->t, wi.z);
     float diff = (1.0f - c->es_o) * (1.0f - es_i) / maxf(1.0f - c->es_avg, 1e-6f) * VBI_INV_PI * wi.z;
     return v3_add(v3s(spec), v3_scale(b->color, diff));
@@ -413,6 +508,47 @@ static int mirror_sample(const vbi_bsdf *b, vec3 wo, vbi_bsdf_sample_rec *out)
     return 1;
 }
 
+/* The refracted direction of wo (either side) for eta = n_t / n_i; 0 at total internal reflection. */
+static int refract_z(vec3 wo, float eta, vec3 *wt)
+{
+    float sin2_t = (1.0f - wo.z * wo.z) / (eta * eta);
+    if (sin2_t >= 1.0f)
+        return 0;
+    float cos_t = sqrtf(1.0f - sin2_t);
+    *wt = v3(-wo.x / eta, -wo.y / eta, wo.z > 0.0f ? -cos_t : cos_t);
+    return 1;
+}
+
+/* A smooth dielectric whose reflectance is a coat curve (vbnl/scene.h) instead of Fresnel's: POV-
+ * Ray's variable reflection on a transparent surface, which reflects F(cos) of the light and lets
+ * (1 - F) through (its conserve_energy; reference "Conserve Energy for Reflection"), from either
+ * side, and reflects everything at total internal reflection. F is RGB: the lobe is chosen with
+ * the probability avg(F) and each weight divides by its own probability. */
+static int dielectric_curve_sample(const vbi_bsdf *b, vec3 wo, float u_lobe, vbi_bsdf_sample_rec *out)
+{
+    const float eta = wo.z > 0.0f ? b->ior : 1.0f / b->ior;
+    vec3 wt;
+    const int tir = !refract_z(wo, eta, &wt);
+    vec3 F = tir ? v3s(1.0f) : coat_curve_F(b, fabsf(wo.z));
+    float p = tir ? 1.0f : clampf(v3_avg(F), 0.0f, 1.0f);
+    if (p > 0.0f && p < 1.0f)
+        p = clampf(p, 1e-3f, 1.0f - 1e-3f); /* a coloured F may have a zero average in one lobe */
+    if (u_lobe < p) {
+        out->wi = reflect_z(wo);
+        out->weight = v3_scale(F, 1.0f / p);
+        out->pdf = p;
+        out->lobe = VBI_LOBE_REFLECTION | VBI_LOBE_SPECULAR;
+        out->eta = 1.0f;
+        return 1;
+    }
+    out->wi = wt;
+    out->weight = v3_scale(v3_mul(b->color, v3_sub(v3s(1.0f), F)), 1.0f / ((1.0f - p) * eta * eta));
+    out->pdf = 1.0f - p;
+    out->lobe = VBI_LOBE_TRANSMISSION | VBI_LOBE_SPECULAR;
+    out->eta = eta;
+    return 1;
+}
+
 /* Smooth dielectric (pbrt-v4 DielectricBxDF, specular case): reflect with probability F,
  * refract otherwise, so both weights are independent of F. The tint multiplies transmission
  * only: it stands for absorption inside the material, which light reflected at the surface
@@ -423,6 +559,8 @@ static int dielectric_sample(const vbi_bsdf *b, vec3 wo, float u_lobe, vbi_bsdf_
     float cos_o = wo.z;
     if (cos_o == 0.0f)
         return 0;
+    if (b->coat_curve != VBNL_COAT_DIELECTRIC)
+        return dielectric_curve_sample(b, wo, u_lobe, out);
     float F = vbi_fresnel_dielectric(cos_o, b->ior);
     if (u_lobe < F) {
         out->wi = reflect_z(wo);
@@ -511,6 +649,8 @@ vec3 vbi_bsdf_eval_microfacet(const vbi_bsdf *b, vec3 wo, vec3 wi)
     float dg = ggx_d(h, b->alpha) * ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
     if (b->type == VBNL_MATERIAL_CONDUCTOR)
         return v3_scale(conductor_fresnel(b, v3_dot(wo, h)), dg);
+    if (b->coat_curve != VBNL_COAT_DIELECTRIC)
+        return v3_scale(coat_curve_F(b, v3_dot(wo, h)), dg);
     return v3s(vbi_fresnel_dielectric(v3_dot(wo, h), b->ior) * dg);
 }
 

@@ -36,6 +36,10 @@ typedef struct vbi_bsdf {
     int use_ior;      /* conductor: eta/k instead of F0 */
     vec3 eta, k;
     float brilliance; /* VBNL_MATERIAL_BRILLIANCE: the exponent b */
+    int coat_curve;   /* VBNL_MATERIAL_PLASTIC: vbnl_coat_curve, and the fields below for the others */
+    vec3 coat_min, coat_max;
+    float coat_falloff, coat_metallic, base_scale;
+    int coat_conserve;
     int bumped;       /* 1: ns replaces the hit's shading normal */
     vec3 ns;          /* the perturbed unit shading normal, on the hit's geometric side */
 } vbi_bsdf;

@@ -36,6 +36,10 @@ void vbnl_material_desc_init(vbnl_material_desc *d)
     d->ior = 1.5f;
     d->eta[0] = d->eta[1] = d->eta[2] = 1.0f;
     d->brilliance = 1.0f;
+    d->coat_curve = VBNL_COAT_DIELECTRIC;
+    d->coat_max[0] = d->coat_max[1] = d->coat_max[2] = 1.0f;
+    d->coat_falloff = 1.0f;
+    d->base_scale = 1.0f;
 }
 
 void vbnl_mesh_desc_init(vbnl_mesh_desc *d)
@@ -136,6 +140,34 @@ void vbnl_scene_destroy(vbnl_scene *s)
     free(s);
 }
 
+/* The coat fields of a plastic (vbnl_material_desc). */
+static vbnl_result check_coat(const vbnl_material_desc *d, vbnl_error *err)
+{
+    if (d->coat_curve != VBNL_COAT_DIELECTRIC && d->coat_curve != VBNL_COAT_SCHLICK &&
+        d->coat_curve != VBNL_COAT_FRESNEL)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "unknown material coat_curve %d", d->coat_curve);
+    if (d->coat_curve == VBNL_COAT_DIELECTRIC)
+        return VBNL_OK;
+    for (int i = 0; i < 3; ++i)
+        if (!(d->coat_min[i] >= 0.0f && d->coat_min[i] <= 1.0f) || !(d->coat_max[i] >= 0.0f && d->coat_max[i] <= 1.0f))
+            return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
+                                  "material coat_min and coat_max components must lie in [0, 1] (got %g, %g)",
+                                  d->coat_min[i], d->coat_max[i]);
+    if (d->coat_curve == VBNL_COAT_SCHLICK && !(d->coat_falloff > 0.0f && d->coat_falloff <= 1000.0f))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "material coat_falloff must lie in (0, 1000] (got %g)",
+                              d->coat_falloff);
+    if (!(d->coat_metallic >= 0.0f && d->coat_metallic <= 1.0f))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "material coat_metallic must lie in [0, 1] (got %g)",
+                              d->coat_metallic);
+    if (!(d->base_scale >= 0.0f && d->base_scale <= 1.0f))
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "material base_scale must lie in [0, 1] (got %g)",
+                              d->base_scale);
+    if (d->coat_conserve != 0 && d->coat_conserve != 1)
+        return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT, "material coat_conserve must be 0 or 1 (got %d)",
+                              d->coat_conserve);
+    return VBNL_OK;
+}
+
 vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, uint32_t *out_id,
                                     vbnl_error *err)
 {
@@ -181,6 +213,9 @@ vbnl_result vbnl_scene_add_material(vbnl_scene *s, const vbnl_material_desc *d, 
         return vbnl_error_set(err, VBNL_ERR_INVALID_ARGUMENT,
                               "material ior must lie in %s, 10) (got %g)",
                               d->type == VBNL_MATERIAL_PLASTIC ? "(1" : "[1", d->ior);
+    if ((d->type == VBNL_MATERIAL_PLASTIC || d->type == VBNL_MATERIAL_DIELECTRIC) &&
+        (r = check_coat(d, err)) != VBNL_OK)
+        return r;
     GROW(s->materials, s->material_count, s->material_capacity, scene_material);
     scene_material *m = &s->materials[s->material_count];
     m->desc = *d;

@@ -583,6 +583,12 @@ uint64_t vbi_scene_fingerprint(const vbnl_scene *s)
         h = fp_bytes(h, d->emission, sizeof(d->emission));
         h = fp_u32(h, (uint32_t)d->two_sided);
         h = fp_u32(h, d->base_texture);
+        h = fp_u32(fp_f32(h, d->brilliance), d->interior);
+        h = fp_u32(h, (uint32_t)d->coat_curve);
+        h = fp_bytes(h, d->coat_min, sizeof(d->coat_min));
+        h = fp_bytes(h, d->coat_max, sizeof(d->coat_max));
+        h = fp_f32(fp_f32(h, d->coat_falloff), d->coat_metallic);
+        h = fp_f32(fp_u32(h, (uint32_t)d->coat_conserve), d->base_scale);
     }
     h = vbi_texture_fingerprint(s, h);
     h = fp_u32(h, s->light_count);

@@ -37,6 +37,29 @@ static vbi_bsdf make_gold(float alpha)
     return bsdf;
 }
 
+/* A plastic whose coat follows a reflectance curve (vbnl/scene.h, coat_curve): base colour c,
+ * coat reflectance from lo (head-on) to hi (grazing). */
+static vbi_bsdf make_coat(int curve, float lo, float hi, float falloff, float metallic, int conserve, float base_scale,
+                          vec3 c, float alpha, float ior)
+{
+    vbnl_material_desc m;
+    vbnl_material_desc_init(&m);
+    m.type = VBNL_MATERIAL_PLASTIC;
+    v3_store(m.base_color, c);
+    m.alpha = alpha;
+    m.ior = ior;
+    m.coat_curve = curve;
+    m.coat_min[0] = m.coat_min[1] = m.coat_min[2] = lo;
+    m.coat_max[0] = m.coat_max[1] = m.coat_max[2] = hi;
+    m.coat_falloff = falloff;
+    m.coat_metallic = metallic;
+    m.coat_conserve = conserve;
+    m.base_scale = base_scale;
+    vbi_bsdf bsdf;
+    vbi_bsdf_from_material(&bsdf, &m);
+    return bsdf;
+}
+
 static vec3 dir_from_theta(float theta_deg, float phi)
 {
     float t = theta_deg * (float)M_PI / 180.0f;
@@ -68,7 +91,7 @@ static float rel_err(float a, float b) { return fabsf(a - b) / fmaxf(fmaxf(fabsf
 #define CHI2_NP 32      /* phi bins */
 #define CHI2_SUB 40     /* sub-grid per bin and axis for the pdf integration */
 #define CHI2_SAMPLES 1000000
-#define CHI2_TESTS 18   /* number of chi-square tests in this file, for the Sidak correction */
+#define CHI2_TESTS 27   /* number of chi-square tests in this file, for the Sidak correction */
 #define CHI2_SIGNIFICANCE 0.01
 
 /* Regularised upper incomplete gamma Q(a, x) (Numerical Recipes 3rd ed., 6.2: series for
@@ -525,6 +548,165 @@ static void test_fresnel(void **state)
     assert_true(fabsf(vbi_fresnel_dielectric(cosf((float)M_PI / 4.0f), 1.5f) - 0.0503f) < 2e-4f);
 }
 
+/* ---- coats with a reflectance curve (POV-Ray's variable reflection) -------------------------- */
+
+/* The coat's reflectance at c = wo.h read back from the microfacet lobe: eval / (D G2 / (4 cos_o))
+ * for wi the mirror of wo about z (so h = z and wo.h = cos theta_o). */
+static vec3 coat_F_at(const vbi_bsdf *b, float c)
+{
+    vec3 wo = v3(sqrtf(1.0f - c * c), 0.0f, c), wi = reflect_z(wo), h = v3(0.0f, 0.0f, 1.0f);
+    float dg = ggx_d(h, b->alpha) * ggx_g2(wo, wi, b->alpha) / (4.0f * wo.z);
+    return v3_scale(vbi_bsdf_eval_microfacet(b, wo, wi), 1.0f / dg);
+}
+
+static void expect_v3(vec3 v, float a, float b, float c, float tol, const char *what)
+{
+    if (!(fabsf(v.x - a) <= tol && fabsf(v.y - b) <= tol && fabsf(v.z - c) <= tol)) {
+        printf("# %s: (%g %g %g), expected (%g %g %g)\n", what, (double)v.x, (double)v.y, (double)v.z, (double)a,
+               (double)b, (double)c);
+        fail();
+    }
+}
+
+static void test_coat_curve(void **state)
+{
+    (void)state;
+    const float cosines[3] = {1.0f, 0.5f, 0.1f};
+    /* min 0.01, max 0.99, falloff 5: 0.01 + 0.98 (1 - c)^5 = 0.01, 0.040625, 0.588680 */
+    const float want[3] = {0.01f, 0.040625f, 0.5886802f};
+    vbi_bsdf b = make_coat(VBNL_COAT_SCHLICK, 0.01f, 0.99f, 5.0f, 0.0f, 0, 0.5f, v3s(0.5f), 0.2f, 1.5f);
+    for (int i = 0; i < 3; ++i)
+        expect_v3(coat_F_at(&b, cosines[i]), want[i], want[i], want[i], 2e-5f, "schlick falloff 5");
+    /* falloff 1 (POV-Ray's default): linear in 1 - c */
+    b = make_coat(VBNL_COAT_SCHLICK, 0.2f, 0.6f, 1.0f, 0.0f, 0, 0.5f, v3s(0.5f), 0.2f, 1.5f);
+    expect_v3(coat_F_at(&b, 0.25f), 0.5f, 0.5f, 0.5f, 2e-5f, "schlick falloff 1");
+    /* fresnel: min + (max - min) Fr(c, ior) */
+    b = make_coat(VBNL_COAT_FRESNEL, 0.1f, 0.9f, 1.0f, 0.0f, 0, 0.5f, v3s(0.5f), 0.2f, 1.33f);
+    for (int i = 0; i < 3; ++i) {
+        float f = 0.1f + 0.8f * vbi_fresnel_dielectric(cosines[i], 1.33f);
+        expect_v3(coat_F_at(&b, cosines[i]), f, f, f, 2e-5f, "fresnel");
+    }
+    /* metallic 1: tinted by the surface colour head-on, untinted at grazing (POV-Ray's curve) */
+    b = make_coat(VBNL_COAT_SCHLICK, 0.8f, 0.8f, 1.0f, 1.0f, 0, 0.0f, v3(0.9f, 0.6f, 0.2f), 0.2f, 1.5f);
+    expect_v3(coat_F_at(&b, 1.0f), 0.72f, 0.48f, 0.16f, 1e-4f, "metallic head-on");
+    expect_v3(coat_F_at(&b, 0.001f), 0.8f, 0.8f, 0.8f, 0.01f, "metallic grazing");
+    /* metallic 0.5 head-on: 0.8 (1 + 0.5 (c - 1)) */
+    b = make_coat(VBNL_COAT_SCHLICK, 0.8f, 0.8f, 1.0f, 0.5f, 0, 0.0f, v3(0.9f, 0.6f, 0.2f), 0.2f, 1.5f);
+    expect_v3(coat_F_at(&b, 1.0f), 0.76f, 0.64f, 0.48f, 1e-4f, "metallic 0.5 head-on");
+    /* the smooth coat's albedo head-on is the curve's value: reflection 0.3 over diffuse 0.6 of
+     * white reflects 0.3 + 0.6 (POV-Ray adds them) */
+    b = make_coat(VBNL_COAT_SCHLICK, 0.3f, 0.3f, 1.0f, 0.0f, 0, 0.6f, v3s(1.0f), 0.001f, 1.5f);
+    vec3 a = albedo_mc(&b, v3(0.0f, 0.0f, 1.0f), 77);
+    expect_v3(a, 0.9f, 0.9f, 0.9f, 0.01f, "reflection 0.3 + diffuse 0.6");
+    /* additive beyond 1: the base gives way where the coat takes more than 1 - k, here at every
+     * angle (g = 0.5 / 1): the albedo is 0.5 + 1 g(mu_o) (2 int g mu dmu) = 0.75 ... */
+    b = make_coat(VBNL_COAT_SCHLICK, 0.5f, 0.5f, 1.0f, 0.0f, 0, 1.0f, v3s(1.0f), 0.001f, 1.5f);
+    a = albedo_mc(&b, v3(0.0f, 0.0f, 1.0f), 78);
+    expect_v3(a, 0.75f, 0.75f, 0.75f, 0.01f, "reflection 0.5 + diffuse 1");
+    /* ... and only there: min 0.01 max 0.99 falloff 5 over diffuse 0.6 reflects 0.6 g_avg + 0.01
+     * head-on, g = min(1, (1 - F) / 0.6) below 1 only for mu < 0.165 */
+    b = make_coat(VBNL_COAT_SCHLICK, 0.01f, 0.99f, 5.0f, 0.0f, 0, 0.6f, v3s(1.0f), 0.001f, 1.5f);
+    double gavg = 0.0;
+    for (int i = 0; i < 100000; ++i) { /* 2 int g(mu) mu dmu by the midpoint rule */
+        double mu = (i + 0.5) / 100000.0, F = 0.01 + 0.98 * pow(1.0 - mu, 5.0);
+        gavg += 2.0 * mu * fmin(1.0, (1.0 - F) / 0.6) / 100000.0;
+    }
+    a = albedo_mc(&b, v3(0.0f, 0.0f, 1.0f), 79);
+    float want_a = (float)(0.01 + 0.6 * gavg);
+    expect_v3(a, want_a, want_a, want_a, 0.005f, "falloff 5 over diffuse 0.6");
+    assert_true(gavg > 0.97 && gavg < 0.995);
+}
+
+static void test_coat_sampling(void **state)
+{
+    (void)state;
+    vbi_bsdf b = make_coat(VBNL_COAT_SCHLICK, 0.01f, 0.99f, 5.0f, 0.0f, 0, 0.6f, v3(0.2f, 0.5f, 0.8f), 0.1f, 1.5f);
+    check_chi2(&b, "coat schlick additive alpha=0.1", 400);
+    check_consistency(&b, "coat schlick additive", 41);
+    check_reciprocity(&b, "coat schlick additive", 42);
+    b = make_coat(VBNL_COAT_SCHLICK, 0.05f, 0.7f, 2.0f, 0.0f, 1, 0.9f, v3(0.2f, 0.5f, 0.8f), 0.4f, 1.5f);
+    check_chi2(&b, "coat schlick conserving alpha=0.4", 410);
+    check_consistency(&b, "coat schlick conserving", 43);
+    check_reciprocity(&b, "coat schlick conserving", 44);
+    b = make_coat(VBNL_COAT_FRESNEL, 0.0f, 0.8f, 1.0f, 1.0f, 0, 0.3f, v3(0.9f, 0.6f, 0.2f), 0.25f, 1.5f);
+    check_chi2(&b, "coat fresnel metallic alpha=0.25", 420);
+    check_consistency(&b, "coat fresnel metallic", 45);
+    check_reciprocity(&b, "coat fresnel metallic", 46);
+    b = make_coat(VBNL_COAT_SCHLICK, 0.3f, 0.3f, 1.0f, 0.0f, 0, 0.6f, v3s(0.5f), 0.001f, 1.5f);
+    check_consistency(&b, "coat smooth", 47);
+    /* the diffuse share of the pdf is the base lobe's */
+    vec3 wo = dir_from_theta(30.0f, 0.2f), wi = dir_from_theta(50.0f, 2.0f);
+    float pd = vbi_bsdf_pdf_diffuse(&b, wo, wi), p = vbi_bsdf_pdf(&b, wo, wi);
+    assert_true(pd > 0.0f && pd <= p * (1.0f + 1e-5f));
+}
+
+/* A smooth dielectric with a coat curve reflects F(cos) and lets 1 - F through (times 1/eta^2
+ * for radiance), from either side, and reflects everything at total internal reflection. */
+static void test_coat_dielectric(void **state)
+{
+    (void)state;
+    vbnl_material_desc m;
+    vbnl_material_desc_init(&m);
+    m.type = VBNL_MATERIAL_DIELECTRIC;
+    m.base_color[0] = m.base_color[1] = m.base_color[2] = 1.0f;
+    m.ior = 1.3f;
+    m.coat_curve = VBNL_COAT_SCHLICK;
+    m.coat_min[0] = 0.0f, m.coat_min[1] = 0.1f, m.coat_min[2] = 0.2f;
+    m.coat_max[0] = m.coat_max[1] = m.coat_max[2] = 1.0f;
+    m.coat_falloff = 2.0f;
+    vbi_bsdf b;
+    vbi_bsdf_from_material(&b, &m);
+    const float cosines[3] = {0.9f, 0.5f, -0.95f};
+    for (int t = 0; t < 3; ++t) {
+        float c = cosines[t], eta = c > 0.0f ? 1.3f : 1.0f / 1.3f;
+        vec3 wo = v3(sqrtf(1.0f - c * c), 0.0f, c);
+        double refl[3] = {0, 0, 0}, trans[3] = {0, 0, 0};
+        const int n = 4000;
+        for (int i = 0; i < n; ++i) {
+            vbi_bsdf_sample_rec rec = {.pdf = 0.0f};
+            assert_true(vbi_bsdf_sample(&b, wo, (vec2){((float)i + 0.5f) / (float)n, 0.5f}, &rec));
+            double *acc = (rec.lobe & VBI_LOBE_REFLECTION) ? refl : trans;
+            for (int k = 0; k < 3; ++k)
+                acc[k] += v3_comp(rec.weight, k) / n;
+        }
+        float w = powf(1.0f - fabsf(c), 2.0f);
+        for (int k = 0; k < 3; ++k) {
+            float F = v3_comp(b.coat_min, k) + (1.0f - v3_comp(b.coat_min, k)) * w;
+            assert_float_equal(refl[k], F, 2e-3);
+            assert_float_equal(trans[k] * eta * eta, 1.0f - F, 2e-3);
+        }
+    }
+    /* from inside beyond the critical angle (asin(1 / 1.3) = 50.3 degrees): all reflected */
+    vec3 wo = v3(sinf(1.2f), 0.0f, -cosf(1.2f));
+    vbi_bsdf_sample_rec rec = {.pdf = 0.0f};
+    assert_true(vbi_bsdf_sample(&b, wo, (vec2){0.99f, 0.5f}, &rec));
+    assert_true(rec.lobe & VBI_LOBE_REFLECTION);
+    expect_v3(rec.weight, 1.0f, 1.0f, 1.0f, 1e-6f, "total internal reflection");
+}
+
+static void test_coat_furnace(void **state)
+{
+    (void)state;
+    const float alphas[4] = {0.001f, 0.1f, 0.4f, 1.0f};
+    for (int i = 0; i < 4; ++i) {
+        char name[96];
+        /* conserving with a white base: F + (1 - F) = 1 for the smooth coat, <= 1 for rough ones */
+        vbi_bsdf b = make_coat(VBNL_COAT_SCHLICK, 0.05f, 1.0f, 5.0f, 0.0f, 1, 1.0f, v3s(1.0f), alphas[i], 1.5f);
+        snprintf(name, sizeof(name), "coat conserving white alpha=%g", (double)alphas[i]);
+        check_furnace(&b, name, alphas[i] < 0.01f, 0.01f, 2000 + 10 * (uint64_t)i);
+        b = make_coat(VBNL_COAT_FRESNEL, 0.0f, 1.0f, 1.0f, 0.0f, 1, 1.0f, v3s(1.0f), alphas[i], 1.5f);
+        snprintf(name, sizeof(name), "coat conserving fresnel white alpha=%g", (double)alphas[i]);
+        check_furnace(&b, name, 0, 0.01f, 2100 + 10 * (uint64_t)i);
+        /* additive, diffuse 1 and reflection up to 0.99: the cap keeps it within 1 */
+        b = make_coat(VBNL_COAT_SCHLICK, 0.01f, 0.99f, 5.0f, 0.0f, 0, 1.0f, v3s(1.0f), alphas[i], 1.5f);
+        snprintf(name, sizeof(name), "coat additive white alpha=%g", (double)alphas[i]);
+        check_furnace(&b, name, 0, 0.01f, 2200 + 10 * (uint64_t)i);
+        b = make_coat(VBNL_COAT_SCHLICK, 0.8f, 0.8f, 1.0f, 1.0f, 0, 0.2f, v3(0.9f, 0.6f, 0.2f), alphas[i], 1.5f);
+        snprintf(name, sizeof(name), "coat additive metallic alpha=%g", (double)alphas[i]);
+        check_furnace(&b, name, 0, 0.01f, 2300 + 10 * (uint64_t)i);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -537,6 +719,10 @@ int main(void)
         cmocka_unit_test(test_chi2_lambert),
         cmocka_unit_test(test_chi2_conductor),
         cmocka_unit_test(test_chi2_plastic),
+        cmocka_unit_test(test_coat_curve),
+        cmocka_unit_test(test_coat_sampling),
+        cmocka_unit_test(test_coat_furnace),
+        cmocka_unit_test(test_coat_dielectric),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

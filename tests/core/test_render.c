@@ -611,6 +611,27 @@ static void test_bad_arguments(void **state)
     vbnl_material_desc_init(&md);
     md.emission[1] = NAN;
     assert_int_equal(vbnl_scene_add_material(s, &md, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
+    /* a plastic's coat curve: its fields are checked, each named */
+    vbnl_material_desc_init(&md);
+    md.type = VBNL_MATERIAL_PLASTIC;
+    md.coat_curve = VBNL_COAT_SCHLICK;
+    md.coat_falloff = 0.0f;
+    assert_int_equal(vbnl_scene_add_material(s, &md, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "coat_falloff"));
+    md.coat_falloff = 5.0f;
+    md.coat_max[2] = 1.5f;
+    assert_int_equal(vbnl_scene_add_material(s, &md, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "coat_max"));
+    md.coat_max[2] = 1.0f;
+    md.base_scale = -0.1f;
+    assert_int_equal(vbnl_scene_add_material(s, &md, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(err.message, "base_scale"));
+    md.base_scale = 0.6f;
+    md.coat_curve = 7;
+    assert_int_equal(vbnl_scene_add_material(s, &md, &id, &err), VBNL_ERR_INVALID_ARGUMENT);
+    md.coat_curve = VBNL_COAT_FRESNEL;
+    md.coat_metallic = 1.0f;
+    assert_int_equal(vbnl_scene_add_material(s, &md, &id, &err), VBNL_OK);
     uint32_t m = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.5f, 0.5f, 0.5f, 0.0f);
     uint32_t em = ts_material(s, VBNL_MATERIAL_LAMBERT, 0.5f, 0.5f, 0.5f, 1.0f);
     /* meshes */

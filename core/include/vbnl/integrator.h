@@ -42,8 +42,9 @@
 extern "C" {
 #endif
 
+/* Minor 3: vbnl_material_desc (which vbnl_scene_get_material fills) ends with the coat fields. */
 #define VBNL_INTEGRATOR_ABI_MAJOR 1u
-#define VBNL_INTEGRATOR_ABI_MINOR 2u
+#define VBNL_INTEGRATOR_ABI_MINOR 3u
 
 typedef struct vbnl_tile_job vbnl_tile_job;     /* one tile of one pass (below) */
 typedef struct vbnl_stage_ctx vbnl_stage_ctx;   /* progress, timing and workers for prepare */

@@ -72,13 +72,43 @@ typedef struct vbnl_material_desc {
                            * a medium id + 1 (vbnl_scene_add_medium); crossing outward returns to
                            * what the ray was in before */
     float brilliance;     /* VBNL_MATERIAL_BRILLIANCE: the exponent b, >= 1 */
+    /* VBNL_MATERIAL_PLASTIC: the coat's reflectance curve (POV-Ray's variable reflection,
+     * docs/scene-language.md "Reflection"). VBNL_COAT_DIELECTRIC (the default) is the Fresnel
+     * term of `ior` with the base coupled to the coat (albedo E_s + base_color (1 - E_s)); the
+     * other curves give per RGB channel, at the cosine c between the view and the (micro)facet
+     * normal, F(c) = T(c) (coat_min + (coat_max - coat_min) w(c)) with
+     *   VBNL_COAT_SCHLICK:  w(c) = (1 - c)^coat_falloff (generalised Schlick; falloff 5 is Schlick's)
+     *   VBNL_COAT_FRESNEL:  w(c) = the dielectric Fresnel reflectance of `ior` at c
+     * and T(c) = 1 + coat_metallic (1 - M(c)) (base_color - 1) the surface-colour tint of POV-Ray's
+     * `metallic` (M: POV-Ray's empirical Fresnel-like curve, 0 head-on, 1 at grazing). Under
+     * such a coat (smooth for alpha 1e-3, GGX otherwise) the Lambertian base k = base_scale
+     * base_color is either added (coat_conserve 0, POV-Ray's diffuse + reflection: f_base = k / pi
+     * g(mu_o) g(mu_i), g(mu) = min(1, (1 - F(mu)) / k), so k / pi wherever k + F <= 1 and less
+     * only at the angles where the sum would reflect more than the surface receives) or weighted
+     * by what the coat lets through both ways (coat_conserve 1: f_base = k / pi (1 - F(mu_o))
+     * (1 - F(mu_i)) / (1 - F_avg), F_avg = 2 int F mu dmu, albedo k (1 - F(mu_o))). */
+    int coat_curve;       /* vbnl_coat_curve */
+    float coat_min[3];    /* the reflectance where w = 0 (head-on for SCHLICK), each in [0, 1] */
+    float coat_max[3];    /* the reflectance where w = 1 (at grazing), each in [0, 1] */
+    float coat_falloff;   /* SCHLICK: the exponent p, in (0, 1000] */
+    float coat_metallic;  /* [0, 1] */
+    int coat_conserve;    /* 0: base added to the coat; 1: base weighted by (1 - F) */
+    float base_scale;     /* the base's weight (POV-Ray's diffuse) for the SCHLICK and FRESNEL curves, [0, 1] */
 } vbnl_material_desc;
+
+/* The reflectance curves of a plastic's coat (vbnl_material_desc.coat_curve). */
+typedef enum vbnl_coat_curve {
+    VBNL_COAT_DIELECTRIC = 0,
+    VBNL_COAT_SCHLICK = 1,
+    VBNL_COAT_FRESNEL = 2,
+} vbnl_coat_curve;
 
 #define VBNL_INTERIOR_SAME 0u
 #define VBNL_INTERIOR_CLEAR UINT32_MAX
 
 /* Fills `d` with its size and the defaults: Lambertian, base colour 0.8, alpha 0.1, ior 1.5, no
- * emission, no texture, interior VBNL_INTERIOR_SAME, brilliance 1. */
+ * emission, no texture, interior VBNL_INTERIOR_SAME, brilliance 1, a dielectric coat (coat_min 0,
+ * coat_max 1, falloff 1, metallic 0, not conserving, base_scale 1). */
 void vbnl_material_desc_init(vbnl_material_desc *d);
 
 /* ---- textures: patterns, pigments, normals and materials that vary over surfaces ---------- */

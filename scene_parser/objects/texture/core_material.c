@@ -23,6 +23,7 @@ struct pov_material_entry {
 typedef struct map_notes {
     const char *clamped_what;
     double clamped_value;
+    double refl_sum;    /* diffuse colour + the reflection's maximum, when above 1 (0: none) */
 } map_notes;
 
 typedef struct build {
@@ -118,6 +119,11 @@ static void report_notes(pov_ctx *c, const pov_appearance *a, const map_notes *n
     if (n->clamped_what)
         vbnl_sdl_warning(c->parser, loc, "%s %.3g exceeds the energy-conserving range [0, 1]: clamped",
                          n->clamped_what, n->clamped_value);
+    if (n->refl_sum > 0.0)
+        vbnl_sdl_warning(c->parser, loc,
+                         "diffuse plus reflection reflect up to %.3g of the light they receive: the diffuse is "
+                         "reduced at the angles where the sum would exceed 1",
+                         n->refl_sum);
 }
 
 /* ---- patterns, pigments, normals ----------------------------------------------------------------- */
@@ -342,6 +348,22 @@ static float alpha_from_exponent(double n)
     return (float)(a < 0.001 ? 0.001 : (a > 1.0 ? 1.0 : a));
 }
 
+/* A finish's variable reflection as a core coat curve: min + (max - min) (1 - cos)^falloff, or with
+ * `fresnel` the interior's Fresnel reflectance between min and max (one colour: between 0 and it,
+ * as POV-Ray reads it). */
+static void reflection_curve(build *b, const pov_finish *f, vbnl_material_desc *md)
+{
+    const double zero[3] = {0, 0, 0};
+    const int one_colour = !memcmp(f->reflection, f->reflection_min, sizeof(f->reflection));
+    const double *lo = f->fresnel && one_colour ? zero : f->reflection_min;
+    md->coat_curve = f->fresnel ? VBNL_COAT_FRESNEL : VBNL_COAT_SCHLICK;
+    for (int k = 0; k < 3; ++k) {
+        md->coat_min[k] = clamp_albedo(&b->notes, lo[k], "reflection");
+        md->coat_max[k] = clamp_albedo(&b->notes, f->reflection[k], "reflection");
+    }
+    md->coat_falloff = (float)f->falloff;
+}
+
 /* The plain core material of a plain layer's finish (the finish table), with its base colour
  * scaled by `pc` (the pigment's colour, or 1 where the pigment colours it per point). *tinted is
  * 0 when the pigment does not colour this material (a mirror takes its reflection colour). */
@@ -363,28 +385,43 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
         return;
     }
     md->interior = in->medium; /* what a ray that enters travels in (its media) */
-    double refl = (f->reflection[0] + f->reflection[1] + f->reflection[2]) / 3.0;
-    if (f->metallic && (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0)) {
+    double refl = 0.0;
+    for (int k = 0; k < 3; ++k)
+        refl = fmax(refl, fmax(f->reflection[k], f->reflection_min[k]));
+    const int highlight = f->specular > 0.0 || f->phong > 0.0;
+    const float rough = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
+                        : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
+                                          : 0.001f;
+    const int variable = memcmp(f->reflection, f->reflection_min, sizeof(f->reflection)) != 0 || f->fresnel ||
+                         f->reflect_metallic > 0.0;
+    if (f->metallic && (refl > 0.0 || highlight)) {
         md->type = VBNL_MATERIAL_CONDUCTOR;
-        md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
-                    : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
-                                      : 0.001f;
-    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0 && !f->fresnel) {
+        md->alpha = rough;
+    } else if (refl > 0.0 && f->diffuse <= 0.0 && !highlight && !variable) {
         md->type = VBNL_MATERIAL_MIRROR;
         memcpy(scale, f->reflection, sizeof(scale));
         *tinted = 0;
-    } else if (refl > 0.0 && f->diffuse <= 0.0 && f->specular <= 0.0 && f->phong <= 0.0) {
-        /* reflection { fresnel } alone: the clear coat's Fresnel reflection of the interior's ior
-         * over a black base (POV-Ray's reflection between 0 and its maximum by Fresnel's formula) */
+    } else if (refl > 0.0) {
+        /* POV-Ray's variable reflection (reference "Reflection"): a coat whose reflectance follows
+         * min + (max - min) (1 - cos)^falloff, or the interior's Fresnel reflectance between min and
+         * max, over the diffuse base it adds to (smooth, or GGX with the highlight's roughness) */
         md->type = VBNL_MATERIAL_PLASTIC;
-        md->alpha = 0.001f;
+        md->alpha = rough;
         md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
-        scale[0] = scale[1] = scale[2] = 0.0;
-    } else if (refl > 0.0 || f->specular > 0.0 || f->phong > 0.0) {
+        reflection_curve(b, f, md);
+        md->coat_metallic = (float)f->reflect_metallic;
+        md->base_scale = clamp_albedo(&b->notes, f->diffuse, "diffuse");
+        /* POV-Ray adds diffuse and reflection; the core's base gives way at the angles where
+         * the sum would exceed 1 (vbnl/scene.h), noted here for the pigment's average colour */
+        double avg[5], sum = 0.0;
+        pov_pigment_average(t->pig, b->c->tex, avg);
+        for (int k = 0; k < 3; ++k)
+            sum = fmax(sum, md->base_scale * fmin(fmax(avg[k], 0.0), 1.0) + fmax(md->coat_min[k], md->coat_max[k]));
+        if (sum > 1.0 + 1e-6 && b->notes.refl_sum == 0.0)
+            b->notes.refl_sum = sum;
+    } else if (highlight) {
         md->type = VBNL_MATERIAL_PLASTIC;
-        md->alpha = f->specular > 0.0 ? alpha_from_exponent(1.0 / f->roughness)
-                    : f->phong > 0.0  ? alpha_from_exponent(4.0 * f->phong_size)
-                                      : 0.001f;
+        md->alpha = rough;
         md->ior = (float)(in->ior > 1.0 ? in->ior : 1.5);
         scale[0] = scale[1] = scale[2] = f->diffuse;
     } else {
@@ -395,6 +432,29 @@ static void finish_material(build *b, const pov_texture *t, const pov_interior *
     }
     for (int k = 0; k < 3; ++k)
         md->base_color[k] = clamp_albedo(&b->notes, scale[k] * (*tinted ? pc[k] : 1.0), "albedo");
+}
+
+/* True when a finish has a reflection (other than a finish-level metallic's conductor). */
+static int finish_reflects(const pov_finish *f)
+{
+    if (f->metallic)
+        return 0;
+    for (int k = 0; k < 3; ++k)
+        if (f->reflection[k] > 0.0 || f->reflection_min[k] > 0.0)
+            return 1;
+    return 0;
+}
+
+/* The reflection of a finish on the light a transparent pigment lets through: POV-Ray reflects
+ * F(theta) there too and, with conserve_energy, lets 1 - F through (reference "Conserve Energy
+ * for Reflection"); the core's dielectric with a coat curve does that always, so that nothing
+ * leaves the surface brighter than it came (without conserve_energy POV-Ray passes all the light
+ * and adds the reflection). Its `metallic` tint is not applied here: the glass has no pigment
+ * colour of its own. */
+static void glass_reflection(build *b, const pov_finish *f, vbnl_material_desc *glass)
+{
+    if (finish_reflects(f))
+        reflection_curve(b, f, glass);
 }
 
 /* The emitted radiance of a plain layer: POV-Ray's emission times the pigment's colour and
@@ -475,13 +535,14 @@ static vbnl_result build_plain(build *b, const pov_texture *t, const pov_interio
             return r;
         nd.normal = n + 1;
     }
-    if (in->ior > 1.0 || in->medium) {
+    if (in->ior > 1.0 || in->medium || finish_reflects(&t->fin)) {
         /* the light the pigment lets through refracts into the interior (or enters its media
          * unrefracted: ior 1) */
         vbnl_material_desc glass;
         vbnl_material_desc_init(&glass);
         glass.type = VBNL_MATERIAL_DIELECTRIC;
-        glass.ior = (float)in->ior;
+        glass.ior = (float)(in->ior > 1.0 ? in->ior : 1.0);
+        glass_reflection(b, &t->fin, &glass);
         glass.interior = in->medium;
         glass.base_color[0] = glass.base_color[1] = glass.base_color[2] = 1.0f;
         uint32_t gid;

@@ -1,5 +1,6 @@
 /* vbnl object layer, texture part: finish { }. Its mapping onto a core material is in
  * core_material.c (the table in scene_parser/README.md). */
+#include <math.h>
 #include <string.h>
 
 #include "pov_texture.h"
@@ -11,6 +12,7 @@ void pov_finish_init(pov_finish *f)
     f->roughness = 0.05;
     f->phong_size = 40.0;
     f->brilliance = 1.0;
+    f->falloff = 1.0;
 }
 
 vbnl_result pov_parse_color3(pov_ctx *c, double out[3])
@@ -45,25 +47,29 @@ static int optional_value_follows(const vbnl_sdl_token *n)
     return 1;
 }
 
-/* ---- reflection { [min colour,] max colour [metallic] [fresnel] [falloff f] [exponent e] } ------ */
+/* ---- reflection { [min colour,] max colour [metallic [m]] [fresnel [on]] [falloff f] [exponent e] } --
+ * POV-Ray 3.7 reference, "Reflection": the reflectivity is min + (max - min) (1 - cos)^falloff at
+ * the angle of incidence (with `fresnel`, the interior's Fresnel reflectance in place of the
+ * curve); one colour gives min = max. core_material.c maps it onto the core's coat curves. */
 
 typedef struct reflection_block {
     pov_finish *f;
-    int have; /* a colour was given: the strongest is kept */
+    int colours; /* colours given so far (the first is the minimum, a second the maximum) */
 } reflection_block;
 
 static vbnl_result refl_metallic(const pov_item *it)
 {
-    double v;
+    double v = 1.0;
     vbnl_sdl_next(it->p);
-    ((reflection_block *)it->target)->f->metallic = 1;
     if (optional_value_follows(vbnl_sdl_peek(it->p)) && vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
         return VBNL_ERR_PARSE;
+    if (!(v >= 0.0 && v <= 1.0))
+        return vbnl_sdl_error(it->p, &it->loc, "reflection 'metallic' must lie in [0, 1] (got %g)", v);
+    ((reflection_block *)it->target)->f->reflect_metallic = v;
     return VBNL_OK;
 }
 
-/* fresnel [on]: the reflection follows the Fresnel term of the interior's ior, which is what the
- * core's clear coat does (core_material.c gives a reflection-only finish a coat over black) */
+/* fresnel [on]: the reflection follows the Fresnel term of the interior's ior */
 static vbnl_result refl_fresnel(const pov_item *it)
 {
     double v = 1;
@@ -74,13 +80,33 @@ static vbnl_result refl_fresnel(const pov_item *it)
     return VBNL_OK;
 }
 
-static vbnl_result refl_ignored(const pov_item *it) /* falloff f, exponent e */
+static vbnl_result refl_falloff(const pov_item *it)
 {
     double v;
     vbnl_sdl_next(it->p);
     if (vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
         return VBNL_ERR_PARSE;
-    vbnl_sdl_warning(it->p, &it->loc, "reflection '%s' is ignored (the lobe's own Fresnel term applies)", it->kw);
+    if (!(v > 0.0 && v <= 1000.0))
+        return vbnl_sdl_error(it->p, &it->loc, "reflection 'falloff' must lie in (0, 1000] (got %g)", v);
+    ((reflection_block *)it->target)->f->falloff = v;
+    return VBNL_OK;
+}
+
+/* reflection { exponent e } and finish { reflection_exponent e }: POV-Ray raises the light
+ * arriving along the mirror direction to the power 1 / e before weighting it by the reflectivity
+ * (its trace.cpp), a function of the light itself that no reflectance (linear in the light) can
+ * express. */
+static vbnl_result refl_exponent(const pov_item *it)
+{
+    double v;
+    vbnl_sdl_next(it->p);
+    if (vbnl_sdl_parse_float(it->p, &v) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    if (v != 1.0)
+        vbnl_sdl_warning(it->p, &it->loc,
+                         "'%s' %g is ignored: it raises the reflected light to the power %.3g, which a linear "
+                         "reflectance cannot do",
+                         it->kw, v, v != 0.0 ? 1.0 / v : HUGE_VAL);
     return VBNL_OK;
 }
 
@@ -89,20 +115,25 @@ static int refl_color(const pov_item *it)
     reflection_block *b = it->target;
     pov_finish *f = b->f;
     double col[3];
+    if (b->colours >= 2) {
+        vbnl_sdl_error(it->p, &it->loc, "reflection takes at most two colours (minimum, maximum)");
+        return -1;
+    }
     if (pov_parse_color3(it->ctx, col) != VBNL_OK)
         return -1;
     vbnl_sdl_accept(it->p, ',');
-    if (!b->have || col[0] + col[1] + col[2] > f->reflection[0] + f->reflection[1] + f->reflection[2])
-        memcpy(f->reflection, col, sizeof(col));
-    b->have = 1;
+    if (b->colours == 0)
+        memcpy(f->reflection_min, col, sizeof(col));
+    memcpy(f->reflection, col, sizeof(col));
+    b->colours++;
     return 1;
 }
 
 static const pov_row reflection_rows[] = {
     {"metallic", refl_metallic, 0},
     {"fresnel", refl_fresnel, 0},
-    {"falloff", refl_ignored, 0},
-    {"exponent", refl_ignored, 0},
+    {"falloff", refl_falloff, 0},
+    {"exponent", refl_exponent, 0},
     {NULL, NULL, 0},
 };
 static const pov_row *const reflection_tables[] = {reflection_rows, NULL};
@@ -150,7 +181,7 @@ static vbnl_result emission(const pov_item *it)
 }
 
 /* keyword amount (metallic [amount]): roughness phong phong_size brilliance crand
- * reflection_exponent metallic */
+ * metallic */
 static vbnl_result amount(const pov_item *it)
 {
     pov_finish *f = it->target;
@@ -190,11 +221,19 @@ static vbnl_result reflection(const pov_item *it)
 {
     pov_finish *f = it->target;
     vbnl_sdl_next(it->p);
+    f->falloff = 1.0; /* a new reflection starts over, as in POV-Ray */
     if (vbnl_sdl_accept(it->p, '{')) {
         reflection_block b = {f, 0};
-        return pov_block_parse(&reflection_items, it->p, it->ctx, &b, NULL);
+        if (pov_block_parse(&reflection_items, it->p, it->ctx, &b, NULL) != VBNL_OK)
+            return VBNL_ERR_PARSE;
+        if (b.colours == 0)
+            return vbnl_sdl_error(it->p, &it->loc, "reflection { } needs a colour");
+        return VBNL_OK;
     }
-    return pov_parse_color3(it->ctx, f->reflection);
+    if (pov_parse_color3(it->ctx, f->reflection) != VBNL_OK)
+        return VBNL_ERR_PARSE;
+    memcpy(f->reflection_min, f->reflection, sizeof(f->reflection));
+    return VBNL_OK;
 }
 
 static vbnl_result unsupported(const pov_item *it) /* irid { }, subsurface { } */
@@ -216,7 +255,7 @@ static const pov_row finish_rows[] = {
     {"phong_size", amount, 0},
     {"brilliance", amount, 0},
     {"crand", amount, 0},
-    {"reflection_exponent", amount, 0},
+    {"reflection_exponent", refl_exponent, 0},
     {"metallic", amount, 0},
     {"reflection", reflection, 0},
     {"irid", unsupported, 0},

@@ -93,9 +93,13 @@ struct pov_normal {
 };
 
 typedef struct pov_finish {
-    double diffuse, emission[3], reflection[3], specular, roughness, phong, phong_size;
+    double diffuse, emission[3], specular, roughness, phong, phong_size;
+    double reflection[3];     /* POV-Ray's variable reflection: the maximum (grazing) ... */
+    double reflection_min[3]; /* ... and the minimum (head-on); equal without a second colour */
+    double falloff;           /* reflection { falloff f }: the exponent of (1 - cos), 1 by default */
+    double reflect_metallic;  /* reflection { metallic m }: the surface-colour tint, 0 by default */
     double brilliance; /* the diffuse falloff exponent (1: Lambert) */
-    int metallic;
+    int metallic;      /* finish { metallic } */
     int fresnel; /* reflection { fresnel }: the reflection follows the interior's Fresnel term */
 } pov_finish;
 

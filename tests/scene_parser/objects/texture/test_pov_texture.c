@@ -294,13 +294,13 @@ static void test_finish_mapping(void **state)
         "object_test { pigment { rgb <1, 0.5, 0> } finish { emission 2 diffuse 0 } }\n"
         /* 2 reflection only -> mirror tinted by the reflection colour */
         "object_test { pigment { rgb 0 } finish { diffuse 0 reflection rgb <0.9, 0.8, 0.7> } }\n"
-        /* 3 reflection + diffuse -> smooth plastic */
+        /* 3 reflection + diffuse -> a smooth coat reflecting 0.2 at every angle over the diffuse base */
         "object_test { pigment { rgb <0, 0, 1> } finish { reflection 0.2 } }\n"
         /* 4 specular / roughness -> GGX plastic, alpha = sqrt(2 / (1/roughness + 2)) */
         "object_test { pigment { rgb 1 } finish { specular 0.5 roughness 0.01 diffuse 0.7 } }\n"
         /* 5 phong / phong_size -> GGX plastic, alpha = sqrt(2 / (4 phong_size + 2)) */
         "object_test { pigment { rgb 1 } finish { phong 1 phong_size 40 } }\n"
-        /* 6 metallic -> conductor, F0 = pigment */
+        /* 6 reflection { metallic } -> the coat tinted by the pigment, over the (default) diffuse */
         "object_test { pigment { rgb <0.9, 0.6, 0.2> } finish { reflection { 0.8 metallic } } }\n"
         /* 7 filter + ior -> dielectric tinted by the filtered colour */
         "object_test { pigment { rgbf <0.5, 1, 1, 1> } interior { ior 1.33 } }\n"
@@ -323,7 +323,12 @@ static void test_finish_mapping(void **state)
     expect3(d->base_color, 0.9, 0.8, 0.7, 1e-6);
     d = mat(h, 3);
     assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
-    expect3(d->base_color, 0, 0, 0.6, 1e-6);
+    assert_int_equal(d->coat_curve, VBNL_COAT_SCHLICK);
+    expect3(d->coat_min, 0.2, 0.2, 0.2, 1e-6);
+    expect3(d->coat_max, 0.2, 0.2, 0.2, 1e-6);
+    expect3(d->base_color, 0, 0, 1, 1e-6);
+    assert_float_equal(d->base_scale, 0.6, 1e-6);
+    assert_int_equal(d->coat_conserve, 0);
     assert_true(d->alpha == 0.001f);
     d = mat(h, 4);
     assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
@@ -333,10 +338,14 @@ static void test_finish_mapping(void **state)
     assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
     assert_float_equal(d->alpha, sqrt(2.0 / 162.0), 1e-6);
     d = mat(h, 6);
-    assert_int_equal(d->type, VBNL_MATERIAL_CONDUCTOR);
+    assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
+    assert_int_equal(d->coat_curve, VBNL_COAT_SCHLICK);
     expect3(d->base_color, 0.9, 0.6, 0.2, 1e-6);
-    assert_int_equal(d->conductor_use_ior, 0);
+    expect3(d->coat_max, 0.8, 0.8, 0.8, 1e-6);
+    assert_float_equal(d->coat_metallic, 1.0, 0);
     assert_true(d->alpha == 0.001f);
+    /* 0.6 x 0.9 + 0.8 > 1: noted (the core's diffuse gives way where the sum exceeds 1) */
+    assert_non_null(warning_text(h, "diffuse plus reflection reflect up to 1.34"));
     /* what the pigment lets through refracts into the interior, tinted by f c + t */
     vbi_bsdf g = bsdf_at(h, 7, 0, 0, 0, 0);
     assert_int_equal(g.type, VBNL_MATERIAL_DIELECTRIC);
@@ -350,9 +359,99 @@ static void test_finish_mapping(void **state)
     assert_float_equal(d->alpha, sqrt(2.0 / 52.0), 1e-6);
     d = mat(h, 10);
     assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
-    expect3(d->base_color, 0, 0, 0, 0);
+    assert_int_equal(d->coat_curve, VBNL_COAT_FRESNEL);
+    expect3(d->coat_min, 0, 0, 0, 0);
+    expect3(d->coat_max, 1, 1, 1, 0);
+    assert_float_equal(d->base_scale, 0, 0);
     assert_float_equal(d->ior, 1.33, 1e-6);
     assert_null(warning_text(h, "fresnel"));
+    done(h);
+}
+
+/* POV-Ray's variable reflection (reference "Reflection"): min, max, falloff, fresnel, exponent. */
+static void test_variable_reflection(void **state)
+{
+    (void)state;
+    harness *h = run_ok(
+        /* 0 min 0, max 1, falloff 2 over a black diffuse */
+        "object_test { pigment { rgb 1 } finish { diffuse 0 reflection { 0, 1 falloff 2 } } }\n"
+        /* 1 reflection 0.3 keeps its amount beside diffuse 0.6 (sum 0.9: no note) */
+        "object_test { pigment { rgb <0.5, 1, 0.25> } finish { diffuse 0.6 reflection 0.3 } }\n"
+        /* 2 colours per channel, phong roughness for the coat */
+        "object_test { pigment { rgb 0.2 } finish { diffuse 0.5 phong 1 phong_size 40\n"
+        "    reflection { rgb <0.01, 0.02, 0.03>, rgb <0.9, 0.8, 0.7> falloff 5 } } }\n"
+        /* 3 fresnel with one colour: between 0 and it */
+        "object_test { pigment { rgb 0.5 } finish { diffuse 0.4 reflection { 0.8 fresnel on } } interior { ior 1.5 } }\n"
+        /* 4 exponent 1 is the identity: no warning; exponent 2 warns */
+        "object_test { pigment { rgb 0.5 } finish { reflection { 0.5 exponent 1 } } }\n"
+        "object_test { pigment { rgb 0.5 } finish { diffuse 0.1 reflection { 0.5 exponent 2 } } }\n");
+    const vbnl_material_desc *d = mat(h, 0);
+    assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
+    assert_int_equal(d->coat_curve, VBNL_COAT_SCHLICK);
+    expect3(d->coat_min, 0, 0, 0, 0);
+    expect3(d->coat_max, 1, 1, 1, 0);
+    assert_float_equal(d->coat_falloff, 2.0, 0);
+    assert_float_equal(d->base_scale, 0.0, 0);
+    d = mat(h, 1);
+    assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC);
+    expect3(d->coat_min, 0.3, 0.3, 0.3, 1e-6);
+    expect3(d->coat_max, 0.3, 0.3, 0.3, 1e-6);
+    assert_float_equal(d->base_scale, 0.6, 1e-6);
+    expect3(d->base_color, 0.5, 1, 0.25, 1e-6);
+    /* the core's BSDF reflects 30% head-on (POV-Ray's reflection 0.3), not a dielectric's 4% */
+    vbi_bsdf g;
+    vbi_bsdf_from_material(&g, d);
+    vbi_bsdf_sample_rec rec;
+    double spec = 0.0;
+    const int n = 20000;
+    for (int i = 0; i < n; ++i) {
+        vec2 u = {((float)i + 0.5f) / (float)n, 0.37f};
+        if (vbi_bsdf_sample(&g, v3(0, 0, 1), u, &rec) && (rec.lobe & VBI_LOBE_GLOSSY))
+            spec += rec.weight.x / n;
+    }
+    assert_float_equal(spec, 0.3, 0.01);
+    d = mat(h, 2);
+    expect3(d->coat_min, 0.01, 0.02, 0.03, 1e-6);
+    expect3(d->coat_max, 0.9, 0.8, 0.7, 1e-6);
+    assert_float_equal(d->coat_falloff, 5.0, 0);
+    assert_float_equal(d->alpha, sqrt(2.0 / 162.0), 1e-6);
+    d = mat(h, 3);
+    assert_int_equal(d->coat_curve, VBNL_COAT_FRESNEL);
+    expect3(d->coat_min, 0, 0, 0, 0);
+    expect3(d->coat_max, 0.8, 0.8, 0.8, 1e-6);
+    assert_float_equal(d->ior, 1.5, 1e-6);
+    d = mat(h, 4);
+    assert_int_equal(d->type, VBNL_MATERIAL_PLASTIC); /* diffuse 0.6 by default */
+    assert_null(warning_text(h, "falloff"));
+    const char *w = warning_text(h, "exponent");
+    assert_non_null(w);
+    assert_non_null(strstr(w, "test.pov:7:"));
+    assert_non_null(strstr(w, "'exponent' 2 is ignored"));
+    assert_int_equal(vbnl_sdl_warning_count(h->c.parser), 1);
+    done(h);
+    /* a transparent pigment: what it lets through meets a dielectric reflecting the same curve
+     * (POV-Ray's reflection with conserve_energy), with or without an interior ior */
+    h = run_ok("object_test { pigment { rgbt <0, 1, 0, 1> } finish { diffuse 0 reflection { 0, 1 falloff 2 } "
+               "conserve_energy } interior { ior 1.3 } }\n"
+               "object_test { pigment { rgbt <0, 1, 0, 1> } finish { diffuse 0 reflection { 0.2, 0.6 fresnel } } }\n");
+    vbi_bsdf gl = bsdf_at(h, 0, 0, 0, 0, 0);
+    assert_int_equal(gl.type, VBNL_MATERIAL_DIELECTRIC);
+    assert_int_equal(gl.coat_curve, VBNL_COAT_SCHLICK);
+    assert_float_equal(gl.coat_max.x, 1.0, 0);
+    assert_float_equal(gl.coat_falloff, 2.0, 0);
+    assert_float_equal(gl.ior, 1.3, 1e-6);
+    gl = bsdf_at(h, 1, 0, 0, 0, 0);
+    assert_int_equal(gl.type, VBNL_MATERIAL_DIELECTRIC);
+    assert_int_equal(gl.coat_curve, VBNL_COAT_FRESNEL);
+    assert_float_equal(gl.coat_min.x, 0.2, 1e-6);
+    assert_float_equal(gl.ior, 1.0, 0);
+    done(h);
+    /* errors name the offending value */
+    h = run("object_test { pigment { rgb 1 } finish { reflection { 0.5 falloff -1 } } }\n");
+    assert_int_not_equal(h->result, VBNL_OK);
+    done(h);
+    h = run("object_test { pigment { rgb 1 } finish { reflection { 0.1, 0.5, 0.7 } } }\n");
+    assert_int_not_equal(h->result, VBNL_OK);
     done(h);
 }
 
@@ -951,6 +1050,7 @@ int main(void)
         cmocka_unit_test(test_declared_texture),
         cmocka_unit_test(test_identifiers_and_default),
         cmocka_unit_test(test_finish_mapping),
+        cmocka_unit_test(test_variable_reflection),
         cmocka_unit_test(test_energy_clamp),
         cmocka_unit_test(test_patterns),
         cmocka_unit_test(test_transforms),
