@@ -377,7 +377,11 @@ void vbi_scene_intersect8_mask(const vbnl_scene *s, const int active[8], const v
 
 /* A surface whose BSDF lets light through unchanged in direction (a dielectric of ior 1: POV-Ray's
  * transmit and filter without refraction): light passes it with the BSDF's tint. */
-static inline int vbi_bsdf_is_null(const vbi_bsdf *b) { return b->type == VBNL_MATERIAL_DIELECTRIC && b->ior == 1.0f; }
+static inline int vbi_bsdf_is_null(const vbi_bsdf *b)
+{
+    /* (a dielectric with a reflectance curve reflects even at ior 1: vbnl_material_desc.coat_curve) */
+    return b->type == VBNL_MATERIAL_DIELECTRIC && b->ior == 1.0f && b->coat_curve == VBNL_COAT_DIELECTRIC;
+}
 
 /* The BSDF at a surface hit. Every integrator asks for the BSDF at a hit through this one
  * function: a plain material's BSDF; for a material that varies over the surface (a pigment, a
