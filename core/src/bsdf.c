@@ -365,6 +365,13 @@ static vec3 coat_curve_F(const vbi_bsdf *b, float c)
     return v3_min(v3_max(F, v3s(0.0f)), v3s(1.0f));
 }
 
+vec3 vbi_bsdf_pass_weight(const vbi_bsdf *b, float cos)
+{
+    if (b->coat_curve == VBNL_COAT_DIELECTRIC)
+        return b->color;
+    return v3_mul(b->color, v3_sub(v3s(1.0f), coat_curve_F(b, fabsf(cos))));
+}
+
 /* F_avg = 2 int_0^1 F(mu) mu dmu by 16-point Gauss-Legendre on [0, 1] (two 8-point panels at
  * 0.5: the Fresnel curve bends sharply near grazing). */
 static vec3 coat_curve_favg(const vbi_bsdf *b)

@@ -138,4 +138,8 @@ static inline int vbi_bsdf_is_transmissive(const vbi_bsdf *b) { return b->type =
  * (eta = n_inside / n_outside). */
 float vbi_fresnel_dielectric(float cos_i, float eta);
 
+/* What a smooth dielectric of ior 1 lets through straight at |cos| to its normal: its tint times
+ * 1 - F, F its reflectance curve (vbnl_material_desc.coat_curve; 0 without one). */
+vec3 vbi_bsdf_pass_weight(const vbi_bsdf *b, float cos);
+
 #endif

@@ -514,12 +514,12 @@ static int material_may_pass(const vbnl_scene *sc, uint32_t m, uint32_t depth)
 {
     const scene_material *sm = &sc->materials[m];
     if (!sm->is_node)
-        return vbi_bsdf_is_null(&sm->bsdf);
+        return vbi_bsdf_passes_straight(&sm->bsdf);
     if (depth > VBNL_TEXTURE_DEPTH_MAX)
         return 1;
     const vbi_mnode *nd = &sm->node;
     if (nd->kind == VBNL_NODE_TEXTURED)
-        return nd->transmission && vbi_bsdf_is_null(&sc->materials[nd->transmission - 1].bsdf) &&
+        return nd->transmission && vbi_bsdf_passes_straight(&sc->materials[nd->transmission - 1].bsdf) &&
                (!nd->pigment || pigment_may_pass(&sc->tex, nd->pigment - 1, 0));
     const vbnl_material_map_entry *map = sc->tex.material_entries + nd->entry_begin;
     for (uint32_t i = 0; i < nd->entry_count; ++i)

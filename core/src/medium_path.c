@@ -18,13 +18,14 @@
  * pass-through faces). */
 #define VBI_MAX_CROSSINGS 64
 
-/* The BSDF at a hit if it may let light through unchanged (material.may_pass), else NULL. */
-static const vbi_bsdf *null_bsdf(const vbnl_scene *sc, const vbi_hit *h, vbi_bsdf *store)
+/* The BSDF at a hit if it lets light through unchanged (material.may_pass), else NULL; with
+ * `reflecting`, also a dielectric of ior 1 with a reflectance curve (vbi_bsdf_passes_straight). */
+static const vbi_bsdf *null_bsdf(const vbnl_scene *sc, const vbi_hit *h, vbi_bsdf *store, int reflecting)
 {
     if (!sc->materials[h->material].may_pass)
         return NULL;
     const vbi_bsdf *b = vbi_surface_bsdf(sc, h, store);
-    return vbi_bsdf_is_null(b) ? b : NULL;
+    return (reflecting ? vbi_bsdf_passes_straight(b) : vbi_bsdf_is_null(b)) ? b : NULL;
 }
 
 vec3 vbi_shadow_transmittance(const vbnl_scene *sc, const vbi_medium_stack *media, vec3 org, vec3 dir, float tmax,
@@ -38,6 +39,7 @@ vec3 vbi_shadow_transmittance(const vbnl_scene *sc, const vbi_medium_stack *medi
         vbi_medium_stack_init(&st);
     const vec3 org0 = org;
     const float tmax0 = tmax;
+    const int delta = nee_only && *nee_only; /* a point, spot or directional light */
     vec3 T = v3s(1.0f);
     for (int k = 0;; ++k) {
         stats->rays++;
@@ -58,12 +60,12 @@ vec3 vbi_shadow_transmittance(const vbnl_scene *sc, const vbi_medium_stack *medi
             break;
         }
         vbi_bsdf store;
-        const vbi_bsdf *b = null_bsdf(sc, &h, &store);
+        const vbi_bsdf *b = null_bsdf(sc, &h, &store, delta);
         if (!b || k >= VBI_MAX_CROSSINGS)
             return v3s(0.0f);
         if (!vbi_region_is_empty(sc, region))
             T = v3_mul(T, vbi_medium_transmittance(sc, region, org, dir, h.t, r));
-        T = v3_mul(T, b->color);
+        T = v3_mul(T, vbi_bsdf_pass_weight(b, v3_dot(dir, h.ns)));
         if (vbi_is_black(T))
             return T;
         vbi_medium_cross(sc, &st, h.material, h.ng, dir);
@@ -129,7 +131,8 @@ static vec3 equiangular_direct(const vbnl_scene *sc, const vbi_medium_stack *med
         float stmax;
         if (!vbi_shadow_segment(&ls, p, &sdir, &stmax))
             return v3s(0.0f);
-        T = v3_mul(T, vbi_shadow_transmittance(sc, media, p, sdir, stmax, &r, stats, NULL));
+        int delta = 1;
+        T = v3_mul(T, vbi_shadow_transmittance(sc, media, p, sdir, stmax, &r, stats, &delta));
     }
     return v3_scale(v3_mul(v3_mul(ls.Li, f), T), 1.0f / (pdf * pmf));
 }
@@ -261,7 +264,7 @@ int vbi_walk_next(vbi_walk *w, vec3 o, vec3 *d, uint32_t mask, vec3 x, float pdf
             return VBI_WALK_ESCAPED;
         }
         vbi_bsdf store;
-        const vbi_bsdf *b = sc->has_null ? null_bsdf(sc, hit, &store) : NULL;
+        const vbi_bsdf *b = sc->has_null ? null_bsdf(sc, hit, &store, 0) : NULL;
         if (b && crossings++ < VBI_MAX_CROSSINGS) {
             /* straight through: the tint, and the region on the other side */
             w->beta = v3_mul(w->beta, b->color);

@@ -382,6 +382,13 @@ static inline int vbi_bsdf_is_null(const vbi_bsdf *b)
     /* (a dielectric with a reflectance curve reflects even at ior 1: vbnl_material_desc.coat_curve) */
     return b->type == VBNL_MATERIAL_DIELECTRIC && b->ior == 1.0f && b->coat_curve == VBNL_COAT_DIELECTRIC;
 }
+/* A smooth dielectric of ior 1, with or without a reflectance curve: a shadow ray to a delta light
+ * passes it straight, weighted by vbi_bsdf_pass_weight (no path can reach such a light, so next-
+ * event estimation alone counts what crosses a reflecting one). */
+static inline int vbi_bsdf_passes_straight(const vbi_bsdf *b)
+{
+    return b->type == VBNL_MATERIAL_DIELECTRIC && b->ior == 1.0f;
+}
 
 /* The BSDF at a surface hit. Every integrator asks for the BSDF at a hit through this one
  * function: a plain material's BSDF; for a material that varies over the surface (a pigment, a

@@ -64,7 +64,9 @@ static inline void vbi_shading_frame_make(const vbi_bsdf *bsdf, const vbi_hit *h
  * light through unchanged in direction (their tint) and the media of the regions it crosses
  * (starting in the innermost of `media`, NULL: outside). *nee_only (optional) is set to 1 when
  * only no_shadow geometry lies on the way: BSDF sampling cannot find that light, so next-event
- * estimation counts it alone. Random numbers (ratio tracking) from r. */
+ * estimation counts it alone; 1 on entry says the light is a delta light, which the ray also
+ * reaches through reflecting dielectrics of ior 1 (vbi_bsdf_passes_straight), weighted by what
+ * they let through. Random numbers (ratio tracking) from r. */
 vec3 vbi_shadow_transmittance(const vbnl_scene *sc, const vbi_medium_stack *media, vec3 org, vec3 dir, float tmax,
                                vbi_rand *r, vbi_thread_stats *stats, int *nee_only);
 

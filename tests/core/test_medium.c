@@ -587,8 +587,9 @@ static void test_point_light_in_medium(void **state)
 /* ---- no_shadow, shadowless ---------------------------------------------------------------------- */
 
 /* The centre pixel's mean: ground (a huge sphere, albedo 0.5) at the origin, an occluder between it
- * and a point light of intensity 9 at height 3; flags on the occluder, shadowless on the light. */
-static double shadow_pixel(vbnl_context *ctx, uint32_t occluder_flags, int shadowless)
+ * and a point light of intensity 9 at height 3; flags on the occluder, shadowless on the light, and
+ * with `reflecting` a clear occluder that reflects 0.3 (a dielectric of ior 1 with a curve). */
+static double shadow_pixel(vbnl_context *ctx, uint32_t occluder_flags, int shadowless, int reflecting)
 {
     vbnl_scene *s;
     assert_int_equal(vbnl_scene_create(ctx, &s, NULL), VBNL_OK);
@@ -599,7 +600,19 @@ static double shadow_pixel(vbnl_context *ctx, uint32_t occluder_flags, int shado
     assert_int_equal(vbnl_scene_add_material(s, &md, &mat, NULL), VBNL_OK);
     float gc[3] = {0, -1000, 0}, oc[3] = {0, 1, 0}, lp[3] = {0, 3, 0}, I[3] = {9, 9, 9};
     assert_int_equal(vbnl_scene_add_sphere(s, gc, 1000.0f, mat, VBNL_GROUP_WORLD, NULL, NULL), VBNL_OK);
-    assert_int_equal(vbnl_scene_add_sphere(s, oc, 0.5f, mat, VBNL_GROUP_WORLD, &occ, NULL), VBNL_OK);
+    uint32_t occ_mat = mat;
+    if (reflecting) { /* a clear dielectric of ior 1 reflecting 0.3 at every angle */
+        vbnl_material_desc gd;
+        vbnl_material_desc_init(&gd);
+        gd.type = VBNL_MATERIAL_DIELECTRIC;
+        gd.ior = 1.0f;
+        gd.base_color[0] = gd.base_color[1] = gd.base_color[2] = 1.0f;
+        gd.coat_curve = VBNL_COAT_SCHLICK;
+        for (int k = 0; k < 3; ++k)
+            gd.coat_min[k] = gd.coat_max[k] = 0.3f;
+        assert_int_equal(vbnl_scene_add_material(s, &gd, &occ_mat, NULL), VBNL_OK);
+    }
+    assert_int_equal(vbnl_scene_add_sphere(s, oc, 0.5f, occ_mat, VBNL_GROUP_WORLD, &occ, NULL), VBNL_OK);
     if (occluder_flags)
         assert_int_equal(vbnl_scene_set_visibility(s, occ, occluder_flags, NULL), VBNL_OK);
     uint32_t light;
@@ -622,9 +635,14 @@ static void test_shadow_controls(void **state)
 {
     fixture *f = *state;
     const double direct = 0.5 / M_PI * 9.0 / 9.0; /* albedo / pi * I / r^2, normal incidence */
-    double shadowed = shadow_pixel(f->ctx, 0, 0);
-    double no_shadow = shadow_pixel(f->ctx, VBNL_VISIBLE_NO_SHADOW, 0);
-    double shadowless = shadow_pixel(f->ctx, 0, 1);
+    double shadowed = shadow_pixel(f->ctx, 0, 0, 0);
+    double no_shadow = shadow_pixel(f->ctx, VBNL_VISIBLE_NO_SHADOW, 0, 0);
+    double shadowless = shadow_pixel(f->ctx, 0, 1, 0);
+    /* a point light seen through a clear sphere reflecting 0.3: (1 - 0.3)^2 of it, by next-event
+     * estimation alone (no path reaches a point light), plus the little indirect light */
+    double through = shadow_pixel(f->ctx, 0, 0, 1);
+    if (!(through > 0.97 * 0.49 * direct && through < 1.1 * 0.49 * direct))
+        fail_msg("through a reflecting clear sphere: %.4f, want 0.49 x %.4f", through, direct);
     if (!(shadowed < 0.2 * direct))
         fail_msg("the occluder's shadow: %.4f, direct light %.4f", shadowed, direct);
     /* the full direct light, plus the little indirect light (the lit ground bounced back by the
