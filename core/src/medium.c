@@ -283,6 +283,20 @@ static float beer(float sigma, float d) { return sigma > 0.0f ? expf(-sigma * d)
 /* Exponential step of rate `rate`. */
 static float exp_step(vbi_rand *r, float rate) { return -logf(1.0f - vbi_rand_next(r)) / rate; }
 
+/* Russian roulette on a weight that null collisions (tracking) or ratios (transmittance) of
+ * chromatic and patterned media wear down: below 0.1 in every channel it survives with ten times
+ * its largest channel, scaled up to match. Returns 0 when it ends. */
+static int roulette(vec3 *w, vbi_rand *r)
+{
+    const float m = v3_max_comp(*w);
+    if (m >= 0.1f)
+        return 1;
+    if (!(m > 0.0f) || vbi_rand_next(r) >= m * 10.0f)
+        return 0;
+    *w = v3_scale(*w, 1.0f / (m * 10.0f));
+    return 1;
+}
+
 int vbi_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, float tmax, vbi_rand *r, vec3 *beta,
                       vec3 *L, vbi_medium_event *ev)
 {
@@ -337,13 +351,8 @@ int vbi_medium_track(const vbnl_scene *sc, uint32_t region, vec3 o, vec3 d, floa
                     return VBI_TRACK_SCATTERED;
                 }
                 *beta = v3_mul(*beta, v3_scale(sn, norm / (maj * pn)));
-                /* Russian roulette on a weight that null collisions of chromatic media wear down */
-                const float bm = v3_max_comp(*beta);
-                if (bm < 0.1f) {
-                    if (vbi_rand_next(r) >= bm * 10.0f)
-                        return VBI_TRACK_ABSORBED;
-                    *beta = v3_scale(*beta, 1.0f / (bm * 10.0f));
-                }
+                if (!roulette(beta, r))
+                    return VBI_TRACK_ABSORBED;
             }
         }
     }
@@ -376,12 +385,8 @@ vec3 vbi_medium_transmittance(const vbnl_scene *sc, uint32_t region, vec3 o, vec
                 coeffs c;
                 medium_at(sc, m, v3_fma(o, d, t), &c);
                 T = v3_mul(T, v3_max(v3_sub(v3s(1.0f), v3_scale(v3_add(c.sa, c.sx), 1.0f / maj)), v3s(0.0f)));
-                const float tm = v3_max_comp(T);
-                if (tm < 0.1f) {
-                    if (!(tm > 0.0f) || vbi_rand_next(r) >= tm * 10.0f)
-                        return v3s(0.0f);
-                    T = v3_scale(T, 1.0f / (tm * 10.0f));
-                }
+                if (!roulette(&T, r))
+                    return v3s(0.0f);
             }
         }
     }

@@ -22,13 +22,14 @@ void say(char *why, size_t n, const std::string &s)
 }
 
 // How the stored values relate to light: OpenImageIO names it in oiio:ColorSpace; float formats
-// are linear, integer formats without a name are sRGB (POV-Ray 3.7's default file gamma).
+// are linear, integer formats without a name are sRGB (POV-Ray 3.7's default file gamma). Also
+// their depth (out->bits: 0 for float formats).
 void encoding_of(const OIIO::ImageSpec &spec, pov_image_data *out)
 {
     std::string cs = spec.get_string_attribute("oiio:ColorSpace");
     float gamma = spec.get_float_attribute("oiio:Gamma", 0.0f);
-    const bool is_float = spec.format.basetype == OIIO::TypeDesc::FLOAT || spec.format.basetype == OIIO::TypeDesc::HALF ||
-                          spec.format.basetype == OIIO::TypeDesc::DOUBLE;
+    const bool is_float = spec.format.is_floating_point();
+    out->bits = is_float ? 0u : (uint32_t)(spec.format.size() * 8);
     out->gamma = 0.0;
     if (cs == "Linear" || cs == "linear" || cs == "scene_linear" || (cs.empty() && is_float)) {
         out->encoding = POV_IMAGE_LINEAR;
@@ -98,9 +99,6 @@ extern "C" __attribute__((visibility("default"))) int vbnl_oiio_image_read_strea
         out->texels = t;
         out->indices = nullptr;
         encoding_of(spec, out);
-        const int is_float = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
-                             spec.format.basetype == OIIO::TypeDesc::HALF || spec.format.basetype == OIIO::TypeDesc::DOUBLE;
-        out->bits = is_float ? 0u : (uint32_t)(spec.format.size() * 8);
         in->close();
         return 0;
     } catch (const std::exception &e) {
